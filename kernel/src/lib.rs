@@ -1,0 +1,57 @@
+//! # savme-kernel
+//!
+//! The ask/tell kernel of SAVME (Schlichting, Boord, Corso, Kochenderfer, ITSC 2023): it learns,
+//! at the same time, where an autonomous system fails — per-scenario distributions p_ψ(φ | s)
+//! over scenario parameters — and which cheap simulator fidelity settings θ_LF agree with the
+//! high-fidelity simulator within a compute budget — one scenario-agnostic p_ω(θ_LF). Both are
+//! independent Beta–Bernoulli Thompson-sampling bandits, one per variable; continuous variables
+//! are binned.
+//!
+//! The kernel is pure: it suggests trials ([`Kernel::ask`]) and ingests their outcomes
+//! ([`Kernel::tell`]); the harness runs the simulators, in any language, in any order.
+//!
+//! ```
+//! use savme_kernel::{Assignment, Kernel, Observation, Run, Scale, Space, Variable};
+//! let fidelity = Space::new(vec![
+//!     Variable::discrete("rate_hz", [2, 5, 10]),
+//!     Variable::continuous("view_m", 10.0, 5000.0, 10, Scale::Log),
+//! ])?;
+//! let theta_hf = Assignment::new().with("rate_hz", 10).with("view_m", 5000.0);
+//! let phi = Space::new(vec![Variable::continuous("gap_m", 5.0, 50.0, 9, Scale::Linear)])?;
+//! let mut kernel = Kernel::builder(fidelity, theta_hf)
+//!     .scenario("lead_brakes", phi, 1.0)
+//!     .budget(0.3)
+//!     .seed(1)
+//!     .build()?;
+//! for _ in 0..100 {
+//!     let t = kernel.ask();
+//!     let gap = t.phi.get_f64("gap_m").unwrap();
+//!     let rate = t.theta_lf.as_ref().unwrap().get_f64("rate_hz").unwrap();
+//!     let hf = Run::new(gap < 15.0, 1.0);
+//!     let lf = Run::new(gap < 15.0 || rate < 3.0, rate / 10.0);
+//!     kernel.tell(t.id, Observation::Paired { hf, lf })?;
+//! }
+//! println!("θ_LF* = {}", kernel.fidelity_estimate(savme_kernel::Estimator::Map));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![warn(missing_docs)]
+
+pub mod journal;
+mod kernel;
+pub mod metrics;
+pub mod paper;
+mod outcome;
+mod posterior;
+mod simulator;
+mod space;
+mod value;
+
+pub use kernel::{
+    ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase,
+    RestoreError, Scenario, Snapshot, TellError, Trial, TrialRecord,
+};
+pub use outcome::{Credit, Observation, Outcome, Run};
+pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
+pub use simulator::{CostMeasure, SimError, SimResult, Simulator};
+pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
+pub use value::{Assignment, Value};

@@ -1,0 +1,65 @@
+//! Constants of the SAVME paper (Schlichting et al., ITSC 2023): the fidelity space of its
+//! Table I with θ_HF, and its Table III results.
+
+use crate::space::{Scale, Space, Variable};
+use crate::value::Assignment;
+
+/// The 16 fidelity settings of Table I, continuous ones cut into `bins` log-scaled bins.
+///
+/// ```
+/// let space = savme_kernel::paper::fidelity_space(10);
+/// assert_eq!(space.len(), 16);
+/// assert!(space.arms_of(&savme_kernel::paper::theta_hf()).is_ok());
+/// ```
+pub fn fidelity_space(bins: u32) -> Space {
+    let b = Variable::boolean;
+    let vars = vec![
+        Variable::discrete("simulation_rate_hz", [2, 4, 6, 8, 10]),
+        Variable::discrete("camera_bloom_level", ["high", "low"]),
+        b("camera_disable_bloom"),
+        b("camera_disable_lighting"),
+        b("camera_disable_shadows"),
+        b("camera_disable_lens_model"),
+        b("camera_disable_depth_of_field"),
+        b("camera_disable_shot_noise"),
+        Variable::continuous("camera_view_distance_m", 10.0, 5000.0, bins, Scale::Log),
+        Variable::continuous("camera_near_clipping_m", 0.2, 20.0, bins, Scale::Log),
+        b("lidar_disable_shot_noise"),
+        b("lidar_disable_ambient_effects"),
+        b("lidar_disable_translucency"),
+        Variable::discrete("lidar_subsample_count", [1, 2, 3, 4, 5]),
+        Variable::discrete("lidar_raytracing_bounces", [0, 1, 2, 3, 4]),
+        Variable::continuous("lidar_near_clipping_m", 0.2, 20.0, bins, Scale::Log),
+    ];
+    Space::new(vars).expect("Table I is a valid space")
+}
+
+/// θ_HF: Table I's bold values.
+pub fn theta_hf() -> Assignment {
+    Assignment::new()
+        .with("simulation_rate_hz", 10)
+        .with("camera_bloom_level", "high")
+        .with("camera_disable_bloom", false)
+        .with("camera_disable_lighting", false)
+        .with("camera_disable_shadows", false)
+        .with("camera_disable_lens_model", false)
+        .with("camera_disable_depth_of_field", false)
+        .with("camera_disable_shot_noise", false)
+        .with("camera_view_distance_m", 5000.0)
+        .with("camera_near_clipping_m", 0.2)
+        .with("lidar_disable_shot_noise", false)
+        .with("lidar_disable_ambient_effects", false)
+        .with("lidar_disable_translucency", false)
+        .with("lidar_subsample_count", 5)
+        .with("lidar_raytracing_bounces", 4)
+        .with("lidar_near_clipping_m", 0.2)
+}
+
+/// A row of Table III: C_budget (None for the baseline), TP-rate, mean LF cost, speedup, as
+/// printed (rounded to two decimals).
+pub const TABLE_III: [(Option<f64>, f64, f64, f64); 4] = [
+    (None, 0.17, 1.00, 1.00),
+    (Some(0.4), 0.41, 0.26, 9.32),
+    (Some(0.3), 0.74, 0.25, 17.99),
+    (Some(0.2), 0.29, 0.22, 7.86),
+];

@@ -1,0 +1,102 @@
+//! The interface every simulator adapter implements (the bundled driving simulator, FMUs, …).
+
+use crate::outcome::Run;
+use crate::value::Assignment;
+
+/// How a run's cost is measured when it is turned into a [`Run`] for the kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CostMeasure {
+    /// Measured wall-clock seconds (the paper's runtime).
+    #[default]
+    Wall,
+    /// Deterministic work units (steps, rays, pixels): noise-free, for tests and reproducible
+    /// campaigns.
+    Work,
+}
+
+/// What one simulation produced.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub struct SimResult {
+    /// The system under test failed.
+    pub failure: bool,
+    /// Measured wall-clock time of the run, in seconds.
+    pub wall_seconds: f64,
+    /// Deterministic work units, if the simulator counts them.
+    pub work: Option<u64>,
+}
+
+impl SimResult {
+    /// A result with a measured wall-clock time and an optional work count.
+    pub fn new(failure: bool, wall_seconds: f64, work: Option<u64>) -> Self {
+        SimResult {
+            failure,
+            wall_seconds,
+            work,
+        }
+    }
+
+    /// The run as the kernel sees it, with its cost measured as asked.
+    ///
+    /// ```
+    /// use savme_kernel::{CostMeasure, SimResult};
+    /// let r = SimResult::new(true, 0.02, Some(400));
+    /// assert_eq!(r.run(CostMeasure::Work)?.runtime, 400.0);
+    /// assert!(SimResult::new(true, 0.02, None).run(CostMeasure::Work).is_err());
+    /// # Ok::<(), savme_kernel::SimError>(())
+    /// ```
+    pub fn run(&self, measure: CostMeasure) -> Result<Run, SimError> {
+        let runtime = match measure {
+            CostMeasure::Wall => self.wall_seconds,
+            CostMeasure::Work => self.work.ok_or(SimError::NoWorkCount)? as f64,
+        };
+        Ok(Run::new(self.failure, runtime))
+    }
+}
+
+/// Why a simulation could not run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimError {
+    /// The simulator does not know the scenario.
+    #[error("unknown scenario `{0}`")]
+    UnknownScenario(String),
+    /// A variable the simulator needs is missing.
+    #[error("no value for `{variable}`")]
+    MissingVariable {
+        /// The variable.
+        variable: String,
+    },
+    /// A variable's value is of the wrong kind or out of range.
+    #[error("`{variable}` = {value}: {expected}")]
+    BadValue {
+        /// The variable.
+        variable: String,
+        /// The value given.
+        value: String,
+        /// What was expected.
+        expected: String,
+    },
+    /// Work units were asked for, but the simulator does not count them.
+    #[error("this simulator does not count work units; measure wall-clock time instead")]
+    NoWorkCount,
+    /// The simulator itself failed.
+    #[error("simulation failed: {0}")]
+    Failed(String),
+}
+
+/// A simulator the kernel's trials can be run on: one call runs scenario `scenario` with
+/// parameters `phi` under fidelity settings `fidelity` and reports failure and cost.
+///
+/// A paired trial calls it twice, with θ_HF and with θ_LF. Implementations take `&mut self` so
+/// that stateful back-ends (an FMU instance) fit; a campaign running trials in parallel makes
+/// one simulator per worker.
+pub trait Simulator {
+    /// Runs one simulation.
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError>;
+}

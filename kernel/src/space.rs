@@ -1,0 +1,537 @@
+//! Spaces of named variables: what a scenario's φ or a simulator's fidelity θ may be.
+//!
+//! A [`Space`] is an ordered list of [`Variable`]s. Each variable has *arms*, the choices a
+//! bandit picks among: a discrete variable has one arm per value; a continuous variable is cut
+//! into `bins` intervals (equal in width for [`Scale::Linear`], equal in ratio for
+//! [`Scale::Log`]) and each bin is an arm. Drawing an arm of a continuous variable then draws the
+//! value inside the bin uniformly (linear) or log-uniformly (log), as the SAVME paper describes.
+//!
+//! **Log scale** needs a strictly positive range (`0 < lo < hi`): the paper's log-scaled settings
+//! (view distance 10–5000 m, clipping distances 0.2–20 m) are all positive, and a shifted log
+//! would make "log-uniform within a bin" depend on an arbitrary shift. Shift the variable
+//! yourself if you need a range that touches zero.
+//!
+//! **Bins are half-open**, `[e_k, e_{k+1})`, except the last, which also holds `hi`. A value on an
+//! inner edge belongs to the upper bin.
+
+use crate::value::{Assignment, Value};
+use rand::{Rng, RngExt};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+
+/// How a continuous variable is cut into bins.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Scale {
+    /// Bins of equal width; values uniform inside a bin.
+    Linear,
+    /// Bins of equal ratio (`hi_k / lo_k` constant); values log-uniform inside a bin.
+    Log,
+}
+
+/// The values a variable may take.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum Domain {
+    /// A finite list of values (numbers, booleans or labels); one arm each.
+    Discrete {
+        /// The values, in arm order.
+        values: Vec<Value>,
+    },
+    /// A real interval `[lo, hi]` cut into `bins` arms.
+    Continuous {
+        /// Lower bound (inclusive).
+        lo: f64,
+        /// Upper bound (inclusive).
+        hi: f64,
+        /// Number of bins (arms), at least 1.
+        bins: u32,
+        /// Linear or logarithmic binning.
+        scale: Scale,
+    },
+}
+
+/// One named variable of a [`Space`].
+///
+/// ```
+/// use savme_kernel::{Scale, Variable};
+/// let v = Variable::continuous("view_distance", 10.0, 5000.0, 10, Scale::Log);
+/// assert_eq!(v.arms(), 10);
+/// let b = Variable::boolean("disable_shadows");
+/// assert_eq!(b.arms(), 2);
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Variable {
+    /// The variable's name, unique in its space.
+    pub name: Arc<str>,
+    /// Its values.
+    #[serde(flatten)]
+    pub domain: Domain,
+}
+
+impl Variable {
+    /// A discrete variable over `values`.
+    pub fn discrete<V: Into<Value>>(name: &str, values: impl IntoIterator<Item = V>) -> Self {
+        Variable {
+            name: Arc::from(name),
+            domain: Domain::Discrete {
+                values: values.into_iter().map(Into::into).collect(),
+            },
+        }
+    }
+
+    /// A boolean variable: arms `false` (0) and `true` (1).
+    pub fn boolean(name: &str) -> Self {
+        Self::discrete(name, [false, true])
+    }
+
+    /// A continuous variable on `[lo, hi]` cut into `bins` arms.
+    pub fn continuous(name: &str, lo: f64, hi: f64, bins: u32, scale: Scale) -> Self {
+        Variable {
+            name: Arc::from(name),
+            domain: Domain::Continuous {
+                lo,
+                hi,
+                bins,
+                scale,
+            },
+        }
+    }
+
+    /// Number of arms.
+    pub fn arms(&self) -> usize {
+        match &self.domain {
+            Domain::Discrete { values } => values.len(),
+            Domain::Continuous { bins, .. } => *bins as usize,
+        }
+    }
+
+    /// The interval `[e_arm, e_arm+1]` of a continuous variable's bin (None for discrete
+    /// variables or an arm out of range).
+    pub fn bin(&self, arm: usize) -> Option<(f64, f64)> {
+        match self.domain {
+            Domain::Continuous {
+                lo,
+                hi,
+                bins,
+                scale,
+            } if arm < bins as usize => Some((
+                edge(lo, hi, bins, scale, arm),
+                edge(lo, hi, bins, scale, arm + 1),
+            )),
+            _ => None,
+        }
+    }
+
+    /// Draws a value of `arm`: the discrete value itself, or a value inside the bin,
+    /// uniform (linear) or log-uniform (log).
+    ///
+    /// # Panics
+    /// If `arm >= self.arms()`; the kernel only passes arms it drew from this variable.
+    pub fn draw_in_arm<R: Rng + ?Sized>(&self, arm: usize, rng: &mut R) -> Value {
+        match &self.domain {
+            Domain::Discrete { values } => values[arm].clone(),
+            Domain::Continuous { scale, .. } => {
+                let (a, b) = self.bin(arm).expect("arm of this variable");
+                let u: f64 = rng.random();
+                let x = match scale {
+                    Scale::Linear => a + u * (b - a),
+                    Scale::Log => (a.ln() + u * (b.ln() - a.ln())).exp(),
+                };
+                Value::Real(x.clamp(a, b))
+            }
+        }
+    }
+
+    /// The value that stands for `arm` at evaluation: the discrete value, or the expected value
+    /// of the bin under its scale — the midpoint (linear) or `(b − a) / ln(b / a)` (log).
+    ///
+    /// # Panics
+    /// If `arm >= self.arms()`.
+    pub fn representative(&self, arm: usize) -> Value {
+        match &self.domain {
+            Domain::Discrete { values } => values[arm].clone(),
+            Domain::Continuous { scale, .. } => {
+                let (a, b) = self.bin(arm).expect("arm of this variable");
+                Value::Real(match scale {
+                    Scale::Linear => 0.5 * (a + b),
+                    Scale::Log => (b - a) / (b / a).ln(),
+                })
+            }
+        }
+    }
+
+    /// The arm that holds `value`, or None when the value lies outside the variable.
+    ///
+    /// ```
+    /// use savme_kernel::{Scale, Value, Variable};
+    /// let v = Variable::continuous("x", 0.0, 10.0, 5, Scale::Linear);
+    /// assert_eq!(v.arm_of(&Value::Real(0.0)), Some(0));
+    /// assert_eq!(v.arm_of(&Value::Real(2.0)), Some(1)); // an inner edge belongs to the upper bin
+    /// assert_eq!(v.arm_of(&Value::Real(10.0)), Some(4)); // hi belongs to the last bin
+    /// assert_eq!(v.arm_of(&Value::Real(10.5)), None);
+    /// ```
+    pub fn arm_of(&self, value: &Value) -> Option<usize> {
+        match &self.domain {
+            Domain::Discrete { values } => values.iter().position(|v| v.same_as(value)),
+            Domain::Continuous {
+                lo,
+                hi,
+                bins,
+                scale,
+            } => {
+                let x = value.as_f64()?;
+                if !(x >= *lo && x <= *hi) {
+                    return None;
+                }
+                let frac = match scale {
+                    Scale::Linear => (x - lo) / (hi - lo),
+                    Scale::Log => (x / lo).ln() / (hi / lo).ln(),
+                };
+                let n = *bins as usize;
+                let mut k = ((frac * n as f64).floor() as usize).min(n - 1);
+                // Correct rounding at the edges so that the arm agrees with `bin()`.
+                while k > 0 && x < edge(*lo, *hi, *bins, *scale, k) {
+                    k -= 1;
+                }
+                while k + 1 < n && x >= edge(*lo, *hi, *bins, *scale, k + 1) {
+                    k += 1;
+                }
+                Some(k)
+            }
+        }
+    }
+
+    fn validate(&self) -> Result<(), SpaceError> {
+        let name = || self.name.to_string();
+        if self.name.trim().is_empty() {
+            return Err(SpaceError::EmptyName);
+        }
+        match &self.domain {
+            Domain::Discrete { values } => {
+                if values.is_empty() {
+                    return Err(SpaceError::NoValues { variable: name() });
+                }
+                for (i, v) in values.iter().enumerate() {
+                    if v.is_non_finite() {
+                        return Err(SpaceError::NonFiniteValue { variable: name() });
+                    }
+                    if values[..i].iter().any(|w| w.same_as(v)) {
+                        return Err(SpaceError::DuplicateValue {
+                            variable: name(),
+                            value: v.to_string(),
+                        });
+                    }
+                }
+            }
+            Domain::Continuous {
+                lo,
+                hi,
+                bins,
+                scale,
+            } => {
+                if !lo.is_finite() || !hi.is_finite() {
+                    return Err(SpaceError::NonFiniteBound {
+                        variable: name(),
+                        lo: *lo,
+                        hi: *hi,
+                    });
+                }
+                if lo >= hi {
+                    return Err(SpaceError::EmptyRange {
+                        variable: name(),
+                        lo: *lo,
+                        hi: *hi,
+                    });
+                }
+                if *bins == 0 {
+                    return Err(SpaceError::ZeroBins { variable: name() });
+                }
+                if *bins > MAX_ARMS as u32 {
+                    return Err(SpaceError::TooManyArms {
+                        variable: name(),
+                        arms: *bins as usize,
+                    });
+                }
+                if *scale == Scale::Log && *lo <= 0.0 {
+                    return Err(SpaceError::LogRangeNotPositive {
+                        variable: name(),
+                        lo: *lo,
+                    });
+                }
+            }
+        }
+        if self.arms() > MAX_ARMS {
+            return Err(SpaceError::TooManyArms {
+                variable: name(),
+                arms: self.arms(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The most arms one variable may have (arm indices are stored as `u16`).
+pub const MAX_ARMS: usize = u16::MAX as usize;
+
+/// Edge `k` (0..=bins) of a continuous variable; edge 0 is `lo` and edge `bins` is `hi` exactly.
+fn edge(lo: f64, hi: f64, bins: u32, scale: Scale, k: usize) -> f64 {
+    if k == 0 {
+        return lo;
+    }
+    if k >= bins as usize {
+        return hi;
+    }
+    let t = k as f64 / f64::from(bins);
+    match scale {
+        Scale::Linear => lo + t * (hi - lo),
+        Scale::Log => (lo.ln() + t * (hi.ln() - lo.ln())).exp(),
+    }
+}
+
+/// Why a space, a variable or an assignment is invalid.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SpaceError {
+    /// The space has no variables.
+    #[error("the space has no variables")]
+    Empty,
+    /// A variable has an empty or blank name.
+    #[error("a variable has an empty name")]
+    EmptyName,
+    /// Two variables share a name.
+    #[error("variable `{0}` is defined twice")]
+    DuplicateName(String),
+    /// A discrete variable lists no values.
+    #[error("discrete variable `{variable}` has no values")]
+    NoValues {
+        /// The variable.
+        variable: String,
+    },
+    /// A discrete variable lists one value twice.
+    #[error("discrete variable `{variable}` lists the value {value} twice")]
+    DuplicateValue {
+        /// The variable.
+        variable: String,
+        /// The repeated value.
+        value: String,
+    },
+    /// A discrete variable lists NaN or an infinity.
+    #[error("discrete variable `{variable}` lists a NaN or infinite value")]
+    NonFiniteValue {
+        /// The variable.
+        variable: String,
+    },
+    /// A continuous bound is NaN or infinite.
+    #[error("continuous variable `{variable}` has a non-finite bound: lo = {lo}, hi = {hi}")]
+    NonFiniteBound {
+        /// The variable.
+        variable: String,
+        /// Its lower bound.
+        lo: f64,
+        /// Its upper bound.
+        hi: f64,
+    },
+    /// `lo >= hi`.
+    #[error("continuous variable `{variable}` needs lo < hi, got lo = {lo}, hi = {hi}")]
+    EmptyRange {
+        /// The variable.
+        variable: String,
+        /// Its lower bound.
+        lo: f64,
+        /// Its upper bound.
+        hi: f64,
+    },
+    /// `bins == 0`.
+    #[error("continuous variable `{variable}` needs at least one bin")]
+    ZeroBins {
+        /// The variable.
+        variable: String,
+    },
+    /// More arms than [`MAX_ARMS`].
+    #[error("variable `{variable}` has {arms} arms; at most {MAX_ARMS} are supported")]
+    TooManyArms {
+        /// The variable.
+        variable: String,
+        /// Its number of arms.
+        arms: usize,
+    },
+    /// A log-scaled variable whose range is not strictly positive.
+    #[error(
+        "log-scaled variable `{variable}` needs 0 < lo, got lo = {lo} \
+         (shift the variable, or use a linear scale)"
+    )]
+    LogRangeNotPositive {
+        /// The variable.
+        variable: String,
+        /// Its lower bound.
+        lo: f64,
+    },
+    /// An assignment lacks a variable of the space.
+    #[error("no value for variable `{variable}`")]
+    MissingValue {
+        /// The variable.
+        variable: String,
+    },
+    /// An assignment names a variable the space does not have.
+    #[error("unknown variable `{variable}`")]
+    UnknownVariable {
+        /// The name given.
+        variable: String,
+    },
+    /// An assignment's value lies outside its variable.
+    #[error("value {value} is outside variable `{variable}` ({allowed})")]
+    OutOfSpace {
+        /// The variable.
+        variable: String,
+        /// The value given.
+        value: String,
+        /// What the variable allows.
+        allowed: String,
+    },
+}
+
+/// An ordered, validated list of named variables.
+///
+/// ```
+/// use savme_kernel::{Scale, Space, Variable};
+/// let space = Space::new(vec![
+///     Variable::discrete("rate_hz", [2, 4, 6, 8, 10]),
+///     Variable::continuous("view_distance", 10.0, 5000.0, 10, Scale::Log),
+/// ])?;
+/// assert_eq!(space.len(), 2);
+/// assert_eq!(space.total_arms(), 15);
+/// assert!(Space::new(vec![]).is_err());
+/// # Ok::<(), savme_kernel::SpaceError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "Vec<Variable>", into = "Vec<Variable>")]
+pub struct Space {
+    vars: Vec<Variable>,
+}
+
+impl TryFrom<Vec<Variable>> for Space {
+    type Error = SpaceError;
+    fn try_from(vars: Vec<Variable>) -> Result<Self, SpaceError> {
+        Space::new(vars)
+    }
+}
+
+impl From<Space> for Vec<Variable> {
+    fn from(s: Space) -> Self {
+        s.vars
+    }
+}
+
+impl Space {
+    /// Validates and builds a space.
+    pub fn new(vars: Vec<Variable>) -> Result<Self, SpaceError> {
+        if vars.is_empty() {
+            return Err(SpaceError::Empty);
+        }
+        for (i, v) in vars.iter().enumerate() {
+            v.validate()?;
+            if vars[..i].iter().any(|w| w.name == v.name) {
+                return Err(SpaceError::DuplicateName(v.name.to_string()));
+            }
+        }
+        Ok(Space { vars })
+    }
+
+    /// The variables, in order.
+    pub fn variables(&self) -> &[Variable] {
+        &self.vars
+    }
+
+    /// Number of variables.
+    pub fn len(&self) -> usize {
+        self.vars.len()
+    }
+
+    /// Always false: a valid space has at least one variable.
+    pub fn is_empty(&self) -> bool {
+        self.vars.is_empty()
+    }
+
+    /// The variable called `name`.
+    pub fn variable(&self, name: &str) -> Option<&Variable> {
+        self.vars.iter().find(|v| &*v.name == name)
+    }
+
+    /// Total number of arms over all variables.
+    pub fn total_arms(&self) -> usize {
+        self.vars.iter().map(Variable::arms).sum()
+    }
+
+    /// The arm of every variable for a complete assignment: every variable present, each value
+    /// inside its variable, no unknown names.
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, Space, Variable, SpaceError};
+    /// let space = Space::new(vec![Variable::discrete("rate", [2, 10])])?;
+    /// assert_eq!(space.arms_of(&Assignment::new().with("rate", 10))?, vec![1]);
+    /// assert!(matches!(
+    ///     space.arms_of(&Assignment::new().with("rate", 3)),
+    ///     Err(SpaceError::OutOfSpace { .. })
+    /// ));
+    /// # Ok::<(), SpaceError>(())
+    /// ```
+    pub fn arms_of(&self, a: &Assignment) -> Result<Vec<usize>, SpaceError> {
+        if let Some((name, _)) = a.iter().find(|(n, _)| self.variable(n).is_none()) {
+            return Err(SpaceError::UnknownVariable {
+                variable: name.to_string(),
+            });
+        }
+        self.vars
+            .iter()
+            .map(|v| {
+                let value = a.get(&v.name).ok_or_else(|| SpaceError::MissingValue {
+                    variable: v.name.to_string(),
+                })?;
+                v.arm_of(value).ok_or_else(|| SpaceError::OutOfSpace {
+                    variable: v.name.to_string(),
+                    value: value.to_string(),
+                    allowed: describe(&v.domain),
+                })
+            })
+            .collect()
+    }
+
+    /// Draws a value for every variable from the given arms (one per variable, in order).
+    pub(crate) fn draw<R: Rng + ?Sized>(&self, arms: &[u16], rng: &mut R) -> Assignment {
+        let mut out = Assignment::with_capacity(self.vars.len());
+        for (v, &arm) in self.vars.iter().zip(arms) {
+            out.push(v.name.clone(), v.draw_in_arm(arm as usize, rng));
+        }
+        out
+    }
+
+    /// The representative value of every variable for the given arms (one per variable).
+    pub(crate) fn representatives(&self, arms: &[u16]) -> Assignment {
+        let mut out = Assignment::with_capacity(self.vars.len());
+        for (v, &arm) in self.vars.iter().zip(arms) {
+            out.push(v.name.clone(), v.representative(arm as usize));
+        }
+        out
+    }
+
+    /// True when both spaces have the same variable names with the same number of arms,
+    /// in the same order (so that arm statistics of one apply to the other).
+    pub fn same_arms(&self, other: &Space) -> bool {
+        self.vars.len() == other.vars.len()
+            && self
+                .vars
+                .iter()
+                .zip(&other.vars)
+                .all(|(a, b)| a.name == b.name && a.arms() == b.arms())
+    }
+}
+
+fn describe(d: &Domain) -> String {
+    match d {
+        Domain::Discrete { values } => {
+            let vs: Vec<String> = values.iter().map(Value::to_string).collect();
+            format!("one of {{{}}}", vs.join(", "))
+        }
+        Domain::Continuous { lo, hi, .. } => format!("a number in [{lo}, {hi}]"),
+    }
+}

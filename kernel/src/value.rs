@@ -1,0 +1,240 @@
+//! The value one variable takes in a trial, and named collections of them.
+
+use serde::de::{MapAccess, Visitor};
+use serde::ser::SerializeMap;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::fmt;
+use std::sync::Arc;
+
+/// A value of a scenario parameter or fidelity setting.
+///
+/// Serialises to plain JSON: `true`, `10`, `0.58`, `"high"`. JSON integers read back as
+/// [`Value::Int`], JSON numbers with a fraction or exponent as [`Value::Real`].
+///
+/// ```
+/// use savme_kernel::Value;
+/// assert_eq!(Value::from(10), Value::Int(10));
+/// assert_eq!(Value::from("low").to_string(), "low");
+/// assert!(Value::Int(2).same_as(&Value::Real(2.0)));
+/// ```
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Value {
+    /// A boolean, e.g. a "disable shadows" switch.
+    Bool(bool),
+    /// An integer, e.g. a simulation rate in Hz or a ray-tracing bounce count.
+    Int(i64),
+    /// A real number, e.g. a view distance drawn inside a bin.
+    Real(f64),
+    /// A label, e.g. a bloom level `"high"`.
+    Label(Arc<str>),
+}
+
+impl Value {
+    /// The value as a real number, when it is numeric (`Int` or `Real`).
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            Value::Int(i) => Some(*i as f64),
+            Value::Real(x) => Some(*x),
+            _ => None,
+        }
+    }
+
+    /// The value as a boolean, when it is one.
+    pub fn as_bool(&self) -> Option<bool> {
+        match self {
+            Value::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
+
+    /// The value as a label, when it is one.
+    pub fn as_label(&self) -> Option<&str> {
+        match self {
+            Value::Label(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// Equality that treats `Int(2)` and `Real(2.0)` as the same number, so that a value typed
+    /// by hand (or read from JSON) matches the discrete value it names.
+    pub fn same_as(&self, other: &Value) -> bool {
+        match (self, other) {
+            (Value::Int(_) | Value::Real(_), Value::Int(_) | Value::Real(_)) => {
+                self.as_f64() == other.as_f64()
+            }
+            _ => self == other,
+        }
+    }
+
+    /// True for NaN or infinite reals; every other value is finite.
+    pub(crate) fn is_non_finite(&self) -> bool {
+        matches!(self, Value::Real(x) if !x.is_finite())
+    }
+}
+
+impl fmt::Display for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Bool(b) => write!(f, "{b}"),
+            Value::Int(i) => write!(f, "{i}"),
+            Value::Real(x) => write!(f, "{x}"),
+            Value::Label(s) => f.write_str(s),
+        }
+    }
+}
+
+impl From<bool> for Value {
+    fn from(b: bool) -> Self {
+        Value::Bool(b)
+    }
+}
+impl From<i64> for Value {
+    fn from(i: i64) -> Self {
+        Value::Int(i)
+    }
+}
+impl From<i32> for Value {
+    fn from(i: i32) -> Self {
+        Value::Int(i64::from(i))
+    }
+}
+impl From<f64> for Value {
+    fn from(x: f64) -> Self {
+        Value::Real(x)
+    }
+}
+impl From<&str> for Value {
+    fn from(s: &str) -> Self {
+        Value::Label(Arc::from(s))
+    }
+}
+
+/// Named values in a fixed order: one trial's φ or θ, or the high-fidelity settings θ_HF.
+///
+/// The kernel hands out assignments in the order of their [`crate::Space`]. Serialises as a
+/// JSON object (`{"speed": 12.5, "rate": 10}`) that keeps that order.
+///
+/// ```
+/// use savme_kernel::Assignment;
+/// let a = Assignment::new().with("rate", 10).with("bloom", "low");
+/// assert_eq!(a.get_f64("rate"), Some(10.0));
+/// assert_eq!(a.get("bloom").and_then(|v| v.as_label()), Some("low"));
+/// assert_eq!(a.to_string(), "rate=10, bloom=low");
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Assignment {
+    entries: Vec<(Arc<str>, Value)>,
+}
+
+impl Assignment {
+    /// An empty assignment.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub(crate) fn with_capacity(n: usize) -> Self {
+        Assignment {
+            entries: Vec::with_capacity(n),
+        }
+    }
+
+    pub(crate) fn push(&mut self, name: Arc<str>, value: Value) {
+        self.entries.push((name, value));
+    }
+
+    /// Adds (or replaces) `name = value`, builder style.
+    pub fn with(mut self, name: &str, value: impl Into<Value>) -> Self {
+        self.set(name, value);
+        self
+    }
+
+    /// Sets `name = value`, replacing an earlier value of the same name.
+    pub fn set(&mut self, name: &str, value: impl Into<Value>) {
+        let value = value.into();
+        match self.entries.iter_mut().find(|(n, _)| &**n == name) {
+            Some(entry) => entry.1 = value,
+            None => self.entries.push((Arc::from(name), value)),
+        }
+    }
+
+    /// The value of `name`, if present.
+    pub fn get(&self, name: &str) -> Option<&Value> {
+        self.entries
+            .iter()
+            .find(|(n, _)| &**n == name)
+            .map(|(_, v)| v)
+    }
+
+    /// The numeric value of `name`, if present and numeric.
+    pub fn get_f64(&self, name: &str) -> Option<f64> {
+        self.get(name).and_then(Value::as_f64)
+    }
+
+    /// The boolean value of `name`, if present and boolean.
+    pub fn get_bool(&self, name: &str) -> Option<bool> {
+        self.get(name).and_then(Value::as_bool)
+    }
+
+    /// `(name, value)` pairs in order.
+    pub fn iter(&self) -> impl Iterator<Item = (&str, &Value)> {
+        self.entries.iter().map(|(n, v)| (&**n, v))
+    }
+
+    /// Number of named values.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// True when no value is named.
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
+impl fmt::Display for Assignment {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, (n, v)) in self.entries.iter().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{n}={v}")?;
+        }
+        Ok(())
+    }
+}
+
+impl Serialize for Assignment {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(self.entries.len()))?;
+        for (n, v) in &self.entries {
+            map.serialize_entry(&**n, v)?;
+        }
+        map.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for Assignment {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct OrderedMap;
+        impl<'de> Visitor<'de> for OrderedMap {
+            type Value = Assignment;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an object of named values")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut access: A) -> Result<Assignment, A::Error> {
+                let mut out = Assignment::with_capacity(access.size_hint().unwrap_or(0));
+                while let Some((name, value)) = access.next_entry::<String, Value>()? {
+                    if out.get(&name).is_some() {
+                        return Err(serde::de::Error::custom(format!(
+                            "variable `{name}` is named twice"
+                        )));
+                    }
+                    out.push(Arc::from(name), value);
+                }
+                Ok(out)
+            }
+        }
+        deserializer.deserialize_map(OrderedMap)
+    }
+}

@@ -1,0 +1,1 @@
+pub use savme_kernel as kernel;
