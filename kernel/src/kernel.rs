@@ -5,7 +5,7 @@ use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
 use crate::space::{Space, SpaceError};
 use crate::value::Assignment;
 use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64;
+use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::sync::Arc;
@@ -241,7 +241,7 @@ pub struct Snapshot {
     fidelity: Posterior,
     scenarios: Vec<Posterior>,
     pending: Vec<Pending>,
-    rng: Pcg64,
+    rng: Rng64,
 }
 
 /// The SAVME ask/tell kernel.
@@ -366,7 +366,7 @@ impl Kernel {
             .map(|s| Posterior::new(&s.space, config.prior))
             .collect::<Result<Vec<_>, _>>()
             .map_err(ConfigError::Prior)?;
-        let rng = Pcg64::seed_from_u64(config.seed);
+        let rng = Rng64::seed_from_u64(config.seed);
         Ok(Kernel {
             state: Snapshot {
                 config,
@@ -467,7 +467,7 @@ impl Kernel {
 
     /// Draws the next trial with `rng` without changing the kernel (the journal writes it
     /// before [`Kernel::commit_ask`] makes it pending).
-    fn draw(&self, rng: &mut Pcg64) -> Pending {
+    fn draw(&self, rng: &mut Rng64) -> Pending {
         let st = &self.state;
         let phase = st.phase;
         let u: f64 = rng.random();
@@ -699,13 +699,13 @@ impl Kernel {
     }
 
     // Journal support: draw without committing, then commit.
-    pub(crate) fn draw_next(&self) -> (Pcg64, PendingTrial) {
+    pub(crate) fn draw_next(&self) -> (Rng64, PendingTrial) {
         let mut rng = self.state.rng.clone();
         let pending = self.draw(&mut rng);
         (rng, PendingTrial(pending))
     }
 
-    pub(crate) fn commit_drawn(&mut self, rng: Pcg64, pending: PendingTrial) -> Trial {
+    pub(crate) fn commit_drawn(&mut self, rng: Rng64, pending: PendingTrial) -> Trial {
         self.state.rng = rng;
         self.commit_ask(pending.0)
     }
@@ -797,7 +797,9 @@ fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError> {
         })?;
     }
     Space::new(c.fidelity.variables().to_vec()).map_err(ConfigError::FidelitySpace)?;
-    c.fidelity.arms_of(&c.theta_hf).map_err(ConfigError::ThetaHf)?;
+    c.fidelity
+        .arms_of(&c.theta_hf)
+        .map_err(ConfigError::ThetaHf)?;
     if !(c.budget > 0.0 && c.budget <= 1.0) {
         return Err(ConfigError::BadBudget(c.budget));
     }
@@ -807,9 +809,7 @@ fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError> {
             .check_fits(&c.fidelity)
             .map_err(ConfigError::Prior)?;
         if !(fp.strength.is_finite() && fp.strength > 0.0) {
-            return Err(ConfigError::Prior(PosteriorError::BadStrength(
-                fp.strength,
-            )));
+            return Err(ConfigError::Prior(PosteriorError::BadStrength(fp.strength)));
         }
     }
     let total: f64 = c.scenarios.iter().map(|s| s.weight).sum();

@@ -39,9 +39,10 @@
 pub mod journal;
 mod kernel;
 pub mod metrics;
-pub mod paper;
 mod outcome;
+pub mod paper;
 mod posterior;
+mod sampler;
 mod simulator;
 mod space;
 mod value;

@@ -1,8 +1,8 @@
 //! Beta–Bernoulli beliefs over the arms of a space: Thompson draws, MAP, updates, transfer.
 
+use crate::sampler::BetaSampler;
 use crate::space::{Space, SpaceError};
 use rand::Rng;
-use rand_distr::{Beta, Distribution};
 use serde::{Deserialize, Serialize};
 
 /// The belief `Beta(alpha, beta)` that one arm yields a success.
@@ -148,14 +148,50 @@ pub enum PosteriorError {
 /// assert_eq!(p.best_arms(Estimator::Map), vec![0]);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(from = "PosteriorData", into = "PosteriorData")]
 pub struct Posterior {
+    data: PosteriorData,
+    /// Samplers derived from `data.arms`, kept in step on every update.
+    samplers: Vec<Vec<BetaSampler>>,
+}
+
+/// What a posterior is; everything else is derived from it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct PosteriorData {
     /// The base prior of every arm (before any transferred evidence).
     prior: PriorCounts,
     /// Variable names, in space order (to check the fit with a space).
     names: Vec<String>,
     /// `arms[variable][arm]`.
     arms: Vec<Vec<Arm>>,
+}
+
+impl From<PosteriorData> for Posterior {
+    fn from(data: PosteriorData) -> Self {
+        let samplers = data
+            .arms
+            .iter()
+            .map(|v| {
+                v.iter()
+                    .map(|a| BetaSampler::new(a.alpha, a.beta))
+                    .collect()
+            })
+            .collect();
+        Posterior { data, samplers }
+    }
+}
+
+impl From<Posterior> for PosteriorData {
+    fn from(p: Posterior) -> Self {
+        p.data
+    }
+}
+
+impl PartialEq for Posterior {
+    fn eq(&self, other: &Self) -> bool {
+        self.data == other.data
+    }
 }
 
 impl Posterior {
@@ -166,7 +202,7 @@ impl Posterior {
             alpha: prior.successes,
             beta: prior.losses,
         };
-        Ok(Posterior {
+        Ok(PosteriorData {
             prior,
             names: space
                 .variables()
@@ -178,38 +214,40 @@ impl Posterior {
                 .iter()
                 .map(|v| vec![arm; v.arms()])
                 .collect(),
-        })
+        }
+        .into())
     }
 
     /// The base prior.
     pub fn prior(&self) -> PriorCounts {
-        self.prior
+        self.data.prior
     }
 
     /// `arms()[variable][arm]`: the Beta belief of every arm.
     pub fn arms(&self) -> &[Vec<Arm>] {
-        &self.arms
+        &self.data.arms
     }
 
     /// The beliefs of the variable called `name`.
     pub fn variable(&self, name: &str) -> Option<&[Arm]> {
-        let i = self.names.iter().position(|n| n == name)?;
-        Some(&self.arms[i])
+        let i = self.data.names.iter().position(|n| n == name)?;
+        Some(&self.data.arms[i])
     }
 
     /// Checks that this posterior fits `space` (same names and arm counts) and that every arm
     /// is a proper Beta distribution. Used when a posterior is read from a file.
     pub fn check_fits(&self, space: &Space) -> Result<(), PosteriorError> {
-        self.prior.validate()?;
+        let PosteriorData { prior, names, arms } = &self.data;
+        prior.validate()?;
         let vars = space.variables();
-        if vars.len() != self.arms.len() || self.names.len() != self.arms.len() {
+        if vars.len() != arms.len() || names.len() != arms.len() {
             return Err(PosteriorError::Shape(format!(
                 "{} variables in the posterior, {} in the space",
-                self.arms.len(),
+                arms.len(),
                 vars.len()
             )));
         }
-        for ((v, name), arms) in vars.iter().zip(&self.names).zip(&self.arms) {
+        for ((v, name), arms) in vars.iter().zip(names).zip(arms) {
             if *v.name != **name || v.arms() != arms.len() {
                 return Err(PosteriorError::Shape(format!(
                     "posterior variable `{name}` with {} arms where the space has `{}` with {} arms",
@@ -234,7 +272,7 @@ impl Posterior {
     /// Variables with a single arm take it without drawing.
     pub fn thompson<R: Rng + ?Sized>(&self, rng: &mut R, out: &mut Vec<u16>) {
         out.clear();
-        for arms in &self.arms {
+        for arms in &self.samplers {
             if arms.len() == 1 {
                 out.push(0);
                 continue;
@@ -242,10 +280,7 @@ impl Posterior {
             let mut best = 0usize;
             let mut best_x = f64::NEG_INFINITY;
             for (k, a) in arms.iter().enumerate() {
-                // Counts are validated finite and > 0, so Beta::new cannot fail.
-                let x = Beta::new(a.alpha, a.beta)
-                    .map(|d| d.sample(rng))
-                    .unwrap_or(0.0);
+                let x = a.sample(rng);
                 if x > best_x {
                     best_x = x;
                     best = k;
@@ -259,7 +294,8 @@ impl Posterior {
     /// with the higher posterior mean, then to the lower arm index — so an untried variable
     /// (all arms at the base prior) returns arm 0.
     pub fn best_arms(&self, estimator: Estimator) -> Vec<u16> {
-        self.arms
+        self.data
+            .arms
             .iter()
             .map(|arms| {
                 let score = |a: &Arm| match estimator {
@@ -284,14 +320,15 @@ impl Posterior {
     /// # Panics
     /// If `arms` does not hold one valid arm per variable.
     pub fn update(&mut self, arms: &[u16], success: bool) {
-        assert_eq!(arms.len(), self.arms.len(), "one arm per variable");
-        for (var, &k) in self.arms.iter_mut().zip(arms) {
+        assert_eq!(arms.len(), self.data.arms.len(), "one arm per variable");
+        for ((var, samplers), &k) in self.data.arms.iter_mut().zip(&mut self.samplers).zip(arms) {
             let a = &mut var[k as usize];
             if success {
                 a.alpha += 1.0;
             } else {
                 a.beta += 1.0;
             }
+            samplers[k as usize] = BetaSampler::new(a.alpha, a.beta);
         }
     }
 
@@ -315,23 +352,25 @@ impl Posterior {
         if !(strength.is_finite() && strength > 0.0) {
             return Err(PosteriorError::BadStrength(strength));
         }
+        let own = self.data.prior;
         let arms = self
+            .data
             .arms
             .iter()
             .map(|var| {
                 var.iter()
                     .map(|a| Arm {
-                        alpha: base.successes
-                            + strength * (a.alpha - self.prior.successes).max(0.0),
-                        beta: base.losses + strength * (a.beta - self.prior.losses).max(0.0),
+                        alpha: base.successes + strength * (a.alpha - own.successes).max(0.0),
+                        beta: base.losses + strength * (a.beta - own.losses).max(0.0),
                     })
                     .collect()
             })
             .collect();
-        Ok(Posterior {
+        Ok(PosteriorData {
             prior: base,
-            names: self.names.clone(),
+            names: self.data.names.clone(),
             arms,
-        })
+        }
+        .into())
     }
 }

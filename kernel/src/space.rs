@@ -129,16 +129,43 @@ impl Variable {
     /// # Panics
     /// If `arm >= self.arms()`; the kernel only passes arms it drew from this variable.
     pub fn draw_in_arm<R: Rng + ?Sized>(&self, arm: usize, rng: &mut R) -> Value {
+        self.draw_with_span(arm, self.log_span(), rng)
+    }
+
+    /// `ln(hi / lo)` of a log-scaled variable (0 otherwise).
+    fn log_span(&self) -> f64 {
+        match self.domain {
+            Domain::Continuous {
+                lo,
+                hi,
+                scale: Scale::Log,
+                ..
+            } => (hi / lo).ln(),
+            _ => 0.0,
+        }
+    }
+
+    fn draw_with_span<R: Rng + ?Sized>(&self, arm: usize, log_span: f64, rng: &mut R) -> Value {
         match &self.domain {
             Domain::Discrete { values } => values[arm].clone(),
-            Domain::Continuous { scale, .. } => {
-                let (a, b) = self.bin(arm).expect("arm of this variable");
+            Domain::Continuous {
+                lo,
+                hi,
+                bins,
+                scale,
+            } => {
+                assert!(arm < *bins as usize, "arm of this variable");
                 let u: f64 = rng.random();
+                // Position of the draw in [0, 1] along the variable's scale.
+                let t = (arm as f64 + u) / f64::from(*bins);
                 let x = match scale {
-                    Scale::Linear => a + u * (b - a),
-                    Scale::Log => (a.ln() + u * (b.ln() - a.ln())).exp(),
+                    Scale::Linear => {
+                        let (a, b) = self.bin(arm).expect("arm of this variable");
+                        (lo + t * (hi - lo)).clamp(a, b)
+                    }
+                    Scale::Log => lo * (t * log_span).exp(),
                 };
-                Value::Real(x.clamp(a, b))
+                Value::Real(x.clamp(*lo, *hi))
             }
         }
     }
@@ -407,6 +434,10 @@ pub enum SpaceError {
 #[serde(try_from = "Vec<Variable>", into = "Vec<Variable>")]
 pub struct Space {
     vars: Vec<Variable>,
+    /// The variable names, shared by every assignment drawn from this space.
+    names: Arc<Vec<Arc<str>>>,
+    /// `ln(hi / lo)` of every log-scaled variable (0 for the others), for fast draws.
+    log_spans: Vec<f64>,
 }
 
 impl TryFrom<Vec<Variable>> for Space {
@@ -434,7 +465,13 @@ impl Space {
                 return Err(SpaceError::DuplicateName(v.name.to_string()));
             }
         }
-        Ok(Space { vars })
+        let names = Arc::new(vars.iter().map(|v| v.name.clone()).collect());
+        let log_spans = vars.iter().map(Variable::log_span).collect();
+        Ok(Space {
+            vars,
+            names,
+            log_spans,
+        })
     }
 
     /// The variables, in order.
@@ -498,20 +535,25 @@ impl Space {
 
     /// Draws a value for every variable from the given arms (one per variable, in order).
     pub(crate) fn draw<R: Rng + ?Sized>(&self, arms: &[u16], rng: &mut R) -> Assignment {
-        let mut out = Assignment::with_capacity(self.vars.len());
-        for (v, &arm) in self.vars.iter().zip(arms) {
-            out.push(v.name.clone(), v.draw_in_arm(arm as usize, rng));
-        }
-        out
+        let values = self
+            .vars
+            .iter()
+            .zip(arms)
+            .zip(&self.log_spans)
+            .map(|((v, &arm), &span)| v.draw_with_span(arm as usize, span, rng))
+            .collect();
+        Assignment::from_parts(self.names.clone(), values)
     }
 
     /// The representative value of every variable for the given arms (one per variable).
     pub(crate) fn representatives(&self, arms: &[u16]) -> Assignment {
-        let mut out = Assignment::with_capacity(self.vars.len());
-        for (v, &arm) in self.vars.iter().zip(arms) {
-            out.push(v.name.clone(), v.representative(arm as usize));
-        }
-        out
+        let values = self
+            .vars
+            .iter()
+            .zip(arms)
+            .map(|(v, &arm)| v.representative(arm as usize))
+            .collect();
+        Assignment::from_parts(self.names.clone(), values)
     }
 
     /// True when both spaces have the same variable names with the same number of arms,

@@ -122,9 +122,18 @@ impl From<&str> for Value {
 /// assert_eq!(a.get("bloom").and_then(|v| v.as_label()), Some("low"));
 /// assert_eq!(a.to_string(), "rate=10, bloom=low");
 /// ```
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, Default)]
 pub struct Assignment {
-    entries: Vec<(Arc<str>, Value)>,
+    /// Names, shared with the space the assignment was drawn from (cloning is cheap).
+    names: Arc<Vec<Arc<str>>>,
+    values: Vec<Value>,
+}
+
+impl PartialEq for Assignment {
+    fn eq(&self, other: &Self) -> bool {
+        self.values == other.values
+            && (Arc::ptr_eq(&self.names, &other.names) || self.names == other.names)
+    }
 }
 
 impl Assignment {
@@ -133,14 +142,10 @@ impl Assignment {
         Self::default()
     }
 
-    pub(crate) fn with_capacity(n: usize) -> Self {
-        Assignment {
-            entries: Vec::with_capacity(n),
-        }
-    }
-
-    pub(crate) fn push(&mut self, name: Arc<str>, value: Value) {
-        self.entries.push((name, value));
+    /// Values for the given shared names, in order (one value per name).
+    pub(crate) fn from_parts(names: Arc<Vec<Arc<str>>>, values: Vec<Value>) -> Self {
+        debug_assert_eq!(names.len(), values.len());
+        Assignment { names, values }
     }
 
     /// Adds (or replaces) `name = value`, builder style.
@@ -152,18 +157,22 @@ impl Assignment {
     /// Sets `name = value`, replacing an earlier value of the same name.
     pub fn set(&mut self, name: &str, value: impl Into<Value>) {
         let value = value.into();
-        match self.entries.iter_mut().find(|(n, _)| &**n == name) {
-            Some(entry) => entry.1 = value,
-            None => self.entries.push((Arc::from(name), value)),
+        match self.position(name) {
+            Some(i) => self.values[i] = value,
+            None => {
+                Arc::make_mut(&mut self.names).push(Arc::from(name));
+                self.values.push(value);
+            }
         }
+    }
+
+    fn position(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| &**n == name)
     }
 
     /// The value of `name`, if present.
     pub fn get(&self, name: &str) -> Option<&Value> {
-        self.entries
-            .iter()
-            .find(|(n, _)| &**n == name)
-            .map(|(_, v)| v)
+        self.position(name).map(|i| &self.values[i])
     }
 
     /// The numeric value of `name`, if present and numeric.
@@ -178,23 +187,23 @@ impl Assignment {
 
     /// `(name, value)` pairs in order.
     pub fn iter(&self) -> impl Iterator<Item = (&str, &Value)> {
-        self.entries.iter().map(|(n, v)| (&**n, v))
+        self.names.iter().map(|n| &**n).zip(&self.values)
     }
 
     /// Number of named values.
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.values.len()
     }
 
     /// True when no value is named.
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.values.is_empty()
     }
 }
 
 impl fmt::Display for Assignment {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, (n, v)) in self.entries.iter().enumerate() {
+        for (i, (n, v)) in self.iter().enumerate() {
             if i > 0 {
                 f.write_str(", ")?;
             }
@@ -206,9 +215,9 @@ impl fmt::Display for Assignment {
 
 impl Serialize for Assignment {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        let mut map = serializer.serialize_map(Some(self.entries.len()))?;
-        for (n, v) in &self.entries {
-            map.serialize_entry(&**n, v)?;
+        let mut map = serializer.serialize_map(Some(self.len()))?;
+        for (n, v) in self.iter() {
+            map.serialize_entry(n, v)?;
         }
         map.end()
     }
@@ -223,16 +232,18 @@ impl<'de> Deserialize<'de> for Assignment {
                 f.write_str("an object of named values")
             }
             fn visit_map<A: MapAccess<'de>>(self, mut access: A) -> Result<Assignment, A::Error> {
-                let mut out = Assignment::with_capacity(access.size_hint().unwrap_or(0));
+                let mut names = Vec::new();
+                let mut values = Vec::new();
                 while let Some((name, value)) = access.next_entry::<String, Value>()? {
-                    if out.get(&name).is_some() {
+                    if names.iter().any(|n: &Arc<str>| **n == *name) {
                         return Err(serde::de::Error::custom(format!(
                             "variable `{name}` is named twice"
                         )));
                     }
-                    out.push(Arc::from(name), value);
+                    names.push(Arc::from(name));
+                    values.push(value);
                 }
-                Ok(out)
+                Ok(Assignment::from_parts(Arc::new(names), values))
             }
         }
         deserializer.deserialize_map(OrderedMap)

@@ -16,14 +16,29 @@ fn paired(hf: f64, lf: f64) -> Observation {
 fn bad_configurations_are_rejected_with_the_culprit_named() {
     let (f, hf) = common::fidelity();
     let phi = common::phi_space;
-    assert_eq!(Kernel::builder(f.clone(), hf.clone()).build().unwrap_err(), ConfigError::NoScenarios);
+    assert_eq!(
+        Kernel::builder(f.clone(), hf.clone()).build().unwrap_err(),
+        ConfigError::NoScenarios
+    );
     for w in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let e = common::builder().scenario("c", phi(), w).build().unwrap_err();
-        assert!(matches!(&e, ConfigError::BadWeight { scenario, .. } if scenario == "c"), "{w}: {e}");
+        let e = common::builder()
+            .scenario("c", phi(), w)
+            .build()
+            .unwrap_err();
+        assert!(
+            matches!(&e, ConfigError::BadWeight { scenario, .. } if scenario == "c"),
+            "{w}: {e}"
+        );
     }
-    let e = common::builder().scenario("a", phi(), 1.0).build().unwrap_err();
+    let e = common::builder()
+        .scenario("a", phi(), 1.0)
+        .build()
+        .unwrap_err();
     assert_eq!(e, ConfigError::DuplicateScenario("a".into()));
-    let e = common::builder().scenario("", phi(), 1.0).build().unwrap_err();
+    let e = common::builder()
+        .scenario("", phi(), 1.0)
+        .build()
+        .unwrap_err();
     assert_eq!(e, ConfigError::EmptyScenarioName { index: 2 });
     for b in [0.0, -0.1, 1.01, f64::NAN] {
         let e = common::builder().budget(b).build().unwrap_err();
@@ -31,21 +46,45 @@ fn bad_configurations_are_rejected_with_the_culprit_named() {
     }
     assert!(common::builder().budget(1.0).build().is_ok());
     let outside = hf.clone().with("view_m", 6000.0);
-    let e = Kernel::builder(f.clone(), outside).scenario("a", phi(), 1.0).build().unwrap_err();
-    assert!(matches!(&e, ConfigError::ThetaHf(SpaceError::OutOfSpace { variable, .. }) if variable == "view_m"), "{e}");
+    let e = Kernel::builder(f.clone(), outside)
+        .scenario("a", phi(), 1.0)
+        .build()
+        .unwrap_err();
+    assert!(
+        matches!(&e, ConfigError::ThetaHf(SpaceError::OutOfSpace { variable, .. }) if variable == "view_m"),
+        "{e}"
+    );
     assert!(e.to_string().contains("θ_HF"));
     let incomplete = Assignment::new().with("rate_hz", 10);
-    let e = Kernel::builder(f.clone(), incomplete).scenario("a", phi(), 1.0).build().unwrap_err();
-    assert!(matches!(e, ConfigError::ThetaHf(SpaceError::MissingValue { .. })));
-    let e = common::builder().prior(PriorCounts { successes: 0.0, losses: 1.0 }).build().unwrap_err();
+    let e = Kernel::builder(f.clone(), incomplete)
+        .scenario("a", phi(), 1.0)
+        .build()
+        .unwrap_err();
+    assert!(matches!(
+        e,
+        ConfigError::ThetaHf(SpaceError::MissingValue { .. })
+    ));
+    let e = common::builder()
+        .prior(PriorCounts {
+            successes: 0.0,
+            losses: 1.0,
+        })
+        .build()
+        .unwrap_err();
     assert!(matches!(e, ConfigError::Prior(_)));
     // A fidelity prior from another space does not fit.
     let other = Space::new(vec![Variable::boolean("x")]).unwrap();
     let foreign = savme_kernel::Posterior::new(&other, PriorCounts::UNIFORM).unwrap();
-    let e = common::builder().fidelity_prior(foreign, 1.0).build().unwrap_err();
+    let e = common::builder()
+        .fidelity_prior(foreign, 1.0)
+        .build()
+        .unwrap_err();
     assert!(matches!(e, ConfigError::Prior(_)), "{e}");
     let own = common::kernel().fidelity_posterior().clone();
-    let e = common::builder().fidelity_prior(own, 0.0).build().unwrap_err();
+    let e = common::builder()
+        .fidelity_prior(own, 0.0)
+        .build()
+        .unwrap_err();
     assert!(matches!(e, ConfigError::Prior(_)), "{e}");
 }
 
@@ -53,7 +92,10 @@ fn bad_configurations_are_rejected_with_the_culprit_named() {
 fn weights_are_normalised() {
     let k = common::kernel();
     let p = k.scenario_probabilities();
-    assert!((p[0] - 0.25).abs() < 1e-12 && (p[1] - 0.75).abs() < 1e-12, "{p:?}");
+    assert!(
+        (p[0] - 0.25).abs() < 1e-12 && (p[1] - 0.75).abs() < 1e-12,
+        "{p:?}"
+    );
 }
 
 #[test]
@@ -65,32 +107,103 @@ fn bad_tells_are_typed_errors_and_change_nothing() {
     let before = k.to_json();
     let cases: Vec<(u64, Observation, TellError)> = vec![
         (99, paired(1.0, 0.1), TellError::Unknown(99)),
-        (train.id, Observation::HfOnly(Run::new(true, 1.0)), TellError::ExpectedPaired { id: train.id, phase: Phase::Train }),
-        (base.id, paired(1.0, 0.1), TellError::ExpectedHfOnly { id: base.id }),
-        (train.id, paired(f64::NAN, 0.1), TellError::BadRuntime { id: train.id, simulator: "HF", runtime: f64::NAN }),
-        (train.id, paired(1.0, f64::INFINITY), TellError::BadRuntime { id: train.id, simulator: "LF", runtime: f64::INFINITY }),
-        (train.id, paired(-1.0, 0.1), TellError::BadRuntime { id: train.id, simulator: "HF", runtime: -1.0 }),
-        (train.id, paired(1.0, 0.0), TellError::BadRuntime { id: train.id, simulator: "LF", runtime: 0.0 }),
-        (base.id, Observation::HfOnly(Run::new(true, 0.0)), TellError::BadRuntime { id: base.id, simulator: "HF", runtime: 0.0 }),
+        (
+            train.id,
+            Observation::HfOnly(Run::new(true, 1.0)),
+            TellError::ExpectedPaired {
+                id: train.id,
+                phase: Phase::Train,
+            },
+        ),
+        (
+            base.id,
+            paired(1.0, 0.1),
+            TellError::ExpectedHfOnly { id: base.id },
+        ),
+        (
+            train.id,
+            paired(f64::NAN, 0.1),
+            TellError::BadRuntime {
+                id: train.id,
+                simulator: "HF",
+                runtime: f64::NAN,
+            },
+        ),
+        (
+            train.id,
+            paired(1.0, f64::INFINITY),
+            TellError::BadRuntime {
+                id: train.id,
+                simulator: "LF",
+                runtime: f64::INFINITY,
+            },
+        ),
+        (
+            train.id,
+            paired(-1.0, 0.1),
+            TellError::BadRuntime {
+                id: train.id,
+                simulator: "HF",
+                runtime: -1.0,
+            },
+        ),
+        (
+            train.id,
+            paired(1.0, 0.0),
+            TellError::BadRuntime {
+                id: train.id,
+                simulator: "LF",
+                runtime: 0.0,
+            },
+        ),
+        (
+            base.id,
+            Observation::HfOnly(Run::new(true, 0.0)),
+            TellError::BadRuntime {
+                id: base.id,
+                simulator: "HF",
+                runtime: 0.0,
+            },
+        ),
     ];
     for (id, obs, expected) in cases {
         let err = k.tell(id, obs).unwrap_err();
         match (&err, &expected) {
             // NaN != NaN: compare the rest.
-            (TellError::BadRuntime { id: a, simulator: s, runtime: r }, TellError::BadRuntime { id: b, simulator: t, runtime: q })
-                if r.is_nan() => assert!(a == b && s == t && q.is_nan()),
+            (
+                TellError::BadRuntime {
+                    id: a,
+                    simulator: s,
+                    runtime: r,
+                },
+                TellError::BadRuntime {
+                    id: b,
+                    simulator: t,
+                    runtime: q,
+                },
+            ) if r.is_nan() => assert!(a == b && s == t && q.is_nan()),
             _ => assert_eq!(err, expected),
         }
         assert_eq!(k.to_json(), before, "state changed after {err}");
     }
     k.tell(train.id, paired(1.0, 0.1)).unwrap();
     let after_first = k.to_json();
-    assert_eq!(k.tell(train.id, paired(1.0, 0.1)).unwrap_err(), TellError::AlreadyTold(train.id));
+    assert_eq!(
+        k.tell(train.id, paired(1.0, 0.1)).unwrap_err(),
+        TellError::AlreadyTold(train.id)
+    );
     assert_eq!(k.to_json(), after_first);
     // Cancel: once, then it is gone.
     assert_eq!(k.cancel(base.id).unwrap().id, base.id);
-    assert_eq!(k.cancel(base.id).unwrap_err(), TellError::AlreadyTold(base.id));
-    assert_eq!(k.tell(base.id, Observation::HfOnly(Run::new(true, 1.0))).unwrap_err(), TellError::AlreadyTold(base.id));
+    assert_eq!(
+        k.cancel(base.id).unwrap_err(),
+        TellError::AlreadyTold(base.id)
+    );
+    assert_eq!(
+        k.tell(base.id, Observation::HfOnly(Run::new(true, 1.0)))
+            .unwrap_err(),
+        TellError::AlreadyTold(base.id)
+    );
     assert_eq!(k.stats().cancelled, 1);
     assert_eq!(k.stats().told, 1);
 }
@@ -103,7 +216,12 @@ fn many_pending_asks_told_in_any_order() {
     let ids: Vec<u64> = trials.iter().map(|t| t.id).collect();
     assert_eq!(ids, (0..50).collect::<Vec<_>>());
     // Tell evens backwards, then odds forwards.
-    for t in trials.iter().rev().filter(|t| t.id % 2 == 0).chain(trials.iter().filter(|t| t.id % 2 == 1)) {
+    for t in trials
+        .iter()
+        .rev()
+        .filter(|t| t.id % 2 == 0)
+        .chain(trials.iter().filter(|t| t.id % 2 == 1))
+    {
         let r = k.tell(t.id, paired(1.0, 0.2)).unwrap();
         assert_eq!(&r.trial, t);
     }
@@ -119,7 +237,8 @@ fn the_same_seed_and_calls_give_the_same_trials_and_other_seeds_differ() {
         for i in 0..40 {
             let t = k.ask();
             if i % 3 != 0 {
-                k.tell(t.id, paired(1.0, if i % 2 == 0 { 0.1 } else { 0.5 })).unwrap();
+                k.tell(t.id, paired(1.0, if i % 2 == 0 { 0.1 } else { 0.5 }))
+                    .unwrap();
             }
             out.push(t);
         }

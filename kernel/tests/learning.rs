@@ -2,7 +2,7 @@
 //! failure region are known: the posteriors must concentrate there, and a carried-over
 //! fidelity prior must speed up learning on a new scenario.
 use rand::{RngExt, SeedableRng};
-use rand_pcg::Pcg64;
+use rand_pcg::Pcg64 as Rng64;
 use savme_kernel::metrics::Summary;
 use savme_kernel::{
     Assignment, Estimator, Kernel, KernelBuilder, Observation, Phase, Run, Scale, Space, Variable,
@@ -73,20 +73,26 @@ fn hf_fails(scenario: &str, phi: &Assignment) -> bool {
     }
 }
 
-fn observe(rng: &mut Pcg64, t: &savme_kernel::Trial) -> Observation {
+fn observe(rng: &mut Rng64, t: &savme_kernel::Trial) -> Observation {
     let hf = hf_fails(&t.scenario, &t.phi);
     let (cost, agree) = lf_model(t.theta_lf.as_ref().unwrap());
     let lf = if rng.random::<f64>() < agree { hf } else { !hf };
-    Observation::Paired { hf: Run::new(hf, 1.0), lf: Run::new(lf, cost) }
+    Observation::Paired {
+        hf: Run::new(hf, 1.0),
+        lf: Run::new(lf, cost),
+    }
 }
 
 fn builder(scenario: &str, seed: u64) -> KernelBuilder {
     let (f, hf) = fidelity();
-    Kernel::builder(f, hf).scenario(scenario, phi(), 1.0).budget(0.3).seed(seed)
+    Kernel::builder(f, hf)
+        .scenario(scenario, phi(), 1.0)
+        .budget(0.3)
+        .seed(seed)
 }
 
 fn train(kernel: &mut Kernel, sim_seed: u64, n: usize) -> Vec<savme_kernel::TrialRecord> {
-    let mut rng = Pcg64::seed_from_u64(sim_seed);
+    let mut rng = Rng64::seed_from_u64(sim_seed);
     (0..n)
         .map(|_| {
             let t = kernel.ask();
@@ -102,20 +108,36 @@ fn posteriors_concentrate_on_the_best_fidelity_and_the_failure_region() {
         let mut k = builder("train", seed).build().unwrap();
         let records = train(&mut k, 100 + seed, 1500);
         let f = k.fidelity_posterior().best_arms(Estimator::Map);
-        assert_eq!(f[0], 2, "seed {seed}: rate 5 expected, posterior {:?}", k.fidelity_posterior().variable("rate"));
+        assert_eq!(
+            f[0],
+            2,
+            "seed {seed}: rate 5 expected, posterior {:?}",
+            k.fidelity_posterior().variable("rate")
+        );
         assert_eq!(f[1], 0, "seed {seed}: detail low expected");
         assert_eq!(f[2], 0, "seed {seed}: lens kept expected");
         assert!(f[3] == 2 || f[3] == 3, "seed {seed}: view bin {}", f[3]);
-        let p = k.scenario_posterior("train").unwrap().best_arms(Estimator::Map);
+        let p = k
+            .scenario_posterior("train")
+            .unwrap()
+            .best_arms(Estimator::Map);
         assert!(p[0] >= 4, "seed {seed}: speed bin {}", p[0]);
         assert!(p[1] <= 1, "seed {seed}: gap bin {}", p[1]);
         // Uniform φ finds a failure 2/6 · 2/5 = 13 % of the time; the learned p_ψ far more often.
         let late = Summary::of(&records[1200..]);
-        assert!(late.hf_failure_rate().unwrap() > 0.5, "seed {seed}: {:?}", late.hf_failure_rate());
+        assert!(
+            late.hf_failure_rate().unwrap() > 0.5,
+            "seed {seed}: {:?}",
+            late.hf_failure_rate()
+        );
         // Evaluation with θ_LF* agrees with HF and is cheap.
         k.set_phase(Phase::Evaluate);
         let eval = Summary::of(&train(&mut k, 7, 200));
-        assert!(eval.agreement().unwrap() > 0.9, "seed {seed}: {:?}", eval.agreement());
+        assert!(
+            eval.agreement().unwrap() > 0.9,
+            "seed {seed}: {:?}",
+            eval.agreement()
+        );
         assert!(eval.mean_lf_cost().unwrap() <= 0.3);
     }
 }
@@ -133,7 +155,10 @@ fn a_learned_fidelity_prior_speeds_up_a_new_scenario() {
         let mut k = builder("train", seed).build().unwrap();
         train(&mut k, 200 + seed, 800);
         let posterior = k.fidelity_posterior().clone();
-        let mut warm = builder("new", 50 + seed).fidelity_prior(posterior, 1.0).build().unwrap();
+        let mut warm = builder("new", 50 + seed)
+            .fidelity_prior(posterior, 1.0)
+            .build()
+            .unwrap();
         let mut cold = builder("new", 50 + seed).build().unwrap();
         warm.set_phase(Phase::Test);
         cold.set_phase(Phase::Test);
@@ -144,5 +169,8 @@ fn a_learned_fidelity_prior_speeds_up_a_new_scenario() {
     }
     // Out of 1,200 trials each: the uniform prior pays for exploring the fidelity space again.
     let (warm_loss, cold_loss) = (1200 - warm_ok, 1200 - cold_ok);
-    assert!(3 * warm_loss < cold_loss, "fidelity losses: learned prior {warm_loss}, uniform {cold_loss}");
+    assert!(
+        3 * warm_loss < cold_loss,
+        "fidelity losses: learned prior {warm_loss}, uniform {cold_loss}"
+    );
 }

@@ -7,7 +7,10 @@ fn obs(t: &Trial, i: u64) -> Observation {
     let hf = Run::new(i % 3 == 0, 1.0 + (i % 5) as f64);
     match t.phase {
         Phase::Baseline => Observation::HfOnly(hf),
-        _ => Observation::Paired { hf, lf: Run::new(i % 4 == 0, 0.1 + (i % 7) as f64 / 10.0) },
+        _ => Observation::Paired {
+            hf,
+            lf: Run::new(i % 4 == 0, 0.1 + (i % 7) as f64 / 10.0),
+        },
     }
 }
 
@@ -58,7 +61,10 @@ fn snapshot_restore_gives_identical_future_asks() {
 fn corrupt_or_inconsistent_snapshots_are_refused() {
     let k = common::kernel();
     let json = k.to_json();
-    assert!(matches!(Kernel::from_json(&json[..json.len() / 2]), Err(savme_kernel::RestoreError::Parse(_))));
+    assert!(matches!(
+        Kernel::from_json(&json[..json.len() / 2]),
+        Err(savme_kernel::RestoreError::Parse(_))
+    ));
     let bad_budget = json.replacen("\"budget\":0.3", "\"budget\":7.0", 1);
     assert_ne!(bad_budget, json);
     let e = Kernel::from_json(&bad_budget).unwrap_err();
@@ -108,7 +114,11 @@ fn a_truncated_last_line_is_reported_and_earlier_records_kept() {
     let full = log.into_writer();
     let complete = journal::replay(&full[..]).unwrap();
     // Cut the file inside its last line, as a crash mid-write would.
-    let last_start = full[..full.len() - 1].iter().rposition(|&b| b == b'\n').unwrap() + 1;
+    let last_start = full[..full.len() - 1]
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .unwrap()
+        + 1;
     for cut in [last_start + 1, full.len() - 1] {
         let r = journal::replay(&full[..cut]).unwrap();
         let tail = r.truncated.clone().expect("tail reported");
@@ -117,7 +127,8 @@ fn a_truncated_last_line_is_reported_and_earlier_records_kept() {
         assert_eq!(r.valid_len, last_start as u64);
         assert_eq!(r.lines, complete.lines - 1);
         // Everything before the torn line is there.
-        let told_before = complete.records.len() - usize::from(full[last_start..].starts_with(b"{\"event\":\"tell\""));
+        let told_before = complete.records.len()
+            - usize::from(full[last_start..].starts_with(b"{\"event\":\"tell\""));
         assert_eq!(r.records.len(), told_before);
     }
 }
@@ -136,20 +147,35 @@ fn a_corrupt_middle_line_is_an_error_naming_the_line() {
     }
     // An edited (well-formed) record is caught as divergence.
     let edited = text.replacen("\"failure\":true", "\"failure\":false", 1);
-    assert!(matches!(journal::replay(edited.as_bytes()), Err(JournalError::Diverged { .. })));
+    assert!(matches!(
+        journal::replay(edited.as_bytes()),
+        Err(JournalError::Diverged { .. })
+    ));
     // A tell of an unknown trial is refused with its line.
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
-    let tell = lines.iter().position(|l| l.starts_with("{\"event\":\"tell\"")).unwrap();
+    let tell = lines
+        .iter()
+        .position(|l| l.starts_with("{\"event\":\"tell\""))
+        .unwrap();
     let dup = lines[tell].clone();
     lines.insert(tell + 1, dup);
     let doubled = lines.join("\n") + "\n";
     match journal::replay(doubled.as_bytes()) {
-        Err(JournalError::Tell { line, source: TellError::AlreadyTold(_) }) => assert_eq!(line, tell as u64 + 2),
+        Err(JournalError::Tell {
+            line,
+            source: TellError::AlreadyTold(_),
+        }) => assert_eq!(line, tell as u64 + 2),
         other => panic!("expected an already-told error, got {other:?}"),
     }
-    assert!(matches!(journal::replay(&b""[..]), Err(JournalError::MissingStart)));
+    assert!(matches!(
+        journal::replay(&b""[..]),
+        Err(JournalError::MissingStart)
+    ));
     let no_start = lines[1..].join("\n") + "\n";
-    assert!(matches!(journal::replay(no_start.as_bytes()), Err(JournalError::MissingStart)));
+    assert!(matches!(
+        journal::replay(no_start.as_bytes()),
+        Err(JournalError::MissingStart)
+    ));
 }
 
 /// A writer that fails after `budget` successful writes.
@@ -174,7 +200,14 @@ impl std::io::Write for Flaky {
 #[test]
 fn a_failed_write_changes_nothing() {
     let config = common::kernel().config().clone();
-    let mut log = Journaled::start(config, Flaky { budget: 2, data: Vec::new() }).unwrap();
+    let mut log = Journaled::start(
+        config,
+        Flaky {
+            budget: 2,
+            data: Vec::new(),
+        },
+    )
+    .unwrap();
     let t = log.ask().unwrap(); // second write
     let before = log.kernel().to_json();
     assert!(matches!(log.ask(), Err(JournalError::Io { line: 3, .. })));
@@ -182,7 +215,13 @@ fn a_failed_write_changes_nothing() {
     let r = log.tell(t.id, obs(&t, 1));
     assert!(matches!(r, Err(JournaledTellError::Journal(_))));
     assert_eq!(log.kernel().to_json(), before);
-    assert!(matches!(log.cancel(t.id), Err(JournaledTellError::Journal(_))));
-    assert!(matches!(log.tell(77, obs(&t, 1)), Err(JournaledTellError::Tell(TellError::Unknown(77)))));
+    assert!(matches!(
+        log.cancel(t.id),
+        Err(JournaledTellError::Journal(_))
+    ));
+    assert!(matches!(
+        log.tell(77, obs(&t, 1)),
+        Err(JournaledTellError::Tell(TellError::Unknown(77)))
+    ));
     assert_eq!(log.kernel().to_json(), before);
 }

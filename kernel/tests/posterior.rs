@@ -56,10 +56,29 @@ fn map_ties_go_to_the_higher_mean() {
 
 #[test]
 fn explicit_prior_counts_are_used_and_validated() {
-    let p = Posterior::new(&space(2), PriorCounts { successes: 2.0, losses: 5.0 }).unwrap();
-    assert_eq!(p.arms()[0][1], Arm { alpha: 2.0, beta: 5.0 });
+    let p = Posterior::new(
+        &space(2),
+        PriorCounts {
+            successes: 2.0,
+            losses: 5.0,
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        p.arms()[0][1],
+        Arm {
+            alpha: 2.0,
+            beta: 5.0
+        }
+    );
     for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        let r = Posterior::new(&space(2), PriorCounts { successes: bad, losses: 1.0 });
+        let r = Posterior::new(
+            &space(2),
+            PriorCounts {
+                successes: bad,
+                losses: 1.0,
+            },
+        );
         assert!(matches!(r, Err(PosteriorError::BadPrior { .. })), "{bad}");
     }
 }
@@ -68,22 +87,56 @@ fn explicit_prior_counts_are_used_and_validated() {
 fn transfer_carries_evidence_and_scales_it() {
     let learned = posterior_with(&[(4, 2), (0, 6)]);
     let same = learned.as_prior(PriorCounts::UNIFORM, 1.0).unwrap();
-    assert_eq!(same.arms(), learned.arms(), "strength 1 passes the posterior on");
+    assert_eq!(
+        same.arms(),
+        learned.arms(),
+        "strength 1 passes the posterior on"
+    );
     let half = learned.as_prior(PriorCounts::UNIFORM, 0.5).unwrap();
-    assert_eq!(half.arms()[0][0], Arm { alpha: 3.0, beta: 2.0 });
-    assert_eq!(half.arms()[0][1], Arm { alpha: 1.0, beta: 4.0 });
+    assert_eq!(
+        half.arms()[0][0],
+        Arm {
+            alpha: 3.0,
+            beta: 2.0
+        }
+    );
+    assert_eq!(
+        half.arms()[0][1],
+        Arm {
+            alpha: 1.0,
+            beta: 4.0
+        }
+    );
     let double = learned.as_prior(PriorCounts::UNIFORM, 2.0).unwrap();
-    assert_eq!(double.arms()[0][0], Arm { alpha: 9.0, beta: 5.0 });
+    assert_eq!(
+        double.arms()[0][0],
+        Arm {
+            alpha: 9.0,
+            beta: 5.0
+        }
+    );
     // On another base prior the evidence is added to that base.
-    let jeffreys = PriorCounts { successes: 0.5, losses: 0.5 };
+    let jeffreys = PriorCounts {
+        successes: 0.5,
+        losses: 0.5,
+    };
     let j = learned.as_prior(jeffreys, 1.0).unwrap();
-    assert_eq!(j.arms()[0][0], Arm { alpha: 4.5, beta: 2.5 });
+    assert_eq!(
+        j.arms()[0][0],
+        Arm {
+            alpha: 4.5,
+            beta: 2.5
+        }
+    );
     assert_eq!(j.prior(), jeffreys);
     // A chain of transfers keeps all the evidence.
     let again = j.as_prior(PriorCounts::UNIFORM, 1.0).unwrap();
     assert_eq!(again.arms(), learned.arms());
     for bad in [0.0, -1.0, f64::NAN] {
-        assert!(matches!(learned.as_prior(PriorCounts::UNIFORM, bad), Err(PosteriorError::BadStrength(_))));
+        assert!(matches!(
+            learned.as_prior(PriorCounts::UNIFORM, bad),
+            Err(PosteriorError::BadStrength(_))
+        ));
     }
 }
 
@@ -91,7 +144,13 @@ fn transfer_carries_evidence_and_scales_it() {
 fn a_posterior_that_does_not_fit_the_space_is_rejected() {
     let p = posterior_with(&[(1, 1), (1, 1)]);
     assert!(p.check_fits(&space(2)).is_ok());
-    assert!(matches!(p.check_fits(&space(3)), Err(PosteriorError::Shape(_))));
+    assert!(matches!(
+        p.check_fits(&space(3)),
+        Err(PosteriorError::Shape(_))
+    ));
     let renamed = Space::new(vec![Variable::discrete("w", [0, 1])]).unwrap();
-    assert!(matches!(p.check_fits(&renamed), Err(PosteriorError::Shape(_))));
+    assert!(matches!(
+        p.check_fits(&renamed),
+        Err(PosteriorError::Shape(_))
+    ));
 }

@@ -7,10 +7,16 @@ fn variable(i: usize) -> impl Strategy<Value = Variable> {
     let name = format!("v{i}");
     let n2 = name.clone();
     prop_oneof![
-        (-1e3f64..1e3, 1e-3f64..1e3, 1u32..12, any::<bool>()).prop_map(move |(lo, w, bins, log)| {
-            let (lo, scale) = if log { (lo.abs() + 1e-3, Scale::Log) } else { (lo, Scale::Linear) };
-            Variable::continuous(&name, lo, lo + w, bins, scale)
-        }),
+        (-1e3f64..1e3, 1e-3f64..1e3, 1u32..12, any::<bool>()).prop_map(
+            move |(lo, w, bins, log)| {
+                let (lo, scale) = if log {
+                    (lo.abs() + 1e-3, Scale::Log)
+                } else {
+                    (lo, Scale::Linear)
+                };
+                Variable::continuous(&name, lo, lo + w, bins, scale)
+            }
+        ),
         (1usize..6).prop_map(move |n| Variable::discrete(&n2, (0..n as i64).map(|x| x * 3))),
     ]
 }
@@ -23,11 +29,16 @@ fn space() -> impl Strategy<Value = Space> {
 
 fn in_space(space: &Space, a: &savme_kernel::Assignment) -> bool {
     space.arms_of(a).is_ok()
-        && space.variables().iter().all(|v| match (&v.domain, a.get(&v.name)) {
-            (savme_kernel::Domain::Continuous { lo, hi, .. }, Some(Value::Real(x))) => lo <= x && x <= hi,
-            (savme_kernel::Domain::Discrete { .. }, Some(_)) => true,
-            _ => false,
-        })
+        && space
+            .variables()
+            .iter()
+            .all(|v| match (&v.domain, a.get(&v.name)) {
+                (savme_kernel::Domain::Continuous { lo, hi, .. }, Some(Value::Real(x))) => {
+                    lo <= x && x <= hi
+                }
+                (savme_kernel::Domain::Discrete { .. }, Some(_)) => true,
+                _ => false,
+            })
 }
 
 fn kernel_for(phi: Space, fidelity: Space, seed: u64) -> Kernel {
@@ -36,21 +47,38 @@ fn kernel_for(phi: Space, fidelity: Space, seed: u64) -> Kernel {
     for v in fidelity.variables() {
         hf.set(&v.name, v.representative(0));
     }
-    Kernel::builder(fidelity, hf).scenario("s", phi, 1.0).seed(seed).build().unwrap()
+    Kernel::builder(fidelity, hf)
+        .scenario("s", phi, 1.0)
+        .seed(seed)
+        .build()
+        .unwrap()
 }
 
 /// One step of an arbitrary driver: ask, tell (well or badly), cancel, switch phase.
 #[derive(Debug, Clone)]
 enum Step {
     Ask,
-    Tell { pick: usize, hf: bool, lf: bool, t_hf: f64, t_lf: f64, hf_only: bool },
+    Tell {
+        pick: usize,
+        hf: bool,
+        lf: bool,
+        t_hf: f64,
+        t_lf: f64,
+        hf_only: bool,
+    },
     TellUnknown(u64),
     Cancel(usize),
     Phase(u8),
 }
 
 fn step() -> impl Strategy<Value = Step> {
-    let runtime = prop_oneof![0.001f64..10.0, Just(0.0), Just(-1.0), Just(f64::NAN), Just(f64::INFINITY)];
+    let runtime = prop_oneof![
+        0.001f64..10.0,
+        Just(0.0),
+        Just(-1.0),
+        Just(f64::NAN),
+        Just(f64::INFINITY)
+    ];
     prop_oneof![
         3 => Just(Step::Ask),
         3 => (any::<usize>(), any::<bool>(), any::<bool>(), runtime.clone(), runtime, any::<bool>())

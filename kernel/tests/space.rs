@@ -14,7 +14,11 @@ fn linear_bins_edges_lo_and_hi() {
     assert_eq!(v.bin(3), Some((0.75, 1.0)));
     assert_eq!(v.bin(4), None);
     assert_eq!(v.arm_of(&real(0.0)), Some(0), "lo is in the first bin");
-    assert_eq!(v.arm_of(&real(0.25)), Some(1), "an inner edge is in the upper bin");
+    assert_eq!(
+        v.arm_of(&real(0.25)),
+        Some(1),
+        "an inner edge is in the upper bin"
+    );
     assert_eq!(v.arm_of(&real(0.2499999)), Some(0));
     assert_eq!(v.arm_of(&real(0.5)), Some(2));
     assert_eq!(v.arm_of(&real(0.75)), Some(3));
@@ -22,7 +26,11 @@ fn linear_bins_edges_lo_and_hi() {
     assert_eq!(v.arm_of(&real(-1e-12)), None);
     assert_eq!(v.arm_of(&real(1.0 + 1e-12)), None);
     assert_eq!(v.arm_of(&real(f64::NAN)), None);
-    assert_eq!(v.arm_of(&Value::Int(1)), Some(3), "integers are numbers too");
+    assert_eq!(
+        v.arm_of(&Value::Int(1)),
+        Some(3),
+        "integers are numbers too"
+    );
     assert_eq!(v.arm_of(&Value::from("1")), None, "labels are not");
 }
 
@@ -34,7 +42,11 @@ fn log_bins_have_equal_ratios_and_log_midpoints() {
     assert!((b - 100.0).abs() < 1e-9);
     assert_eq!(v.bin(1).unwrap().1, 1000.0);
     assert_eq!(v.arm_of(&real(99.0)), Some(0));
-    assert_eq!(v.arm_of(&real(v.bin(1).unwrap().0)), Some(1), "edge value goes up");
+    assert_eq!(
+        v.arm_of(&real(v.bin(1).unwrap().0)),
+        Some(1),
+        "edge value goes up"
+    );
     assert_eq!(v.arm_of(&real(1000.0)), Some(1));
     // Expected value of a log-uniform variable on [10, 100]: 90 / ln 10.
     let Value::Real(m) = v.representative(0) else {
@@ -84,27 +96,58 @@ fn draws_land_in_their_bin_and_log_draws_are_log_uniform() {
 
 #[test]
 fn validation_names_the_problem() {
-    let cont = |lo, hi, bins, scale| Space::new(vec![Variable::continuous("v", lo, hi, bins, scale)]);
+    let cont =
+        |lo, hi, bins, scale| Space::new(vec![Variable::continuous("v", lo, hi, bins, scale)]);
     use Scale::*;
     assert_eq!(Space::new(vec![]), Err(SpaceError::Empty));
-    assert!(matches!(cont(1.0, 1.0, 3, Linear), Err(SpaceError::EmptyRange { .. })));
-    assert!(matches!(cont(2.0, 1.0, 3, Linear), Err(SpaceError::EmptyRange { .. })));
-    assert!(matches!(cont(f64::NAN, 1.0, 3, Linear), Err(SpaceError::NonFiniteBound { .. })));
-    assert!(matches!(cont(0.0, f64::INFINITY, 3, Linear), Err(SpaceError::NonFiniteBound { .. })));
-    assert!(matches!(cont(0.0, 1.0, 0, Linear), Err(SpaceError::ZeroBins { .. })));
-    assert!(matches!(cont(0.0, 1.0, 3, Log), Err(SpaceError::LogRangeNotPositive { .. })));
-    assert!(matches!(cont(-1.0, 1.0, 3, Log), Err(SpaceError::LogRangeNotPositive { .. })));
-    assert!(matches!(cont(0.0, 1.0, 70_000, Linear), Err(SpaceError::TooManyArms { .. })));
+    assert!(matches!(
+        cont(1.0, 1.0, 3, Linear),
+        Err(SpaceError::EmptyRange { .. })
+    ));
+    assert!(matches!(
+        cont(2.0, 1.0, 3, Linear),
+        Err(SpaceError::EmptyRange { .. })
+    ));
+    assert!(matches!(
+        cont(f64::NAN, 1.0, 3, Linear),
+        Err(SpaceError::NonFiniteBound { .. })
+    ));
+    assert!(matches!(
+        cont(0.0, f64::INFINITY, 3, Linear),
+        Err(SpaceError::NonFiniteBound { .. })
+    ));
+    assert!(matches!(
+        cont(0.0, 1.0, 0, Linear),
+        Err(SpaceError::ZeroBins { .. })
+    ));
+    assert!(matches!(
+        cont(0.0, 1.0, 3, Log),
+        Err(SpaceError::LogRangeNotPositive { .. })
+    ));
+    assert!(matches!(
+        cont(-1.0, 1.0, 3, Log),
+        Err(SpaceError::LogRangeNotPositive { .. })
+    ));
+    assert!(matches!(
+        cont(0.0, 1.0, 70_000, Linear),
+        Err(SpaceError::TooManyArms { .. })
+    ));
     assert!(cont(1e-9, 1.0, 3, Log).is_ok());
     let dup = Space::new(vec![Variable::boolean("a"), Variable::boolean("a")]);
     assert_eq!(dup, Err(SpaceError::DuplicateName("a".into())));
     let empty_vals = Space::new(vec![Variable::discrete::<i64>("a", [])]);
     assert!(matches!(empty_vals, Err(SpaceError::NoValues { .. })));
-    let dup_val = Space::new(vec![Variable::discrete("a", [Value::Int(2), Value::Real(2.0)])]);
+    let dup_val = Space::new(vec![Variable::discrete(
+        "a",
+        [Value::Int(2), Value::Real(2.0)],
+    )]);
     assert!(matches!(dup_val, Err(SpaceError::DuplicateValue { .. })));
     let nan_val = Space::new(vec![Variable::discrete("a", [f64::NAN])]);
     assert!(matches!(nan_val, Err(SpaceError::NonFiniteValue { .. })));
-    assert_eq!(Space::new(vec![Variable::boolean(" ")]), Err(SpaceError::EmptyName));
+    assert_eq!(
+        Space::new(vec![Variable::boolean(" ")]),
+        Err(SpaceError::EmptyName)
+    );
     let msg = cont(0.0, 1.0, 3, Log).unwrap_err().to_string();
     assert!(msg.contains("`v`") && msg.contains("0 < lo"), "{msg}");
 }
@@ -119,15 +162,22 @@ fn assignments_are_checked_against_the_space() {
     let ok = Assignment::new().with("rate", 10).with("d", 0.2);
     assert_eq!(s.arms_of(&ok), Ok(vec![1, 0]));
     let missing = Assignment::new().with("rate", 10);
-    assert!(matches!(s.arms_of(&missing), Err(SpaceError::MissingValue { variable }) if variable == "d"));
+    assert!(
+        matches!(s.arms_of(&missing), Err(SpaceError::MissingValue { variable }) if variable == "d")
+    );
     let extra = ok.clone().with("zzz", 1);
-    assert!(matches!(s.arms_of(&extra), Err(SpaceError::UnknownVariable { variable }) if variable == "zzz"));
+    assert!(
+        matches!(s.arms_of(&extra), Err(SpaceError::UnknownVariable { variable }) if variable == "zzz")
+    );
     let outside = ok.clone().with("d", 20.5);
     let err = s.arms_of(&outside).unwrap_err();
     assert!(matches!(&err, SpaceError::OutOfSpace { variable, .. } if variable == "d"));
     assert!(err.to_string().contains("[0.2, 20]"), "{err}");
     let wrong_kind = ok.with("rate", "ten");
-    assert!(matches!(s.arms_of(&wrong_kind), Err(SpaceError::OutOfSpace { .. })));
+    assert!(matches!(
+        s.arms_of(&wrong_kind),
+        Err(SpaceError::OutOfSpace { .. })
+    ));
 }
 
 #[test]

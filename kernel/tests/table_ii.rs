@@ -6,7 +6,9 @@ fn arms_total(p: &savme_kernel::Posterior) -> (f64, f64) {
     p.arms()
         .iter()
         .flatten()
-        .fold((0.0, 0.0), |(a, b), arm: &Arm| (a + arm.alpha, b + arm.beta))
+        .fold((0.0, 0.0), |(a, b), arm: &Arm| {
+            (a + arm.alpha, b + arm.beta)
+        })
 }
 
 /// (hf failure, lf failure, t_lf, expected outcome, fidelity success, scenario success);
@@ -89,7 +91,10 @@ fn evaluation_and_baseline_update_nothing() {
     for phase in [Phase::Evaluate, Phase::Baseline] {
         let mut k = common::kernel();
         k.set_phase(phase);
-        let before = (k.fidelity_posterior().clone(), k.scenario_posterior("a").cloned());
+        let before = (
+            k.fidelity_posterior().clone(),
+            k.scenario_posterior("a").cloned(),
+        );
         for _ in 0..20 {
             let t = k.ask();
             let obs = if phase == Phase::Baseline {
@@ -105,7 +110,10 @@ fn evaluation_and_baseline_update_nothing() {
             assert_eq!(r.credit.fidelity, None);
             assert_eq!(r.credit.scenario, None);
         }
-        let after = (k.fidelity_posterior().clone(), k.scenario_posterior("a").cloned());
+        let after = (
+            k.fidelity_posterior().clone(),
+            k.scenario_posterior("a").cloned(),
+        );
         assert_eq!(before, after);
     }
 }
