@@ -226,9 +226,8 @@ pub struct KernelStats {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct Pending {
     trial: Trial,
-    phi_arms: Vec<u16>,
-    /// Empty for baseline trials.
-    theta_arms: Vec<u16>,
+    /// The drawn arms: one per φ variable, then (paired trials only) one per θ variable.
+    arms: Vec<u16>,
 }
 
 /// The complete, serialisable state of a kernel ([`Kernel::snapshot`]).
@@ -477,30 +476,28 @@ impl Kernel {
             .position(|&c| u < c)
             .unwrap_or(self.cumulative.len() - 1);
         let scenario = &st.config.scenarios[s];
-        let mut phi_arms = Vec::with_capacity(scenario.space.len());
+        let n_phi = scenario.space.len();
+        let mut arms = Vec::with_capacity(n_phi + st.config.fidelity.len());
         match phase {
-            Phase::Baseline => phi_arms.extend(
+            Phase::Baseline => arms.extend(
                 scenario
                     .space
                     .variables()
                     .iter()
                     .map(|v| rng.random_range(0..v.arms()) as u16),
             ),
-            _ => st.scenarios[s].thompson(rng, &mut phi_arms),
+            _ => st.scenarios[s].thompson(rng, &mut arms),
         }
-        let phi = scenario.space.draw(&phi_arms, rng);
-        let (theta_arms, theta_lf) = match phase {
-            Phase::Baseline => (Vec::new(), None),
+        let phi = scenario.space.draw(&arms, rng);
+        let theta_lf = match phase {
+            Phase::Baseline => None,
             Phase::Evaluate => {
-                let arms = st.fidelity.best_arms(st.config.estimator);
-                let theta = st.config.fidelity.representatives(&arms);
-                (arms, Some(theta))
+                arms.extend(st.fidelity.best_arms(st.config.estimator));
+                Some(st.config.fidelity.representatives(&arms[n_phi..]))
             }
             Phase::Train | Phase::Test => {
-                let mut arms = Vec::with_capacity(st.config.fidelity.len());
                 st.fidelity.thompson(rng, &mut arms);
-                let theta = st.config.fidelity.draw(&arms, rng);
-                (arms, Some(theta))
+                Some(st.config.fidelity.draw(&arms[n_phi..], rng))
             }
         };
         Pending {
@@ -512,8 +509,7 @@ impl Kernel {
                 phi,
                 theta_lf,
             },
-            phi_arms,
-            theta_arms,
+            arms,
         }
     }
 
@@ -599,11 +595,12 @@ impl Kernel {
     ) -> TrialRecord {
         let pending = self.state.pending.remove(index);
         let s = pending.trial.scenario_index;
+        let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
         if let Some(ok) = assessed.credit.scenario {
-            self.state.scenarios[s].update(&pending.phi_arms, ok);
+            self.state.scenarios[s].update(phi_arms, ok);
         }
         if let Some(ok) = assessed.credit.fidelity {
-            self.state.fidelity.update(&pending.theta_arms, ok);
+            self.state.fidelity.update(theta_arms, ok);
         }
         self.state.stats.told += 1;
         TrialRecord {
@@ -669,13 +666,14 @@ impl Kernel {
                         .zip(arms)
                         .all(|(v, &a)| (a as usize) < v.arms())
             };
-            if !arms_ok(&sc.space, &p.phi_arms) {
+            let (phi_arms, theta_arms) = p.arms.split_at(sc.space.len().min(p.arms.len()));
+            if !arms_ok(&sc.space, phi_arms) {
                 return Err(bad("φ arms do not fit the scenario"));
             }
             let paired = t.phase.is_paired();
             if paired != t.theta_lf.is_some()
-                || (paired && !arms_ok(&cfg.fidelity, &p.theta_arms))
-                || (!paired && !p.theta_arms.is_empty())
+                || (paired && !arms_ok(&cfg.fidelity, theta_arms))
+                || (!paired && !theta_arms.is_empty())
             {
                 return Err(bad("θ_LF does not fit its phase or the fidelity space"));
             }

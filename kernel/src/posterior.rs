@@ -268,10 +268,10 @@ impl Posterior {
         Ok(())
     }
 
-    /// A Thompson draw: for every variable, one sample of every arm's Beta; the argmax arm.
-    /// Variables with a single arm take it without drawing.
+    /// A Thompson draw: for every variable, one sample of every arm's Beta; the argmax arm is
+    /// appended to `out` (one per variable, in order). Variables with a single arm take it
+    /// without drawing.
     pub fn thompson<R: Rng + ?Sized>(&self, rng: &mut R, out: &mut Vec<u16>) {
-        out.clear();
         for arms in &self.samplers {
             if arms.len() == 1 {
                 out.push(0);

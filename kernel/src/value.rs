@@ -126,7 +126,8 @@ impl From<&str> for Value {
 pub struct Assignment {
     /// Names, shared with the space the assignment was drawn from (cloning is cheap).
     names: Arc<Vec<Arc<str>>>,
-    values: Vec<Value>,
+    /// Values, shared between clones until one of them is changed.
+    values: Arc<Vec<Value>>,
 }
 
 impl PartialEq for Assignment {
@@ -145,7 +146,10 @@ impl Assignment {
     /// Values for the given shared names, in order (one value per name).
     pub(crate) fn from_parts(names: Arc<Vec<Arc<str>>>, values: Vec<Value>) -> Self {
         debug_assert_eq!(names.len(), values.len());
-        Assignment { names, values }
+        Assignment {
+            names,
+            values: Arc::new(values),
+        }
     }
 
     /// Adds (or replaces) `name = value`, builder style.
@@ -158,10 +162,10 @@ impl Assignment {
     pub fn set(&mut self, name: &str, value: impl Into<Value>) {
         let value = value.into();
         match self.position(name) {
-            Some(i) => self.values[i] = value,
+            Some(i) => Arc::make_mut(&mut self.values)[i] = value,
             None => {
                 Arc::make_mut(&mut self.names).push(Arc::from(name));
-                self.values.push(value);
+                Arc::make_mut(&mut self.values).push(value);
             }
         }
     }
@@ -187,7 +191,7 @@ impl Assignment {
 
     /// `(name, value)` pairs in order.
     pub fn iter(&self) -> impl Iterator<Item = (&str, &Value)> {
-        self.names.iter().map(|n| &**n).zip(&self.values)
+        self.names.iter().map(|n| &**n).zip(self.values.iter())
     }
 
     /// Number of named values.
