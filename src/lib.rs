@@ -1,1 +1,10 @@
+//! # savme
+//!
+//! Find the failures of an autonomous system in simulation fast. This package gathers the
+//! toolkit: the ask/tell kernel ([`kernel`], crate `savme-kernel`) and a small paired
+//! simulator to try it on ([`toy`]). The campaign driver, the bundled camera/lidar driving
+//! simulator and the FMU adapter join it as they land.
+#![warn(missing_docs)]
+
 pub use savme_kernel as kernel;
+pub mod toy;
