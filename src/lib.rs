@@ -8,3 +8,8 @@
 
 pub use savme_kernel as kernel;
 pub mod toy;
+
+/// The README's code, compiled and run as a doctest.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
