@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub use savme_kernel as kernel;
+pub mod serve;
 pub mod toy;
 
 /// The README's code, compiled and run as a doctest.

@@ -1,0 +1,130 @@
+//! The `savme` command line.
+use clap::{Parser, Subcommand};
+use savme::kernel::journal::{self, Journaled};
+use savme::kernel::{Kernel, KernelConfig};
+use savme::serve::Session;
+use std::fs::{File, OpenOptions};
+use std::io::{self, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "savme",
+    version,
+    about = "Find the failures of an autonomous system in simulation, fast (SAVME)."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Serve the ask/tell kernel as JSON lines on stdin/stdout, for a harness in any language.
+    Serve {
+        /// Kernel configuration (JSON, as printed by `savme example-config`). Optional when
+        /// resuming from an existing journal.
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Journal file: created if missing, resumed if it exists. Every ask and tell is logged
+        /// to it before it takes effect.
+        #[arg(long)]
+        journal: Option<PathBuf>,
+    },
+    /// Print a kernel configuration (the toy simulator's) to start editing from.
+    ExampleConfig,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Serve { config, journal } => serve(config.as_deref(), journal.as_deref()),
+        Command::ExampleConfig => example_config(),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("savme: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn example_config() -> Result<(), String> {
+    let kernel = savme::toy::kernel_builder()
+        .seed(1)
+        .build()
+        .map_err(|e| e.to_string())?;
+    let json = serde_json::to_string_pretty(kernel.config()).map_err(|e| e.to_string())?;
+    println!("{json}");
+    Ok(())
+}
+
+fn read_config(path: &Path) -> Result<KernelConfig, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let config: KernelConfig =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Validate now, so that the error names the file.
+    Kernel::new(config.clone()).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(config)
+}
+
+fn serve(config: Option<&Path>, journal: Option<&Path>) -> Result<(), String> {
+    let config = config.map(read_config).transpose()?;
+    let stdin = io::stdin().lock();
+    let stdout = io::stdout().lock();
+    let io_err = |e: io::Error| format!("stdin/stdout: {e}");
+    match journal {
+        None => {
+            let config = config.ok_or("give --config (or --journal to resume)")?;
+            let kernel = Kernel::new(config).map_err(|e| e.to_string())?;
+            Session::<File>::Plain(kernel)
+                .serve(stdin, stdout)
+                .map_err(io_err)
+        }
+        Some(path) => {
+            let shown = path.display();
+            let exists = path.metadata().map(|m| m.len() > 0).unwrap_or(false);
+            let log = if exists {
+                let file = File::open(path).map_err(|e| format!("{shown}: {e}"))?;
+                let replay =
+                    journal::replay(BufReader::new(file)).map_err(|e| format!("{shown}: {e}"))?;
+                if let Some(c) = &config {
+                    if c != replay.kernel.config() {
+                        return Err(format!(
+                            "{shown} was started with a different configuration than the one given"
+                        ));
+                    }
+                }
+                let file = OpenOptions::new()
+                    .write(true)
+                    .open(path)
+                    .map_err(|e| format!("{shown}: {e}"))?;
+                if let Some(tail) = &replay.truncated {
+                    eprintln!(
+                        "savme: {shown}: line {} was cut off mid-write ({} bytes); dropping it and \
+                         resuming after line {}",
+                        tail.line, tail.bytes, replay.lines
+                    );
+                }
+                file.set_len(replay.valid_len)
+                    .map_err(|e| format!("{shown}: {e}"))?;
+                let mut file = file;
+                io::Seek::seek(&mut file, io::SeekFrom::End(0))
+                    .map_err(|e| format!("{shown}: {e}"))?;
+                eprintln!(
+                    "savme: resumed {shown}: {} told, {} pending",
+                    replay.kernel.stats().told,
+                    replay.kernel.pending().count()
+                );
+                Journaled::resume(&replay, file)
+            } else {
+                let config = config.ok_or_else(|| format!("{shown} is new: give --config"))?;
+                let file = File::create(path).map_err(|e| format!("{shown}: {e}"))?;
+                Journaled::start(config, file).map_err(|e| format!("{shown}: {e}"))?
+            };
+            Session::Journaled(log).serve(stdin, stdout).map_err(io_err)
+        }
+    }
+}

@@ -1,0 +1,182 @@
+//! `savme serve` as a harness in another language sees it: a child process speaking JSON lines.
+use serde_json::{json, Value};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("savme-serve-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn write_config(dir: &Path) -> PathBuf {
+    let out = Command::new(EXE).arg("example-config").output().unwrap();
+    assert!(out.status.success());
+    let path = dir.join("kernel.json");
+    std::fs::write(&path, out.stdout).unwrap();
+    path
+}
+
+struct Server {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: BufReader<ChildStdout>,
+}
+
+impl Server {
+    fn start(args: &[&str]) -> Server {
+        let mut child = Command::new(EXE)
+            .arg("serve")
+            .args(args)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap();
+        let stdin = child.stdin.take().unwrap();
+        let stdout = BufReader::new(child.stdout.take().unwrap());
+        Server {
+            child,
+            stdin,
+            stdout,
+        }
+    }
+
+    fn call(&mut self, request: Value) -> Value {
+        writeln!(self.stdin, "{request}").unwrap();
+        self.stdin.flush().unwrap();
+        let mut line = String::new();
+        self.stdout.read_line(&mut line).unwrap();
+        serde_json::from_str(&line).unwrap()
+    }
+}
+
+fn observation(trial: &Value) -> Value {
+    let speed = trial["phi"]["ego_speed"].as_f64().unwrap();
+    let hf = json!({"failure": speed > 28.0, "runtime": 1.0});
+    let lf = json!({"failure": speed > 27.0, "runtime": 0.25});
+    json!({"paired": {"hf": hf, "lf": lf}})
+}
+
+/// Asks and tells `n` trials; returns the trials.
+fn drive(s: &mut Server, n: usize) -> Vec<Value> {
+    (0..n)
+        .map(|_| {
+            let t = s.call(json!({"op": "ask"}))["trials"][0].clone();
+            let r = s.call(json!({"op": "tell", "id": t["id"], "observation": observation(&t)}));
+            assert_eq!(r["ok"], true, "{r}");
+            t
+        })
+        .collect()
+}
+
+#[test]
+fn a_killed_server_resumes_from_its_journal_without_loss_or_repeats() {
+    let dir = temp_dir("resume");
+    let config = write_config(&dir);
+    let config = config.to_str().unwrap();
+
+    // Reference: one uninterrupted run of 30 trials.
+    let whole_journal = dir.join("whole.jsonl");
+    let mut whole = Server::start(&[
+        "--config",
+        config,
+        "--journal",
+        whole_journal.to_str().unwrap(),
+    ]);
+    let reference = drive(&mut whole, 30);
+    drop(whole.stdin);
+    assert!(whole.child.wait().unwrap().success());
+
+    // The same, killed (SIGKILL) after 12 trials and one pending ask, then resumed.
+    let journal = dir.join("run.jsonl");
+    let j = journal.to_str().unwrap();
+    let mut first = Server::start(&["--config", config, "--journal", j]);
+    let mut seen = drive(&mut first, 12);
+    let pending = first.call(json!({"op": "ask"}))["trials"][0].clone();
+    first.child.kill().unwrap();
+    first.child.wait().unwrap();
+    // Simulate a torn last write too.
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&journal)
+        .unwrap();
+    f.write_all(b"{\"event\":\"tell\",\"id\":").unwrap();
+    drop(f);
+
+    let mut second = Server::start(&["--journal", j]);
+    let stats = second.call(json!({"op": "stats"}));
+    assert_eq!(stats["stats"]["told"], 12);
+    assert_eq!(stats["pending"], json!([pending["id"]]));
+    let r = second
+        .call(json!({"op": "tell", "id": pending["id"], "observation": observation(&pending)}));
+    assert_eq!(r["ok"], true, "{r}");
+    seen.push(pending);
+    seen.extend(drive(&mut second, 17));
+    drop(second.stdin);
+    assert!(second.child.wait().unwrap().success());
+    assert_eq!(seen, reference);
+    // The repaired journal replays to the same state as the uninterrupted one.
+    let a = std::fs::read_to_string(&journal).unwrap();
+    let b = std::fs::read_to_string(&whole_journal).unwrap();
+    assert_eq!(a, b);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_configurations_and_journals_are_named() {
+    let dir = temp_dir("bad");
+    let config = write_config(&dir);
+    let text = std::fs::read_to_string(&config).unwrap();
+    let bad = dir.join("bad.json");
+    std::fs::write(&bad, text.replacen("\"budget\": 0.3", "\"budget\": 1.5", 1)).unwrap();
+    let out = Command::new(EXE)
+        .args(["serve", "--config", bad.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.json") && err.contains("C_budget"),
+        "{err}"
+    );
+
+    std::fs::write(&bad, "{\"scenarios\": [").unwrap();
+    let out = Command::new(EXE)
+        .args(["serve", "--config", bad.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("bad.json") && err.contains("line"),
+        "{err}"
+    );
+
+    let journal = dir.join("corrupt.jsonl");
+    std::fs::write(&journal, "garbage\n").unwrap();
+    let out = Command::new(EXE)
+        .args(["serve", "--journal", journal.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("corrupt.jsonl") && err.contains("line 1"),
+        "{err}"
+    );
+
+    let fresh = dir.join("fresh.jsonl");
+    let out = Command::new(EXE)
+        .args(["serve", "--journal", fresh.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("give --config"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
