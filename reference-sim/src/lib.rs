@@ -9,3 +9,4 @@
 pub mod control;
 pub mod path;
 pub mod vehicle;
+pub mod world;
