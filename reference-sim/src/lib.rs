@@ -8,5 +8,8 @@
 
 pub mod control;
 pub mod path;
+pub mod scenario;
+pub mod sim;
+pub mod sut;
 pub mod vehicle;
 pub mod world;

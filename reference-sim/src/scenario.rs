@@ -1,0 +1,536 @@
+//! The ten AV pre-crash scenarios of the paper's figure (1–8 meta-training, 9–10 meta-testing):
+//! their φ-spaces and how a φ becomes a concrete set-up (paths, speeds, timing).
+//!
+//! Timing convention: every scenario has a *conflict point* where the two paths meet (or, for
+//! car-following scenarios, the lead's position). The ego starts `CONFLICT_TIME` seconds of
+//! travel before it; φ shifts the intruder's arrival relative to the ego's (`time_offset`,
+//! positive = the intruder arrives later) or sets the initial gap.
+
+use crate::path::Path;
+use crate::world::{lanes, Layout, LANE};
+use nalgebra::Point2;
+use savme_kernel::{Assignment, Scale, SimError, Space, Variable};
+use std::f64::consts::FRAC_PI_2;
+
+/// Seconds of travel from the ego's start to the conflict point.
+pub const CONFLICT_TIME: f64 = 4.0;
+
+/// One of the ten scenarios.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScenarioInfo {
+    /// Number in the paper's figure, 1–10.
+    pub id: u8,
+    /// Short name, used as the kernel's scenario name.
+    pub name: &'static str,
+    /// What happens.
+    pub description: &'static str,
+    /// The road layout.
+    pub layout: Layout,
+    /// Simulated duration, seconds.
+    pub duration: f64,
+}
+
+impl ScenarioInfo {
+    /// True for the meta-training scenarios (1–8).
+    pub fn training(&self) -> bool {
+        self.id <= 8
+    }
+}
+
+/// The ten scenarios, in the paper's order.
+pub const SCENARIOS: [ScenarioInfo; 10] = [
+    ScenarioInfo {
+        id: 1,
+        name: "intruder_turns_left_into_lane",
+        description: "ego drives straight through the intersection; the intruder, coming from \
+                      the left, turns left into the ego's lane",
+        layout: Layout::Intersection,
+        duration: 9.0,
+    },
+    ScenarioInfo {
+        id: 2,
+        name: "ego_turns_left_intruder_straight",
+        description: "ego turns left at the intersection into the lane of an intruder crossing \
+                      straight from the right",
+        layout: Layout::Intersection,
+        duration: 9.0,
+    },
+    ScenarioInfo {
+        id: 3,
+        name: "intruder_turns_left_across_ego",
+        description: "the oncoming intruder turns left across the path of the ego going straight",
+        layout: Layout::Intersection,
+        duration: 9.0,
+    },
+    ScenarioInfo {
+        id: 4,
+        name: "ego_turns_left_across_intruder",
+        description: "ego turns left across the path of the oncoming intruder going straight",
+        layout: Layout::Intersection,
+        duration: 9.0,
+    },
+    ScenarioInfo {
+        id: 5,
+        name: "intruder_cuts_in",
+        description: "on a two-lane one-way road the intruder changes from the left lane into \
+                      the ego's lane ahead of it",
+        layout: Layout::OneWay,
+        duration: 10.0,
+    },
+    ScenarioInfo {
+        id: 6,
+        name: "ego_changes_lane",
+        description: "on a two-lane one-way road the ego changes into the left lane, where the \
+                      intruder drives",
+        layout: Layout::OneWay,
+        duration: 10.0,
+    },
+    ScenarioInfo {
+        id: 7,
+        name: "lead_vehicle_brakes",
+        description: "the ego approaches a lead vehicle in its lane, which brakes",
+        layout: Layout::OneWay,
+        duration: 10.0,
+    },
+    ScenarioInfo {
+        id: 8,
+        name: "parking_pull_out",
+        description: "a vehicle pulls out of a parking spot into the road in front of the ego",
+        layout: Layout::ParkingLot,
+        duration: 9.0,
+    },
+    ScenarioInfo {
+        id: 9,
+        name: "lead_vehicle_two_way",
+        description: "on a two-lane two-way road the ego approaches a slower lead vehicle that \
+                      brakes",
+        layout: Layout::TwoWay,
+        duration: 10.0,
+    },
+    ScenarioInfo {
+        id: 10,
+        name: "on_ramp_merge",
+        description: "the ego merges from an on-ramp into the right lane beside the intruder",
+        layout: Layout::OnRamp,
+        duration: 12.0,
+    },
+];
+
+/// The scenario with number `id` (1–10) or name.
+pub fn find(key: &str) -> Option<&'static ScenarioInfo> {
+    SCENARIOS
+        .iter()
+        .find(|s| s.name == key || key.parse::<u8>().is_ok_and(|n| n == s.id))
+}
+
+fn lin(name: &str, lo: f64, hi: f64) -> Variable {
+    Variable::continuous(name, lo, hi, 10, Scale::Linear)
+}
+
+/// The φ-space of scenario `id` (10 linear bins per variable).
+pub fn phi_space(info: &ScenarioInfo) -> Space {
+    let vars = match info.id {
+        1 => vec![
+            lin("ego_speed", 6.0, 14.0),
+            lin("intruder_speed", 3.0, 8.0),
+            lin("time_offset", -2.0, 2.0),
+        ],
+        2 => vec![
+            lin("ego_speed", 4.0, 9.0),
+            lin("intruder_speed", 6.0, 14.0),
+            lin("time_offset", -2.0, 2.0),
+        ],
+        3 => vec![
+            lin("ego_speed", 6.0, 14.0),
+            lin("intruder_speed", 3.0, 8.0),
+            lin("time_offset", -2.0, 2.0),
+        ],
+        4 => vec![
+            lin("ego_speed", 4.0, 9.0),
+            lin("intruder_speed", 6.0, 14.0),
+            lin("time_offset", -2.0, 2.0),
+        ],
+        5 => vec![
+            lin("ego_speed", 10.0, 25.0),
+            lin("intruder_speed", 6.0, 20.0),
+            lin("gap", 2.0, 30.0),
+            lin("cut_in_time", 0.5, 4.0),
+        ],
+        6 => vec![
+            lin("ego_speed", 10.0, 25.0),
+            lin("intruder_speed", 10.0, 28.0),
+            lin("offset", -30.0, 10.0),
+            lin("lane_change_time", 0.5, 3.0),
+        ],
+        7 => vec![
+            lin("ego_speed", 10.0, 25.0),
+            lin("lead_speed", 5.0, 20.0),
+            lin("gap", 8.0, 40.0),
+            lin("lead_decel", 2.0, 9.0),
+            lin("brake_time", 0.5, 4.0),
+        ],
+        8 => vec![
+            lin("ego_speed", 6.0, 15.0),
+            lin("intruder_accel", 1.0, 3.5),
+            lin("time_offset", -2.0, 2.0),
+        ],
+        9 => vec![
+            lin("ego_speed", 10.0, 22.0),
+            lin("lead_speed", 3.0, 14.0),
+            lin("gap", 8.0, 35.0),
+            lin("lead_decel", 2.0, 9.0),
+        ],
+        _ => vec![
+            lin("ego_speed", 12.0, 22.0),
+            lin("intruder_speed", 12.0, 26.0),
+            lin("time_offset", -2.5, 2.5),
+        ],
+    };
+    Space::new(vars).expect("scenario spaces are valid")
+}
+
+/// A speed profile: an initial speed and phases of constant acceleration, with a speed floor of
+/// 0 and a cap.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Profile {
+    /// Speed at t = 0, m/s.
+    pub v0: f64,
+    /// `(start time, acceleration)` phases in time order; the acceleration holds until the
+    /// next phase.
+    pub phases: Vec<(f64, f64)>,
+    /// Speed cap, m/s.
+    pub v_max: f64,
+}
+
+impl Profile {
+    /// A constant speed.
+    pub fn constant(v: f64) -> Self {
+        Profile {
+            v0: v,
+            phases: Vec::new(),
+            v_max: v,
+        }
+    }
+
+    fn accel_at(&self, t: f64) -> f64 {
+        self.phases
+            .iter()
+            .rev()
+            .find(|(start, _)| t >= *start)
+            .map_or(0.0, |p| p.1)
+    }
+
+    /// `(distance travelled, speed)` at time `t` (integrated exactly per 10 ms slice).
+    pub fn at(&self, t: f64) -> (f64, f64) {
+        let slice: f64 = 0.01;
+        let (mut s, mut v, mut now) = (0.0, self.v0, 0.0);
+        while now < t {
+            let h = slice.min(t - now);
+            let a = self.accel_at(now);
+            let moving = if a < 0.0 { (v / -a).min(h) } else { h };
+            let v_new = (v + a * moving).clamp(0.0, self.v_max.max(self.v0));
+            s += 0.5 * (v + v_new) * moving;
+            v = v_new;
+            now += h;
+        }
+        (s, v)
+    }
+}
+
+/// A concrete set-up: what both vehicles do.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    /// The scenario.
+    pub info: &'static ScenarioInfo,
+    /// The ego's desired lateral path.
+    pub ego_path: Path,
+    /// Where on it the ego starts (arc length of its body centre).
+    pub ego_start: f64,
+    /// The ego's desired (and initial) speed.
+    pub ego_speed: f64,
+    /// The intruder's scripted path.
+    pub intruder_path: Path,
+    /// Where on it the intruder starts (arc length of its body centre).
+    pub intruder_start: f64,
+    /// Its scripted speed.
+    pub intruder_profile: Profile,
+}
+
+/// Arc lengths `(on a, on b)` where two paths come closest (where they cross).
+fn crossing(a: &Path, b: &Path) -> (f64, f64) {
+    let mut best = (f64::INFINITY, 0.0, 0.0);
+    let mut s = 0.0;
+    while s <= a.length() {
+        let p = a.point_at(s);
+        let q = b.project(p, None);
+        let d = (b.point_at(q.s) - p).norm();
+        if d < best.0 && q.s > 0.0 && q.s < b.length() {
+            best = (d, s, q.s);
+        }
+        s += 0.5;
+    }
+    (best.1, best.2)
+}
+
+fn value(phi: &Assignment, name: &str, space: &Space) -> Result<f64, SimError> {
+    let v = phi.get(name).ok_or_else(|| SimError::MissingVariable {
+        variable: name.into(),
+    })?;
+    let x = v.as_f64().ok_or_else(|| SimError::BadValue {
+        variable: name.into(),
+        value: v.to_string(),
+        expected: "a number".into(),
+    })?;
+    let var = space
+        .variable(name)
+        .expect("asked for a variable of the space");
+    if var.arm_of(v).is_none() {
+        let (lo, hi) = match var.domain {
+            savme_kernel::Domain::Continuous { lo, hi, .. } => (lo, hi),
+            savme_kernel::Domain::Discrete { .. } => (f64::NAN, f64::NAN),
+        };
+        return Err(SimError::BadValue {
+            variable: name.into(),
+            value: v.to_string(),
+            expected: format!("a number in [{lo}, {hi}]"),
+        });
+    }
+    Ok(x)
+}
+
+/// Turns a φ into a set-up. φ must name exactly the scenario's variables, each in range.
+pub fn setup(info: &'static ScenarioInfo, phi: &Assignment) -> Result<Setup, SimError> {
+    let space = phi_space(info);
+    if let Some((name, _)) = phi.iter().find(|(n, _)| space.variable(n).is_none()) {
+        return Err(SimError::BadValue {
+            variable: name.into(),
+            value: phi.get(name).map_or(String::new(), ToString::to_string),
+            expected: format!(
+                "no such parameter in scenario {} (it has: {})",
+                info.id,
+                space
+                    .variables()
+                    .iter()
+                    .map(|v| v.name.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        });
+    }
+    let get = |name: &str| value(phi, name, &space);
+    let ego_speed = get("ego_speed")?;
+    let far = 120.0;
+    // Paths, then timing.
+    let (ego_path, intruder_path, profile, intruder_late) = match info.id {
+        1 => (
+            lanes::northbound(-far),
+            lanes::east_then_north(-far),
+            Profile::constant(get("intruder_speed")?),
+            Some(get("time_offset")?),
+        ),
+        2 => (
+            lanes::north_then_west(-far),
+            lanes::westbound(far),
+            Profile::constant(get("intruder_speed")?),
+            Some(get("time_offset")?),
+        ),
+        3 => (
+            lanes::northbound(-far),
+            lanes::south_then_east(far),
+            Profile::constant(get("intruder_speed")?),
+            Some(get("time_offset")?),
+        ),
+        4 => (
+            lanes::north_then_west(-far),
+            lanes::southbound(far),
+            Profile::constant(get("intruder_speed")?),
+            Some(get("time_offset")?),
+        ),
+        8 => {
+            // Pull out forward from a spot south of the road, turn right into the eastbound
+            // lane. The intruder starts from rest when the ego is CONFLICT_TIME away from the
+            // spot's exit, shifted by `time_offset`.
+            let spot_y = -(LANE + 1.5 + 2.4);
+            let r = 4.0;
+            let path = Path::start(Point2::new(0.0, spot_y), FRAC_PI_2)
+                .line((-LANE / 2.0 - r - spot_y).max(0.1))
+                .arc(r, -FRAC_PI_2)
+                .line(150.0);
+            let accel = get("intruder_accel")?;
+            let start = (CONFLICT_TIME + get("time_offset")?).max(0.0) - 2.0;
+            let profile = Profile {
+                v0: 0.0,
+                phases: vec![(start.max(0.0), accel)],
+                v_max: 7.0,
+            };
+            let ego = lanes::eastbound(-far);
+            // The ego reaches x = r (where the intruder joins the lane) after CONFLICT_TIME.
+            let ego_start = far + r - ego_speed * CONFLICT_TIME;
+            return Ok(Setup {
+                info,
+                ego_path: ego,
+                ego_start,
+                ego_speed,
+                intruder_path: path,
+                intruder_start: 0.0,
+                intruder_profile: profile,
+            });
+        }
+        _ => (
+            lanes::eastbound(-far),
+            lanes::eastbound(-far),
+            Profile::constant(0.0),
+            None,
+        ),
+    };
+    if let Some(late) = intruder_late {
+        let (se, si) = crossing(&ego_path, &intruder_path);
+        let ego_start = se - ego_speed * CONFLICT_TIME;
+        let (travel, _) = profile.at((CONFLICT_TIME + late).max(0.0));
+        return Ok(Setup {
+            info,
+            ego_path,
+            ego_start,
+            ego_speed,
+            intruder_path,
+            intruder_start: si - travel,
+            intruder_profile: profile,
+        });
+    }
+    // Same-direction scenarios on straight roads; the ego starts at x = −far + 10.
+    let ego_x = 10.0;
+    match info.id {
+        5 => {
+            let v = get("intruder_speed")?;
+            let gap = get("gap")?;
+            let t_cut = get("cut_in_time")?;
+            // The intruder starts `gap` metres (bumper to bumper) ahead in the left lane and
+            // moves into the right lane over 2.5 s of travel.
+            let start_x = -far + ego_x + crate::vehicle::LENGTH + gap;
+            let cut_at = start_x + v * t_cut;
+            let path = lanes::lane_change(start_x, LANE / 2.0, cut_at, (v * 2.5).max(8.0), false);
+            Ok(Setup {
+                info,
+                ego_path,
+                ego_start: ego_x,
+                ego_speed,
+                intruder_path: path,
+                intruder_start: 0.0,
+                intruder_profile: Profile::constant(v),
+            })
+        }
+        6 => {
+            let v = get("intruder_speed")?;
+            let offset = get("offset")?;
+            let t_lc = get("lane_change_time")?;
+            let start = -far + ego_x;
+            let path = lanes::lane_change(
+                start,
+                -LANE / 2.0,
+                start + ego_speed * t_lc,
+                (ego_speed * 3.0).max(10.0),
+                true,
+            );
+            Ok(Setup {
+                info,
+                ego_path: path,
+                ego_start: 0.0,
+                ego_speed,
+                intruder_path: lanes::eastbound_left(start + offset),
+                intruder_start: 0.0,
+                intruder_profile: Profile::constant(v),
+            })
+        }
+        7 | 9 => {
+            let v = get("lead_speed")?;
+            let gap = get("gap")?;
+            let decel = get("lead_decel")?;
+            let t_brake = if info.id == 7 {
+                get("brake_time")?
+            } else {
+                1.5
+            };
+            Ok(Setup {
+                info,
+                ego_path,
+                ego_start: ego_x,
+                ego_speed,
+                intruder_path: lanes::eastbound(-far + ego_x + crate::vehicle::LENGTH + gap),
+                intruder_start: 0.0,
+                intruder_profile: Profile {
+                    v0: v,
+                    phases: vec![(t_brake, -decel)],
+                    v_max: v,
+                },
+            })
+        }
+        _ => {
+            // 10: merge from the on-ramp; the conflict point is where the merge ends.
+            let ramp = lanes::on_ramp();
+            let road = lanes::eastbound(-250.0);
+            let merge_end = ramp.project(Point2::new(20.0, -LANE / 2.0), None).s;
+            let road_at = road.project(Point2::new(20.0, -LANE / 2.0), None).s;
+            let v = get("intruder_speed")?;
+            let late = get("time_offset")?;
+            Ok(Setup {
+                info,
+                ego_path: ramp,
+                ego_start: merge_end - ego_speed * CONFLICT_TIME,
+                ego_speed,
+                intruder_path: road,
+                intruder_start: road_at - v * (CONFLICT_TIME + late),
+                intruder_profile: Profile::constant(v),
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn profiles_integrate_braking_and_acceleration() {
+        let brake = Profile {
+            v0: 10.0,
+            phases: vec![(1.0, -5.0)],
+            v_max: 10.0,
+        };
+        let (s, v) = brake.at(5.0);
+        assert!((s - (10.0 + 10.0)).abs() < 1e-9 && v == 0.0, "{s} {v}");
+        let go = Profile {
+            v0: 0.0,
+            phases: vec![(0.5, 2.0)],
+            v_max: 4.0,
+        };
+        let (s, v) = go.at(4.5);
+        // 2 s to reach 4 m/s (4 m), then 2 s at 4 m/s (8 m).
+        assert!(
+            (s - 12.0).abs() < 1e-9 && (v - 4.0).abs() < 1e-12,
+            "{s} {v}"
+        );
+    }
+
+    #[test]
+    fn every_scenario_builds_from_the_middle_of_its_space() {
+        for info in &SCENARIOS {
+            let space = phi_space(info);
+            assert!((3..=5).contains(&space.len()), "{}", info.name);
+            let mut phi = Assignment::new();
+            for v in space.variables() {
+                phi.set(&v.name, v.representative(v.arms() / 2));
+            }
+            let s = setup(info, &phi).unwrap();
+            assert!(
+                s.ego_start >= 0.0,
+                "{}: ego starts before its path",
+                info.name
+            );
+            assert!(
+                s.intruder_start >= 0.0,
+                "{}: intruder starts before its path",
+                info.name
+            );
+        }
+    }
+}
