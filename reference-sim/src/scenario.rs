@@ -11,9 +11,10 @@ use crate::world::{lanes, Layout, LANE};
 use nalgebra::Point2;
 use savme_kernel::{Assignment, Scale, SimError, Space, Variable};
 use std::f64::consts::FRAC_PI_2;
+use std::sync::OnceLock;
 
 /// Seconds of travel from the ego's start to the conflict point.
-pub const CONFLICT_TIME: f64 = 4.0;
+pub const CONFLICT_TIME: f64 = 5.0;
 
 /// One of the ten scenarios.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -131,29 +132,29 @@ fn lin(name: &str, lo: f64, hi: f64) -> Variable {
 pub fn phi_space(info: &ScenarioInfo) -> Space {
     let vars = match info.id {
         1 => vec![
-            lin("ego_speed", 6.0, 14.0),
-            lin("intruder_speed", 3.0, 8.0),
-            lin("time_offset", -2.0, 2.0),
+            lin("ego_speed", 12.0, 24.0),
+            lin("intruder_speed", 8.0, 14.0),
+            lin("time_offset", -0.5, 1.5),
         ],
         2 => vec![
             lin("ego_speed", 4.0, 9.0),
             lin("intruder_speed", 6.0, 14.0),
-            lin("time_offset", -2.0, 2.0),
+            lin("time_offset", -6.0, 6.0),
         ],
         3 => vec![
-            lin("ego_speed", 6.0, 14.0),
-            lin("intruder_speed", 3.0, 8.0),
-            lin("time_offset", -2.0, 2.0),
+            lin("ego_speed", 10.0, 20.0),
+            lin("intruder_speed", 5.0, 10.0),
+            lin("time_offset", -1.0, 1.0),
         ],
         4 => vec![
-            lin("ego_speed", 4.0, 9.0),
-            lin("intruder_speed", 6.0, 14.0),
-            lin("time_offset", -2.0, 2.0),
+            lin("ego_speed", 7.0, 12.0),
+            lin("intruder_speed", 10.0, 18.0),
+            lin("time_offset", -0.8, 0.8),
         ],
         5 => vec![
             lin("ego_speed", 10.0, 25.0),
             lin("intruder_speed", 6.0, 20.0),
-            lin("gap", 2.0, 30.0),
+            lin("gap", 2.0, 20.0),
             lin("cut_in_time", 0.5, 4.0),
         ],
         6 => vec![
@@ -165,20 +166,20 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
         7 => vec![
             lin("ego_speed", 10.0, 25.0),
             lin("lead_speed", 5.0, 20.0),
-            lin("gap", 8.0, 40.0),
-            lin("lead_decel", 2.0, 9.0),
+            lin("gap", 8.0, 35.0),
+            lin("lead_decel", 3.0, 9.0),
             lin("brake_time", 0.5, 4.0),
         ],
         8 => vec![
-            lin("ego_speed", 6.0, 15.0),
-            lin("intruder_accel", 1.0, 3.5),
-            lin("time_offset", -2.0, 2.0),
+            lin("ego_speed", 8.0, 18.0),
+            lin("intruder_accel", 1.5, 4.0),
+            lin("time_offset", -1.5, 1.5),
         ],
         9 => vec![
             lin("ego_speed", 10.0, 22.0),
             lin("lead_speed", 3.0, 14.0),
-            lin("gap", 8.0, 35.0),
-            lin("lead_decel", 2.0, 9.0),
+            lin("gap", 6.0, 25.0),
+            lin("lead_decel", 4.0, 9.5),
         ],
         _ => vec![
             lin("ego_speed", 12.0, 22.0),
@@ -212,26 +213,36 @@ impl Profile {
         }
     }
 
-    fn accel_at(&self, t: f64) -> f64 {
-        self.phases
-            .iter()
-            .rev()
-            .find(|(start, _)| t >= *start)
-            .map_or(0.0, |p| p.1)
-    }
-
-    /// `(distance travelled, speed)` at time `t` (integrated exactly per 10 ms slice).
+    /// `(distance travelled, speed)` at time `t`, exact for the piecewise-constant
+    /// acceleration with the speed held inside [0, cap].
     pub fn at(&self, t: f64) -> (f64, f64) {
-        let slice: f64 = 0.01;
+        let cap = self.v_max.max(self.v0);
         let (mut s, mut v, mut now) = (0.0, self.v0, 0.0);
+        let mut accel = 0.0;
+        let mut phases = self.phases.iter().peekable();
         while now < t {
-            let h = slice.min(t - now);
-            let a = self.accel_at(now);
-            let moving = if a < 0.0 { (v / -a).min(h) } else { h };
-            let v_new = (v + a * moving).clamp(0.0, self.v_max.max(self.v0));
-            s += 0.5 * (v + v_new) * moving;
-            v = v_new;
-            now += h;
+            while let Some(&&(start, a)) = phases.peek() {
+                if start <= now {
+                    accel = a;
+                    phases.next();
+                } else {
+                    break;
+                }
+            }
+            let end = phases.peek().map_or(t, |p| p.0.min(t));
+            let h = end - now;
+            // Time until the speed reaches a bound, after which it stays there.
+            let free = if accel > 0.0 {
+                ((cap - v) / accel).clamp(0.0, h)
+            } else if accel < 0.0 {
+                (v / -accel).clamp(0.0, h)
+            } else {
+                h
+            };
+            s += v * free + 0.5 * accel * free * free;
+            v = (v + accel * free).clamp(0.0, cap);
+            s += v * (h - free);
+            now = end;
         }
         (s, v)
     }
@@ -254,6 +265,22 @@ pub struct Setup {
     pub intruder_start: f64,
     /// Its scripted speed.
     pub intruder_profile: Profile,
+}
+
+/// The paths of the intersection scenarios (1–4) and where they cross, computed once.
+fn intersection_paths(id: u8) -> &'static (Path, Path, f64, f64) {
+    static CACHE: [OnceLock<(Path, Path, f64, f64)>; 4] = [const { OnceLock::new() }; 4];
+    CACHE[usize::from(id - 1)].get_or_init(|| {
+        let far = 120.0;
+        let (ego, intruder) = match id {
+            1 => (lanes::northbound(-far), lanes::east_then_north(-far)),
+            2 => (lanes::north_then_west(-far), lanes::westbound(far)),
+            3 => (lanes::northbound(-far), lanes::south_then_east(far)),
+            _ => (lanes::north_then_west(-far), lanes::southbound(far)),
+        };
+        let (se, si) = crossing(&ego, &intruder);
+        (ego, intruder, se, si)
+    })
 }
 
 /// Arc lengths `(on a, on b)` where two paths come closest (where they cross).
@@ -321,80 +348,46 @@ pub fn setup(info: &'static ScenarioInfo, phi: &Assignment) -> Result<Setup, Sim
     let ego_speed = get("ego_speed")?;
     let far = 120.0;
     // Paths, then timing.
-    let (ego_path, intruder_path, profile, intruder_late) = match info.id {
-        1 => (
-            lanes::northbound(-far),
-            lanes::east_then_north(-far),
-            Profile::constant(get("intruder_speed")?),
-            Some(get("time_offset")?),
-        ),
-        2 => (
-            lanes::north_then_west(-far),
-            lanes::westbound(far),
-            Profile::constant(get("intruder_speed")?),
-            Some(get("time_offset")?),
-        ),
-        3 => (
-            lanes::northbound(-far),
-            lanes::south_then_east(far),
-            Profile::constant(get("intruder_speed")?),
-            Some(get("time_offset")?),
-        ),
-        4 => (
-            lanes::north_then_west(-far),
-            lanes::southbound(far),
-            Profile::constant(get("intruder_speed")?),
-            Some(get("time_offset")?),
-        ),
-        8 => {
-            // Pull out forward from a spot south of the road, turn right into the eastbound
-            // lane. The intruder starts from rest when the ego is CONFLICT_TIME away from the
-            // spot's exit, shifted by `time_offset`.
-            let spot_y = -(LANE + 1.5 + 2.4);
-            let r = 4.0;
-            let path = Path::start(Point2::new(0.0, spot_y), FRAC_PI_2)
-                .line((-LANE / 2.0 - r - spot_y).max(0.1))
-                .arc(r, -FRAC_PI_2)
-                .line(150.0);
-            let accel = get("intruder_accel")?;
-            let start = (CONFLICT_TIME + get("time_offset")?).max(0.0) - 2.0;
-            let profile = Profile {
-                v0: 0.0,
-                phases: vec![(start.max(0.0), accel)],
-                v_max: 7.0,
-            };
-            let ego = lanes::eastbound(-far);
-            // The ego reaches x = r (where the intruder joins the lane) after CONFLICT_TIME.
-            let ego_start = far + r - ego_speed * CONFLICT_TIME;
-            return Ok(Setup {
-                info,
-                ego_path: ego,
-                ego_start,
-                ego_speed,
-                intruder_path: path,
-                intruder_start: 0.0,
-                intruder_profile: profile,
-            });
-        }
-        _ => (
-            lanes::eastbound(-far),
-            lanes::eastbound(-far),
-            Profile::constant(0.0),
-            None,
-        ),
-    };
-    if let Some(late) = intruder_late {
-        let (se, si) = crossing(&ego_path, &intruder_path);
-        let ego_start = se - ego_speed * CONFLICT_TIME;
+    if (1..=4).contains(&info.id) {
+        let (ego_path, intruder_path, se, si) = intersection_paths(info.id);
+        let profile = Profile::constant(get("intruder_speed")?);
+        let late = get("time_offset")?;
         let (travel, _) = profile.at((CONFLICT_TIME + late).max(0.0));
         return Ok(Setup {
             info,
-            ego_path,
-            ego_start,
+            ego_path: ego_path.clone(),
+            ego_start: se - ego_speed * CONFLICT_TIME,
             ego_speed,
-            intruder_path,
+            intruder_path: intruder_path.clone(),
             intruder_start: si - travel,
             intruder_profile: profile,
+        });
+    }
+    let ego_path = lanes::eastbound(-far);
+    if info.id == 8 {
+        // Pull out forward from a spot south of the road, turn right into the eastbound lane.
+        // The intruder starts from rest 2 s before the ego is CONFLICT_TIME (+ time_offset)
+        // from where the intruder joins the lane.
+        let spot_y = -(LANE + 1.5 + 2.4);
+        let r = 4.0;
+        let path = Path::start(Point2::new(0.0, spot_y), FRAC_PI_2)
+            .line((-LANE / 2.0 - r - spot_y).max(0.1))
+            .arc(r, -FRAC_PI_2)
+            .line(150.0);
+        let accel = get("intruder_accel")?;
+        let start = (CONFLICT_TIME + get("time_offset")? - 2.0).max(0.0);
+        return Ok(Setup {
+            info,
+            ego_path,
+            ego_start: far + r - ego_speed * CONFLICT_TIME,
+            ego_speed,
+            intruder_path: path,
+            intruder_start: 0.0,
+            intruder_profile: Profile {
+                v0: 0.0,
+                phases: vec![(start, accel)],
+                v_max: 7.0,
+            },
         });
     }
     // Same-direction scenarios on straight roads; the ego starts at x = −far + 10.

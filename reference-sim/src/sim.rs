@@ -231,8 +231,9 @@ impl DrivingSimulator {
         let info =
             scenario::find(scenario).ok_or_else(|| SimError::UnknownScenario(scenario.into()))?;
         let fidelity = Fidelity::from_assignment(fidelity)?;
-        let mut perception =
-            IdealPerception::new().with_noise(self.noise_sd, noise_seed(info.name, phi));
+        let mut perception = IdealPerception::new()
+            .with_noise(self.noise_sd, noise_seed(info.name, phi))
+            .with_occlusion(crate::world::World::shared(info.layout));
         run(info, phi, fidelity, &mut perception, record)
     }
 }

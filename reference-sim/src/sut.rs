@@ -3,7 +3,8 @@
 //! approach; the ego brakes while the predicted minimum distance is below one car length.
 
 use crate::vehicle::{VehicleState, LENGTH};
-use nalgebra::{Point2, Vector2};
+use crate::world::World;
+use nalgebra::{Point2, Point3, Vector2};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;
@@ -31,11 +32,14 @@ pub trait Perception {
 }
 
 /// Idealised perception: the true obstacle centre plus Gaussian noise, for obstacles inside a
-/// forward camera's field of view and range.
+/// forward camera's field of view and range and — when given the world — not hidden behind
+/// static scenery (a building at a corner hides cross traffic until it is close).
 #[derive(Debug, Clone)]
 pub struct IdealPerception {
     noise: Option<Normal<f64>>,
     rng: Pcg64,
+    world: Option<&'static World>,
+    rays: u64,
     /// Half of the horizontal field of view, radians.
     pub half_fov: f64,
     /// Detection range, metres.
@@ -48,9 +52,17 @@ impl IdealPerception {
         IdealPerception {
             noise: None,
             rng: Pcg64::seed_from_u64(0),
+            world: None,
+            rays: 0,
             half_fov: 50f64.to_radians(),
             range: 120.0,
         }
+    }
+
+    /// Hides obstacles that no line of sight reaches through `world`'s scenery.
+    pub fn with_occlusion(mut self, world: &'static World) -> Self {
+        self.world = Some(world);
+        self
     }
 
     /// Adds zero-mean Gaussian position noise of `sd` metres per axis, drawn from a stream
@@ -69,6 +81,10 @@ impl Default for IdealPerception {
 }
 
 impl Perception for IdealPerception {
+    fn work(&self) -> u64 {
+        self.rays
+    }
+
     fn perceive(&mut self, s: &Sensing) -> Option<Point2<f64>> {
         let eye = s.ego.center();
         let target = s.obstacle.center();
@@ -76,6 +92,19 @@ impl Perception for IdealPerception {
         let bearing = crate::path::wrap_angle(rel.y.atan2(rel.x) - s.ego.heading);
         if rel.norm() > self.range || bearing.abs() > self.half_fov {
             return None;
+        }
+        if let Some(world) = self.world {
+            // Visible when a line of sight reaches its centre or either end (camera 1.4 m up,
+            // targets at mid-body height).
+            let eye3 = Point3::new(eye.x as f32, eye.y as f32, 1.4);
+            let dir = s.obstacle.direction() * (LENGTH / 2.0 - 0.2);
+            let seen = [target, target + dir, target - dir].iter().any(|p| {
+                self.rays += 1;
+                world.line_of_sight(eye3, Point3::new(p.x as f32, p.y as f32, 0.75))
+            });
+            if !seen {
+                return None;
+            }
         }
         Some(match &self.noise {
             Some(n) => target + Vector2::new(n.sample(&mut self.rng), n.sample(&mut self.rng)),
@@ -85,40 +114,51 @@ impl Perception for IdealPerception {
 }
 
 /// The closest approach of two points moving at constant velocity within `horizon` seconds:
-/// relative position `p`, relative velocity `w`.
+/// relative position `p`, relative velocity `w`. Returns the relative position then.
 ///
 /// ```
 /// use nalgebra::Vector2;
 /// use savme_sim::sut::closest_approach;
 /// // Head-on, 20 m apart, closing at 10 m/s with a 1 m lateral offset: 1 m after 2 s.
 /// let d = closest_approach(Vector2::new(20.0, 1.0), Vector2::new(-10.0, 0.0), 5.0);
-/// assert!((d - 1.0).abs() < 1e-12);
+/// assert!((d - Vector2::new(0.0, 1.0)).norm() < 1e-12);
 /// ```
-pub fn closest_approach(p: Vector2<f64>, w: Vector2<f64>, horizon: f64) -> f64 {
+pub fn closest_approach(p: Vector2<f64>, w: Vector2<f64>, horizon: f64) -> Vector2<f64> {
     let w2 = w.norm_squared();
     let t = if w2 > 0.0 {
         (-p.dot(&w) / w2).clamp(0.0, horizon)
     } else {
         0.0
     };
-    (p + w * t).norm()
+    p + w * t
 }
 
 /// The braking logic of the system under test.
+///
+/// The paper's rule: brake when the predicted minimum distance is below one car length. The
+/// paper measures to the lidar centroid of the obstacle's visible surface; with object centres
+/// the planner subtracts one body length (two half-lengths), so the buffer is one car length of
+/// clearance between the bodies. Taken literally the rule also brakes for every car passing in
+/// the adjacent or oncoming lane (3.5 m apart), so the predicted position must also lie in the
+/// ego's corridor: less than `corridor` metres to the side of the ego's heading. Positions are
+/// predicted every 0.1 s over the horizon with constant velocities.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Planner {
     /// Prediction horizon, seconds.
     pub horizon: f64,
-    /// Brake when the predicted minimum centre distance falls below this, metres.
+    /// Brake when the predicted clearance falls below this, metres.
     pub threshold: f64,
+    /// Half-width of the ego's corridor, metres.
+    pub corridor: f64,
     last: Option<(f64, Point2<f64>)>,
 }
 
 impl Default for Planner {
     fn default() -> Self {
         Planner {
-            horizon: 4.0,
+            horizon: 3.0,
             threshold: LENGTH,
+            corridor: crate::vehicle::WIDTH + 0.5,
             last: None,
         }
     }
@@ -134,7 +174,7 @@ impl Planner {
         let previous = self.last.replace((time, now));
         let Some((t0, before)) = previous else {
             // One measurement: no velocity yet; brake only if already too close.
-            return (now - ego.center()).norm() < self.threshold;
+            return self.conflict(ego, now - ego.center(), Vector2::zeros());
         };
         let dt = time - t0;
         if dt <= 0.0 {
@@ -143,7 +183,19 @@ impl Planner {
         let obstacle_velocity = (now - before) / dt;
         let p = now - ego.center();
         let w = obstacle_velocity - ego.velocity();
-        closest_approach(p, w, self.horizon) < self.threshold
+        self.conflict(ego, p, w)
+    }
+
+    /// Whether the obstacle, at relative position `p` moving at relative velocity `w`, comes
+    /// within the threshold inside the ego's corridor during the horizon.
+    fn conflict(&self, ego: &VehicleState, p: Vector2<f64>, w: Vector2<f64>) -> bool {
+        let d = ego.direction();
+        let steps = (self.horizon / 0.1).round() as usize;
+        (0..=steps).any(|k| {
+            let rel = p + w * (k as f64 * 0.1);
+            let lateral = (d.x * rel.y - d.y * rel.x).abs();
+            rel.norm() - LENGTH < self.threshold && lateral < self.corridor
+        })
     }
 }
 
@@ -156,14 +208,32 @@ mod tests {
         let ego = VehicleState::from_center(Point2::new(0.0, 0.0), 0.0, 15.0);
         let mut p = Planner::default();
         assert!(!p.decide(0.0, &ego, Some(Point2::new(50.0, 0.0))));
-        // Stopped 50 m ahead, ego at 15 m/s: collision predicted within 4 s.
+        // Stopped 50 m ahead, ego at 15 m/s: contact predicted within 3 s.
         assert!(p.decide(0.1, &ego, Some(Point2::new(50.0, 0.0))));
+        let mut far = Planner::default();
+        far.decide(0.0, &ego, Some(Point2::new(60.0, 0.0)));
+        assert!(
+            !far.decide(0.1, &ego, Some(Point2::new(60.0, 0.0))),
+            "55 m to go in 3 s: not yet"
+        );
         let mut q = Planner::default();
         q.decide(0.0, &ego, Some(Point2::new(20.0, 0.0)));
         // Moving away at 20 m/s (faster than the ego).
         assert!(!q.decide(0.1, &ego, Some(Point2::new(22.0, 0.0))));
         // Lost track: no braking, and the next measurement starts afresh.
         assert!(!q.decide(0.2, &ego, None));
+        // An oncoming car in the next lane (3.5 m to the left) passes: no braking.
+        let mut r = Planner::default();
+        r.decide(0.0, &ego, Some(Point2::new(40.0, 3.5)));
+        assert!(!r.decide(0.1, &ego, Some(Point2::new(38.5, 3.5))));
+        // The same car drifting into the ego's lane: brake.
+        let mut s = Planner::default();
+        s.decide(0.0, &ego, Some(Point2::new(40.0, 3.5)));
+        assert!(s.decide(0.1, &ego, Some(Point2::new(38.5, 3.3))));
+        assert_eq!(
+            closest_approach(Vector2::new(5.0, 0.0), Vector2::zeros(), 3.0).x,
+            5.0
+        );
     }
 
     #[test]

@@ -10,6 +10,7 @@ use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::{Ray, RayCast};
 use parry3d::shape::{Cuboid, Cylinder, Shape};
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::sync::OnceLock;
 
 /// Lane width, metres.
 pub const LANE: f64 = 3.5;
@@ -242,6 +243,34 @@ impl World {
             objects,
             bvh,
         }
+    }
+
+    /// The world of a layout, built once per process and shared.
+    pub fn shared(layout: Layout) -> &'static World {
+        static WORLDS: [OnceLock<World>; 5] = [const { OnceLock::new() }; 5];
+        let i = match layout {
+            Layout::Intersection => 0,
+            Layout::OneWay => 1,
+            Layout::TwoWay => 2,
+            Layout::ParkingLot => 3,
+            Layout::OnRamp => 4,
+        };
+        WORLDS[i].get_or_init(|| World::new(layout))
+    }
+
+    /// True when nothing static blocks the straight line from `from` to `to`.
+    pub fn line_of_sight(&self, from: Point3<f32>, to: Point3<f32>) -> bool {
+        let d = to - from;
+        let len = d.norm();
+        if len <= 0.0 {
+            return true;
+        }
+        let ray = Ray::new(from, d / len);
+        self.bvh
+            .cast_ray(&ray, len, |i, best| {
+                self.objects[i as usize].cast(&ray, best)
+            })
+            .is_none_or(|(_, t)| t >= len)
     }
 
     /// The layout.
