@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub use savme_kernel as kernel;
+pub mod cli;
 pub mod serve;
 pub mod toy;
 

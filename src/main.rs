@@ -34,6 +34,23 @@ enum Command {
     },
     /// Print a kernel configuration (the toy simulator's) to start editing from.
     ExampleConfig,
+    /// List the bundled driving simulator's scenarios with their parameter spaces.
+    Scenarios,
+    /// Run one simulation on the bundled driving simulator.
+    Simulate {
+        /// Scenario number (1–10) or name.
+        #[arg(long)]
+        scenario: String,
+        /// Scenario parameters: name=value,name=value,… (see `savme scenarios`).
+        #[arg(long)]
+        phi: String,
+        /// Fidelity: `hf`, or name=value,… overriding θ_HF (e.g. simulation_rate_hz=2).
+        #[arg(long, default_value = "hf")]
+        fidelity: String,
+        /// Print the result as JSON.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() -> ExitCode {
@@ -41,6 +58,13 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Serve { config, journal } => serve(config.as_deref(), journal.as_deref()),
         Command::ExampleConfig => example_config(),
+        Command::Scenarios => print(&savme::cli::scenarios_text()),
+        Command::Simulate {
+            scenario,
+            phi,
+            fidelity,
+            json,
+        } => savme::cli::simulate(&scenario, &phi, &fidelity, json).and_then(|t| print(&t)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -51,14 +75,22 @@ fn main() -> ExitCode {
     }
 }
 
+/// Writes to stdout; a closed pipe (`savme scenarios | head`) is not an error.
+fn print(text: &str) -> Result<(), String> {
+    use std::io::Write;
+    match io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
+        _ => Ok(()),
+    }
+}
+
 fn example_config() -> Result<(), String> {
     let kernel = savme::toy::kernel_builder()
         .seed(1)
         .build()
         .map_err(|e| e.to_string())?;
     let json = serde_json::to_string_pretty(kernel.config()).map_err(|e| e.to_string())?;
-    println!("{json}");
-    Ok(())
+    print(&format!("{json}\n"))
 }
 
 fn read_config(path: &Path) -> Result<KernelConfig, String> {

@@ -1,0 +1,60 @@
+//! One HF run per scenario with the idealised perception (occlusion + noise), release, one
+//! thread. φ cycles through 16 uniform samples of the scenario.
+//!
+//! `cargo bench -p savme-sim --bench hf_run`
+use criterion::{criterion_group, criterion_main, Criterion};
+use savme_kernel::{paper, Assignment, Kernel, Phase};
+use savme_sim::scenario::{phi_space, SCENARIOS};
+use savme_sim::sim::DrivingSimulator;
+use std::hint::black_box;
+use std::time::Duration;
+
+fn phis(info: &savme_sim::scenario::ScenarioInfo) -> Vec<Assignment> {
+    let mut k = Kernel::builder(paper::fidelity_space(10), paper::theta_hf())
+        .scenario(info.name, phi_space(info), 1.0)
+        .seed(3)
+        .build()
+        .expect("valid config");
+    k.set_phase(Phase::Baseline);
+    (0..16).map(|_| k.ask().phi).collect()
+}
+
+fn bench(c: &mut Criterion) {
+    let sim = DrivingSimulator::default();
+    let hf = paper::theta_hf();
+    let low = paper::theta_hf().with("simulation_rate_hz", 2);
+    let mut g = c.benchmark_group("hf_run");
+    for info in &SCENARIOS {
+        let phis = phis(info);
+        let mut i = 0;
+        g.bench_function(format!("{:02}_{}", info.id, info.name), |b| {
+            b.iter(|| {
+                i = (i + 1) % phis.len();
+                black_box(sim.run(info.name, &phis[i], &hf, false).expect("valid run"))
+            })
+        });
+    }
+    let info = &SCENARIOS[0];
+    let phis = phis(info);
+    let mut i = 0;
+    g.bench_function("01_at_2hz", |b| {
+        b.iter(|| {
+            i = (i + 1) % phis.len();
+            black_box(
+                sim.run(info.name, &phis[i], &low, false)
+                    .expect("valid run"),
+            )
+        })
+    });
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default()
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(2))
+        .warm_up_time(Duration::from_millis(500));
+    targets = bench
+}
+criterion_main!(benches);

@@ -1,0 +1,123 @@
+//! `savme scenarios` and `savme simulate` as a user runs them.
+use std::process::Command;
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+fn savme(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(EXE).args(args).output().unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn scenarios_lists_all_ten_with_their_spaces() {
+    let (ok, out, _) = savme(&["scenarios"]);
+    assert!(ok);
+    for n in 1..=10 {
+        assert!(
+            out.contains(&format!("{n:>2}  ")),
+            "scenario {n} missing:\n{out}"
+        );
+    }
+    assert!(out.contains("meta-testing") && out.contains("lead_decel"));
+}
+
+#[test]
+fn simulate_reports_outcome_distance_and_cost() {
+    let crash = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+    let (ok, out, err) = savme(&["simulate", "--scenario", "7", "--phi", crash]);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("COLLISION at") && out.contains("work units"),
+        "{out}"
+    );
+    let safe = "ego_speed=10,lead_speed=10,gap=35,lead_decel=3,brake_time=4";
+    let (ok, out, _) = savme(&[
+        "simulate",
+        "--scenario",
+        "lead_vehicle_brakes",
+        "--phi",
+        safe,
+        "--json",
+    ]);
+    assert!(ok);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["failure"], false);
+    assert!(v["min_distance_m"].as_f64().unwrap() > 0.0);
+    assert_eq!(v["steps"], 100); // 10 s at 10 Hz
+    let (ok, out, _) = savme(&[
+        "simulate",
+        "--scenario",
+        "7",
+        "--phi",
+        safe,
+        "--json",
+        "--fidelity",
+        "simulation_rate_hz=2",
+    ]);
+    assert!(ok);
+    let low: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(low["steps"], 20);
+    assert!(low["work"].as_u64() < v["work"].as_u64());
+}
+
+#[test]
+fn bad_inputs_are_named() {
+    let phi = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &["simulate", "--scenario", "11", "--phi", phi],
+            "unknown scenario `11`",
+        ),
+        (
+            &["simulate", "--scenario", "7", "--phi", "ego_speed"],
+            "expected name=value",
+        ),
+        (
+            &["simulate", "--scenario", "7", "--phi", "ego_speed=20"],
+            "lead_speed",
+        ),
+        (
+            &[
+                "simulate",
+                "--scenario",
+                "7",
+                "--phi",
+                &phi.replace("gap=8", "gap=99"),
+            ],
+            "gap",
+        ),
+        (
+            &[
+                "simulate",
+                "--scenario",
+                "7",
+                "--phi",
+                phi,
+                "--fidelity",
+                "rate=3",
+            ],
+            "unknown fidelity setting `rate`",
+        ),
+        (
+            &[
+                "simulate",
+                "--scenario",
+                "7",
+                "--phi",
+                phi,
+                "--fidelity",
+                "simulation_rate_hz=3",
+            ],
+            "simulation_rate_hz",
+        ),
+    ];
+    for (args, expected) in cases {
+        let (ok, _, err) = savme(args);
+        assert!(!ok, "{args:?} succeeded");
+        assert!(err.contains(expected), "{args:?}: {err}");
+    }
+}
