@@ -91,14 +91,6 @@ fn number(a: &Assignment, name: &str) -> Result<f64, SimError> {
     })
 }
 
-/// Noise seed from φ, so that HF and LF runs of one trial see the same noise.
-fn seed_of(phi: &Assignment) -> u64 {
-    phi.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, (_, v)| {
-        let bits = v.as_f64().map_or(0, f64::to_bits);
-        (h ^ bits).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
 impl Simulator for ToySimulator {
     fn simulate(
         &mut self,
@@ -142,7 +134,8 @@ impl Simulator for ToySimulator {
         }
         let dt = 1.0 / rate;
         let steps = (horizon * rate).round() as u64;
-        let mut rng = Pcg64::seed_from_u64(seed_of(phi));
+        // Same φ, same noise: a trial's HF and LF runs see one random stream.
+        let mut rng = Pcg64::seed_from_u64(phi.stable_hash(scenario));
         let normal = Normal::new(0.0, NOISE_SD).map_err(|e| SimError::Failed(e.to_string()))?;
 
         // State: ego position and speed, lead position and speed.

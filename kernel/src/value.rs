@@ -194,6 +194,37 @@ impl Assignment {
         self.names.iter().map(|n| &**n).zip(self.values.iter())
     }
 
+    /// A hash of the names and values that is stable across runs, platforms and versions
+    /// (FNV-1a over the bytes), salted with `salt`. Simulators seed per-trial noise with it, so
+    /// that the HF and LF runs of one trial see the same random stream.
+    ///
+    /// ```
+    /// use savme_kernel::Assignment;
+    /// let a = Assignment::new().with("gap", 12.5);
+    /// assert_eq!(a.stable_hash("s1"), a.clone().stable_hash("s1"));
+    /// assert_ne!(a.stable_hash("s1"), a.stable_hash("s2"));
+    /// assert_ne!(a.stable_hash("s1"), Assignment::new().with("gap", 12.6).stable_hash("s1"));
+    /// ```
+    pub fn stable_hash(&self, salt: &str) -> u64 {
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
+        let mut eat = |bytes: &[u8]| {
+            for &b in bytes {
+                h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+            }
+        };
+        eat(salt.as_bytes());
+        for (name, value) in self.iter() {
+            eat(name.as_bytes());
+            match value {
+                Value::Bool(b) => eat(&[u8::from(*b)]),
+                Value::Int(i) => eat(&(*i as f64).to_bits().to_le_bytes()),
+                Value::Real(x) => eat(&x.to_bits().to_le_bytes()),
+                Value::Label(l) => eat(l.as_bytes()),
+            }
+        }
+        h
+    }
+
     /// Number of named values.
     pub fn len(&self) -> usize {
         self.values.len()

@@ -192,18 +192,6 @@ pub fn run(
     })
 }
 
-/// A stable seed from φ, so that a trial's HF and LF runs see the same sensor noise.
-pub fn noise_seed(scenario: &str, phi: &Assignment) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for b in scenario.bytes() {
-        h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
-    }
-    for (_, v) in phi.iter() {
-        h = (h ^ v.as_f64().map_or(0, f64::to_bits)).wrapping_mul(0x0100_0000_01b3);
-    }
-    h
-}
-
 /// The bundled driving simulator with idealised perception (position noise of `noise_sd`
 /// metres), as a [`Simulator`] for the kernel. Scenario names are those of
 /// [`scenario::SCENARIOS`] (or their numbers).
@@ -232,7 +220,7 @@ impl DrivingSimulator {
             scenario::find(scenario).ok_or_else(|| SimError::UnknownScenario(scenario.into()))?;
         let fidelity = Fidelity::from_assignment(fidelity)?;
         let mut perception = IdealPerception::new()
-            .with_noise(self.noise_sd, noise_seed(info.name, phi))
+            .with_noise(self.noise_sd, phi.stable_hash(info.name))
             .with_occlusion(crate::world::World::shared(info.layout));
         run(info, phi, fidelity, &mut perception, record)
     }
