@@ -7,8 +7,11 @@
 #![warn(missing_docs)]
 
 pub mod control;
+pub mod lidar;
 pub mod path;
 pub mod scenario;
+pub mod scene;
+pub mod settings;
 pub mod sim;
 pub mod sut;
 pub mod vehicle;

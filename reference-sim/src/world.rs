@@ -74,6 +74,17 @@ impl SceneObject {
         }
     }
 
+    fn cast_normal(&self, ray: &Ray, max: f32) -> Option<parry3d::query::RayIntersection> {
+        match self.shape {
+            ObjectShape::Box(h) => {
+                Cuboid::new(h).cast_ray_and_get_normal(&self.pose, ray, max, true)
+            }
+            ObjectShape::Cylinder(hh, r) => {
+                Cylinder::new(hh, r).cast_ray_and_get_normal(&self.pose, ray, max, true)
+            }
+        }
+    }
+
     fn cast(&self, ray: &Ray, max: f32) -> Option<f32> {
         match self.shape {
             ObjectShape::Box(h) => Cuboid::new(h).cast_ray(&self.pose, ray, max, true),
@@ -89,6 +100,17 @@ impl SceneObject {
 pub struct Hit {
     /// Distance along the (unit) ray direction.
     pub distance: f32,
+    /// The scenery object hit, or None for the ground.
+    pub object: Option<usize>,
+}
+
+/// A ray hit with its surface normal.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceHit {
+    /// Distance along the (unit) ray direction.
+    pub distance: f32,
+    /// Outward unit normal at the hit.
+    pub normal: Vector3<f32>,
     /// The scenery object hit, or None for the ground.
     pub object: Option<usize>,
 }
@@ -256,6 +278,45 @@ impl World {
             Layout::OnRamp => 4,
         };
         WORLDS[i].get_or_init(|| World::new(layout))
+    }
+
+    /// Like [`World::cast_ray`], with the surface normal, ignoring the object `skip`.
+    pub fn cast_ray_normal(
+        &self,
+        origin: Point3<f32>,
+        dir: Vector3<f32>,
+        max: f32,
+        skip: Option<usize>,
+    ) -> Option<SurfaceHit> {
+        let ray = Ray::new(origin, dir);
+        let ground = (dir.z < -1e-6)
+            .then(|| -origin.z / dir.z)
+            .filter(|&t| t >= 0.0 && t < max);
+        let limit = ground.unwrap_or(max);
+        let best = std::cell::Cell::new(None);
+        let scenery = self.bvh.cast_ray(&ray, limit, |i, so_far| {
+            if Some(i as usize) == skip {
+                return None;
+            }
+            let hit = self.objects[i as usize].cast_normal(&ray, so_far)?;
+            if hit.time_of_impact < so_far {
+                best.set(Some((i as usize, hit.normal)));
+            }
+            Some(hit.time_of_impact)
+        });
+        match (scenery, best.get(), ground) {
+            (Some((i, t)), Some((j, n)), _) if t < limit && i as usize == j => Some(SurfaceHit {
+                distance: t,
+                normal: n,
+                object: Some(j),
+            }),
+            (_, _, Some(t)) => Some(SurfaceHit {
+                distance: t,
+                normal: Vector3::z(),
+                object: None,
+            }),
+            _ => None,
+        }
     }
 
     /// True when nothing static blocks the straight line from `from` to `to`.

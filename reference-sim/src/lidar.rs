@@ -1,0 +1,201 @@
+//! A forward-looking lidar ray-cast through the scene with parry3d, with the paper's six lidar
+//! fidelity settings: shot noise, ambient (sunlight) returns, translucency, subsample count,
+//! ray-tracing bounces and near clipping.
+
+use crate::scene::{Scene, SceneHit, Surface};
+use crate::settings::Settings;
+use nalgebra::{Point3, Vector3};
+use rand::{Rng, RngExt};
+use rand_distr::{Distribution, Normal};
+
+/// Elevation of the 8 channels, degrees.
+pub const ELEVATIONS_DEG: [f32; 8] = [-12.0, -8.0, -5.0, -3.0, -1.5, 0.0, 1.5, 3.0];
+/// Half of the horizontal field of view, degrees.
+pub const HALF_FOV_DEG: f32 = 45.0;
+/// Azimuth step, degrees.
+pub const AZIMUTH_STEP_DEG: f32 = 1.5;
+/// Maximum range, metres.
+pub const MAX_RANGE: f32 = 120.0;
+/// Range noise (standard deviation) of one ray, metres.
+pub const RANGE_NOISE: f32 = 0.03;
+/// Probability that a beam also reports a spurious sunlight return.
+pub const AMBIENT_RATE: f64 = 0.02;
+/// Beam divergence: subsample rays spread over ± this, degrees.
+pub const DIVERGENCE_DEG: f32 = 0.3;
+
+/// Why a point was returned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReturnKind {
+    /// The first surface the beam met.
+    Surface,
+    /// Light that passed through glass and hit what is behind it.
+    Transmitted,
+    /// A multi-path ghost: light reflected off a surface onto another one, reported along the
+    /// beam at the total path length.
+    MultiPath,
+    /// A spurious return caused by sunlight.
+    Ambient,
+}
+
+/// One lidar return.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LidarPoint {
+    /// Position in the world.
+    pub position: Point3<f32>,
+    /// Return intensity (0–1).
+    pub intensity: f32,
+    /// What produced it.
+    pub kind: ReturnKind,
+    /// The surface hit (for `Surface` and `Transmitted` returns).
+    pub surface: Option<Surface>,
+}
+
+/// One sweep.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LidarScan {
+    /// The returns.
+    pub points: Vec<LidarPoint>,
+    /// Rays cast.
+    pub rays: u64,
+    /// Random numbers drawn (noise, sunlight).
+    pub draws: u64,
+}
+
+/// Offsets (in units of the divergence) of the subsample rays of a beam.
+const SUBSAMPLE: [(f32, f32); 5] = [
+    (0.0, 0.0),
+    (0.5, 0.5),
+    (-0.5, -0.5),
+    (0.5, -0.5),
+    (-0.5, 0.5),
+];
+
+fn direction(azimuth: f32, elevation: f32) -> Vector3<f32> {
+    Vector3::new(
+        azimuth.cos() * elevation.cos(),
+        azimuth.sin() * elevation.cos(),
+        elevation.sin(),
+    )
+}
+
+fn reflect(d: Vector3<f32>, n: Vector3<f32>) -> Vector3<f32> {
+    d - n * (2.0 * d.dot(&n))
+}
+
+/// Sweeps the lidar at `origin` looking along `heading` (radians).
+pub fn scan<R: Rng + ?Sized>(
+    scene: &Scene,
+    origin: Point3<f32>,
+    heading: f32,
+    settings: &Settings,
+    rng: &mut R,
+) -> LidarScan {
+    let mut out = LidarScan::default();
+    let noise = Normal::new(0.0f32, RANGE_NOISE).expect("valid noise");
+    let near = settings.lidar_near_clip as f32;
+    let subsamples = settings.subsamples.clamp(1, SUBSAMPLE.len() as u32) as usize;
+    let steps = (2.0 * HALF_FOV_DEG / AZIMUTH_STEP_DEG).round() as i32;
+    let div = DIVERGENCE_DEG.to_radians();
+    for el_deg in ELEVATIONS_DEG {
+        let el = el_deg.to_radians();
+        for k in 0..=steps {
+            let az = heading + (-HALF_FOV_DEG + k as f32 * AZIMUTH_STEP_DEG).to_radians();
+            let beam = direction(az, el);
+            // Subsample rays: average the ranges and intensities of those that hit.
+            let (mut sum_d, mut sum_i, mut hits) = (0.0f32, 0.0f32, 0u32);
+            let mut first: Option<SceneHit> = None;
+            for &(da, de) in &SUBSAMPLE[..subsamples] {
+                let dir = direction(az + da * div, el + de * div);
+                out.rays += 1;
+                if let Some(h) = scene.cast(origin, dir, MAX_RANGE, None) {
+                    let mut d = h.distance;
+                    if !settings.lidar_disable_shot_noise {
+                        out.draws += 1;
+                        d += noise.sample(rng);
+                    }
+                    let opaque_glass = h.glass && settings.disable_translucency;
+                    let refl = if opaque_glass {
+                        0.3
+                    } else {
+                        scene.reflectivity(&h)
+                    };
+                    sum_d += d;
+                    sum_i += refl * (-dir.dot(&h.normal)).abs().max(0.05);
+                    hits += 1;
+                    first.get_or_insert(h);
+                }
+            }
+            if let Some(h) = first {
+                let range = sum_d / hits as f32;
+                if range >= near {
+                    out.points.push(LidarPoint {
+                        position: origin + beam * range,
+                        intensity: sum_i / hits as f32,
+                        kind: ReturnKind::Surface,
+                        surface: Some(h.surface),
+                    });
+                    let hit_point = origin + beam * h.distance;
+                    // Glass lets part of the light through to what is behind it.
+                    if h.glass && !settings.disable_translucency {
+                        out.rays += 1;
+                        let from = hit_point + beam * 0.05;
+                        if let Some(t) = scene.cast(from, beam, MAX_RANGE, Some(h.surface)) {
+                            out.points.push(LidarPoint {
+                                position: from + beam * t.distance,
+                                intensity: 0.5 * scene.reflectivity(&t),
+                                kind: ReturnKind::Transmitted,
+                                surface: Some(t.surface),
+                            });
+                        }
+                    }
+                    // Shiny surfaces (paint, glass) reflect the beam onward: multi-path ghosts.
+                    let shiny = h.glass || matches!(h.surface, Surface::Vehicle(_));
+                    if shiny {
+                        let (mut dir, mut at, mut normal) = (beam, hit_point, h.normal);
+                        let mut path = h.distance;
+                        let mut gain = 1.0f32;
+                        let mut last = h.surface;
+                        for _ in 0..settings.bounces {
+                            dir = reflect(dir, normal);
+                            out.rays += 1;
+                            let Some(b) = scene.cast(at + dir * 0.05, dir, MAX_RANGE, Some(last))
+                            else {
+                                break;
+                            };
+                            path += b.distance;
+                            gain *= 0.15;
+                            out.points.push(LidarPoint {
+                                position: origin + beam * path,
+                                intensity: gain * scene.reflectivity(&b),
+                                kind: ReturnKind::MultiPath,
+                                surface: None,
+                            });
+                            at = at + dir * (0.05 + b.distance);
+                            normal = b.normal;
+                            last = b.surface;
+                            if !(b.glass || matches!(b.surface, Surface::Vehicle(_))) {
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+            if !settings.disable_ambient {
+                out.draws += 1;
+                if rng.random::<f64>() < AMBIENT_RATE {
+                    out.draws += 1;
+                    let range = rng.random_range(2.0f32..60.0);
+                    if range >= near {
+                        out.points.push(LidarPoint {
+                            position: origin + beam * range,
+                            intensity: 0.05,
+                            kind: ReturnKind::Ambient,
+                            surface: None,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    out
+}
