@@ -170,7 +170,7 @@ pub fn scan<R: Rng + ?Sized>(
                                 kind: ReturnKind::MultiPath,
                                 surface: None,
                             });
-                            at = at + dir * (0.05 + b.distance);
+                            at += dir * (0.05 + b.distance);
                             normal = b.normal;
                             last = b.surface;
                             if !(b.glass || matches!(b.surface, Surface::Vehicle(_))) {
