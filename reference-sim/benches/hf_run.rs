@@ -1,5 +1,5 @@
-//! One HF run per scenario with the idealised perception (occlusion + noise), release, one
-//! thread. φ cycles through 16 uniform samples of the scenario.
+//! One HF run per scenario with camera + lidar perception, and with the idealised perception
+//! (occlusion + noise), release, one thread. φ cycles through 16 uniform samples.
 //!
 //! `cargo bench -p savme-sim --bench hf_run`
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -21,6 +21,7 @@ fn phis(info: &savme_sim::scenario::ScenarioInfo) -> Vec<Assignment> {
 
 fn bench(c: &mut Criterion) {
     let sim = DrivingSimulator::default();
+    let ideal = DrivingSimulator::ideal();
     let hf = paper::theta_hf();
     let low = paper::theta_hf().with("simulation_rate_hz", 2);
     let mut g = c.benchmark_group("hf_run");
@@ -31,6 +32,20 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 i = (i + 1) % phis.len();
                 black_box(sim.run(info.name, &phis[i], &hf, false).expect("valid run"))
+            })
+        });
+    }
+    for info in &SCENARIOS {
+        let phis = phis(info);
+        let mut i = 0;
+        g.bench_function(format!("ideal_{:02}_{}", info.id, info.name), |b| {
+            b.iter(|| {
+                i = (i + 1) % phis.len();
+                black_box(
+                    ideal
+                        .run(info.name, &phis[i], &hf, false)
+                        .expect("valid run"),
+                )
             })
         });
     }

@@ -1,7 +1,7 @@
 //! Failure rate of every scenario under uniform φ and θ_HF (the paper's baseline), the figure
 //! the scenario ranges are calibrated against (target: 5–35 % each).
 //!
-//! `cargo run --release -p savme-sim --example failure_rates -- [samples] [seed]`
+//! `cargo run --release -p savme-sim --example failure_rates -- [samples] [seed] [sensors|ideal]`
 use savme_kernel::{paper, Kernel, Observation, Phase, Run};
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
@@ -10,7 +10,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().map_or(Ok(500), |a| a.parse())?;
     let seed: u64 = args.next().map_or(Ok(1), |a| a.parse())?;
-    let sim = DrivingSimulator::default();
+    let sim = match args.next().as_deref() {
+        None | Some("sensors") => DrivingSimulator::default(),
+        Some("ideal") => DrivingSimulator::ideal(),
+        Some(other) => return Err(format!("perception `{other}`: use sensors or ideal").into()),
+    };
     println!(
         "{:>3}  {:<34} {:>8} {:>10} {:>12}",
         "id", "scenario", "failures", "rate", "HF run (ms)"

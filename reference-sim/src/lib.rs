@@ -6,9 +6,11 @@
 //! camera/lidar sensors build on these.
 #![warn(missing_docs)]
 
+pub mod camera;
 pub mod control;
 pub mod lidar;
 pub mod path;
+pub mod perception;
 pub mod scenario;
 pub mod scene;
 pub mod settings;

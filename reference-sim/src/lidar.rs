@@ -11,11 +11,11 @@ use rand_distr::{Distribution, Normal};
 /// Elevation of the 8 channels, degrees.
 pub const ELEVATIONS_DEG: [f32; 8] = [-12.0, -8.0, -5.0, -3.0, -1.5, 0.0, 1.5, 3.0];
 /// Half of the horizontal field of view, degrees.
-pub const HALF_FOV_DEG: f32 = 45.0;
+pub const HALF_FOV_DEG: f32 = 40.0;
 /// Azimuth step, degrees.
-pub const AZIMUTH_STEP_DEG: f32 = 1.5;
+pub const AZIMUTH_STEP_DEG: f32 = 2.0;
 /// Maximum range, metres.
-pub const MAX_RANGE: f32 = 120.0;
+pub const MAX_RANGE: f32 = 100.0;
 /// Range noise (standard deviation) of one ray, metres.
 pub const RANGE_NOISE: f32 = 0.03;
 /// Probability that a beam also reports a spurious sunlight return.

@@ -2,44 +2,18 @@
 //! stepped at the simulation rate, with swept box-collision checks between steps.
 
 use crate::control::{SpeedPi, Stanley};
+use crate::perception::{SensorFrame, SensorPerception};
 use crate::scenario::{self, ScenarioInfo, Setup};
+use crate::settings::Settings;
 use crate::sut::{IdealPerception, Perception, Planner, Sensing};
 use crate::vehicle::{self, VehicleState};
-use savme_kernel::{paper, Assignment, SimError, SimResult, Simulator};
+use savme_kernel::{Assignment, SimError, SimResult, Simulator};
 use std::time::Instant;
 
 /// Deceleration of the ego's emergency braking (a constant braking force), m/s².
 pub const BRAKE_DECEL: f64 = 8.0;
 /// Largest relative displacement between two collision checks, metres.
 const SWEEP_STEP: f64 = 0.5;
-
-/// The settings of a run that come from θ. The sensor settings of Table I are validated but
-/// act only through a sensor-based perception.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Fidelity {
-    /// Physics, control and perception rate, Hz.
-    pub rate_hz: f64,
-}
-
-impl Fidelity {
-    /// Reads θ: a complete assignment of the paper's 16 fidelity settings, each in range.
-    pub fn from_assignment(theta: &Assignment) -> Result<Fidelity, SimError> {
-        paper::fidelity_space(1)
-            .arms_of(theta)
-            .map_err(|e| SimError::BadValue {
-                variable: "fidelity".into(),
-                value: theta.to_string(),
-                expected: e.to_string(),
-            })?;
-        let rate_hz =
-            theta
-                .get_f64("simulation_rate_hz")
-                .ok_or_else(|| SimError::MissingVariable {
-                    variable: "simulation_rate_hz".into(),
-                })?;
-        Ok(Fidelity { rate_hz })
-    }
-}
 
 /// One recorded step.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -73,6 +47,9 @@ pub struct RunResult {
     pub wall_seconds: f64,
     /// Every step, when asked for.
     pub trajectory: Option<Vec<Frame>>,
+    /// Every step's camera image, lidar cloud and detection, when asked for (sensor perception
+    /// only).
+    pub sensor_frames: Option<Vec<SensorFrame>>,
 }
 
 fn intruder_at(setup: &Setup, t: f64) -> VehicleState {
@@ -85,26 +62,26 @@ fn intruder_at(setup: &Setup, t: f64) -> VehicleState {
     )
 }
 
-/// Runs scenario `info` with parameters `phi` under `fidelity`, perceiving with `perception`.
+/// Runs scenario `info` with parameters `phi` at `rate_hz`, perceiving with `perception`.
 /// `record` keeps every step in [`RunResult::trajectory`]; it costs nothing when false.
 pub fn run(
     info: &'static ScenarioInfo,
     phi: &Assignment,
-    fidelity: Fidelity,
+    rate_hz: f64,
     perception: &mut dyn Perception,
     record: bool,
 ) -> Result<RunResult, SimError> {
     let clock = Instant::now();
     let setup = scenario::setup(info, phi)?;
-    if !(fidelity.rate_hz > 0.0 && fidelity.rate_hz.is_finite()) {
+    if !(rate_hz > 0.0 && rate_hz.is_finite()) {
         return Err(SimError::BadValue {
             variable: "simulation_rate_hz".into(),
-            value: fidelity.rate_hz.to_string(),
+            value: rate_hz.to_string(),
             expected: "a positive rate".into(),
         });
     }
-    let dt = 1.0 / fidelity.rate_hz;
-    let steps = (info.duration * fidelity.rate_hz).ceil() as u64;
+    let dt = 1.0 / rate_hz;
+    let steps = (info.duration * rate_hz).ceil() as u64;
     let start = setup.ego_path.point_at(setup.ego_start);
     let mut ego = VehicleState::from_center(
         start,
@@ -189,26 +166,50 @@ pub fn run(
         work: taken + checks + perception.work(),
         wall_seconds: clock.elapsed().as_secs_f64(),
         trajectory,
+        sensor_frames: None,
     })
 }
 
-/// The bundled driving simulator with idealised perception (position noise of `noise_sd`
-/// metres), as a [`Simulator`] for the kernel. Scenario names are those of
+/// Which perception the system under test uses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PerceptionMode {
+    /// Camera + lidar with the 16 fidelity settings (the paper's stack).
+    Sensors,
+    /// Ground truth with Gaussian noise of this many metres, field of view and occlusion; the
+    /// sensor settings have no effect.
+    Ideal {
+        /// Noise standard deviation per axis, metres.
+        noise_sd: f64,
+    },
+}
+
+/// The bundled driving simulator as a [`Simulator`] for the kernel. Scenario names are those of
 /// [`scenario::SCENARIOS`] (or their numbers).
 #[derive(Debug, Clone, Copy)]
 pub struct DrivingSimulator {
-    /// Perception noise, metres (standard deviation per axis).
-    pub noise_sd: f64,
+    /// The perception of the system under test.
+    pub perception: PerceptionMode,
 }
 
 impl Default for DrivingSimulator {
+    /// Camera + lidar perception.
     fn default() -> Self {
-        DrivingSimulator { noise_sd: 0.1 }
+        DrivingSimulator {
+            perception: PerceptionMode::Sensors,
+        }
     }
 }
 
 impl DrivingSimulator {
-    /// Runs one scenario and returns the full result.
+    /// With idealised perception (noise 0.1 m): fast, and blind to the sensor settings.
+    pub fn ideal() -> Self {
+        DrivingSimulator {
+            perception: PerceptionMode::Ideal { noise_sd: 0.1 },
+        }
+    }
+
+    /// Runs one scenario and returns the full result; `record` keeps the trajectory (and, with
+    /// sensors, every frame).
     pub fn run(
         &self,
         scenario: &str,
@@ -218,11 +219,26 @@ impl DrivingSimulator {
     ) -> Result<RunResult, SimError> {
         let info =
             scenario::find(scenario).ok_or_else(|| SimError::UnknownScenario(scenario.into()))?;
-        let fidelity = Fidelity::from_assignment(fidelity)?;
-        let mut perception = IdealPerception::new()
-            .with_noise(self.noise_sd, phi.stable_hash(info.name))
-            .with_occlusion(crate::world::World::shared(info.layout));
-        run(info, phi, fidelity, &mut perception, record)
+        let settings = Settings::from_assignment(fidelity)?;
+        let world = crate::world::World::shared(info.layout);
+        let seed = phi.stable_hash(info.name);
+        match self.perception {
+            PerceptionMode::Ideal { noise_sd } => {
+                let mut p = IdealPerception::new()
+                    .with_noise(noise_sd, seed)
+                    .with_occlusion(world);
+                run(info, phi, settings.rate_hz, &mut p, record)
+            }
+            PerceptionMode::Sensors => {
+                let mut p = SensorPerception::new(world, settings, seed);
+                if record {
+                    p = p.recording();
+                }
+                let mut r = run(info, phi, settings.rate_hz, &mut p, record)?;
+                r.sensor_frames = p.frames.take();
+                Ok(r)
+            }
+        }
     }
 }
 

@@ -17,7 +17,7 @@ fn samples(name: &str, space: savme_kernel::Space, n: usize) -> Vec<Assignment> 
 
 #[test]
 fn every_scenario_has_a_colliding_and_a_safe_phi() {
-    let sim = DrivingSimulator::default();
+    let sim = DrivingSimulator::ideal();
     for info in &SCENARIOS {
         let (mut crash, mut safe) = (None, None);
         for phi in samples(info.name, phi_space(info), 400) {
@@ -43,7 +43,7 @@ fn every_scenario_has_a_colliding_and_a_safe_phi() {
 
 #[test]
 fn runs_are_deterministic_and_trajectories_cost_nothing_unless_asked() {
-    let sim = DrivingSimulator::default();
+    let sim = DrivingSimulator::ideal();
     for info in &SCENARIOS {
         for phi in samples(info.name, phi_space(info), 5) {
             let a = sim.run(info.name, &phi, &paper::theta_hf(), true).unwrap();
@@ -61,7 +61,7 @@ fn runs_are_deterministic_and_trajectories_cost_nothing_unless_asked() {
 
 #[test]
 fn the_simulation_rate_changes_work_and_outcomes() {
-    let sim = DrivingSimulator::default();
+    let sim = DrivingSimulator::ideal();
     let low = paper::theta_hf().with("simulation_rate_hz", 2);
     let (mut work_less, mut differ, mut n) = (0, 0, 0);
     for info in &SCENARIOS {
@@ -82,7 +82,7 @@ fn the_simulation_rate_changes_work_and_outcomes() {
 
 #[test]
 fn bad_phi_and_fidelity_are_named() {
-    let mut sim = DrivingSimulator::default();
+    let mut sim = DrivingSimulator::ideal();
     let info = &SCENARIOS[6];
     let good = samples(info.name, phi_space(info), 1).remove(0);
     let hf = paper::theta_hf();

@@ -1,0 +1,652 @@
+//! A forward camera, rasterised: the scenery and vehicles as flat-shaded polygons over an
+//! analytic ground (road, markings, verge) and sky, with the paper's eight camera fidelity
+//! settings: lighting, shadows (a shadow map), bloom and its level, lens distortion, depth of
+//! field (aperture samples), shot noise, view distance (far plane) and near clipping.
+
+use crate::scene::Scene;
+use crate::settings::{BloomLevel, Settings};
+use crate::world::{Layout, ObjectKind, ObjectShape, LANE};
+use nalgebra::{Isometry3, Point3, Vector3};
+use rand::Rng;
+use rand_distr::{Distribution, Normal};
+
+/// Image width, pixels.
+pub const WIDTH: usize = 128;
+/// Image height, pixels.
+pub const HEIGHT: usize = 96;
+/// Focal length, pixels (90° horizontal field of view).
+pub const FOCAL: f32 = 64.0;
+/// Radial distortion coefficient of the lens (barrel).
+pub const K1: f32 = -0.12;
+/// Aperture samples with depth of field.
+pub const DOF_SAMPLES: usize = 3;
+/// Lens aperture radius, metres (large, so the effect shows at this resolution).
+pub const APERTURE: f32 = 0.04;
+/// Focus distance, metres.
+pub const FOCUS: f32 = 20.0;
+/// Per-channel noise with shot noise, standard deviation.
+pub const NOISE: f32 = 0.03;
+/// Direction towards the sun.
+pub fn sun() -> Vector3<f32> {
+    Vector3::new(-0.45, 0.35, 0.82).normalize()
+}
+
+/// Paint of the intruder (the detector is tuned to it).
+pub const INTRUDER_PAINT: [f32; 3] = [0.9, 0.42, 0.08];
+
+/// An RGB image, row-major, values in [0, 1] (bloom may exceed 1 before clamping).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    /// Pixels, `WIDTH * HEIGHT`, row-major from the top left.
+    pub pixels: Vec<[f32; 3]>,
+}
+
+impl Image {
+    fn new(fill: [f32; 3]) -> Self {
+        Image {
+            pixels: vec![fill; WIDTH * HEIGHT],
+        }
+    }
+
+    /// 8-bit RGB bytes (for PNG files).
+    pub fn to_rgb8(&self) -> Vec<u8> {
+        self.pixels
+            .iter()
+            .flat_map(|p| p.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8))
+            .collect()
+    }
+}
+
+/// One frame and the work it took.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// The image.
+    pub image: Image,
+    /// Pixel operations: fragments rasterised, pixels shaded, shadow-map texels, post-process
+    /// taps, noise draws.
+    pub work: u64,
+}
+
+/// Where the camera is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraPose {
+    /// Optical centre.
+    pub eye: Point3<f32>,
+    /// Heading (yaw), radians.
+    pub heading: f32,
+}
+
+impl CameraPose {
+    /// World point → camera frame (x forward, y left, z up).
+    pub fn to_camera(self, p: Point3<f32>) -> Vector3<f32> {
+        let d = p - self.eye;
+        let (s, c) = self.heading.sin_cos();
+        Vector3::new(c * d.x + s * d.y, -s * d.x + c * d.y, d.z)
+    }
+
+    fn to_world_dir(self, v: Vector3<f32>) -> Vector3<f32> {
+        let (s, c) = self.heading.sin_cos();
+        Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+    }
+}
+
+/// Pinhole projection of a camera-frame point to pixel coordinates (None behind the camera).
+pub fn project_pinhole(p: Vector3<f32>) -> Option<(f32, f32)> {
+    (p.x > 1e-3).then(|| {
+        (
+            WIDTH as f32 / 2.0 - FOCAL * p.y / p.x,
+            HEIGHT as f32 / 2.0 - FOCAL * p.z / p.x,
+        )
+    })
+}
+
+/// Projection through the lens model (radially distorted), as the perception is calibrated.
+pub fn project_lens(p: Vector3<f32>) -> Option<(f32, f32)> {
+    let (u, v) = project_pinhole(p)?;
+    let (x, y) = (
+        (u - WIDTH as f32 / 2.0) / FOCAL,
+        (v - HEIGHT as f32 / 2.0) / FOCAL,
+    );
+    let s = 1.0 + K1 * (x * x + y * y);
+    Some((
+        WIDTH as f32 / 2.0 + FOCAL * x * s,
+        HEIGHT as f32 / 2.0 + FOCAL * y * s,
+    ))
+}
+
+/// What covers a pixel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Cover {
+    Sky,
+    Ground,
+    Solid {
+        albedo: [f32; 3],
+        normal: Vector3<f32>,
+    },
+}
+
+struct Buffers {
+    depth: Vec<f32>,
+    cover: Vec<Cover>,
+}
+
+/// A polygon of an object with its albedo.
+struct Face {
+    corners: Vec<Point3<f32>>,
+    normal: Vector3<f32>,
+    albedo: [f32; 3],
+}
+
+fn parked_paint(i: usize) -> [f32; 3] {
+    const P: [[f32; 3]; 5] = [
+        [0.15, 0.2, 0.55],
+        [0.85, 0.85, 0.85],
+        [0.08, 0.08, 0.1],
+        [0.45, 0.05, 0.08],
+        [0.35, 0.4, 0.42],
+    ];
+    P[i % P.len()]
+}
+
+fn kind_albedo(kind: ObjectKind, i: usize) -> [f32; 3] {
+    match kind {
+        ObjectKind::Building => {
+            let t = (i % 4) as f32 * 0.04;
+            [0.72 - t, 0.66 - t, 0.56 - t]
+        }
+        ObjectKind::ParkedCar => parked_paint(i),
+        ObjectKind::Pole => [0.45, 0.45, 0.47],
+        ObjectKind::Tree => [0.2, 0.42, 0.16],
+    }
+}
+
+/// The faces of a box or an 8-sided prism.
+fn faces(shape: ObjectShape, pose: &Isometry3<f32>, albedo: [f32; 3], out: &mut Vec<Face>) {
+    let (ring, hh): (Vec<(f32, f32)>, f32) = match shape {
+        ObjectShape::Box(h) => (
+            vec![(h.x, h.y), (-h.x, h.y), (-h.x, -h.y), (h.x, -h.y)],
+            h.z,
+        ),
+        ObjectShape::Cylinder(hh, r) => (
+            (0..8)
+                .map(|k| {
+                    let a = k as f32 * std::f32::consts::FRAC_PI_4;
+                    (r * a.cos(), r * a.sin())
+                })
+                .collect(),
+            hh,
+        ),
+    };
+    let at = |x: f32, y: f32, z: f32| pose * Point3::new(x, y, z);
+    let n = ring.len();
+    for k in 0..n {
+        let (a, b) = (ring[k], ring[(k + 1) % n]);
+        let corners = vec![
+            at(a.0, a.1, -hh),
+            at(b.0, b.1, -hh),
+            at(b.0, b.1, hh),
+            at(a.0, a.1, hh),
+        ];
+        let mid = Vector3::new((a.0 + b.0) / 2.0, (a.1 + b.1) / 2.0, 0.0);
+        let normal = pose.rotation * mid.normalize();
+        out.push(Face {
+            corners,
+            normal,
+            albedo,
+        });
+    }
+    let top: Vec<Point3<f32>> = ring.iter().map(|&(x, y)| at(x, y, hh)).collect();
+    out.push(Face {
+        corners: top,
+        normal: pose.rotation * Vector3::z(),
+        albedo,
+    });
+}
+
+/// Road surface colour at a ground point.
+fn ground_colour(layout: Layout, x: f32, y: f32) -> [f32; 3] {
+    const ASPHALT: [f32; 3] = [0.28, 0.28, 0.3];
+    const VERGE: [f32; 3] = [0.32, 0.45, 0.22];
+    const WHITE: [f32; 3] = [0.9, 0.9, 0.88];
+    const YELLOW: [f32; 3] = [0.9, 0.75, 0.15];
+    let lane = LANE as f32;
+    let dashed = |s: f32| s.rem_euclid(9.0) < 3.0;
+    let (ax, ay) = (x.abs(), y.abs());
+    match layout {
+        Layout::Intersection => {
+            let on_ns = ax < lane;
+            let on_ew = ay < lane;
+            if !(on_ns || on_ew) {
+                return VERGE;
+            }
+            let in_box = on_ns && on_ew;
+            if !in_box && ((on_ns && ax < 0.1 && dashed(y)) || (on_ew && ay < 0.1 && dashed(x))) {
+                return YELLOW;
+            }
+            ASPHALT
+        }
+        _ => {
+            let ramp = layout == Layout::OnRamp && (-lane * 2.0..-lane).contains(&y) && x < 20.0;
+            if ay >= lane && !ramp {
+                return VERGE;
+            }
+            if (ay - (lane - 0.15)).abs() < 0.1 && !ramp {
+                return WHITE;
+            }
+            match layout {
+                Layout::OneWay | Layout::OnRamp if ay < 0.08 && dashed(x) => WHITE,
+                Layout::TwoWay | Layout::ParkingLot if (ay - 0.12).abs() < 0.06 => YELLOW,
+                _ => ASPHALT,
+            }
+        }
+    }
+}
+
+fn pixel_dir(u: f32, v: f32) -> Vector3<f32> {
+    Vector3::new(
+        1.0,
+        (WIDTH as f32 / 2.0 - u) / FOCAL,
+        (HEIGHT as f32 / 2.0 - v) / FOCAL,
+    )
+}
+
+/// Rasterises the scene from `pose` into depth and cover buffers.
+fn rasterise(
+    faces: &[Face],
+    pose: &CameraPose,
+    near: f32,
+    far: f32,
+    shift: (f32, f32),
+    work: &mut u64,
+) -> Buffers {
+    let mut b = Buffers {
+        depth: vec![f32::INFINITY; WIDTH * HEIGHT],
+        cover: vec![Cover::Sky; WIDTH * HEIGHT],
+    };
+    // Aperture shift: the eye moves by `shift` (camera y, z) and the image is sheared so that
+    // points at the focus distance stay put.
+    let (sy, sz) = shift;
+    let eye_h = pose.eye.z + sz;
+    for v in 0..HEIGHT {
+        for u in 0..WIDTH {
+            let d = pixel_dir(u as f32 + 0.5, v as f32 + 0.5);
+            // Ray from the shifted eye through the focus-plane point of this pixel.
+            let dir = Vector3::new(d.x, d.y - sy / FOCUS, d.z - sz / FOCUS);
+            if dir.z < -1e-4 {
+                let t = eye_h / -dir.z; // along x (forward) units
+                if t >= near && t <= far {
+                    let i = v * WIDTH + u;
+                    b.depth[i] = t;
+                    b.cover[i] = Cover::Ground;
+                }
+            }
+        }
+    }
+    *work += (WIDTH * HEIGHT) as u64;
+    for f in faces {
+        // Camera-frame corners (relative to the shifted eye).
+        let cam: Vec<Vector3<f32>> = f
+            .corners
+            .iter()
+            .map(|&p| pose.to_camera(p) - Vector3::new(0.0, sy, sz))
+            .collect();
+        if cam.iter().all(|c| c.x < near) || cam.iter().all(|c| c.x > far) {
+            continue;
+        }
+        // Back-face culling.
+        let to_eye = -pose.to_camera(f.corners[0]) + Vector3::new(0.0, sy, sz);
+        let n_cam = {
+            let (s, c) = pose.heading.sin_cos();
+            Vector3::new(
+                c * f.normal.x + s * f.normal.y,
+                -s * f.normal.x + c * f.normal.y,
+                f.normal.z,
+            )
+        };
+        if n_cam.dot(&to_eye) <= 0.0 {
+            continue;
+        }
+        // Clip the polygon against the near plane.
+        let mut poly = Vec::with_capacity(cam.len() + 2);
+        for k in 0..cam.len() {
+            let (a, c) = (cam[k], cam[(k + 1) % cam.len()]);
+            if a.x >= near {
+                poly.push(a);
+            }
+            if (a.x >= near) != (c.x >= near) {
+                let t = (near - a.x) / (c.x - a.x);
+                poly.push(a + (c - a) * t);
+            }
+        }
+        if poly.len() < 3 {
+            continue;
+        }
+        let proj: Vec<(f32, f32, f32)> = poly
+            .iter()
+            .map(|p| {
+                let x = p.x;
+                (
+                    WIDTH as f32 / 2.0 - FOCAL * (p.y / x + sy / FOCUS),
+                    HEIGHT as f32 / 2.0 - FOCAL * (p.z / x + sz / FOCUS),
+                    1.0 / x,
+                )
+            })
+            .collect();
+        for k in 1..proj.len() - 1 {
+            tri(&mut b, proj[0], proj[k], proj[k + 1], far, f, work);
+        }
+    }
+    b
+}
+
+fn tri(
+    b: &mut Buffers,
+    p0: (f32, f32, f32),
+    p1: (f32, f32, f32),
+    p2: (f32, f32, f32),
+    far: f32,
+    face: &Face,
+    work: &mut u64,
+) {
+    let area = (p1.0 - p0.0) * (p2.1 - p0.1) - (p2.0 - p0.0) * (p1.1 - p0.1);
+    if area.abs() < 1e-6 {
+        return;
+    }
+    let min_u = p0.0.min(p1.0).min(p2.0).floor().max(0.0) as usize;
+    let max_u = (p0.0.max(p1.0).max(p2.0).ceil() as isize).clamp(0, WIDTH as isize) as usize;
+    let min_v = p0.1.min(p1.1).min(p2.1).floor().max(0.0) as usize;
+    let max_v = (p0.1.max(p1.1).max(p2.1).ceil() as isize).clamp(0, HEIGHT as isize) as usize;
+    for v in min_v..max_v {
+        for u in min_u..max_u {
+            let (x, y) = (u as f32 + 0.5, v as f32 + 0.5);
+            let w0 = ((p1.0 - x) * (p2.1 - y) - (p2.0 - x) * (p1.1 - y)) / area;
+            let w1 = ((p2.0 - x) * (p0.1 - y) - (p0.0 - x) * (p2.1 - y)) / area;
+            let w2 = 1.0 - w0 - w1;
+            if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
+                continue;
+            }
+            *work += 1;
+            let depth = 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2);
+            let i = v * WIDTH + u;
+            if depth < b.depth[i] && depth <= far {
+                b.depth[i] = depth;
+                b.cover[i] = Cover::Solid {
+                    albedo: face.albedo,
+                    normal: face.normal,
+                };
+            }
+        }
+    }
+}
+
+/// A shadow map: depth along the sun direction over a square around the camera.
+struct ShadowMap {
+    size: usize,
+    half: f32,
+    centre: Point3<f32>,
+    u: Vector3<f32>,
+    v: Vector3<f32>,
+    depth: Vec<f32>,
+}
+
+impl ShadowMap {
+    const SIZE: usize = 192;
+
+    fn build(faces: &[Face], centre: Point3<f32>, work: &mut u64) -> Self {
+        let s = sun();
+        let u = s.cross(&Vector3::z()).normalize();
+        let v = s.cross(&u).normalize();
+        let size = Self::SIZE;
+        let half = 60.0;
+        let mut depth = vec![f32::NEG_INFINITY; size * size];
+        let scale = size as f32 / (2.0 * half);
+        for f in faces {
+            // Height along the sun of every corner; rasterise the polygon's footprint.
+            let pts: Vec<(f32, f32, f32)> = f
+                .corners
+                .iter()
+                .map(|&p| {
+                    let d = p - centre;
+                    (
+                        (d.dot(&u) + half) * scale,
+                        (d.dot(&v) + half) * scale,
+                        d.dot(&s),
+                    )
+                })
+                .collect();
+            let (lo_u, hi_u) = pts
+                .iter()
+                .fold((f32::MAX, f32::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
+            let (lo_v, hi_v) = pts
+                .iter()
+                .fold((f32::MAX, f32::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+            if hi_u < 0.0 || hi_v < 0.0 || lo_u >= size as f32 || lo_v >= size as f32 {
+                continue;
+            }
+            let h = pts.iter().map(|p| p.2).fold(f32::MIN, f32::max);
+            for y in (lo_v.max(0.0) as usize)..(hi_v.ceil().min(size as f32) as usize) {
+                for x in (lo_u.max(0.0) as usize)..(hi_u.ceil().min(size as f32) as usize) {
+                    *work += 1;
+                    let i = y * size + x;
+                    depth[i] = depth[i].max(h);
+                }
+            }
+        }
+        ShadowMap {
+            size,
+            half,
+            centre,
+            u,
+            v,
+            depth,
+        }
+    }
+
+    /// True when something stands between `p` and the sun.
+    fn shadowed(&self, p: Point3<f32>) -> bool {
+        let d = p - self.centre;
+        let scale = self.size as f32 / (2.0 * self.half);
+        let (x, y) = (
+            (d.dot(&self.u) + self.half) * scale,
+            (d.dot(&self.v) + self.half) * scale,
+        );
+        if x < 0.0 || y < 0.0 || x >= self.size as f32 || y >= self.size as f32 {
+            return false;
+        }
+        self.depth[y as usize * self.size + x as usize] > d.dot(&sun()) + 0.3
+    }
+}
+
+/// Renders one frame.
+pub fn render<R: Rng + ?Sized>(
+    scene: &Scene,
+    pose: &CameraPose,
+    settings: &Settings,
+    rng: &mut R,
+) -> Frame {
+    let mut work = 0u64;
+    let far = settings.view_distance as f32;
+    let near = settings.camera_near_clip as f32;
+    // Faces of everything within the view distance (plus a margin for big buildings).
+    let mut list = Vec::new();
+    for (i, o) in scene.world.objects().iter().enumerate() {
+        let c = pose.to_camera(Point3::from(o.pose.translation.vector));
+        if c.x > -15.0 && c.x < far + 15.0 && c.norm() < far + 20.0 {
+            faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
+        }
+    }
+    for v in scene.vehicles {
+        let h = crate::vehicle::body().half_extents;
+        faces(ObjectShape::Box(h), &v.pose(), INTRUDER_PAINT, &mut list);
+    }
+    work += list.len() as u64;
+    let shadows = (!settings.disable_shadows).then(|| ShadowMap::build(&list, pose.eye, &mut work));
+    let samples: Vec<(f32, f32)> = if settings.disable_depth_of_field {
+        vec![(0.0, 0.0)]
+    } else {
+        (0..DOF_SAMPLES)
+            .map(|k| {
+                let a = k as f32 * std::f32::consts::TAU / DOF_SAMPLES as f32 + 0.4;
+                (APERTURE * a.cos(), APERTURE * a.sin())
+            })
+            .collect()
+    };
+    let mut image = Image::new([0.0; 3]);
+    let weight = 1.0 / samples.len() as f32;
+    for &shift in &samples {
+        let b = rasterise(&list, pose, near, far, shift, &mut work);
+        for v in 0..HEIGHT {
+            for u in 0..WIDTH {
+                let i = v * WIDTH + u;
+                work += 1;
+                let d = pose.to_world_dir(pixel_dir(u as f32 + 0.5, v as f32 + 0.5));
+                let point = pose.eye + d * b.depth[i];
+                let (albedo, normal) = match b.cover[i] {
+                    Cover::Sky => {
+                        let t = (HEIGHT - v) as f32 / HEIGHT as f32;
+                        let c = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
+                        for (k, ch) in c.iter().enumerate() {
+                            image.pixels[i][k] += weight * ch;
+                        }
+                        continue;
+                    }
+                    Cover::Ground => (
+                        ground_colour(scene.world.layout(), point.x, point.y),
+                        Vector3::z(),
+                    ),
+                    Cover::Solid { albedo, normal } => (albedo, normal),
+                };
+                let mut light = if settings.disable_lighting {
+                    1.0
+                } else {
+                    0.35 + 0.75 * normal.dot(&sun()).max(0.0)
+                };
+                if let Some(map) = &shadows {
+                    work += 1;
+                    if map.shadowed(point) {
+                        light *= 0.45;
+                    }
+                }
+                for (px, a) in image.pixels[i].iter_mut().zip(albedo) {
+                    *px += weight * a * light;
+                }
+            }
+        }
+    }
+    if !settings.disable_lens_model {
+        image = distort(&image, &mut work);
+    }
+    if !settings.disable_bloom {
+        bloom(&mut image, settings.bloom_level, &mut work);
+    }
+    if !settings.camera_disable_shot_noise {
+        let n = Normal::new(0.0f32, NOISE).expect("valid noise");
+        for p in &mut image.pixels {
+            for c in p.iter_mut() {
+                *c += n.sample(rng);
+            }
+            work += 3;
+        }
+    }
+    for p in &mut image.pixels {
+        for c in p.iter_mut() {
+            *c = c.clamp(0.0, 1.0);
+        }
+    }
+    Frame { image, work }
+}
+
+/// Applies the barrel distortion of the lens: every output pixel samples the pinhole image
+/// where the lens maps it from.
+fn distort(src: &Image, work: &mut u64) -> Image {
+    // Where each output pixel samples the pinhole image: distorted normalised coordinates
+    // undistorted by fixed-point iteration, computed once.
+    static MAP: std::sync::OnceLock<Vec<(f32, f32)>> = std::sync::OnceLock::new();
+    let map = MAP.get_or_init(|| {
+        (0..WIDTH * HEIGHT)
+            .map(|i| {
+                let (u, v) = (i % WIDTH, i / WIDTH);
+                let xd = (u as f32 + 0.5 - WIDTH as f32 / 2.0) / FOCAL;
+                let yd = (v as f32 + 0.5 - HEIGHT as f32 / 2.0) / FOCAL;
+                let (mut x, mut y) = (xd, yd);
+                for _ in 0..4 {
+                    let s = 1.0 + K1 * (x * x + y * y);
+                    x = xd / s;
+                    y = yd / s;
+                }
+                (
+                    WIDTH as f32 / 2.0 + FOCAL * x - 0.5,
+                    HEIGHT as f32 / 2.0 + FOCAL * y - 0.5,
+                )
+            })
+            .collect()
+    });
+    *work += map.len() as u64;
+    Image {
+        pixels: map.iter().map(|&(su, sv)| sample(src, su, sv)).collect(),
+    }
+}
+
+fn sample(img: &Image, u: f32, v: f32) -> [f32; 3] {
+    let u = u.clamp(0.0, (WIDTH - 1) as f32);
+    let v = v.clamp(0.0, (HEIGHT - 1) as f32);
+    let (u0, v0) = (u.floor() as usize, v.floor() as usize);
+    let (u1, v1) = ((u0 + 1).min(WIDTH - 1), (v0 + 1).min(HEIGHT - 1));
+    let (fu, fv) = (u - u0 as f32, v - v0 as f32);
+    let p = |a: usize, b: usize| img.pixels[b * WIDTH + a];
+    let mut out = [0.0; 3];
+    for (k, o) in out.iter_mut().enumerate() {
+        let top = p(u0, v0)[k] * (1.0 - fu) + p(u1, v0)[k] * fu;
+        let bottom = p(u0, v1)[k] * (1.0 - fu) + p(u1, v1)[k] * fu;
+        *o = top * (1.0 - fv) + bottom * fv;
+    }
+    out
+}
+
+/// Bloom: bright pixels glow into their neighbours (a separable box blur of the bright pass).
+fn bloom(img: &mut Image, level: BloomLevel, work: &mut u64) {
+    let radius = match level {
+        BloomLevel::High => 4,
+        BloomLevel::Low => 2,
+    } as isize;
+    let bright: Vec<[f32; 3]> = img
+        .pixels
+        .iter()
+        .map(|p| {
+            let l = 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2];
+            if l > 0.62 {
+                p.map(|c| c * (l - 0.62) / l)
+            } else {
+                [0.0; 3]
+            }
+        })
+        .collect();
+    let blur = |src: &[[f32; 3]], horizontal: bool, work: &mut u64| -> Vec<[f32; 3]> {
+        let mut out = vec![[0.0f32; 3]; src.len()];
+        for v in 0..HEIGHT as isize {
+            for u in 0..WIDTH as isize {
+                let mut acc = [0.0f32; 3];
+                for k in -radius..=radius {
+                    let (x, y) = if horizontal { (u + k, v) } else { (u, v + k) };
+                    if x < 0 || y < 0 || x >= WIDTH as isize || y >= HEIGHT as isize {
+                        continue;
+                    }
+                    *work += 1;
+                    let p = src[y as usize * WIDTH + x as usize];
+                    for c in 0..3 {
+                        acc[c] += p[c];
+                    }
+                }
+                out[v as usize * WIDTH + u as usize] = acc.map(|a| a / (2 * radius + 1) as f32);
+            }
+        }
+        out
+    };
+    let h = blur(&bright, true, work);
+    let glow = blur(&h, false, work);
+    for (p, g) in img.pixels.iter_mut().zip(glow) {
+        for c in 0..3 {
+            p[c] += 1.5 * g[c];
+        }
+    }
+}
