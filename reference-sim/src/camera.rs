@@ -26,9 +26,10 @@ pub const APERTURE: f32 = 0.04;
 pub const FOCUS: f32 = 20.0;
 /// Per-channel noise with shot noise, standard deviation.
 pub const NOISE: f32 = 0.03;
-/// Direction towards the sun.
+/// Direction towards the sun (unit length).
 pub fn sun() -> Vector3<f32> {
-    Vector3::new(-0.45, 0.35, 0.82).normalize()
+    // (-0.45, 0.35, 0.82) normalised.
+    Vector3::new(-0.460_566, 0.358_218, 0.839_253)
 }
 
 /// Paint of the intruder (the detector is tuned to it).
@@ -79,14 +80,37 @@ pub struct CameraPose {
 impl CameraPose {
     /// World point → camera frame (x forward, y left, z up).
     pub fn to_camera(self, p: Point3<f32>) -> Vector3<f32> {
-        let d = p - self.eye;
-        let (s, c) = self.heading.sin_cos();
-        Vector3::new(c * d.x + s * d.y, -s * d.x + c * d.y, d.z)
+        self.rotation().to_camera(p - self.eye)
     }
 
-    fn to_world_dir(self, v: Vector3<f32>) -> Vector3<f32> {
+    fn rotation(self) -> Yaw {
         let (s, c) = self.heading.sin_cos();
-        Vector3::new(c * v.x - s * v.y, s * v.x + c * v.y, v.z)
+        Yaw { s, c }
+    }
+}
+
+/// A rotation about z by the camera heading, with its sine and cosine computed once.
+#[derive(Debug, Clone, Copy)]
+struct Yaw {
+    s: f32,
+    c: f32,
+}
+
+impl Yaw {
+    fn to_camera(self, d: Vector3<f32>) -> Vector3<f32> {
+        Vector3::new(
+            self.c * d.x + self.s * d.y,
+            -self.s * d.x + self.c * d.y,
+            d.z,
+        )
+    }
+
+    fn to_world(self, v: Vector3<f32>) -> Vector3<f32> {
+        Vector3::new(
+            self.c * v.x - self.s * v.y,
+            self.s * v.x + self.c * v.y,
+            v.z,
+        )
     }
 }
 
@@ -283,12 +307,14 @@ fn rasterise(
         }
     }
     *work += (WIDTH * HEIGHT) as u64;
+    let yaw = pose.rotation();
+    let shift_v = Vector3::new(0.0, sy, sz);
     for f in faces {
         // Camera-frame corners (relative to the shifted eye).
         let cam: Vec<Vector3<f32>> = f
             .corners
             .iter()
-            .map(|&p| pose.to_camera(p) - Vector3::new(0.0, sy, sz))
+            .map(|&p| yaw.to_camera(p - pose.eye) - shift_v)
             .collect();
         if cam.iter().all(|c| c.x < near) || cam.iter().all(|c| c.x > far) {
             continue;
@@ -356,25 +382,43 @@ fn tri(
     let max_u = (p0.0.max(p1.0).max(p2.0).ceil() as isize).clamp(0, WIDTH as isize) as usize;
     let min_v = p0.1.min(p1.1).min(p2.1).floor().max(0.0) as usize;
     let max_v = (p0.1.max(p1.1).max(p2.1).ceil() as isize).clamp(0, HEIGHT as isize) as usize;
+    if min_u >= max_u || min_v >= max_v {
+        return;
+    }
+    let inv = 1.0 / area;
+    // Barycentric weights are affine in (x, y): w = a·x + b·y + c; step them along a row.
+    let edge = |p: (f32, f32, f32), q: (f32, f32, f32)| {
+        (
+            (p.1 - q.1) * inv,
+            (q.0 - p.0) * inv,
+            (p.0 * q.1 - q.0 * p.1) * inv,
+        )
+    };
+    let (a0, b0, c0) = edge(p1, p2);
+    let (a1, b1, c1) = edge(p2, p0);
+    let cover = Cover::Solid {
+        albedo: face.albedo,
+        normal: face.normal,
+    };
     for v in min_v..max_v {
+        let y = v as f32 + 0.5;
+        let x0 = min_u as f32 + 0.5;
+        let mut w0 = a0 * x0 + b0 * y + c0;
+        let mut w1 = a1 * x0 + b1 * y + c1;
+        let row = v * WIDTH;
         for u in min_u..max_u {
-            let (x, y) = (u as f32 + 0.5, v as f32 + 0.5);
-            let w0 = ((p1.0 - x) * (p2.1 - y) - (p2.0 - x) * (p1.1 - y)) / area;
-            let w1 = ((p2.0 - x) * (p0.1 - y) - (p0.0 - x) * (p2.1 - y)) / area;
             let w2 = 1.0 - w0 - w1;
-            if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
-                continue;
+            if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
+                *work += 1;
+                let depth = 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2);
+                let i = row + u;
+                if depth < b.depth[i] && depth <= far {
+                    b.depth[i] = depth;
+                    b.cover[i] = cover;
+                }
             }
-            *work += 1;
-            let depth = 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2);
-            let i = v * WIDTH + u;
-            if depth < b.depth[i] && depth <= far {
-                b.depth[i] = depth;
-                b.cover[i] = Cover::Solid {
-                    albedo: face.albedo,
-                    normal: face.normal,
-                };
-            }
+            w0 += a0;
+            w1 += a1;
         }
     }
 }
@@ -390,21 +434,28 @@ struct ShadowMap {
 }
 
 impl ShadowMap {
-    const SIZE: usize = 192;
+    const SIZE: usize = 128;
 
-    fn build(faces: &[Face], centre: Point3<f32>, work: &mut u64) -> Self {
+    /// Builds the map from the faces of each object (one footprint per object: the rectangle,
+    /// in sun-aligned coordinates, around all its corners, at its highest point towards the sun).
+    fn build(
+        objects: &[std::ops::Range<usize>],
+        faces: &[Face],
+        centre: Point3<f32>,
+        work: &mut u64,
+    ) -> Self {
         let s = sun();
         let u = s.cross(&Vector3::z()).normalize();
         let v = s.cross(&u).normalize();
         let size = Self::SIZE;
-        let half = 60.0;
+        let half = 50.0;
         let mut depth = vec![f32::NEG_INFINITY; size * size];
         let scale = size as f32 / (2.0 * half);
-        for f in faces {
-            // Height along the sun of every corner; rasterise the polygon's footprint.
-            let pts: Vec<(f32, f32, f32)> = f
-                .corners
+        for range in objects {
+            // Height along the sun of every corner; rasterise the object's footprint.
+            let pts: Vec<(f32, f32, f32)> = faces[range.clone()]
                 .iter()
+                .flat_map(|f| f.corners.iter())
                 .map(|&p| {
                     let d = p - centre;
                     (
@@ -443,17 +494,18 @@ impl ShadowMap {
     }
 
     /// True when something stands between `p` and the sun.
-    fn shadowed(&self, p: Point3<f32>) -> bool {
+    #[inline]
+    fn shadowed(&self, p: Point3<f32>, sun: &Vector3<f32>) -> bool {
         let d = p - self.centre;
         let scale = self.size as f32 / (2.0 * self.half);
-        let (x, y) = (
-            (d.dot(&self.u) + self.half) * scale,
-            (d.dot(&self.v) + self.half) * scale,
-        );
-        if x < 0.0 || y < 0.0 || x >= self.size as f32 || y >= self.size as f32 {
+        let x = (d.dot(&self.u) + self.half) * scale;
+        let y = (d.dot(&self.v) + self.half) * scale;
+        let size = self.size as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < size && y < size) {
             return false;
         }
-        self.depth[y as usize * self.size + x as usize] > d.dot(&sun()) + 0.3
+        let i = y as usize * self.size + x as usize;
+        self.depth.get(i).is_some_and(|&h| h > d.dot(sun) + 0.3)
     }
 }
 
@@ -469,18 +521,24 @@ pub fn render<R: Rng + ?Sized>(
     let near = settings.camera_near_clip as f32;
     // Faces of everything within the view distance (plus a margin for big buildings).
     let mut list = Vec::new();
+    let mut objects = Vec::new();
     for (i, o) in scene.world.objects().iter().enumerate() {
         let c = pose.to_camera(Point3::from(o.pose.translation.vector));
         if c.x > -15.0 && c.x < far + 15.0 && c.norm() < far + 20.0 {
+            let first = list.len();
             faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
+            objects.push(first..list.len());
         }
     }
     for v in scene.vehicles {
         let h = crate::vehicle::body().half_extents;
+        let first = list.len();
         faces(ObjectShape::Box(h), &v.pose(), INTRUDER_PAINT, &mut list);
+        objects.push(first..list.len());
     }
     work += list.len() as u64;
-    let shadows = (!settings.disable_shadows).then(|| ShadowMap::build(&list, pose.eye, &mut work));
+    let shadows =
+        (!settings.disable_shadows).then(|| ShadowMap::build(&objects, &list, pose.eye, &mut work));
     let samples: Vec<(f32, f32)> = if settings.disable_depth_of_field {
         vec![(0.0, 0.0)]
     } else {
@@ -493,13 +551,15 @@ pub fn render<R: Rng + ?Sized>(
     };
     let mut image = Image::new([0.0; 3]);
     let weight = 1.0 / samples.len() as f32;
+    let yaw = pose.rotation();
+    let sun = sun();
     for &shift in &samples {
         let b = rasterise(&list, pose, near, far, shift, &mut work);
         for v in 0..HEIGHT {
             for u in 0..WIDTH {
                 let i = v * WIDTH + u;
                 work += 1;
-                let d = pose.to_world_dir(pixel_dir(u as f32 + 0.5, v as f32 + 0.5));
+                let d = yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5));
                 let point = pose.eye + d * b.depth[i];
                 let (albedo, normal) = match b.cover[i] {
                     Cover::Sky => {
@@ -519,11 +579,11 @@ pub fn render<R: Rng + ?Sized>(
                 let mut light = if settings.disable_lighting {
                     1.0
                 } else {
-                    0.35 + 0.75 * normal.dot(&sun()).max(0.0)
+                    0.35 + 0.75 * normal.dot(&sun).max(0.0)
                 };
                 if let Some(map) = &shadows {
                     work += 1;
-                    if map.shadowed(point) {
+                    if map.shadowed(point, &sun) {
                         light *= 0.45;
                     }
                 }
@@ -540,12 +600,14 @@ pub fn render<R: Rng + ?Sized>(
         bloom(&mut image, settings.bloom_level, &mut work);
     }
     if !settings.camera_disable_shot_noise {
+        // Photon noise: one draw per pixel, growing with the square root of its brightness.
         let n = Normal::new(0.0f32, NOISE).expect("valid noise");
         for p in &mut image.pixels {
+            let z = n.sample(rng);
             for c in p.iter_mut() {
-                *c += n.sample(rng);
+                *c += z * (0.25 + c.max(0.0)).sqrt();
             }
-            work += 3;
+            work += 1;
         }
     }
     for p in &mut image.pixels {
@@ -603,48 +665,71 @@ fn sample(img: &Image, u: f32, v: f32) -> [f32; 3] {
     out
 }
 
-/// Bloom: bright pixels glow into their neighbours (a separable box blur of the bright pass).
+/// Bloom: bright pixels glow into their neighbours. The glow pass is a box blur of the bright
+/// pass (running sums, separable): at full resolution with a 9-pixel box for the high level, at
+/// half resolution with a 5-pixel box for the low one.
 fn bloom(img: &mut Image, level: BloomLevel, work: &mut u64) {
-    let radius = match level {
-        BloomLevel::High => 4,
-        BloomLevel::Low => 2,
-    } as isize;
-    let bright: Vec<[f32; 3]> = img
-        .pixels
-        .iter()
-        .map(|p| {
-            let l = 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2];
-            if l > 0.62 {
-                p.map(|c| c * (l - 0.62) / l)
-            } else {
-                [0.0; 3]
-            }
-        })
-        .collect();
-    let blur = |src: &[[f32; 3]], horizontal: bool, work: &mut u64| -> Vec<[f32; 3]> {
-        let mut out = vec![[0.0f32; 3]; src.len()];
-        for v in 0..HEIGHT as isize {
-            for u in 0..WIDTH as isize {
-                let mut acc = [0.0f32; 3];
-                for k in -radius..=radius {
-                    let (x, y) = if horizontal { (u + k, v) } else { (u, v + k) };
-                    if x < 0 || y < 0 || x >= WIDTH as isize || y >= HEIGHT as isize {
-                        continue;
-                    }
-                    *work += 1;
-                    let p = src[y as usize * WIDTH + x as usize];
-                    for c in 0..3 {
-                        acc[c] += p[c];
+    let (scale, radius) = match level {
+        BloomLevel::High => (1, 4),
+        BloomLevel::Low => (2, 2),
+    };
+    let (w, h) = (WIDTH / scale, HEIGHT / scale);
+    let mut bright = vec![[0.0f32; 3]; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let mut acc = [0.0f32; 3];
+            for dy in 0..scale {
+                for dx in 0..scale {
+                    let p = img.pixels[(y * scale + dy) * WIDTH + x * scale + dx];
+                    let l = 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2];
+                    if l > 0.62 {
+                        for c in 0..3 {
+                            acc[c] += p[c] * (l - 0.62) / l;
+                        }
                     }
                 }
-                out[v as usize * WIDTH + u as usize] = acc.map(|a| a / (2 * radius + 1) as f32);
+            }
+            bright[y * w + x] = acc.map(|a| a / (scale * scale) as f32);
+        }
+    }
+    *work += (WIDTH * HEIGHT) as u64;
+    let pass = |src: &[[f32; 3]], horizontal: bool, work: &mut u64| -> Vec<[f32; 3]> {
+        let mut out = vec![[0.0f32; 3]; src.len()];
+        let (lines, len) = if horizontal { (h, w) } else { (w, h) };
+        let at = |line: usize, k: usize| {
+            if horizontal {
+                line * w + k
+            } else {
+                k * w + line
+            }
+        };
+        for line in 0..lines {
+            let mut acc = [0.0f32; 3];
+            for k in 0..radius.min(len) {
+                for c in 0..3 {
+                    acc[c] += src[at(line, k)][c];
+                }
+            }
+            for k in 0..len {
+                if k + radius < len {
+                    for c in 0..3 {
+                        acc[c] += src[at(line, k + radius)][c];
+                    }
+                }
+                if k > radius {
+                    for c in 0..3 {
+                        acc[c] -= src[at(line, k - radius - 1)][c];
+                    }
+                }
+                out[at(line, k)] = acc.map(|a| a / (2 * radius + 1) as f32);
+                *work += 1;
             }
         }
         out
     };
-    let h = blur(&bright, true, work);
-    let glow = blur(&h, false, work);
-    for (p, g) in img.pixels.iter_mut().zip(glow) {
+    let glow = pass(&pass(&bright, true, work), false, work);
+    for (i, p) in img.pixels.iter_mut().enumerate() {
+        let g = glow[(i / WIDTH / scale) * w + (i % WIDTH) / scale];
         for c in 0..3 {
             p[c] += 1.5 * g[c];
         }

@@ -9,9 +9,9 @@ use rand::{Rng, RngExt};
 use rand_distr::{Distribution, Normal};
 
 /// Elevation of the 8 channels, degrees.
-pub const ELEVATIONS_DEG: [f32; 8] = [-12.0, -8.0, -5.0, -3.0, -1.5, 0.0, 1.5, 3.0];
+pub const ELEVATIONS_DEG: [f32; 8] = [-14.0, -10.0, -7.0, -5.0, -3.5, -2.0, -1.0, 0.0];
 /// Half of the horizontal field of view, degrees.
-pub const HALF_FOV_DEG: f32 = 40.0;
+pub const HALF_FOV_DEG: f32 = 30.0;
 /// Azimuth step, degrees.
 pub const AZIMUTH_STEP_DEG: f32 = 2.0;
 /// Maximum range, metres.

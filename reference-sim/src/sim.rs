@@ -12,6 +12,8 @@ use std::time::Instant;
 
 /// Deceleration of the ego's emergency braking (a constant braking force), m/s².
 pub const BRAKE_DECEL: f64 = 8.0;
+/// Half the diagonal of a vehicle's footprint, metres.
+const HALF_DIAGONAL: f64 = 2.66;
 /// Largest relative displacement between two collision checks, metres.
 const SWEEP_STEP: f64 = 0.5;
 
@@ -139,6 +141,12 @@ pub fn run(
                 (e, intruder_at(&setup, t + dt * f))
             };
             checks += 1;
+            // Bodies are at least (centre distance − two half-diagonals) apart: only a sample
+            // that could lower the minimum needs the exact (GJK) distance.
+            let centres = (e.center() - i.center()).norm();
+            if centres - 2.0 * HALF_DIAGONAL >= min_distance {
+                continue;
+            }
             let d = vehicle::distance(&e, &i);
             min_distance = min_distance.min(d);
             if d <= 0.0 || vehicle::collide(&e, &i) {
