@@ -36,6 +36,8 @@ enum Command {
     ExampleConfig,
     /// List the bundled driving simulator's scenarios with their parameter spaces.
     Scenarios,
+    /// List the 16 fidelity settings (the paper's Table I) with their high-fidelity values.
+    Fidelity,
     /// Run one simulation on the bundled driving simulator.
     Simulate {
         /// Scenario number (1–10) or name.
@@ -59,6 +61,7 @@ fn main() -> ExitCode {
         Command::Serve { config, journal } => serve(config.as_deref(), journal.as_deref()),
         Command::ExampleConfig => example_config(),
         Command::Scenarios => print(&savme::cli::scenarios_text()),
+        Command::Fidelity => print(&savme::cli::fidelity_text()),
         Command::Simulate {
             scenario,
             phi,

@@ -26,6 +26,18 @@ fn scenarios_lists_all_ten_with_their_spaces() {
 }
 
 #[test]
+fn fidelity_lists_table_i_with_hf_values() {
+    let (ok, out, _) = savme(&["fidelity"]);
+    assert!(ok);
+    assert_eq!(out.lines().count(), 17, "{out}");
+    assert!(out.contains("simulation_rate_hz") && out.contains("{2, 4, 6, 8, 10}"));
+    assert!(out.contains("camera_view_distance_m") && out.contains("[10, 5000]"));
+    assert!(out
+        .lines()
+        .any(|l| l.starts_with("lidar_subsample_count") && l.ends_with('5')));
+}
+
+#[test]
 fn simulate_reports_outcome_distance_and_cost() {
     let crash = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
     let (ok, out, err) = savme(&["simulate", "--scenario", "7", "--phi", crash]);
@@ -34,7 +46,7 @@ fn simulate_reports_outcome_distance_and_cost() {
         out.contains("COLLISION at") && out.contains("work units"),
         "{out}"
     );
-    let safe = "ego_speed=10,lead_speed=10,gap=35,lead_decel=3,brake_time=4";
+    let safe = "ego_speed=10,lead_speed=10,gap=28,lead_decel=4,brake_time=4";
     let (ok, out, _) = savme(&[
         "simulate",
         "--scenario",

@@ -23,7 +23,6 @@ fn bench(c: &mut Criterion) {
     let sim = DrivingSimulator::default();
     let ideal = DrivingSimulator::ideal();
     let hf = paper::theta_hf();
-    let low = paper::theta_hf().with("simulation_rate_hz", 2);
     let mut g = c.benchmark_group("hf_run");
     for info in &SCENARIOS {
         let phis = phis(info);
@@ -49,19 +48,35 @@ fn bench(c: &mut Criterion) {
             })
         });
     }
-    let info = &SCENARIOS[0];
-    let phis = phis(info);
-    let mut i = 0;
-    g.bench_function("01_at_2hz", |b| {
-        b.iter(|| {
-            i = (i + 1) % phis.len();
-            black_box(
-                sim.run(info.name, &phis[i], &low, false)
-                    .expect("valid run"),
-            )
-        })
-    });
     g.finish();
+
+    // What each setting buys: scenario 7 with θ_HF, with every setting at its cheapest value,
+    // and with one setting at a time at its cheapest value.
+    let mut s = c.benchmark_group("settings");
+    let info = &SCENARIOS[6];
+    let phis = phis(info);
+    let space = paper::fidelity_space(10);
+    let mut cheapest_all = hf.clone();
+    let mut variants: Vec<(String, Assignment)> = vec![("hf".into(), hf.clone())];
+    for v in space.variables() {
+        let value = savme_sim::settings::cheapest_value(v);
+        cheapest_all.set(&v.name, value.clone());
+        variants.push((format!("only_{}", v.name), hf.clone().with(&v.name, value)));
+    }
+    variants.insert(1, ("all_cheapest".into(), cheapest_all));
+    for (name, theta) in &variants {
+        let mut i = 0;
+        s.bench_function(name.as_str(), |b| {
+            b.iter(|| {
+                i = (i + 1) % phis.len();
+                black_box(
+                    sim.run(info.name, &phis[i], theta, false)
+                        .expect("valid run"),
+                )
+            })
+        });
+    }
+    s.finish();
 }
 
 criterion_group! {

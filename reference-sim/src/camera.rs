@@ -579,6 +579,7 @@ pub fn render<R: Rng + ?Sized>(
                 let mut light = if settings.disable_lighting {
                     1.0
                 } else {
+                    work += 1;
                     0.35 + 0.75 * normal.dot(&sun).max(0.0)
                 };
                 if let Some(map) = &shadows {

@@ -139,7 +139,7 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
         2 => vec![
             lin("ego_speed", 4.0, 9.0),
             lin("intruder_speed", 6.0, 14.0),
-            lin("time_offset", -6.0, 6.0),
+            lin("time_offset", -8.0, 8.0),
         ],
         3 => vec![
             lin("ego_speed", 10.0, 20.0),
@@ -154,7 +154,7 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
         5 => vec![
             lin("ego_speed", 10.0, 25.0),
             lin("intruder_speed", 6.0, 20.0),
-            lin("gap", 2.0, 20.0),
+            lin("gap", 2.0, 12.0),
             lin("cut_in_time", 0.5, 4.0),
         ],
         6 => vec![
@@ -166,8 +166,8 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
         7 => vec![
             lin("ego_speed", 10.0, 25.0),
             lin("lead_speed", 5.0, 20.0),
-            lin("gap", 8.0, 35.0),
-            lin("lead_decel", 3.0, 9.0),
+            lin("gap", 8.0, 28.0),
+            lin("lead_decel", 4.0, 9.0),
             lin("brake_time", 0.5, 4.0),
         ],
         8 => vec![
@@ -184,7 +184,7 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
         _ => vec![
             lin("ego_speed", 12.0, 22.0),
             lin("intruder_speed", 12.0, 26.0),
-            lin("time_offset", -2.5, 2.5),
+            lin("time_offset", -3.0, 3.0),
         ],
     };
     Space::new(vars).expect("scenario spaces are valid")

@@ -1,6 +1,31 @@
 //! The paper's 16 fidelity settings (Table I) as typed values.
 
-use savme_kernel::{paper, Assignment, SimError};
+use savme_kernel::{paper, Assignment, Domain, SimError, Value, Variable};
+
+/// The cheapest value of a Table I setting: switches disabled, low bloom, 2 Hz, one subsample,
+/// no bounces, the shortest view distance, the largest clipping distances.
+///
+/// ```
+/// let space = savme_kernel::paper::fidelity_space(10);
+/// let rate = space.variable("simulation_rate_hz").unwrap();
+/// assert_eq!(savme_sim::settings::cheapest_value(rate), savme_kernel::Value::Int(2));
+/// ```
+pub fn cheapest_value(v: &Variable) -> Value {
+    match (&*v.name, &v.domain) {
+        ("camera_bloom_level", _) => Value::from("low"),
+        (_, Domain::Discrete { values }) if values.iter().all(|x| x.as_bool().is_some()) => {
+            Value::Bool(true)
+        }
+        (_, Domain::Discrete { values }) => values[0].clone(),
+        (name, Domain::Continuous { lo, hi, .. }) => {
+            Value::Real(if name.contains("view_distance") {
+                *lo
+            } else {
+                *hi
+            })
+        }
+    }
+}
 
 /// Camera bloom glow size.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

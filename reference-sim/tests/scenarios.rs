@@ -92,7 +92,7 @@ fn bad_phi_and_fidelity_are_named() {
     let e = err(&good.clone().with("bogus", 1.0), &hf);
     assert!(e.contains("bogus") && e.contains("lead_decel"), "{e}");
     let e = err(&good.clone().with("gap", 500.0), &hf);
-    assert!(e.contains("gap") && e.contains("[8, 35]"), "{e}");
+    assert!(e.contains("gap") && e.contains("[8, 28]"), "{e}");
     let mut missing = Assignment::new();
     for (n, v) in good.iter().filter(|(n, _)| *n != "lead_speed") {
         missing.set(n, v.clone());
