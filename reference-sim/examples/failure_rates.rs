@@ -1,7 +1,7 @@
 //! Failure rate of every scenario under uniform φ and θ_HF (the paper's baseline), the figure
 //! the scenario ranges are calibrated against (target: 5–35 % each).
 //!
-//! `cargo run --release -p savme-sim --example failure_rates -- [samples] [seed] [sensors|ideal]`
+//! `cargo run --release -p savme-sim --example failure_rates -- [samples] [seed] [sensors|ideal] [scenario]`
 use savme_kernel::{paper, Kernel, Observation, Phase, Run};
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
@@ -15,11 +15,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("ideal") => DrivingSimulator::ideal(),
         Some(other) => return Err(format!("perception `{other}`: use sensors or ideal").into()),
     };
+    let only: Option<u8> = args.next().map(|a| a.parse()).transpose()?;
     println!(
         "{:>3}  {:<34} {:>8} {:>10} {:>12}",
         "id", "scenario", "failures", "rate", "HF run (ms)"
     );
-    for info in &SCENARIOS {
+    for info in SCENARIOS
+        .iter()
+        .filter(|s| only.is_none_or(|id| id == s.id))
+    {
         let mut k = Kernel::builder(paper::fidelity_space(10), paper::theta_hf())
             .scenario(info.name, phi_space(info), 1.0)
             .seed(seed)

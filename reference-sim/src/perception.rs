@@ -210,7 +210,7 @@ impl Perception for SensorPerception {
                 c + ray.normalize() * CENTRE_OFFSET
             });
         self.work += frame.work
-            + sweep.rays
+            + sweep.rays * lidar::RAY_WORK
             + sweep.draws
             + (WIDTH * HEIGHT) as u64
             + sweep.points.len() as u64;

@@ -154,7 +154,7 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
         5 => vec![
             lin("ego_speed", 10.0, 25.0),
             lin("intruder_speed", 6.0, 20.0),
-            lin("gap", 2.0, 12.0),
+            lin("gap", 2.0, 8.0),
             lin("cut_in_time", 0.5, 4.0),
         ],
         6 => vec![
