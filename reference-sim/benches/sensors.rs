@@ -4,32 +4,28 @@
 //!
 //! `cargo bench -p savme-sim --bench sensors`
 use criterion::{criterion_group, criterion_main, Criterion};
-use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use parry3d::query::{Ray, RayCast};
 use parry3d::shape::{Compound, SharedShape};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use savme_sim::camera::{render, CameraPose};
+use savme_sim::camera::{reference_shot, render};
 use savme_sim::lidar::{scan, AZIMUTH_STEP_DEG, ELEVATIONS_DEG, HALF_FOV_DEG, MAX_RANGE};
 use savme_sim::scene::Scene;
 use savme_sim::settings::Settings;
-use savme_sim::vehicle::{self, VehicleState};
-use savme_sim::world::{Layout, ObjectShape, World};
+use savme_sim::vehicle;
+use savme_sim::world::ObjectShape;
 use std::hint::black_box;
 use std::time::Duration;
 
 fn bench(c: &mut Criterion) {
-    let world = World::shared(Layout::Intersection);
-    let intruder = [VehicleState::from_center(Point2::new(-1.0, 6.0), -1.2, 6.0)];
+    // Scenario 3-like: the ego approaching the intersection, an oncoming intruder turning left.
+    let (world, intruder, pose) = reference_shot();
     let scene = Scene {
         world,
         vehicles: &intruder,
     };
-    let heading = std::f32::consts::FRAC_PI_2;
-    let pose = CameraPose {
-        eye: Point3::new(1.75, -18.0, 1.3),
-        heading,
-    };
+    let heading = pose.heading;
     let origin = Point3::new(1.75, -18.7, 1.9);
     let hf = Settings::hf();
     let mut rng = Pcg64::seed_from_u64(1);

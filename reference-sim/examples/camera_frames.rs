@@ -2,14 +2,11 @@
 //! PNG (like the paper's camera figure), plus the lidar sweep as a top view.
 //!
 //! `cargo run --release -p savme-sim --example camera_frames -- [OUT_DIR]`  (default: docs)
-use nalgebra::{Point2, Point3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use savme_sim::camera::{render, CameraPose, Image, HEIGHT, WIDTH};
+use savme_sim::camera::{reference_shot, render, Image, HEIGHT, WIDTH};
 use savme_sim::scene::Scene;
 use savme_sim::settings::{BloomLevel, Settings};
-use savme_sim::vehicle::VehicleState;
-use savme_sim::world::{Layout, World};
 use std::path::Path;
 
 fn save(img: &Image, path: &Path, scale: usize) -> Result<(), Box<dyn std::error::Error>> {
@@ -32,16 +29,11 @@ fn save(img: &Image, path: &Path, scale: usize) -> Result<(), Box<dyn std::error
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "docs".into());
-    let world = World::shared(Layout::Intersection);
     // Scenario 3-like: the ego approaching the intersection, an oncoming intruder turning left.
-    let intruder = [VehicleState::from_center(Point2::new(-1.0, 6.0), -1.2, 6.0)];
+    let (world, intruder, pose) = reference_shot();
     let scene = Scene {
         world,
         vehicles: &intruder,
-    };
-    let pose = CameraPose {
-        eye: Point3::new(1.75, -18.0, 1.3),
-        heading: std::f32::consts::FRAC_PI_2,
     };
     let hf = Settings::hf();
     // The cheap setting the paper learned for C_budget = 0.3 (Table IV), camera part.

@@ -114,6 +114,27 @@ impl Yaw {
     }
 }
 
+/// The reference shot of `docs/camera_*.png`, the camera tests and the sensor benchmarks: the
+/// ego 18 m before the intersection looking north, the oncoming intruder turning left in front.
+/// Returns the world, the intruder and the camera pose.
+pub fn reference_shot() -> (
+    &'static crate::world::World,
+    [crate::vehicle::VehicleState; 1],
+    CameraPose,
+) {
+    let world = crate::world::World::shared(Layout::Intersection);
+    let intruder = [crate::vehicle::VehicleState::from_center(
+        nalgebra::Point2::new(-1.0, 6.0),
+        -1.2,
+        6.0,
+    )];
+    let pose = CameraPose {
+        eye: Point3::new(1.75, -18.0, 1.3),
+        heading: std::f32::consts::FRAC_PI_2,
+    };
+    (world, intruder, pose)
+}
+
 /// Pinhole projection of a camera-frame point to pixel coordinates (None behind the camera).
 pub fn project_pinhole(p: Vector3<f32>) -> Option<(f32, f32)> {
     (p.x > 1e-3).then(|| {

@@ -1,28 +1,20 @@
 //! Every camera fidelity setting changes both the work done and the image; the perception finds
 //! the intruder; sensor frames are kept only when asked for.
-use nalgebra::{Point2, Point3};
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
 use savme_kernel::{paper, Assignment};
-use savme_sim::camera::{render, CameraPose, Frame};
+use savme_sim::camera::{reference_shot, render, Frame};
 use savme_sim::perception::{detect, paint_mask};
 use savme_sim::scene::Scene;
 use savme_sim::settings::{BloomLevel, Settings};
 use savme_sim::sim::DrivingSimulator;
-use savme_sim::vehicle::VehicleState;
-use savme_sim::world::{Layout, World};
 
 fn frame(settings: &Settings) -> Frame {
-    let world = World::shared(Layout::Intersection);
     // The oncoming intruder turning left, 24 m ahead and to the left of the image centre.
-    let intruder = [VehicleState::from_center(Point2::new(-1.0, 6.0), -1.2, 6.0)];
+    let (world, intruder, pose) = reference_shot();
     let scene = Scene {
         world,
         vehicles: &intruder,
-    };
-    let pose = CameraPose {
-        eye: Point3::new(1.75, -18.0, 1.3),
-        heading: std::f32::consts::FRAC_PI_2,
     };
     render(&scene, &pose, settings, &mut Pcg64::seed_from_u64(2))
 }
