@@ -24,29 +24,18 @@ fn bench(c: &mut Criterion) {
     let ideal = DrivingSimulator::ideal();
     let hf = paper::theta_hf();
     let mut g = c.benchmark_group("hf_run");
-    for info in &SCENARIOS {
-        let phis = phis(info);
-        let mut i = 0;
-        g.bench_function(format!("{:02}_{}", info.id, info.name), |b| {
-            b.iter(|| {
-                i = (i + 1) % phis.len();
-                black_box(sim.run(info.name, &phis[i], &hf, false).expect("valid run"))
-            })
-        });
-    }
-    for info in &SCENARIOS {
-        let phis = phis(info);
-        let mut i = 0;
-        g.bench_function(format!("ideal_{:02}_{}", info.id, info.name), |b| {
-            b.iter(|| {
-                i = (i + 1) % phis.len();
-                black_box(
-                    ideal
-                        .run(info.name, &phis[i], &hf, false)
-                        .expect("valid run"),
-                )
-            })
-        });
+    for (prefix, simulator) in [("", &sim), ("ideal_", &ideal)] {
+        for info in &SCENARIOS {
+            let phis = phis(info);
+            let mut i = 0;
+            g.bench_function(format!("{prefix}{:02}_{}", info.id, info.name), |b| {
+                b.iter(|| {
+                    i = (i + 1) % phis.len();
+                    let run = simulator.run(info.name, &phis[i], &hf, false);
+                    black_box(run.expect("valid run"))
+                })
+            });
+        }
     }
     g.finish();
 

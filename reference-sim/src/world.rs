@@ -347,25 +347,10 @@ impl World {
     /// The nearest hit of a ray (unit direction) against the scenery and the ground (z = 0)
     /// within `max` metres.
     pub fn cast_ray(&self, origin: Point3<f32>, dir: Vector3<f32>, max: f32) -> Option<Hit> {
-        let ray = Ray::new(origin, dir);
-        let ground = (dir.z < -1e-6)
-            .then(|| -origin.z / dir.z)
-            .filter(|&t| t >= 0.0 && t < max);
-        let limit = ground.unwrap_or(max);
-        let scenery = self.bvh.cast_ray(&ray, limit, |i, best| {
-            self.objects[i as usize].cast(&ray, best)
-        });
-        match (scenery, ground) {
-            (Some((i, t)), _) if t < limit => Some(Hit {
-                distance: t,
-                object: Some(i as usize),
-            }),
-            (_, Some(t)) => Some(Hit {
-                distance: t,
-                object: None,
-            }),
-            _ => None,
-        }
+        self.cast_ray_normal(origin, dir, max, None).map(|h| Hit {
+            distance: h.distance,
+            object: h.object,
+        })
     }
 }
 
