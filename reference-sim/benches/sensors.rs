@@ -36,9 +36,9 @@ fn bench(c: &mut Criterion) {
     let mut parts: Vec<(Isometry3<f32>, SharedShape)> = world
         .objects()
         .iter()
-        .map(|o| match o.shape {
-            ObjectShape::Box(h) => (o.pose, SharedShape::cuboid(h.x, h.y, h.z)),
-            ObjectShape::Cylinder(hh, r) => (o.pose, SharedShape::cylinder(hh, r)),
+        .map(|o| {
+            let ObjectShape::Box(h) = o.shape;
+            (o.pose, SharedShape::cuboid(h.x, h.y, h.z))
         })
         .collect();
     let b = vehicle::body().half_extents;

@@ -24,6 +24,9 @@ pub const DOF_SAMPLES: usize = 3;
 pub const APERTURE: f32 = 0.04;
 /// Focus distance, metres.
 pub const FOCUS: f32 = 20.0;
+/// The acceptable circle of confusion, pixels: surfaces whose aperture parallax stays below it
+/// are in focus (the photographic definition of the depth of field) and are sampled once.
+pub const ACCEPTABLE_COC: f32 = 0.25;
 /// Per-channel noise with shot noise, standard deviation.
 pub const NOISE: f32 = 0.03;
 /// Direction towards the sun (unit length).
@@ -36,7 +39,7 @@ pub fn sun() -> Vector3<f32> {
 pub const INTRUDER_PAINT: [f32; 3] = [0.9, 0.42, 0.08];
 
 /// An RGB image, row-major, values in [0, 1] (bloom may exceed 1 before clamping).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Image {
     /// Pixels, `WIDTH * HEIGHT`, row-major from the top left.
     pub pixels: Vec<[f32; 3]>,
@@ -159,17 +162,14 @@ pub fn project_lens(p: Vector3<f32>) -> Option<(f32, f32)> {
     ))
 }
 
-/// What covers a pixel.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Cover {
-    Sky,
-    Ground,
-    Solid {
-        albedo: [f32; 3],
-        normal: Vector3<f32>,
-    },
-}
+/// What covers a pixel: the index of a face, or one of these two markers.
+type Cover = u32;
+/// Nothing: the sky.
+const SKY: Cover = u32::MAX;
+/// The ground plane.
+const GROUND: Cover = u32::MAX - 1;
 
+#[derive(Debug, Default)]
 struct Buffers {
     depth: Vec<f32>,
     cover: Vec<Cover>,
@@ -177,7 +177,7 @@ struct Buffers {
 
 /// A polygon of an object with its albedo.
 struct Face {
-    corners: Vec<Point3<f32>>,
+    corners: [Point3<f32>; 4],
     normal: Vector3<f32>,
     albedo: [f32; 3],
 }
@@ -205,28 +205,16 @@ fn kind_albedo(kind: ObjectKind, i: usize) -> [f32; 3] {
     }
 }
 
-/// The faces of a box or an 8-sided prism.
+/// The faces of a box (its four sides and its top; the bottom is never seen).
 fn faces(shape: ObjectShape, pose: &Isometry3<f32>, albedo: [f32; 3], out: &mut Vec<Face>) {
-    let (ring, hh): (Vec<(f32, f32)>, f32) = match shape {
-        ObjectShape::Box(h) => (
-            vec![(h.x, h.y), (-h.x, h.y), (-h.x, -h.y), (h.x, -h.y)],
-            h.z,
-        ),
-        ObjectShape::Cylinder(hh, r) => (
-            (0..8)
-                .map(|k| {
-                    let a = k as f32 * std::f32::consts::FRAC_PI_4;
-                    (r * a.cos(), r * a.sin())
-                })
-                .collect(),
-            hh,
-        ),
-    };
+    let ObjectShape::Box(h) = shape;
+    let ring = [(h.x, h.y), (-h.x, h.y), (-h.x, -h.y), (h.x, -h.y)];
+    let hh = h.z;
     let at = |x: f32, y: f32, z: f32| pose * Point3::new(x, y, z);
     let n = ring.len();
     for k in 0..n {
         let (a, b) = (ring[k], ring[(k + 1) % n]);
-        let corners = vec![
+        let corners = [
             at(a.0, a.1, -hh),
             at(b.0, b.1, -hh),
             at(b.0, b.1, hh),
@@ -240,7 +228,7 @@ fn faces(shape: ObjectShape, pose: &Isometry3<f32>, albedo: [f32; 3], out: &mut 
             albedo,
         });
     }
-    let top: Vec<Point3<f32>> = ring.iter().map(|&(x, y)| at(x, y, hh)).collect();
+    let top = ring.map(|(x, y)| at(x, y, hh));
     out.push(Face {
         corners: top,
         normal: pose.rotation * Vector3::z(),
@@ -295,95 +283,75 @@ fn pixel_dir(u: f32, v: f32) -> Vector3<f32> {
     )
 }
 
-/// Rasterises the scene from `pose` into depth and cover buffers.
+/// Rasterises the scene from `pose` into the depth and cover buffers `b`.
 fn rasterise(
+    b: &mut Buffers,
     faces: &[Face],
     pose: &CameraPose,
     near: f32,
     far: f32,
-    shift: (f32, f32),
     work: &mut u64,
-) -> Buffers {
-    let mut b = Buffers {
-        depth: vec![f32::INFINITY; WIDTH * HEIGHT],
-        cover: vec![Cover::Sky; WIDTH * HEIGHT],
-    };
-    // Aperture shift: the eye moves by `shift` (camera y, z) and the image is sheared so that
-    // points at the focus distance stay put.
-    let (sy, sz) = shift;
-    let eye_h = pose.eye.z + sz;
+) {
+    b.depth.clear();
+    b.depth.resize(WIDTH * HEIGHT, f32::INFINITY);
+    b.cover.clear();
+    b.cover.resize(WIDTH * HEIGHT, SKY);
+    // The ground plane: a pixel row below the horizon sees the ground at one forward depth.
+    let eye_h = pose.eye.z;
     for v in 0..HEIGHT {
-        for u in 0..WIDTH {
-            let d = pixel_dir(u as f32 + 0.5, v as f32 + 0.5);
-            // Ray from the shifted eye through the focus-plane point of this pixel.
-            let dir = Vector3::new(d.x, d.y - sy / FOCUS, d.z - sz / FOCUS);
-            if dir.z < -1e-4 {
-                let t = eye_h / -dir.z; // along x (forward) units
-                if t >= near && t <= far {
-                    let i = v * WIDTH + u;
-                    b.depth[i] = t;
-                    b.cover[i] = Cover::Ground;
-                }
+        let dz = pixel_dir(0.5, v as f32 + 0.5).z;
+        if dz < -1e-4 {
+            let t = eye_h / -dz; // along x (forward) units
+            if t >= near && t <= far {
+                let row = v * WIDTH..(v + 1) * WIDTH;
+                b.depth[row.clone()].fill(t);
+                b.cover[row].fill(GROUND);
             }
         }
     }
     *work += (WIDTH * HEIGHT) as u64;
     let yaw = pose.rotation();
-    let shift_v = Vector3::new(0.0, sy, sz);
-    for f in faces {
-        // Camera-frame corners (relative to the shifted eye).
-        let cam: Vec<Vector3<f32>> = f
-            .corners
-            .iter()
-            .map(|&p| yaw.to_camera(p - pose.eye) - shift_v)
-            .collect();
+    for (index, f) in faces.iter().enumerate() {
+        // Back-face culling.
+        let n_cam = yaw.to_camera(f.normal);
+        let cam = f.corners.map(|p| yaw.to_camera(p - pose.eye));
+        if n_cam.dot(&-cam[0]) <= 0.0 {
+            continue;
+        }
         if cam.iter().all(|c| c.x < near) || cam.iter().all(|c| c.x > far) {
             continue;
         }
-        // Back-face culling.
-        let to_eye = -pose.to_camera(f.corners[0]) + Vector3::new(0.0, sy, sz);
-        let n_cam = {
-            let (s, c) = pose.heading.sin_cos();
-            Vector3::new(
-                c * f.normal.x + s * f.normal.y,
-                -s * f.normal.x + c * f.normal.y,
-                f.normal.z,
-            )
-        };
-        if n_cam.dot(&to_eye) <= 0.0 {
-            continue;
-        }
-        // Clip the polygon against the near plane.
-        let mut poly = Vec::with_capacity(cam.len() + 2);
+        // Clip the polygon against the near plane (a quad gains at most one corner).
+        let mut poly = [Vector3::zeros(); 5];
+        let mut len = 0;
         for k in 0..cam.len() {
             let (a, c) = (cam[k], cam[(k + 1) % cam.len()]);
             if a.x >= near {
-                poly.push(a);
+                poly[len] = a;
+                len += 1;
             }
             if (a.x >= near) != (c.x >= near) {
                 let t = (near - a.x) / (c.x - a.x);
-                poly.push(a + (c - a) * t);
+                poly[len] = a + (c - a) * t;
+                len += 1;
             }
         }
-        if poly.len() < 3 {
+        if len < 3 {
             continue;
         }
-        let proj: Vec<(f32, f32, f32)> = poly
-            .iter()
-            .map(|p| {
-                let x = p.x;
-                (
-                    WIDTH as f32 / 2.0 - FOCAL * (p.y / x + sy / FOCUS),
-                    HEIGHT as f32 / 2.0 - FOCAL * (p.z / x + sz / FOCUS),
-                    1.0 / x,
-                )
-            })
-            .collect();
+        let proj = poly.map(|p| {
+            let x = p.x;
+            (
+                WIDTH as f32 / 2.0 - FOCAL * p.y / x,
+                HEIGHT as f32 / 2.0 - FOCAL * p.z / x,
+                1.0 / x,
+            )
+        });
+        let proj = &proj[..len];
         for k in 1..proj.len() - 1 {
-            tri(&mut b, proj[0], proj[k], proj[k + 1], far, f, work);
+            tri(b, proj[0], proj[k], proj[k + 1], far, index as Cover, work);
         }
     }
-    b
 }
 
 fn tri(
@@ -392,7 +360,7 @@ fn tri(
     p1: (f32, f32, f32),
     p2: (f32, f32, f32),
     far: f32,
-    face: &Face,
+    cover: Cover,
     work: &mut u64,
 ) {
     let area = (p1.0 - p0.0) * (p2.1 - p0.1) - (p2.0 - p0.0) * (p1.1 - p0.1);
@@ -417,17 +385,31 @@ fn tri(
     };
     let (a0, b0, c0) = edge(p1, p2);
     let (a1, b1, c1) = edge(p2, p0);
-    let cover = Cover::Solid {
-        albedo: face.albedo,
-        normal: face.normal,
-    };
+    let (a2, b2, c2) = (-(a0 + a1), -(b0 + b1), 1.0 - c0 - c1);
     for v in min_v..max_v {
         let y = v as f32 + 0.5;
-        let x0 = min_u as f32 + 0.5;
-        let mut w0 = a0 * x0 + b0 * y + c0;
-        let mut w1 = a1 * x0 + b1 * y + c1;
+        // The span of this row where all three weights can be non-negative (each weight is
+        // affine in x), widened by a pixel against rounding; the exact test below decides.
+        let (mut lo, mut hi) = (min_u as f32 + 0.5, max_u as f32 - 0.5);
+        for (a, k) in [(a0, b0 * y + c0), (a1, b1 * y + c1), (a2, b2 * y + c2)] {
+            if a > 1e-12 {
+                lo = lo.max(-k / a);
+            } else if a < -1e-12 {
+                hi = hi.min(-k / a);
+            } else if k < -1e-6 {
+                hi = lo - 1.0;
+            }
+        }
+        if hi < lo {
+            continue;
+        }
+        let start = ((lo - 1.5).floor().max(min_u as f32) as usize).max(min_u);
+        let end = ((hi + 1.5).ceil().max(0.0) as usize).min(max_u);
         let row = v * WIDTH;
-        for u in min_u..max_u {
+        for u in start..end {
+            let x = u as f32 + 0.5;
+            let w0 = a0 * x + b0 * y + c0;
+            let w1 = a1 * x + b1 * y + c1;
             let w2 = 1.0 - w0 - w1;
             if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
                 *work += 1;
@@ -438,8 +420,6 @@ fn tri(
                     b.cover[i] = cover;
                 }
             }
-            w0 += a0;
-            w1 += a1;
         }
     }
 }
@@ -451,6 +431,8 @@ struct ShadowMap {
     centre: Point3<f32>,
     u: Vector3<f32>,
     v: Vector3<f32>,
+    /// Texels per metre.
+    scale: f32,
     depth: Vec<f32>,
 }
 
@@ -510,6 +492,7 @@ impl ShadowMap {
             centre,
             u,
             v,
+            scale,
             depth,
         }
     }
@@ -518,9 +501,8 @@ impl ShadowMap {
     #[inline]
     fn shadowed(&self, p: Point3<f32>, sun: &Vector3<f32>) -> bool {
         let d = p - self.centre;
-        let scale = self.size as f32 / (2.0 * self.half);
-        let x = (d.dot(&self.u) + self.half) * scale;
-        let y = (d.dot(&self.v) + self.half) * scale;
+        let x = (d.dot(&self.u) + self.half) * self.scale;
+        let y = (d.dot(&self.v) + self.half) * self.scale;
         let size = self.size as f32;
         if !(x >= 0.0 && y >= 0.0 && x < size && y < size) {
             return false;
@@ -530,72 +512,101 @@ impl ShadowMap {
     }
 }
 
-/// Renders one frame.
+/// Renders one frame (with fresh buffers; [`Camera`] reuses them across frames).
 pub fn render<R: Rng + ?Sized>(
     scene: &Scene,
     pose: &CameraPose,
     settings: &Settings,
     rng: &mut R,
 ) -> Frame {
-    let mut work = 0u64;
-    let far = settings.view_distance as f32;
-    let near = settings.camera_near_clip as f32;
-    // Faces of everything within the view distance (plus a margin for big buildings).
-    let mut list = Vec::new();
-    let mut objects = Vec::new();
-    for (i, o) in scene.world.objects().iter().enumerate() {
-        let c = pose.to_camera(Point3::from(o.pose.translation.vector));
-        if c.x > -15.0 && c.x < far + 15.0 && c.norm() < far + 20.0 {
+    let mut image = Image::new([0.0; 3]);
+    let work = Camera::default().render_into(scene, pose, settings, rng, &mut image);
+    Frame { image, work }
+}
+
+/// A camera with reusable buffers: after the first frame, rendering allocates nothing large.
+#[derive(Debug, Default)]
+pub struct Camera {
+    buffers: Buffers,
+    spare: Vec<[f32; 3]>,
+    glow: [Vec<[f32; 3]>; 2],
+}
+
+impl Camera {
+    /// Renders one frame into `image` and returns the work it took (pixel operations:
+    /// fragments rasterised, pixels shaded, shadow-map texels, post-process taps, noise draws).
+    ///
+    /// ```
+    /// use rand::SeedableRng;
+    /// use savme_sim::camera::{reference_shot, Camera, Image};
+    /// use savme_sim::scene::Scene;
+    /// use savme_sim::settings::Settings;
+    ///
+    /// let (world, intruder, pose) = reference_shot();
+    /// let scene = Scene { world, vehicles: &intruder };
+    /// let mut rng = rand_pcg::Pcg64::seed_from_u64(1);
+    /// let (mut camera, mut image) = (Camera::default(), Image::default());
+    /// let work = camera.render_into(&scene, &pose, &Settings::hf(), &mut rng, &mut image);
+    /// assert!(work > 0);
+    /// assert_eq!(image.pixels.len(), savme_sim::camera::WIDTH * savme_sim::camera::HEIGHT);
+    /// ```
+    pub fn render_into<R: Rng + ?Sized>(
+        &mut self,
+        scene: &Scene,
+        pose: &CameraPose,
+        settings: &Settings,
+        rng: &mut R,
+        image: &mut Image,
+    ) -> u64 {
+        let mut work = 0u64;
+        let far = settings.view_distance as f32;
+        let near = settings.camera_near_clip as f32;
+        // Faces of everything within the view distance (plus a margin for big buildings).
+        let mut list = Vec::new();
+        let mut objects = Vec::new();
+        for (i, o) in scene.world.objects().iter().enumerate() {
+            let c = pose.to_camera(Point3::from(o.pose.translation.vector));
+            if c.x > -15.0 && c.x < far + 15.0 && c.norm() < far + 20.0 {
+                let first = list.len();
+                faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
+                objects.push(first..list.len());
+            }
+        }
+        for v in scene.vehicles {
+            let h = crate::vehicle::body().half_extents;
             let first = list.len();
-            faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
+            faces(ObjectShape::Box(h), &v.pose(), INTRUDER_PAINT, &mut list);
             objects.push(first..list.len());
         }
-    }
-    for v in scene.vehicles {
-        let h = crate::vehicle::body().half_extents;
-        let first = list.len();
-        faces(ObjectShape::Box(h), &v.pose(), INTRUDER_PAINT, &mut list);
-        objects.push(first..list.len());
-    }
-    work += list.len() as u64;
-    let shadows =
-        (!settings.disable_shadows).then(|| ShadowMap::build(&objects, &list, pose.eye, &mut work));
-    let samples: Vec<(f32, f32)> = if settings.disable_depth_of_field {
-        vec![(0.0, 0.0)]
-    } else {
-        (0..DOF_SAMPLES)
-            .map(|k| {
-                let a = k as f32 * std::f32::consts::TAU / DOF_SAMPLES as f32 + 0.4;
-                (APERTURE * a.cos(), APERTURE * a.sin())
-            })
-            .collect()
-    };
-    let mut image = Image::new([0.0; 3]);
-    let weight = 1.0 / samples.len() as f32;
-    let yaw = pose.rotation();
-    let sun = sun();
-    for &shift in &samples {
-        let b = rasterise(&list, pose, near, far, shift, &mut work);
+        work += list.len() as u64;
+        let shadows = (!settings.disable_shadows)
+            .then(|| ShadowMap::build(&objects, &list, pose.eye, &mut work));
+        let b = &mut self.buffers;
+        rasterise(b, &list, pose, near, far, &mut work);
+        image.pixels.resize(WIDTH * HEIGHT, [0.0; 3]);
+        let yaw = pose.rotation();
+        let sun = sun();
+        let layout = scene.world.layout();
         for v in 0..HEIGHT {
+            // Sky colour of this row.
+            let t = (HEIGHT - v) as f32 / HEIGHT as f32;
+            let sky = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
             for u in 0..WIDTH {
                 let i = v * WIDTH + u;
                 work += 1;
-                let d = yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5));
-                let point = pose.eye + d * b.depth[i];
-                let (albedo, normal) = match b.cover[i] {
-                    Cover::Sky => {
-                        let t = (HEIGHT - v) as f32 / HEIGHT as f32;
-                        let c = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
-                        for (k, ch) in c.iter().enumerate() {
-                            image.pixels[i][k] += weight * ch;
-                        }
-                        continue;
+                let cover = b.cover[i];
+                if cover == SKY {
+                    image.pixels[i] = sky;
+                    continue;
+                }
+                let point =
+                    pose.eye + yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5)) * b.depth[i];
+                let (albedo, normal) = match cover {
+                    GROUND => (ground_colour(layout, point.x, point.y), Vector3::z()),
+                    face => {
+                        let f = &list[face as usize];
+                        (f.albedo, f.normal)
                     }
-                    Cover::Ground => (
-                        ground_colour(scene.world.layout(), point.x, point.y),
-                        Vector3::z(),
-                    ),
-                    Cover::Solid { albedo, normal } => (albedo, normal),
                 };
                 let mut light = if settings.disable_lighting {
                     1.0
@@ -609,43 +620,86 @@ pub fn render<R: Rng + ?Sized>(
                         light *= 0.45;
                     }
                 }
-                for (px, a) in image.pixels[i].iter_mut().zip(albedo) {
-                    *px += weight * a * light;
+                image.pixels[i] = albedo.map(|a| a * light);
+            }
+        }
+        if !settings.disable_depth_of_field {
+            depth_of_field(&image.pixels, &b.depth, &mut self.spare, &mut work);
+            std::mem::swap(&mut image.pixels, &mut self.spare);
+        }
+        if !settings.disable_lens_model {
+            distort(&image.pixels, &mut self.spare, &mut work);
+            std::mem::swap(&mut image.pixels, &mut self.spare);
+        }
+        if !settings.disable_bloom {
+            bloom(image, settings.bloom_level, &mut self.glow, &mut work);
+        }
+        if !settings.camera_disable_shot_noise {
+            // Photon noise: one draw per pixel, growing with the square root of its brightness.
+            let n = Normal::new(0.0f32, NOISE).expect("valid noise");
+            for p in &mut image.pixels {
+                let z = n.sample(rng);
+                for c in p.iter_mut() {
+                    *c += z * (0.25 + c.max(0.0)).sqrt();
                 }
+                work += 1;
             }
         }
-    }
-    if !settings.disable_lens_model {
-        image = distort(&image, &mut work);
-    }
-    if !settings.disable_bloom {
-        bloom(&mut image, settings.bloom_level, &mut work);
-    }
-    if !settings.camera_disable_shot_noise {
-        // Photon noise: one draw per pixel, growing with the square root of its brightness.
-        let n = Normal::new(0.0f32, NOISE).expect("valid noise");
         for p in &mut image.pixels {
-            let z = n.sample(rng);
             for c in p.iter_mut() {
-                *c += z * (0.25 + c.max(0.0)).sqrt();
+                *c = c.clamp(0.0, 1.0);
             }
-            work += 1;
+        }
+        work
+    }
+}
+
+/// A bilinear tap: the top-left pixel index of the 2×2 block around it and the weights.
+#[derive(Debug, Clone, Copy)]
+struct Tap {
+    index: usize,
+    fu: f32,
+    fv: f32,
+}
+
+impl Tap {
+    /// The tap at pixel coordinates (u, v) (pixel centres at integers), clamped to the image.
+    #[inline]
+    fn at(u: f32, v: f32) -> Tap {
+        let u = u.clamp(0.0, (WIDTH - 1) as f32);
+        let v = v.clamp(0.0, (HEIGHT - 1) as f32);
+        // The 2×2 block always lies inside the image: at the last column or row the weight of
+        // the block's far side is 1.
+        let u0 = (u as i32).min(WIDTH as i32 - 2);
+        let v0 = (v as i32).min(HEIGHT as i32 - 2);
+        Tap {
+            index: v0 as usize * WIDTH + u0 as usize,
+            fu: u - u0 as f32,
+            fv: v - v0 as f32,
         }
     }
-    for p in &mut image.pixels {
-        for c in p.iter_mut() {
-            *c = c.clamp(0.0, 1.0);
+
+    #[inline]
+    fn read(self, img: &[[f32; 3]]) -> [f32; 3] {
+        let i = self.index;
+        let (a, b) = (img[i], img[i + 1]);
+        let (c, d) = (img[i + WIDTH], img[i + WIDTH + 1]);
+        let mut out = [0.0; 3];
+        for k in 0..3 {
+            let top = a[k] + (b[k] - a[k]) * self.fu;
+            let bottom = c[k] + (d[k] - c[k]) * self.fu;
+            out[k] = top + (bottom - top) * self.fv;
         }
+        out
     }
-    Frame { image, work }
 }
 
 /// Applies the barrel distortion of the lens: every output pixel samples the pinhole image
 /// where the lens maps it from.
-fn distort(src: &Image, work: &mut u64) -> Image {
+fn distort(src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64) {
     // Where each output pixel samples the pinhole image: distorted normalised coordinates
     // undistorted by fixed-point iteration, computed once.
-    static MAP: std::sync::OnceLock<Vec<(f32, f32)>> = std::sync::OnceLock::new();
+    static MAP: std::sync::OnceLock<Vec<Tap>> = std::sync::OnceLock::new();
     let map = MAP.get_or_init(|| {
         (0..WIDTH * HEIGHT)
             .map(|i| {
@@ -658,7 +712,7 @@ fn distort(src: &Image, work: &mut u64) -> Image {
                     x = xd / s;
                     y = yd / s;
                 }
-                (
+                Tap::at(
                     WIDTH as f32 / 2.0 + FOCAL * x - 0.5,
                     HEIGHT as f32 / 2.0 + FOCAL * y - 0.5,
                 )
@@ -666,37 +720,61 @@ fn distort(src: &Image, work: &mut u64) -> Image {
             .collect()
     });
     *work += map.len() as u64;
-    Image {
-        pixels: map.iter().map(|&(su, sv)| sample(src, su, sv)).collect(),
-    }
+    out.clear();
+    out.extend(map.iter().map(|t| t.read(src)));
 }
 
-fn sample(img: &Image, u: f32, v: f32) -> [f32; 3] {
-    let u = u.clamp(0.0, (WIDTH - 1) as f32);
-    let v = v.clamp(0.0, (HEIGHT - 1) as f32);
-    let (u0, v0) = (u.floor() as usize, v.floor() as usize);
-    let (u1, v1) = ((u0 + 1).min(WIDTH - 1), (v0 + 1).min(HEIGHT - 1));
-    let (fu, fv) = (u - u0 as f32, v - v0 as f32);
-    let p = |a: usize, b: usize| img.pixels[b * WIDTH + a];
-    let mut out = [0.0; 3];
-    for (k, o) in out.iter_mut().enumerate() {
-        let top = p(u0, v0)[k] * (1.0 - fu) + p(u1, v0)[k] * fu;
-        let bottom = p(u0, v1)[k] * (1.0 - fu) + p(u1, v1)[k] * fu;
-        *o = top * (1.0 - fv) + bottom * fv;
+/// Depth of field with a thin lens of radius [`APERTURE`] focused at [`FOCUS`]: each pixel
+/// averages [`DOF_SAMPLES`] samples of the sharp image, one per aperture point, each displaced
+/// by the parallax that aperture point gives a surface at the pixel's depth
+/// (`FOCAL · a · (1/depth − 1/FOCUS)` pixels, zero in the focal plane). This is the gather form
+/// of rendering the scene once per aperture point, as real-time engines do it. Pixels whose
+/// parallax is below [`ACCEPTABLE_COC`] are in focus and copied.
+fn depth_of_field(src: &[[f32; 3]], depth: &[f32], out: &mut Vec<[f32; 3]>, work: &mut u64) {
+    let offsets: [(f32, f32); DOF_SAMPLES] = std::array::from_fn(|k| {
+        let a = k as f32 * std::f32::consts::TAU / DOF_SAMPLES as f32 + 0.4;
+        (FOCAL * APERTURE * a.cos(), FOCAL * APERTURE * a.sin())
+    });
+    out.clear();
+    out.resize(src.len(), [0.0; 3]);
+    let third = 1.0 / DOF_SAMPLES as f32;
+    for (v, (row_depth, row_out)) in depth
+        .chunks_exact(WIDTH)
+        .zip(out.chunks_exact_mut(WIDTH))
+        .enumerate()
+    {
+        for (u, (&z, o)) in row_depth.iter().zip(row_out).enumerate() {
+            let blur = 1.0 / z - 1.0 / FOCUS;
+            if blur.abs() * FOCAL * APERTURE < ACCEPTABLE_COC {
+                *o = src[v * WIDTH + u];
+                continue;
+            }
+            *work += DOF_SAMPLES as u64;
+            let mut acc = [0.0f32; 3];
+            for (du, dv) in offsets {
+                let p = Tap::at(u as f32 + du * blur, v as f32 + dv * blur).read(src);
+                for k in 0..3 {
+                    acc[k] += p[k];
+                }
+            }
+            *o = acc.map(|a| a * third);
+        }
     }
-    out
+    *work += depth.len() as u64;
 }
 
 /// Bloom: bright pixels glow into their neighbours. The glow pass is a box blur of the bright
 /// pass (running sums, separable): at full resolution with a 9-pixel box for the high level, at
 /// half resolution with a 5-pixel box for the low one.
-fn bloom(img: &mut Image, level: BloomLevel, work: &mut u64) {
+fn bloom(img: &mut Image, level: BloomLevel, buffers: &mut [Vec<[f32; 3]>; 2], work: &mut u64) {
     let (scale, radius) = match level {
         BloomLevel::High => (1, 4),
         BloomLevel::Low => (2, 2),
     };
     let (w, h) = (WIDTH / scale, HEIGHT / scale);
-    let mut bright = vec![[0.0f32; 3]; w * h];
+    let [bright, across] = buffers;
+    bright.clear();
+    bright.resize(w * h, [0.0; 3]);
     for y in 0..h {
         for x in 0..w {
             let mut acc = [0.0f32; 3];
@@ -715,41 +793,48 @@ fn bloom(img: &mut Image, level: BloomLevel, work: &mut u64) {
         }
     }
     *work += (WIDTH * HEIGHT) as u64;
-    let pass = |src: &[[f32; 3]], horizontal: bool, work: &mut u64| -> Vec<[f32; 3]> {
-        let mut out = vec![[0.0f32; 3]; src.len()];
-        let (lines, len) = if horizontal { (h, w) } else { (w, h) };
-        let at = |line: usize, k: usize| {
-            if horizontal {
-                line * w + k
-            } else {
-                k * w + line
-            }
+    // One running-sum box pass over `lines` lines of `len` texels, `stride` apart within a line
+    // and `step` apart between lines.
+    let norm = 1.0 / (2 * radius + 1) as f32;
+    let pass = |src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, horizontal: bool, work: &mut u64| {
+        out.clear();
+        out.resize(src.len(), [0.0; 3]);
+        let (lines, len, stride, step) = if horizontal {
+            (h, w, 1, w)
+        } else {
+            (w, h, w, 1)
         };
         for line in 0..lines {
+            let base = line * step;
+            let at = |k: usize| base + k * stride;
             let mut acc = [0.0f32; 3];
             for k in 0..radius.min(len) {
+                let p = src[at(k)];
                 for c in 0..3 {
-                    acc[c] += src[at(line, k)][c];
+                    acc[c] += p[c];
                 }
             }
             for k in 0..len {
                 if k + radius < len {
+                    let p = src[at(k + radius)];
                     for c in 0..3 {
-                        acc[c] += src[at(line, k + radius)][c];
+                        acc[c] += p[c];
                     }
                 }
                 if k > radius {
+                    let p = src[at(k - radius - 1)];
                     for c in 0..3 {
-                        acc[c] -= src[at(line, k - radius - 1)][c];
+                        acc[c] -= p[c];
                     }
                 }
-                out[at(line, k)] = acc.map(|a| a / (2 * radius + 1) as f32);
-                *work += 1;
+                out[at(k)] = acc.map(|a| a * norm);
             }
         }
-        out
+        *work += src.len() as u64;
     };
-    let glow = pass(&pass(&bright, true, work), false, work);
+    pass(bright, across, true, work);
+    pass(across, bright, false, work);
+    let glow = bright;
     for (i, p) in img.pixels.iter_mut().enumerate() {
         let g = glow[(i / WIDTH / scale) * w + (i % WIDTH) / scale];
         for c in 0..3 {

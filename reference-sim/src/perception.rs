@@ -152,6 +152,8 @@ pub struct SensorPerception {
     settings: Settings,
     rng: Pcg64,
     work: u64,
+    camera: camera::Camera,
+    image: camera::Image,
     /// Frames kept when recording (see [`SensorPerception::recording`]).
     pub frames: Option<Vec<SensorFrame>>,
 }
@@ -164,6 +166,8 @@ impl SensorPerception {
             settings,
             rng: Pcg64::seed_from_u64(seed),
             work: 0,
+            camera: camera::Camera::default(),
+            image: camera::Image::default(),
             frames: None,
         }
     }
@@ -191,7 +195,13 @@ impl Perception for SensorPerception {
             eye: at(1.2, 1.3),
             heading: s.ego.heading as f32,
         };
-        let frame = camera::render(&scene, &pose, &self.settings, &mut self.rng);
+        let camera_work = self.camera.render_into(
+            &scene,
+            &pose,
+            &self.settings,
+            &mut self.rng,
+            &mut self.image,
+        );
         let sweep = lidar::scan(
             &scene,
             at(0.5, 1.9),
@@ -199,7 +209,7 @@ impl Perception for SensorPerception {
             &self.settings,
             &mut self.rng,
         );
-        let mask = paint_mask(&frame.image);
+        let mask = paint_mask(&self.image);
         let detection = detect(&mask);
         let measured = detection
             .and_then(|bb| fuse(&sweep.points, &pose, &bb))
@@ -209,7 +219,7 @@ impl Perception for SensorPerception {
                 let ray: Vector2<f64> = c - eye;
                 c + ray.normalize() * CENTRE_OFFSET
             });
-        self.work += frame.work
+        self.work += camera_work
             + sweep.rays * lidar::RAY_WORK
             + sweep.draws
             + (WIDTH * HEIGHT) as u64
@@ -217,7 +227,7 @@ impl Perception for SensorPerception {
         if let Some(frames) = self.frames.as_mut() {
             frames.push(SensorFrame {
                 time: s.time,
-                image: frame.image,
+                image: self.image.clone(),
                 cloud: sweep.points,
                 detection,
                 measured,

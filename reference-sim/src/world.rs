@@ -8,7 +8,7 @@ use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector3}
 use parry3d::bounding_volume::Aabb;
 use parry3d::partitioning::{Bvh, BvhBuildStrategy};
 use parry3d::query::{Ray, RayCast};
-use parry3d::shape::{Cuboid, Cylinder, Shape};
+use parry3d::shape::{Cuboid, Shape};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::sync::OnceLock;
 
@@ -42,17 +42,16 @@ pub enum ObjectKind {
     ParkedCar,
     /// A street-light or sign pole.
     Pole,
-    /// A tree (a cylinder trunk with a crown).
+    /// A tree (trunk and crown as one square prism).
     Tree,
 }
 
-/// The shape of a scenery object.
+/// The shape of a scenery object. Every object is a box (poles and trees are square prisms:
+/// boxes are what both sensors handle exactly and fastest).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum ObjectShape {
     /// A box with these half-extents.
     Box(Vector3<f32>),
-    /// A vertical cylinder: half-height, radius.
-    Cylinder(f32, f32),
 }
 
 /// One static object.
@@ -70,7 +69,6 @@ impl SceneObject {
     fn aabb(&self) -> Aabb {
         match self.shape {
             ObjectShape::Box(h) => Cuboid::new(h).compute_aabb(&self.pose),
-            ObjectShape::Cylinder(hh, r) => Cylinder::new(hh, r).compute_aabb(&self.pose),
         }
     }
 
@@ -79,18 +77,12 @@ impl SceneObject {
             ObjectShape::Box(h) => {
                 Cuboid::new(h).cast_ray_and_get_normal(&self.pose, ray, max, true)
             }
-            ObjectShape::Cylinder(hh, r) => {
-                Cylinder::new(hh, r).cast_ray_and_get_normal(&self.pose, ray, max, true)
-            }
         }
     }
 
     fn cast(&self, ray: &Ray, max: f32) -> Option<f32> {
         match self.shape {
             ObjectShape::Box(h) => Cuboid::new(h).cast_ray(&self.pose, ray, max, true),
-            ObjectShape::Cylinder(hh, r) => {
-                Cylinder::new(hh, r).cast_ray(&self.pose, ray, max, true)
-            }
         }
     }
 }
@@ -149,7 +141,7 @@ fn building(x: f64, y: f64, w: f64, d: f64, h: f64) -> SceneObject {
 fn pole(x: f64, y: f64) -> SceneObject {
     place(
         ObjectKind::Pole,
-        ObjectShape::Cylinder(4.0, 0.12),
+        ObjectShape::Box(Vector3::new(0.11, 0.11, 4.0)),
         x,
         y,
         4.0,
@@ -160,7 +152,7 @@ fn pole(x: f64, y: f64) -> SceneObject {
 fn tree(x: f64, y: f64) -> SceneObject {
     place(
         ObjectKind::Tree,
-        ObjectShape::Cylinder(3.0, 0.9),
+        ObjectShape::Box(Vector3::new(0.8, 0.8, 3.0)),
         x,
         y,
         3.0,
