@@ -7,7 +7,9 @@
 #![warn(missing_docs)]
 
 pub use savme_kernel as kernel;
+pub mod campaign;
 pub mod cli;
+pub mod reproduce;
 pub mod serve;
 pub mod toy;
 

@@ -38,6 +38,10 @@ enum Command {
     Scenarios,
     /// List the 16 fidelity settings (the paper's Table I) with their high-fidelity values.
     Fidelity,
+    /// Reproduce the paper's protocol on the bundled simulator: baseline, meta-training per
+    /// budget, evaluation, meta-testing. Writes table.md, fidelity.md, summary.json,
+    /// trials.jsonl, breakeven.png and meta_testing.png.
+    Reproduce(ReproduceArgs),
     /// Run one simulation on the bundled driving simulator.
     Simulate {
         /// Scenario number (1–10) or name.
@@ -55,11 +59,108 @@ enum Command {
     },
 }
 
+#[derive(clap::Args)]
+struct ReproduceArgs {
+    /// Output directory (created if missing; must not hold a campaign already).
+    #[arg(long, default_value = "savme-results")]
+    out: PathBuf,
+    /// Continue the campaign in DIR after an interruption (even `kill -9`).
+    #[arg(long, value_name = "DIR", conflicts_with = "out")]
+    resume: Option<PathBuf>,
+    /// A short preset (one budget, fewer iterations) that finishes in about a minute.
+    #[arg(long)]
+    quick: bool,
+    /// Worker threads (default: one per core). Does not change the results.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Master seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Cost of a run: measured wall-clock time, or deterministic work units (reproducible).
+    #[arg(long, value_enum)]
+    cost: Option<CostArg>,
+    /// Compute budgets C_budget, comma-separated, each in (0, 1].
+    #[arg(long, value_delimiter = ',')]
+    budgets: Option<Vec<f64>>,
+    /// Meta-training iterations per budget.
+    #[arg(long)]
+    iterations: Option<u64>,
+    /// Evaluation trials per budget.
+    #[arg(long)]
+    eval_iterations: Option<u64>,
+    /// Meta-testing iterations per budget and prior.
+    #[arg(long)]
+    test_iterations: Option<u64>,
+    /// Baseline trials on the meta-training scenarios.
+    #[arg(long)]
+    baseline_iterations: Option<u64>,
+    /// Baseline trials on the meta-testing scenarios.
+    #[arg(long)]
+    baseline_test_iterations: Option<u64>,
+    /// Meta-training scenarios (numbers or names, comma-separated). Default 1–8.
+    #[arg(long, value_delimiter = ',')]
+    train_scenarios: Option<Vec<String>>,
+    /// Meta-testing scenarios. Default 9,10.
+    #[arg(long, value_delimiter = ',')]
+    test_scenarios: Option<Vec<String>>,
+    /// Perception of the system under test: camera + lidar (the paper's), or idealised
+    /// (fast, blind to the sensor settings).
+    #[arg(long, value_enum, default_value = "sensors")]
+    perception: PerceptionArg,
+    /// Trials in flight at once (changes the results slightly; the number of jobs does not).
+    #[arg(long)]
+    window: Option<usize>,
+    /// No progress bars.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum CostArg {
+    Wall,
+    Work,
+}
+
+#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
+enum PerceptionArg {
+    Sensors,
+    Ideal,
+}
+
+fn reproduce(a: ReproduceArgs) -> Result<(), String> {
+    let overrides = savme::reproduce::Overrides {
+        quick: a.quick,
+        seed: a.seed,
+        cost: a.cost.map(|c| match c {
+            CostArg::Wall => savme::campaign::Cost::Wall,
+            CostArg::Work => savme::campaign::Cost::Work,
+        }),
+        budgets: a.budgets,
+        train_iterations: a.iterations,
+        eval_iterations: a.eval_iterations,
+        test_iterations: a.test_iterations,
+        baseline_train_iterations: a.baseline_iterations,
+        baseline_test_iterations: a.baseline_test_iterations,
+        train_scenarios: a.train_scenarios,
+        test_scenarios: a.test_scenarios,
+        ideal: a.perception == PerceptionArg::Ideal,
+        window: a.window,
+    };
+    let (out, resume) = match a.resume {
+        Some(dir) => (dir, true),
+        None => (a.out, false),
+    };
+    let outcome = savme::reproduce::run(&overrides, out, resume, a.jobs, a.quiet)
+        .map_err(|e| e.to_string())?;
+    print(&savme::reproduce::summary_text(&outcome))
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Serve { config, journal } => serve(config.as_deref(), journal.as_deref()),
         Command::ExampleConfig => example_config(),
+        Command::Reproduce(args) => reproduce(args),
         Command::Scenarios => print(&savme::cli::scenarios_text()),
         Command::Fidelity => print(&savme::cli::fidelity_text()),
         Command::Simulate {

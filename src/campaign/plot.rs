@@ -1,0 +1,204 @@
+//! The campaign's figures: found failures over runtime during meta-training (break-even) and
+//! during meta-testing, drawn with plotters into PNG files.
+
+use super::log::TrialLine;
+use super::protocol::{Cost, Protocol, StageKind};
+use super::report::curve;
+use super::CampaignError;
+use plotters::prelude::*;
+use savme_kernel::metrics::FailureCurve;
+use std::path::Path;
+
+const FONT: &str = "sans-serif";
+
+/// Registers the bundled font once (plotters draws text with it; no system fonts needed).
+fn font() -> Result<(), String> {
+    static ONCE: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
+    ONCE.get_or_init(|| {
+        plotters::style::register_font(FONT, FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT)
+            .map_err(|_| "the bundled font could not be loaded".to_string())
+    })
+    .clone()
+}
+
+/// A curve with its label and colour.
+struct Series {
+    label: String,
+    colour: RGBColor,
+    curve: FailureCurve,
+}
+
+const PALETTE: [RGBColor; 6] = [
+    RGBColor(0, 114, 178),
+    RGBColor(213, 94, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(204, 121, 167),
+    RGBColor(230, 159, 0),
+    RGBColor(86, 180, 233),
+];
+
+fn lines_of<'a>(lines: &'a [TrialLine], label: &str) -> Vec<&'a TrialLine> {
+    lines.iter().filter(|l| l.stage == label).collect()
+}
+
+fn scale(cost: Cost) -> (f64, &'static str) {
+    match cost {
+        Cost::Wall => (1.0 / 60.0, "runtime (min)"),
+        Cost::Work => (1e-6, "runtime (million work units)"),
+    }
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    series: &[Series],
+    cost: Cost,
+    x_max: Option<f64>,
+) -> Result<(), String> {
+    let (k, x_desc) = scale(cost);
+    let x_end =
+        x_max.unwrap_or_else(|| series.iter().map(|s| s.curve.end()).fold(0.0, f64::max)) * k;
+    let y_end = series
+        .iter()
+        .map(|s| s.curve.failures_at(x_end / k))
+        .max()
+        .unwrap_or(0)
+        .max(1) as f64;
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, (FONT, 22))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..x_end.max(1e-9), 0.0..y_end * 1.05)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc("found failures")
+        .label_style((FONT, 14))
+        .draw()
+        .map_err(e)?;
+    for s in series {
+        let mut pts = vec![(0.0, 0.0)];
+        let mut last = 0u64;
+        for p in s.curve.points() {
+            let x = p.time * k;
+            if x > x_end {
+                break;
+            }
+            if p.failures != last {
+                // A step: the count rises when the trial completes.
+                pts.push((x, last as f64));
+                last = p.failures;
+            }
+            pts.push((x, last as f64));
+        }
+        let colour = s.colour;
+        chart
+            .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
+            .map_err(e)?
+            .label(s.label.clone())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
+
+fn save(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CampaignError> {
+    font()
+        .and_then(|()| draw(path))
+        .map_err(|message| CampaignError::Plot {
+            path: path.to_path_buf(),
+            message,
+        })
+}
+
+/// `breakeven.png`: found failures over runtime during meta-training for each budget, against
+/// the baseline (every run charged), as in the paper's break-even figure.
+pub fn breakeven(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<(), CampaignError> {
+    let mut series = vec![Series {
+        label: "baseline (φ uniform, HF only)".into(),
+        colour: RGBColor(0, 0, 0),
+        curve: curve(&lines_of(lines, StageKind::BaselineTrain.name())),
+    }];
+    for (i, b) in p.budgets.iter().enumerate() {
+        series.push(Series {
+            label: format!("SAVME meta-training, C_budget = {b}"),
+            colour: PALETTE[i % PALETTE.len()],
+            curve: curve(&lines_of(lines, &format!("train@{b}"))),
+        });
+    }
+    save(path, |path| {
+        let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        draw_panel(
+            &root,
+            "Found failures during meta-training",
+            &series,
+            p.cost,
+            None,
+        )?;
+        root.present().map_err(|e| e.to_string())
+    })
+}
+
+/// `meta_testing.png`: one panel per budget with the baseline, the uniform fidelity prior and
+/// the learned one, up to the shortest of the three runtimes.
+pub fn meta_testing(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<(), CampaignError> {
+    let base = curve(&lines_of(lines, StageKind::BaselineTest.name()));
+    let panels: Vec<(String, Vec<Series>)> = p
+        .budgets
+        .iter()
+        .map(|b| {
+            let series = vec![
+                Series {
+                    label: "baseline (φ uniform, HF only)".into(),
+                    colour: RGBColor(0, 0, 0),
+                    curve: base.clone(),
+                },
+                Series {
+                    label: "uniform fidelity prior".into(),
+                    colour: PALETTE[1],
+                    curve: curve(&lines_of(lines, &format!("test-uniform@{b}"))),
+                },
+                Series {
+                    label: "learned fidelity prior".into(),
+                    colour: PALETTE[0],
+                    curve: curve(&lines_of(lines, &format!("test-learned@{b}"))),
+                },
+            ];
+            (format!("Meta-testing, C_budget = {b}"), series)
+        })
+        .collect();
+    save(path, |path| {
+        let width = 620 * panels.len().max(1) as u32;
+        let root = BitMapBackend::new(path, (width, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let areas = root.split_evenly((1, panels.len().max(1)));
+        for ((title, series), area) in panels.iter().zip(areas.iter()) {
+            let horizon = series
+                .iter()
+                .map(|s| s.curve.end())
+                .filter(|&e| e > 0.0)
+                .fold(f64::INFINITY, f64::min);
+            draw_panel(
+                area,
+                title,
+                series,
+                p.cost,
+                horizon.is_finite().then_some(horizon),
+            )?;
+        }
+        root.present().map_err(|e| e.to_string())
+    })
+}

@@ -1,0 +1,334 @@
+//! The paper's experimental protocol as data: which stages run, on which scenarios, for how many
+//! iterations, with which budgets and seeds.
+
+use super::CampaignError;
+use serde::{Deserialize, Serialize};
+
+/// How a run's cost is measured (serialisable twin of [`savme_kernel::CostMeasure`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Cost {
+    /// Measured wall-clock seconds (the paper's runtime).
+    #[default]
+    Wall,
+    /// Deterministic work units: the same seed gives the same campaign, bit for bit.
+    Work,
+}
+
+impl Cost {
+    /// The kernel's cost measure.
+    pub fn measure(self) -> savme_kernel::CostMeasure {
+        match self {
+            Cost::Wall => savme_kernel::CostMeasure::Wall,
+            Cost::Work => savme_kernel::CostMeasure::Work,
+        }
+    }
+
+    /// Unit of a cumulative cost, for tables and plot axes.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Cost::Wall => "s",
+            Cost::Work => "work units",
+        }
+    }
+}
+
+/// Everything that decides a campaign's trials. Saved as `protocol.json` in the output
+/// directory, so that `--resume` continues exactly the same campaign.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Protocol {
+    /// Master seed; every kernel's seed is derived from it and the stage's name.
+    pub seed: u64,
+    /// The compute budgets C_budget, each in (0, 1].
+    pub budgets: Vec<f64>,
+    /// Meta-training iterations per budget.
+    pub train_iterations: u64,
+    /// Evaluation trials per budget (θ_LF = MAP, φ ~ p_ψ).
+    pub eval_iterations: u64,
+    /// Meta-testing iterations per budget and prior.
+    pub test_iterations: u64,
+    /// Baseline trials (uniform φ, HF only) on the meta-training scenarios.
+    pub baseline_train_iterations: u64,
+    /// Baseline trials on the meta-testing scenarios.
+    pub baseline_test_iterations: u64,
+    /// Meta-training scenarios (uniform p(s)).
+    pub train_scenarios: Vec<String>,
+    /// Meta-testing scenarios.
+    pub test_scenarios: Vec<String>,
+    /// Cost measure.
+    pub cost: Cost,
+    /// Bins per continuous fidelity setting.
+    pub fidelity_bins: u32,
+    /// Weight of the meta-training evidence in the meta-testing prior (power prior).
+    pub prior_strength: f64,
+    /// Trials in flight at once (asked, not yet told). Trials are told in ask order, so the
+    /// campaign depends on this, the seed and the cost measure — not on the number of jobs.
+    pub window: usize,
+    /// Which simulator ran the trials (checked on resume).
+    pub simulator: String,
+}
+
+impl Protocol {
+    /// The paper's protocol: budgets 0.2/0.3/0.4, 500 meta-training iterations, 100
+    /// evaluations, 200 meta-testing iterations; scenarios 1–8 for meta-training and 9–10 for
+    /// meta-testing. The baselines get enough trials to span the meta-training runtime.
+    pub fn paper(simulator: &str, train: Vec<String>, test: Vec<String>) -> Self {
+        Protocol {
+            seed: 1,
+            budgets: vec![0.2, 0.3, 0.4],
+            train_iterations: 500,
+            eval_iterations: 100,
+            test_iterations: 200,
+            baseline_train_iterations: 700,
+            baseline_test_iterations: 300,
+            train_scenarios: train,
+            test_scenarios: test,
+            cost: Cost::Wall,
+            fidelity_bins: 10,
+            prior_strength: 1.0,
+            window: 4,
+            simulator: simulator.into(),
+        }
+    }
+
+    /// A short preset that still shows the qualitative result (one budget, fewer iterations).
+    pub fn quick(simulator: &str, train: Vec<String>, test: Vec<String>) -> Self {
+        Protocol {
+            budgets: vec![0.3],
+            train_iterations: 200,
+            eval_iterations: 50,
+            test_iterations: 100,
+            baseline_train_iterations: 260,
+            baseline_test_iterations: 150,
+            ..Protocol::paper(simulator, train, test)
+        }
+    }
+
+    /// Checks the protocol; the error names the offending field.
+    pub fn validate(&self) -> Result<(), CampaignError> {
+        let bad = |field: &str, message: String| {
+            Err(CampaignError::Protocol {
+                field: field.into(),
+                message,
+            })
+        };
+        if self.budgets.is_empty() {
+            return bad("budgets", "at least one budget is needed".into());
+        }
+        for &b in &self.budgets {
+            if !(b > 0.0 && b <= 1.0) {
+                return bad("budgets", format!("{b} is outside (0, 1]"));
+            }
+        }
+        for (i, a) in self.budgets.iter().enumerate() {
+            if self.budgets[..i].contains(a) {
+                return bad("budgets", format!("{a} is given twice"));
+            }
+        }
+        for (field, n) in [
+            ("train_iterations", self.train_iterations),
+            ("eval_iterations", self.eval_iterations),
+            ("test_iterations", self.test_iterations),
+            ("baseline_train_iterations", self.baseline_train_iterations),
+            ("baseline_test_iterations", self.baseline_test_iterations),
+        ] {
+            if n == 0 {
+                return bad(field, "must be at least 1".into());
+            }
+        }
+        if self.train_scenarios.is_empty() {
+            return bad("train_scenarios", "at least one scenario is needed".into());
+        }
+        if self.test_scenarios.is_empty() {
+            return bad("test_scenarios", "at least one scenario is needed".into());
+        }
+        if self.fidelity_bins == 0 {
+            return bad("fidelity_bins", "must be at least 1".into());
+        }
+        if !(self.prior_strength > 0.0 && self.prior_strength.is_finite()) {
+            return bad(
+                "prior_strength",
+                format!("{} is not a positive number", self.prior_strength),
+            );
+        }
+        if self.window == 0 {
+            return bad("window", "must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// The stages in the order they run.
+    pub fn stages(&self) -> Vec<Stage> {
+        let mut s = vec![Stage {
+            kind: StageKind::BaselineTrain,
+            budget: None,
+            iterations: self.baseline_train_iterations,
+        }];
+        for &b in &self.budgets {
+            s.push(Stage {
+                kind: StageKind::Train,
+                budget: Some(b),
+                iterations: self.train_iterations,
+            });
+            s.push(Stage {
+                kind: StageKind::Evaluate,
+                budget: Some(b),
+                iterations: self.eval_iterations,
+            });
+        }
+        s.push(Stage {
+            kind: StageKind::BaselineTest,
+            budget: None,
+            iterations: self.baseline_test_iterations,
+        });
+        for &b in &self.budgets {
+            for kind in [StageKind::TestLearned, StageKind::TestUniform] {
+                s.push(Stage {
+                    kind,
+                    budget: Some(b),
+                    iterations: self.test_iterations,
+                });
+            }
+        }
+        s
+    }
+
+    /// Total trials over all stages.
+    pub fn total_trials(&self) -> u64 {
+        self.stages().iter().map(|s| s.iterations).sum()
+    }
+
+    /// The seed of the kernel named `label`: the master seed mixed with the label (FNV-1a,
+    /// then SplitMix64), stable across platforms and releases.
+    pub fn kernel_seed(&self, label: &str) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for b in label.bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        let mut z = self.seed ^ h;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+}
+
+/// What a stage does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StageKind {
+    /// Uniform φ on the meta-training scenarios, HF only.
+    BaselineTrain,
+    /// Meta-training at a budget.
+    Train,
+    /// Evaluation of the meta-training posterior at a budget.
+    Evaluate,
+    /// Uniform φ on the meta-testing scenarios, HF only.
+    BaselineTest,
+    /// Meta-testing with the meta-training posterior as the fidelity prior.
+    TestLearned,
+    /// Meta-testing with a uniform fidelity prior.
+    TestUniform,
+}
+
+impl StageKind {
+    /// The kebab-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            StageKind::BaselineTrain => "baseline-train",
+            StageKind::Train => "train",
+            StageKind::Evaluate => "evaluate",
+            StageKind::BaselineTest => "baseline-test",
+            StageKind::TestLearned => "test-learned",
+            StageKind::TestUniform => "test-uniform",
+        }
+    }
+}
+
+/// One stage of the protocol.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stage {
+    /// What it does.
+    pub kind: StageKind,
+    /// Its budget (None for the baselines).
+    pub budget: Option<f64>,
+    /// Trials it runs.
+    pub iterations: u64,
+}
+
+impl Stage {
+    /// The kernel phase its trials are asked in.
+    pub fn phase(&self) -> savme_kernel::Phase {
+        use savme_kernel::Phase;
+        match self.kind {
+            StageKind::BaselineTrain | StageKind::BaselineTest => Phase::Baseline,
+            StageKind::Train => Phase::Train,
+            StageKind::Evaluate => Phase::Evaluate,
+            StageKind::TestLearned | StageKind::TestUniform => Phase::Test,
+        }
+    }
+
+    /// Its label in `trials.jsonl` and progress bars, e.g. `train@0.3`.
+    pub fn label(&self) -> String {
+        match self.budget {
+            Some(b) => format!("{}@{b}", self.kind.name()),
+            None => self.kind.name().into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p() -> Protocol {
+        Protocol::paper("test", vec!["a".into()], vec!["b".into()])
+    }
+
+    #[test]
+    fn paper_protocol_has_the_papers_stages() {
+        let p = p();
+        p.validate().unwrap();
+        let labels: Vec<String> = p.stages().iter().map(Stage::label).collect();
+        assert_eq!(labels[0], "baseline-train");
+        assert_eq!(labels[1..3], ["train@0.2", "evaluate@0.2"]);
+        assert!(labels.contains(&"test-learned@0.4".to_string()));
+        assert_eq!(labels.len(), 1 + 3 * 2 + 1 + 3 * 2);
+        assert_eq!(p.total_trials(), 700 + 3 * 600 + 300 + 3 * 400);
+    }
+
+    #[test]
+    fn bad_protocols_name_the_field() {
+        type Change = Box<dyn Fn(&mut Protocol)>;
+        let cases: Vec<(Change, &str)> = vec![
+            (Box::new(|p| p.budgets = vec![0.0]), "budgets"),
+            (Box::new(|p| p.budgets = vec![1.5]), "budgets"),
+            (Box::new(|p| p.budgets = vec![f64::NAN]), "budgets"),
+            (Box::new(|p| p.budgets = vec![]), "budgets"),
+            (Box::new(|p| p.budgets = vec![0.3, 0.3]), "budgets"),
+            (Box::new(|p| p.train_iterations = 0), "train_iterations"),
+            (Box::new(|p| p.eval_iterations = 0), "eval_iterations"),
+            (Box::new(|p| p.test_scenarios.clear()), "test_scenarios"),
+            (Box::new(|p| p.window = 0), "window"),
+            (Box::new(|p| p.prior_strength = -1.0), "prior_strength"),
+        ];
+        for (change, field) in cases {
+            let mut p = p();
+            change(&mut p);
+            match p.validate() {
+                Err(CampaignError::Protocol { field: f, .. }) => assert_eq!(f, field),
+                other => panic!("expected an error on {field}, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn kernel_seeds_differ_by_label_and_seed() {
+        let mut p = p();
+        let a = p.kernel_seed("train@0.3");
+        assert_ne!(a, p.kernel_seed("train@0.2"));
+        assert_eq!(a, p.kernel_seed("train@0.3"));
+        p.seed = 2;
+        assert_ne!(a, p.kernel_seed("train@0.3"));
+    }
+}

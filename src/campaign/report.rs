@@ -1,0 +1,421 @@
+//! What a campaign found, computed from its trials alone (so that every output can be checked
+//! against `trials.jsonl`): the paper's Table III and Table IV, break-even times and the
+//! meta-testing gain.
+
+use super::log::TrialLine;
+use super::protocol::{Cost, Protocol, Stage, StageKind};
+use savme_kernel::metrics::{break_even, speedup, FailureCurve};
+use savme_kernel::{Assignment, Outcome, Space};
+use serde::Serialize;
+use std::fmt::Write as _;
+
+/// Failure counts of an HF-only baseline stage.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Baseline {
+    /// Trials.
+    pub trials: u64,
+    /// Trials whose HF run failed.
+    pub failures: u64,
+    /// failures / trials.
+    pub failure_rate: f64,
+    /// Sum of the HF costs.
+    pub runtime: f64,
+}
+
+/// The evaluation of one budget (a row of Table III).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Evaluation {
+    /// Trials.
+    pub trials: u64,
+    /// TP / trials: failures the LF simulator alone would have found.
+    pub tp_rate: f64,
+    /// Mean t_LF / t_HF.
+    pub mean_lf_cost: f64,
+    /// (TP-rate / mean LF cost) / baseline failure rate; None if undefined.
+    pub speedup: Option<f64>,
+    /// Counts per class: TP, TN, FP, FN.
+    pub tp: u64,
+    /// Both runs passed.
+    pub tn: u64,
+    /// Only the LF run failed.
+    pub fp: u64,
+    /// Only the HF run failed.
+    pub fn_: u64,
+    /// The learned fidelity θ_LF* (the evaluation's θ_LF).
+    pub theta_star: Option<Assignment>,
+}
+
+/// Meta-training at one budget.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Training {
+    /// Trials.
+    pub trials: u64,
+    /// Trials whose HF run failed.
+    pub hf_failures: u64,
+    /// TP-rate over the training trials.
+    pub tp_rate: f64,
+    /// Mean t_LF / t_HF over the training trials.
+    pub mean_lf_cost: f64,
+    /// Cost of all runs (HF + LF).
+    pub runtime: f64,
+    /// The cost from which on meta-training has found more failures than the baseline (both
+    /// charged for every run they made); None if not reached within the shorter of the two.
+    pub break_even: Option<f64>,
+}
+
+/// Meta-testing at one budget: found failures by a common cost horizon.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MetaTesting {
+    /// The horizon: the smallest total cost of the three runs compared.
+    pub horizon: f64,
+    /// Failures found with the meta-training posterior as the fidelity prior.
+    pub learned: u64,
+    /// Failures found with a uniform fidelity prior.
+    pub uniform: u64,
+    /// Failures found by the baseline (uniform φ, HF only).
+    pub baseline: u64,
+    /// learned / uniform − 1; None if the uniform prior found none.
+    pub gain_vs_uniform: Option<f64>,
+    /// learned / baseline − 1; None if the baseline found none.
+    pub gain_vs_baseline: Option<f64>,
+    /// Total cost of the learned-prior and uniform-prior runs.
+    pub learned_runtime: f64,
+    /// See `learned_runtime`.
+    pub uniform_runtime: f64,
+}
+
+/// Everything about one budget.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BudgetReport {
+    /// C_budget.
+    pub budget: f64,
+    /// Meta-training (None until it ran).
+    pub training: Option<Training>,
+    /// Evaluation (None until it ran).
+    pub evaluation: Option<Evaluation>,
+    /// Meta-testing (None until it ran).
+    pub meta_testing: Option<MetaTesting>,
+}
+
+/// The campaign's results.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Report {
+    /// The protocol.
+    pub protocol: Protocol,
+    /// Baseline on the meta-training scenarios.
+    pub baseline_train: Option<Baseline>,
+    /// Baseline on the meta-testing scenarios.
+    pub baseline_test: Option<Baseline>,
+    /// Per budget.
+    pub budgets: Vec<BudgetReport>,
+}
+
+fn stage_lines<'a>(lines: &'a [TrialLine], stage: &Stage) -> Vec<&'a TrialLine> {
+    let label = stage.label();
+    lines.iter().filter(|l| l.stage == label).collect()
+}
+
+fn stage_of(p: &Protocol, kind: StageKind, budget: Option<f64>) -> Stage {
+    p.stages()
+        .into_iter()
+        .find(|s| s.kind == kind && s.budget == budget)
+        .unwrap_or(Stage {
+            kind,
+            budget,
+            iterations: 0,
+        })
+}
+
+/// Found failures over cost, every run charged (HF + LF for paired trials).
+pub fn curve(lines: &[&TrialLine]) -> FailureCurve {
+    let mut c = FailureCurve::new();
+    for l in lines {
+        let cost = l.hf.runtime + l.lf.map_or(0.0, |r| r.runtime);
+        c.push(cost, l.hf.failure);
+    }
+    c
+}
+
+fn baseline(lines: &[&TrialLine]) -> Option<Baseline> {
+    if lines.is_empty() {
+        return None;
+    }
+    let failures = lines.iter().filter(|l| l.hf.failure).count() as u64;
+    Some(Baseline {
+        trials: lines.len() as u64,
+        failures,
+        failure_rate: failures as f64 / lines.len() as f64,
+        runtime: lines.iter().map(|l| l.hf.runtime).sum(),
+    })
+}
+
+fn paired_stats(lines: &[&TrialLine]) -> ([u64; 4], f64) {
+    let mut counts = [0u64; 4];
+    let mut ratio = 0.0;
+    for l in lines {
+        match l.outcome {
+            Some(Outcome::TP) => counts[0] += 1,
+            Some(Outcome::TN) => counts[1] += 1,
+            Some(Outcome::FP) => counts[2] += 1,
+            Some(Outcome::FN) => counts[3] += 1,
+            None => {}
+        }
+        ratio += l.cost_ratio.unwrap_or(0.0);
+    }
+    (counts, ratio)
+}
+
+impl Report {
+    /// The report of `lines` (all trials of a campaign run with `protocol`, possibly
+    /// incomplete: stages without trials are left out).
+    pub fn from_trials(protocol: &Protocol, lines: &[TrialLine]) -> Report {
+        let get = |kind, budget| stage_lines(lines, &stage_of(protocol, kind, budget));
+        let base_train = get(StageKind::BaselineTrain, None);
+        let base_test = get(StageKind::BaselineTest, None);
+        let baseline_train = baseline(&base_train);
+        let baseline_test = baseline(&base_test);
+        let base_curve = curve(&base_train);
+        let base_test_curve = curve(&base_test);
+        let budgets = protocol
+            .budgets
+            .iter()
+            .map(|&b| {
+                let train = get(StageKind::Train, Some(b));
+                let eval = get(StageKind::Evaluate, Some(b));
+                let learned = get(StageKind::TestLearned, Some(b));
+                let uniform = get(StageKind::TestUniform, Some(b));
+                let training = (!train.is_empty()).then(|| {
+                    let (c, ratio) = paired_stats(&train);
+                    let n = train.len() as f64;
+                    let tc = curve(&train);
+                    Training {
+                        trials: train.len() as u64,
+                        hf_failures: train.iter().filter(|l| l.hf.failure).count() as u64,
+                        tp_rate: c[0] as f64 / n,
+                        mean_lf_cost: ratio / n,
+                        runtime: tc.end(),
+                        break_even: (!base_train.is_empty())
+                            .then(|| break_even(&tc, &base_curve))
+                            .flatten(),
+                    }
+                });
+                let evaluation = (!eval.is_empty()).then(|| {
+                    let (c, ratio) = paired_stats(&eval);
+                    let n = eval.len() as f64;
+                    let (tp_rate, mean_lf_cost) = (c[0] as f64 / n, ratio / n);
+                    Evaluation {
+                        trials: eval.len() as u64,
+                        tp_rate,
+                        mean_lf_cost,
+                        speedup: baseline_train
+                            .and_then(|base| speedup(tp_rate, mean_lf_cost, base.failure_rate)),
+                        tp: c[0],
+                        tn: c[1],
+                        fp: c[2],
+                        fn_: c[3],
+                        theta_star: eval[0].theta_lf.clone(),
+                    }
+                });
+                let meta_testing = (!learned.is_empty() && !uniform.is_empty()).then(|| {
+                    let (lc, uc) = (curve(&learned), curve(&uniform));
+                    let mut horizon = lc.end().min(uc.end());
+                    if !base_test.is_empty() {
+                        horizon = horizon.min(base_test_curve.end());
+                    }
+                    let (l, u, base) = (
+                        lc.failures_at(horizon),
+                        uc.failures_at(horizon),
+                        base_test_curve.failures_at(horizon),
+                    );
+                    let gain = |a: u64, b: u64| (b > 0).then(|| a as f64 / b as f64 - 1.0);
+                    MetaTesting {
+                        horizon,
+                        learned: l,
+                        uniform: u,
+                        baseline: base,
+                        gain_vs_uniform: gain(l, u),
+                        gain_vs_baseline: gain(l, base),
+                        learned_runtime: lc.end(),
+                        uniform_runtime: uc.end(),
+                    }
+                });
+                BudgetReport {
+                    budget: b,
+                    training,
+                    evaluation,
+                    meta_testing,
+                }
+            })
+            .collect();
+        Report {
+            protocol: protocol.clone(),
+            baseline_train,
+            baseline_test,
+            budgets,
+        }
+    }
+
+    /// Table III: baseline and each budget's TP-rate, mean LF cost and speedup (Markdown).
+    pub fn table_md(&self) -> String {
+        let p = &self.protocol;
+        let mut s = String::new();
+        let _ = writeln!(s, "# Meta-training results (the paper's Table III)\n");
+        let _ = writeln!(
+            s,
+            "Evaluation: {} trials per budget with θ_LF = MAP of p_ω and φ ~ p_ψ, after {} \
+             meta-training iterations on {} scenarios. Baseline: {} trials with φ uniform, \
+             high fidelity only. Cost: {}. Seed {}.\n",
+            p.eval_iterations,
+            p.train_iterations,
+            p.train_scenarios.len(),
+            p.baseline_train_iterations,
+            cost_name(p.cost),
+            p.seed
+        );
+        let _ = writeln!(s, "| C_budget | TP-rate | mean LF cost | speedup |");
+        let _ = writeln!(s, "|---|---|---|---|");
+        match &self.baseline_train {
+            Some(b) => {
+                let _ = writeln!(s, "| baseline | {:.2} | 1.00 | 1.00 |", b.failure_rate);
+            }
+            None => {
+                let _ = writeln!(s, "| baseline | – | – | – |");
+            }
+        }
+        for b in &self.budgets {
+            match &b.evaluation {
+                Some(e) => {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {:.2} | {:.2} | {} |",
+                        b.budget,
+                        e.tp_rate,
+                        e.mean_lf_cost,
+                        e.speedup.map_or("–".into(), |x| format!("{x:.2}"))
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "| {} | – | – | – |", b.budget);
+                }
+            }
+        }
+        s
+    }
+
+    /// Table IV: the learned fidelity setting per budget next to θ_HF (Markdown).
+    pub fn fidelity_md(&self, space: &Space, theta_hf: &Assignment) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Learned fidelity settings (the paper's Table IV)\n");
+        let _ = writeln!(
+            s,
+            "θ_LF* = MAP of p_ω after meta-training, per budget. Continuous settings show the \
+             representative value of the chosen bin, with the bin in brackets.\n"
+        );
+        let _ = write!(s, "| setting | θ_HF |");
+        for b in &self.budgets {
+            let _ = write!(s, " C_budget = {} |", b.budget);
+        }
+        let _ = writeln!(s);
+        let _ = write!(s, "|---|---|");
+        for _ in &self.budgets {
+            let _ = write!(s, "---|");
+        }
+        let _ = writeln!(s);
+        for var in space.variables() {
+            let name: &str = &var.name;
+            let hf = theta_hf
+                .get(name)
+                .map_or("–".into(), |v| format_value(var, v, false));
+            let _ = write!(s, "| {name} | {hf} |");
+            for b in &self.budgets {
+                let v = b
+                    .evaluation
+                    .as_ref()
+                    .and_then(|e| e.theta_star.as_ref())
+                    .and_then(|t| t.get(name))
+                    .map_or("–".into(), |v| format_value(var, v, true));
+                let _ = write!(s, " {v} |");
+            }
+            let _ = writeln!(s);
+        }
+        s
+    }
+
+    /// The human summary printed at the end: break-even times and meta-testing gains.
+    pub fn findings_text(&self) -> String {
+        let p = &self.protocol;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "Break-even (meta-training vs baseline, every run charged):"
+        );
+        for b in &self.budgets {
+            let text = match b.training.as_ref().map(|t| t.break_even) {
+                Some(Some(t)) => format!("after {}", format_cost(p.cost, t)),
+                Some(None) => "not reached within the common runtime".into(),
+                None => "not run".into(),
+            };
+            let _ = writeln!(s, "  C_budget = {}: {text}", b.budget);
+        }
+        let _ = writeln!(
+            s,
+            "Meta-testing (scenarios {}; failures found by the same runtime):",
+            p.test_scenarios.join(", ")
+        );
+        for b in &self.budgets {
+            match &b.meta_testing {
+                Some(m) => {
+                    let pct =
+                        |g: Option<f64>| g.map_or("n/a".into(), |g| format!("{:+.0} %", 100.0 * g));
+                    let _ = writeln!(
+                        s,
+                        "  C_budget = {}: learned prior {} vs uniform prior {} vs baseline {} by {} — gain {} over the uniform prior, {} over the baseline",
+                        b.budget,
+                        m.learned,
+                        m.uniform,
+                        m.baseline,
+                        format_cost(p.cost, m.horizon),
+                        pct(m.gain_vs_uniform),
+                        pct(m.gain_vs_baseline)
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "  C_budget = {}: not run", b.budget);
+                }
+            }
+        }
+        s
+    }
+}
+
+fn cost_name(c: Cost) -> &'static str {
+    match c {
+        Cost::Wall => "measured wall-clock time",
+        Cost::Work => "deterministic work units",
+    }
+}
+
+/// A cumulative cost for people: minutes/seconds for wall-clock, millions of work units.
+pub fn format_cost(c: Cost, v: f64) -> String {
+    match c {
+        Cost::Wall if v >= 120.0 => format!("{:.1} min", v / 60.0),
+        Cost::Wall => format!("{v:.1} s"),
+        Cost::Work => format!("{:.1} M work units", v / 1e6),
+    }
+}
+
+fn format_value(var: &savme_kernel::Variable, v: &savme_kernel::Value, with_bin: bool) -> String {
+    match (v.as_f64(), var.arm_of(v).and_then(|a| var.bin(a))) {
+        (Some(x), Some((lo, hi))) if with_bin => format!("{} [{}, {}]", sig(x), sig(lo), sig(hi)),
+        _ => v.to_string(),
+    }
+}
+
+/// Three significant digits.
+fn sig(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
