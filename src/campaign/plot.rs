@@ -41,9 +41,12 @@ fn lines_of<'a>(lines: &'a [TrialLine], label: &str) -> Vec<&'a TrialLine> {
     lines.iter().filter(|l| l.stage == label).collect()
 }
 
-fn scale(cost: Cost) -> (f64, &'static str) {
+/// Axis scale and label for cumulative costs up to `end`.
+fn scale(cost: Cost, end: f64) -> (f64, &'static str) {
     match cost {
+        Cost::Wall if end < 180.0 => (1.0, "runtime (s)"),
         Cost::Wall => (1.0 / 60.0, "runtime (min)"),
+        Cost::Work if end < 1e7 => (1e-3, "runtime (thousand work units)"),
         Cost::Work => (1e-6, "runtime (million work units)"),
     }
 }
@@ -55,9 +58,9 @@ fn draw_panel<DB: DrawingBackend>(
     cost: Cost,
     x_max: Option<f64>,
 ) -> Result<(), String> {
-    let (k, x_desc) = scale(cost);
-    let x_end =
-        x_max.unwrap_or_else(|| series.iter().map(|s| s.curve.end()).fold(0.0, f64::max)) * k;
+    let end = x_max.unwrap_or_else(|| series.iter().map(|s| s.curve.end()).fold(0.0, f64::max));
+    let (k, x_desc) = scale(cost, end);
+    let x_end = end * k;
     let y_end = series
         .iter()
         .map(|s| s.curve.failures_at(x_end / k))

@@ -400,7 +400,8 @@ pub fn format_cost(c: Cost, v: f64) -> String {
     match c {
         Cost::Wall if v >= 120.0 => format!("{:.1} min", v / 60.0),
         Cost::Wall => format!("{v:.1} s"),
-        Cost::Work => format!("{:.1} M work units", v / 1e6),
+        Cost::Work if v >= 1e7 => format!("{:.1} M work units", v / 1e6),
+        Cost::Work => format!("{:.0} k work units", v / 1e3),
     }
 }
 

@@ -1,0 +1,412 @@
+//! `savme reproduce` end to end: outputs agree with trials.jsonl, runs are reproducible and
+//! independent of the number of jobs, a killed run resumes without losing or repeating a trial,
+//! and bad input is refused before any simulation.
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("savme-reproduce-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// A tiny protocol on the camera + lidar simulator, work-unit cost.
+const TINY: &[&str] = &[
+    "--budgets",
+    "0.3",
+    "--iterations",
+    "16",
+    "--eval-iterations",
+    "6",
+    "--test-iterations",
+    "8",
+    "--baseline-iterations",
+    "14",
+    "--baseline-test-iterations",
+    "8",
+    "--cost",
+    "work",
+    "--seed",
+    "7",
+    "--quiet",
+];
+const TINY_TRIALS: usize = 14 + 16 + 6 + 8 + 2 * 8;
+
+/// TINY with the flags of `extra` added or replaced.
+fn args(extra: &[&str]) -> Vec<String> {
+    let mut a: Vec<String> = TINY.iter().map(|s| s.to_string()).collect();
+    let mut i = 0;
+    while i < extra.len() {
+        let flag = extra[i];
+        let value = extra.get(i + 1).filter(|v| !v.starts_with("--"));
+        match (a.iter().position(|x| x == flag), value) {
+            (Some(k), Some(v)) => a[k + 1] = v.to_string(),
+            (None, Some(v)) => a.extend([flag.to_string(), v.to_string()]),
+            (_, None) => a.push(flag.to_string()),
+        }
+        i += 1 + usize::from(value.is_some());
+    }
+    a
+}
+
+fn reproduce(out: &Path, extra: &[&str]) -> (bool, String, String) {
+    let o = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(out)
+        .args(args(extra))
+        .output()
+        .unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn trials(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("trials.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+/// The trials without their measured wall-clock times (the only field that varies between
+/// runs with work-unit cost).
+fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
+    for v in &mut t {
+        for run in ["hf", "lf"] {
+            if let Some(r) = v[run].as_object_mut() {
+                r.remove("wall_seconds");
+            }
+        }
+    }
+    t
+}
+
+fn png_size(path: &Path) -> (u32, u32) {
+    let b = std::fs::read(path).unwrap();
+    assert_eq!(
+        &b[..8],
+        b"\x89PNG\r\n\x1a\n",
+        "{} is not a PNG",
+        path.display()
+    );
+    let be = |i: usize| u32::from_be_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+    (be(16), be(20))
+}
+
+/// The numbers of a table row `| key | a | b | c |`.
+fn row(table: &str, key: &str) -> Vec<String> {
+    let line = table
+        .lines()
+        .find(|l| l.starts_with(&format!("| {key} |")))
+        .unwrap_or_else(|| panic!("no row {key} in\n{table}"));
+    line.split('|')
+        .map(str::trim)
+        .filter(|c| !c.is_empty())
+        .skip(1)
+        .map(String::from)
+        .collect()
+}
+
+#[test]
+fn a_tiny_reproduction_writes_outputs_that_agree_with_its_trials() {
+    let dir = temp_dir("e2e");
+    let (ok, out, err) = reproduce(&dir, &["--jobs", "2"]);
+    assert!(ok, "{err}");
+    let t = trials(&dir);
+    assert_eq!(t.len(), TINY_TRIALS);
+    // Every stage, in the protocol's order, with consecutive indices.
+    let stages: Vec<&str> = t.iter().map(|v| v["stage"].as_str().unwrap()).collect();
+    let mut order = stages.clone();
+    order.dedup();
+    assert_eq!(
+        order,
+        [
+            "baseline-train",
+            "train@0.3",
+            "evaluate@0.3",
+            "baseline-test",
+            "test-learned@0.3",
+            "test-uniform@0.3"
+        ]
+    );
+    for s in &order {
+        let idx: Vec<u64> = t
+            .iter()
+            .filter(|v| v["stage"] == *s)
+            .map(|v| v["index"].as_u64().unwrap())
+            .collect();
+        assert_eq!(idx, (0..idx.len() as u64).collect::<Vec<_>>(), "{s}");
+    }
+    // Paired trials have both runs; baselines only HF; train scenarios are 1–8, test 9–10.
+    for v in &t {
+        let baseline = v["stage"].as_str().unwrap().starts_with("baseline");
+        assert_eq!(v["lf"].is_null(), baseline, "{v}");
+        assert_eq!(v["theta_lf"].is_null(), baseline);
+        let test = v["stage"].as_str().unwrap().contains("test");
+        let scenario = v["scenario"].as_str().unwrap();
+        assert_eq!(
+            ["lead_vehicle_two_way", "on_ramp_merge"].contains(&scenario),
+            test,
+            "{scenario} in {}",
+            v["stage"]
+        );
+    }
+
+    // table.md recomputed from the trials.
+    let table = std::fs::read_to_string(dir.join("table.md")).unwrap();
+    let base: Vec<&Value> = t
+        .iter()
+        .filter(|v| v["stage"] == "baseline-train")
+        .collect();
+    let base_rate =
+        base.iter().filter(|v| v["hf"]["failure"] == true).count() as f64 / base.len() as f64;
+    let eval: Vec<&Value> = t.iter().filter(|v| v["stage"] == "evaluate@0.3").collect();
+    let tp = eval
+        .iter()
+        .filter(|v| v["hf"]["failure"] == true && v["lf"]["failure"] == true)
+        .count() as f64
+        / eval.len() as f64;
+    let cost = eval
+        .iter()
+        .map(|v| v["lf"]["runtime"].as_f64().unwrap() / v["hf"]["runtime"].as_f64().unwrap())
+        .sum::<f64>()
+        / eval.len() as f64;
+    assert_eq!(
+        row(&table, "baseline"),
+        [format!("{base_rate:.2}"), "1.00".into(), "1.00".into()]
+    );
+    let r = row(&table, "0.3");
+    assert_eq!(r[0], format!("{tp:.2}"), "{table}");
+    assert_eq!(r[1], format!("{cost:.2}"), "{table}");
+    if tp > 0.0 && base_rate > 0.0 {
+        assert_eq!(r[2], format!("{:.2}", tp / cost / base_rate), "{table}");
+    } else {
+        assert_eq!(r[2], "–");
+    }
+    // The evaluation ran one θ_LF (the MAP), and fidelity.md shows it.
+    let theta = &eval[0]["theta_lf"];
+    assert!(eval.iter().all(|v| v["theta_lf"] == *theta));
+    let fidelity = std::fs::read_to_string(dir.join("fidelity.md")).unwrap();
+    for name in [
+        "simulation_rate_hz",
+        "lidar_subsample_count",
+        "camera_disable_shadows",
+    ] {
+        assert_eq!(
+            row(&fidelity, name)[1],
+            theta[name].to_string(),
+            "{fidelity}"
+        );
+    }
+    // summary.json parses and agrees.
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["trials"], TINY_TRIALS);
+    let e = &summary["report"]["budgets"][0]["evaluation"];
+    assert!((e["tp_rate"].as_f64().unwrap() - tp).abs() < 1e-12);
+    assert!((e["mean_lf_cost"].as_f64().unwrap() - cost).abs() < 1e-9);
+    let m = &summary["report"]["budgets"][0]["meta_testing"];
+    assert!(m["learned"].as_u64().is_some() && m["horizon"].as_f64().unwrap() > 0.0);
+    // The figures exist.
+    assert_eq!(png_size(&dir.join("breakeven.png")), (900, 560));
+    assert_eq!(png_size(&dir.join("meta_testing.png")), (620, 520));
+    // The printed summary shows both tables and the findings.
+    assert!(
+        out.contains("| C_budget | TP-rate | mean LF cost | speedup |"),
+        "{out}"
+    );
+    assert!(out.contains("| simulation_rate_hz |") && out.contains("Break-even"));
+    assert!(out.contains("Meta-testing"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn same_seed_and_work_cost_give_the_same_campaign_whatever_the_jobs() {
+    let (a, b) = (temp_dir("same-a"), temp_dir("same-b"));
+    assert!(reproduce(&a, &["--jobs", "1"]).0);
+    assert!(reproduce(&b, &["--jobs", "2"]).0);
+    let read = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    assert_eq!(read(&a, "table.md"), read(&b, "table.md"));
+    assert_eq!(read(&a, "fidelity.md"), read(&b, "fidelity.md"));
+    assert_eq!(without_wall(trials(&a)), without_wall(trials(&b)));
+    // Another seed gives another campaign.
+    let c = temp_dir("same-c");
+    assert!(reproduce(&c, &["--jobs", "2", "--seed", "8"]).0);
+    assert_ne!(without_wall(trials(&a)), without_wall(trials(&c)));
+    for d in [a, b, c] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+fn resume(dir: &Path) -> (bool, String, String) {
+    let o = Command::new(EXE)
+        .args(["reproduce", "--quiet", "--resume"])
+        .arg(dir)
+        .output()
+        .unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
+    let full = temp_dir("resume-full");
+    assert!(reproduce(&full, &["--jobs", "2"]).0);
+    let expected = without_wall(trials(&full));
+
+    // kill -9 midway through, then resume.
+    let dir = temp_dir("resume-killed");
+    let mut child = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(&dir)
+        .args(args(&["--jobs", "2"]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = dir.join("trials.jsonl");
+    let start = Instant::now();
+    while std::fs::read_to_string(&log).map_or(0, |s| s.lines().count()) < 20 {
+        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "finished before the kill"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let before = std::fs::read_to_string(&log).unwrap().lines().count();
+    assert!(before < TINY_TRIALS, "the run finished before the kill");
+    let (ok, out, err) = resume(&dir);
+    assert!(ok, "{err}");
+    assert!(out.contains("replayed from trials.jsonl"), "{out}");
+    assert_eq!(without_wall(trials(&dir)), expected);
+
+    // A torn last line (a write cut short) is dropped and its trial run again.
+    let torn = temp_dir("resume-torn");
+    std::fs::create_dir_all(&torn).unwrap();
+    std::fs::copy(full.join("protocol.json"), torn.join("protocol.json")).unwrap();
+    let text = std::fs::read_to_string(full.join("trials.jsonl")).unwrap();
+    let cut = text.len() * 3 / 5;
+    let cut = (cut..text.len())
+        .find(|&i| text.is_char_boundary(i) && &text[i - 1..i] != "\n")
+        .unwrap();
+    std::fs::write(torn.join("trials.jsonl"), &text[..cut]).unwrap();
+    let (ok, _, err) = resume(&torn);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trials(&torn)), expected);
+
+    // Resuming a finished campaign runs nothing and rewrites the same outputs.
+    let table = std::fs::read_to_string(full.join("table.md")).unwrap();
+    let (ok, out, _) = resume(&full);
+    assert!(ok);
+    assert!(
+        out.contains(&format!(
+            "({TINY_TRIALS} replayed from trials.jsonl, 0 run)"
+        )),
+        "{out}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(full.join("table.md")).unwrap(),
+        table
+    );
+    for d in [full, dir, torn] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn bad_input_is_refused_before_any_simulation() {
+    let dir = temp_dir("bad");
+    let bad = |extra: &[&str], needle: &str| {
+        let (ok, _, err) = reproduce(&dir, extra);
+        assert!(!ok, "{extra:?} was accepted");
+        assert!(
+            err.contains(needle),
+            "{extra:?}: expected `{needle}` in: {err}"
+        );
+        assert!(
+            !dir.join("trials.jsonl").exists(),
+            "{extra:?} started a campaign"
+        );
+    };
+    bad(&["--train-scenarios", "1,42"], "unknown scenario `42`");
+    bad(
+        &["--test-scenarios", "no_such_scenario"],
+        "unknown scenario `no_such_scenario`",
+    );
+    bad(&["--budgets", "0"], "`budgets`: 0 is outside (0, 1]");
+    bad(&["--budgets", "1.5"], "1.5 is outside (0, 1]");
+    bad(
+        &["--iterations", "0"],
+        "`train_iterations`: must be at least 1",
+    );
+    bad(&["--eval-iterations", "0"], "`eval_iterations`");
+    bad(&["--jobs", "0"], "`--jobs`: must be at least 1");
+
+    // An output directory that cannot be created.
+    let file = temp_dir("bad-file");
+    std::fs::write(&file, "not a directory").unwrap();
+    let (ok, _, err) = reproduce(&file.join("out"), &[]);
+    assert!(!ok);
+    assert!(
+        err.contains(&file.join("out").display().to_string()),
+        "{err}"
+    );
+    let _ = std::fs::remove_file(&file);
+
+    // A directory that holds a campaign is not overwritten.
+    let done = temp_dir("bad-done");
+    std::fs::create_dir_all(&done).unwrap();
+    std::fs::write(done.join("trials.jsonl"), "").unwrap();
+    let (ok, _, err) = reproduce(&done, &[]);
+    assert!(!ok && err.contains("already holds a campaign"), "{err}");
+
+    // Resume: nothing to resume, changed protocol, corrupt trials file.
+    let (ok, _, err) = resume(&dir);
+    assert!(!ok && err.contains("no protocol.json"), "{err}");
+    let o = Command::new(EXE)
+        .args(["reproduce", "--seed", "3", "--resume"])
+        .arg(&done)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("keeps its protocol"));
+
+    let good = temp_dir("bad-corrupt");
+    assert!(reproduce(&good, &[]).0);
+    let text = std::fs::read_to_string(good.join("trials.jsonl")).unwrap();
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines[4] = "{\"stage\": \"train@0.3\", garbage";
+    std::fs::write(good.join("trials.jsonl"), lines.join("\n") + "\n").unwrap();
+    let (ok, _, err) = resume(&good);
+    assert!(!ok);
+    assert!(err.contains("trials.jsonl, line 5"), "{err}");
+    // A trial edited into another one does not match what the protocol asks.
+    let mut edited: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    edited[20]["scenario"] = Value::from("parking_pull_out_edited");
+    let body: String = edited.iter().map(|v| v.to_string() + "\n").collect();
+    std::fs::write(good.join("trials.jsonl"), body).unwrap();
+    let (ok, _, err) = resume(&good);
+    assert!(!ok);
+    assert!(err.contains("does not match the protocol"), "{err}");
+    for d in [dir, done, good] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
