@@ -214,7 +214,13 @@ fn a_tiny_reproduction_writes_outputs_that_agree_with_its_trials() {
     assert!((e["tp_rate"].as_f64().unwrap() - tp).abs() < 1e-12);
     assert!((e["mean_lf_cost"].as_f64().unwrap() - cost).abs() < 1e-9);
     let m = &summary["report"]["budgets"][0]["meta_testing"];
-    assert!(m["learned"].as_u64().is_some() && m["horizon"].as_f64().unwrap() > 0.0);
+    for accounting in ["all_runs", "lf_only"] {
+        let f = &m[accounting];
+        assert!(
+            f["learned"].as_u64().is_some() && f["horizon"].as_f64().unwrap() > 0.0,
+            "{m}"
+        );
+    }
     // The figures exist.
     assert_eq!(png_size(&dir.join("breakeven.png")), (900, 560));
     assert_eq!(png_size(&dir.join("meta_testing.png")), (620, 520));
