@@ -180,6 +180,8 @@ struct Face {
     corners: [Point3<f32>; 4],
     normal: Vector3<f32>,
     albedo: [f32; 3],
+    /// Its object may be in the field of view (otherwise it only casts shadows).
+    in_view: bool,
 }
 
 fn parked_paint(i: usize) -> [f32; 3] {
@@ -226,6 +228,7 @@ fn faces(shape: ObjectShape, pose: &Isometry3<f32>, albedo: [f32; 3], out: &mut 
             corners,
             normal,
             albedo,
+            in_view: true,
         });
     }
     let top = ring.map(|(x, y)| at(x, y, hh));
@@ -233,6 +236,7 @@ fn faces(shape: ObjectShape, pose: &Isometry3<f32>, albedo: [f32; 3], out: &mut 
         corners: top,
         normal: pose.rotation * Vector3::z(),
         albedo,
+        in_view: true,
     });
 }
 
@@ -312,6 +316,9 @@ fn rasterise(
     *work += (WIDTH * HEIGHT) as u64;
     let yaw = pose.rotation();
     for (index, f) in faces.iter().enumerate() {
+        if !f.in_view {
+            continue;
+        }
         // Back-face culling.
         let n_cam = yaw.to_camera(f.normal);
         let cam = f.corners.map(|p| yaw.to_camera(p - pose.eye));
@@ -565,10 +572,26 @@ impl Camera {
         let mut list = Vec::new();
         let mut objects = Vec::new();
         for (i, o) in scene.world.objects().iter().enumerate() {
+            // Cull by bounding sphere: what may be seen, and what may cast a shadow into view
+            // (a shadow reaches 0.7 × the object's height away from it, for this sun).
+            let ObjectShape::Box(h) = o.shape;
+            let r = h.norm();
             let c = pose.to_camera(Point3::from(o.pose.translation.vector));
-            if c.x > -15.0 && c.x < far + 15.0 && c.norm() < far + 20.0 {
+            let top = o.pose.translation.vector.z + h.z;
+            let shadow_r = r + 0.7 * top.max(0.0);
+            let within = |r: f32| {
+                c.x > -r
+                    && c.x - r < far
+                    && c.norm() - r < far
+                    && (c.y.abs() - c.x) * std::f32::consts::FRAC_1_SQRT_2 < r
+            };
+            let (seen, shades) = (within(r), within(shadow_r));
+            if seen || (shades && !settings.disable_shadows) {
                 let first = list.len();
                 faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
+                for f in &mut list[first..] {
+                    f.in_view = seen;
+                }
                 objects.push(first..list.len());
             }
         }
@@ -636,9 +659,9 @@ impl Camera {
         }
         if !settings.camera_disable_shot_noise {
             // Photon noise: one draw per pixel, growing with the square root of its brightness.
-            let n = Normal::new(0.0f32, NOISE).expect("valid noise");
+            let table = noise_table();
             for p in &mut image.pixels {
-                let z = n.sample(rng);
+                let z = table[(rng.next_u32() >> (32 - NOISE_TABLE_BITS)) as usize];
                 for c in p.iter_mut() {
                     *c += z * (0.25 + c.max(0.0)).sqrt();
                 }
@@ -694,6 +717,24 @@ impl Tap {
     }
 }
 
+/// log2 of the size of the shot-noise table.
+const NOISE_TABLE_BITS: u32 = 12;
+
+/// Gaussian shot noise (standard deviation [`NOISE`]) as a table of 4,096 draws made once with a
+/// fixed seed: a pixel's noise is one uniformly chosen entry, a cheap exact draw from that
+/// empirical distribution.
+fn noise_table() -> &'static [f32] {
+    static TABLE: std::sync::OnceLock<Vec<f32>> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        use rand::SeedableRng;
+        let n = Normal::new(0.0f32, NOISE).expect("valid noise");
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(0x5eed);
+        (0..1usize << NOISE_TABLE_BITS)
+            .map(|_| n.sample(&mut rng))
+            .collect()
+    })
+}
+
 /// Applies the barrel distortion of the lens: every output pixel samples the pinhole image
 /// where the lens maps it from.
 fn distort(src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64) {
@@ -736,23 +777,49 @@ fn depth_of_field(src: &[[f32; 3]], depth: &[f32], out: &mut Vec<[f32; 3]>, work
         (FOCAL * APERTURE * a.cos(), FOCAL * APERTURE * a.sin())
     });
     out.clear();
-    out.resize(src.len(), [0.0; 3]);
+    out.extend_from_slice(src);
+    // Beyond the focus the parallax never exceeds FOCAL · APERTURE / FOCUS (0.13 px), below the
+    // acceptable circle; in front of it, surfaces nearer than this are out of focus.
+    let near_limit = 1.0 / (1.0 / FOCUS + ACCEPTABLE_COC / (FOCAL * APERTURE));
+    const { assert!(FOCAL * APERTURE / FOCUS < ACCEPTABLE_COC) };
     let third = 1.0 / DOF_SAMPLES as f32;
+    // The taps of a depth, relative to the pixel: whole-pixel offset and bilinear weights.
+    // Consecutive pixels often share a depth (a ground row has one), so they are reused.
+    let taps_of = |z: f32| {
+        let blur = 1.0 / z - 1.0 / FOCUS;
+        offsets.map(|(du, dv)| {
+            let (x, y) = (du * blur, dv * blur);
+            let (x0, y0) = (x.floor(), y.floor());
+            (x0 as isize, y0 as isize, x - x0, y - y0)
+        })
+    };
+    let mut cached = (f32::NAN, taps_of(1.0));
     for (v, (row_depth, row_out)) in depth
         .chunks_exact(WIDTH)
         .zip(out.chunks_exact_mut(WIDTH))
         .enumerate()
     {
         for (u, (&z, o)) in row_depth.iter().zip(row_out).enumerate() {
-            let blur = 1.0 / z - 1.0 / FOCUS;
-            if blur.abs() * FOCAL * APERTURE < ACCEPTABLE_COC {
-                *o = src[v * WIDTH + u];
-                continue;
+            if z >= near_limit {
+                continue; // in focus: the sharp pixel
+            }
+            if z != cached.0 {
+                cached = (z, taps_of(z));
             }
             *work += DOF_SAMPLES as u64;
             let mut acc = [0.0f32; 3];
-            for (du, dv) in offsets {
-                let p = Tap::at(u as f32 + du * blur, v as f32 + dv * blur).read(src);
+            for &(dx, dy, fu, fv) in &cached.1 {
+                let (x, y) = (u as isize + dx, v as isize + dy);
+                let tap = if x >= 0 && y >= 0 && x < WIDTH as isize - 1 && y < HEIGHT as isize - 1 {
+                    Tap {
+                        index: y as usize * WIDTH + x as usize,
+                        fu,
+                        fv,
+                    }
+                } else {
+                    Tap::at(x as f32 + fu, y as f32 + fv)
+                };
+                let p = tap.read(src);
                 for k in 0..3 {
                     acc[k] += p[k];
                 }
@@ -793,47 +860,73 @@ fn bloom(img: &mut Image, level: BloomLevel, buffers: &mut [Vec<[f32; 3]>; 2], w
         }
     }
     *work += (WIDTH * HEIGHT) as u64;
-    // One running-sum box pass over `lines` lines of `len` texels, `stride` apart within a line
-    // and `step` apart between lines.
+    // Running-sum box passes: along each row, then down the columns (row by row, with one
+    // running sum per column, so that memory is read in order).
     let norm = 1.0 / (2 * radius + 1) as f32;
-    let pass = |src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, horizontal: bool, work: &mut u64| {
+    let across_rows = |src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64| {
         out.clear();
         out.resize(src.len(), [0.0; 3]);
-        let (lines, len, stride, step) = if horizontal {
-            (h, w, 1, w)
-        } else {
-            (w, h, w, 1)
-        };
-        for line in 0..lines {
-            let base = line * step;
-            let at = |k: usize| base + k * stride;
+        for (row, o) in src.chunks_exact(w).zip(out.chunks_exact_mut(w)) {
             let mut acc = [0.0f32; 3];
-            for k in 0..radius.min(len) {
-                let p = src[at(k)];
+            for p in &row[..radius.min(w)] {
                 for c in 0..3 {
                     acc[c] += p[c];
                 }
             }
-            for k in 0..len {
-                if k + radius < len {
-                    let p = src[at(k + radius)];
+            for k in 0..w {
+                if k + radius < w {
                     for c in 0..3 {
-                        acc[c] += p[c];
+                        acc[c] += row[k + radius][c];
                     }
                 }
                 if k > radius {
-                    let p = src[at(k - radius - 1)];
                     for c in 0..3 {
-                        acc[c] -= p[c];
+                        acc[c] -= row[k - radius - 1][c];
                     }
                 }
-                out[at(k)] = acc.map(|a| a * norm);
+                o[k] = acc.map(|a| a * norm);
             }
         }
         *work += src.len() as u64;
     };
-    pass(bright, across, true, work);
-    pass(across, bright, false, work);
+    let down_columns = |src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64| {
+        out.clear();
+        out.resize(src.len(), [0.0; 3]);
+        let mut acc = vec![[0.0f32; 3]; w];
+        for row in src.chunks_exact(w).take(radius.min(h)) {
+            for (a, p) in acc.iter_mut().zip(row) {
+                for c in 0..3 {
+                    a[c] += p[c];
+                }
+            }
+        }
+        for k in 0..h {
+            if k + radius < h {
+                for (a, p) in acc
+                    .iter_mut()
+                    .zip(&src[(k + radius) * w..(k + radius + 1) * w])
+                {
+                    for c in 0..3 {
+                        a[c] += p[c];
+                    }
+                }
+            }
+            if k > radius {
+                let gone = k - radius - 1;
+                for (a, p) in acc.iter_mut().zip(&src[gone * w..(gone + 1) * w]) {
+                    for c in 0..3 {
+                        a[c] -= p[c];
+                    }
+                }
+            }
+            for (o, a) in out[k * w..(k + 1) * w].iter_mut().zip(&acc) {
+                *o = a.map(|x| x * norm);
+            }
+        }
+        *work += src.len() as u64;
+    };
+    across_rows(bright, across, work);
+    down_columns(across, bright, work);
     let glow = bright;
     for (i, p) in img.pixels.iter_mut().enumerate() {
         let g = glow[(i / WIDTH / scale) * w + (i % WIDTH) / scale];
