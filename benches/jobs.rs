@@ -4,8 +4,8 @@
 //! `cargo bench --bench jobs -- [repetitions]`
 //!
 //! A reduced protocol (one budget, 60 meta-training iterations, 20 evaluations, 30 meta-testing
-//! iterations per prior, 60 + 30 baseline trials: 230 trials, 370 simulator runs) on the camera
-//! + lidar simulator with work-unit cost, so that every repetition runs exactly the same trials.
+//! iterations per prior, 60 + 30 baseline trials: 230 trials, 370 simulator runs) on the
+//! camera-and-lidar simulator with work-unit cost, so that every repetition runs exactly the same trials.
 //! Each repetition runs the campaign once per job count, alternating; the median wall time per
 //! job count and their ratio are printed.
 use savme::campaign::{self, Cost, Options, Protocol};
