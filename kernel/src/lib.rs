@@ -53,6 +53,6 @@ pub use kernel::{
 };
 pub use outcome::{Credit, Observation, Outcome, Run};
 pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
-pub use simulator::{CostMeasure, SimError, SimResult, Simulator};
+pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};
 pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
 pub use value::{Assignment, Value};

@@ -85,6 +85,15 @@ pub enum SimError {
     Failed(String),
 }
 
+/// Which of a trial's two runs a simulation is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Role {
+    /// The high-fidelity run (θ_HF).
+    High,
+    /// The learned-fidelity run (θ_LF).
+    Learned,
+}
+
 /// A simulator the kernel's trials can be run on: one call runs scenario `scenario` with
 /// parameters `phi` under fidelity settings `fidelity` and reports failure and cost.
 ///
@@ -99,4 +108,17 @@ pub trait Simulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError>;
+
+    /// Runs one simulation as the HF or the LF run of a trial. Simulators whose HF and LF runs
+    /// are different programs (two FMUs) override this; the default ignores the role.
+    fn simulate_as(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        let _ = role;
+        self.simulate(scenario, phi, fidelity)
+    }
 }

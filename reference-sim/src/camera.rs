@@ -169,7 +169,7 @@ const SKY: Cover = u32::MAX;
 /// The ground plane.
 const GROUND: Cover = u32::MAX - 1;
 
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 struct Buffers {
     depth: Vec<f32>,
     cover: Vec<Cover>,
@@ -532,7 +532,7 @@ pub fn render<R: Rng + ?Sized>(
 }
 
 /// A camera with reusable buffers: after the first frame, rendering allocates nothing large.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 pub struct Camera {
     buffers: Buffers,
     spare: Vec<[f32; 3]>,

@@ -146,7 +146,7 @@ pub struct SensorFrame {
 }
 
 /// Camera + lidar perception with the 16 fidelity settings.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct SensorPerception {
     world: &'static World,
     settings: Settings,

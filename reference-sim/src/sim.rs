@@ -64,56 +64,157 @@ fn intruder_at(setup: &Setup, t: f64) -> VehicleState {
     )
 }
 
-/// Runs scenario `info` with parameters `phi` at `rate_hz`, perceiving with `perception`.
-/// `record` keeps every step in [`RunResult::trajectory`]; it costs nothing when false.
-pub fn run(
-    info: &'static ScenarioInfo,
-    phi: &Assignment,
-    rate_hz: f64,
-    perception: &mut dyn Perception,
-    record: bool,
-) -> Result<RunResult, SimError> {
-    let clock = Instant::now();
-    let setup = scenario::setup(info, phi)?;
-    if !(rate_hz > 0.0 && rate_hz.is_finite()) {
-        return Err(SimError::BadValue {
-            variable: "simulation_rate_hz".into(),
-            value: rate_hz.to_string(),
-            expected: "a positive rate".into(),
-        });
+/// A run in progress, advanced one simulation step at a time (what the FMU export drives);
+/// [`run`] steps it to the end.
+#[derive(Debug, Clone)]
+pub struct Stepper<P: Perception> {
+    setup: Setup,
+    perception: P,
+    dt: f64,
+    steps: u64,
+    ego: VehicleState,
+    stanley: Stanley,
+    pi: SpeedPi,
+    planner: Planner,
+    trajectory: Option<Vec<Frame>>,
+    min_distance: f64,
+    collision_time: Option<f64>,
+    checks: u64,
+    taken: u64,
+    finished: bool,
+    busy_seconds: f64,
+}
+
+impl<P: Perception> Stepper<P> {
+    /// Sets up scenario `info` with parameters `phi` at `rate_hz`, perceiving with
+    /// `perception`; `record` keeps every step (see [`RunResult::trajectory`]).
+    pub fn new(
+        info: &'static ScenarioInfo,
+        phi: &Assignment,
+        rate_hz: f64,
+        perception: P,
+        record: bool,
+    ) -> Result<Self, SimError> {
+        let clock = Instant::now();
+        let setup = scenario::setup(info, phi)?;
+        if !(rate_hz > 0.0 && rate_hz.is_finite()) {
+            return Err(SimError::BadValue {
+                variable: "simulation_rate_hz".into(),
+                value: rate_hz.to_string(),
+                expected: "a positive rate".into(),
+            });
+        }
+        let start = setup.ego_path.point_at(setup.ego_start);
+        let ego = VehicleState::from_center(
+            start,
+            setup.ego_path.heading_at(setup.ego_start),
+            setup.ego_speed,
+        );
+        Ok(Stepper {
+            dt: 1.0 / rate_hz,
+            steps: (info.duration * rate_hz).ceil() as u64,
+            ego,
+            setup,
+            perception,
+            stanley: Stanley::default(),
+            pi: SpeedPi::default(),
+            planner: Planner::default(),
+            trajectory: record.then(Vec::new),
+            min_distance: f64::INFINITY,
+            collision_time: None,
+            checks: 0,
+            taken: 0,
+            finished: false,
+            busy_seconds: clock.elapsed().as_secs_f64(),
+        })
     }
-    let dt = 1.0 / rate_hz;
-    let steps = (info.duration * rate_hz).ceil() as u64;
-    let start = setup.ego_path.point_at(setup.ego_start);
-    let mut ego = VehicleState::from_center(
-        start,
-        setup.ego_path.heading_at(setup.ego_start),
-        setup.ego_speed,
-    );
-    let (mut stanley, mut pi, mut planner) =
-        (Stanley::default(), SpeedPi::default(), Planner::default());
-    let mut trajectory = record.then(Vec::new);
-    let mut min_distance = f64::INFINITY;
-    let mut collision_time = None;
-    let mut checks = 0u64;
-    let mut taken = 0u64;
-    'run: for k in 0..steps {
-        taken += 1;
+
+    /// Simulated time reached, seconds.
+    pub fn time(&self) -> f64 {
+        self.taken as f64 * self.dt
+    }
+
+    /// The simulation step, seconds.
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+
+    /// The run has ended (collision, or the scenario's duration reached).
+    pub fn finished(&self) -> bool {
+        self.finished
+    }
+
+    /// Collided so far.
+    pub fn failure(&self) -> bool {
+        self.collision_time.is_some()
+    }
+
+    /// Smallest body distance so far (infinite before the first check).
+    pub fn min_distance(&self) -> f64 {
+        self.min_distance
+    }
+
+    /// When the collision happened.
+    pub fn collision_time(&self) -> Option<f64> {
+        self.collision_time
+    }
+
+    /// Work units so far.
+    pub fn work(&self) -> u64 {
+        self.taken + self.checks + self.perception.work()
+    }
+
+    /// Steps taken so far.
+    pub fn steps_taken(&self) -> u64 {
+        self.taken
+    }
+
+    /// The perception.
+    pub fn perception(&self) -> &P {
+        &self.perception
+    }
+
+    /// The perception, mutably (to take recorded frames).
+    pub fn perception_mut(&mut self) -> &mut P {
+        &mut self.perception
+    }
+
+    /// One simulation step: perceive, plan, control, advance with swept collision checks.
+    /// Does nothing once finished; returns whether the run is finished.
+    pub fn step(&mut self) -> bool {
+        if self.finished {
+            return true;
+        }
+        let clock = Instant::now();
+        self.advance();
+        self.busy_seconds += clock.elapsed().as_secs_f64();
+        self.finished
+    }
+
+    fn advance(&mut self) {
+        let k = self.taken;
+        if k >= self.steps {
+            self.finished = true;
+            return;
+        }
+        self.taken += 1;
+        let (dt, setup) = (self.dt, &self.setup);
         let t = k as f64 * dt;
-        let intruder = intruder_at(&setup, t);
-        let measured = perception.perceive(&Sensing {
+        let ego = self.ego;
+        let intruder = intruder_at(setup, t);
+        let measured = self.perception.perceive(&Sensing {
             time: t,
             ego: &ego,
             obstacle: &intruder,
         });
-        let braking = planner.decide(t, &ego, measured);
-        let steer = stanley.steer(&ego, &setup.ego_path, dt);
+        let braking = self.planner.decide(t, &ego, measured);
+        let steer = self.stanley.steer(&ego, &setup.ego_path, dt);
         let accel = if braking {
             -BRAKE_DECEL
         } else {
-            pi.accel(setup.ego_speed, ego.speed, dt)
+            self.pi.accel(setup.ego_speed, ego.speed, dt)
         };
-        if let Some(tr) = trajectory.as_mut() {
+        if let Some(tr) = self.trajectory.as_mut() {
             tr.push(Frame {
                 time: t,
                 ego,
@@ -126,7 +227,7 @@ pub fn run(
         // exactly to each check point, the intruder's read from its script.
         let mut after = ego;
         after.step(steer, accel, dt);
-        let next_intruder = intruder_at(&setup, t + dt);
+        let next_intruder = intruder_at(setup, t + dt);
         let relative =
             ((after.center() - ego.center()) - (next_intruder.center() - intruder.center())).norm()
                 + (after.heading - ego.heading).abs() * vehicle::LENGTH;
@@ -138,21 +239,21 @@ pub fn run(
             } else {
                 let mut e = ego;
                 e.step(steer, accel, dt * f);
-                (e, intruder_at(&setup, t + dt * f))
+                (e, intruder_at(setup, t + dt * f))
             };
-            checks += 1;
+            self.checks += 1;
             // Bodies are at least (centre distance − two half-diagonals) apart: only a sample
             // that could lower the minimum needs the exact (GJK) distance.
             let centres = (e.center() - i.center()).norm();
-            if centres - 2.0 * HALF_DIAGONAL >= min_distance {
+            if centres - 2.0 * HALF_DIAGONAL >= self.min_distance {
                 continue;
             }
             let d = vehicle::distance(&e, &i);
-            min_distance = min_distance.min(d);
+            self.min_distance = self.min_distance.min(d);
             if d <= 0.0 || vehicle::collide(&e, &i) {
-                min_distance = 0.0;
-                collision_time = Some(t + dt * f);
-                if let Some(tr) = trajectory.as_mut() {
+                self.min_distance = 0.0;
+                self.collision_time = Some(t + dt * f);
+                if let Some(tr) = self.trajectory.as_mut() {
                     tr.push(Frame {
                         time: t + dt * f,
                         ego: e,
@@ -161,21 +262,47 @@ pub fn run(
                         measured: None,
                     });
                 }
-                break 'run;
+                self.finished = true;
+                return;
             }
         }
-        ego = after;
+        self.ego = after;
+        if self.taken >= self.steps {
+            self.finished = true;
+        }
     }
-    Ok(RunResult {
-        failure: collision_time.is_some(),
-        min_distance,
-        collision_time,
-        steps: taken,
-        work: taken + checks + perception.work(),
-        wall_seconds: clock.elapsed().as_secs_f64(),
-        trajectory,
-        sensor_frames: None,
-    })
+
+    /// The result so far (of the whole run once finished); the wall time counts set-up and
+    /// steps only.
+    pub fn result(&mut self) -> RunResult {
+        RunResult {
+            failure: self.collision_time.is_some(),
+            min_distance: self.min_distance,
+            collision_time: self.collision_time,
+            steps: self.taken,
+            work: self.work(),
+            wall_seconds: self.busy_seconds,
+            trajectory: self.trajectory.take(),
+            sensor_frames: None,
+        }
+    }
+}
+
+/// Runs scenario `info` with parameters `phi` at `rate_hz`, perceiving with `perception`.
+/// `record` keeps every step in [`RunResult::trajectory`]; it costs nothing when false.
+pub fn run(
+    info: &'static ScenarioInfo,
+    phi: &Assignment,
+    rate_hz: f64,
+    perception: &mut dyn Perception,
+    record: bool,
+) -> Result<RunResult, SimError> {
+    let clock = Instant::now();
+    let mut s = Stepper::new(info, phi, rate_hz, perception, record)?;
+    while !s.step() {}
+    let mut r = s.result();
+    r.wall_seconds = clock.elapsed().as_secs_f64();
+    Ok(r)
 }
 
 /// Which perception the system under test uses.
@@ -216,6 +343,34 @@ impl DrivingSimulator {
         }
     }
 
+    /// The run of one scenario, ready to step (what [`DrivingSimulator::run`] and the FMU
+    /// export drive): the same set-up, perception and noise seed either way.
+    pub fn stepper(
+        &self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+        record: bool,
+    ) -> Result<Stepper<Perceiver>, SimError> {
+        let info =
+            scenario::find(scenario).ok_or_else(|| SimError::UnknownScenario(scenario.into()))?;
+        let settings = Settings::from_assignment(fidelity)?;
+        let world = crate::world::World::shared(info.layout);
+        let seed = phi.stable_hash(info.name);
+        let perceiver = match self.perception {
+            PerceptionMode::Ideal { noise_sd } => Perceiver::Ideal(
+                IdealPerception::new()
+                    .with_noise(noise_sd, seed)
+                    .with_occlusion(world),
+            ),
+            PerceptionMode::Sensors => {
+                let p = SensorPerception::new(world, settings, seed);
+                Perceiver::Sensors(if record { p.recording() } else { p })
+            }
+        };
+        Stepper::new(info, phi, settings.rate_hz, perceiver, record)
+    }
+
     /// Runs one scenario and returns the full result; `record` keeps the trajectory (and, with
     /// sensors, every frame).
     pub fn run(
@@ -225,27 +380,39 @@ impl DrivingSimulator {
         fidelity: &Assignment,
         record: bool,
     ) -> Result<RunResult, SimError> {
-        let info =
-            scenario::find(scenario).ok_or_else(|| SimError::UnknownScenario(scenario.into()))?;
-        let settings = Settings::from_assignment(fidelity)?;
-        let world = crate::world::World::shared(info.layout);
-        let seed = phi.stable_hash(info.name);
-        match self.perception {
-            PerceptionMode::Ideal { noise_sd } => {
-                let mut p = IdealPerception::new()
-                    .with_noise(noise_sd, seed)
-                    .with_occlusion(world);
-                run(info, phi, settings.rate_hz, &mut p, record)
-            }
-            PerceptionMode::Sensors => {
-                let mut p = SensorPerception::new(world, settings, seed);
-                if record {
-                    p = p.recording();
-                }
-                let mut r = run(info, phi, settings.rate_hz, &mut p, record)?;
-                r.sensor_frames = p.frames.take();
-                Ok(r)
-            }
+        let clock = Instant::now();
+        let mut s = self.stepper(scenario, phi, fidelity, record)?;
+        while !s.step() {}
+        let mut r = s.result();
+        if let Perceiver::Sensors(p) = s.perception_mut() {
+            r.sensor_frames = p.frames.take();
+        }
+        r.wall_seconds = clock.elapsed().as_secs_f64();
+        Ok(r)
+    }
+}
+
+/// The perception of a [`DrivingSimulator`] run.
+#[derive(Debug, Clone)]
+pub enum Perceiver {
+    /// Camera + lidar.
+    Sensors(SensorPerception),
+    /// Ground truth + noise.
+    Ideal(IdealPerception),
+}
+
+impl Perception for Perceiver {
+    fn perceive(&mut self, sensing: &Sensing) -> Option<nalgebra::Point2<f64>> {
+        match self {
+            Perceiver::Sensors(p) => p.perceive(sensing),
+            Perceiver::Ideal(p) => p.perceive(sensing),
+        }
+    }
+
+    fn work(&self) -> u64 {
+        match self {
+            Perceiver::Sensors(p) => p.work(),
+            Perceiver::Ideal(p) => p.work(),
         }
     }
 }

@@ -31,6 +31,16 @@ pub trait Perception {
     }
 }
 
+impl<P: Perception + ?Sized> Perception for &mut P {
+    fn perceive(&mut self, sensing: &Sensing) -> Option<Point2<f64>> {
+        (**self).perceive(sensing)
+    }
+
+    fn work(&self) -> u64 {
+        (**self).work()
+    }
+}
+
 /// Idealised perception: the true obstacle centre plus Gaussian noise, for obstacles inside a
 /// forward camera's field of view and range and — when given the world — not hidden behind
 /// static scenery (a building at a corner hides cross traffic until it is close).

@@ -6,7 +6,7 @@ use super::log::{RunLine, TrialLine, Writer};
 use super::protocol::Stage;
 use super::CampaignError;
 use crossbeam_channel::{Receiver, Sender};
-use savme_kernel::{Assignment, CostMeasure, Kernel, SimError, SimResult, Simulator, Trial};
+use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
 use std::collections::VecDeque;
 use std::panic::AssertUnwindSafe;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -57,8 +57,12 @@ where
                     if stop.load(Ordering::Relaxed) {
                         break;
                     }
+                    let role = match t.which {
+                        Which::Hf => Role::High,
+                        Which::Lf => Role::Learned,
+                    };
                     let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-                        sim.simulate(&t.scenario, &t.phi, &t.fidelity)
+                        sim.simulate_as(role, &t.scenario, &t.phi, &t.fidelity)
                     }))
                     .unwrap_or_else(|panic| {
                         let what = panic

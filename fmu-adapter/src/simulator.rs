@@ -1,0 +1,538 @@
+//! Running a scenario on a pair of FMUs: how savme's variables map to FMU variables, what
+//! counts as a failure, how long to simulate, what a run costs.
+
+use crate::file::{FmuFile, VarCausality, VarInfo, VarType};
+use crate::instance::Instance;
+use crate::FmuError;
+use savme_kernel::{Assignment, Domain, Role, SimError, SimResult, Simulator, Space, Value};
+use serde::{Deserialize, Serialize};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// A savme variable (φ or θ) and the FMU variable it sets.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Binding {
+    /// The savme variable.
+    pub variable: String,
+    /// The FMU variable (a parameter or an input).
+    pub fmu_variable: String,
+    /// For a variable with label values: the labels, in order — a label is set as its position
+    /// (an FMU Integer).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub labels: Option<Vec<String>>,
+}
+
+/// A value set on every run of a scenario.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fixed {
+    /// The FMU variable.
+    pub fmu_variable: String,
+    /// Its value.
+    pub value: Value,
+}
+
+/// What counts as a failure of the system under test.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Failure {
+    /// A Boolean output is true.
+    Boolean {
+        /// The output.
+        variable: String,
+    },
+    /// A Real (or Integer) output crosses a threshold.
+    Threshold {
+        /// The output.
+        variable: String,
+        /// `above`: failure when the output is ≥ `value`; `below`: when ≤ `value`.
+        when: Crossing,
+        /// The threshold.
+        value: f64,
+    },
+}
+
+/// Direction of a threshold failure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Crossing {
+    /// At or above.
+    Above,
+    /// At or below.
+    Below,
+}
+
+/// The communication step size.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StepSize {
+    /// A fixed step, seconds.
+    Fixed(f64),
+    /// 1 / (a fidelity variable in Hz), e.g. the simulation rate.
+    RateOf(String),
+}
+
+/// What a run costs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CostSource {
+    /// Measured wall-clock time (always measured; also reported as work if nothing else).
+    #[default]
+    Wall,
+    /// An output of the FMU read at the end of the run, reported as work units.
+    Output(String),
+}
+
+/// A scenario: its φ bindings and fixed values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScenarioSpec {
+    /// The scenario name (as the kernel knows it).
+    pub name: String,
+    /// Its parameters φ → FMU variables.
+    pub phi: Vec<Binding>,
+    /// Values set on every run.
+    #[serde(default)]
+    pub fixed: Vec<Fixed>,
+}
+
+/// Everything about how a trial's run executes on an FMU.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunSpec {
+    /// Simulated time, seconds.
+    pub stop_time: f64,
+    /// Communication step size.
+    pub step: StepSize,
+    /// The failure signal.
+    pub failure: Failure,
+    /// Stop as soon as the failure is reached.
+    pub stop_on_failure: bool,
+    /// The cost of a run.
+    pub cost: CostSource,
+    /// Fidelity settings θ → FMU variables (the same names in the HF and LF FMU).
+    pub fidelity: Vec<Binding>,
+    /// The scenarios.
+    pub scenarios: Vec<ScenarioSpec>,
+}
+
+/// Labels of a discrete variable with label values (for [`Binding::labels`]).
+pub fn labels_of(space: &Space, name: &str) -> Option<Vec<String>> {
+    let v = space.variable(name)?;
+    match &v.domain {
+        Domain::Discrete { values } if values.iter().all(|x| x.as_label().is_some()) => Some(
+            values
+                .iter()
+                .filter_map(|x| x.as_label().map(String::from))
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
+/// What a savme variable's values need of an FMU variable.
+fn needed(space: &Space, name: &str) -> Option<&'static [VarType]> {
+    let v = space.variable(name)?;
+    Some(match &v.domain {
+        Domain::Continuous { .. } => &[VarType::Real],
+        Domain::Discrete { values } => {
+            if values.iter().all(|x| matches!(x, Value::Bool(_))) {
+                &[VarType::Boolean]
+            } else if values.iter().all(|x| x.as_label().is_some()) {
+                &[VarType::Integer]
+            } else if values
+                .iter()
+                .all(|x| x.as_f64().is_some_and(|f| f.fract() == 0.0))
+            {
+                &[VarType::Integer, VarType::Real]
+            } else {
+                &[VarType::Real]
+            }
+        }
+    })
+}
+
+/// A binding resolved against one FMU.
+#[derive(Debug, Clone)]
+struct Resolved {
+    variable: String,
+    var: VarInfo,
+    labels: Option<Vec<String>>,
+}
+
+fn settable(file: &FmuFile, name: &str) -> Result<VarInfo, FmuError> {
+    let v = file.variable(name)?.clone();
+    if !matches!(v.causality, VarCausality::Parameter | VarCausality::Input) {
+        return Err(FmuError::WrongCausality {
+            fmu: file.path.display().to_string(),
+            variable: name.into(),
+            expected: "a parameter or an input".into(),
+        });
+    }
+    Ok(v)
+}
+
+fn resolve(file: &FmuFile, b: &Binding, space: Option<&Space>) -> Result<Resolved, FmuError> {
+    let var = settable(file, &b.fmu_variable)?;
+    if let Some(allowed) = space.and_then(|s| needed(s, &b.variable)) {
+        if !allowed.contains(&var.kind) {
+            return Err(FmuError::WrongType {
+                fmu: file.path.display().to_string(),
+                variable: b.fmu_variable.clone(),
+                found: format!("{:?}", var.kind),
+                expected: format!(
+                    "{} (for `{}`)",
+                    allowed
+                        .iter()
+                        .map(|k| format!("{k:?}"))
+                        .collect::<Vec<_>>()
+                        .join(" or "),
+                    b.variable
+                ),
+            });
+        }
+    }
+    Ok(Resolved {
+        variable: b.variable.clone(),
+        var,
+        labels: b.labels.clone(),
+    })
+}
+
+/// A scenario's name, φ bindings and fixed values, resolved.
+type ScenarioPlan = (String, Vec<Resolved>, Vec<(VarInfo, Value)>);
+
+/// The outputs and bindings of a spec resolved against one FMU.
+#[derive(Debug, Clone)]
+struct Plan {
+    failure: VarInfo,
+    cost: Option<VarInfo>,
+    fidelity: Vec<Resolved>,
+    scenarios: Vec<ScenarioPlan>,
+}
+
+fn output(file: &FmuFile, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuError> {
+    let v = file.variable(name)?.clone();
+    if v.causality != VarCausality::Output {
+        return Err(FmuError::WrongCausality {
+            fmu: file.path.display().to_string(),
+            variable: name.into(),
+            expected: "an output".into(),
+        });
+    }
+    if !kinds.contains(&v.kind) {
+        return Err(FmuError::WrongType {
+            fmu: file.path.display().to_string(),
+            variable: name.into(),
+            found: format!("{:?}", v.kind),
+            expected: kinds
+                .iter()
+                .map(|k| format!("{k:?}"))
+                .collect::<Vec<_>>()
+                .join(" or "),
+        });
+    }
+    Ok(v)
+}
+
+impl Plan {
+    fn new(
+        file: &FmuFile,
+        spec: &RunSpec,
+        fidelity: Option<&Space>,
+        phi: &dyn Fn(&str) -> Option<Space>,
+    ) -> Result<Plan, FmuError> {
+        let failure = match &spec.failure {
+            Failure::Boolean { variable } => output(file, variable, &[VarType::Boolean])?,
+            Failure::Threshold { variable, .. } => {
+                output(file, variable, &[VarType::Real, VarType::Integer])?
+            }
+        };
+        let cost = match &spec.cost {
+            CostSource::Wall => None,
+            CostSource::Output(v) => Some(output(file, v, &[VarType::Real, VarType::Integer])?),
+        };
+        let fidelity = spec
+            .fidelity
+            .iter()
+            .map(|b| resolve(file, b, fidelity))
+            .collect::<Result<_, _>>()?;
+        let scenarios = spec
+            .scenarios
+            .iter()
+            .map(|s| {
+                let space = phi(&s.name);
+                let bindings = s
+                    .phi
+                    .iter()
+                    .map(|b| resolve(file, b, space.as_ref()))
+                    .collect::<Result<Vec<_>, _>>()?;
+                let fixed = s
+                    .fixed
+                    .iter()
+                    .map(|f| settable(file, &f.fmu_variable).map(|v| (v, f.value.clone())))
+                    .collect::<Result<Vec<_>, _>>()?;
+                Ok((s.name.clone(), bindings, fixed))
+            })
+            .collect::<Result<_, FmuError>>()?;
+        Ok(Plan {
+            failure,
+            cost,
+            fidelity,
+            scenarios,
+        })
+    }
+}
+
+/// A pair of FMUs (HF and LF; may be the same file) as a savme [`Simulator`]. Clones share the
+/// loaded libraries and make their own instances (one per worker thread), reused across runs
+/// with `fmi2Reset`.
+pub struct FmuSimulator {
+    files: [Arc<FmuFile>; 2],
+    plans: Arc<[Plan; 2]>,
+    spec: Arc<RunSpec>,
+    theta_hf: Option<Assignment>,
+    instances: [Option<Instance>; 2],
+}
+
+impl Clone for FmuSimulator {
+    fn clone(&self) -> Self {
+        FmuSimulator {
+            files: self.files.clone(),
+            plans: self.plans.clone(),
+            spec: self.spec.clone(),
+            theta_hf: self.theta_hf.clone(),
+            instances: [None, None],
+        }
+    }
+}
+
+impl std::fmt::Debug for FmuSimulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("FmuSimulator")
+            .field("hf", &self.files[0].path)
+            .field("lf", &self.files[1].path)
+            .finish()
+    }
+}
+
+impl FmuSimulator {
+    /// Checks every binding and output of `spec` against both FMUs (types, causalities) and
+    /// builds the simulator. `fidelity` and `phi` give the savme variables' domains for the
+    /// type checks; `theta_hf` lets [`Simulator::simulate`] (which has no role) pick the FMU.
+    pub fn new(
+        hf: Arc<FmuFile>,
+        lf: Arc<FmuFile>,
+        spec: RunSpec,
+        fidelity: Option<&Space>,
+        phi: &dyn Fn(&str) -> Option<Space>,
+        theta_hf: Option<Assignment>,
+    ) -> Result<FmuSimulator, FmuError> {
+        if !(spec.stop_time > 0.0 && spec.stop_time.is_finite()) {
+            return Err(FmuError::Spec(format!(
+                "stop time {} is not positive",
+                spec.stop_time
+            )));
+        }
+        if let StepSize::Fixed(h) = spec.step {
+            if !(h > 0.0 && h.is_finite()) {
+                return Err(FmuError::Spec(format!("step size {h} is not positive")));
+            }
+        }
+        let plans = [
+            Plan::new(&hf, &spec, fidelity, phi)?,
+            Plan::new(&lf, &spec, fidelity, phi)?,
+        ];
+        Ok(FmuSimulator {
+            files: [hf, lf],
+            plans: Arc::new(plans),
+            spec: Arc::new(spec),
+            theta_hf,
+            instances: [None, None],
+        })
+    }
+
+    /// The run specification.
+    pub fn spec(&self) -> &RunSpec {
+        &self.spec
+    }
+
+    fn set(
+        inst: &mut Instance,
+        var: &VarInfo,
+        value: &Value,
+        labels: Option<&[String]>,
+    ) -> Result<(), FmuError> {
+        let bad = |expected: &str| FmuError::WrongType {
+            fmu: inst.file().path.display().to_string(),
+            variable: var.name.clone(),
+            found: format!("value {value}"),
+            expected: expected.into(),
+        };
+        match var.kind {
+            VarType::Real => inst.set_real(var.vr, value.as_f64().ok_or_else(|| bad("a number"))?),
+            VarType::Integer => {
+                let i = match (value, labels) {
+                    (Value::Label(l), Some(labels)) => labels
+                        .iter()
+                        .position(|x| **x == **l)
+                        .ok_or_else(|| bad("one of the variable's labels"))?
+                        as i32,
+                    _ => {
+                        let f = value.as_f64().ok_or_else(|| bad("an integer"))?;
+                        if f.fract() != 0.0 || f.abs() > f64::from(i32::MAX) {
+                            return Err(bad("an integer"));
+                        }
+                        f as i32
+                    }
+                };
+                inst.set_integer(var.vr, i)
+            }
+            VarType::Boolean => {
+                inst.set_boolean(var.vr, value.as_bool().ok_or_else(|| bad("a boolean"))?)
+            }
+            VarType::String | VarType::Enumeration => Err(bad("Real, Integer or Boolean")),
+        }
+    }
+
+    fn failed(&self, inst: &mut Instance, plan: &Plan) -> Result<bool, FmuError> {
+        Ok(match &self.spec.failure {
+            Failure::Boolean { .. } => inst.boolean(plan.failure.vr)?,
+            Failure::Threshold { when, value, .. } => {
+                let x = match plan.failure.kind {
+                    VarType::Integer => f64::from(inst.integer(plan.failure.vr)?),
+                    _ => inst.real(plan.failure.vr)?,
+                };
+                match when {
+                    Crossing::Above => x >= *value,
+                    Crossing::Below => x <= *value,
+                }
+            }
+        })
+    }
+
+    /// Runs `scenario` with `phi` and `fidelity` on the HF (`role` = High) or LF FMU.
+    pub fn run(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, FmuError> {
+        let k = usize::from(role == Role::Learned);
+        let plan = self.plans[k].clone();
+        let clock = Instant::now();
+        let mut inst = match self.instances[k].take() {
+            Some(mut i) => {
+                i.reset()?;
+                i
+            }
+            None => Instance::new(self.files[k].clone(), &format!("savme-{}", ["hf", "lf"][k]))?,
+        };
+        let result = self.run_on(&mut inst, &plan, scenario, phi, fidelity);
+        if result.is_ok() {
+            // Only a healthy instance is reused; a failed one is freed.
+            self.instances[k] = Some(inst);
+        }
+        let (failure, work) = result?;
+        Ok(SimResult::new(failure, clock.elapsed().as_secs_f64(), work))
+    }
+
+    fn run_on(
+        &self,
+        inst: &mut Instance,
+        plan: &Plan,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<(bool, Option<u64>), FmuError> {
+        let spec = &self.spec;
+        let (_, phi_bindings, fixed) = plan
+            .scenarios
+            .iter()
+            .find(|(n, _, _)| n == scenario)
+            .ok_or_else(|| FmuError::Spec(format!("unknown scenario `{scenario}`")))?;
+        let stop = spec.stop_time;
+        inst.setup(0.0, Some(stop))?;
+        for (var, value) in fixed {
+            Self::set(inst, var, value, None)?;
+        }
+        for (bindings, values) in [(phi_bindings, phi), (&plan.fidelity, fidelity)] {
+            for b in bindings {
+                let value = values
+                    .get(&b.variable)
+                    .ok_or_else(|| FmuError::MissingValue {
+                        variable: b.variable.clone(),
+                    })?;
+                Self::set(inst, &b.var, value, b.labels.as_deref())?;
+            }
+        }
+        inst.initialize()?;
+        let h = match &spec.step {
+            StepSize::Fixed(h) => *h,
+            StepSize::RateOf(var) => {
+                let rate = fidelity
+                    .get_f64(var)
+                    .ok_or_else(|| FmuError::MissingValue {
+                        variable: var.clone(),
+                    })?;
+                if !(rate > 0.0 && rate.is_finite()) {
+                    return Err(FmuError::Spec(format!(
+                        "`{var}` = {rate} is not a positive rate"
+                    )));
+                }
+                1.0 / rate
+            }
+        };
+        let mut failure = self.failed(inst, plan)?;
+        let mut t = 0.0;
+        let mut k = 0u64;
+        while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
+            let dt = h.min(stop - t);
+            inst.step(t, dt)?;
+            k += 1;
+            t = if (stop - (t + dt)).abs() < 1e-12 {
+                stop
+            } else {
+                t + dt
+            };
+            failure |= self.failed(inst, plan)?;
+        }
+        let work = match &plan.cost {
+            Some(v) => {
+                let x = match v.kind {
+                    VarType::Integer => f64::from(inst.integer(v.vr)?),
+                    _ => inst.real(v.vr)?,
+                };
+                Some(x.max(0.0).round() as u64)
+            }
+            None => Some(k),
+        };
+        inst.terminate()?;
+        Ok((failure, work))
+    }
+}
+
+impl Simulator for FmuSimulator {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        let role = if self.theta_hf.as_ref() == Some(fidelity) {
+            Role::High
+        } else {
+            Role::Learned
+        };
+        self.simulate_as(role, scenario, phi, fidelity)
+    }
+
+    fn simulate_as(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        self.run(role, scenario, phi, fidelity)
+            .map_err(|e| SimError::Failed(e.to_string()))
+    }
+}

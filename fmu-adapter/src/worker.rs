@@ -1,0 +1,367 @@
+//! FMU evaluations in a worker child process: an FMU that crashes (segfault, abort) or hangs
+//! costs one trial — reported as that trial's error — not the campaign.
+//!
+//! The parent ([`IsolatedSimulator`]) starts the worker (the `savme` binary itself, as
+//! `savme fmu-worker`) and talks JSON lines over its stdin/stdout: first a [`WorkerInit`], then
+//! one [`WorkerRequest`] per run, each answered by one [`WorkerResponse`]. A run that does not
+//! answer within the timeout gets its worker killed; a worker that dies is restarted for the
+//! next run.
+
+use crate::{FmuError, FmuFile, FmuSimulator, RunSpec};
+use crossbeam_channel::{Receiver, RecvTimeoutError};
+use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator, Space};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, Write};
+use std::path::PathBuf;
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// What a worker needs to build its simulator.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkerInit {
+    /// The HF FMU.
+    pub hf: PathBuf,
+    /// The LF FMU.
+    pub lf: PathBuf,
+    /// How runs execute.
+    pub spec: RunSpec,
+    /// The fidelity space (for type checks and label positions).
+    pub fidelity: Option<Space>,
+    /// The scenario spaces.
+    pub phi: BTreeMap<String, Space>,
+    /// θ_HF.
+    pub theta_hf: Option<Assignment>,
+}
+
+impl WorkerInit {
+    /// Opens both FMUs and builds the in-process simulator.
+    pub fn simulator(&self) -> Result<FmuSimulator, FmuError> {
+        let hf = Arc::new(FmuFile::open(&self.hf)?);
+        let lf = if self.lf == self.hf {
+            hf.clone()
+        } else {
+            Arc::new(FmuFile::open(&self.lf)?)
+        };
+        FmuSimulator::new(
+            hf,
+            lf,
+            self.spec.clone(),
+            self.fidelity.as_ref(),
+            &|name| self.phi.get(name).cloned(),
+            self.theta_hf.clone(),
+        )
+    }
+}
+
+/// One run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WorkerRequest {
+    /// HF or LF.
+    pub learned: bool,
+    /// Scenario.
+    pub scenario: String,
+    /// φ.
+    pub phi: Assignment,
+    /// θ.
+    pub fidelity: Assignment,
+}
+
+/// The answer to a request (or to the init line: `Ready`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WorkerResponse {
+    /// The simulator is built.
+    Ready,
+    /// A run's result.
+    Done {
+        /// Failure.
+        failure: bool,
+        /// Wall-clock seconds measured in the worker.
+        wall_seconds: f64,
+        /// Work units.
+        work: Option<u64>,
+    },
+    /// The run (or the set-up) failed.
+    Error(String),
+}
+
+/// Serves the worker protocol on `input`/`output` until `input` closes: what `savme fmu-worker`
+/// runs.
+pub fn serve(input: impl BufRead, mut output: impl Write) -> std::io::Result<()> {
+    let mut lines = input.lines();
+    let say = |r: &WorkerResponse, out: &mut dyn Write| -> std::io::Result<()> {
+        let text = serde_json::to_string(r).unwrap_or_else(|e| {
+            serde_json::to_string(&WorkerResponse::Error(e.to_string())).unwrap_or_default()
+        });
+        writeln!(out, "{text}")?;
+        out.flush()
+    };
+    let Some(first) = lines.next() else {
+        return Ok(());
+    };
+    let mut sim = match serde_json::from_str::<WorkerInit>(&first?) {
+        Err(e) => {
+            return say(
+                &WorkerResponse::Error(format!("worker init: {e}")),
+                &mut output,
+            )
+        }
+        Ok(init) => match init.simulator() {
+            Ok(s) => s,
+            Err(e) => return say(&WorkerResponse::Error(e.to_string()), &mut output),
+        },
+    };
+    say(&WorkerResponse::Ready, &mut output)?;
+    for line in lines {
+        let line = line?;
+        let response = match serde_json::from_str::<WorkerRequest>(&line) {
+            Err(e) => WorkerResponse::Error(format!("worker request: {e}")),
+            Ok(r) => {
+                let role = if r.learned { Role::Learned } else { Role::High };
+                match sim.run(role, &r.scenario, &r.phi, &r.fidelity) {
+                    Ok(res) => WorkerResponse::Done {
+                        failure: res.failure,
+                        wall_seconds: res.wall_seconds,
+                        work: res.work,
+                    },
+                    Err(e) => WorkerResponse::Error(e.to_string()),
+                }
+            }
+        };
+        say(&response, &mut output)?;
+    }
+    Ok(())
+}
+
+struct Worker {
+    child: Child,
+    stdin: ChildStdin,
+    lines: Receiver<std::io::Result<String>>,
+}
+
+impl Worker {
+    fn kill(mut self) -> String {
+        let _ = self.child.kill();
+        match self.child.wait() {
+            Ok(status) => describe(status),
+            Err(e) => e.to_string(),
+        }
+    }
+}
+
+fn describe(status: std::process::ExitStatus) -> String {
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = status.signal() {
+            let name = match sig {
+                6 => " (SIGABRT: the FMU aborted)",
+                9 => " (SIGKILL)",
+                11 => " (SIGSEGV: the FMU crashed)",
+                _ => "",
+            };
+            return format!("killed by signal {sig}{name}");
+        }
+    }
+    status.to_string()
+}
+
+/// A simulator whose runs execute in a worker process: `command` (e.g. `["savme",
+/// "fmu-worker"]`) started with `init`, each run allowed `timeout`.
+pub struct IsolatedSimulator {
+    command: Arc<Vec<String>>,
+    init: Arc<String>,
+    fmu: Arc<String>,
+    timeout: Duration,
+    worker: Option<Worker>,
+}
+
+impl Clone for IsolatedSimulator {
+    fn clone(&self) -> Self {
+        IsolatedSimulator {
+            command: self.command.clone(),
+            init: self.init.clone(),
+            fmu: self.fmu.clone(),
+            timeout: self.timeout,
+            worker: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for IsolatedSimulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("IsolatedSimulator")
+            .field("command", &self.command)
+            .field("timeout", &self.timeout)
+            .finish()
+    }
+}
+
+impl IsolatedSimulator {
+    /// A simulator running `init` in worker processes started with `command`.
+    pub fn new(
+        command: Vec<String>,
+        init: &WorkerInit,
+        timeout: Duration,
+    ) -> Result<Self, FmuError> {
+        if command.is_empty() {
+            return Err(FmuError::Spec("no worker command".into()));
+        }
+        let text = serde_json::to_string(init).map_err(|e| FmuError::Spec(e.to_string()))?;
+        Ok(IsolatedSimulator {
+            command: Arc::new(command),
+            init: Arc::new(text),
+            fmu: Arc::new(if init.hf == init.lf {
+                init.hf.display().to_string()
+            } else {
+                format!("{} / {}", init.hf.display(), init.lf.display())
+            }),
+            timeout,
+            worker: None,
+        })
+    }
+
+    fn start(&self) -> Result<Worker, SimError> {
+        let mut child = Command::new(&self.command[0])
+            .args(&self.command[1..])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .map_err(|e| {
+                SimError::Failed(format!(
+                    "cannot start the FMU worker {:?}: {e}",
+                    self.command
+                ))
+            })?;
+        let (Some(mut stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
+            return Err(SimError::Failed("the FMU worker has no pipes".into()));
+        };
+        let (tx, rx) = crossbeam_channel::unbounded();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let stop = line.is_err();
+                if tx.send(line).is_err() || stop {
+                    break;
+                }
+            }
+        });
+        writeln!(stdin, "{}", self.init)
+            .and_then(|()| stdin.flush())
+            .map_err(|e| SimError::Failed(format!("FMU worker: {e}")))?;
+        let mut w = Worker {
+            child,
+            stdin,
+            lines: rx,
+        };
+        match self.answer(&mut w, Duration::from_secs(60).max(self.timeout)) {
+            Ok(WorkerResponse::Ready) => Ok(w),
+            Ok(WorkerResponse::Error(e)) => {
+                w.kill();
+                Err(SimError::Failed(e))
+            }
+            Ok(other) => {
+                w.kill();
+                Err(SimError::Failed(format!(
+                    "FMU worker: unexpected {other:?}"
+                )))
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The next response, or an error after `timeout` (the worker is then dead or killed and
+    /// must not be reused).
+    fn answer(&self, w: &mut Worker, timeout: Duration) -> Result<WorkerResponse, SimError> {
+        match w.lines.recv_timeout(timeout) {
+            Ok(Ok(line)) => serde_json::from_str(&line)
+                .map_err(|e| SimError::Failed(format!("FMU worker sent {line:?}: {e}"))),
+            Ok(Err(e)) => Err(SimError::Failed(format!("FMU worker: {e}"))),
+            Err(RecvTimeoutError::Timeout) => Err(SimError::Failed(format!(
+                "{}: no answer within {:.1} s — the run hung; its worker was killed",
+                self.fmu,
+                timeout.as_secs_f64()
+            ))),
+            Err(RecvTimeoutError::Disconnected) => Err(SimError::Failed(format!(
+                "{}: the FMU worker died during the run",
+                self.fmu
+            ))),
+        }
+    }
+}
+
+impl Simulator for IsolatedSimulator {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        self.simulate_as(Role::High, scenario, phi, fidelity)
+    }
+
+    fn simulate_as(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        let mut w = match self.worker.take() {
+            Some(w) => w,
+            None => self.start()?,
+        };
+        let request = WorkerRequest {
+            learned: role == Role::Learned,
+            scenario: scenario.into(),
+            phi: phi.clone(),
+            fidelity: fidelity.clone(),
+        };
+        let line = serde_json::to_string(&request).map_err(|e| SimError::Failed(e.to_string()))?;
+        if let Err(e) = writeln!(w.stdin, "{line}").and_then(|()| w.stdin.flush()) {
+            let status = w.kill();
+            return Err(SimError::Failed(format!(
+                "{}: FMU worker gone ({e}; {status})",
+                self.fmu
+            )));
+        }
+        match self.answer(&mut w, self.timeout) {
+            Ok(WorkerResponse::Done {
+                failure,
+                wall_seconds,
+                work,
+            }) => {
+                self.worker = Some(w);
+                Ok(SimResult::new(failure, wall_seconds, work))
+            }
+            Ok(WorkerResponse::Error(e)) => {
+                self.worker = Some(w);
+                Err(SimError::Failed(e))
+            }
+            Ok(WorkerResponse::Ready) => {
+                w.kill();
+                Err(SimError::Failed("FMU worker: unexpected ready".into()))
+            }
+            Err(SimError::Failed(msg)) => {
+                let status = w.kill();
+                Err(SimError::Failed(format!("{msg} ({status})")))
+            }
+            Err(e) => {
+                w.kill();
+                Err(e)
+            }
+        }
+    }
+}
+
+impl Drop for IsolatedSimulator {
+    fn drop(&mut self) {
+        if let Some(w) = self.worker.take() {
+            drop(w.stdin); // the worker exits when its input closes
+            let mut child = w.child;
+            let _ = child.wait();
+        }
+    }
+}

@@ -1,0 +1,119 @@
+//! A trivial co-simulation FMU: `x` grows at `rate` from `x0`; `failed` turns true once `x`
+//! reaches `threshold`. Its `fault` parameter makes it misbehave on purpose, for the adapter's
+//! bad-input tests: 1 = `fmi2DoStep` returns an error from `fault_time` on, 2 = the process
+//! aborts there, 3 = `fmi2DoStep` never returns (a hang), 4 = the process dies of a segfault.
+//!
+//! Its `modelDescription.xml` is [`model_description`]; the shared library built from this
+//! crate (`libsavme_fmu_testkit.so`) is the binary.
+
+use savme_fmi_export::{Model, Scalar, Variable};
+use std::sync::OnceLock;
+
+/// The trivial model.
+#[derive(Debug, Clone)]
+pub struct Trivial {
+    x0: f64,
+    rate: f64,
+    threshold: f64,
+    fault: i32,
+    fault_time: f64,
+    steps: i32,
+}
+
+/// Value references.
+pub mod vr {
+    /// `x0` (Real parameter).
+    pub const X0: u32 = 0;
+    /// `rate` (Real parameter).
+    pub const RATE: u32 = 1;
+    /// `threshold` (Real parameter).
+    pub const THRESHOLD: u32 = 2;
+    /// `fault` (Integer parameter).
+    pub const FAULT: u32 = 3;
+    /// `fault_time` (Real parameter).
+    pub const FAULT_TIME: u32 = 4;
+    /// `enabled` (Boolean parameter, unused by the model: a Boolean to map in tests).
+    pub const ENABLED: u32 = 5;
+    /// `x` (Real output).
+    pub const X: u32 = 6;
+    /// `failed` (Boolean output).
+    pub const FAILED: u32 = 7;
+    /// `steps` (Integer output).
+    pub const STEPS: u32 = 8;
+}
+
+impl Model for Trivial {
+    const MODEL_NAME: &'static str = "savme_fmu_testkit";
+    const MODEL_IDENTIFIER: &'static str = "savme_fmu_testkit";
+    const GUID: &'static str = "{5a1e7e57-0000-4000-8000-7e57c0ffee01}";
+    const DESCRIPTION: &'static str = "A trivial model with injectable faults (savme tests)";
+    const DEFAULT_EXPERIMENT: (f64, f64) = (1.0, 0.01);
+
+    fn variables() -> &'static [Variable] {
+        static VARS: OnceLock<Vec<Variable>> = OnceLock::new();
+        VARS.get_or_init(|| {
+            vec![
+                Variable::parameter("x0", Scalar::Real(0.0), "initial value"),
+                Variable::parameter("rate", Scalar::Real(1.0), "growth per second"),
+                Variable::parameter("threshold", Scalar::Real(0.5), "failure threshold"),
+                Variable::parameter(
+                    "fault",
+                    Scalar::Integer(0),
+                    "0 none, 1 doStep error, 2 abort, 3 hang, 4 segfault",
+                )
+                .range(0.0, 4.0),
+                Variable::parameter("fault_time", Scalar::Real(0.0), "when the fault strikes"),
+                Variable::parameter("enabled", Scalar::Boolean(true), "unused"),
+                Variable::output("x", Scalar::Real(0.0), "the state"),
+                Variable::output("failed", Scalar::Boolean(false), "x reached the threshold"),
+                Variable::output("steps", Scalar::Integer(0), "steps taken"),
+            ]
+        })
+    }
+
+    fn initialize(values: &mut [Scalar], _start: f64) -> Result<Self, String> {
+        let real = |r: u32| values[r as usize].as_f64();
+        let m = Trivial {
+            x0: real(vr::X0),
+            rate: real(vr::RATE),
+            threshold: real(vr::THRESHOLD),
+            fault: real(vr::FAULT) as i32,
+            fault_time: real(vr::FAULT_TIME),
+            steps: 0,
+        };
+        values[vr::X as usize] = Scalar::Real(m.x0);
+        values[vr::FAILED as usize] = Scalar::Boolean(m.x0 >= m.threshold);
+        values[vr::STEPS as usize] = Scalar::Integer(0);
+        Ok(m)
+    }
+
+    fn do_step(&mut self, values: &mut [Scalar], time: f64, step: f64) -> Result<(), String> {
+        if time + step > self.fault_time {
+            match self.fault {
+                1 => return Err(format!("injected fault at t = {time}")),
+                2 => std::process::abort(),
+                3 => loop {
+                    std::thread::sleep(std::time::Duration::from_secs(1));
+                },
+                4 => {
+                    // SAFETY: not safe at all — a deliberate segfault for the crash test.
+                    unsafe { std::ptr::null_mut::<u64>().write_volatile(1) };
+                }
+                _ => {}
+            }
+        }
+        self.steps += 1;
+        let x = self.x0 + self.rate * (time + step);
+        values[vr::X as usize] = Scalar::Real(x);
+        values[vr::FAILED as usize] = Scalar::Boolean(x >= self.threshold);
+        values[vr::STEPS as usize] = Scalar::Integer(self.steps);
+        Ok(())
+    }
+}
+
+savme_fmi_export::export_fmi2!(Trivial);
+
+/// The FMU's `modelDescription.xml`.
+pub fn model_description() -> String {
+    savme_fmi_export::model_description::<Trivial>()
+}

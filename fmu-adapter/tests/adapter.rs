@@ -1,0 +1,326 @@
+//! The adapter on small FMUs this test builds: the trivial test-kit FMU (packed from the
+//! `savme-fmu-testkit` library built alongside the tests) and deliberately broken variants.
+use savme_fmu::{
+    Binding, CostSource, Crossing, Failure, FmuError, FmuFile, FmuSimulator, RunSpec, ScenarioSpec,
+    StepSize,
+};
+use savme_kernel::{Assignment, Role, Scale, Space, Variable};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("savme-fmu-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The test kit's shared library, built by cargo next to this test binary.
+fn testkit_library() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let deps = exe.parent().unwrap();
+    let name = format!(
+        "{}savme_fmu_testkit{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    );
+    for dir in [deps, deps.parent().unwrap()] {
+        if dir.join(&name).exists() {
+            return dir.join(&name);
+        }
+    }
+    panic!("{name} not found next to {}", exe.display());
+}
+
+fn pack_xml(dir: &Path, file: &str, xml: &str) -> PathBuf {
+    let out = dir.join(file);
+    savme_fmi_export::pack(xml, "savme_fmu_testkit", &testkit_library(), &out).unwrap();
+    out
+}
+
+fn testkit(dir: &Path) -> PathBuf {
+    pack_xml(dir, "testkit.fmu", &savme_fmu_testkit::model_description())
+}
+
+fn spaces() -> (Space, Space) {
+    let fidelity = Space::new(vec![Variable::continuous(
+        "rate",
+        0.5,
+        4.0,
+        4,
+        Scale::Linear,
+    )])
+    .unwrap();
+    let phi = Space::new(vec![Variable::continuous(
+        "start",
+        0.0,
+        1.0,
+        4,
+        Scale::Linear,
+    )])
+    .unwrap();
+    (fidelity, phi)
+}
+
+fn spec(fixed_fault: i32, stop_on_failure: bool) -> RunSpec {
+    RunSpec {
+        stop_time: 1.0,
+        step: StepSize::Fixed(0.01),
+        failure: Failure::Boolean {
+            variable: "failed".into(),
+        },
+        stop_on_failure,
+        cost: CostSource::Output("steps".into()),
+        fidelity: vec![Binding {
+            variable: "rate".into(),
+            fmu_variable: "rate".into(),
+            labels: None,
+        }],
+        scenarios: vec![ScenarioSpec {
+            name: "grow".into(),
+            phi: vec![Binding {
+                variable: "start".into(),
+                fmu_variable: "x0".into(),
+                labels: None,
+            }],
+            fixed: vec![
+                savme_fmu::Fixed {
+                    fmu_variable: "fault".into(),
+                    value: savme_kernel::Value::Int(i64::from(fixed_fault)),
+                },
+                savme_fmu::Fixed {
+                    fmu_variable: "fault_time".into(),
+                    value: savme_kernel::Value::Real(0.3),
+                },
+            ],
+        }],
+    }
+}
+
+fn simulator(fmu: &Path, spec: RunSpec) -> Result<FmuSimulator, FmuError> {
+    let file = Arc::new(FmuFile::open(fmu)?);
+    let (fidelity, phi) = spaces();
+    FmuSimulator::new(
+        file.clone(),
+        file,
+        spec,
+        Some(&fidelity),
+        &|_| Some(phi.clone()),
+        None,
+    )
+}
+
+fn args(start: f64, rate: f64) -> (Assignment, Assignment) {
+    (
+        Assignment::new().with("start", start),
+        Assignment::new().with("rate", rate),
+    )
+}
+
+#[test]
+fn runs_until_the_failure_signal_and_reuses_its_instance() {
+    let dir = temp_dir("runs");
+    let fmu = testkit(&dir);
+    let mut sim = simulator(&fmu, spec(0, true)).unwrap();
+    // x = start + rate·t reaches the threshold 0.5 at t = 0.4 with start 0.1, rate 1.
+    let (phi, theta) = args(0.1, 1.0);
+    let r = sim.run(Role::High, "grow", &phi, &theta).unwrap();
+    assert!(r.failure);
+    assert_eq!(
+        r.work,
+        Some(40),
+        "stopped at the failure after 40 steps of 0.01"
+    );
+    // Without stopping early it runs to the stop time; the failure stays found.
+    let mut full = simulator(&fmu, spec(0, false)).unwrap();
+    let r = full.run(Role::High, "grow", &phi, &theta).unwrap();
+    assert!(r.failure);
+    assert_eq!(r.work, Some(100));
+    // Never reaching the threshold: no failure, the whole run. Repeated runs on the reused
+    // (reset) instance give the same answers.
+    let (phi, theta) = args(0.0, 0.4);
+    for _ in 0..3 {
+        let r = sim.run(Role::Learned, "grow", &phi, &theta).unwrap();
+        assert!(!r.failure);
+        assert_eq!(r.work, Some(100));
+        assert!(r.wall_seconds > 0.0);
+    }
+}
+
+#[test]
+fn a_threshold_on_a_real_output_and_a_step_size_from_a_rate() {
+    let dir = temp_dir("threshold");
+    let fmu = testkit(&dir);
+    let mut s = spec(0, true);
+    s.failure = Failure::Threshold {
+        variable: "x".into(),
+        when: Crossing::Above,
+        value: 0.75,
+    };
+    // The step is 1 / (the fidelity variable `rate`), here 1/4 s.
+    s.step = StepSize::RateOf("rate".into());
+    let mut sim = simulator(&fmu, s).unwrap();
+    let (phi, theta) = args(0.0, 4.0);
+    let r = sim.run(Role::High, "grow", &phi, &theta).unwrap();
+    // x = 4·t ≥ 0.75 first at the step ending t = 0.25 (x = 1.0).
+    assert!(r.failure);
+    assert_eq!(r.work, Some(1));
+    let mut below = spec(0, true);
+    below.failure = Failure::Threshold {
+        variable: "x".into(),
+        when: Crossing::Below,
+        value: -1.0,
+    };
+    let mut sim = simulator(&fmu, below).unwrap();
+    assert!(!sim.run(Role::High, "grow", &phi, &theta).unwrap().failure);
+}
+
+#[test]
+fn a_do_step_error_is_an_error_naming_the_fmu_and_the_call() {
+    let dir = temp_dir("dostep");
+    let fmu = testkit(&dir);
+    let mut sim = simulator(&fmu, spec(1, true)).unwrap();
+    let (phi, theta) = args(0.0, 0.1);
+    let e = sim
+        .run(Role::High, "grow", &phi, &theta)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("fmi2DoStep failed") && e.contains("testkit.fmu"),
+        "{e}"
+    );
+    // The failed instance is not reused: the next run (no fault) works.
+    let mut ok = simulator(&fmu, spec(0, true)).unwrap();
+    assert!(ok.run(Role::High, "grow", &phi, &theta).is_ok());
+}
+
+fn zip_with(path: &Path, files: &[(&str, &[u8])]) {
+    let f = std::fs::File::create(path).unwrap();
+    let mut z = zip::ZipWriter::new(f);
+    for (name, data) in files {
+        z.start_file(*name, zip::write::FileOptions::default())
+            .unwrap();
+        z.write_all(data).unwrap();
+    }
+    z.finish().unwrap();
+}
+
+#[test]
+fn broken_fmus_are_refused_with_an_error_naming_them() {
+    let dir = temp_dir("broken");
+    let expect = |path: &Path, needle: &str| {
+        let e = FmuFile::open(path).unwrap_err().to_string();
+        assert!(e.contains(&path.display().to_string()), "{e}");
+        assert!(e.contains(needle), "expected `{needle}` in: {e}");
+    };
+    expect(&dir.join("missing.fmu"), "No such file");
+    let text = dir.join("text.fmu");
+    std::fs::write(&text, "not a zip").unwrap();
+    expect(&text, "not a zip archive");
+    let empty = dir.join("no-md.fmu");
+    zip_with(&empty, &[("binaries/readme.txt", b"nothing")]);
+    expect(&empty, "no modelDescription.xml");
+    let md = savme_fmu_testkit::model_description();
+    let v3 = pack_xml(
+        &dir,
+        "fmi3.fmu",
+        &md.replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""),
+    );
+    expect(&v3, "fmiVersion is \"3.0\"");
+    let me = md
+        .replace("<CoSimulation ", "<ModelExchange ")
+        .replace("canHandleVariableCommunicationStepSize=\"true\" ", "");
+    let me = pack_xml(&dir, "me.fmu", &me);
+    expect(&me, "no CoSimulation element");
+    let garbled = pack_xml(&dir, "garbled.fmu", &md.replace("</ModelVariables>", ""));
+    expect(&garbled, "modelDescription.xml");
+    let wrong_id = pack_xml(
+        &dir,
+        "wrong-id.fmu",
+        &md.replace(
+            "modelIdentifier=\"savme_fmu_testkit\"",
+            "modelIdentifier=\"other\"",
+        ),
+    );
+    expect(&wrong_id, "no binary for this platform");
+}
+
+#[test]
+fn unknown_variables_wrong_types_and_causalities_are_named() {
+    let dir = temp_dir("mapping");
+    let fmu = testkit(&dir);
+    let check = |change: &dyn Fn(&mut RunSpec), needle: &str| {
+        let mut s = spec(0, true);
+        change(&mut s);
+        let e = simulator(&fmu, s).unwrap_err().to_string();
+        assert!(
+            e.contains("testkit.fmu") && e.contains(needle),
+            "expected `{needle}` in: {e}"
+        );
+    };
+    check(
+        &|s| s.scenarios[0].phi[0].fmu_variable = "nope".into(),
+        "no variable `nope`",
+    );
+    // A continuous savme variable needs a Real; `fault` is an Integer.
+    check(
+        &|s| s.scenarios[0].phi[0].fmu_variable = "fault".into(),
+        "variable `fault` is Integer, expected Real (for `start`)",
+    );
+    check(
+        &|s| s.fidelity[0].fmu_variable = "enabled".into(),
+        "variable `enabled` is Boolean",
+    );
+    // Outputs cannot be set; parameters are no failure signal.
+    check(
+        &|s| s.scenarios[0].phi[0].fmu_variable = "x".into(),
+        "variable `x` cannot be used here: expected a parameter or an input",
+    );
+    check(
+        &|s| {
+            s.failure = Failure::Boolean {
+                variable: "enabled".into(),
+            }
+        },
+        "variable `enabled` cannot be used here: expected an output",
+    );
+    check(
+        &|s| {
+            s.failure = Failure::Boolean {
+                variable: "x".into(),
+            }
+        },
+        "variable `x` is Real, expected Boolean",
+    );
+    check(
+        &|s| s.cost = CostSource::Output("failed".into()),
+        "variable `failed` is Boolean",
+    );
+}
+
+#[test]
+fn the_export_layer_checks_calls_like_an_fmu_should() {
+    // Setting an output, or a parameter after initialisation, is refused by the FMU itself.
+    let dir = temp_dir("export");
+    let file = Arc::new(FmuFile::open(&testkit(&dir)).unwrap());
+    let mut i = savme_fmu::instance::Instance::new(file, "t").unwrap();
+    i.setup(0.0, Some(1.0)).unwrap();
+    let x = savme_fmu_testkit::vr::X;
+    assert!(i.set_real(x, 1.0).is_err(), "an output was settable");
+    i.set_real(savme_fmu_testkit::vr::RATE, 2.0).unwrap();
+    i.initialize().unwrap();
+    assert!(i.set_real(savme_fmu_testkit::vr::RATE, 3.0).is_err());
+    i.step(0.0, 0.5).unwrap();
+    assert_eq!(i.real(x).unwrap(), 1.0);
+    assert_eq!(i.integer(savme_fmu_testkit::vr::STEPS).unwrap(), 1);
+    assert!(i.boolean(savme_fmu_testkit::vr::FAILED).unwrap());
+    // A communication point that is not the current time is an error.
+    assert!(i.step(0.7, 0.1).is_err());
+    // Reset restores the start values.
+    i.reset().unwrap();
+    i.setup(0.0, None).unwrap();
+    i.initialize().unwrap();
+    i.step(0.0, 0.5).unwrap();
+    assert_eq!(i.real(x).unwrap(), 0.5);
+}
