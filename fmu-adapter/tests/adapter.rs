@@ -324,3 +324,98 @@ fn the_export_layer_checks_calls_like_an_fmu_should() {
     i.step(0.0, 0.5).unwrap();
     assert_eq!(i.real(x).unwrap(), 0.5);
 }
+
+mod isolation {
+    use super::*;
+    use savme_fmu::worker::{IsolatedSimulator, WorkerInit};
+    use savme_kernel::Simulator;
+    use std::time::{Duration, Instant};
+
+    fn isolated(fmu: &Path, fault: i32, timeout: Duration) -> IsolatedSimulator {
+        let (fidelity, phi) = spaces();
+        let init = WorkerInit {
+            hf: fmu.to_path_buf(),
+            lf: fmu.to_path_buf(),
+            spec: spec(fault, true),
+            fidelity: Some(fidelity),
+            phi: [("grow".to_string(), phi)].into_iter().collect(),
+            theta_hf: None,
+        };
+        IsolatedSimulator::new(
+            vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()],
+            &init,
+            timeout,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_worker_gives_the_in_process_answers() {
+        let dir = temp_dir("iso-ok");
+        let fmu = testkit(&dir);
+        let mut local = simulator(&fmu, spec(0, true)).unwrap();
+        let mut iso = isolated(&fmu, 0, Duration::from_secs(20));
+        for (start, rate) in [(0.1, 1.0), (0.0, 0.4), (0.45, 0.2)] {
+            let (phi, theta) = args(start, rate);
+            let a = local.run(Role::High, "grow", &phi, &theta).unwrap();
+            let b = iso.simulate_as(Role::High, "grow", &phi, &theta).unwrap();
+            assert_eq!((a.failure, a.work), (b.failure, b.work));
+        }
+    }
+
+    #[test]
+    fn a_crash_or_an_abort_costs_one_run_not_the_process() {
+        let dir = temp_dir("iso-crash");
+        let fmu = testkit(&dir);
+        for (fault, signal) in [(2, "SIGABRT"), (4, "SIGSEGV")] {
+            let mut iso = isolated(&fmu, fault, Duration::from_secs(20));
+            let (phi, theta) = args(0.0, 0.1);
+            let e = iso
+                .simulate_as(Role::High, "grow", &phi, &theta)
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("worker died") && e.contains(signal), "{e}");
+            assert!(e.contains("testkit.fmu"), "{e}");
+            // The next run gets a fresh worker (and crashes again, being the same fault).
+            assert!(iso.simulate_as(Role::High, "grow", &phi, &theta).is_err());
+        }
+        // A doStep error in the worker is the run's error; the worker lives on.
+        let mut iso = isolated(&fmu, 1, Duration::from_secs(20));
+        let (phi, theta) = args(0.0, 0.1);
+        let e = iso
+            .simulate_as(Role::High, "grow", &phi, &theta)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("fmi2DoStep failed"), "{e}");
+    }
+
+    #[test]
+    fn a_hang_is_cut_off_by_the_timeout() {
+        let dir = temp_dir("iso-hang");
+        let fmu = testkit(&dir);
+        let mut iso = isolated(&fmu, 3, Duration::from_millis(1500));
+        let (phi, theta) = args(0.0, 0.1);
+        let t = Instant::now();
+        let e = iso
+            .simulate_as(Role::High, "grow", &phi, &theta)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("no answer within 1.5 s") && e.contains("hung"),
+            "{e}"
+        );
+        assert!(t.elapsed() < Duration::from_secs(30));
+    }
+
+    #[test]
+    fn a_bad_worker_set_up_is_reported() {
+        let dir = temp_dir("iso-bad");
+        let mut iso = isolated(&dir.join("absent.fmu"), 0, Duration::from_secs(20));
+        let (phi, theta) = args(0.0, 0.1);
+        let e = iso
+            .simulate(&"grow".to_string(), &phi, &theta)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("absent.fmu"), "{e}");
+    }
+}
