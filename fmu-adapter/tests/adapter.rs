@@ -412,10 +412,7 @@ mod isolation {
         let dir = temp_dir("iso-bad");
         let mut iso = isolated(&dir.join("absent.fmu"), 0, Duration::from_secs(20));
         let (phi, theta) = args(0.0, 0.1);
-        let e = iso
-            .simulate(&"grow".to_string(), &phi, &theta)
-            .unwrap_err()
-            .to_string();
+        let e = iso.simulate("grow", &phi, &theta).unwrap_err().to_string();
         assert!(e.contains("absent.fmu"), "{e}");
     }
 }
