@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .find_map(|a| a.parse().ok())
         .unwrap_or(5);
     let p = protocol();
-    let spaces = campaign::driving_spaces();
+    let problem = campaign::Problem::driving(10);
     let sim = DrivingSimulator::default();
     let dir = std::env::temp_dir().join(format!("savme-bench-jobs-{}", std::process::id()));
     let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
@@ -49,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             opts.jobs = jobs;
             opts.quiet = true;
             let t = Instant::now();
-            let out = campaign::run(&p, &spaces, &sim, &opts)?;
+            let out = campaign::run(&p, &problem, &sim, &opts)?;
             let s = t.elapsed().as_secs_f64();
             assert_eq!(out.ran, p.total_trials());
             println!("rep {rep}: --jobs {jobs}: {s:.2} s");

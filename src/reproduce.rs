@@ -166,7 +166,12 @@ pub fn run(
         }
         opts.jobs = j;
     }
-    campaign::run(&p, &campaign::driving_spaces(), &sim, &opts)
+    campaign::run(
+        &p,
+        &campaign::Problem::driving(p.fidelity_bins),
+        &sim,
+        &opts,
+    )
 }
 
 /// What `savme reproduce` prints at the end.

@@ -2,8 +2,8 @@
 //! HF and LF run a separate task (so the two runs of a trial execute concurrently), trials told
 //! strictly in ask order — which makes a campaign independent of the number of workers.
 
-use super::log::{RunLine, TrialLine, Writer};
-use super::protocol::Stage;
+use super::log::{FailedLine, LogLine, RunLine, TrialLine, Writer};
+use super::protocol::{OnError, Stage};
 use super::CampaignError;
 use crossbeam_channel::{Receiver, Sender};
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
@@ -102,12 +102,14 @@ struct Slot {
     index: u64,
     hf: Option<SimResult>,
     lf: Option<SimResult>,
-    logged: Option<TrialLine>,
+    logged: Option<LogLine>,
+    error: Option<String>,
 }
 
 impl Slot {
     fn ready(&self) -> bool {
         self.logged.is_some()
+            || self.error.is_some()
             || (self.hf.is_some() && (self.lf.is_some() || self.trial.theta_lf.is_none()))
     }
 }
@@ -116,24 +118,33 @@ impl Slot {
 pub struct StageContext<'a> {
     /// The stage.
     pub stage: &'a Stage,
-    /// Trials of this stage already in `trials.jsonl` (replayed, not run).
-    pub logged: &'a [TrialLine],
+    /// Lines of this stage already in `trials.jsonl` (replayed, not run).
+    pub logged: &'a [LogLine],
     /// Trials in flight at once.
     pub window: usize,
     /// How run costs are measured.
     pub cost: CostMeasure,
     /// The writer of `trials.jsonl`.
     pub writer: &'a mut Writer,
+    /// What a failed simulation does.
+    pub on_error: OnError,
 }
 
-/// Runs (or replays) one stage on `kernel`; calls `progress` after each told trial and returns
-/// the stage's lines.
+fn which_name(w: Which) -> &'static str {
+    match w {
+        Which::Hf => "HF",
+        Which::Lf => "LF",
+    }
+}
+
+/// Runs (or replays) one stage on `kernel` until it has told `stage.iterations` trials; calls
+/// `progress` after each told trial and returns the stage's lines (withdrawn trials included).
 pub fn run_stage(
     pool: &mut Pool,
     kernel: &mut Kernel,
     cx: StageContext<'_>,
     mut progress: impl FnMut(&TrialLine),
-) -> Result<Vec<TrialLine>, CampaignError> {
+) -> Result<Vec<LogLine>, CampaignError> {
     let stage = cx.stage;
     let label = stage.label();
     kernel.set_phase(stage.phase());
@@ -141,10 +152,11 @@ pub fn run_stage(
     let mut lines = Vec::with_capacity(stage.iterations as usize);
     let mut queue: VecDeque<Slot> = VecDeque::new();
     let mut asked = 0u64;
-    // Asks the next trial (false when the stage has asked all of its trials).
+    let failed = std::cell::Cell::new(0u64);
+    // Asks the next trial (false when enough trials are asked: withdrawn ones are replaced).
     let mut ask =
         |kernel: &mut Kernel, queue: &mut VecDeque<Slot>| -> Result<bool, CampaignError> {
-            if asked >= stage.iterations {
+            if asked - failed.get() >= stage.iterations {
                 return Ok(false);
             }
             let trial = kernel.ask();
@@ -173,6 +185,7 @@ pub fn run_stage(
                 hf: None,
                 lf: None,
                 logged,
+                error: None,
             });
             Ok(true)
         };
@@ -181,7 +194,19 @@ pub fn run_stage(
         while queue.front().is_some_and(Slot::ready) {
             let Some(slot) = queue.pop_front() else { break };
             let line = tell(kernel, slot, &label, stage, cx.cost, cx.writer)?;
-            progress(&line);
+            match &line {
+                LogLine::Trial(t) => progress(t),
+                LogLine::Failed(f) => {
+                    failed.set(failed.get() + 1);
+                    if failed.get() > stage.iterations {
+                        return Err(CampaignError::TooManyFailures {
+                            stage: label,
+                            failures: failed.get(),
+                            last: f.error.clone(),
+                        });
+                    }
+                }
+            }
             lines.push(line);
             ask(kernel, &mut queue)?;
         }
@@ -197,6 +222,10 @@ pub fn run_stage(
                 Which::Hf => slot.hf = Some(r),
                 Which::Lf => slot.lf = Some(r),
             },
+            Err(source) if cx.on_error == OnError::Skip => {
+                slot.error
+                    .get_or_insert(format!("{} run: {source}", which_name(done.which)));
+            }
             Err(source) => {
                 return Err(CampaignError::Simulation(Box::new(
                     super::SimulationError {
@@ -204,10 +233,7 @@ pub fn run_stage(
                         trial: slot.trial.id,
                         scenario: slot.trial.scenario.to_string(),
                         phi: slot.trial.phi.to_string(),
-                        run: match done.which {
-                            Which::Hf => "HF",
-                            Which::Lf => "LF",
-                        },
+                        run: which_name(done.which),
                         source,
                     },
                 )))
@@ -218,13 +244,17 @@ pub fn run_stage(
 }
 
 /// A logged trial must be the one the protocol asks for now.
-fn check_logged(l: &TrialLine, t: &Trial, label: &str, index: u64) -> Result<(), CampaignError> {
-    let same = l.stage == label
-        && l.index == index
-        && l.id == t.id
-        && l.scenario == *t.scenario
-        && l.phi == t.phi
-        && l.theta_lf == t.theta_lf;
+fn check_logged(l: &LogLine, t: &Trial, label: &str, index: u64) -> Result<(), CampaignError> {
+    let (stage, i, id, scenario, phi, theta) = match l {
+        LogLine::Trial(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
+        LogLine::Failed(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
+    };
+    let same = stage == label
+        && i == index
+        && id == t.id
+        && *scenario == *t.scenario
+        && *phi == t.phi
+        && *theta == t.theta_lf;
     if same {
         Ok(())
     } else {
@@ -232,8 +262,8 @@ fn check_logged(l: &TrialLine, t: &Trial, label: &str, index: u64) -> Result<(),
             stage: label.into(),
             index,
             message: format!(
-                "the log has trial {} ({} {}, {}) where the protocol asks trial {} ({} {})",
-                l.id, l.stage, l.scenario, l.phi, t.id, t.scenario, t.phi
+                "the log has trial {id} ({stage} {scenario}, {phi}) where the protocol asks trial {} ({} {})",
+                t.id, t.scenario, t.phi
             ),
         })
     }
@@ -246,23 +276,50 @@ fn tell(
     stage: &Stage,
     cost: CostMeasure,
     writer: &mut Writer,
-) -> Result<TrialLine, CampaignError> {
+) -> Result<LogLine, CampaignError> {
     let diverged = |message: String| CampaignError::Diverged {
         stage: label.into(),
         index: slot.index,
         message,
     };
-    if let Some(l) = slot.logged {
-        let record = kernel
-            .tell(slot.trial.id, l.observation())
-            .map_err(|e| diverged(format!("the logged outcome cannot be told: {e}")))?;
-        if record.credit != l.credit {
-            return Err(diverged(format!(
-                "the kernel credits {:?} where the log says {:?}",
-                record.credit, l.credit
-            )));
+    let withdraw = |kernel: &mut Kernel| {
+        kernel
+            .cancel(slot.trial.id)
+            .map(|_| ())
+            .map_err(|e| diverged(format!("the failed trial cannot be withdrawn: {e}")))
+    };
+    match slot.logged {
+        Some(LogLine::Failed(f)) => {
+            withdraw(kernel)?;
+            return Ok(LogLine::Failed(f));
         }
-        return Ok(l);
+        Some(LogLine::Trial(l)) => {
+            let record = kernel
+                .tell(slot.trial.id, l.observation())
+                .map_err(|e| diverged(format!("the logged outcome cannot be told: {e}")))?;
+            if record.credit != l.credit {
+                return Err(diverged(format!(
+                    "the kernel credits {:?} where the log says {:?}",
+                    record.credit, l.credit
+                )));
+            }
+            return Ok(LogLine::Trial(l));
+        }
+        None => {}
+    }
+    if let Some(error) = slot.error {
+        withdraw(kernel)?;
+        let line = LogLine::Failed(FailedLine {
+            stage: label.into(),
+            index: slot.index,
+            id: slot.trial.id,
+            scenario: slot.trial.scenario.to_string(),
+            phi: slot.trial.phi.clone(),
+            theta_lf: slot.trial.theta_lf.clone(),
+            error,
+        });
+        writer.write(&line)?;
+        return Ok(line);
     }
     let run_line = |r: &SimResult, which: &'static str| -> Result<RunLine, CampaignError> {
         let run = r.run(cost).map_err(|source| {
@@ -303,6 +360,7 @@ fn tell(
     line.cost_ratio = record.cost_ratio;
     line.outcome = record.outcome;
     line.credit = record.credit;
+    let line = LogLine::Trial(line);
     writer.write(&line)?;
     Ok(line)
 }

@@ -84,11 +84,59 @@ impl TrialLine {
     }
 }
 
+/// A trial whose simulation failed and that was withdrawn (`on_error = "skip"`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FailedLine {
+    /// The stage label.
+    pub stage: String,
+    /// Position of the trial within its stage (failed ones included), from 0.
+    pub index: u64,
+    /// The kernel's trial id.
+    pub id: u64,
+    /// Scenario name.
+    pub scenario: String,
+    /// Scenario parameters φ.
+    pub phi: Assignment,
+    /// θ_LF (None for HF-only trials).
+    pub theta_lf: Option<Assignment>,
+    /// What failed.
+    pub error: String,
+}
+
+/// A line of `trials.jsonl`: a told trial, or a withdrawn one.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum LogLine {
+    /// A told trial.
+    Trial(TrialLine),
+    /// A trial withdrawn after its simulation failed.
+    Failed(FailedLine),
+}
+
+impl LogLine {
+    /// The stage label.
+    pub fn stage(&self) -> &str {
+        match self {
+            LogLine::Trial(t) => &t.stage,
+            LogLine::Failed(f) => &f.stage,
+        }
+    }
+
+    /// The told trial, if it is one.
+    pub fn trial(&self) -> Option<&TrialLine> {
+        match self {
+            LogLine::Trial(t) => Some(t),
+            LogLine::Failed(_) => None,
+        }
+    }
+}
+
 /// A trials file read back.
 #[derive(Debug, Default)]
 pub struct Log {
     /// The complete lines, in file order.
-    pub lines: Vec<TrialLine>,
+    pub lines: Vec<LogLine>,
     /// Bytes of the file that hold complete lines (a torn last line, from a killed process,
     /// lies beyond).
     pub valid_len: u64,
@@ -119,7 +167,7 @@ pub fn read(path: &Path) -> Result<Log, CampaignError> {
             log.torn_tail = true;
             break;
         }
-        match serde_json::from_str::<TrialLine>(buf.trim_end()) {
+        match serde_json::from_str::<LogLine>(buf.trim_end()) {
             Ok(line) => {
                 log.lines.push(line);
                 log.valid_len += n as u64;
@@ -160,7 +208,7 @@ impl Writer {
     }
 
     /// Writes one line and flushes it to the operating system.
-    pub fn write(&mut self, line: &TrialLine) -> Result<(), CampaignError> {
+    pub fn write(&mut self, line: &LogLine) -> Result<(), CampaignError> {
         let mut s = serde_json::to_string(line).map_err(|e| CampaignError::Log {
             path: self.path.clone(),
             line: 0,

@@ -15,7 +15,7 @@
 //! let protocol = Protocol::quick("savme-sim/sensors", train, test);
 //! let outcome = campaign::run(
 //!     &protocol,
-//!     &campaign::driving_spaces(),
+//!     &campaign::Problem::driving(protocol.fidelity_bins),
 //!     &DrivingSimulator::default(),
 //!     &Options::new("results".into()),
 //! )?;
@@ -29,7 +29,7 @@ pub mod plot;
 pub mod protocol;
 pub mod report;
 
-pub use protocol::{Cost, Protocol, Stage, StageKind};
+pub use protocol::{Cost, OnError, Protocol, Stage, StageKind};
 pub use report::Report;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -111,6 +111,16 @@ pub enum CampaignError {
         path: PathBuf,
         /// What failed.
         message: String,
+    },
+    /// More simulations of a stage failed than the stage has iterations (`on_error = skip`).
+    #[error("{stage}: {failures} simulations failed (more than the stage's iterations); the last: {last}")]
+    TooManyFailures {
+        /// Stage label.
+        stage: String,
+        /// Failures so far.
+        failures: u64,
+        /// The last error.
+        last: String,
     },
     /// The worker threads stopped unexpectedly.
     #[error("the worker threads stopped unexpectedly")]
@@ -230,6 +240,29 @@ pub fn driving_scenarios() -> (Vec<String>, Vec<String>) {
     (names(true), names(false))
 }
 
+/// What is searched: the fidelity space with θ_HF, and each scenario's parameter space.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Problem {
+    /// The fidelity settings θ.
+    pub fidelity: Space,
+    /// θ_HF.
+    pub theta_hf: savme_kernel::Assignment,
+    /// Scenario parameter spaces φ by scenario name.
+    pub scenarios: BTreeMap<String, Space>,
+}
+
+impl Problem {
+    /// The bundled driving simulator: the paper's Table I (`bins` per continuous setting) and
+    /// the ten scenarios.
+    pub fn driving(bins: u32) -> Problem {
+        Problem {
+            fidelity: paper::fidelity_space(bins),
+            theta_hf: paper::theta_hf(),
+            scenarios: driving_spaces(),
+        }
+    }
+}
+
 /// The bundled driving simulator's scenario parameter spaces, by name.
 pub fn driving_spaces() -> BTreeMap<String, Space> {
     savme_sim::scenario::SCENARIOS
@@ -287,25 +320,38 @@ fn scenario_spaces(
 /// last stage with lines may be incomplete.
 fn split_log<'a>(
     p: &Protocol,
-    lines: &'a [log::TrialLine],
+    lines: &'a [log::LogLine],
     path: &Path,
-) -> Result<Vec<&'a [log::TrialLine]>, CampaignError> {
+) -> Result<Vec<&'a [log::LogLine]>, CampaignError> {
     let mut out = Vec::new();
     let mut at = 0usize;
     for stage in p.stages() {
         let label = stage.label();
         let n = lines[at..]
             .iter()
-            .take(stage.iterations as usize)
-            .take_while(|l| l.stage == label)
+            .take_while(|l| l.stage() == label)
             .count();
-        if n > 0 && n < stage.iterations as usize && at + n < lines.len() {
+        let told = lines[at..at + n]
+            .iter()
+            .filter(|l| l.trial().is_some())
+            .count();
+        if told > stage.iterations as usize {
+            return Err(CampaignError::Log {
+                path: path.to_path_buf(),
+                line: at + n,
+                message: format!(
+                    "stage `{label}` has {told} trials; the protocol runs {}",
+                    stage.iterations
+                ),
+            });
+        }
+        if n > 0 && told < stage.iterations as usize && at + n < lines.len() {
             return Err(CampaignError::Log {
                 path: path.to_path_buf(),
                 line: at + n + 1,
                 message: format!(
                     "stage `{}` begins before stage `{label}` is complete",
-                    lines[at + n].stage
+                    lines[at + n].stage()
                 ),
             });
         }
@@ -318,7 +364,7 @@ fn split_log<'a>(
             line: at + 1,
             message: format!(
                 "stage `{}` is not where the protocol expects it (or not in the protocol)",
-                lines[at].stage
+                lines[at].stage()
             ),
         });
     }
@@ -367,7 +413,7 @@ fn bar_style(template: &str) -> ProgressStyle {
 /// is reported before any simulation runs, except failures of the simulations themselves.
 pub fn run<S>(
     p: &Protocol,
-    spaces: &BTreeMap<String, Space>,
+    problem: &Problem,
     sim: &S,
     opts: &Options,
 ) -> Result<CampaignOutcome, CampaignError>
@@ -376,20 +422,20 @@ where
 {
     let clock = Instant::now();
     p.validate()?;
-    let (train_spaces, test_spaces) = scenario_spaces(p, spaces)?;
+    let (train_spaces, test_spaces) = scenario_spaces(p, &problem.scenarios)?;
     let files = Outputs::in_dir(&opts.out);
     let logged = prepare(p, opts, &files)?;
     let logged_by_stage = split_log(p, &logged.lines, &files.trials)?;
     let mut writer = log::Writer::append(&files.trials, logged.valid_len)?;
 
-    let fidelity = paper::fidelity_space(p.fidelity_bins);
-    let theta_hf = paper::theta_hf();
+    let fidelity = problem.fidelity.clone();
+    let theta_hf = problem.theta_hf.clone();
     let kernel = |scenarios: &[(String, Space)], budget: f64, label: &str| {
         let mut b = Kernel::builder(fidelity.clone(), theta_hf.clone())
             .budget(budget)
             .seed(p.kernel_seed(label));
         for (name, space) in scenarios {
-            b = b.scenario(name, space.clone(), 1.0);
+            b = b.scenario(name, space.clone(), p.weight(name));
         }
         b
     };
@@ -411,7 +457,7 @@ where
         "{prefix:>15} [{bar:30}] {pos}/{len} trials  {elapsed_precise} elapsed, ETA {eta}",
     ));
     total.set_prefix("campaign");
-    let mut all_lines: Vec<log::TrialLine> = Vec::new();
+    let mut all_lines: Vec<log::LogLine> = Vec::new();
     let (mut replayed, mut ran) = (0u64, 0u64);
     let stages = p.stages();
     executor::with_pool(sim, opts.jobs, |pool| -> Result<(), CampaignError> {
@@ -454,6 +500,7 @@ where
                     window: p.window,
                     cost: p.cost.measure(),
                     writer: &mut writer,
+                    on_error: p.on_error,
                 },
                 |line| {
                     failures += u64::from(line.hf.failure);
@@ -462,8 +509,10 @@ where
                     total.inc(1);
                 },
             )?;
-            replayed += logged.len() as u64;
-            ran += lines.len() as u64 - logged.len() as u64;
+            let trials =
+                |l: &[log::LogLine]| l.iter().filter(|x| x.trial().is_some()).count() as u64;
+            replayed += trials(logged);
+            ran += trials(&lines) - trials(logged);
             bar.finish();
             all_lines.extend(lines);
         }
@@ -471,10 +520,16 @@ where
     })?;
     total.finish();
 
-    let report = Report::from_trials(p, &all_lines);
+    let trials: Vec<log::TrialLine> = all_lines
+        .iter()
+        .filter_map(|l| l.trial().cloned())
+        .collect();
+    let failed = all_lines.len() - trials.len();
+    let report = Report::from_trials(p, &trials);
     write_outputs(
         &report,
-        &all_lines,
+        &trials,
+        failed,
         &files,
         &fidelity,
         &theta_hf,
@@ -492,6 +547,7 @@ where
 fn write_outputs(
     report: &Report,
     lines: &[log::TrialLine],
+    failed: usize,
     files: &Outputs,
     fidelity: &Space,
     theta_hf: &savme_kernel::Assignment,
@@ -506,6 +562,7 @@ fn write_outputs(
         "report": report,
         "elapsed_seconds_of_last_process": elapsed,
         "trials": lines.len(),
+        "failed_simulations": failed,
     });
     write(
         &files.summary,

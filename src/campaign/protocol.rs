@@ -67,6 +67,24 @@ pub struct Protocol {
     pub window: usize,
     /// Which simulator ran the trials (checked on resume).
     pub simulator: String,
+    /// Scenario weights p(s) (a scenario not listed weighs 1).
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub weights: std::collections::BTreeMap<String, f64>,
+    /// What a failed simulation does: abort the campaign, or skip the trial.
+    #[serde(default)]
+    pub on_error: OnError,
+}
+
+/// What a failed simulation (a crash, a hang, an FMU error) does to a campaign.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum OnError {
+    /// Stop the campaign with the error (resumable).
+    #[default]
+    Abort,
+    /// Withdraw the trial (logged with its error in `trials.jsonl`) and ask another one; at
+    /// most as many failures per stage as the stage has iterations.
+    Skip,
 }
 
 impl Protocol {
@@ -89,6 +107,8 @@ impl Protocol {
             prior_strength: 1.0,
             window: 4,
             simulator: simulator.into(),
+            weights: Default::default(),
+            on_error: OnError::Abort,
         }
     }
 
@@ -155,7 +175,17 @@ impl Protocol {
         if self.window == 0 {
             return bad("window", "must be at least 1".into());
         }
+        for (name, w) in &self.weights {
+            if !(*w > 0.0 && w.is_finite()) {
+                return bad("weights", format!("`{name}`: {w} is not a positive weight"));
+            }
+        }
         Ok(())
+    }
+
+    /// The weight of scenario `name` in p(s).
+    pub fn weight(&self, name: &str) -> f64 {
+        self.weights.get(name).copied().unwrap_or(1.0)
     }
 
     /// The stages in the order they run.
