@@ -9,6 +9,7 @@
 pub use savme_kernel as kernel;
 pub mod campaign;
 pub mod cli;
+pub mod fmu_campaign;
 pub mod reproduce;
 pub mod serve;
 pub mod toy;

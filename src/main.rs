@@ -42,6 +42,14 @@ enum Command {
     /// budget, evaluation, meta-testing. Writes table.md, fidelity.md, summary.json,
     /// trials.jsonl, breakeven.png and meta_testing.png.
     Reproduce(ReproduceArgs),
+    /// Run the paper's protocol on FMUs named in a campaign file (TOML).
+    Run(RunArgs),
+    /// FMU tools.
+    #[command(subcommand)]
+    Fmu(FmuCommand),
+    /// Serve FMU evaluations on stdin/stdout (started by `savme run` with `isolate = true`).
+    #[command(hide = true)]
+    FmuWorker,
     /// Run one simulation on the bundled driving simulator.
     Simulate {
         /// Scenario number (1–10) or name.
@@ -152,7 +160,60 @@ fn reproduce(a: ReproduceArgs) -> Result<(), String> {
     };
     let outcome = savme::reproduce::run(&overrides, out, resume, a.jobs, a.quiet)
         .map_err(|e| e.to_string())?;
-    print(&savme::reproduce::summary_text(&outcome))
+    let (space, hf) = (
+        savme::kernel::paper::fidelity_space(outcome.report.protocol.fidelity_bins),
+        savme::kernel::paper::theta_hf(),
+    );
+    print(&savme::reproduce::summary_text(&outcome, &space, &hf))
+}
+
+fn run_config(a: RunArgs) -> Result<(), String> {
+    let (config, out, resume) = match (a.config, a.resume) {
+        (Some(c), None) => (c, a.out, false),
+        (Some(c), Some(dir)) => (c, Some(dir), true),
+        (None, _) => {
+            return Err("give --config FILE (and --resume DIR to continue a campaign)".into())
+        }
+    };
+    let outcome = savme::fmu_campaign::run(&config, out, resume, a.jobs, a.quiet)?;
+    let c = savme::fmu_campaign::Campaign::load(&config).map_err(|e| e.to_string())?;
+    print(&savme::reproduce::summary_text(
+        &outcome,
+        &c.problem.fidelity,
+        &c.problem.theta_hf,
+    ))
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// Campaign file (TOML); see examples/fmu/campaign.toml.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Output directory (default: the file's `campaign.out`, else savme-fmu-results).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the campaign in DIR (give the same --config).
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
+    /// Worker threads (default: one per core).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// No progress bars.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum FmuCommand {
+    /// Write the bundled driving simulator as an FMI 2.0 co-simulation FMU.
+    Pack {
+        /// The .fmu to write.
+        #[arg(long, default_value = "savme-sim.fmu")]
+        out: PathBuf,
+        /// The simulator's shared library (default: found next to this binary).
+        #[arg(long)]
+        library: Option<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -161,6 +222,11 @@ fn main() -> ExitCode {
         Command::Serve { config, journal } => serve(config.as_deref(), journal.as_deref()),
         Command::ExampleConfig => example_config(),
         Command::Reproduce(args) => reproduce(args),
+        Command::Run(args) => run_config(args),
+        Command::Fmu(FmuCommand::Pack { out, library }) => {
+            savme::fmu_campaign::pack(&out, library.as_deref()).and_then(|t| print(&t))
+        }
+        Command::FmuWorker => savme::fmu_campaign::serve_worker().map_err(|e| e.to_string()),
         Command::Scenarios => print(&savme::cli::scenarios_text()),
         Command::Fidelity => print(&savme::cli::fidelity_text()),
         Command::Simulate {

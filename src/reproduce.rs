@@ -174,16 +174,16 @@ pub fn run(
     )
 }
 
-/// What `savme reproduce` prints at the end.
-pub fn summary_text(o: &CampaignOutcome) -> String {
+/// What `savme reproduce` (and `savme run`) print at the end.
+pub fn summary_text(
+    o: &CampaignOutcome,
+    fidelity: &savme_kernel::Space,
+    theta_hf: &savme_kernel::Assignment,
+) -> String {
     let mut s = String::new();
     let r = &o.report;
     let _ = writeln!(s, "{}", r.table_md());
-    let (space, hf) = (
-        savme_kernel::paper::fidelity_space(r.protocol.fidelity_bins),
-        savme_kernel::paper::theta_hf(),
-    );
-    let _ = writeln!(s, "{}", r.fidelity_md(&space, &hf));
+    let _ = writeln!(s, "{}", r.fidelity_md(fidelity, theta_hf));
     let _ = writeln!(s, "{}", r.findings_text());
     let _ = writeln!(
         s,

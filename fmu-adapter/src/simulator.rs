@@ -267,7 +267,24 @@ impl Plan {
                 let fixed = s
                     .fixed
                     .iter()
-                    .map(|f| settable(file, &f.fmu_variable).map(|v| (v, f.value.clone())))
+                    .map(|f| {
+                        let v = settable(file, &f.fmu_variable)?;
+                        let fits = match (&f.value, v.kind) {
+                            (Value::Bool(_), VarType::Boolean) => true,
+                            (Value::Int(_), VarType::Integer | VarType::Real) => true,
+                            (Value::Real(_), VarType::Real) => true,
+                            _ => false,
+                        };
+                        if !fits {
+                            return Err(FmuError::WrongType {
+                                fmu: file.path.display().to_string(),
+                                variable: f.fmu_variable.clone(),
+                                found: format!("{:?}", v.kind),
+                                expected: format!("a variable that takes the value {}", f.value),
+                            });
+                        }
+                        Ok((v, f.value.clone()))
+                    })
                     .collect::<Result<Vec<_>, _>>()?;
                 Ok((s.name.clone(), bindings, fixed))
             })

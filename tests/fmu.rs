@@ -1,0 +1,397 @@
+//! The bundled simulator as an FMU (`savme fmu pack`) against the in-process simulator, FMPy
+//! against savme on the same FMU, and `savme run --config` with good and bad campaign files.
+use savme::kernel::{Assignment, Space};
+use savme_fmu::instance::Instance;
+use savme_fmu::FmuFile;
+use savme_sim::scenario::{find, phi_space, SCENARIOS};
+use savme_sim::sim::DrivingSimulator;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::{Arc, OnceLock};
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("savme-fmu-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn savme(args: &[&str]) -> (bool, String, String) {
+    let o = Command::new(EXE).args(args).output().unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// The bundled simulator packed once by `savme fmu pack`.
+fn packed() -> &'static Path {
+    static FMU: OnceLock<PathBuf> = OnceLock::new();
+    FMU.get_or_init(|| {
+        let out = temp_dir("packed").join("savme-sim.fmu");
+        let (ok, stdout, err) = savme(&["fmu", "pack", "--out", out.to_str().unwrap()]);
+        assert!(ok, "{err}");
+        assert!(stdout.contains("wrote"), "{stdout}");
+        out
+    })
+}
+
+/// A φ sample of `space` (the k-th point of a fixed low-discrepancy pattern).
+fn sample(space: &Space, k: usize) -> Assignment {
+    let mut a = Assignment::new();
+    for (j, v) in space.variables().iter().enumerate() {
+        if let savme::kernel::Domain::Continuous { lo, hi, .. } = v.domain {
+            let u = ((k as f64 + 0.5) * (0.618_034 + 0.1 * j as f64)).fract();
+            a.set(&v.name, lo + u * (hi - lo));
+        }
+    }
+    a
+}
+
+/// Runs one scenario through the FMU (to its stop time) and reads collision, min distance,
+/// work.
+fn through_fmu(
+    file: &Arc<FmuFile>,
+    id: u8,
+    phi: &Assignment,
+    theta: &Assignment,
+) -> (bool, f64, f64) {
+    let mut i = Instance::new(file.clone(), "cross-check").unwrap();
+    i.setup(0.0, Some(12.0)).unwrap();
+    let vr = |n: &str| file.variable(n).unwrap().vr;
+    i.set_integer(vr("scenario"), i32::from(id)).unwrap();
+    for (n, v) in phi.iter() {
+        i.set_real(vr(n), v.as_f64().unwrap()).unwrap();
+    }
+    for (n, v) in theta.iter() {
+        match v {
+            savme::kernel::Value::Bool(b) => i.set_boolean(vr(n), *b).unwrap(),
+            savme::kernel::Value::Int(k) => i.set_integer(vr(n), *k as i32).unwrap(),
+            savme::kernel::Value::Label(l) => {
+                i.set_integer(vr(n), i32::from(&**l == "low")).unwrap()
+            }
+            savme::kernel::Value::Real(x) => i.set_real(vr(n), *x).unwrap(),
+        }
+    }
+    i.initialize().unwrap();
+    let mut t = 0.0;
+    while t < 12.0 - 1e-9 {
+        i.step(t, 0.1).unwrap();
+        t += 0.1;
+        t = (t * 10.0).round() / 10.0;
+    }
+    (
+        i.boolean(vr("collision")).unwrap(),
+        i.real(vr("min_distance")).unwrap(),
+        i.real(vr("work")).unwrap(),
+    )
+}
+
+#[test]
+fn the_fmu_gives_the_in_process_outcomes() {
+    let file = Arc::new(FmuFile::open(packed()).unwrap());
+    let hf = savme::kernel::paper::theta_hf();
+    let cheap = hf
+        .clone()
+        .with("simulation_rate_hz", 4)
+        .with("camera_bloom_level", "low")
+        .with("camera_disable_shadows", true)
+        .with("camera_view_distance_m", 120.0)
+        .with("lidar_subsample_count", 2)
+        .with("lidar_near_clipping_m", 3.0);
+    let sim = DrivingSimulator::default();
+    let mut collisions = 0;
+    for info in SCENARIOS.iter().filter(|s| [1, 5, 7, 10].contains(&s.id)) {
+        for k in 0..3 {
+            let phi = sample(&phi_space(info), k + usize::from(info.id));
+            for theta in [&hf, &cheap] {
+                let local = sim.run(info.name, &phi, theta, false).unwrap();
+                let (collision, min_distance, work) = through_fmu(&file, info.id, &phi, theta);
+                assert_eq!(collision, local.failure, "{} {phi}", info.name);
+                assert_eq!(
+                    min_distance,
+                    local.min_distance.min(1e6),
+                    "{} {phi}",
+                    info.name
+                );
+                assert_eq!(work, local.work as f64, "{} {phi}", info.name);
+                collisions += usize::from(collision);
+            }
+        }
+    }
+    // The comparison covers both outcomes.
+    assert!(
+        collisions > 0 && collisions < 24,
+        "{collisions} collisions of 24"
+    );
+    assert!(find("7").is_some());
+}
+
+/// FMPy (PyPI `fmpy`), if the environment provides it: `.ci/run` installs it into a virtual
+/// environment and sets SAVME_FMPY_PYTHON (and SAVME_REQUIRE_FMPY=1, so that CI cannot skip).
+fn fmpy_python() -> Option<String> {
+    let python = std::env::var("SAVME_FMPY_PYTHON").ok();
+    let required = std::env::var("SAVME_REQUIRE_FMPY").is_ok_and(|v| v == "1");
+    match python {
+        Some(p) => Some(p),
+        None if required => panic!("SAVME_REQUIRE_FMPY=1 but SAVME_FMPY_PYTHON is not set"),
+        None => {
+            eprintln!("FMPy cross-check skipped: set SAVME_FMPY_PYTHON to a python with fmpy");
+            None
+        }
+    }
+}
+
+#[test]
+fn fmpy_simulates_the_fmu_like_savme() {
+    let Some(python) = fmpy_python() else { return };
+    let fmu = packed();
+    let info = find("7").unwrap();
+    let sim = DrivingSimulator::default();
+    let hf = savme::kernel::paper::theta_hf();
+    for k in 0..3 {
+        let phi = sample(&phi_space(info), k);
+        let local = sim.run(info.name, &phi, &hf, false).unwrap();
+        let mut start = vec![("scenario".to_string(), "7".to_string())];
+        for (n, v) in phi.iter() {
+            start.push((n.to_string(), format!("{:?}", v.as_f64().unwrap())));
+        }
+        let starts: String = start.iter().map(|(n, v)| format!("'{n}': {v}, ")).collect();
+        let script = format!(
+            "import fmpy\n\
+             r = fmpy.simulate_fmu(r'{}', start_values={{{starts}}}, stop_time=12.0, \
+             output_interval=0.1, output=['collision', 'min_distance', 'work'])\n\
+             print(bool(r['collision'][-1]), repr(float(r['min_distance'][-1])), repr(float(r['work'][-1])))\n",
+            fmu.display()
+        );
+        let o = Command::new(&python)
+            .arg("-c")
+            .arg(&script)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout);
+        let f: Vec<&str> = out.split_whitespace().collect();
+        assert_eq!(f.len(), 3, "{out}");
+        assert_eq!(f[0] == "True", local.failure, "{phi}: {out}");
+        assert_eq!(
+            f[1].parse::<f64>().unwrap(),
+            local.min_distance.min(1e6),
+            "{phi}"
+        );
+        assert_eq!(f[2].parse::<f64>().unwrap(), local.work as f64, "{phi}");
+    }
+}
+
+fn campaign_file(dir: &Path, body: &str) -> PathBuf {
+    let path = dir.join("campaign.toml");
+    let fmu = packed().display().to_string();
+    std::fs::write(&path, body.replace("FMU", &fmu)).unwrap();
+    path
+}
+
+const TINY: &str = r#"
+[fmu]
+hf = "FMU"
+stop_time = 12.0
+step = { rate_of = "simulation_rate_hz" }
+cost = "work"
+
+[failure]
+boolean = "collision"
+
+[campaign]
+budgets = [0.3]
+train_iterations = 8
+eval_iterations = 4
+test_iterations = 4
+baseline_train_iterations = 6
+baseline_test_iterations = 4
+cost = "work"
+
+[fidelity]
+paper = true
+
+[[scenario]]
+name = "lead_vehicle_brakes"
+role = "train"
+fixed = { scenario = 7 }
+[[scenario.phi]]
+name = "ego_speed"
+range = [10.0, 25.0]
+[[scenario.phi]]
+name = "lead_speed"
+range = [5.0, 20.0]
+[[scenario.phi]]
+name = "gap"
+range = [8.0, 28.0]
+[[scenario.phi]]
+name = "lead_decel"
+range = [4.0, 9.0]
+[[scenario.phi]]
+name = "brake_time"
+range = [0.5, 4.0]
+
+[[scenario]]
+name = "on_ramp_merge"
+role = "test"
+fixed = { scenario = 10 }
+[[scenario.phi]]
+name = "ego_speed"
+range = [12.0, 22.0]
+[[scenario.phi]]
+name = "intruder_speed"
+range = [12.0, 26.0]
+[[scenario.phi]]
+name = "time_offset"
+range = [-3.0, 3.0]
+"#;
+
+#[test]
+fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
+    let dir = temp_dir("run");
+    // Scenario 10's φ must be its real one; check against `savme scenarios`.
+    let ten: Vec<String> = phi_space(find("10").unwrap())
+        .variables()
+        .iter()
+        .map(|v| v.name.to_string())
+        .collect();
+    assert_eq!(
+        ten,
+        ["ego_speed", "intruder_speed", "time_offset"],
+        "update TINY"
+    );
+    for (name, isolate) in [("in-process", false), ("isolated", true)] {
+        let body = TINY.replace(
+            "cost = \"work\"\n\n[failure]",
+            &format!("cost = \"work\"\nisolate = {isolate}\n\n[failure]"),
+        );
+        let config = campaign_file(&dir, &body);
+        let out = dir.join(name);
+        let (ok, stdout, err) = savme(&[
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(ok, "{name}: {err}");
+        assert!(
+            stdout.contains("| C_budget | TP-rate | mean LF cost | speedup |"),
+            "{stdout}"
+        );
+        let trials = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+        assert_eq!(trials.lines().count(), 6 + 8 + 4 + 4 + 2 * 4, "{name}");
+        for f in [
+            "table.md",
+            "fidelity.md",
+            "summary.json",
+            "breakeven.png",
+            "meta_testing.png",
+        ] {
+            assert!(out.join(f).exists(), "{name}: {f}");
+        }
+    }
+    // Both back-ends ran the same campaign (work-unit cost: bit for bit, but wall times).
+    let strip = |d: &str| -> Vec<serde_json::Value> {
+        std::fs::read_to_string(dir.join(d).join("trials.jsonl"))
+            .unwrap()
+            .lines()
+            .map(|l| {
+                let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+                for r in ["hf", "lf"] {
+                    if let Some(o) = v[r].as_object_mut() {
+                        o.remove("wall_seconds");
+                    }
+                }
+                v
+            })
+            .collect()
+    };
+    assert_eq!(strip("in-process"), strip("isolated"));
+}
+
+#[test]
+fn bad_campaign_files_name_the_file_line_and_key() {
+    let dir = temp_dir("bad-config");
+    let check = |body: &str, needles: &[&str]| {
+        let config = campaign_file(&dir, body);
+        let out = dir.join("out");
+        let (ok, _, err) = savme(&[
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(
+            !out.join("trials.jsonl").exists(),
+            "a campaign started: {body}"
+        );
+        assert!(!ok, "accepted: {body}");
+        assert!(err.contains("campaign.toml"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "expected `{n}` in: {err}");
+        }
+    };
+    // TOML-level: an unknown key, a wrong type.
+    check(
+        &TINY.replace("stop_time = 12.0", "stop_time = 12.0\nstop_tme = 3"),
+        &["line 5", "unknown field `stop_tme`"],
+    );
+    check(
+        &TINY.replace("stop_time = 12.0", "stop_time = \"long\""),
+        &["line 4", "invalid type"],
+    );
+    // An FMU variable that does not exist, named with its line and key.
+    check(
+        &TINY.replace(
+            "name = \"time_offset\"",
+            "name = \"time_offset\"\nfmu = \"time_ofset\"",
+        ),
+        &[
+            "line 55",
+            "scenario[1].phi[2].fmu",
+            "no variable `time_ofset`",
+        ],
+    );
+    // A fixed parameter of the wrong type: `scenario` is an Integer.
+    check(
+        &TINY.replace("fixed = { scenario = 7 }", "fixed = { scenario = true }"),
+        &["scenario[0].fixed.scenario"],
+    );
+    // A failure signal that is no Boolean output.
+    check(
+        &TINY.replace("boolean = \"collision\"", "boolean = \"min_distance\""),
+        &["line 9", "failure.boolean", "is Real, expected Boolean"],
+    );
+    check(
+        &TINY.replace("boolean = \"collision\"", "threshold = \"min_distance\""),
+        &["failure", "above` / `below"],
+    );
+    // Missing FMU; a role that is not train/test; a budget out of range.
+    check(
+        &TINY.replace("hf = \"FMU\"", "hf = \"nowhere.fmu\""),
+        &["line 3", "nowhere.fmu"],
+    );
+    check(
+        &TINY.replace("role = \"test\"", "role = \"tset\""),
+        &["scenario[1].role", "`tset`"],
+    );
+    check(
+        &TINY.replace("budgets = [0.3]", "budgets = [1.3]"),
+        &["campaign.budgets", "outside (0, 1]"],
+    );
+    check(
+        &TINY.replace(
+            "step = { rate_of = \"simulation_rate_hz\" }",
+            "step = { rate_of = \"fps\" }",
+        ),
+        &["fmu.step.rate_of", "`fps`"],
+    );
+}
