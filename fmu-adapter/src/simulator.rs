@@ -269,12 +269,12 @@ impl Plan {
                     .iter()
                     .map(|f| {
                         let v = settable(file, &f.fmu_variable)?;
-                        let fits = match (&f.value, v.kind) {
-                            (Value::Bool(_), VarType::Boolean) => true,
-                            (Value::Int(_), VarType::Integer | VarType::Real) => true,
-                            (Value::Real(_), VarType::Real) => true,
-                            _ => false,
-                        };
+                        let fits = matches!(
+                            (&f.value, v.kind),
+                            (Value::Bool(_), VarType::Boolean)
+                                | (Value::Int(_), VarType::Integer | VarType::Real)
+                                | (Value::Real(_), VarType::Real)
+                        );
                         if !fits {
                             return Err(FmuError::WrongType {
                                 fmu: file.path.display().to_string(),
