@@ -569,7 +569,7 @@ fn variable(v: &VarSection) -> Result<Variable, String> {
             Ok(Variable::discrete(&v.name, values))
         }
         (None, Some([lo, hi])) => {
-            if !(lo < hi) {
+            if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
                 return Err(format!("`range` = [{lo}, {hi}] is empty"));
             }
             if v.bins == 0 {
