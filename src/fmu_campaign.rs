@@ -659,7 +659,9 @@ pub fn run(
         }
         opts.jobs = j;
     }
-    campaign::run(&c.protocol, &c.problem, &backend, &opts).map_err(|e| e.to_string())
+    let outcome =
+        campaign::run(&c.protocol, &c.problem, &backend, &opts).map_err(|e| e.to_string())?;
+    Ok((outcome, c.problem))
 }
 
 /// Where the bundled simulator's FMU library is: given, or next to the savme binary (cargo

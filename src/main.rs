@@ -175,12 +175,11 @@ fn run_config(a: RunArgs) -> Result<(), String> {
             return Err("give --config FILE (and --resume DIR to continue a campaign)".into())
         }
     };
-    let outcome = savme::fmu_campaign::run(&config, out, resume, a.jobs, a.quiet)?;
-    let c = savme::fmu_campaign::Campaign::load(&config).map_err(|e| e.to_string())?;
+    let (outcome, problem) = savme::fmu_campaign::run(&config, out, resume, a.jobs, a.quiet)?;
     print(&savme::reproduce::summary_text(
         &outcome,
-        &c.problem.fidelity,
-        &c.problem.theta_hf,
+        &problem.fidelity,
+        &problem.theta_hf,
     ))
 }
 
