@@ -624,14 +624,15 @@ impl Simulator for FmuBackend {
     }
 }
 
-/// Runs `savme run --config FILE`: loads and checks the campaign, then runs (or resumes) it.
+/// Runs `savme run --config FILE`: loads and checks the campaign, then runs (or resumes) it;
+/// returns the outcome and the campaign's problem (for printing its fidelity table).
 pub fn run(
     config: &Path,
     out: Option<PathBuf>,
     resume: bool,
     jobs: Option<usize>,
     quiet: bool,
-) -> Result<CampaignOutcome, String> {
+) -> Result<(CampaignOutcome, Problem), String> {
     let c = Campaign::load(config).map_err(|e| e.to_string())?;
     let out = out
         .or(c.out.clone())
