@@ -125,7 +125,25 @@ pub fn scenarios_text() -> String {
     out
 }
 
-/// `savme simulate`: runs one simulation and returns the report.
+/// [`simulate`], also recording the run to the rerun viewer when `record` asks for it.
+pub fn simulate_recorded(
+    scenario: &str,
+    phi: &str,
+    fidelity: &str,
+    json: bool,
+    record: &crate::recording::RecordRequest,
+) -> Result<String, String> {
+    let text = simulate(scenario, phi, fidelity, json)?;
+    if record.wanted() {
+        let info = scenario::find(scenario).ok_or("unknown scenario")?;
+        let phi = parse_assignment(phi).map_err(|e| format!("--phi: {e}"))?;
+        let theta = parse_fidelity(fidelity).map_err(|e| format!("--fidelity: {e}"))?;
+        crate::recording::record_run(record, info.name, &phi, &theta).map_err(|e| e.to_string())?;
+    }
+    Ok(text)
+}
+
+/// Runs one simulation and describes it (or gives it as JSON).
 pub fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, String> {
     let info = scenario::find(scenario).ok_or_else(|| {
         format!("unknown scenario `{scenario}`: give 1–10 or a name from `savme scenarios`")

@@ -10,6 +10,9 @@ pub use savme_kernel as kernel;
 pub mod campaign;
 pub mod cli;
 pub mod fmu_campaign;
+#[cfg(feature = "rerun")]
+pub mod record;
+pub mod recording;
 pub mod reproduce;
 pub mod serve;
 pub mod toy;

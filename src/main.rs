@@ -64,6 +64,8 @@ enum Command {
         /// Print the result as JSON.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        record: RecordArgs,
     },
 }
 
@@ -121,6 +123,40 @@ struct ReproduceArgs {
     /// No progress bars.
     #[arg(long, short)]
     quiet: bool,
+    #[command(flatten)]
+    record: RecordArgs,
+}
+
+/// Recording to the rerun viewer (a build with `--features rerun`).
+#[derive(clap::Args, Debug, Clone)]
+struct RecordArgs {
+    /// Record to a rerun file (open it with `rerun FILE.rrd`).
+    #[arg(long, value_name = "FILE.rrd")]
+    record: Option<PathBuf>,
+    /// Record to a newly started rerun viewer.
+    #[arg(long)]
+    spawn: bool,
+    /// Record to a running rerun viewer (default rerun+http://127.0.0.1:9876/proxy).
+    #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+    connect: Option<String>,
+    /// Sensor frames for every N-th trial.
+    #[arg(long, value_name = "N", default_value_t = 200)]
+    record_every: u64,
+    /// ... plus trials whose HF run failed, up to N.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    record_failures: u64,
+}
+
+impl RecordArgs {
+    fn request(&self) -> savme::recording::RecordRequest {
+        savme::recording::RecordRequest {
+            file: self.record.clone(),
+            spawn: self.spawn,
+            connect: self.connect.clone(),
+            every: self.record_every,
+            failures: self.record_failures,
+        }
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -158,8 +194,15 @@ fn reproduce(a: ReproduceArgs) -> Result<(), String> {
         Some(dir) => (dir, true),
         None => (a.out, false),
     };
-    let outcome = savme::reproduce::run(&overrides, out, resume, a.jobs, a.quiet)
-        .map_err(|e| e.to_string())?;
+    let outcome = savme::reproduce::run(
+        &overrides,
+        out,
+        resume,
+        a.jobs,
+        a.quiet,
+        &a.record.request(),
+    )
+    .map_err(|e| e.to_string())?;
     let (space, hf) = (
         savme::kernel::paper::fidelity_space(outcome.report.protocol.fidelity_bins),
         savme::kernel::paper::theta_hf(),
@@ -233,7 +276,9 @@ fn main() -> ExitCode {
             phi,
             fidelity,
             json,
-        } => savme::cli::simulate(&scenario, &phi, &fidelity, json).and_then(|t| print(&t)),
+            record,
+        } => savme::cli::simulate_recorded(&scenario, &phi, &fidelity, json, &record.request())
+            .and_then(|t| print(&t)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

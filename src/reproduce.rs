@@ -141,6 +141,7 @@ pub fn run(
     resume: bool,
     jobs: Option<usize>,
     quiet: bool,
+    record: &crate::recording::RecordRequest,
 ) -> Result<CampaignOutcome, CampaignError> {
     let p = if resume {
         if overrides.any() {
@@ -166,12 +167,16 @@ pub fn run(
         }
         opts.jobs = j;
     }
-    campaign::run(
-        &p,
-        &campaign::Problem::driving(p.fidelity_bins),
-        &sim,
-        &opts,
-    )
+    let problem = campaign::Problem::driving(p.fidelity_bins);
+    match crate::recording::start(record, sim, problem.theta_hf.clone())? {
+        None => campaign::run(&p, &problem, &sim, &opts),
+        Some(mut recorder) => {
+            let result = campaign::run_observed(&p, &problem, &sim, &opts, recorder.observer());
+            // Close the recording whatever happened, so the file gets its footer.
+            recorder.finish()?;
+            result
+        }
+    }
 }
 
 /// What `savme reproduce` (and `savme run`) print at the end.

@@ -228,6 +228,11 @@ impl Posterior {
         &self.data.arms
     }
 
+    /// The variables' names, in the order of [`Posterior::arms`].
+    pub fn names(&self) -> &[String] {
+        &self.data.names
+    }
+
     /// The beliefs of the variable called `name`.
     pub fn variable(&self, name: &str) -> Option<&[Arm]> {
         let i = self.data.names.iter().position(|n| n == name)?;

@@ -138,12 +138,13 @@ fn which_name(w: Which) -> &'static str {
 }
 
 /// Runs (or replays) one stage on `kernel` until it has told `stage.iterations` trials; calls
-/// `progress` after each told trial and returns the stage's lines (withdrawn trials included).
+/// `progress` after each told trial (with the kernel that learnt from it) and returns the
+/// stage's lines (withdrawn trials included).
 pub fn run_stage(
     pool: &mut Pool,
     kernel: &mut Kernel,
     cx: StageContext<'_>,
-    mut progress: impl FnMut(&TrialLine),
+    mut progress: impl FnMut(&TrialLine, &Kernel),
 ) -> Result<Vec<LogLine>, CampaignError> {
     let stage = cx.stage;
     let label = stage.label();
@@ -195,7 +196,7 @@ pub fn run_stage(
             let Some(slot) = queue.pop_front() else { break };
             let line = tell(kernel, slot, &label, stage, cx.cost, cx.writer)?;
             match &line {
-                LogLine::Trial(t) => progress(t),
+                LogLine::Trial(t) => progress(t, kernel),
                 LogLine::Failed(f) => {
                     failed.set(failed.get() + 1);
                     if failed.get() > stage.iterations {

@@ -122,6 +122,9 @@ pub enum CampaignError {
         /// The last error.
         last: String,
     },
+    /// Recording to the viewer failed.
+    #[error("recording: {0}")]
+    Recording(String),
     /// The worker threads stopped unexpectedly.
     #[error("the worker threads stopped unexpectedly")]
     WorkersGone,
@@ -408,6 +411,26 @@ fn bar_style(template: &str) -> ProgressStyle {
         .progress_chars("=> ")
 }
 
+/// Watches a campaign as it runs (e.g. to record it for a viewer). Called on the coordinating
+/// thread, in tell order — replayed trials included.
+pub trait Observer {
+    /// A stage starts.
+    fn stage(&mut self, stage: &Stage) {
+        let _ = stage;
+    }
+
+    /// A trial was told to `kernel` (which has learnt from it).
+    fn trial(&mut self, stage: &Stage, line: &log::TrialLine, kernel: &Kernel) {
+        let _ = (stage, line, kernel);
+    }
+}
+
+/// An observer that does nothing.
+#[derive(Debug, Default)]
+pub struct NoObserver;
+
+impl Observer for NoObserver {}
+
 /// Runs (or resumes) the campaign `p` on `sim` and writes every output into `opts.out`.
 /// Every error — bad protocol, unknown scenario, unwritable directory, corrupt trials file —
 /// is reported before any simulation runs, except failures of the simulations themselves.
@@ -416,6 +439,20 @@ pub fn run<S>(
     problem: &Problem,
     sim: &S,
     opts: &Options,
+) -> Result<CampaignOutcome, CampaignError>
+where
+    S: Simulator + Clone + Send,
+{
+    run_observed(p, problem, sim, opts, &mut NoObserver)
+}
+
+/// [`run`], telling `observer` about every stage and trial.
+pub fn run_observed<S>(
+    p: &Protocol,
+    problem: &Problem,
+    sim: &S,
+    opts: &Options,
+    observer: &mut dyn Observer,
 ) -> Result<CampaignOutcome, CampaignError>
 where
     S: Simulator + Clone + Send,
@@ -469,6 +506,7 @@ where
                 "{prefix:>15} [{bar:30}] {pos}/{len}  {per_sec}, ETA {eta}  {msg}",
             ));
             bar.set_prefix(label.clone());
+            observer.stage(stage);
             // The meta-testing kernels start from the finished meta-training posterior.
             let mut fresh;
             let kernel: &mut Kernel = match (stage.kind, stage.budget) {
@@ -502,7 +540,8 @@ where
                     writer: &mut writer,
                     on_error: p.on_error,
                 },
-                |line| {
+                |line, kernel| {
+                    observer.trial(stage, line, kernel);
                     failures += u64::from(line.hf.failure);
                     bar.inc(1);
                     bar.set_message(format!("{failures} failures"));
