@@ -407,6 +407,11 @@ impl Recorder {
     }
 }
 
+/// A stage label as entity-path parts: `train@0.3` → `train/0_3` (rerun escapes `@` and `.`).
+pub fn entity_label(label: &str) -> String {
+    label.replace('@', "/").replace('.', "_")
+}
+
 impl Observer for Recorder {
     fn stage(&mut self, stage: &Stage) {
         self.rec.set_time_sequence("trial", self.told as i64);
@@ -419,7 +424,7 @@ impl Observer for Recorder {
         let n = self.told;
         self.told += 1;
         self.rec.set_time_sequence("trial", n as i64);
-        let label = stage.label();
+        let label = entity_label(&stage.label());
         let found = self.found.entry(label.clone()).or_default();
         *found += u64::from(line.hf.failure);
         let found = *found;

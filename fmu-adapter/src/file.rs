@@ -291,17 +291,7 @@ impl FmuFile {
 
 /// The platform folder under `binaries/` (`linux64`, …).
 pub fn savme_platform() -> String {
-    let os = match std::env::consts::OS {
-        "macos" => "darwin",
-        "windows" => "win",
-        other => other,
-    };
-    let bits = if cfg!(target_pointer_width = "64") {
-        "64"
-    } else {
-        "32"
-    };
-    format!("{os}{bits}")
+    savme_fmi_export::platform_folder()
 }
 
 fn source_text(e: &dyn std::error::Error) -> String {
