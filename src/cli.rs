@@ -135,10 +135,12 @@ pub fn simulate_recorded(
 ) -> Result<String, String> {
     let text = simulate(scenario, phi, fidelity, json)?;
     if record.wanted() {
+        // `simulate` checked the arguments.
         let info = scenario::find(scenario).ok_or("unknown scenario")?;
         let phi = parse_assignment(phi).map_err(|e| format!("--phi: {e}"))?;
         let theta = parse_fidelity(fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-        crate::recording::record_run(record, info.name, &phi, &theta).map_err(|e| e.to_string())?;
+        crate::recording::record_run(record, info.name, &phi, &theta)
+            .map_err(|e| format!("{text}{e}"))?;
     }
     Ok(text)
 }

@@ -632,6 +632,7 @@ pub fn run(
     resume: bool,
     jobs: Option<usize>,
     quiet: bool,
+    record: &crate::recording::RecordRequest,
 ) -> Result<(CampaignOutcome, Problem), String> {
     let c = Campaign::load(config).map_err(|e| e.to_string())?;
     let out = out
@@ -660,8 +661,24 @@ pub fn run(
         }
         opts.jobs = j;
     }
-    let outcome =
-        campaign::run(&c.protocol, &c.problem, &backend, &opts).map_err(|e| e.to_string())?;
+    // Trials of scenarios the bundled simulator knows (the packed savme-sim FMU's) get sensor
+    // frames, re-run in-process; the learning is recorded for any FMU.
+    let recording = crate::recording::start(
+        record,
+        savme_sim::sim::DrivingSimulator::default(),
+        c.problem.theta_hf.clone(),
+    )
+    .map_err(|e| e.to_string())?;
+    let outcome = match recording {
+        None => campaign::run(&c.protocol, &c.problem, &backend, &opts),
+        Some(mut r) => {
+            let result =
+                campaign::run_observed(&c.protocol, &c.problem, &backend, &opts, r.observer());
+            r.finish().map_err(|e| e.to_string())?;
+            result
+        }
+    }
+    .map_err(|e| e.to_string())?;
     Ok((outcome, c.problem))
 }
 

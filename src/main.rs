@@ -218,7 +218,8 @@ fn run_config(a: RunArgs) -> Result<(), String> {
             return Err("give --config FILE (and --resume DIR to continue a campaign)".into())
         }
     };
-    let (outcome, problem) = savme::fmu_campaign::run(&config, out, resume, a.jobs, a.quiet)?;
+    let (outcome, problem) =
+        savme::fmu_campaign::run(&config, out, resume, a.jobs, a.quiet, &a.record.request())?;
     print(&savme::reproduce::summary_text(
         &outcome,
         &problem.fidelity,
@@ -243,6 +244,8 @@ struct RunArgs {
     /// No progress bars.
     #[arg(long, short)]
     quiet: bool,
+    #[command(flatten)]
+    record: RecordArgs,
 }
 
 #[derive(Subcommand)]

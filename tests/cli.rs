@@ -133,3 +133,22 @@ fn bad_inputs_are_named() {
         assert!(err.contains(expected), "{args:?}: {err}");
     }
 }
+
+#[cfg(not(feature = "rerun"))]
+#[test]
+fn recording_without_the_rerun_feature_says_how_to_get_it() {
+    let phi = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+    for flags in [
+        &["--record", "x.rrd"][..],
+        &["--spawn"][..],
+        &["--connect"][..],
+    ] {
+        let mut args = vec!["simulate", "--scenario", "7", "--phi", phi];
+        args.extend_from_slice(flags);
+        let (ok, _, err) = savme(&args);
+        assert!(!ok, "{flags:?}");
+        assert!(err.contains("--features rerun"), "{err}");
+    }
+    let (ok, _, err) = savme(&["reproduce", "--quick", "--spawn", "--out", "/nonexistent/x"]);
+    assert!(!ok && err.contains("--features rerun"), "{err}");
+}
