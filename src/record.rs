@@ -244,6 +244,28 @@ impl Recorder {
                 )
                 .map_err(err)?;
             }
+            if let Some(pr) = f.predicted {
+                rec.log(
+                    format!("{base}/predicted_closest_approach"),
+                    &rerun::LineStrips3D::new([[
+                        (pr.ego.x as f32, pr.ego.y as f32, 1.2f32),
+                        (pr.obstacle.x as f32, pr.obstacle.y as f32, 1.2),
+                    ]])
+                    .with_colors([rerun::Color::from_rgb(255, 0, 255)])
+                    .with_labels([format!(
+                        "predicted clearance {:.1} m in {:.1} s",
+                        pr.clearance,
+                        pr.time - f.time
+                    )]),
+                )
+                .map_err(err)?;
+            } else {
+                rec.log(
+                    format!("{base}/predicted_closest_approach"),
+                    &rerun::Clear::flat(),
+                )
+                .map_err(err)?;
+            }
             if let Some(m) = f.measured {
                 rec.log(
                     format!("{base}/measured"),

@@ -74,6 +74,7 @@ fn simulate_records_a_run_with_its_sensor_frames() {
         "/run/camera",
         "/run/lidar",
         "/run/closest_approach",
+        "/run/predicted_closest_approach",
         "/run/outcome",
     ] {
         assert!(l.rows.contains_key(e), "no {e} in {:?}", l.rows.keys());

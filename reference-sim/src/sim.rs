@@ -30,6 +30,8 @@ pub struct Frame {
     pub braking: bool,
     /// The obstacle position the perception reported, if any.
     pub measured: Option<nalgebra::Point2<f64>>,
+    /// The planner's predicted closest approach, if it had a detection.
+    pub predicted: Option<crate::sut::Prediction>,
 }
 
 /// The outcome of one run.
@@ -208,6 +210,7 @@ impl<P: Perception> Stepper<P> {
             obstacle: &intruder,
         });
         let braking = self.planner.decide(t, &ego, measured);
+        let predicted = self.planner.prediction();
         let steer = self.stanley.steer(&ego, &setup.ego_path, dt);
         let accel = if braking {
             -BRAKE_DECEL
@@ -221,6 +224,7 @@ impl<P: Perception> Stepper<P> {
                 intruder,
                 braking,
                 measured,
+                predicted,
             });
         }
         // Advance, checking for contact along the way: the ego's motion is re-integrated
@@ -260,6 +264,7 @@ impl<P: Perception> Stepper<P> {
                         intruder: i,
                         braking,
                         measured: None,
+                        predicted: None,
                     });
                 }
                 self.finished = true;

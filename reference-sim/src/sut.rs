@@ -161,6 +161,21 @@ pub struct Planner {
     /// Half-width of the ego's corridor, metres.
     pub corridor: f64,
     last: Option<(f64, Point2<f64>)>,
+    prediction: Option<Prediction>,
+}
+
+/// The planner's last prediction: where, within its horizon, the obstacle comes closest to the
+/// ego under constant velocities.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Prediction {
+    /// When (absolute simulation time), seconds.
+    pub time: f64,
+    /// The ego's predicted centre then.
+    pub ego: Point2<f64>,
+    /// The obstacle's predicted centre then.
+    pub obstacle: Point2<f64>,
+    /// Predicted clearance (centre distance − one body length), metres.
+    pub clearance: f64,
 }
 
 impl Default for Planner {
@@ -170,6 +185,7 @@ impl Default for Planner {
             threshold: LENGTH,
             corridor: crate::vehicle::WIDTH + 0.5,
             last: None,
+            prediction: None,
         }
     }
 }
@@ -179,11 +195,13 @@ impl Planner {
     pub fn decide(&mut self, time: f64, ego: &VehicleState, measured: Option<Point2<f64>>) -> bool {
         let Some(now) = measured else {
             self.last = None;
+            self.prediction = None;
             return false;
         };
         let previous = self.last.replace((time, now));
         let Some((t0, before)) = previous else {
             // One measurement: no velocity yet; brake only if already too close.
+            self.prediction = Some(self.closest(time, ego, now - ego.center(), Vector2::zeros()));
             return self.conflict(ego, now - ego.center(), Vector2::zeros());
         };
         let dt = time - t0;
@@ -193,7 +211,39 @@ impl Planner {
         let obstacle_velocity = (now - before) / dt;
         let p = now - ego.center();
         let w = obstacle_velocity - ego.velocity();
+        self.prediction = Some(self.closest(time, ego, p, w));
         self.conflict(ego, p, w)
+    }
+
+    /// The last prediction (None without a detection).
+    pub fn prediction(&self) -> Option<Prediction> {
+        self.prediction
+    }
+
+    /// The closest approach within the horizon under constant velocities.
+    fn closest(
+        &self,
+        time: f64,
+        ego: &VehicleState,
+        p: Vector2<f64>,
+        w: Vector2<f64>,
+    ) -> Prediction {
+        let steps = (self.horizon / 0.1).round() as usize;
+        let k = (0..=steps)
+            .min_by(|&a, &b| {
+                let d = |k: usize| (p + w * (k as f64 * 0.1)).norm();
+                d(a).total_cmp(&d(b))
+            })
+            .unwrap_or(0);
+        let t = k as f64 * 0.1;
+        let ego_then = ego.center() + ego.velocity() * t;
+        let rel = p + w * t;
+        Prediction {
+            time: time + t,
+            ego: ego_then,
+            obstacle: ego_then + rel,
+            clearance: rel.norm() - LENGTH,
+        }
     }
 
     /// Whether the obstacle, at relative position `p` moving at relative velocity `w`, comes
@@ -212,6 +262,23 @@ impl Planner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_prediction_is_the_closest_approach_within_the_horizon() {
+        let ego = VehicleState::from_center(Point2::new(0.0, 0.0), 0.0, 10.0);
+        let mut p = Planner::default();
+        assert!(p.prediction().is_none());
+        p.decide(0.0, &ego, Some(Point2::new(30.0, 0.0)));
+        p.decide(0.1, &ego, Some(Point2::new(30.0, 0.0)));
+        // A stopped car 30 m ahead of an ego at 10 m/s: closest at the horizon's end (3 s),
+        // the ego then at 30 m, on top of it.
+        let pr = p.prediction().unwrap();
+        assert!((pr.time - 3.1).abs() < 1e-9, "{pr:?}");
+        assert!((pr.ego.x - 30.0).abs() < 1e-9 && (pr.obstacle.x - 30.0).abs() < 1e-9);
+        assert!((pr.clearance + LENGTH).abs() < 1e-9);
+        p.decide(0.2, &ego, None);
+        assert!(p.prediction().is_none(), "no detection, no prediction");
+    }
 
     #[test]
     fn brakes_for_a_stopped_car_ahead_and_not_for_one_pulling_away() {
