@@ -1,7 +1,7 @@
 //! Recording to the rerun viewer (cargo feature `rerun`): trials of the bundled simulator — the
 //! scene, both vehicles on a `sim_time` timeline with their trajectories, the camera image with
-//! the detector's box, the lidar cloud coloured by intensity, the closest approach and the
-//! outcome, HF and LF side by side — and the campaign's learning on a `trial` timeline: found
+//! the detector's box, the lidar cloud coloured by intensity, the planner's predicted closest
+//! approach, the actual closest approach and the outcome, HF and LF side by side — and the campaign's learning on a `trial` timeline: found
 //! failures per stage, C_budget, and the posterior mean of every fidelity arm and of every
 //! scenario parameter's bins.
 //!
