@@ -249,6 +249,23 @@ impl Campaign {
         };
         // Where each FMU variable name came from, to point at the line of a mapping error.
         let mut origins: Vec<(String, usize, String)> = Vec::new();
+        // The FMU variable a savme variable binds to (its `fmu` key, else its own name),
+        // remembered with its line and key.
+        let fmu_name = |v: &VarSection,
+                        line: Option<usize>,
+                        key: &str,
+                        origins: &mut Vec<(String, usize, String)>| {
+            let name = v
+                .fmu
+                .as_ref()
+                .map_or(v.name.clone(), |s| s.get_ref().clone());
+            let at = v
+                .fmu
+                .as_ref()
+                .map_or(line.unwrap_or(0), |s| line_of(&text, s.span().start));
+            origins.push((name.clone(), at, key.to_string()));
+            name
+        };
 
         // Fidelity space and θ_HF.
         let (fidelity, theta_hf, fidelity_bindings) = if f.fidelity.paper {
@@ -287,17 +304,7 @@ impl Campaign {
                     )
                 })?;
                 hf.set(&v.name, hf_value);
-                let fmu = v
-                    .fmu
-                    .as_ref()
-                    .map_or(v.name.clone(), |s| s.get_ref().clone());
-                origins.push((
-                    fmu.clone(),
-                    v.fmu
-                        .as_ref()
-                        .map_or(line.unwrap_or(0), |s| line_of(&text, s.span().start)),
-                    format!("{key}.fmu"),
-                ));
+                let fmu = fmu_name(v, line, &format!("{key}.fmu"), &mut origins);
                 bindings.push((v.name.clone(), fmu));
                 vars.push(var);
             }
@@ -350,17 +357,7 @@ impl Campaign {
                 let line = at(sv.span());
                 let v = sv.get_ref();
                 vars.push(variable(v).map_err(|m| err(line, Some(&pkey), m))?);
-                let fmu = v
-                    .fmu
-                    .as_ref()
-                    .map_or(v.name.clone(), |s| s.get_ref().clone());
-                origins.push((
-                    fmu.clone(),
-                    v.fmu
-                        .as_ref()
-                        .map_or(line.unwrap_or(0), |s| line_of(&text, s.span().start)),
-                    format!("{pkey}.fmu"),
-                ));
+                let fmu = fmu_name(v, line, &format!("{pkey}.fmu"), &mut origins);
                 phi.push(Binding {
                     variable: v.name.clone(),
                     fmu_variable: fmu,

@@ -153,35 +153,38 @@ fn variables() -> Vec<Variable> {
     v
 }
 
-fn index_of(name: &str) -> usize {
-    DrivingFmu::variables()
-        .iter()
-        .position(|v| v.name == name)
-        .unwrap_or(usize::MAX)
+/// Value references of [`OUTPUTS`], looked up once.
+fn output_refs() -> &'static [usize; 5] {
+    static REFS: OnceLock<[usize; 5]> = OnceLock::new();
+    REFS.get_or_init(|| {
+        OUTPUTS.map(|name| {
+            DrivingFmu::variables()
+                .iter()
+                .position(|v| v.name == name)
+                .unwrap_or(usize::MAX)
+        })
+    })
 }
 
 impl DrivingFmu {
     fn write_outputs(&self, values: &mut [Scalar]) {
-        let set = |values: &mut [Scalar], name: &str, s: Scalar| {
-            if let Some(slot) = values.get_mut(index_of(name)) {
+        let refs = output_refs();
+        let set = |values: &mut [Scalar], k: usize, s: Scalar| {
+            if let Some(slot) = values.get_mut(refs[k]) {
                 *slot = s;
             }
         };
-        set(values, OUTPUTS[0], Scalar::Boolean(self.run.failure()));
+        set(values, 0, Scalar::Boolean(self.run.failure()));
+        set(values, 1, Scalar::Real(self.run.min_distance().min(1e6)));
         set(
             values,
-            OUTPUTS[1],
-            Scalar::Real(self.run.min_distance().min(1e6)),
-        );
-        set(
-            values,
-            OUTPUTS[2],
+            2,
             Scalar::Real(self.run.collision_time().unwrap_or(-1.0)),
         );
-        set(values, OUTPUTS[3], Scalar::Real(self.run.work() as f64));
+        set(values, 3, Scalar::Real(self.run.work() as f64));
         set(
             values,
-            OUTPUTS[4],
+            4,
             Scalar::Integer(i32::try_from(self.run.steps_taken()).unwrap_or(i32::MAX)),
         );
     }
