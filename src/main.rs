@@ -1,10 +1,8 @@
 //! The `savme` command line.
 use clap::{Parser, Subcommand};
-use savme::kernel::journal::{self, Journaled};
 use savme::kernel::{Kernel, KernelConfig};
 use savme::serve::Session;
-use std::fs::{File, OpenOptions};
-use std::io::{self, BufReader};
+use std::io;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -320,60 +318,35 @@ fn read_config(path: &Path) -> Result<KernelConfig, String> {
 }
 
 fn serve(config: Option<&Path>, journal: Option<&Path>) -> Result<(), String> {
+    use savme::campaign::store::{journal, JsonlStore};
     let config = config.map(read_config).transpose()?;
     let stdin = io::stdin().lock();
     let stdout = io::stdout().lock();
     let io_err = |e: io::Error| format!("stdin/stdout: {e}");
-    match journal {
+    let session = match journal {
         None => {
             let config = config.ok_or("give --config (or --journal to resume)")?;
-            let kernel = Kernel::new(config).map_err(|e| e.to_string())?;
-            Session::<File>::Plain(kernel)
-                .serve(stdin, stdout)
-                .map_err(io_err)
+            Session::Plain(Kernel::new(config).map_err(|e| e.to_string())?)
         }
         Some(path) => {
+            let store = JsonlStore::open(path).map_err(|e| e.to_string())?;
+            let opened = journal::open(Box::new(store), config).map_err(|e| e.to_string())?;
             let shown = path.display();
-            let exists = path.metadata().map(|m| m.len() > 0).unwrap_or(false);
-            let log = if exists {
-                let file = File::open(path).map_err(|e| format!("{shown}: {e}"))?;
-                let replay =
-                    journal::replay(BufReader::new(file)).map_err(|e| format!("{shown}: {e}"))?;
-                if let Some(c) = &config {
-                    if c != replay.kernel.config() {
-                        return Err(format!(
-                            "{shown} was started with a different configuration than the one given"
-                        ));
-                    }
-                }
-                let file = OpenOptions::new()
-                    .write(true)
-                    .open(path)
-                    .map_err(|e| format!("{shown}: {e}"))?;
-                if let Some(tail) = &replay.truncated {
-                    eprintln!(
-                        "savme: {shown}: line {} was cut off mid-write ({} bytes); dropping it and \
-                         resuming after line {}",
-                        tail.line, tail.bytes, replay.lines
-                    );
-                }
-                file.set_len(replay.valid_len)
-                    .map_err(|e| format!("{shown}: {e}"))?;
-                let mut file = file;
-                io::Seek::seek(&mut file, io::SeekFrom::End(0))
-                    .map_err(|e| format!("{shown}: {e}"))?;
+            if let Some(tail) = &opened.torn {
                 eprintln!(
-                    "savme: resumed {shown}: {} told, {} pending",
-                    replay.kernel.stats().told,
-                    replay.kernel.pending().count()
+                    "savme: {shown}: line {} was cut off mid-write ({} bytes); dropped it",
+                    tail.line, tail.bytes
                 );
-                Journaled::resume(&replay, file)
-            } else {
-                let config = config.ok_or_else(|| format!("{shown} is new: give --config"))?;
-                let file = File::create(path).map_err(|e| format!("{shown}: {e}"))?;
-                Journaled::start(config, file).map_err(|e| format!("{shown}: {e}"))?
-            };
-            Session::Journaled(log).serve(stdin, stdout).map_err(io_err)
+            }
+            if let Some((told, pending)) = &opened.resumed {
+                eprintln!(
+                    "savme: resumed {shown}: {told} told, {} pending",
+                    pending.len()
+                );
+            }
+            Session::Journaled(opened.kernel)
         }
-    }
+    };
+    let mut session = session;
+    session.serve(stdin, stdout).map_err(io_err)
 }

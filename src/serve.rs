@@ -18,7 +18,9 @@
 //! server goes on. With a journal every change is logged before it is applied, and a restarted
 //! server resumes from it.
 
-use savme_kernel::journal::{JournalError, Journaled};
+use crate::campaign::store::journal::JournalSink;
+use crate::campaign::store::StoreError;
+use savme_kernel::journal::Journaled;
 use savme_kernel::{Estimator, Kernel, Observation, Phase};
 use serde::Deserialize;
 use serde_json::{json, Value};
@@ -58,14 +60,15 @@ fn one() -> usize {
 pub const MAX_BATCH: usize = 100_000;
 
 /// A kernel, journaled or not, behind the protocol.
-pub enum Session<W: Write> {
+#[derive(Debug)]
+pub enum Session {
     /// No journal: state lives in memory only.
     Plain(Kernel),
-    /// Every change logged to the journal first.
-    Journaled(Journaled<W>),
+    /// Every change logged to the journal (a trial store) first.
+    Journaled(Journaled<JournalSink>),
 }
 
-impl<W: Write> Session<W> {
+impl Session {
     fn kernel(&self) -> &Kernel {
         match self {
             Session::Plain(k) => k,
@@ -82,7 +85,7 @@ impl<W: Write> Session<W> {
     }
 
     fn apply(&mut self, request: Request) -> Result<Value, String> {
-        let io = |e: JournalError| format!("journal: {e}");
+        let io = |e: StoreError| format!("journal: {e}");
         match request {
             Request::Ask { n } => {
                 if n == 0 || n > MAX_BATCH {
@@ -181,11 +184,11 @@ fn error(message: String) -> Value {
 mod tests {
     use super::*;
 
-    fn session() -> Session<Vec<u8>> {
+    fn session() -> Session {
         Session::Plain(crate::toy::kernel_builder().seed(3).build().unwrap())
     }
 
-    fn run(s: &mut Session<Vec<u8>>, input: &str) -> Vec<Value> {
+    fn run(s: &mut Session, input: &str) -> Vec<Value> {
         let mut out = Vec::new();
         s.serve(input.as_bytes(), &mut out).unwrap();
         String::from_utf8(out)

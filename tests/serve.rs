@@ -180,3 +180,81 @@ fn bad_configurations_and_journals_are_named() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_second_server_on_a_journal_is_refused_naming_the_holder_and_changes_nothing() {
+    let dir = temp_dir("second");
+    let config = write_config(&dir);
+    let journal = dir.join("j.jsonl");
+    let j = journal.to_str().unwrap();
+    let mut first = Server::start(&["--config", config.to_str().unwrap(), "--journal", j]);
+    drive(&mut first, 3);
+    let before = std::fs::read(&journal).unwrap();
+    for args in [
+        vec!["--journal", j],
+        vec!["--config", config.to_str().unwrap(), "--journal", j],
+    ] {
+        let out = Command::new(EXE)
+            .arg("serve")
+            .args(&args)
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{err}");
+        assert!(
+            err.contains(j) && err.contains(&format!("pid {}", first.child.id())),
+            "{err}"
+        );
+    }
+    assert_eq!(std::fs::read(&journal).unwrap(), before);
+    // The first server is unaffected; once it is gone the journal opens again.
+    drive(&mut first, 1);
+    first.child.kill().unwrap();
+    first.child.wait().unwrap();
+    let mut again = Server::start(&["--journal", j]);
+    assert_eq!(again.call(json!({"op": "stats"}))["stats"]["told"], 4);
+    drop(again.stdin);
+    assert!(again.child.wait().unwrap().success());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_journal_written_before_the_store_format_still_resumes() {
+    // Written by savme b27244b (lines without the store's format version): ask 6, tell 5,
+    // phase evaluate, ask 2 (tests/fixtures/README.md).
+    let dir = temp_dir("fixture");
+    let journal = dir.join("old.jsonl");
+    std::fs::copy(
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/fixtures/serve-toy.journal.jsonl"
+        ),
+        &journal,
+    )
+    .unwrap();
+    let config = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/serve-toy.kernel.json"
+    );
+    let mut s = Server::start(&["--config", config, "--journal", journal.to_str().unwrap()]);
+    let stats = s.call(json!({"op": "stats"}));
+    assert_eq!(stats["stats"]["told"], 5, "{stats}");
+    assert_eq!(stats["pending"], json!([5, 6, 7]), "{stats}");
+    assert_eq!(stats["phase"], "evaluate");
+    let t = s.call(json!({"op": "ask"}))["trials"][0].clone();
+    assert_eq!(t["id"], 8);
+    drop(s.stdin);
+    assert!(s.child.wait().unwrap().success());
+    // New lines carry the version; old ones are kept as they were.
+    let text = std::fs::read_to_string(&journal).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 16);
+    assert!(lines[0].starts_with("{\"event\":\"start\""), "{}", lines[0]);
+    assert!(
+        lines[15].starts_with("{\"v\":1,\"event\":\"ask\""),
+        "{}",
+        lines[15]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

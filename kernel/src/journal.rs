@@ -1,16 +1,15 @@
-//! An append-only JSON-lines trial log from which a kernel's exact state is rebuilt.
+//! Write-ahead logging of a kernel's decisions, and rebuilding its exact state from them.
 //!
-//! Each line is one [`Event`]: the kernel's configuration first, then every phase switch, ask,
-//! tell and cancel in the order they happened. [`replay`] rebuilds the kernel by re-running the
-//! asks (checking that each reproduces the logged trial) and re-applying the tells, so a
-//! resumed kernel makes exactly the asks the original would have made.
+//! Each [`Event`] is one decision: the kernel's configuration first, then every phase switch,
+//! ask, tell and cancel in the order they happened. [`Replayer`] rebuilds the kernel by
+//! re-running the asks (checking that each reproduces the logged trial) and re-applying the
+//! tells, so a resumed kernel makes exactly the asks the original would have made.
 //!
-//! [`Journaled`] wraps a kernel and writes ahead: an ask or tell is logged *before* it changes
-//! the kernel, and a failed write changes nothing. Every event is one `write_all` of a complete
-//! line followed by a flush, so a process killed at any moment leaves at most one incomplete
-//! last line; [`replay`] reports such a line ([`TruncatedTail`]) and keeps every earlier record.
+//! [`Journaled`] wraps a kernel and writes ahead: an ask or tell is handed to its [`Sink`]
+//! *before* it changes the kernel, and a failed write changes nothing.
 //!
-//! The writer is any [`std::io::Write`]; the kernel crate itself never opens files.
+//! The kernel crate never touches files: where the events go (a JSON-lines file with a lock, a
+//! database) is the sink's business — the `savme` package's trial stores are such sinks.
 //!
 //! ```
 //! use savme_kernel::{journal, Assignment, Kernel, Observation, Run, Space, Variable};
@@ -25,8 +24,8 @@
 //! log.tell(t.id, Observation::Paired { hf: Run::new(true, 1.0), lf: Run::new(true, 0.1) })?;
 //! let next = log.kernel().clone().ask();
 //!
-//! let bytes = log.into_writer();
-//! let replayed = journal::replay(&bytes[..])?;
+//! let events: Vec<journal::Event> = log.into_sink();
+//! let replayed = journal::replay(events)?;
 //! assert_eq!(replayed.records.len(), 1);
 //! assert_eq!(replayed.kernel.clone().ask(), next);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
@@ -35,16 +34,16 @@
 use crate::kernel::{ConfigError, Kernel, KernelConfig, Phase, TellError, Trial, TrialRecord};
 use crate::outcome::Observation;
 use serde::{Deserialize, Serialize};
-use std::io::{BufRead, Write};
+use std::convert::Infallible;
 
 /// Version of the journal format written in the start event.
 pub const FORMAT: u32 = 1;
 
-/// One line of the journal.
+/// One logged decision.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "event", rename_all = "snake_case")]
 pub enum Event {
-    /// The kernel's configuration; always the first line.
+    /// The kernel's configuration; always the first event.
     Start {
         /// Journal format version ([`FORMAT`]).
         format: u32,
@@ -61,7 +60,7 @@ pub enum Event {
         /// The trial handed out.
         trial: Trial,
     },
-    /// A tell, with the whole record so that each line reads on its own.
+    /// A tell, with the whole record so that each event reads on its own.
     Tell {
         /// The told trial.
         #[serde(flatten)]
@@ -74,243 +73,202 @@ pub enum Event {
     },
 }
 
-/// Why writing to or replaying a journal failed.
+/// Why an event cannot be replayed. The caller knows where the event came from (a file and
+/// line, a database row) and names it.
 #[derive(Debug, thiserror::Error)]
-pub enum JournalError {
-    /// Reading or writing failed.
-    #[error("journal I/O at line {line}: {source}")]
-    Io {
-        /// The line being read or written (1-based).
-        line: u64,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// A complete line is not a journal event.
-    #[error("journal line {line} is corrupt: {message}")]
-    Corrupt {
-        /// The line (1-based).
-        line: u64,
-        /// What the parser said.
-        message: String,
-    },
+pub enum ReplayError {
     /// The journal is empty or does not begin with a start event.
-    #[error("journal line 1 must be the start event holding the kernel configuration")]
+    #[error("the journal must begin with the start event holding the kernel configuration")]
     MissingStart,
     /// A start event of an unknown format version, or a second start event.
-    #[error("journal line {line}: {message}")]
-    BadStart {
-        /// The line (1-based).
-        line: u64,
-        /// What is wrong.
-        message: String,
-    },
+    #[error("{0}")]
+    BadStart(String),
     /// The configuration in the start event is invalid.
-    #[error("journal line 1: {0}")]
+    #[error(transparent)]
     Config(#[from] ConfigError),
     /// A logged tell or cancel the kernel refuses.
-    #[error("journal line {line}: {source}")]
-    Tell {
-        /// The line (1-based).
-        line: u64,
-        /// Why the kernel refused it.
-        source: TellError,
-    },
+    #[error(transparent)]
+    Tell(#[from] TellError),
     /// Replaying did not reproduce what was logged (a different kernel version or an edited
     /// journal).
-    #[error("journal line {line}: replay diverged: {message}")]
-    Diverged {
-        /// The line (1-based).
-        line: u64,
-        /// What differed.
-        message: String,
-    },
-}
-
-/// An incomplete last line, left by a process killed mid-write. It was not replayed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TruncatedTail {
-    /// Its line number (1-based).
-    pub line: u64,
-    /// Its length in bytes.
-    pub bytes: usize,
+    #[error("replay diverged: {0}")]
+    Diverged(String),
 }
 
 /// A kernel rebuilt from a journal.
 #[derive(Debug)]
 pub struct Replay {
-    /// The kernel, in the state after the last complete line.
+    /// The kernel, in the state after the last event.
     pub kernel: Kernel,
     /// Every told trial, in tell order.
     pub records: Vec<TrialRecord>,
-    /// The incomplete last line, if there was one.
-    pub truncated: Option<TruncatedTail>,
-    /// Bytes of complete lines: truncate the file to this length before appending to it.
-    pub valid_len: u64,
-    /// Number of complete lines read.
-    pub lines: u64,
 }
 
-/// Rebuilds a kernel from a journal. Complete lines must all be valid events (the error names
-/// the first bad line); an incomplete last line (no trailing newline) is reported in
-/// [`Replay::truncated`] and ignored. Blank lines are skipped.
-pub fn replay<R: BufRead>(mut reader: R) -> Result<Replay, JournalError> {
-    let mut kernel: Option<Kernel> = None;
-    let mut records = Vec::new();
-    let mut buf = Vec::new();
-    let mut line = 0u64;
-    let mut valid_len = 0u64;
-    let mut truncated = None;
-    loop {
-        buf.clear();
-        let n = reader
-            .read_until(b'\n', &mut buf)
-            .map_err(|source| JournalError::Io {
-                line: line + 1,
-                source,
-            })?;
-        if n == 0 {
-            break;
-        }
-        line += 1;
-        if buf.last() != Some(&b'\n') {
-            truncated = Some(TruncatedTail { line, bytes: n });
-            break;
-        }
-        valid_len += n as u64;
-        if buf.iter().all(u8::is_ascii_whitespace) {
-            continue;
-        }
-        let event: Event = serde_json::from_slice(&buf).map_err(|e| JournalError::Corrupt {
-            line,
-            message: e.to_string(),
-        })?;
-        match (&mut kernel, event) {
+/// Rebuilds a kernel one event at a time ([`Replayer::apply`]), so that the caller can name
+/// the line or row of an event that fails.
+#[derive(Debug, Default)]
+pub struct Replayer {
+    kernel: Option<Kernel>,
+    records: Vec<TrialRecord>,
+}
+
+impl Replayer {
+    /// A replayer that expects the start event first.
+    pub fn new() -> Self {
+        Replayer::default()
+    }
+
+    /// Applies the next event; on an error the replayer is unchanged.
+    pub fn apply(&mut self, event: Event) -> Result<(), ReplayError> {
+        match (&mut self.kernel, event) {
             (None, Event::Start { format, config }) => {
                 if format != FORMAT {
-                    return Err(JournalError::BadStart {
-                        line,
-                        message: format!("format {format} is not supported (expected {FORMAT})"),
-                    });
+                    return Err(ReplayError::BadStart(format!(
+                        "format {format} is not supported (expected {FORMAT})"
+                    )));
                 }
-                kernel = Some(Kernel::new(*config)?);
+                self.kernel = Some(Kernel::new(*config)?);
+                Ok(())
             }
-            (None, _) => return Err(JournalError::MissingStart),
+            (None, _) => Err(ReplayError::MissingStart),
             (Some(_), Event::Start { .. }) => {
-                return Err(JournalError::BadStart {
-                    line,
-                    message: "a second start event".into(),
-                })
+                Err(ReplayError::BadStart("a second start event".into()))
             }
-            (Some(k), event) => apply(k, event, line, &mut records)?,
+            (Some(k), event) => apply(k, event, &mut self.records),
         }
     }
-    let kernel = kernel.ok_or(JournalError::MissingStart)?;
-    let lines = line - u64::from(truncated.is_some());
-    Ok(Replay {
-        kernel,
-        records,
-        truncated,
-        valid_len,
-        lines,
+
+    /// True once the start event was applied.
+    pub fn started(&self) -> bool {
+        self.kernel.is_some()
+    }
+
+    /// The rebuilt kernel and its told trials.
+    pub fn finish(self) -> Result<Replay, ReplayError> {
+        Ok(Replay {
+            kernel: self.kernel.ok_or(ReplayError::MissingStart)?,
+            records: self.records,
+        })
+    }
+}
+
+/// [`replay`] failed at an event.
+#[derive(Debug, thiserror::Error)]
+#[error("event {event}: {source}")]
+pub struct ReplayFailed {
+    /// The 1-based position of the event.
+    pub event: u64,
+    /// What is wrong with it.
+    #[source]
+    pub source: ReplayError,
+}
+
+/// Rebuilds a kernel from all of a journal's events.
+pub fn replay(events: impl IntoIterator<Item = Event>) -> Result<Replay, ReplayFailed> {
+    let mut r = Replayer::new();
+    let mut n = 0u64;
+    for event in events {
+        n += 1;
+        r.apply(event)
+            .map_err(|source| ReplayFailed { event: n, source })?;
+    }
+    r.finish().map_err(|source| ReplayFailed {
+        event: n.max(1),
+        source,
     })
 }
 
-fn apply(
-    k: &mut Kernel,
-    event: Event,
-    line: u64,
-    records: &mut Vec<TrialRecord>,
-) -> Result<(), JournalError> {
-    let diverged = |message: String| JournalError::Diverged { line, message };
+fn apply(k: &mut Kernel, event: Event, records: &mut Vec<TrialRecord>) -> Result<(), ReplayError> {
     match event {
-        Event::Start { .. } => unreachable!("handled by the caller"),
-        Event::Phase { phase } => k.set_phase(phase),
+        Event::Start { .. } => Err(ReplayError::BadStart("a second start event".into())),
+        Event::Phase { phase } => {
+            k.set_phase(phase);
+            Ok(())
+        }
         Event::Ask { trial } => {
             let (rng, drawn) = k.draw_next();
             if *drawn.trial() != trial {
-                return Err(diverged(format!(
+                return Err(ReplayError::Diverged(format!(
                     "logged trial {} differs from the one the kernel draws",
                     trial.id
                 )));
             }
             k.commit_drawn(rng, drawn);
+            Ok(())
         }
         Event::Tell { record } => {
-            let assessed = k
-                .assess_tell(record.trial.id, record.observation)
-                .map_err(|source| JournalError::Tell { line, source })?;
+            let assessed = k.assess_tell(record.trial.id, record.observation)?;
             if assessed.record != *record {
-                return Err(diverged(format!(
+                return Err(ReplayError::Diverged(format!(
                     "logged tell of trial {} differs from what the kernel computes",
                     record.trial.id
                 )));
             }
             records.push(k.commit_assessed(assessed));
+            Ok(())
         }
         Event::Cancel { id } => {
-            k.cancel(id)
-                .map_err(|source| JournalError::Tell { line, source })?;
+            k.cancel(id)?;
+            Ok(())
         }
     }
-    Ok(())
 }
 
-/// Writes one event as a single complete line and flushes it.
-fn write_event<W: Write>(w: &mut W, event: &Event, line: u64) -> Result<(), JournalError> {
-    let mut bytes = serde_json::to_vec(event).map_err(|e| JournalError::Io {
-        line,
-        source: e.into(),
-    })?;
-    bytes.push(b'\n');
-    w.write_all(&bytes)
-        .and_then(|()| w.flush())
-        .map_err(|source| JournalError::Io { line, source })
+/// Where a [`Journaled`] kernel's events go. A sink must have made an event durable (as far
+/// as it promises durability) when `record` returns `Ok`.
+pub trait Sink {
+    /// Why an event could not be recorded.
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// Records one event.
+    fn record(&mut self, event: &Event) -> Result<(), Self::Error>;
 }
 
-/// A kernel whose every ask, tell, cancel and phase switch is logged, write-ahead, to `W`.
+/// Events kept in memory (tests, or a harness that persists them itself).
+impl Sink for Vec<Event> {
+    type Error = Infallible;
+
+    fn record(&mut self, event: &Event) -> Result<(), Infallible> {
+        self.push(event.clone());
+        Ok(())
+    }
+}
+
+/// A kernel whose every ask, tell, cancel and phase switch is recorded, write-ahead, to a
+/// [`Sink`].
 #[derive(Debug)]
-pub struct Journaled<W: Write> {
+pub struct Journaled<S: Sink> {
     kernel: Kernel,
-    writer: W,
-    /// Lines written or replayed so far.
-    lines: u64,
+    sink: S,
 }
 
-/// Why a journaled tell failed: the kernel refused it, or the log could not be written.
+/// Why a journaled tell or cancel failed: the kernel refused it, or the sink could not record
+/// it. Either way nothing changed.
 #[derive(Debug, thiserror::Error)]
-pub enum JournaledTellError {
-    /// The kernel refused the tell (nothing was written or changed).
+pub enum JournaledTellError<E: std::error::Error + 'static> {
+    /// The kernel refused the call (nothing was recorded or changed).
     #[error(transparent)]
     Tell(#[from] TellError),
-    /// Writing the log failed (nothing was changed).
+    /// Recording failed (nothing was changed).
     #[error(transparent)]
-    Journal(#[from] JournalError),
+    Sink(E),
 }
 
-impl<W: Write> Journaled<W> {
-    /// Builds a kernel from `config` and writes the start event.
-    pub fn start(config: KernelConfig, mut writer: W) -> Result<Self, JournalError> {
+impl<S: Sink> Journaled<S> {
+    /// Builds a kernel from `config` and records the start event.
+    pub fn start(config: KernelConfig, mut sink: S) -> Result<Self, JournalStartError<S::Error>> {
         let kernel = Kernel::new(config)?;
         let event = Event::Start {
             format: FORMAT,
             config: Box::new(kernel.config().clone()),
         };
-        write_event(&mut writer, &event, 1)?;
-        Ok(Journaled {
-            kernel,
-            writer,
-            lines: 1,
-        })
+        sink.record(&event).map_err(JournalStartError::Sink)?;
+        Ok(Journaled { kernel, sink })
     }
 
-    /// Continues a replayed journal; `writer` must append to it (after truncating the file to
-    /// [`Replay::valid_len`] if the replay found an incomplete tail).
-    pub fn resume(replay: &Replay, writer: W) -> Self {
-        Journaled {
-            kernel: replay.kernel.clone(),
-            writer,
-            lines: replay.lines,
-        }
+    /// Continues a replayed journal; `sink` must append to it.
+    pub fn resume(kernel: Kernel, sink: S) -> Self {
+        Journaled { kernel, sink }
     }
 
     /// The kernel (read-only: changes go through the journaled methods).
@@ -318,51 +276,65 @@ impl<W: Write> Journaled<W> {
         &self.kernel
     }
 
-    /// Gives back the writer.
-    pub fn into_writer(self) -> W {
-        self.writer
+    /// The sink.
+    pub fn sink(&self) -> &S {
+        &self.sink
     }
 
-    /// Logs and applies a phase switch.
-    pub fn set_phase(&mut self, phase: Phase) -> Result<(), JournalError> {
-        self.write(&Event::Phase { phase })?;
+    /// Gives back the sink.
+    pub fn into_sink(self) -> S {
+        self.sink
+    }
+
+    /// Records and applies a phase switch.
+    pub fn set_phase(&mut self, phase: Phase) -> Result<(), S::Error> {
+        self.sink.record(&Event::Phase { phase })?;
         self.kernel.set_phase(phase);
         Ok(())
     }
 
-    /// Draws, logs and hands out the next trial ([`Kernel::ask`]).
-    pub fn ask(&mut self) -> Result<Trial, JournalError> {
+    /// Draws, records and hands out the next trial ([`Kernel::ask`]).
+    pub fn ask(&mut self) -> Result<Trial, S::Error> {
         let (rng, drawn) = self.kernel.draw_next();
-        self.write(&Event::Ask {
+        self.sink.record(&Event::Ask {
             trial: drawn.trial().clone(),
         })?;
         Ok(self.kernel.commit_drawn(rng, drawn))
     }
 
-    /// Checks, logs and applies a tell ([`Kernel::tell`]).
+    /// Checks, records and applies a tell ([`Kernel::tell`]).
     pub fn tell(
         &mut self,
         id: u64,
         observation: Observation,
-    ) -> Result<TrialRecord, JournaledTellError> {
+    ) -> Result<TrialRecord, JournaledTellError<S::Error>> {
         let assessed = self.kernel.assess_tell(id, observation)?;
-        self.write(&Event::Tell {
-            record: Box::new(assessed.record.clone()),
-        })?;
+        self.sink
+            .record(&Event::Tell {
+                record: Box::new(assessed.record.clone()),
+            })
+            .map_err(JournaledTellError::Sink)?;
         Ok(self.kernel.commit_assessed(assessed))
     }
 
-    /// Logs and applies a cancel ([`Kernel::cancel`]).
-    pub fn cancel(&mut self, id: u64) -> Result<Trial, JournaledTellError> {
-        // Check first so that a refused cancel writes nothing.
+    /// Records and applies a cancel ([`Kernel::cancel`]).
+    pub fn cancel(&mut self, id: u64) -> Result<Trial, JournaledTellError<S::Error>> {
+        // Check first so that a refused cancel records nothing.
         self.kernel.check_pending(id)?;
-        self.write(&Event::Cancel { id })?;
+        self.sink
+            .record(&Event::Cancel { id })
+            .map_err(JournaledTellError::Sink)?;
         Ok(self.kernel.cancel(id)?)
     }
+}
 
-    fn write(&mut self, event: &Event) -> Result<(), JournalError> {
-        write_event(&mut self.writer, event, self.lines + 1)?;
-        self.lines += 1;
-        Ok(())
-    }
+/// Why a journal could not be started.
+#[derive(Debug, thiserror::Error)]
+pub enum JournalStartError<E: std::error::Error + 'static> {
+    /// The configuration is invalid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The start event could not be recorded.
+    #[error(transparent)]
+    Sink(E),
 }

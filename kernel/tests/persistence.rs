@@ -1,6 +1,9 @@
-//! Snapshots and the trial journal: exact state, crash tails, corrupt lines, failed writes.
+//! Snapshots and the trial journal: exact state, edited or missing events, failed writes. (Torn
+//! lines and corrupt bytes are the trial store's business: tests in the `savme` package.)
 mod common;
-use savme_kernel::journal::{self, JournalError, Journaled, JournaledTellError};
+use savme_kernel::journal::{
+    self, Event, Journaled, JournaledTellError, ReplayError, ReplayFailed,
+};
 use savme_kernel::{Kernel, Observation, Phase, Run, TellError, Trial};
 
 fn obs(t: &Trial, i: u64) -> Observation {
@@ -16,7 +19,7 @@ fn obs(t: &Trial, i: u64) -> Observation {
 
 /// Runs a mixed session on a journaled kernel: batches of asks told out of order, a cancel, phase
 /// switches. Leaves a few trials pending.
-fn session(log: &mut Journaled<Vec<u8>>) {
+fn session(log: &mut Journaled<Vec<Event>>) {
     for round in 0..6u64 {
         if round == 3 {
             log.set_phase(Phase::Baseline).unwrap();
@@ -79,10 +82,7 @@ fn journal_replay_rebuilds_the_exact_state() {
     let mut log = Journaled::start(common::kernel().config().clone(), Vec::new()).unwrap();
     session(&mut log);
     let live = log.kernel().clone();
-    let bytes = log.into_writer();
-    let r = journal::replay(&bytes[..]).unwrap();
-    assert!(r.truncated.is_none());
-    assert_eq!(r.valid_len, bytes.len() as u64);
+    let r = journal::replay(log.into_sink()).unwrap();
     assert_eq!(r.kernel.to_json(), live.to_json());
     assert_eq!(r.records.len() as u64, live.stats().told);
     assert_eq!(next_asks(r.kernel, 10), next_asks(live, 10));
@@ -94,9 +94,9 @@ fn a_resumed_journal_continues_as_if_never_interrupted() {
     session(&mut whole);
     let mut first = Journaled::start(common::kernel().config().clone(), Vec::new()).unwrap();
     session(&mut first);
-    let bytes = first.into_writer();
-    let replay = journal::replay(&bytes[..]).unwrap();
-    let mut resumed = Journaled::resume(&replay, bytes);
+    let events = first.into_sink();
+    let replay = journal::replay(events.clone()).unwrap();
+    let mut resumed = Journaled::resume(replay.kernel, events);
     for _ in 0..5 {
         let a = whole.ask().unwrap();
         let b = resumed.ask().unwrap();
@@ -104,95 +104,106 @@ fn a_resumed_journal_continues_as_if_never_interrupted() {
         whole.tell(a.id, obs(&a, a.id)).unwrap();
         resumed.tell(b.id, obs(&b, b.id)).unwrap();
     }
-    assert_eq!(resumed.into_writer(), whole.into_writer());
+    assert_eq!(resumed.into_sink(), whole.into_sink());
 }
 
 #[test]
-fn a_truncated_last_line_is_reported_and_earlier_records_kept() {
+fn edited_doubled_or_missing_events_are_refused_with_their_position() {
     let mut log = Journaled::start(common::kernel().config().clone(), Vec::new()).unwrap();
     session(&mut log);
-    let full = log.into_writer();
-    let complete = journal::replay(&full[..]).unwrap();
-    // Cut the file inside its last line, as a crash mid-write would.
-    let last_start = full[..full.len() - 1]
+    let events = log.into_sink();
+    // An edited record is caught as divergence, at its position.
+    let tell = events
         .iter()
-        .rposition(|&b| b == b'\n')
-        .unwrap()
-        + 1;
-    for cut in [last_start + 1, full.len() - 1] {
-        let r = journal::replay(&full[..cut]).unwrap();
-        let tail = r.truncated.clone().expect("tail reported");
-        assert_eq!(tail.line, complete.lines);
-        assert_eq!(tail.bytes, cut - last_start);
-        assert_eq!(r.valid_len, last_start as u64);
-        assert_eq!(r.lines, complete.lines - 1);
-        // Everything before the torn line is there.
-        let told_before = complete.records.len()
-            - usize::from(full[last_start..].starts_with(b"{\"event\":\"tell\""));
-        assert_eq!(r.records.len(), told_before);
-    }
-}
-
-#[test]
-fn a_corrupt_middle_line_is_an_error_naming_the_line() {
-    let mut log = Journaled::start(common::kernel().config().clone(), Vec::new()).unwrap();
-    session(&mut log);
-    let text = String::from_utf8(log.into_writer()).unwrap();
-    let mut lines: Vec<&str> = text.lines().collect();
-    lines[4] = "{\"event\":\"ask\",\"trial\":{\"garbage";
-    let broken = lines.join("\n") + "\n";
-    match journal::replay(broken.as_bytes()) {
-        Err(JournalError::Corrupt { line, .. }) => assert_eq!(line, 5),
-        other => panic!("expected a corrupt-line error, got {other:?}"),
-    }
-    // An edited (well-formed) record is caught as divergence.
-    let edited = text.replacen("\"failure\":true", "\"failure\":false", 1);
-    assert!(matches!(
-        journal::replay(edited.as_bytes()),
-        Err(JournalError::Diverged { .. })
-    ));
-    // A tell of an unknown trial is refused with its line.
-    let mut lines: Vec<String> = text.lines().map(String::from).collect();
-    let tell = lines
-        .iter()
-        .position(|l| l.starts_with("{\"event\":\"tell\""))
+        .position(|e| matches!(e, Event::Tell { .. }))
         .unwrap();
-    let dup = lines[tell].clone();
-    lines.insert(tell + 1, dup);
-    let doubled = lines.join("\n") + "\n";
-    match journal::replay(doubled.as_bytes()) {
-        Err(JournalError::Tell {
-            line,
-            source: TellError::AlreadyTold(_),
-        }) => assert_eq!(line, tell as u64 + 2),
+    let mut edited = events.clone();
+    if let Event::Tell { record } = &mut edited[tell] {
+        let flipped = match record.observation {
+            Observation::Paired { hf, lf } => Observation::Paired {
+                hf: Run::new(!hf.failure, hf.runtime),
+                lf,
+            },
+            Observation::HfOnly(hf) => Observation::HfOnly(Run::new(!hf.failure, hf.runtime)),
+        };
+        record.observation = flipped;
+    }
+    match journal::replay(edited) {
+        Err(ReplayFailed {
+            event: at,
+            source: ReplayError::Diverged(_),
+        }) => assert_eq!(at, tell as u64 + 1),
+        other => panic!("expected divergence, got {other:?}"),
+    }
+    // A tell repeated is refused.
+    let mut doubled = events.clone();
+    doubled.insert(tell + 1, events[tell].clone());
+    match journal::replay(doubled) {
+        Err(ReplayFailed {
+            event: at,
+            source: ReplayError::Tell(TellError::AlreadyTold(_)),
+        }) => {
+            assert_eq!(at, tell as u64 + 2)
+        }
         other => panic!("expected an already-told error, got {other:?}"),
     }
+    // An ask that the kernel would not draw is divergence.
+    let ask = events
+        .iter()
+        .position(|e| matches!(e, Event::Ask { .. }))
+        .unwrap();
+    let mut skipped = events.clone();
+    skipped.remove(ask);
     assert!(matches!(
-        journal::replay(&b""[..]),
-        Err(JournalError::MissingStart)
+        journal::replay(skipped),
+        Err(ReplayFailed {
+            source: ReplayError::Diverged(_),
+            ..
+        })
     ));
-    let no_start = lines[1..].join("\n") + "\n";
     assert!(matches!(
-        journal::replay(no_start.as_bytes()),
-        Err(JournalError::MissingStart)
+        journal::replay(Vec::new()),
+        Err(ReplayFailed {
+            event: 1,
+            source: ReplayError::MissingStart
+        })
+    ));
+    assert!(matches!(
+        journal::replay(events[1..].to_vec()),
+        Err(ReplayFailed {
+            event: 1,
+            source: ReplayError::MissingStart
+        })
+    ));
+    let mut two_starts = events.clone();
+    two_starts.insert(2, events[0].clone());
+    assert!(matches!(
+        journal::replay(two_starts),
+        Err(ReplayFailed {
+            event: 3,
+            source: ReplayError::BadStart(_)
+        })
     ));
 }
 
-/// A writer that fails after `budget` successful writes.
+/// A sink that fails after `budget` successful events.
 struct Flaky {
     budget: usize,
-    data: Vec<u8>,
+    events: Vec<Event>,
 }
-impl std::io::Write for Flaky {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+
+#[derive(Debug, thiserror::Error)]
+#[error("disk full")]
+struct DiskFull;
+
+impl journal::Sink for Flaky {
+    type Error = DiskFull;
+    fn record(&mut self, event: &Event) -> Result<(), DiskFull> {
         if self.budget == 0 {
-            return Err(std::io::Error::other("disk full"));
+            return Err(DiskFull);
         }
         self.budget -= 1;
-        self.data.extend_from_slice(buf);
-        Ok(buf.len())
-    }
-    fn flush(&mut self) -> std::io::Result<()> {
+        self.events.push(event.clone());
         Ok(())
     }
 }
@@ -204,24 +215,22 @@ fn a_failed_write_changes_nothing() {
         config,
         Flaky {
             budget: 2,
-            data: Vec::new(),
+            events: Vec::new(),
         },
     )
     .unwrap();
-    let t = log.ask().unwrap(); // second write
+    let t = log.ask().unwrap(); // second event
     let before = log.kernel().to_json();
-    assert!(matches!(log.ask(), Err(JournalError::Io { line: 3, .. })));
+    assert!(log.ask().is_err());
     assert_eq!(log.kernel().to_json(), before);
     let r = log.tell(t.id, obs(&t, 1));
-    assert!(matches!(r, Err(JournaledTellError::Journal(_))));
+    assert!(matches!(r, Err(JournaledTellError::Sink(DiskFull))));
     assert_eq!(log.kernel().to_json(), before);
-    assert!(matches!(
-        log.cancel(t.id),
-        Err(JournaledTellError::Journal(_))
-    ));
+    assert!(matches!(log.cancel(t.id), Err(JournaledTellError::Sink(_))));
     assert!(matches!(
         log.tell(77, obs(&t, 1)),
         Err(JournaledTellError::Tell(TellError::Unknown(77)))
     ));
     assert_eq!(log.kernel().to_json(), before);
+    assert_eq!(log.sink().events.len(), 2);
 }

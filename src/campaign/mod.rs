@@ -28,6 +28,7 @@ pub mod log;
 pub mod plot;
 pub mod protocol;
 pub mod report;
+pub mod store;
 
 pub use protocol::{Cost, OnError, Protocol, Stage, StageKind};
 pub use report::Report;

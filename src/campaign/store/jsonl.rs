@@ -1,0 +1,255 @@
+//! [`JsonlStore`]: a JSON-lines file, one store line per text line, with a `.lock` file beside
+//! it.
+
+use super::{decode, encode, Loaded, StoreError, StoreLock, StoredLine, TornTail, TrialStore};
+use serde_json::Value;
+use std::fs::{File, OpenOptions};
+use std::io::{BufRead, BufReader, Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+/// The embedded default store: `PATH` holds the lines, `PATH.lock` the lock (see
+/// [`super::StoreLock`]). Lines are written with one `write` of the whole line each (no
+/// `fsync`: a killed process loses nothing it was told was stored; a power cut may lose the
+/// last lines, never corrupt an earlier one).
+#[derive(Debug)]
+pub struct JsonlStore {
+    path: PathBuf,
+    file: File,
+    /// Bytes of complete lines: appends go here.
+    end: u64,
+    /// The file holds bytes after `end` (a torn tail) still to be cut off.
+    torn_bytes: u64,
+    _lock: StoreLock,
+}
+
+impl JsonlStore {
+    /// Locks and opens `path`, creating it if missing.
+    pub fn open(path: &Path) -> Result<JsonlStore, StoreError> {
+        let shown = path.display().to_string();
+        let mut lock_name = path.as_os_str().to_owned();
+        lock_name.push(".lock");
+        let lock = StoreLock::acquire(Path::new(&lock_name), &shown)?;
+        let io = |e| StoreError::io(shown.clone(), e);
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io)?;
+        let len = file.metadata().map_err(io)?.len();
+        let end = end_of_last_line(&mut file, len).map_err(io)?;
+        Ok(JsonlStore {
+            path: path.to_path_buf(),
+            file,
+            end,
+            torn_bytes: len - end,
+            _lock: lock,
+        })
+    }
+
+    /// The file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// True when the file holds no complete line.
+    pub fn is_empty(&self) -> bool {
+        self.end == 0
+    }
+
+    fn io(&self, e: std::io::Error) -> StoreError {
+        StoreError::io(self.location(), e)
+    }
+
+    /// Cuts a torn tail off, so that the next line starts after the last complete one.
+    fn cut_torn_tail(&mut self) -> Result<(), StoreError> {
+        if self.torn_bytes > 0 {
+            self.file.set_len(self.end).map_err(|e| self.io(e))?;
+            self.torn_bytes = 0;
+        }
+        Ok(())
+    }
+}
+
+/// The length of the file's complete lines: the position after its last newline.
+fn end_of_last_line(file: &mut File, len: u64) -> std::io::Result<u64> {
+    let mut pos = len;
+    let mut buf = vec![0u8; 64 * 1024];
+    while pos > 0 {
+        let n = (buf.len() as u64).min(pos);
+        pos -= n;
+        file.seek(SeekFrom::Start(pos))?;
+        let chunk = &mut buf[..n as usize];
+        file.read_exact(chunk)?;
+        if let Some(i) = chunk.iter().rposition(|&b| b == b'\n') {
+            return Ok(pos + i as u64 + 1);
+        }
+    }
+    Ok(0)
+}
+
+impl TrialStore for JsonlStore {
+    fn location(&self) -> String {
+        self.path.display().to_string()
+    }
+
+    fn load(&mut self) -> Result<Loaded, StoreError> {
+        self.file.seek(SeekFrom::Start(0)).map_err(|e| self.io(e))?;
+        let mut reader = BufReader::new((&self.file).take(self.end));
+        let mut loaded = Loaded::default();
+        let mut buf = Vec::new();
+        let mut line = 0u64;
+        loop {
+            buf.clear();
+            let n = reader
+                .read_until(b'\n', &mut buf)
+                .map_err(|e| StoreError::io(self.location(), e))?;
+            if n == 0 {
+                break;
+            }
+            line += 1;
+            let text = buf.strip_suffix(b"\n").unwrap_or(&buf);
+            if text.iter().all(u8::is_ascii_whitespace) {
+                continue;
+            }
+            let value = decode(text).map_err(|message| StoreError::BadLine {
+                store: self.location(),
+                line,
+                message,
+            })?;
+            loaded.lines.push(StoredLine { line, value });
+        }
+        if self.torn_bytes > 0 {
+            loaded.torn = Some(TornTail {
+                line: line + 1,
+                bytes: self.torn_bytes,
+            });
+            self.cut_torn_tail()?;
+        }
+        Ok(loaded)
+    }
+
+    fn append(&mut self, line: &Value) -> Result<(), StoreError> {
+        let bytes = encode(line).map_err(|message| StoreError::BadLine {
+            store: self.location(),
+            line: 0,
+            message,
+        })?;
+        self.cut_torn_tail()?;
+        let written = self
+            .file
+            .seek(SeekFrom::Start(self.end))
+            .and_then(|_| self.file.write_all(&bytes))
+            .and_then(|()| self.file.flush());
+        match written {
+            Ok(()) => {
+                self.end += bytes.len() as u64;
+                Ok(())
+            }
+            // A partial line (e.g. a full disk) must not stay: cut back to the last complete one.
+            Err(write) => match self.file.set_len(self.end) {
+                Ok(()) => Err(self.io(write)),
+                Err(repair) => Err(StoreError::Damaged {
+                    store: self.location(),
+                    write,
+                    repair,
+                }),
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn temp(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("savme-jsonl-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join("store.jsonl")
+    }
+
+    #[test]
+    fn lines_come_back_in_order_after_reopening() {
+        let path = temp("order");
+        let mut s = JsonlStore::open(&path).unwrap();
+        assert!(s.is_empty());
+        for i in 0..5 {
+            s.append(&json!({"i": i})).unwrap();
+        }
+        drop(s);
+        let mut s = JsonlStore::open(&path).unwrap();
+        let loaded = s.load().unwrap();
+        assert_eq!(loaded.torn, None);
+        let got: Vec<(u64, i64)> = loaded
+            .lines
+            .iter()
+            .map(|l| (l.line, l.value["i"].as_i64().unwrap()))
+            .collect();
+        assert_eq!(got, [(1, 0), (2, 1), (3, 2), (4, 3), (5, 4)]);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with("{\"v\":1,\"i\":0}\n"), "{text}");
+    }
+
+    #[test]
+    fn a_torn_tail_is_reported_dropped_and_overwritten() {
+        let path = temp("torn");
+        let mut s = JsonlStore::open(&path).unwrap();
+        s.append(&json!({"i": 0})).unwrap();
+        s.append(&json!({"i": 1})).unwrap();
+        drop(s);
+        let mut f = OpenOptions::new().append(true).open(&path).unwrap();
+        f.write_all(b"{\"v\":1,\"i\":2,\"hal").unwrap();
+        drop(f);
+        // Appending before loading also cuts the tail first.
+        let mut s = JsonlStore::open(&path).unwrap();
+        let loaded = s.load().unwrap();
+        assert_eq!(loaded.lines.len(), 2);
+        assert_eq!(loaded.torn, Some(TornTail { line: 3, bytes: 17 }));
+        s.append(&json!({"i": 2})).unwrap();
+        drop(s);
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.lines().count(), 3);
+        assert!(text.ends_with("{\"v\":1,\"i\":2}\n"), "{text}");
+    }
+
+    #[test]
+    fn a_bad_middle_line_names_the_file_and_line() {
+        let path = temp("bad");
+        std::fs::write(&path, "{\"a\":1}\n\n{\"a\":\n{\"a\":3}\n").unwrap();
+        let mut s = JsonlStore::open(&path).unwrap();
+        let e = s.load().unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("{}, line 3: not JSON", path.display())),
+            "{e}"
+        );
+        let mut raw = b"{\"a\":1}\n{\"a\":\"".to_vec();
+        raw.extend_from_slice(&[0xff, b'"', b'}', b'\n']);
+        drop(s);
+        std::fs::write(&path, raw).unwrap();
+        let e = JsonlStore::open(&path).unwrap().load().unwrap_err();
+        assert!(e.to_string().contains("line 2: not UTF-8"), "{e}");
+    }
+
+    #[test]
+    fn a_second_opener_is_refused_and_changes_nothing() {
+        let path = temp("second");
+        let mut s = JsonlStore::open(&path).unwrap();
+        s.append(&json!({"i": 0})).unwrap();
+        let before = std::fs::read(&path).unwrap();
+        let e = JsonlStore::open(&path).unwrap_err();
+        match &e {
+            StoreError::Locked { store, holder } => {
+                assert_eq!(store, &path.display().to_string());
+                assert_eq!(*holder, Some(std::process::id()));
+            }
+            other => panic!("expected Locked, got {other:?}"),
+        }
+        assert_eq!(std::fs::read(&path).unwrap(), before);
+        drop(s);
+        assert!(JsonlStore::open(&path).is_ok());
+    }
+}
