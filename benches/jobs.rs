@@ -8,7 +8,7 @@
 //! camera-and-lidar simulator with work-unit cost, so that every repetition runs exactly the same trials.
 //! Each repetition runs the campaign once per job count, alternating; the median wall time per
 //! job count and their ratio are printed.
-use savme::campaign::{self, Cost, Options, Protocol};
+use savme::campaign::{self, Campaign, Cost, Protocol};
 use savme_sim::sim::DrivingSimulator;
 use std::time::Instant;
 
@@ -22,7 +22,7 @@ fn protocol() -> Protocol {
         baseline_train_iterations: 60,
         baseline_test_iterations: 30,
         cost: Cost::Work,
-        ..Protocol::paper(savme::reproduce::SENSORS, train, test)
+        ..Protocol::paper(campaign::config::SENSORS, train, test)
     }
 }
 
@@ -45,11 +45,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for rep in 0..reps {
         for (k, jobs) in [1usize, 2].into_iter().enumerate() {
             let _ = std::fs::remove_dir_all(&dir);
-            let mut opts = Options::new(dir.clone());
-            opts.jobs = jobs;
-            opts.quiet = true;
             let t = Instant::now();
-            let out = campaign::run(&p, &problem, &sim, &opts)?;
+            let out = Campaign::new(p.clone(), problem.clone())
+                .out(&dir)
+                .jobs(jobs)
+                .run(&sim)?;
             let s = t.elapsed().as_secs_f64();
             assert_eq!(out.ran, p.total_trials());
             println!("rep {rep}: --jobs {jobs}: {s:.2} s");

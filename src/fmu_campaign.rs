@@ -6,9 +6,8 @@
 //! parameters — each bound to an FMU variable by name. Every error names the file, the line and
 //! the key. See `examples/fmu/campaign.toml`.
 
-use crate::campaign::{
-    self, CampaignError, CampaignOutcome, Cost, OnError, Options, Problem, Protocol,
-};
+use crate::campaign::config::Overrides;
+use crate::campaign::{CampaignError, Cost, OnError, Problem, Protocol};
 use savme_fmu::worker::{IsolatedSimulator, WorkerInit};
 use savme_fmu::{
     Binding, CostSource, Crossing, Failure, Fixed, FmuError, FmuSimulator, RunSpec, ScenarioSpec,
@@ -222,6 +221,26 @@ fn line_of(text: &str, offset: usize) -> usize {
 }
 
 impl Campaign {
+    /// [`Campaign::load`], then the command line's protocol values over the file's, validated.
+    pub fn load_with(path: &Path, o: &Overrides) -> Result<Campaign, String> {
+        let mut c = Campaign::load(path).map_err(|e| e.to_string())?;
+        if o.any() {
+            let known = c
+                .problem
+                .scenarios
+                .keys()
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", ");
+            let scenarios = &c.problem.scenarios;
+            let lookup = |k: &str| scenarios.contains_key(k).then(|| k.to_string());
+            o.apply(&mut c.protocol, &lookup, &known)
+                .and_then(|()| c.protocol.validate())
+                .map_err(|e| e.to_string())?;
+        }
+        Ok(c)
+    }
+
     /// Reads and checks `path`: the TOML, then the FMUs (opened, every binding and signal
     /// type-checked against both).
     pub fn load(path: &Path) -> Result<Campaign, ConfigError> {
@@ -621,117 +640,22 @@ impl Simulator for FmuBackend {
     }
 }
 
-/// Runs `savme run --config FILE`: loads and checks the campaign, then runs (or resumes) it;
-/// returns the outcome and the campaign's problem (for printing its fidelity table).
-pub fn run(
-    config: &Path,
-    out: Option<PathBuf>,
-    resume: bool,
-    jobs: Option<usize>,
-    quiet: bool,
-    record: &crate::recording::RecordRequest,
-) -> Result<(CampaignOutcome, Problem), String> {
-    let c = Campaign::load(config).map_err(|e| e.to_string())?;
-    let out = out
-        .or(c.out.clone())
-        .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
-    let backend = if c.isolate {
-        let exe = std::env::current_exe()
-            .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
-        FmuBackend::Isolated(
-            IsolatedSimulator::new(
-                vec![exe.display().to_string(), "fmu-worker".into()],
-                &c.init,
-                c.timeout,
-            )
-            .map_err(|e| e.to_string())?,
-        )
-    } else {
-        FmuBackend::InProcess(c.init.simulator().map_err(|e| e.to_string())?)
-    };
-    let mut opts = Options::new(out);
-    opts.resume = resume;
-    opts.quiet = quiet;
-    if let Some(j) = jobs {
-        if j == 0 {
-            return Err("--jobs: must be at least 1".into());
-        }
-        opts.jobs = j;
-    }
-    // Trials of scenarios the bundled simulator knows (the packed savme-sim FMU's) get sensor
-    // frames, re-run in-process; the learning is recorded for any FMU.
-    let recording = crate::recording::start(
-        record,
-        savme_sim::sim::DrivingSimulator::default(),
-        c.problem.theta_hf.clone(),
-    )
-    .map_err(|e| e.to_string())?;
-    let outcome = match recording {
-        None => campaign::run(&c.protocol, &c.problem, &backend, &opts),
-        Some(mut r) => {
-            let result =
-                campaign::run_observed(&c.protocol, &c.problem, &backend, &opts, r.observer());
-            r.finish().map_err(|e| e.to_string())?;
-            result
-        }
-    }
-    .map_err(|e| e.to_string())?;
-    Ok((outcome, c.problem))
-}
-
-/// Where the bundled simulator's FMU library is: given, or next to the savme binary (cargo
-/// builds it there as `deps/libsavme_sim_fmu.so`).
-pub fn find_library(given: Option<&Path>) -> Result<PathBuf, String> {
-    if let Some(p) = given {
-        return if p.exists() {
-            Ok(p.to_path_buf())
+impl FmuBackend {
+    /// The campaign's simulator: in this process, or (`isolate = true`) in `savme fmu-worker`
+    /// child processes of this executable.
+    pub fn new(c: &Campaign) -> Result<FmuBackend, String> {
+        if c.isolate {
+            let exe = std::env::current_exe()
+                .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
+            let worker = vec![exe.display().to_string(), "fmu-worker".into()];
+            IsolatedSimulator::new(worker, &c.init, c.timeout)
+                .map(FmuBackend::Isolated)
+                .map_err(|e| e.to_string())
         } else {
-            Err(format!("{}: no such library", p.display()))
-        };
+            c.init
+                .simulator()
+                .map(FmuBackend::InProcess)
+                .map_err(|e| e.to_string())
+        }
     }
-    let name = format!(
-        "{}{}{}",
-        std::env::consts::DLL_PREFIX,
-        savme_sim_fmu::MODEL_IDENTIFIER,
-        std::env::consts::DLL_SUFFIX
-    );
-    let exe = std::env::current_exe().map_err(|e| e.to_string())?;
-    let dir = exe.parent().unwrap_or(Path::new("."));
-    let candidates = [
-        dir.join(&name),
-        dir.join("deps").join(&name),
-        dir.join("..").join(&name),
-    ];
-    candidates
-        .iter()
-        .find(|p| p.exists())
-        .cloned()
-        .ok_or_else(|| {
-            format!(
-                "{name} not found next to {} (build it with `cargo build --release -p savme-sim-fmu`, or give --library PATH)",
-                exe.display()
-            )
-        })
-}
-
-/// `savme fmu pack`: writes the bundled simulator as an `.fmu`.
-pub fn pack(out: &Path, library: Option<&Path>) -> Result<String, String> {
-    let lib = find_library(library)?;
-    savme_fmi_export::pack(
-        &savme_sim_fmu::model_description(),
-        savme_sim_fmu::MODEL_IDENTIFIER,
-        &lib,
-        out,
-    )
-    .map_err(|e| e.to_string())?;
-    Ok(format!(
-        "wrote {} (library {})\n",
-        out.display(),
-        lib.display()
-    ))
-}
-
-/// Re-exported for the worker subcommand.
-pub fn serve_worker() -> std::io::Result<()> {
-    savme_fmu::worker::serve(std::io::stdin().lock(), std::io::stdout().lock())
 }

@@ -1,21 +1,21 @@
 //! # savme
 //!
-//! Find the failures of an autonomous system in simulation fast. This package gathers the
-//! toolkit: the ask/tell kernel ([`kernel`], crate `savme-kernel`) and a small paired
-//! simulator to try it on ([`toy`]). The campaign driver, the bundled camera/lidar driving
-//! simulator and the FMU adapter join it as they land.
+//! Find the failures of an autonomous system in simulation fast. This package is the toolkit's
+//! library and the `savme` command line over it:
+//! - [`kernel`]: the ask/tell kernel (crate `savme-kernel`);
+//! - [`campaign`]: the one campaign loop ([`campaign::Campaign`]), its protocol and problem,
+//!   the trial store ([`campaign::store`]), reports and figures;
+//! - [`viewer`]: recording to the rerun viewer (feature `rerun`);
+//! - [`serve`]: the kernel behind a JSON-lines protocol, for harnesses in any language;
+//! - [`fmu_campaign`]: campaign files on FMUs; [`toy`]: a small paired simulator to try things on.
 #![warn(missing_docs)]
 
 pub use savme_kernel as kernel;
 pub mod campaign;
-pub mod cli;
 pub mod fmu_campaign;
-#[cfg(feature = "rerun")]
-pub mod record;
-pub mod recording;
-pub mod reproduce;
 pub mod serve;
 pub mod toy;
+pub mod viewer;
 
 /// The README's code, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]

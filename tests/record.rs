@@ -83,7 +83,12 @@ fn simulate_records_a_run_with_its_sensor_frames() {
     let run = savme_sim::sim::DrivingSimulator::default()
         .run(
             "lead_vehicle_brakes",
-            &savme::cli::parse_assignment(phi).unwrap(),
+            &savme::kernel::Assignment::new()
+                .with("ego_speed", 20.0)
+                .with("lead_speed", 10.0)
+                .with("gap", 8.0)
+                .with("lead_decel", 9.0)
+                .with("brake_time", 0.5),
             &savme::kernel::paper::theta_hf(),
             true,
         )

@@ -80,6 +80,10 @@ fn trials(dir: &Path) -> Vec<Value> {
 /// runs with work-unit cost).
 fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
     for v in &mut t {
+        // The store's format version (absent from lines written before it existed).
+        if let Some(o) = v.as_object_mut() {
+            o.remove("v");
+        }
         for run in ["hf", "lf"] {
             if let Some(r) = v[run].as_object_mut() {
                 r.remove("wall_seconds");
@@ -298,7 +302,7 @@ fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
     assert!(before < TINY_TRIALS, "the run finished before the kill");
     let (ok, out, err) = resume(&dir);
     assert!(ok, "{err}");
-    assert!(out.contains("replayed from trials.jsonl"), "{out}");
+    assert!(out.contains("replayed from the trial store"), "{out}");
     assert_eq!(without_wall(trials(&dir)), expected);
 
     // A torn last line (a write cut short) is dropped and its trial run again.
@@ -321,7 +325,7 @@ fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
     assert!(ok);
     assert!(
         out.contains(&format!(
-            "({TINY_TRIALS} replayed from trials.jsonl, 0 run)"
+            "({TINY_TRIALS} replayed from the trial store, 0 run)"
         )),
         "{out}"
     );
@@ -415,4 +419,79 @@ fn bad_input_is_refused_before_any_simulation() {
     for d in [dir, done, good] {
         let _ = std::fs::remove_dir_all(d);
     }
+}
+
+#[test]
+fn the_same_seed_gives_the_trials_savme_gave_before_the_campaign_core_moved() {
+    // tests/fixtures/README.md: written by savme b27244b with exactly TINY and --jobs 2.
+    let dir = temp_dir("fixture");
+    let (ok, _, err) = reproduce(&dir, &["--jobs", "2"]);
+    assert!(ok, "{err}");
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/reproduce-tiny-seed7-work.trials.jsonl"
+    );
+    let before: Vec<Value> = std::fs::read_to_string(fixture)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(before.len(), TINY_TRIALS);
+    assert_eq!(without_wall(trials(&dir)), without_wall(before));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_second_process_on_a_running_campaign_is_refused_and_changes_nothing() {
+    let dir = temp_dir("second");
+    let mut first = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(&dir)
+        .args(args(&["--jobs", "1", "--iterations", "120"]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = dir.join("trials.jsonl");
+    let start = Instant::now();
+    while std::fs::read_to_string(&log).map_or(0, |s| s.lines().count()) < 3 {
+        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let holder = format!("pid {}", first.id());
+    // A resume, and a new campaign into the same directory, while the first one runs.
+    for extra in [None, Some("new")] {
+        let mut cmd = Command::new(EXE);
+        match extra {
+            None => cmd.args(["reproduce", "--quiet", "--resume"]).arg(&dir),
+            Some(_) => cmd.arg("reproduce").arg("--out").arg(&dir).args(args(&[])),
+        };
+        let before = std::fs::read(dir.join("protocol.json")).unwrap();
+        let o = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{err}");
+        assert!(
+            err.contains(&log.display().to_string()) && err.contains(&holder),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(dir.join("protocol.json")).unwrap(), before);
+    }
+    assert!(
+        first.try_wait().unwrap().is_none(),
+        "the first process died"
+    );
+    first.kill().unwrap();
+    first.wait().unwrap();
+    // With the holder gone (kill -9: the OS released the lock) the campaign resumes.
+    let o = Command::new(EXE)
+        .args(["reproduce", "--quiet", "--resume"])
+        .arg(&dir)
+        .arg("--jobs")
+        .arg("2")
+        .stdout(Stdio::null())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,8 +2,9 @@
 //! HF and LF run a separate task (so the two runs of a trial execute concurrently), trials told
 //! strictly in ask order — which makes a campaign independent of the number of workers.
 
-use super::log::{FailedLine, LogLine, RunLine, TrialLine, Writer};
+use super::log::{FailedLine, LogLine, RunLine, TrialLine};
 use super::protocol::{OnError, Stage};
+use super::store::TrialStore;
 use super::CampaignError;
 use crossbeam_channel::{Receiver, Sender};
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
@@ -124,8 +125,8 @@ pub struct StageContext<'a> {
     pub window: usize,
     /// How run costs are measured.
     pub cost: CostMeasure,
-    /// The writer of `trials.jsonl`.
-    pub writer: &'a mut Writer,
+    /// The trial store.
+    pub store: &'a mut dyn TrialStore,
     /// What a failed simulation does.
     pub on_error: OnError,
 }
@@ -194,7 +195,7 @@ pub fn run_stage(
     while !queue.is_empty() {
         while queue.front().is_some_and(Slot::ready) {
             let Some(slot) = queue.pop_front() else { break };
-            let line = tell(kernel, slot, &label, stage, cx.cost, cx.writer)?;
+            let line = tell(kernel, slot, &label, stage, cx.cost, cx.store)?;
             match &line {
                 LogLine::Trial(t) => progress(t, kernel),
                 LogLine::Failed(f) => {
@@ -229,7 +230,7 @@ pub fn run_stage(
             }
             Err(source) => {
                 return Err(CampaignError::Simulation(Box::new(
-                    super::SimulationError {
+                    super::error::SimulationError {
                         stage: label,
                         trial: slot.trial.id,
                         scenario: slot.trial.scenario.to_string(),
@@ -276,7 +277,7 @@ fn tell(
     label: &str,
     stage: &Stage,
     cost: CostMeasure,
-    writer: &mut Writer,
+    store: &mut dyn TrialStore,
 ) -> Result<LogLine, CampaignError> {
     let diverged = |message: String| CampaignError::Diverged {
         stage: label.into(),
@@ -319,12 +320,12 @@ fn tell(
             theta_lf: slot.trial.theta_lf.clone(),
             error,
         });
-        writer.write(&line)?;
+        store.append(&line.to_value())?;
         return Ok(line);
     }
     let run_line = |r: &SimResult, which: &'static str| -> Result<RunLine, CampaignError> {
         let run = r.run(cost).map_err(|source| {
-            CampaignError::Simulation(Box::new(super::SimulationError {
+            CampaignError::Simulation(Box::new(super::error::SimulationError {
                 stage: label.into(),
                 trial: slot.trial.id,
                 scenario: slot.trial.scenario.to_string(),
@@ -362,6 +363,6 @@ fn tell(
     line.outcome = record.outcome;
     line.credit = record.credit;
     let line = LogLine::Trial(line);
-    writer.write(&line)?;
+    store.append(&line.to_value())?;
     Ok(line)
 }

@@ -1,12 +1,11 @@
-//! `trials.jsonl`: every told trial of a campaign as one JSON line, written (and flushed)
-//! before the kernel learns from it. It is the campaign's journal: `--resume` replays it.
+//! The lines of a campaign's trial store (`trials.jsonl` by default): every told trial, stored
+//! before the kernel learns from it, and every withdrawn one. It is the campaign's journal:
+//! `--resume` replays it.
 
-use super::CampaignError;
+use super::store::StoredLine;
+use super::{CampaignError, Protocol};
 use savme_kernel::{Assignment, Credit, Outcome, Phase, SimResult};
 use serde::{Deserialize, Serialize};
-use std::fs::File;
-use std::io::{BufRead, BufReader, Write};
-use std::path::{Path, PathBuf};
 
 /// One simulator run of a trial.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -132,92 +131,85 @@ impl LogLine {
     }
 }
 
-/// A trials file read back.
-#[derive(Debug, Default)]
-pub struct Log {
-    /// The complete lines, in file order.
-    pub lines: Vec<LogLine>,
-    /// Bytes of the file that hold complete lines (a torn last line, from a killed process,
-    /// lies beyond).
-    pub valid_len: u64,
-    /// A torn last line was found (and will be dropped on resume).
-    pub torn_tail: bool,
-}
-
-/// Reads `path`. A last line without its newline is a torn write from a killed process and is
-/// reported in [`Log::torn_tail`]; any other bad line is an error that names the file and line.
-pub fn read(path: &Path) -> Result<Log, CampaignError> {
-    let file = File::open(path).map_err(|e| CampaignError::io(path, e))?;
-    let mut reader = BufReader::new(file);
-    let mut log = Log::default();
-    let mut buf = String::new();
-    let mut number = 0usize;
-    loop {
-        buf.clear();
-        let n = reader
-            .read_line(&mut buf)
-            .map_err(|e| CampaignError::io(path, e))?;
-        if n == 0 {
-            break;
-        }
-        number += 1;
-        if !buf.ends_with('\n') {
-            // The last line lacks its newline: a write cut short by a killed process. Resume
-            // drops it (and runs that trial again).
-            log.torn_tail = true;
-            break;
-        }
-        match serde_json::from_str::<LogLine>(buf.trim_end()) {
-            Ok(line) => {
-                log.lines.push(line);
-                log.valid_len += n as u64;
-            }
-            Err(e) => {
-                return Err(CampaignError::Log {
-                    path: path.to_path_buf(),
-                    line: number,
-                    message: e.to_string(),
-                })
-            }
-        }
-    }
-    Ok(log)
-}
-
-/// Appends lines to a trials file, flushing each one.
-#[derive(Debug)]
-pub struct Writer {
-    path: PathBuf,
-    file: File,
-}
-
-impl Writer {
-    /// Opens `path` for appending after cutting it to `valid_len` bytes (dropping a torn tail).
-    pub fn append(path: &Path, valid_len: u64) -> Result<Self, CampaignError> {
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(path)
-            .map_err(|e| CampaignError::io(path, e))?;
-        file.set_len(valid_len)
-            .map_err(|e| CampaignError::io(path, e))?;
-        Ok(Writer {
-            path: path.to_path_buf(),
-            file,
+impl LogLine {
+    /// A stored line back as a trial line; the error names the store, the line and what is
+    /// wrong (a line with an `error` key is a withdrawn trial, any other a told one).
+    pub fn from_stored(line: &StoredLine, store: &str) -> Result<LogLine, CampaignError> {
+        let failed = line.value.get("error").is_some();
+        let parsed = if failed {
+            serde_json::from_value(line.value.clone()).map(LogLine::Failed)
+        } else {
+            serde_json::from_value(line.value.clone()).map(LogLine::Trial)
+        };
+        parsed.map_err(|e| CampaignError::Log {
+            store: store.to_string(),
+            line: line.line as usize,
+            message: e.to_string(),
         })
     }
 
-    /// Writes one line and flushes it to the operating system.
-    pub fn write(&mut self, line: &LogLine) -> Result<(), CampaignError> {
-        let mut s = serde_json::to_string(line).map_err(|e| CampaignError::Log {
-            path: self.path.clone(),
-            line: 0,
-            message: e.to_string(),
-        })?;
-        s.push('\n');
-        self.file
-            .write_all(s.as_bytes())
-            .and_then(|()| self.file.flush())
-            .map_err(|e| CampaignError::io(&self.path, e))
+    /// The line as the store keeps it.
+    pub fn to_value(&self) -> serde_json::Value {
+        // Serialising these plain structs cannot fail (string keys, no custom serialisers).
+        serde_json::to_value(self).unwrap_or_default()
     }
+}
+
+/// Splits the logged lines into the protocol's stages (a prefix of each, in order); only the
+/// last stage with lines may be incomplete. `numbers` are the lines' positions in `store`.
+pub fn split_by_stage<'a>(
+    p: &Protocol,
+    lines: &'a [LogLine],
+    numbers: &[u64],
+    store: &str,
+) -> Result<Vec<&'a [LogLine]>, CampaignError> {
+    let line_at = |i: usize| numbers.get(i).map_or(i + 1, |&n| n as usize);
+    let bad = |i: usize, message: String| CampaignError::Log {
+        store: store.to_string(),
+        line: line_at(i),
+        message,
+    };
+    let mut out = Vec::new();
+    let mut at = 0usize;
+    for stage in p.stages() {
+        let label = stage.label();
+        let n = lines[at..]
+            .iter()
+            .take_while(|l| l.stage() == label)
+            .count();
+        let told = lines[at..at + n]
+            .iter()
+            .filter(|l| l.trial().is_some())
+            .count();
+        if told as u64 > stage.iterations {
+            return Err(bad(
+                at + n - 1,
+                format!(
+                    "stage `{label}` has {told} trials; the protocol runs {}",
+                    stage.iterations
+                ),
+            ));
+        }
+        if n > 0 && (told as u64) < stage.iterations && at + n < lines.len() {
+            return Err(bad(
+                at + n,
+                format!(
+                    "stage `{}` begins before stage `{label}` is complete",
+                    lines[at + n].stage()
+                ),
+            ));
+        }
+        out.push(&lines[at..at + n]);
+        at += n;
+    }
+    if at < lines.len() {
+        return Err(bad(
+            at,
+            format!(
+                "stage `{}` is not where the protocol expects it (or not in the protocol)",
+                lines[at].stage()
+            ),
+        ));
+    }
+    Ok(out)
 }

@@ -94,7 +94,7 @@ pub struct OpenedJournal {
 /// let t = j.kernel.ask()?;
 /// drop(j);
 /// let j = journal::open(Box::new(JsonlStore::open(&path)?), None)?;
-/// assert_eq!(j.resumed.map(|(_, pending)| pending), Some(vec![t]));
+/// assert_eq!(j.resumed.as_ref().map(|(_, pending)| pending.clone()), Some(vec![t]));
 /// # drop(j); std::fs::remove_file(&path)?;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```

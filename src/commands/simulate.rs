@@ -1,20 +1,45 @@
-//! The parts of the `savme` command line that are worth testing without a process: parsing
-//! `name=value` lists and the bundled simulator's `scenarios` and `simulate` commands.
+//! `savme simulate`: one run of the bundled driving simulator, described or as JSON, optionally
+//! recorded to the viewer.
 
-use savme_kernel::{paper, Assignment, Domain, Value};
-use savme_sim::scenario::{self, SCENARIOS};
+use savme::kernel::{paper, Assignment, Domain, Value};
+use savme_sim::scenario;
 use savme_sim::sim::DrivingSimulator;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenario number (1–10) or name.
+    #[arg(long)]
+    scenario: String,
+    /// Scenario parameters: name=value,name=value,… (see `savme scenarios`).
+    #[arg(long)]
+    phi: String,
+    /// Fidelity: `hf`, or name=value,… overriding θ_HF (e.g. simulation_rate_hz=2).
+    #[arg(long, default_value = "hf")]
+    fidelity: String,
+    /// Print the result as JSON.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    record: super::RecordArgs,
+}
+
+pub fn run(a: Args) -> Result<(), String> {
+    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
+    let request = a.record.request();
+    if request.wanted() {
+        // `simulate` checked the arguments.
+        let info = scenario::find(&a.scenario).ok_or("unknown scenario")?;
+        let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
+        let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
+        savme::viewer::record_run(&request, info.name, &phi, &theta)
+            .map_err(|e| format!("{text}{e}"))?;
+    }
+    super::print(&text)
+}
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,
 /// then booleans, else labels.
-///
-/// ```
-/// let a = savme::cli::parse_assignment("ego_speed=12.5,rate=2,flag=true,level=low").unwrap();
-/// assert_eq!(a.get_f64("ego_speed"), Some(12.5));
-/// assert_eq!(a.to_string(), "ego_speed=12.5, rate=2, flag=true, level=low");
-/// assert!(savme::cli::parse_assignment("ego_speed").is_err());
-/// ```
-pub fn parse_assignment(text: &str) -> Result<Assignment, String> {
+fn parse_assignment(text: &str) -> Result<Assignment, String> {
     let mut out = Assignment::new();
     for (i, item) in text.split(',').map(str::trim).enumerate() {
         if item.is_empty() {
@@ -46,7 +71,7 @@ pub fn parse_assignment(text: &str) -> Result<Assignment, String> {
 
 /// θ from `hf` or a list of overrides of θ_HF; continuous settings given as integers are
 /// read as reals.
-pub fn parse_fidelity(text: &str) -> Result<Assignment, String> {
+fn parse_fidelity(text: &str) -> Result<Assignment, String> {
     let mut theta = paper::theta_hf();
     if text.trim() == "hf" {
         return Ok(theta);
@@ -70,83 +95,8 @@ pub fn parse_fidelity(text: &str) -> Result<Assignment, String> {
     Ok(theta)
 }
 
-/// `savme fidelity`: the 16 fidelity settings of Table I with their θ_HF values.
-pub fn fidelity_text() -> String {
-    use std::fmt::Write;
-    let mut out = String::from(
-        "setting                           type        values / range              θ_HF\n",
-    );
-    let hf = paper::theta_hf();
-    for v in paper::fidelity_space(10).variables() {
-        let (kind, range) = match &v.domain {
-            Domain::Discrete { values } => (
-                "discrete",
-                format!(
-                    "{{{}}}",
-                    values
-                        .iter()
-                        .map(ToString::to_string)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            ),
-            Domain::Continuous { lo, hi, bins, .. } => {
-                ("continuous", format!("[{lo}, {hi}] m, {bins} log bins"))
-            }
-        };
-        let hf_value = hf.get(&v.name).map_or(String::new(), ToString::to_string);
-        let _ = writeln!(out, "{:<33} {kind:<11} {range:<27} {hf_value}", v.name);
-    }
-    out
-}
-
-/// `savme scenarios`: the listing.
-pub fn scenarios_text() -> String {
-    use std::fmt::Write;
-    let mut out = String::new();
-    for info in &SCENARIOS {
-        let phase = if info.training() {
-            "meta-training"
-        } else {
-            "meta-testing"
-        };
-        let _ = writeln!(
-            out,
-            "{:>2}  {}  ({phase}, {} s)",
-            info.id, info.name, info.duration
-        );
-        let _ = writeln!(out, "    {}", info.description);
-        for v in scenario::phi_space(info).variables() {
-            if let Domain::Continuous { lo, hi, bins, .. } = v.domain {
-                let _ = writeln!(out, "    {:<18} [{lo}, {hi}] in {bins} bins", v.name);
-            }
-        }
-    }
-    out
-}
-
-/// [`simulate`], also recording the run to the rerun viewer when `record` asks for it.
-pub fn simulate_recorded(
-    scenario: &str,
-    phi: &str,
-    fidelity: &str,
-    json: bool,
-    record: &crate::recording::RecordRequest,
-) -> Result<String, String> {
-    let text = simulate(scenario, phi, fidelity, json)?;
-    if record.wanted() {
-        // `simulate` checked the arguments.
-        let info = scenario::find(scenario).ok_or("unknown scenario")?;
-        let phi = parse_assignment(phi).map_err(|e| format!("--phi: {e}"))?;
-        let theta = parse_fidelity(fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-        crate::recording::record_run(record, info.name, &phi, &theta)
-            .map_err(|e| format!("{text}{e}"))?;
-    }
-    Ok(text)
-}
-
 /// Runs one simulation and describes it (or gives it as JSON).
-pub fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, String> {
+fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, String> {
     let info = scenario::find(scenario).ok_or_else(|| {
         format!("unknown scenario `{scenario}`: give 1–10 or a name from `savme scenarios`")
     })?;
@@ -182,4 +132,34 @@ pub fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result
         r.work,
         r.steps
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn assignments_parse_by_type_and_bad_items_are_named() {
+        let a = parse_assignment("ego_speed=12.5,rate=2,flag=true,level=low").unwrap();
+        assert_eq!(a.get_f64("ego_speed"), Some(12.5));
+        assert_eq!(
+            a.to_string(),
+            "ego_speed=12.5, rate=2, flag=true, level=low"
+        );
+        assert!(parse_assignment("ego_speed")
+            .unwrap_err()
+            .contains("item 1"));
+        assert!(parse_assignment("a=1,a=2")
+            .unwrap_err()
+            .contains("`a` is given twice"));
+    }
+
+    #[test]
+    fn fidelity_overrides_hf_and_unknown_settings_are_named() {
+        let t = parse_fidelity("simulation_rate_hz=2").unwrap();
+        assert_eq!(t.get_f64("simulation_rate_hz"), Some(2.0));
+        assert_eq!(parse_fidelity("hf").unwrap(), paper::theta_hf());
+        let e = parse_fidelity("rate=2").unwrap_err();
+        assert!(e.contains("unknown fidelity setting `rate`"), "{e}");
+    }
 }

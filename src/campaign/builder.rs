@@ -1,0 +1,235 @@
+//! [`Campaign`]: the one loop every front end runs — `savme reproduce`, `savme run`, and
+//! whatever embeds the library.
+
+use super::executor::{self, StageContext};
+use super::kernels::StageKernels;
+use super::log::{self, LogLine, TrialLine};
+use super::outputs::{self, Outputs};
+use super::store::{JsonlStore, TrialStore};
+use super::{CampaignError, CampaignOutcome, Observer, Problem, Protocol, Report};
+use savme_kernel::Simulator;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Stored lines with their line numbers in the store.
+type NumberedLines = Vec<(u64, LogLine)>;
+
+/// A campaign to run: the protocol (what runs), the problem (what is searched), where results
+/// go, how many workers, which trial store, and who watches.
+///
+/// ```no_run
+/// use savme::campaign::{Campaign, Problem, ProgressBars, Protocol};
+/// use savme_sim::sim::DrivingSimulator;
+///
+/// let (train, test) = savme::campaign::driving_scenarios();
+/// let protocol = Protocol::quick("savme-sim/sensors", train, test);
+/// let outcome = Campaign::new(protocol.clone(), Problem::driving(protocol.fidelity_bins))
+///     .out("results")
+///     .jobs(2)
+///     .observer(ProgressBars::new())
+///     .run(&DrivingSimulator::default())?;
+/// println!("{}", outcome.report.table_md());
+/// # Ok::<(), savme::campaign::CampaignError>(())
+/// ```
+pub struct Campaign<'o> {
+    protocol: Protocol,
+    problem: Problem,
+    out: PathBuf,
+    resume: bool,
+    jobs: usize,
+    store: Option<Box<dyn TrialStore>>,
+    observers: Vec<Box<dyn Observer + 'o>>,
+}
+
+impl<'o> Campaign<'o> {
+    /// A new campaign into `savme-results/`, one worker per core, the JSON-lines store in the
+    /// output directory, no observers.
+    pub fn new(protocol: Protocol, problem: Problem) -> Self {
+        Campaign {
+            protocol,
+            problem,
+            out: PathBuf::from("savme-results"),
+            resume: false,
+            jobs: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            store: None,
+            observers: Vec::new(),
+        }
+    }
+
+    /// The output directory (created if missing; a new campaign needs one without a campaign).
+    pub fn out(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.out = dir.into();
+        self
+    }
+
+    /// Continue the campaign in the output directory instead of starting one: its
+    /// `protocol.json` must equal this protocol, and its stored trials are replayed.
+    pub fn resume(mut self, resume: bool) -> Self {
+        self.resume = resume;
+        self
+    }
+
+    /// Worker threads (at least 1; the results do not depend on it).
+    pub fn jobs(mut self, jobs: usize) -> Self {
+        self.jobs = jobs.max(1);
+        self
+    }
+
+    /// The trial store (default: `trials.jsonl` in the output directory, a [`JsonlStore`]).
+    pub fn store(mut self, store: Box<dyn TrialStore>) -> Self {
+        self.store = Some(store);
+        self
+    }
+
+    /// Adds an observer; all are told, in the order added.
+    pub fn observer(mut self, observer: impl Observer + 'o) -> Self {
+        self.observers.push(Box::new(observer));
+        self
+    }
+
+    /// Adds a boxed observer.
+    pub fn boxed_observer(mut self, observer: Box<dyn Observer + 'o>) -> Self {
+        self.observers.push(observer);
+        self
+    }
+
+    /// Runs (or resumes) the campaign on `sim` and writes every output. Every error — bad
+    /// protocol, unknown scenario, unwritable directory, a store held by another process, a
+    /// corrupt trial line — comes before any simulation runs, except failures of the
+    /// simulations themselves. The observers are finished whatever happens.
+    pub fn run<S>(mut self, sim: &S) -> Result<CampaignOutcome, CampaignError>
+    where
+        S: Simulator + Clone + Send,
+    {
+        let mut observers = std::mem::take(&mut self.observers);
+        let result = self.run_observed(sim, &mut observers);
+        let mut finished = Ok(());
+        for o in &mut observers {
+            let r = o.finish();
+            if finished.is_ok() {
+                finished = r;
+            }
+        }
+        let outcome = result?;
+        finished.map(|()| outcome)
+    }
+
+    fn run_observed<S>(
+        mut self,
+        sim: &S,
+        observers: &mut [Box<dyn Observer + 'o>],
+    ) -> Result<CampaignOutcome, CampaignError>
+    where
+        S: Simulator + Clone + Send,
+    {
+        let clock = Instant::now();
+        let custom_store = self.store.take();
+        let p = &self.protocol;
+        p.validate()?;
+        let mut kernels = StageKernels::new(p, &self.problem)?;
+        let files = Outputs::in_dir(&self.out);
+        let (mut store, logged) = self.open_store(&files, custom_store)?;
+        let numbers: Vec<u64> = logged.iter().map(|(n, _)| *n).collect();
+        let logged: Vec<LogLine> = logged.into_iter().map(|(_, l)| l).collect();
+        let location = store.location();
+        let by_stage = log::split_by_stage(p, &logged, &numbers, &location)?;
+
+        for o in observers.iter_mut() {
+            o.start(p);
+        }
+        let stages = p.stages();
+        let mut all_lines: Vec<LogLine> = Vec::new();
+        executor::with_pool(sim, self.jobs, |pool| -> Result<(), CampaignError> {
+            for (stage, logged) in stages.iter().zip(&by_stage) {
+                for o in observers.iter_mut() {
+                    o.stage(stage);
+                }
+                let kernel = kernels.for_stage(stage)?;
+                let cx = StageContext {
+                    stage,
+                    logged,
+                    window: p.window,
+                    cost: p.cost.measure(),
+                    store: store.as_mut(),
+                    on_error: p.on_error,
+                };
+                let lines = executor::run_stage(pool, kernel, cx, |line, kernel| {
+                    for o in observers.iter_mut() {
+                        o.trial(stage, line, kernel);
+                    }
+                })?;
+                all_lines.extend(lines);
+            }
+            Ok(())
+        })?;
+        drop(store);
+
+        let count = |l: &[LogLine]| l.iter().filter(|x| x.trial().is_some()).count() as u64;
+        let replayed = count(&logged);
+        let trials: Vec<TrialLine> = all_lines
+            .iter()
+            .filter_map(|l| l.trial().cloned())
+            .collect();
+        let failed = all_lines.len() - trials.len();
+        let report = Report::from_trials(p, &trials);
+        let elapsed = clock.elapsed().as_secs_f64();
+        outputs::write(&report, &trials, failed, &files, &self.problem, elapsed)?;
+        Ok(CampaignOutcome {
+            ran: trials.len() as u64 - replayed,
+            report,
+            outputs: files,
+            replayed,
+            elapsed_seconds: clock.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Prepares the output directory and opens (and locks) the store: a new campaign writes
+    /// `protocol.json` and needs an empty store; a resumed one checks `protocol.json` and reads
+    /// the stored lines (with their line numbers).
+    fn open_store(
+        &self,
+        files: &Outputs,
+        custom: Option<Box<dyn TrialStore>>,
+    ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
+        if self.resume {
+            let saved = outputs::load_protocol(&self.out)?;
+            if saved != self.protocol {
+                return Err(CampaignError::Protocol {
+                    field: "protocol.json".into(),
+                    message: "differs from the protocol given to resume".into(),
+                });
+            }
+        } else {
+            std::fs::create_dir_all(&self.out).map_err(|e| CampaignError::io(&self.out, e))?;
+        }
+        let default_store_exists = files.protocol.exists() || files.trials.exists();
+        if !self.resume && custom.is_none() && default_store_exists {
+            // Not a new campaign's directory: say so — or, when a process is running the
+            // campaign there, name it (opening the store fails with its pid).
+            drop(JsonlStore::open(&files.trials)?);
+            return Err(CampaignError::OutputExists {
+                path: self.out.clone(),
+            });
+        }
+        let mut store: Box<dyn TrialStore> = match custom {
+            Some(s) => s,
+            None => Box::new(JsonlStore::open(&files.trials)?),
+        };
+        let loaded = store.load()?;
+        if !self.resume && (files.protocol.exists() || !loaded.lines.is_empty()) {
+            return Err(CampaignError::OutputExists {
+                path: self.out.clone(),
+            });
+        }
+        if !self.resume {
+            outputs::save_protocol(&self.protocol, files)?;
+        }
+        let location = store.location();
+        let lines = loaded
+            .lines
+            .iter()
+            .map(|l| LogLine::from_stored(l, &location).map(|x| (l.line, x)))
+            .collect::<Result<_, _>>()?;
+        Ok((store, lines))
+    }
+}

@@ -1,0 +1,175 @@
+//! A campaign's [`Protocol`] and [`Problem`], from a preset or a campaign file plus the
+//! command line's flags — in one place, for every command: a preset (or a file's `[campaign]`
+//! section) first, then the flags, then validation.
+
+use super::{CampaignError, Problem, Protocol};
+use savme_sim::sim::DrivingSimulator;
+
+/// The simulator label of the bundled simulator with camera + lidar perception.
+pub const SENSORS: &str = "savme-sim/sensors";
+/// The simulator label of the bundled simulator with idealised perception.
+pub const IDEAL: &str = "savme-sim/ideal";
+
+/// Protocol values given on the command line or in a campaign file (None: keep the value
+/// before). Scenarios are given as the user wrote them and resolved by [`Overrides::apply`].
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Overrides {
+    /// Master seed.
+    pub seed: Option<u64>,
+    /// Cost measure.
+    pub cost: Option<super::Cost>,
+    /// Compute budgets.
+    pub budgets: Option<Vec<f64>>,
+    /// Meta-training iterations per budget.
+    pub train_iterations: Option<u64>,
+    /// Evaluation trials per budget.
+    pub eval_iterations: Option<u64>,
+    /// Meta-testing iterations per budget and prior.
+    pub test_iterations: Option<u64>,
+    /// Baseline trials on the meta-training scenarios.
+    pub baseline_train_iterations: Option<u64>,
+    /// Baseline trials on the meta-testing scenarios.
+    pub baseline_test_iterations: Option<u64>,
+    /// Bins per continuous fidelity setting.
+    pub fidelity_bins: Option<u32>,
+    /// Power-prior strength of the meta-testing prior.
+    pub prior_strength: Option<f64>,
+    /// Trials in flight.
+    pub window: Option<usize>,
+    /// Meta-training scenarios (numbers or names, resolved by the caller's lookup).
+    pub train_scenarios: Option<Vec<String>>,
+    /// Meta-testing scenarios.
+    pub test_scenarios: Option<Vec<String>>,
+}
+
+impl Overrides {
+    /// True when any value was given.
+    pub fn any(&self) -> bool {
+        *self != Overrides::default()
+    }
+
+    /// `self`, with every value `later` gives replacing this one's (a file's values, then the
+    /// command line's).
+    pub fn then(self, later: &Overrides) -> Overrides {
+        let l = later.clone();
+        Overrides {
+            seed: l.seed.or(self.seed),
+            cost: l.cost.or(self.cost),
+            budgets: l.budgets.or(self.budgets),
+            train_iterations: l.train_iterations.or(self.train_iterations),
+            eval_iterations: l.eval_iterations.or(self.eval_iterations),
+            test_iterations: l.test_iterations.or(self.test_iterations),
+            baseline_train_iterations: l
+                .baseline_train_iterations
+                .or(self.baseline_train_iterations),
+            baseline_test_iterations: l.baseline_test_iterations.or(self.baseline_test_iterations),
+            fidelity_bins: l.fidelity_bins.or(self.fidelity_bins),
+            prior_strength: l.prior_strength.or(self.prior_strength),
+            window: l.window.or(self.window),
+            train_scenarios: l.train_scenarios.or(self.train_scenarios),
+            test_scenarios: l.test_scenarios.or(self.test_scenarios),
+        }
+    }
+
+    /// Applies the values to `p`; `scenario` turns a scenario as given into its name (None:
+    /// unknown, an error listing `known`). Does not validate.
+    pub fn apply(
+        &self,
+        p: &mut Protocol,
+        scenario: &dyn Fn(&str) -> Option<String>,
+        known: &str,
+    ) -> Result<(), CampaignError> {
+        fn set<T: Clone>(slot: &mut T, v: &Option<T>) {
+            if let Some(v) = v {
+                *slot = v.clone();
+            }
+        }
+        set(&mut p.seed, &self.seed);
+        set(&mut p.cost, &self.cost);
+        set(&mut p.budgets, &self.budgets);
+        set(&mut p.train_iterations, &self.train_iterations);
+        set(&mut p.eval_iterations, &self.eval_iterations);
+        set(&mut p.test_iterations, &self.test_iterations);
+        set(
+            &mut p.baseline_train_iterations,
+            &self.baseline_train_iterations,
+        );
+        set(
+            &mut p.baseline_test_iterations,
+            &self.baseline_test_iterations,
+        );
+        set(&mut p.fidelity_bins, &self.fidelity_bins);
+        set(&mut p.prior_strength, &self.prior_strength);
+        set(&mut p.window, &self.window);
+        let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
+            given
+                .iter()
+                .map(|k| {
+                    scenario(k.trim()).ok_or_else(|| CampaignError::UnknownScenario {
+                        name: k.trim().into(),
+                        known: known.into(),
+                    })
+                })
+                .collect()
+        };
+        if let Some(v) = &self.train_scenarios {
+            p.train_scenarios = names(v)?;
+        }
+        if let Some(v) = &self.test_scenarios {
+            p.test_scenarios = names(v)?;
+        }
+        Ok(())
+    }
+}
+
+/// Which preset of the bundled simulator's protocol.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Preset {
+    /// The short preset (one budget, fewer iterations) instead of the paper's protocol.
+    pub quick: bool,
+    /// Idealised perception instead of camera + lidar.
+    pub ideal: bool,
+}
+
+/// The protocol and problem of a campaign on the bundled driving simulator, validated.
+///
+/// ```
+/// use savme::campaign::config::{bundled, Overrides, Preset};
+/// let o = Overrides { seed: Some(3), train_scenarios: Some(vec!["7".into()]), ..Default::default() };
+/// let (p, problem) = bundled(Preset { quick: true, ideal: false }, &o)?;
+/// assert_eq!((p.seed, p.budgets.clone()), (3, vec![0.3]));
+/// assert_eq!(p.train_scenarios, ["lead_vehicle_brakes"]);
+/// assert!(problem.scenarios.contains_key("on_ramp_merge"));
+/// assert!(bundled(Preset::default(), &Overrides { budgets: Some(vec![2.0]), ..Default::default() }).is_err());
+/// # Ok::<(), savme::campaign::CampaignError>(())
+/// ```
+pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), CampaignError> {
+    let (train, test) = super::driving_scenarios();
+    let simulator = if preset.ideal { IDEAL } else { SENSORS };
+    let mut p = if preset.quick {
+        Protocol::quick(simulator, train, test)
+    } else {
+        Protocol::paper(simulator, train, test)
+    };
+    let lookup = |k: &str| savme_sim::scenario::find(k).map(|s| s.name.to_string());
+    o.apply(
+        &mut p,
+        &lookup,
+        "1–10 or their names (see `savme scenarios`)",
+    )?;
+    p.validate()?;
+    let problem = Problem::driving(p.fidelity_bins);
+    Ok((p, problem))
+}
+
+/// The bundled simulator a protocol names (for `--resume`).
+pub fn bundled_simulator(p: &Protocol) -> Result<DrivingSimulator, CampaignError> {
+    match p.simulator.as_str() {
+        SENSORS => Ok(DrivingSimulator::default()),
+        IDEAL => Ok(DrivingSimulator::ideal()),
+        other => Err(CampaignError::Protocol {
+            field: "simulator".into(),
+            message: format!("`{other}` is not the bundled simulator ({SENSORS} or {IDEAL})"),
+        }),
+    }
+}

@@ -1,0 +1,128 @@
+//! [`CampaignError`]: everything that can stop a campaign, each naming its culprit.
+
+use super::store::StoreError;
+use savme_kernel::SimError;
+use std::path::{Path, PathBuf};
+
+/// Why a campaign could not run or finish.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CampaignError {
+    /// A protocol value is invalid.
+    #[error("protocol: `{field}`: {message}")]
+    Protocol {
+        /// The field.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A scenario the protocol names is not known to the simulator.
+    #[error("unknown scenario `{name}` (known: {known})")]
+    UnknownScenario {
+        /// The name given.
+        name: String,
+        /// The known names.
+        known: String,
+    },
+    /// A file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The trial store failed (locked by another process, unreadable, unwritable).
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// A line of the trial store (or of `protocol.json`) is not what it should be.
+    #[error("{store}, line {line}: {message}")]
+    Log {
+        /// The store or file.
+        store: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The trials file does not match the protocol (a different run, or edited).
+    #[error("trials.jsonl does not match the protocol at {stage} trial {index}: {message}")]
+    Diverged {
+        /// Stage label.
+        stage: String,
+        /// Trial position in the stage.
+        index: u64,
+        /// What differs.
+        message: String,
+    },
+    /// The output directory already holds a campaign.
+    #[error("{} already holds a campaign; resume it with --resume {}, or choose another output directory", path.display(), path.display())]
+    OutputExists {
+        /// The directory.
+        path: PathBuf,
+    },
+    /// `--resume` on a directory without a campaign.
+    #[error("{}: no protocol.json — is this a savme output directory?", path.display())]
+    NothingToResume {
+        /// The directory.
+        path: PathBuf,
+    },
+    /// The kernel rejected its configuration.
+    #[error("kernel configuration: {0}")]
+    Kernel(#[from] savme_kernel::ConfigError),
+    /// A simulation failed.
+    #[error(transparent)]
+    Simulation(Box<SimulationError>),
+    /// A figure could not be drawn.
+    #[error("{}: {message}", path.display())]
+    Plot {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+    /// More simulations of a stage failed than the stage has iterations (`on_error = skip`).
+    #[error("{stage}: {failures} simulations failed (more than the stage's iterations); the last: {last}")]
+    TooManyFailures {
+        /// Stage label.
+        stage: String,
+        /// Failures so far.
+        failures: u64,
+        /// The last error.
+        last: String,
+    },
+    /// Recording to the viewer failed.
+    #[error("recording: {0}")]
+    Recording(String),
+    /// The worker threads stopped unexpectedly.
+    #[error("the worker threads stopped unexpectedly")]
+    WorkersGone,
+}
+
+/// A simulation of a trial failed.
+#[derive(Debug, thiserror::Error)]
+#[error("{stage}, trial {trial} ({scenario}: {phi}), {run} run: {source}")]
+pub struct SimulationError {
+    /// Stage label.
+    pub stage: String,
+    /// Trial id.
+    pub trial: u64,
+    /// Scenario.
+    pub scenario: String,
+    /// Its parameters.
+    pub phi: String,
+    /// HF or LF.
+    pub run: &'static str,
+    /// The simulator's error.
+    pub source: SimError,
+}
+
+impl CampaignError {
+    /// The I/O error of `path`.
+    pub fn io(path: &Path, source: std::io::Error) -> Self {
+        CampaignError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}

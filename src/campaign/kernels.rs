@@ -1,0 +1,119 @@
+//! The kernels of a campaign, one per stage family: the baselines (uniform φ), one per budget
+//! for meta-training and its evaluation, and a fresh one per meta-testing stage (learned or
+//! uniform fidelity prior). All are configured before the first run, so that a configuration
+//! error comes before any simulation.
+
+use super::protocol::{Protocol, Stage, StageKind};
+use super::{CampaignError, Problem};
+use savme_kernel::{Kernel, KernelBuilder, Space};
+
+/// Scenario names with their parameter spaces.
+type NamedSpaces = Vec<(String, Space)>;
+
+/// The kernels of one campaign.
+pub(crate) struct StageKernels<'a> {
+    protocol: &'a Protocol,
+    problem: &'a Problem,
+    test_spaces: NamedSpaces,
+    /// baseline-train, train@b for every budget, baseline-test.
+    kernels: Vec<Kernel>,
+    /// The current meta-testing kernel.
+    test: Option<Kernel>,
+}
+
+/// The spaces of the scenarios `names`, or an error naming an unknown one.
+fn pick(names: &[String], problem: &Problem) -> Result<NamedSpaces, CampaignError> {
+    names
+        .iter()
+        .map(|n| {
+            problem
+                .scenarios
+                .get(n)
+                .map(|s| (n.clone(), s.clone()))
+                .ok_or_else(|| CampaignError::UnknownScenario {
+                    name: n.clone(),
+                    known: problem
+                        .scenarios
+                        .keys()
+                        .cloned()
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                })
+        })
+        .collect()
+}
+
+impl<'a> StageKernels<'a> {
+    /// Checks every scenario and configures every kernel.
+    pub(crate) fn new(protocol: &'a Protocol, problem: &'a Problem) -> Result<Self, CampaignError> {
+        let train = pick(&protocol.train_scenarios, problem)?;
+        let test_spaces = pick(&protocol.test_scenarios, problem)?;
+        let mut k = StageKernels {
+            protocol,
+            problem,
+            test_spaces,
+            kernels: Vec::new(),
+            test: None,
+        };
+        let mut kernels = vec![k.builder(&train, 1.0, "baseline-train").build()?];
+        for &b in &protocol.budgets {
+            kernels.push(k.builder(&train, b, &format!("train@{b}")).build()?);
+        }
+        kernels.push(k.builder(&k.test_spaces, 1.0, "baseline-test").build()?);
+        k.kernels = kernels;
+        // The meta-testing kernels are built per stage; build one now to check them too.
+        k.test_kernel(StageKind::TestUniform, protocol.budgets[0])?;
+        Ok(k)
+    }
+
+    fn builder(&self, scenarios: &[(String, Space)], budget: f64, label: &str) -> KernelBuilder {
+        let p = self.protocol;
+        let mut b = Kernel::builder(self.problem.fidelity.clone(), self.problem.theta_hf.clone())
+            .budget(budget)
+            .seed(p.kernel_seed(label));
+        for (name, space) in scenarios {
+            b = b.scenario(name, space.clone(), p.weight(name));
+        }
+        b
+    }
+
+    fn budget_index(&self, b: f64) -> usize {
+        self.protocol
+            .budgets
+            .iter()
+            .position(|&x| x == b)
+            .unwrap_or(0)
+    }
+
+    /// A meta-testing kernel at budget `b`: with the meta-training posterior as its fidelity
+    /// prior (learned), or a uniform one. Both share a seed: common random numbers make the
+    /// comparison fairer.
+    fn test_kernel(&self, kind: StageKind, b: f64) -> Result<Kernel, CampaignError> {
+        let mut builder = self.builder(&self.test_spaces, b, &format!("test@{b}"));
+        if kind == StageKind::TestLearned {
+            let trained = &self.kernels[1 + self.budget_index(b)];
+            builder = builder.fidelity_prior(
+                trained.fidelity_posterior().clone(),
+                self.protocol.prior_strength,
+            );
+        }
+        Ok(builder.build()?)
+    }
+
+    /// The kernel that runs `stage` (a meta-testing stage gets a new one).
+    pub(crate) fn for_stage(&mut self, stage: &Stage) -> Result<&mut Kernel, CampaignError> {
+        let n = self.protocol.budgets.len();
+        match (stage.kind, stage.budget) {
+            (StageKind::BaselineTrain, _) => Ok(&mut self.kernels[0]),
+            (StageKind::Train | StageKind::Evaluate, Some(b)) => {
+                let i = 1 + self.budget_index(b);
+                Ok(&mut self.kernels[i])
+            }
+            (StageKind::BaselineTest, _) => Ok(&mut self.kernels[1 + n]),
+            (kind, b) => {
+                let kernel = self.test_kernel(kind, b.unwrap_or(1.0))?;
+                Ok(self.test.insert(kernel))
+            }
+        }
+    }
+}

@@ -1,0 +1,100 @@
+//! The campaign's directory: `protocol.json` (what `--resume` continues), and the results
+//! written at the end — `table.md`, `fidelity.md`, `summary.json` and the figures.
+
+use super::log::TrialLine;
+use super::{plot, CampaignError, Problem, Protocol, Report};
+use std::path::{Path, PathBuf};
+
+/// The files a campaign writes.
+#[derive(Debug, Clone)]
+pub struct Outputs {
+    /// `protocol.json`.
+    pub protocol: PathBuf,
+    /// `trials.jsonl`.
+    pub trials: PathBuf,
+    /// `table.md`.
+    pub table: PathBuf,
+    /// `fidelity.md`.
+    pub fidelity: PathBuf,
+    /// `summary.json`.
+    pub summary: PathBuf,
+    /// `breakeven.png`.
+    pub breakeven: PathBuf,
+    /// `meta_testing.png`.
+    pub meta_testing: PathBuf,
+}
+
+impl Outputs {
+    /// The files in `dir`.
+    pub fn in_dir(dir: &Path) -> Self {
+        Outputs {
+            protocol: dir.join("protocol.json"),
+            trials: dir.join("trials.jsonl"),
+            table: dir.join("table.md"),
+            fidelity: dir.join("fidelity.md"),
+            summary: dir.join("summary.json"),
+            breakeven: dir.join("breakeven.png"),
+            meta_testing: dir.join("meta_testing.png"),
+        }
+    }
+}
+
+/// Reads the protocol of the campaign in `dir` (for `--resume`).
+pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
+    let path = Outputs::in_dir(dir).protocol;
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Err(CampaignError::NothingToResume {
+                path: dir.to_path_buf(),
+            })
+        }
+        Err(e) => return Err(CampaignError::io(&path, e)),
+    };
+    serde_json::from_str(&text).map_err(|e| CampaignError::Log {
+        store: path.display().to_string(),
+        line: e.line(),
+        message: e.to_string(),
+    })
+}
+
+/// Writes `protocol.json` for a new campaign.
+pub(crate) fn save_protocol(p: &Protocol, files: &Outputs) -> Result<(), CampaignError> {
+    let json = serde_json::to_string_pretty(p).map_err(|e| CampaignError::Protocol {
+        field: "protocol".into(),
+        message: e.to_string(),
+    })?;
+    std::fs::write(&files.protocol, json + "\n").map_err(|e| CampaignError::io(&files.protocol, e))
+}
+
+/// Writes the results of a campaign (all of them computed from `lines`).
+pub(crate) fn write(
+    report: &Report,
+    lines: &[TrialLine],
+    failed: usize,
+    files: &Outputs,
+    problem: &Problem,
+    elapsed: f64,
+) -> Result<(), CampaignError> {
+    let write = |path: &Path, text: String| {
+        std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
+    };
+    write(&files.table, report.table_md())?;
+    write(
+        &files.fidelity,
+        report.fidelity_md(&problem.fidelity, &problem.theta_hf),
+    )?;
+    let summary = serde_json::json!({
+        "report": report,
+        "elapsed_seconds_of_last_process": elapsed,
+        "trials": lines.len(),
+        "failed_simulations": failed,
+    });
+    write(
+        &files.summary,
+        serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
+    )?;
+    plot::breakeven(&files.breakeven, &report.protocol, lines)?;
+    plot::meta_testing(&files.meta_testing, &report.protocol, lines)?;
+    Ok(())
+}

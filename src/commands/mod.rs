@@ -1,0 +1,220 @@
+//! The subcommands, one module each; this module holds what several share: the protocol flags
+//! (one override chain for every campaign command), the runner flags (jobs, quiet, recording),
+//! running a campaign with its observers, and printing.
+
+pub mod fidelity;
+pub mod fmu;
+pub mod reproduce;
+pub mod run;
+pub mod scenarios;
+pub mod serve;
+pub mod simulate;
+
+use savme::campaign::config::Overrides;
+use savme::campaign::{
+    Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
+};
+use savme::kernel::Simulator;
+use savme::viewer::{self, Frames, RecordRequest};
+use std::fmt::Write as _;
+use std::io::{self, IsTerminal, Write};
+use std::path::PathBuf;
+
+/// Protocol values on the command line (they override the preset or the campaign file).
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct ProtocolArgs {
+    /// Master seed.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Cost of a run: measured wall-clock time, or deterministic work units (reproducible).
+    #[arg(long, value_enum)]
+    cost: Option<CostArg>,
+    /// Compute budgets C_budget, comma-separated, each in (0, 1].
+    #[arg(long, value_delimiter = ',')]
+    budgets: Option<Vec<f64>>,
+    /// Meta-training iterations per budget.
+    #[arg(long)]
+    iterations: Option<u64>,
+    /// Evaluation trials per budget.
+    #[arg(long)]
+    eval_iterations: Option<u64>,
+    /// Meta-testing iterations per budget and prior.
+    #[arg(long)]
+    test_iterations: Option<u64>,
+    /// Baseline trials on the meta-training scenarios.
+    #[arg(long)]
+    baseline_iterations: Option<u64>,
+    /// Baseline trials on the meta-testing scenarios.
+    #[arg(long)]
+    baseline_test_iterations: Option<u64>,
+    /// Meta-training scenarios (numbers or names, comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    train_scenarios: Option<Vec<String>>,
+    /// Meta-testing scenarios.
+    #[arg(long, value_delimiter = ',')]
+    test_scenarios: Option<Vec<String>>,
+    /// Trials in flight at once (changes the results slightly; the number of jobs does not).
+    #[arg(long)]
+    window: Option<usize>,
+}
+
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum CostArg {
+    Wall,
+    Work,
+}
+
+impl ProtocolArgs {
+    /// The values given, as protocol overrides.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            seed: self.seed,
+            cost: self.cost.map(|c| match c {
+                CostArg::Wall => Cost::Wall,
+                CostArg::Work => Cost::Work,
+            }),
+            budgets: self.budgets.clone(),
+            train_iterations: self.iterations,
+            eval_iterations: self.eval_iterations,
+            test_iterations: self.test_iterations,
+            baseline_train_iterations: self.baseline_iterations,
+            baseline_test_iterations: self.baseline_test_iterations,
+            train_scenarios: self.train_scenarios.clone(),
+            test_scenarios: self.test_scenarios.clone(),
+            window: self.window,
+            ..Overrides::default()
+        }
+    }
+}
+
+/// How a campaign runs (nothing here changes its trials).
+#[derive(clap::Args, Debug, Clone)]
+pub struct RunnerArgs {
+    /// Worker threads (default: one per core). Does not change the results.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// No progress output.
+    #[arg(long, short)]
+    quiet: bool,
+    #[command(flatten)]
+    record: RecordArgs,
+}
+
+/// Recording to the rerun viewer (a build with `--features rerun`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct RecordArgs {
+    /// Record to a rerun file (open it with `rerun FILE.rrd`).
+    #[arg(long, value_name = "FILE.rrd")]
+    record: Option<PathBuf>,
+    /// Record to a newly started rerun viewer.
+    #[arg(long)]
+    spawn: bool,
+    /// Record to a running rerun viewer (default rerun+http://127.0.0.1:9876/proxy).
+    #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+    connect: Option<String>,
+    /// Sensor frames for every N-th trial.
+    #[arg(long, value_name = "N", default_value_t = 200)]
+    record_every: u64,
+    /// ... plus trials whose HF run failed, up to N.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    record_failures: u64,
+}
+
+impl RecordArgs {
+    /// The recording asked for.
+    pub fn request(&self) -> RecordRequest {
+        RecordRequest {
+            file: self.record.clone(),
+            spawn: self.spawn,
+            connect: self.connect.clone(),
+            every: self.record_every,
+            failures: self.record_failures,
+        }
+    }
+}
+
+/// Where a campaign command writes, and whether it continues a campaign.
+pub struct Target {
+    /// The output directory.
+    pub out: PathBuf,
+    /// Continue the campaign in `out`.
+    pub resume: bool,
+}
+
+/// Runs a campaign with the observers the flags ask for (progress bars on a terminal, plain
+/// lines otherwise, none with --quiet; the recording) and prints its summary.
+pub fn run_campaign<S>(
+    protocol: Protocol,
+    problem: Problem,
+    target: Target,
+    runner: &RunnerArgs,
+    frames: Frames,
+    sim: &S,
+) -> Result<(), String>
+where
+    S: Simulator + Clone + Send,
+{
+    let mut campaign = Campaign::new(protocol, problem.clone())
+        .out(target.out)
+        .resume(target.resume);
+    if let Some(j) = runner.jobs {
+        if j == 0 {
+            return Err("protocol: `--jobs`: must be at least 1".into());
+        }
+        campaign = campaign.jobs(j);
+    }
+    for o in observers(runner, frames, &problem)? {
+        campaign = campaign.boxed_observer(o);
+    }
+    let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
+    print(&summary_text(&outcome, &problem))
+}
+
+fn observers(
+    runner: &RunnerArgs,
+    frames: Frames,
+    problem: &Problem,
+) -> Result<Vec<Box<dyn Observer>>, String> {
+    let mut out: Vec<Box<dyn Observer>> = Vec::new();
+    if !runner.quiet {
+        if io::stderr().is_terminal() {
+            out.push(Box::new(ProgressBars::new()));
+        } else {
+            out.push(Box::new(ProgressLines::new(io::stderr())));
+        }
+    }
+    let recording = viewer::start(&runner.record.request(), frames, problem.theta_hf.clone())
+        .map_err(|e| e.to_string())?;
+    out.extend(recording);
+    Ok(out)
+}
+
+/// What `savme reproduce` and `savme run` print at the end.
+pub fn summary_text(o: &CampaignOutcome, problem: &Problem) -> String {
+    let mut s = String::new();
+    let r = &o.report;
+    let _ = writeln!(s, "{}", r.table_md());
+    let _ = writeln!(s, "{}", r.fidelity_md(&problem.fidelity, &problem.theta_hf));
+    let _ = writeln!(s, "{}", r.findings_text());
+    let _ = writeln!(
+        s,
+        "{} trials ({} replayed from the trial store, {} run) in {:.1} s; outputs in {}",
+        o.replayed + o.ran,
+        o.replayed,
+        o.ran,
+        o.elapsed_seconds,
+        o.outputs
+            .table
+            .parent()
+            .map_or_else(|| ".".into(), |p| p.display().to_string())
+    );
+    s
+}
+
+/// Writes to stdout; a closed pipe (`savme scenarios | head`) is not an error.
+pub fn print(text: &str) -> Result<(), String> {
+    match io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
+        _ => Ok(()),
+    }
+}

@@ -1,0 +1,56 @@
+//! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
+
+use super::{run_campaign, ProtocolArgs, RunnerArgs, Target};
+use savme::fmu_campaign::{Campaign as FmuCampaign, FmuBackend};
+use savme::viewer::Frames;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Campaign file (TOML); see examples/fmu/campaign.toml.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Output directory (default: the file's `campaign.out`, else savme-fmu-results).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the campaign in DIR (give the same --config).
+    #[arg(long, value_name = "DIR")]
+    resume: Option<PathBuf>,
+    #[command(flatten)]
+    protocol: ProtocolArgs,
+    #[command(flatten)]
+    runner: RunnerArgs,
+}
+
+pub fn run(a: Args) -> Result<(), String> {
+    let Some(config) = a.config else {
+        return Err("give --config FILE (and --resume DIR to continue a campaign)".into());
+    };
+    let overrides = a.protocol.overrides();
+    if a.resume.is_some() && overrides.any() {
+        return Err("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --config, --resume, --jobs and --quiet".into());
+    }
+    let c = FmuCampaign::load_with(&config, &overrides).map_err(|e| e.to_string())?;
+    let target = match a.resume {
+        Some(dir) => Target {
+            out: dir,
+            resume: true,
+        },
+        None => Target {
+            out: a
+                .out
+                .or(c.out.clone())
+                .unwrap_or_else(|| PathBuf::from("savme-fmu-results")),
+            resume: false,
+        },
+    };
+    let backend = FmuBackend::new(&c)?;
+    run_campaign(
+        c.protocol,
+        c.problem,
+        target,
+        &a.runner,
+        Frames::None,
+        &backend,
+    )
+}

@@ -1,0 +1,75 @@
+//! `savme serve` (the kernel behind JSON lines on stdin/stdout, optionally journaled to a trial
+//! store) and `savme example-config`.
+
+use savme::kernel::{Kernel, KernelConfig};
+use savme::serve::Session;
+use std::io;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Kernel configuration (JSON, as printed by `savme example-config`). Optional when
+    /// resuming from an existing journal.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Journal file: created if missing, resumed if it exists. Every ask and tell is logged
+    /// to it before it takes effect; a second server on the same journal is refused.
+    #[arg(long)]
+    journal: Option<PathBuf>,
+}
+
+pub fn run(a: Args) -> Result<(), String> {
+    serve(a.config.as_deref(), a.journal.as_deref())
+}
+
+pub fn example_config() -> Result<(), String> {
+    let kernel = savme::toy::kernel_builder()
+        .seed(1)
+        .build()
+        .map_err(|e| e.to_string())?;
+    let json = serde_json::to_string_pretty(kernel.config()).map_err(|e| e.to_string())?;
+    super::print(&format!("{json}\n"))
+}
+
+fn read_config(path: &Path) -> Result<KernelConfig, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let config: KernelConfig =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Validate now, so that the error names the file.
+    Kernel::new(config.clone()).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(config)
+}
+
+fn serve(config: Option<&Path>, journal: Option<&Path>) -> Result<(), String> {
+    use savme::campaign::store::{journal, JsonlStore};
+    let config = config.map(read_config).transpose()?;
+    let stdin = io::stdin().lock();
+    let stdout = io::stdout().lock();
+    let io_err = |e: io::Error| format!("stdin/stdout: {e}");
+    let session = match journal {
+        None => {
+            let config = config.ok_or("give --config (or --journal to resume)")?;
+            Session::Plain(Kernel::new(config).map_err(|e| e.to_string())?)
+        }
+        Some(path) => {
+            let store = JsonlStore::open(path).map_err(|e| e.to_string())?;
+            let opened = journal::open(Box::new(store), config).map_err(|e| e.to_string())?;
+            let shown = path.display();
+            if let Some(tail) = &opened.torn {
+                eprintln!(
+                    "savme: {shown}: line {} was cut off mid-write ({} bytes); dropped it",
+                    tail.line, tail.bytes
+                );
+            }
+            if let Some((told, pending)) = &opened.resumed {
+                eprintln!(
+                    "savme: resumed {shown}: {told} told, {} pending",
+                    pending.len()
+                );
+            }
+            Session::Journaled(opened.kernel)
+        }
+    };
+    let mut session = session;
+    session.serve(stdin, stdout).map_err(io_err)
+}
