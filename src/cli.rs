@@ -1,7 +1,8 @@
 //! The parts of the `savme` command line that are worth testing without a process: parsing
 //! `name=value` lists and the bundled simulator's `scenarios` and `simulate` commands.
 
-use savme_kernel::{paper, Assignment, Domain, Value};
+use savme_kernel::{Assignment, Domain, Value};
+use savme_sim::fidelity;
 use savme_sim::scenario::{self, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
 
@@ -47,11 +48,11 @@ pub fn parse_assignment(text: &str) -> Result<Assignment, String> {
 /// θ from `hf` or a list of overrides of θ_HF; continuous settings given as integers are
 /// read as reals.
 pub fn parse_fidelity(text: &str) -> Result<Assignment, String> {
-    let mut theta = paper::theta_hf();
+    let mut theta = fidelity::theta_hf();
     if text.trim() == "hf" {
         return Ok(theta);
     }
-    let space = paper::fidelity_space(1);
+    let space = fidelity::space(1);
     for (name, value) in parse_assignment(text.trim_start_matches("hf,"))?.iter() {
         let var = space.variable(name).ok_or_else(|| {
             let names: Vec<&str> = space.variables().iter().map(|v| &*v.name).collect();
@@ -76,8 +77,8 @@ pub fn fidelity_text() -> String {
     let mut out = String::from(
         "setting                           type        values / range              θ_HF\n",
     );
-    let hf = paper::theta_hf();
-    for v in paper::fidelity_space(10).variables() {
+    let hf = fidelity::theta_hf();
+    for v in fidelity::space(10).variables() {
         let (kind, range) = match &v.domain {
             Domain::Discrete { values } => (
                 "discrete",

@@ -204,8 +204,8 @@ fn reproduce(a: ReproduceArgs) -> Result<(), String> {
     )
     .map_err(|e| e.to_string())?;
     let (space, hf) = (
-        savme::kernel::paper::fidelity_space(outcome.report.protocol.fidelity_bins),
-        savme::kernel::paper::theta_hf(),
+        savme_sim::fidelity::space(outcome.report.protocol.fidelity_bins),
+        savme_sim::fidelity::theta_hf(),
     );
     print(&savme::reproduce::summary_text(&outcome, &space, &hf))
 }

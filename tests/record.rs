@@ -84,7 +84,7 @@ fn simulate_records_a_run_with_its_sensor_frames() {
         .run(
             "lead_vehicle_brakes",
             &savme::cli::parse_assignment(phi).unwrap(),
-            &savme::kernel::paper::theta_hf(),
+            &savme_sim::fidelity::theta_hf(),
             true,
         )
         .unwrap();

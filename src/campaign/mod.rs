@@ -33,7 +33,7 @@ pub use protocol::{Cost, OnError, Protocol, Stage, StageKind};
 pub use report::Report;
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
-use savme_kernel::{paper, ConfigError, Kernel, SimError, Simulator, Space};
+use savme_kernel::{ConfigError, Kernel, SimError, Simulator, Space};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -233,14 +233,7 @@ pub struct CampaignOutcome {
 
 /// The bundled driving simulator's scenario names: meta-training (1–8) and meta-testing (9–10).
 pub fn driving_scenarios() -> (Vec<String>, Vec<String>) {
-    let names = |train: bool| {
-        savme_sim::scenario::SCENARIOS
-            .iter()
-            .filter(|s| s.training() == train)
-            .map(|s| s.name.to_string())
-            .collect()
-    };
-    (names(true), names(false))
+    savme_sim::scenario::train_test_names()
 }
 
 /// What is searched: the fidelity space with θ_HF, and each scenario's parameter space.
@@ -259,8 +252,8 @@ impl Problem {
     /// the ten scenarios.
     pub fn driving(bins: u32) -> Problem {
         Problem {
-            fidelity: paper::fidelity_space(bins),
-            theta_hf: paper::theta_hf(),
+            fidelity: savme_sim::fidelity::space(bins),
+            theta_hf: savme_sim::fidelity::theta_hf(),
             scenarios: driving_spaces(),
         }
     }
@@ -268,10 +261,7 @@ impl Problem {
 
 /// The bundled driving simulator's scenario parameter spaces, by name.
 pub fn driving_spaces() -> BTreeMap<String, Space> {
-    savme_sim::scenario::SCENARIOS
-        .iter()
-        .map(|s| (s.name.to_string(), savme_sim::scenario::phi_space(s)))
-        .collect()
+    savme_sim::scenario::spaces()
 }
 
 /// Reads the protocol of the campaign in `dir` (for `--resume`).
