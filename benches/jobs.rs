@@ -13,7 +13,7 @@ use savme_sim::sim::DrivingSimulator;
 use std::time::Instant;
 
 fn protocol() -> Protocol {
-    let (train, test) = campaign::driving_scenarios();
+    let (train, test) = savme_sim::scenario::train_test_names();
     Protocol {
         budgets: vec![0.3],
         train_iterations: 60,

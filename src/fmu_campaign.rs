@@ -295,7 +295,7 @@ impl Campaign {
                     "give either `paper = true` or variables, not both".into(),
                 ));
             }
-            let space = savme_kernel::paper::fidelity_space(f.campaign.fidelity_bins);
+            let space = savme_sim::fidelity::space(f.campaign.fidelity_bins);
             let bindings = space
                 .variables()
                 .iter()
@@ -305,7 +305,7 @@ impl Campaign {
                     labels: savme_fmu::simulator::labels_of(&space, &v.name),
                 })
                 .collect();
-            (space, savme_kernel::paper::theta_hf(), bindings)
+            (space, savme_sim::fidelity::theta_hf(), bindings)
         } else {
             let mut vars = Vec::new();
             let mut hf = Assignment::new();

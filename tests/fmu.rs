@@ -93,7 +93,7 @@ fn through_fmu(
 #[test]
 fn the_fmu_gives_the_in_process_outcomes() {
     let file = Arc::new(FmuFile::open(packed()).unwrap());
-    let hf = savme::kernel::paper::theta_hf();
+    let hf = savme_sim::fidelity::theta_hf();
     let cheap = hf
         .clone()
         .with("simulation_rate_hz", 4)
@@ -151,7 +151,7 @@ fn fmpy_simulates_the_fmu_like_savme() {
     let fmu = packed();
     let info = find("7").unwrap();
     let sim = DrivingSimulator::default();
-    let hf = savme::kernel::paper::theta_hf();
+    let hf = savme_sim::fidelity::theta_hf();
     for k in 0..3 {
         let phi = sample(&phi_space(info), k);
         let local = sim.run(info.name, &phi, &hf, false).unwrap();

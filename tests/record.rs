@@ -89,7 +89,7 @@ fn simulate_records_a_run_with_its_sensor_frames() {
                 .with("gap", 8.0)
                 .with("lead_decel", 9.0)
                 .with("brake_time", 0.5),
-            &savme::kernel::paper::theta_hf(),
+            &savme_sim::fidelity::theta_hf(),
             true,
         )
         .unwrap();

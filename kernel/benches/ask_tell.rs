@@ -4,9 +4,58 @@
 //! `cargo bench -p savme-kernel --bench ask_tell`
 use criterion::{criterion_group, criterion_main, Criterion};
 use savme_kernel::journal::Journaled;
-use savme_kernel::{paper, Kernel, KernelConfig, Observation, Run, Scale, Space, Trial, Variable};
+use savme_kernel::{
+    Assignment, Kernel, KernelConfig, Observation, Run, Scale, Space, Trial, Variable,
+};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
+
+/// The shape (and names, so that name lookups cost the same) of the driving simulator's Table I
+/// space, `savme_sim::fidelity::space(10)`, written out here: the kernel depends on no simulator.
+fn fidelity_space() -> Space {
+    let b = Variable::boolean;
+    let log = |name: &str, lo: f64, hi: f64| Variable::continuous(name, lo, hi, 10, Scale::Log);
+    Space::new(vec![
+        Variable::discrete("simulation_rate_hz", [2, 4, 6, 8, 10]),
+        Variable::discrete("camera_bloom_level", ["high", "low"]),
+        b("camera_disable_bloom"),
+        b("camera_disable_lighting"),
+        b("camera_disable_shadows"),
+        b("camera_disable_lens_model"),
+        b("camera_disable_depth_of_field"),
+        b("camera_disable_shot_noise"),
+        log("camera_view_distance_m", 10.0, 5000.0),
+        log("camera_near_clipping_m", 0.2, 20.0),
+        b("lidar_disable_shot_noise"),
+        b("lidar_disable_ambient_effects"),
+        b("lidar_disable_translucency"),
+        Variable::discrete("lidar_subsample_count", [1, 2, 3, 4, 5]),
+        Variable::discrete("lidar_raytracing_bounces", [0, 1, 2, 3, 4]),
+        log("lidar_near_clipping_m", 0.2, 20.0),
+    ])
+    .expect("valid fidelity space")
+}
+
+/// θ_HF of [`fidelity_space`]: every setting at its most faithful value.
+fn theta_hf() -> Assignment {
+    Assignment::new()
+        .with("simulation_rate_hz", 10)
+        .with("camera_bloom_level", "high")
+        .with("camera_disable_bloom", false)
+        .with("camera_disable_lighting", false)
+        .with("camera_disable_shadows", false)
+        .with("camera_disable_lens_model", false)
+        .with("camera_disable_depth_of_field", false)
+        .with("camera_disable_shot_noise", false)
+        .with("camera_view_distance_m", 5000.0)
+        .with("camera_near_clipping_m", 0.2)
+        .with("lidar_disable_shot_noise", false)
+        .with("lidar_disable_ambient_effects", false)
+        .with("lidar_disable_translucency", false)
+        .with("lidar_subsample_count", 5)
+        .with("lidar_raytracing_bounces", 4)
+        .with("lidar_near_clipping_m", 0.2)
+}
 
 fn config() -> KernelConfig {
     let phi = Space::new(
@@ -16,7 +65,7 @@ fn config() -> KernelConfig {
             .collect(),
     )
     .expect("valid φ-space");
-    Kernel::builder(paper::fidelity_space(10), paper::theta_hf())
+    Kernel::builder(fidelity_space(), theta_hf())
         .scenario("lead_vehicle", phi, 1.0)
         .budget(0.3)
         .seed(1)

@@ -40,7 +40,6 @@ pub mod journal;
 mod kernel;
 pub mod metrics;
 mod outcome;
-pub mod paper;
 mod posterior;
 mod sampler;
 mod simulator;

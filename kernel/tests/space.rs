@@ -180,9 +180,27 @@ fn assignments_are_checked_against_the_space() {
     ));
 }
 
+/// A space of every kind of variable: integers, labels, booleans, log-binned reals (16 variables,
+/// the shape of a realistic fidelity space).
+fn mixed_space(bins: u32) -> Space {
+    let mut vars = vec![
+        Variable::discrete("rate", [2, 4, 6, 8, 10]),
+        Variable::discrete("level", ["high", "low"]),
+    ];
+    vars.extend((0..6).map(|i| Variable::boolean(&format!("switch_{i}"))));
+    vars.push(Variable::continuous("far", 10.0, 5000.0, bins, Scale::Log));
+    vars.push(Variable::continuous("near", 0.2, 20.0, bins, Scale::Log));
+    vars.extend((6..9).map(|i| Variable::boolean(&format!("switch_{i}"))));
+    vars.push(Variable::discrete("count", [1, 2, 3, 4, 5]));
+    vars.push(Variable::discrete("depth", [0, 1, 2, 3, 4]));
+    vars.push(Variable::continuous("clip", 0.2, 20.0, bins, Scale::Log));
+    Space::new(vars).expect("a valid space")
+}
+
 #[test]
 fn spaces_round_trip_through_json_and_are_validated_on_read() {
-    let s = savme_kernel::paper::fidelity_space(10);
+    let s = mixed_space(10);
+    assert_eq!(s.len(), 16);
     let json = serde_json::to_string(&s).unwrap();
     let back: Space = serde_json::from_str(&json).unwrap();
     assert_eq!(back, s);

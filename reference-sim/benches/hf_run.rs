@@ -3,14 +3,15 @@
 //!
 //! `cargo bench -p savme-sim --bench hf_run`
 use criterion::{criterion_group, criterion_main, Criterion};
-use savme_kernel::{paper, Assignment, Kernel, Phase};
+use savme_kernel::{Assignment, Kernel, Phase};
+use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
 use std::hint::black_box;
 use std::time::Duration;
 
 fn phis(info: &savme_sim::scenario::ScenarioInfo) -> Vec<Assignment> {
-    let mut k = Kernel::builder(paper::fidelity_space(10), paper::theta_hf())
+    let mut k = Kernel::builder(fidelity::space(10), fidelity::theta_hf())
         .scenario(info.name, phi_space(info), 1.0)
         .seed(3)
         .build()
@@ -22,7 +23,7 @@ fn phis(info: &savme_sim::scenario::ScenarioInfo) -> Vec<Assignment> {
 fn bench(c: &mut Criterion) {
     let sim = DrivingSimulator::default();
     let ideal = DrivingSimulator::ideal();
-    let hf = paper::theta_hf();
+    let hf = fidelity::theta_hf();
     let mut g = c.benchmark_group("hf_run");
     for (prefix, simulator) in [("", &sim), ("ideal_", &ideal)] {
         for info in &SCENARIOS {
@@ -44,7 +45,7 @@ fn bench(c: &mut Criterion) {
     let mut s = c.benchmark_group("settings");
     let info = &SCENARIOS[6];
     let phis = phis(info);
-    let space = paper::fidelity_space(10);
+    let space = fidelity::space(10);
     let mut cheapest_all = hf.clone();
     let mut variants: Vec<(String, Assignment)> = vec![("hf".into(), hf.clone())];
     for v in space.variables() {

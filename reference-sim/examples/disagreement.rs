@@ -7,7 +7,8 @@
 //! the same φ samples: disagreement and work ratio attributable to that setting alone.
 //!
 //! `cargo run --release -p savme-sim --example disagreement -- [pairs] [per-setting] [seed]`
-use savme_kernel::{paper, Assignment, Domain, Kernel};
+use savme_kernel::{Assignment, Domain, Kernel};
+use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::settings::cheapest_value;
 use savme_sim::sim::DrivingSimulator;
@@ -17,8 +18,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pairs: usize = args.next().map_or(Ok(200), |a| a.parse())?;
     let per_setting: usize = args.next().map_or(Ok(40), |a| a.parse())?;
     let seed: u64 = args.next().map_or(Ok(1), |a| a.parse())?;
-    let space = paper::fidelity_space(10);
-    let hf = paper::theta_hf();
+    let space = fidelity::space(10);
+    let hf = fidelity::theta_hf();
     let sim = DrivingSimulator::default();
     // A kernel over all ten scenarios draws uniform φ (baseline) and uniform θ (untrained).
     let mut b = Kernel::builder(space.clone(), hf.clone()).seed(seed);

@@ -2,7 +2,8 @@
 //! the scenario ranges are calibrated against (target: 5–35 % each).
 //!
 //! `cargo run --release -p savme-sim --example failure_rates -- [samples] [seed] [sensors|ideal] [scenario]`
-use savme_kernel::{paper, Kernel, Observation, Phase, Run};
+use savme_kernel::{Kernel, Observation, Phase, Run};
+use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
 
@@ -24,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .filter(|s| only.is_none_or(|id| id == s.id))
     {
-        let mut k = Kernel::builder(paper::fidelity_space(10), paper::theta_hf())
+        let mut k = Kernel::builder(fidelity::space(10), fidelity::theta_hf())
             .scenario(info.name, phi_space(info), 1.0)
             .seed(seed)
             .build()?;

@@ -8,6 +8,7 @@
 
 pub mod camera;
 pub mod control;
+pub mod fidelity;
 pub mod lidar;
 pub mod path;
 pub mod perception;

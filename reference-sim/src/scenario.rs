@@ -10,6 +10,7 @@ use crate::path::Path;
 use crate::world::{lanes, Layout, LANE};
 use nalgebra::Point2;
 use savme_kernel::{Assignment, Scale, SimError, Space, Variable};
+use std::collections::BTreeMap;
 use std::f64::consts::FRAC_PI_2;
 use std::sync::OnceLock;
 
@@ -122,6 +123,39 @@ pub fn find(key: &str) -> Option<&'static ScenarioInfo> {
     SCENARIOS
         .iter()
         .find(|s| s.name == key || key.parse::<u8>().is_ok_and(|n| n == s.id))
+}
+
+/// The scenario names in [`SCENARIOS`] order: meta-training (1–8) and meta-testing (9–10).
+///
+/// ```
+/// let (train, test) = savme_sim::scenario::train_test_names();
+/// assert_eq!((train.len(), test.len()), (8, 2));
+/// assert_eq!(test, ["lead_vehicle_two_way", "on_ramp_merge"]);
+/// ```
+pub fn train_test_names() -> (Vec<String>, Vec<String>) {
+    let names = |train: bool| {
+        SCENARIOS
+            .iter()
+            .filter(|s| s.training() == train)
+            .map(|s| s.name.to_string())
+            .collect()
+    };
+    (names(true), names(false))
+}
+
+/// Every scenario's φ-space ([`phi_space`]), by name.
+///
+/// ```
+/// let spaces = savme_sim::scenario::spaces();
+/// assert_eq!(spaces.len(), 10);
+/// let merge = savme_sim::scenario::find("on_ramp_merge").unwrap();
+/// assert_eq!(spaces["on_ramp_merge"], savme_sim::scenario::phi_space(merge));
+/// ```
+pub fn spaces() -> BTreeMap<String, Space> {
+    SCENARIOS
+        .iter()
+        .map(|s| (s.name.to_string(), phi_space(s)))
+        .collect()
 }
 
 fn lin(name: &str, lo: f64, hi: f64) -> Variable {

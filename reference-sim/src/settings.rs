@@ -1,12 +1,13 @@
 //! The paper's 16 fidelity settings (Table I) as typed values.
 
-use savme_kernel::{paper, Assignment, Domain, SimError, Value, Variable};
+use crate::fidelity;
+use savme_kernel::{Assignment, Domain, SimError, Value, Variable};
 
 /// The cheapest value of a Table I setting: switches disabled, low bloom, 2 Hz, one subsample,
 /// no bounces, the shortest view distance, the largest clipping distances.
 ///
 /// ```
-/// let space = savme_kernel::paper::fidelity_space(10);
+/// let space = savme_sim::fidelity::space(10);
 /// let rate = space.variable("simulation_rate_hz").unwrap();
 /// assert_eq!(savme_sim::settings::cheapest_value(rate), savme_kernel::Value::Int(2));
 /// ```
@@ -36,7 +37,7 @@ pub enum BloomLevel {
     Low,
 }
 
-/// All 16 settings, read from a θ assignment (`savme_kernel::paper::fidelity_space`).
+/// All 16 settings, read from a θ assignment ([`fidelity::space`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Settings {
     /// Physics, control and sensor rate, Hz.
@@ -76,12 +77,12 @@ pub struct Settings {
 impl Settings {
     /// θ_HF.
     pub fn hf() -> Settings {
-        Settings::from_assignment(&paper::theta_hf()).expect("θ_HF is valid")
+        Settings::from_assignment(&fidelity::theta_hf()).expect("θ_HF is valid")
     }
 
     /// Reads a complete, in-range assignment of the 16 settings.
     pub fn from_assignment(theta: &Assignment) -> Result<Settings, SimError> {
-        paper::fidelity_space(1)
+        fidelity::space(1)
             .arms_of(theta)
             .map_err(|e| SimError::BadValue {
                 variable: "fidelity".into(),

@@ -2,8 +2,9 @@
 //! the intruder; sensor frames are kept only when asked for.
 use rand::SeedableRng;
 use rand_pcg::Pcg64;
-use savme_kernel::{paper, Assignment};
+use savme_kernel::Assignment;
 use savme_sim::camera::{reference_shot, render, Frame};
+use savme_sim::fidelity;
 use savme_sim::perception::{detect, paint_mask};
 use savme_sim::scene::Scene;
 use savme_sim::settings::{BloomLevel, Settings};
@@ -123,7 +124,7 @@ fn sensor_frames_are_kept_only_when_asked() {
         .with("gap", 20.0)
         .with("lead_decel", 4.0)
         .with("brake_time", 2.0);
-    let low = paper::theta_hf().with("simulation_rate_hz", 2);
+    let low = fidelity::theta_hf().with("simulation_rate_hz", 2);
     let with = sim.run("7", &phi, &low, true).unwrap();
     let frames = with.sensor_frames.expect("frames recorded");
     assert_eq!(frames.len() as u64, with.steps);

@@ -1,12 +1,13 @@
 //! The ten scenarios under θ_HF: failures exist, runs are deterministic, bad φ is named, and the
 //! simulation rate changes both the work done and the outcome.
-use savme_kernel::{paper, Assignment, Kernel, Phase, SimError, Simulator};
+use savme_kernel::{Assignment, Kernel, Phase, SimError, Simulator};
+use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
 
 /// Uniform φ samples of a scenario (the kernel's baseline phase, seeded).
 fn samples(name: &str, space: savme_kernel::Space, n: usize) -> Vec<Assignment> {
-    let mut k = Kernel::builder(paper::fidelity_space(10), paper::theta_hf())
+    let mut k = Kernel::builder(fidelity::space(10), fidelity::theta_hf())
         .scenario(name, space, 1.0)
         .seed(5)
         .build()
@@ -21,7 +22,9 @@ fn every_scenario_has_a_colliding_and_a_safe_phi() {
     for info in &SCENARIOS {
         let (mut crash, mut safe) = (None, None);
         for phi in samples(info.name, phi_space(info), 400) {
-            let r = sim.run(info.name, &phi, &paper::theta_hf(), false).unwrap();
+            let r = sim
+                .run(info.name, &phi, &fidelity::theta_hf(), false)
+                .unwrap();
             if r.failure {
                 assert_eq!(r.min_distance, 0.0);
                 assert!(r
@@ -46,8 +49,12 @@ fn runs_are_deterministic_and_trajectories_cost_nothing_unless_asked() {
     let sim = DrivingSimulator::ideal();
     for info in &SCENARIOS {
         for phi in samples(info.name, phi_space(info), 5) {
-            let a = sim.run(info.name, &phi, &paper::theta_hf(), true).unwrap();
-            let b = sim.run(info.name, &phi, &paper::theta_hf(), false).unwrap();
+            let a = sim
+                .run(info.name, &phi, &fidelity::theta_hf(), true)
+                .unwrap();
+            let b = sim
+                .run(info.name, &phi, &fidelity::theta_hf(), false)
+                .unwrap();
             assert_eq!(
                 (a.failure, a.min_distance, a.work),
                 (b.failure, b.min_distance, b.work)
@@ -62,11 +69,13 @@ fn runs_are_deterministic_and_trajectories_cost_nothing_unless_asked() {
 #[test]
 fn the_simulation_rate_changes_work_and_outcomes() {
     let sim = DrivingSimulator::ideal();
-    let low = paper::theta_hf().with("simulation_rate_hz", 2);
+    let low = fidelity::theta_hf().with("simulation_rate_hz", 2);
     let (mut work_less, mut differ, mut n) = (0, 0, 0);
     for info in &SCENARIOS {
         for phi in samples(info.name, phi_space(info), 60) {
-            let hf = sim.run(info.name, &phi, &paper::theta_hf(), false).unwrap();
+            let hf = sim
+                .run(info.name, &phi, &fidelity::theta_hf(), false)
+                .unwrap();
             let lf = sim.run(info.name, &phi, &low, false).unwrap();
             n += 1;
             work_less += usize::from(lf.work < hf.work);
@@ -85,7 +94,7 @@ fn bad_phi_and_fidelity_are_named() {
     let mut sim = DrivingSimulator::ideal();
     let info = &SCENARIOS[6];
     let good = samples(info.name, phi_space(info), 1).remove(0);
-    let hf = paper::theta_hf();
+    let hf = fidelity::theta_hf();
     let mut err = |phi: &Assignment, theta: &Assignment| {
         sim.simulate(info.name, phi, theta).unwrap_err().to_string()
     };

@@ -21,7 +21,7 @@ type NumberedLines = Vec<(u64, LogLine)>;
 /// use savme::campaign::{Campaign, Problem, ProgressBars, Protocol};
 /// use savme_sim::sim::DrivingSimulator;
 ///
-/// let (train, test) = savme::campaign::driving_scenarios();
+/// let (train, test) = savme_sim::scenario::train_test_names();
 /// let protocol = Protocol::quick("savme-sim/sensors", train, test);
 /// let outcome = Campaign::new(protocol.clone(), Problem::driving(protocol.fidelity_bins))
 ///     .out("results")

@@ -144,7 +144,7 @@ pub struct Preset {
 /// # Ok::<(), savme::campaign::CampaignError>(())
 /// ```
 pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), CampaignError> {
-    let (train, test) = super::driving_scenarios();
+    let (train, test) = savme_sim::scenario::train_test_names();
     let simulator = if preset.ideal { IDEAL } else { SENSORS };
     let mut p = if preset.quick {
         Protocol::quick(simulator, train, test)

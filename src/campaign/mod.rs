@@ -15,7 +15,7 @@
 //! use savme::campaign::{Campaign, Problem, Protocol};
 //! use savme_sim::sim::DrivingSimulator;
 //!
-//! let (train, test) = savme::campaign::driving_scenarios();
+//! let (train, test) = savme_sim::scenario::train_test_names();
 //! let protocol = Protocol::quick("savme-sim/sensors", train, test);
 //! let problem = Problem::driving(protocol.fidelity_bins);
 //! let outcome = Campaign::new(protocol, problem)
@@ -45,7 +45,7 @@ pub use outputs::{load_protocol, Outputs};
 pub use protocol::{Cost, OnError, Protocol, Stage, StageKind};
 pub use report::Report;
 
-use savme_kernel::{paper, Space};
+use savme_kernel::Space;
 use std::collections::BTreeMap;
 
 /// What a finished campaign returns.
@@ -63,18 +63,6 @@ pub struct CampaignOutcome {
     pub elapsed_seconds: f64,
 }
 
-/// The bundled driving simulator's scenario names: meta-training (1–8) and meta-testing (9–10).
-pub fn driving_scenarios() -> (Vec<String>, Vec<String>) {
-    let names = |train: bool| {
-        savme_sim::scenario::SCENARIOS
-            .iter()
-            .filter(|s| s.training() == train)
-            .map(|s| s.name.to_string())
-            .collect()
-    };
-    (names(true), names(false))
-}
-
 /// What is searched: the fidelity space with θ_HF, and each scenario's parameter space.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Problem {
@@ -87,21 +75,13 @@ pub struct Problem {
 }
 
 impl Problem {
-    /// The bundled driving simulator: the paper's Table I (`bins` per continuous setting) and
-    /// the ten scenarios.
+    /// The bundled driving simulator's problem (its domain knowledge lives in `savme-sim`:
+    /// the paper's Table I with `bins` per continuous setting, θ_HF, the ten scenarios).
     pub fn driving(bins: u32) -> Problem {
         Problem {
-            fidelity: paper::fidelity_space(bins),
-            theta_hf: paper::theta_hf(),
-            scenarios: driving_spaces(),
+            fidelity: savme_sim::fidelity::space(bins),
+            theta_hf: savme_sim::fidelity::theta_hf(),
+            scenarios: savme_sim::scenario::spaces(),
         }
     }
-}
-
-/// The bundled driving simulator's scenario parameter spaces, by name.
-pub fn driving_spaces() -> BTreeMap<String, Space> {
-    savme_sim::scenario::SCENARIOS
-        .iter()
-        .map(|s| (s.name.to_string(), savme_sim::scenario::phi_space(s)))
-        .collect()
 }

@@ -1,6 +1,7 @@
 //! `savme fidelity`: the 16 fidelity settings (the paper's Table I) with their θ_HF values.
 
-use savme::kernel::{paper, Domain};
+use savme::kernel::Domain;
+use savme_sim::fidelity;
 
 pub fn run() -> Result<(), String> {
     super::print(&fidelity_text())
@@ -12,8 +13,8 @@ fn fidelity_text() -> String {
     let mut out = String::from(
         "setting                           type        values / range              θ_HF\n",
     );
-    let hf = paper::theta_hf();
-    for v in paper::fidelity_space(10).variables() {
+    let hf = fidelity::theta_hf();
+    for v in fidelity::space(10).variables() {
         let (kind, range) = match &v.domain {
             Domain::Discrete { values } => (
                 "discrete",

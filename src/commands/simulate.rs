@@ -1,7 +1,8 @@
 //! `savme simulate`: one run of the bundled driving simulator, described or as JSON, optionally
 //! recorded to the viewer.
 
-use savme::kernel::{paper, Assignment, Domain, Value};
+use savme::kernel::{Assignment, Domain, Value};
+use savme_sim::fidelity;
 use savme_sim::scenario;
 use savme_sim::sim::DrivingSimulator;
 
@@ -72,11 +73,11 @@ fn parse_assignment(text: &str) -> Result<Assignment, String> {
 /// θ from `hf` or a list of overrides of θ_HF; continuous settings given as integers are
 /// read as reals.
 fn parse_fidelity(text: &str) -> Result<Assignment, String> {
-    let mut theta = paper::theta_hf();
+    let mut theta = fidelity::theta_hf();
     if text.trim() == "hf" {
         return Ok(theta);
     }
-    let space = paper::fidelity_space(1);
+    let space = fidelity::space(1);
     for (name, value) in parse_assignment(text.trim_start_matches("hf,"))?.iter() {
         let var = space.variable(name).ok_or_else(|| {
             let names: Vec<&str> = space.variables().iter().map(|v| &*v.name).collect();
@@ -158,7 +159,7 @@ mod tests {
     fn fidelity_overrides_hf_and_unknown_settings_are_named() {
         let t = parse_fidelity("simulation_rate_hz=2").unwrap();
         assert_eq!(t.get_f64("simulation_rate_hz"), Some(2.0));
-        assert_eq!(parse_fidelity("hf").unwrap(), paper::theta_hf());
+        assert_eq!(parse_fidelity("hf").unwrap(), fidelity::theta_hf());
         let e = parse_fidelity("rate=2").unwrap_err();
         assert!(e.contains("unknown fidelity setting `rate`"), "{e}");
     }

@@ -11,7 +11,8 @@
 //! [`model_description`] and the shared library built from this crate into an `.fmu`.
 
 use savme_fmi_export::{Model, Scalar, Variable};
-use savme_kernel::{paper, Assignment, Domain, Value};
+use savme_kernel::{Assignment, Domain, Value};
+use savme_sim::fidelity;
 use savme_sim::scenario::{find, phi_space, SCENARIOS};
 use savme_sim::sim::{DrivingSimulator, Perceiver, Stepper};
 use std::sync::OnceLock;
@@ -84,8 +85,8 @@ fn variables() -> Vec<Variable> {
             .range(*lo, *hi),
         );
     }
-    let hf = paper::theta_hf();
-    for var in paper::fidelity_space(10).variables() {
+    let hf = fidelity::theta_hf();
+    for var in fidelity::space(10).variables() {
         let name: &str = &var.name;
         let start = hf.get(name).cloned().unwrap_or(Value::Bool(false));
         let scalar = match (&var.domain, &start) {
@@ -218,7 +219,7 @@ pub fn assignments(
         phi.set(&v.name, get(&v.name)?.as_f64());
     }
     let mut theta = Assignment::new();
-    for v in paper::fidelity_space(10).variables() {
+    for v in fidelity::space(10).variables() {
         let s = get(&v.name)?;
         let value = match (&v.domain, s) {
             (_, Scalar::Boolean(b)) => Value::Bool(b),

@@ -1,17 +1,21 @@
-//! Constants of the SAVME paper (Schlichting et al., ITSC 2023): the fidelity space of its
-//! Table I with θ_HF, and its Table III results.
+//! The driving simulator's fidelity settings: the SAVME paper's Table I (Schlichting et al.,
+//! ITSC 2023) as a kernel [`Space`], with θ_HF.
 
-use crate::space::{Scale, Space, Variable};
-use crate::value::Assignment;
+use savme_kernel::{Assignment, Scale, Space, Variable};
 
 /// The 16 fidelity settings of Table I, continuous ones cut into `bins` log-scaled bins.
 ///
+/// # Panics
+///
+/// If `bins` is 0 (a continuous variable needs at least one bin): callers taking `bins` from
+/// the user must check it first.
+///
 /// ```
-/// let space = savme_kernel::paper::fidelity_space(10);
+/// let space = savme_sim::fidelity::space(10);
 /// assert_eq!(space.len(), 16);
-/// assert!(space.arms_of(&savme_kernel::paper::theta_hf()).is_ok());
+/// assert!(space.arms_of(&savme_sim::fidelity::theta_hf()).is_ok());
 /// ```
-pub fn fidelity_space(bins: u32) -> Space {
+pub fn space(bins: u32) -> Space {
     let b = Variable::boolean;
     let vars = vec![
         Variable::discrete("simulation_rate_hz", [2, 4, 6, 8, 10]),
@@ -54,12 +58,3 @@ pub fn theta_hf() -> Assignment {
         .with("lidar_raytracing_bounces", 4)
         .with("lidar_near_clipping_m", 0.2)
 }
-
-/// A row of Table III: C_budget (None for the baseline), TP-rate, mean LF cost, speedup, as
-/// printed (rounded to two decimals).
-pub const TABLE_III: [(Option<f64>, f64, f64, f64); 4] = [
-    (None, 0.17, 1.00, 1.00),
-    (Some(0.4), 0.41, 0.26, 9.32),
-    (Some(0.3), 0.74, 0.25, 17.99),
-    (Some(0.2), 0.29, 0.22, 7.86),
-];

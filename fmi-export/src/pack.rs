@@ -1,0 +1,76 @@
+//! Packing an `.fmu`: the model description and the shared library in a zip archive.
+
+use std::io::Write;
+use std::path::Path;
+
+/// The `binaries/` folder of this platform (`linux64`, `darwin64`, `win64`).
+pub fn platform_folder() -> String {
+    let os = match std::env::consts::OS {
+        "macos" => "darwin",
+        "windows" => "win",
+        other => other,
+    };
+    let bits = if cfg!(target_pointer_width = "64") {
+        "64"
+    } else {
+        "32"
+    };
+    format!("{os}{bits}")
+}
+
+/// Why packing failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PackError {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// The zip archive could not be written.
+    #[error("{path}: {source}")]
+    Zip {
+        /// The archive.
+        path: String,
+        /// The error.
+        source: zip::result::ZipError,
+    },
+}
+
+/// Writes `out` (an `.fmu`): `modelDescription.xml` (the given text) and `library` as
+/// `binaries/<platform>/<identifier>.<so|dylib|dll>`.
+pub fn pack(
+    model_description: &str,
+    identifier: &str,
+    library: &Path,
+    out: &Path,
+) -> Result<(), PackError> {
+    let io = |path: &Path| {
+        let path = path.display().to_string();
+        move |source| PackError::Io { path, source }
+    };
+    let zip_err = |source| PackError::Zip {
+        path: out.display().to_string(),
+        source,
+    };
+    let lib = std::fs::read(library).map_err(io(library))?;
+    let file = std::fs::File::create(out).map_err(io(out))?;
+    let mut z = zip::ZipWriter::new(file);
+    let opts = zip::write::FileOptions::default()
+        .compression_method(zip::CompressionMethod::Deflated)
+        .unix_permissions(0o755);
+    z.start_file("modelDescription.xml", opts)
+        .map_err(zip_err)?;
+    z.write_all(model_description.as_bytes()).map_err(io(out))?;
+    let ext = std::env::consts::DLL_EXTENSION;
+    z.start_file(
+        format!("binaries/{}/{identifier}.{ext}", platform_folder()),
+        opts,
+    )
+    .map_err(zip_err)?;
+    z.write_all(&lib).map_err(io(out))?;
+    z.finish().map_err(zip_err)?;
+    Ok(())
+}
