@@ -147,102 +147,176 @@ pub fn run_stage(
     cx: StageContext<'_>,
     mut progress: impl FnMut(&TrialLine, &Kernel),
 ) -> Result<Vec<LogLine>, CampaignError> {
-    let stage = cx.stage;
-    let label = stage.label();
-    kernel.set_phase(stage.phase());
-    let theta_hf = kernel.theta_hf().clone();
-    let mut lines = Vec::with_capacity(stage.iterations as usize);
-    let mut queue: VecDeque<Slot> = VecDeque::new();
-    let mut asked = 0u64;
-    let failed = std::cell::Cell::new(0u64);
-    // Asks the next trial (false when enough trials are asked: withdrawn ones are replaced).
-    let mut ask =
-        |kernel: &mut Kernel, queue: &mut VecDeque<Slot>| -> Result<bool, CampaignError> {
-            if asked - failed.get() >= stage.iterations {
-                return Ok(false);
-            }
-            let trial = kernel.ask();
-            let index = asked;
-            asked += 1;
-            let logged = cx.logged.get(index as usize).cloned();
-            if let Some(l) = &logged {
-                check_logged(l, &trial, &label, index)?;
-            } else {
-                let task = |which, fidelity: &Assignment| Task {
-                    trial: trial.id,
-                    which,
-                    scenario: trial.scenario.clone(),
-                    phi: trial.phi.clone(),
-                    fidelity: fidelity.clone(),
-                };
-                let send = |t| pool.tasks.send(t).map_err(|_| CampaignError::WorkersGone);
-                send(task(Which::Hf, &theta_hf))?;
+    kernel.set_phase(cx.stage.phase());
+    let mut run = StageRun {
+        label: cx.stage.label(),
+        theta_hf: kernel.theta_hf().clone(),
+        pool,
+        kernel,
+        cx,
+        lines: Vec::new(),
+        queue: VecDeque::new(),
+        asked: 0,
+        failed: 0,
+    };
+    while run.queue.len() < run.cx.window && run.ask()? {}
+    while !run.queue.is_empty() {
+        run.tell_ready(&mut progress)?;
+        if run.queue.is_empty() {
+            break;
+        }
+        let done = run
+            .pool
+            .done
+            .recv()
+            .map_err(|_| CampaignError::WorkersGone)?;
+        run.receive(done)?;
+    }
+    Ok(run.lines)
+}
+
+/// A stage in progress: trials in flight in ask order, the lines told so far.
+struct StageRun<'p, 'k, 'c> {
+    pool: &'p mut Pool,
+    kernel: &'k mut Kernel,
+    cx: StageContext<'c>,
+    label: String,
+    theta_hf: Assignment,
+    lines: Vec<LogLine>,
+    queue: VecDeque<Slot>,
+    /// Trials asked (withdrawn ones included) and withdrawn.
+    asked: u64,
+    failed: u64,
+}
+
+impl StageRun<'_, '_, '_> {
+    /// Asks the next trial and sends its runs to the workers (or takes its logged line on
+    /// resume); false when the stage has asked enough (withdrawn trials are replaced).
+    fn ask(&mut self) -> Result<bool, CampaignError> {
+        if self.asked - self.failed >= self.cx.stage.iterations {
+            return Ok(false);
+        }
+        let trial = self.kernel.ask();
+        let index = self.asked;
+        self.asked += 1;
+        let logged = self.cx.logged.get(index as usize).cloned();
+        match &logged {
+            Some(l) => check_logged(l, &trial, &self.label, index)?,
+            None => {
+                self.send(&trial, Which::Hf, &self.theta_hf)?;
                 if let Some(theta) = &trial.theta_lf {
-                    send(task(Which::Lf, theta))?;
+                    self.send(&trial, Which::Lf, theta)?;
                 }
             }
-            queue.push_back(Slot {
-                trial,
-                index,
-                hf: None,
-                lf: None,
-                logged,
-                error: None,
-            });
-            Ok(true)
+        }
+        self.queue.push_back(Slot {
+            trial,
+            index,
+            hf: None,
+            lf: None,
+            logged,
+            error: None,
+        });
+        Ok(true)
+    }
+
+    fn send(
+        &self,
+        trial: &Trial,
+        which: Which,
+        fidelity: &Assignment,
+    ) -> Result<(), CampaignError> {
+        let task = Task {
+            trial: trial.id,
+            which,
+            scenario: trial.scenario.clone(),
+            phi: trial.phi.clone(),
+            fidelity: fidelity.clone(),
         };
-    while queue.len() < cx.window && ask(kernel, &mut queue)? {}
-    while !queue.is_empty() {
-        while queue.front().is_some_and(Slot::ready) {
-            let Some(slot) = queue.pop_front() else { break };
-            let line = tell(kernel, slot, &label, stage, cx.cost, cx.store)?;
+        self.pool
+            .tasks
+            .send(task)
+            .map_err(|_| CampaignError::WorkersGone)
+    }
+
+    /// Tells every trial at the front of the queue whose runs are in, in ask order, asking a
+    /// new trial after each.
+    fn tell_ready(
+        &mut self,
+        progress: &mut impl FnMut(&TrialLine, &Kernel),
+    ) -> Result<(), CampaignError> {
+        while self.queue.front().is_some_and(Slot::ready) {
+            let Some(slot) = self.queue.pop_front() else {
+                break;
+            };
+            let line = tell(
+                self.kernel,
+                slot,
+                &self.label,
+                self.cx.stage,
+                self.cx.cost,
+                self.cx.store,
+            )?;
             match &line {
-                LogLine::Trial(t) => progress(t, kernel),
+                LogLine::Trial(t) => progress(t, self.kernel),
                 LogLine::Failed(f) => {
-                    failed.set(failed.get() + 1);
-                    if failed.get() > stage.iterations {
+                    self.failed += 1;
+                    if self.failed > self.cx.stage.iterations {
                         return Err(CampaignError::TooManyFailures {
-                            stage: label,
-                            failures: failed.get(),
+                            stage: self.label.clone(),
+                            failures: self.failed,
                             last: f.error.clone(),
                         });
                     }
                 }
             }
-            lines.push(line);
-            ask(kernel, &mut queue)?;
+            self.lines.push(line);
+            self.ask()?;
         }
-        if queue.is_empty() {
-            break;
-        }
-        let done = pool.done.recv().map_err(|_| CampaignError::WorkersGone)?;
-        let Some(slot) = queue.iter_mut().find(|s| s.trial.id == done.trial) else {
-            continue;
+        Ok(())
+    }
+
+    /// Files a finished run with its trial (a failed one per `on_error`).
+    fn receive(&mut self, done: Done) -> Result<(), CampaignError> {
+        let Some(slot) = self.queue.iter_mut().find(|s| s.trial.id == done.trial) else {
+            return Ok(());
         };
         match done.result {
             Ok(r) => match done.which {
                 Which::Hf => slot.hf = Some(r),
                 Which::Lf => slot.lf = Some(r),
             },
-            Err(source) if cx.on_error == OnError::Skip => {
+            Err(source) if self.cx.on_error == OnError::Skip => {
                 slot.error
                     .get_or_insert(format!("{} run: {source}", which_name(done.which)));
             }
             Err(source) => {
-                return Err(CampaignError::Simulation(Box::new(
-                    super::error::SimulationError {
-                        stage: label,
-                        trial: slot.trial.id,
-                        scenario: slot.trial.scenario.to_string(),
-                        phi: slot.trial.phi.to_string(),
-                        run: which_name(done.which),
-                        source,
-                    },
-                )))
+                return Err(simulation_error(
+                    &self.label,
+                    &slot.trial,
+                    which_name(done.which),
+                    source,
+                ))
             }
         }
+        Ok(())
     }
-    Ok(lines)
+}
+
+fn simulation_error(
+    label: &str,
+    trial: &Trial,
+    run: &'static str,
+    source: SimError,
+) -> CampaignError {
+    CampaignError::Simulation(Box::new(super::error::SimulationError {
+        stage: label.into(),
+        trial: trial.id,
+        scenario: trial.scenario.to_string(),
+        phi: trial.phi.to_string(),
+        run,
+        source,
+    }))
 }
 
 /// A logged trial must be the one the protocol asks for now.
@@ -271,6 +345,9 @@ fn check_logged(l: &LogLine, t: &Trial, label: &str, index: u64) -> Result<(), C
     }
 }
 
+/// Tells the kernel a trial whose runs are in: its logged line on resume (checked against
+/// what the kernel credits), a withdrawal if a run failed, else its runs — storing the line
+/// before the kernel learns from it.
 fn tell(
     kernel: &mut Kernel,
     slot: Slot,
@@ -323,17 +400,29 @@ fn tell(
         store.append(&line.to_value())?;
         return Ok(line);
     }
+    let mut line = trial_line(&slot, label, stage, cost)?;
+    let record = kernel
+        .tell(slot.trial.id, line.observation())
+        .map_err(|e| diverged(format!("the outcome cannot be told: {e}")))?;
+    line.cost_ratio = record.cost_ratio;
+    line.outcome = record.outcome;
+    line.credit = record.credit;
+    let line = LogLine::Trial(line);
+    store.append(&line.to_value())?;
+    Ok(line)
+}
+
+/// The line of a trial whose runs are in (before the kernel's assessment).
+fn trial_line(
+    slot: &Slot,
+    label: &str,
+    stage: &Stage,
+    cost: CostMeasure,
+) -> Result<TrialLine, CampaignError> {
     let run_line = |r: &SimResult, which: &'static str| -> Result<RunLine, CampaignError> {
-        let run = r.run(cost).map_err(|source| {
-            CampaignError::Simulation(Box::new(super::error::SimulationError {
-                stage: label.into(),
-                trial: slot.trial.id,
-                scenario: slot.trial.scenario.to_string(),
-                phi: slot.trial.phi.to_string(),
-                run: which,
-                source,
-            }))
-        })?;
+        let run = r
+            .run(cost)
+            .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
         Ok(RunLine::new(r, run.runtime))
     };
     let hf = run_line(slot.hf.as_ref().ok_or(CampaignError::WorkersGone)?, "HF")?;
@@ -341,7 +430,7 @@ fn tell(
         Some(r) => Some(run_line(r, "LF")?),
         None => None,
     };
-    let mut line = TrialLine {
+    Ok(TrialLine {
         stage: label.into(),
         index: slot.index,
         id: slot.trial.id,
@@ -355,14 +444,5 @@ fn tell(
         cost_ratio: None,
         outcome: None,
         credit: Default::default(),
-    };
-    let record = kernel
-        .tell(slot.trial.id, line.observation())
-        .map_err(|e| diverged(format!("the outcome cannot be told: {e}")))?;
-    line.cost_ratio = record.cost_ratio;
-    line.outcome = record.outcome;
-    line.credit = record.credit;
-    let line = LogLine::Trial(line);
-    store.append(&line.to_value())?;
-    Ok(line)
+    })
 }
