@@ -10,13 +10,16 @@
 //! | `{"op":"tell","id":4,"observation":{"hf_only":{"failure":false,"runtime":1.1}}}` | (baseline trials) |
 //! | `{"op":"cancel","id":5}` | `{"ok":true,"trial":{…}}` |
 //! | `{"op":"phase","phase":"evaluate"}` (train, evaluate, baseline, test) | `{"ok":true}` |
-//! | `{"op":"estimate"}` or `{"op":"estimate","estimator":"mean"}` | `{"ok":true,"theta_lf":{…}}` |
+//! | `{"op":"estimate"}` or `{"op":"estimate","estimator":"mean"}` | `{"ok":true,"theta_lf":{…},"evidence":n,"learned":bool}` |
 //! | `{"op":"posterior"}` | `{"ok":true,"fidelity":{…},"scenarios":{…}}` |
 //! | `{"op":"stats"}` | `{"ok":true,"stats":{…},"pending":[ids]}` |
+//! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
 //!
-//! A bad request gets `{"ok":false,"error":"…"}` naming the input line, and changes nothing; the
-//! server goes on. With a journal every change is logged before it is applied, and a restarted
-//! server resumes from it.
+//! A bad request — not UTF-8, not JSON, an unknown key, a refused tell — gets
+//! `{"ok":false,"error":"request line N: …"}` and changes nothing; the server goes on. An ask of
+//! `n` trials is all or nothing. With a journal every change is logged before it is applied,
+//! and a restarted server resumes from it. `estimate` says how much evidence stands behind it:
+//! before any (`"learned":false`) it is only the prior's choice.
 
 use crate::campaign::store::journal::JournalSink;
 use crate::campaign::store::StoreError;
@@ -48,8 +51,9 @@ enum Request {
         #[serde(default)]
         estimator: Option<Estimator>,
     },
-    Posterior,
-    Stats,
+    Posterior {},
+    Stats {},
+    Pending {},
 }
 
 fn one() -> usize {
@@ -79,7 +83,7 @@ impl Session {
     /// Handles one request line; returns the response object.
     pub fn handle(&mut self, line: &str) -> Value {
         match serde_json::from_str::<Request>(line) {
-            Err(e) => error(format!("not a request: {e}")),
+            Err(e) => error(not_a_request(line, &e)),
             Ok(r) => self.apply(r).unwrap_or_else(error),
         }
     }
@@ -91,13 +95,10 @@ impl Session {
                 if n == 0 || n > MAX_BATCH {
                     return Err(format!("n must be between 1 and {MAX_BATCH}, got {n}"));
                 }
-                let mut trials = Vec::with_capacity(n);
-                for _ in 0..n {
-                    trials.push(match self {
-                        Session::Plain(k) => k.ask(),
-                        Session::Journaled(j) => j.ask().map_err(io)?,
-                    });
-                }
+                let trials = match self {
+                    Session::Plain(k) => (0..n).map(|_| k.ask()).collect(),
+                    Session::Journaled(j) => j.ask_batch(n).map_err(io)?,
+                };
                 Ok(json!({"ok": true, "trials": trials}))
             }
             Request::Tell { id, observation } => {
@@ -124,9 +125,21 @@ impl Session {
             Request::Estimate { estimator } => {
                 let k = self.kernel();
                 let est = estimator.unwrap_or(k.config().estimator);
-                Ok(json!({"ok": true, "theta_lf": k.fidelity_estimate(est)}))
+                let evidence = evidence(k.fidelity_posterior());
+                let mut answer = json!({
+                    "ok": true,
+                    "theta_lf": k.fidelity_estimate(est),
+                    "evidence": evidence,
+                    "learned": evidence > 0.0,
+                });
+                if evidence == 0.0 {
+                    answer["warning"] = json!(
+                        "nothing has been learned yet (no credited trial and no transferred prior): this is the untrained prior's choice"
+                    );
+                }
+                Ok(answer)
             }
-            Request::Posterior => {
+            Request::Posterior {} => {
                 let k = self.kernel();
                 let scenarios: serde_json::Map<String, Value> = k
                     .config()
@@ -143,7 +156,11 @@ impl Session {
                     "scenarios": scenarios,
                 }))
             }
-            Request::Stats => {
+            Request::Pending {} => {
+                let trials: Vec<_> = self.kernel().pending().cloned().collect();
+                Ok(json!({"ok": true, "trials": trials}))
+            }
+            Request::Stats {} => {
                 let k = self.kernel();
                 let pending: Vec<u64> = k.pending().map(|t| t.id).collect();
                 Ok(json!({
@@ -157,23 +174,67 @@ impl Session {
     }
 
     /// Serves requests from `input` until it ends, writing one response line each to `output`.
-    /// Blank lines are skipped. Only an I/O error on `input` or `output` ends it early.
-    pub fn serve<R: BufRead, O: Write>(&mut self, input: R, mut output: O) -> std::io::Result<()> {
-        for (i, line) in input.lines().enumerate() {
-            let line = line?;
-            if line.trim().is_empty() {
-                continue;
+    /// Blank lines are skipped; a line that is not UTF-8 gets an error response like any bad
+    /// request. Only an I/O error on `input` or `output` ends it early.
+    pub fn serve<R: BufRead, O: Write>(
+        &mut self,
+        mut input: R,
+        mut output: O,
+    ) -> std::io::Result<()> {
+        let mut buf = Vec::new();
+        let mut number = 0usize;
+        loop {
+            buf.clear();
+            if input.read_until(b'\n', &mut buf)? == 0 {
+                return Ok(());
             }
-            let mut response = self.handle(&line);
+            number += 1;
+            let mut response = match std::str::from_utf8(&buf) {
+                Ok(line) if line.trim().is_empty() => continue,
+                Ok(line) => self.handle(line),
+                Err(e) => error(format!(
+                    "not UTF-8 text (byte {} of the line)",
+                    e.valid_up_to() + 1
+                )),
+            };
             if let Some(msg) = response.get("error").and_then(Value::as_str) {
-                response["error"] = Value::String(format!("request line {}: {msg}", i + 1));
+                response["error"] = Value::String(format!("request line {number}: {msg}"));
             }
             serde_json::to_writer(&mut output, &response)?;
             output.write_all(b"\n")?;
             output.flush()?;
         }
-        Ok(())
     }
+}
+
+/// How many observations stand behind the fidelity posterior (told or transferred): the
+/// evidence on its first variable beyond the prior's pseudo-counts.
+fn evidence(p: &savme_kernel::Posterior) -> f64 {
+    let prior = p.prior();
+    p.arms().first().map_or(0.0, |arms| {
+        arms.iter()
+            .map(|a| (a.alpha - prior.successes) + (a.beta - prior.losses))
+            .sum::<f64>()
+            .max(0.0)
+    })
+}
+
+/// Why a line is not a request, said without serde's "line 1" (the request line is named by
+/// the caller) and with a hint for the usual mistakes.
+fn not_a_request(line: &str, e: &serde_json::Error) -> String {
+    let text = e.to_string();
+    let message = match text.find(" at line ") {
+        Some(i) => format!("{} (column {})", &text[..i], e.column()),
+        None => text,
+    };
+    let hint = if line.starts_with('\u{feff}') {
+        "; the line starts with a byte-order mark: send UTF-8 without one"
+    } else if ["NaN", "Infinity"].iter().any(|t| line.contains(t)) {
+        "; JSON has no NaN or Infinity: runtimes must be finite numbers"
+    } else {
+        ""
+    };
+    format!("not a request: {message}{hint}")
 }
 
 fn error(message: String) -> Value {
@@ -235,5 +296,126 @@ mod tests {
         }
         assert!(r[4]["error"].as_str().unwrap().contains("never asked"));
         assert_eq!(s.kernel().to_json(), before);
+    }
+
+    fn errors(s: &mut Session, input: &[u8]) -> Vec<Value> {
+        let mut out = Vec::new();
+        s.serve(input, &mut out).unwrap();
+        String::from_utf8(out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect()
+    }
+
+    #[test]
+    fn unknown_keys_bad_bytes_and_bad_numbers_are_named_and_the_server_goes_on() {
+        let mut s = session();
+        let mut input = b"{\"op\":\"stats\",\"x\":1}\n{\"op\":\"posterior\",\"y\":2}\n".to_vec();
+        input.extend_from_slice(b"{\"op\":\"ask\",\"\xff\":1}\n");
+        input.extend_from_slice(b"{\"op\":\"tell\",\"id\":0,\"observation\":{\"hf_only\":{\"failure\":true,\"runtime\":NaN}}}\n");
+        input.extend_from_slice("\u{feff}{\"op\":\"stats\"}\n".as_bytes());
+        input.extend_from_slice(b"{\"op\":\"ask\",\"n\":1,\"runtme\":5}\n{\"op\":\"stats\"}\n");
+        let r = errors(&mut s, &input);
+        assert_eq!(r.len(), 7);
+        let msg = |i: usize| r[i]["error"].as_str().unwrap_or_default().to_string();
+        assert!(
+            msg(0).starts_with("request line 1:") && msg(0).contains("unknown field `x`"),
+            "{}",
+            msg(0)
+        );
+        assert!(msg(1).contains("unknown field `y`"), "{}", msg(1));
+        assert!(
+            msg(2).starts_with("request line 3: not UTF-8 text (byte 14"),
+            "{}",
+            msg(2)
+        );
+        assert!(
+            msg(3).contains("no NaN or Infinity") && !msg(3).contains("line 1"),
+            "{}",
+            msg(3)
+        );
+        assert!(msg(4).contains("byte-order mark"), "{}", msg(4));
+        assert!(msg(5).contains("unknown field `runtme`"), "{}", msg(5));
+        assert_eq!(r[6]["ok"], true);
+        assert_eq!(r[6]["stats"]["asked"], 0);
+    }
+
+    #[test]
+    fn pending_lists_every_asked_untold_trial_and_estimate_says_when_nothing_was_learned() {
+        let mut s = session();
+        let r = run(
+            &mut s,
+            "{\"op\":\"estimate\"}\n{\"op\":\"ask\",\"n\":3}\n{\"op\":\"pending\"}\n",
+        );
+        assert_eq!(r[0]["learned"], false);
+        assert_eq!(r[0]["evidence"], 0.0);
+        assert!(r[0]["warning"]
+            .as_str()
+            .unwrap()
+            .contains("nothing has been learned"));
+        assert_eq!(r[2]["trials"], r[1]["trials"]);
+        let id = r[1]["trials"][0]["id"].as_u64().unwrap();
+        let tell = format!("{{\"op\":\"tell\",\"id\":{id},\"observation\":{{\"paired\":{{\"hf\":{{\"failure\":true,\"runtime\":2.0}},\"lf\":{{\"failure\":true,\"runtime\":0.4}}}}}}}}\n{{\"op\":\"estimate\"}}\n{{\"op\":\"pending\"}}\n");
+        let r = run(&mut s, &tell);
+        assert_eq!(r[1]["learned"], true);
+        assert_eq!(r[1]["evidence"], 1.0);
+        assert!(r[1].get("warning").is_none());
+        assert_eq!(r[2]["trials"].as_array().unwrap().len(), 2);
+    }
+
+    /// A store that refuses any write once it holds `room` lines (a full disk).
+    struct Full {
+        lines: Vec<Value>,
+        room: usize,
+    }
+
+    impl crate::campaign::store::TrialStore for Full {
+        fn location(&self) -> String {
+            "full".into()
+        }
+        fn load(&mut self) -> Result<crate::campaign::store::Loaded, StoreError> {
+            Ok(Default::default())
+        }
+        fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+            if self.lines.len() + lines.len() > self.room {
+                return Err(StoreError::io(
+                    "full",
+                    std::io::Error::other("no space left"),
+                ));
+            }
+            self.lines.extend_from_slice(lines);
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_batch_ask_that_cannot_be_journaled_asks_nothing() {
+        let config = crate::toy::kernel_builder()
+            .seed(3)
+            .build()
+            .unwrap()
+            .config()
+            .clone();
+        let store = Full {
+            lines: Vec::new(),
+            room: 11,
+        };
+        let opened = crate::campaign::store::journal::open(Box::new(store), Some(config)).unwrap();
+        let mut s = Session::Journaled(opened.kernel);
+        let r = run(
+            &mut s,
+            "{\"op\":\"ask\",\"n\":30}\n{\"op\":\"ask\",\"n\":10}\n{\"op\":\"pending\"}\n",
+        );
+        assert_eq!(r[0]["ok"], false);
+        assert!(
+            r[0]["error"].as_str().unwrap().contains("no space left"),
+            "{}",
+            r[0]
+        );
+        assert_eq!(r[1]["trials"].as_array().unwrap().len(), 10);
+        // The refused batch left nothing pending: ids continue from 0.
+        assert_eq!(r[2]["trials"][0]["id"], 0);
+        assert_eq!(r[2]["trials"].as_array().unwrap().len(), 10);
     }
 }

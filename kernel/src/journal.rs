@@ -222,6 +222,13 @@ pub trait Sink {
 
     /// Records one event.
     fn record(&mut self, event: &Event) -> Result<(), Self::Error>;
+
+    /// Records several events, all or none (a batch ask must not leave half its trials
+    /// recorded). The default records them one by one and is all-or-none only for a sink that
+    /// cannot fail midway; a sink that can must override it.
+    fn record_all(&mut self, events: &[Event]) -> Result<(), Self::Error> {
+        events.iter().try_for_each(|e| self.record(e))
+    }
 }
 
 /// Events kept in memory (tests, or a harness that persists them itself).
@@ -300,6 +307,20 @@ impl<S: Sink> Journaled<S> {
             trial: drawn.trial().clone(),
         })?;
         Ok(self.kernel.commit_drawn(rng, drawn))
+    }
+
+    /// Draws, records and hands out `n` trials, all or none: if recording fails, no trial was
+    /// asked (the kernel is unchanged).
+    pub fn ask_batch(&mut self, n: usize) -> Result<Vec<Trial>, S::Error> {
+        let mut next = self.kernel.clone();
+        let trials: Vec<Trial> = (0..n).map(|_| next.ask()).collect();
+        let events: Vec<Event> = trials
+            .iter()
+            .map(|t| Event::Ask { trial: t.clone() })
+            .collect();
+        self.sink.record_all(&events)?;
+        self.kernel = next;
+        Ok(trials)
     }
 
     /// Checks, records and applies a tell ([`Kernel::tell`]).

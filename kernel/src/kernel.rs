@@ -210,6 +210,17 @@ pub enum TellError {
         /// The runtime given.
         runtime: f64,
     },
+    /// Runtimes whose ratio t_LF / t_HF is not a finite number (e.g. HF 5e-324, LF 1): the
+    /// ratio could not be credited, logged or replayed.
+    #[error("trial {id}: the runtime ratio LF {lf} / HF {hf} is not a finite number; give runtimes on a common scale")]
+    BadCostRatio {
+        /// The trial.
+        id: u64,
+        /// The HF runtime.
+        hf: f64,
+        /// The LF runtime.
+        lf: f64,
+    },
 }
 
 /// Counters of a kernel's life so far.
@@ -563,6 +574,15 @@ impl Kernel {
         }
         let outcome = observation.outcome();
         let cost_ratio = observation.cost_ratio();
+        if let (Some(r), Some(lf)) = (cost_ratio, observation.lf()) {
+            if !r.is_finite() {
+                return Err(TellError::BadCostRatio {
+                    id,
+                    hf: observation.hf().runtime,
+                    lf: lf.runtime,
+                });
+            }
+        }
         let credit = match (phase.learns(), outcome, cost_ratio) {
             (true, Some(o), Some(r)) => Credit {
                 fidelity: Some(o.fidelity_success(r, self.state.config.budget)),

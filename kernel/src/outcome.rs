@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 /// deterministic work units); only ratios `t_LF / t_HF` and sums are ever taken. It must be
 /// finite and strictly positive.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Run {
     /// The system under test failed (e.g. a collision).
     pub failure: bool,

@@ -165,6 +165,16 @@ fn bad_tells_are_typed_errors_and_change_nothing() {
                 runtime: 0.0,
             },
         ),
+        // Both finite and > 0, but the ratio overflows: refused (it could not be replayed).
+        (
+            train.id,
+            paired(5e-324, 1.0),
+            TellError::BadCostRatio {
+                id: train.id,
+                hf: 5e-324,
+                lf: 1.0,
+            },
+        ),
     ];
     for (id, obs, expected) in cases {
         let err = k.tell(id, obs).unwrap_err();
@@ -281,4 +291,13 @@ fn evaluation_uses_the_estimate_and_baseline_draws_phi_uniformly() {
     for c in counts {
         assert!((c as f64 / n as f64 - 1.0 / 6.0).abs() < 0.02, "{counts:?}");
     }
+}
+
+#[test]
+fn an_observation_with_an_unknown_key_is_refused_naming_it() {
+    let e = serde_json::from_str::<Observation>(
+        r#"{"paired":{"hf":{"failure":true,"runtme":5},"lf":{"failure":true,"runtime":1}}}"#,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("unknown field `runtme`"), "{e}");
 }

@@ -23,12 +23,20 @@ impl Sink for JournalSink {
     type Error = StoreError;
 
     fn record(&mut self, event: &Event) -> Result<(), StoreError> {
-        let value = serde_json::to_value(event).map_err(|e| StoreError::BadLine {
-            store: self.store.location(),
-            line: 0,
-            message: e.to_string(),
-        })?;
-        self.store.append(&value)
+        self.record_all(std::slice::from_ref(event))
+    }
+
+    fn record_all(&mut self, events: &[Event]) -> Result<(), StoreError> {
+        let values = events
+            .iter()
+            .map(serde_json::to_value)
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| StoreError::BadLine {
+                store: self.store.location(),
+                line: 0,
+                message: e.to_string(),
+            })?;
+        self.store.append_all(&values)
     }
 }
 

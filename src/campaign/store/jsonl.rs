@@ -130,12 +130,15 @@ impl TrialStore for JsonlStore {
         Ok(loaded)
     }
 
-    fn append(&mut self, line: &Value) -> Result<(), StoreError> {
-        let bytes = encode(line).map_err(|message| StoreError::BadLine {
-            store: self.location(),
-            line: 0,
-            message,
-        })?;
+    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+        let mut bytes = Vec::new();
+        for line in lines {
+            bytes.extend(encode(line).map_err(|message| StoreError::BadLine {
+                store: self.location(),
+                line: 0,
+                message,
+            })?);
+        }
         self.cut_torn_tail()?;
         let written = self
             .file
@@ -147,7 +150,7 @@ impl TrialStore for JsonlStore {
                 self.end += bytes.len() as u64;
                 Ok(())
             }
-            // A partial line (e.g. a full disk) must not stay: cut back to the last complete one.
+            // A partial write (e.g. a full disk) must not stay: cut back to where it began.
             Err(write) => match self.file.set_len(self.end) {
                 Ok(()) => Err(self.io(write)),
                 Err(repair) => Err(StoreError::Damaged {

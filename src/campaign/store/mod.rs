@@ -132,9 +132,14 @@ pub trait TrialStore: Send {
     /// reported); later appends go after the last complete line.
     fn load(&mut self) -> Result<Loaded, StoreError>;
 
-    /// Appends one JSON object as a line, durably (handed whole to the operating system) before
-    /// returning. On an error nothing was appended.
-    fn append(&mut self, line: &Value) -> Result<(), StoreError>;
+    /// Appends JSON objects as lines, all or none, durably (handed whole to the operating
+    /// system) before returning. On an error nothing was appended.
+    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError>;
+
+    /// Appends one JSON object as a line ([`TrialStore::append_all`] of one).
+    fn append(&mut self, line: &Value) -> Result<(), StoreError> {
+        self.append_all(std::slice::from_ref(line))
+    }
 }
 
 impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
@@ -146,8 +151,8 @@ impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
         (**self).load()
     }
 
-    fn append(&mut self, line: &Value) -> Result<(), StoreError> {
-        (**self).append(line)
+    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+        (**self).append_all(lines)
     }
 }
 
