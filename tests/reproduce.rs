@@ -495,3 +495,69 @@ fn a_second_process_on_a_running_campaign_is_refused_and_changes_nothing() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_resume_refuses_any_edited_field_the_reports_use_naming_line_and_field() {
+    let dir = temp_dir("tampered");
+    assert!(reproduce(&dir, &["--jobs", "2"]).0);
+    let path = dir.join("trials.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    // Line 21 is a meta-training trial (after 14 baseline trials).
+    let k = 20;
+    assert!(lines[k]["stage"].as_str().unwrap().starts_with("train@"));
+    type Edit = Box<dyn Fn(&mut Value)>;
+    let flip_outcome = |v: &mut Value| {
+        let o = if v["outcome"] == "TP" { "FN" } else { "TP" };
+        v["outcome"] = Value::from(o);
+    };
+    let edits: Vec<(Edit, &str)> = vec![
+        (Box::new(flip_outcome), "field `outcome`"),
+        (
+            Box::new(|v: &mut Value| {
+                let r = v["hf"]["runtime"].as_f64().unwrap();
+                v["hf"]["runtime"] = Value::from(r / 2.0);
+            }),
+            "field `hf.runtime`",
+        ),
+        (
+            Box::new(|v: &mut Value| {
+                let f = v["hf"]["failure"].as_bool().unwrap();
+                v["hf"]["failure"] = Value::from(!f);
+            }),
+            "field `outcome`",
+        ),
+        (
+            Box::new(|v: &mut Value| {
+                let r = v["cost_ratio"].as_f64().unwrap();
+                v["cost_ratio"] = Value::from(r * 1.5);
+            }),
+            "field `cost_ratio`",
+        ),
+        (
+            Box::new(|v: &mut Value| v["budget"] = Value::from(0.2)),
+            "field `budget`",
+        ),
+    ];
+    for (edit, field) in edits {
+        let mut edited = lines.clone();
+        edit(&mut edited[k]);
+        let body: String = edited.iter().map(|v| v.to_string() + "\n").collect();
+        std::fs::write(&path, &body).unwrap();
+        let (ok, _, err) = resume(&dir);
+        assert!(!ok, "{field}: accepted");
+        assert!(
+            err.contains("trials.jsonl, line 21") && err.contains(field),
+            "{field}: {err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            body,
+            "{field}: changed"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -140,7 +140,10 @@ impl<'o> Campaign<'o> {
         let stages = p.stages();
         let mut all_lines: Vec<LogLine> = Vec::new();
         executor::with_pool(sim, self.jobs, |pool| -> Result<(), CampaignError> {
+            let mut first = 0;
             for (stage, logged) in stages.iter().zip(&by_stage) {
+                let logged_lines = &numbers[first..first + logged.len()];
+                first += logged.len();
                 for o in observers.iter_mut() {
                     o.stage(stage);
                 }
@@ -148,6 +151,7 @@ impl<'o> Campaign<'o> {
                 let cx = StageContext {
                     stage,
                     logged,
+                    logged_lines,
                     window: p.window,
                     cost: p.cost.measure(),
                     store: store.as_mut(),

@@ -103,7 +103,8 @@ struct Slot {
     index: u64,
     hf: Option<SimResult>,
     lf: Option<SimResult>,
-    logged: Option<LogLine>,
+    /// The stored line of this trial (resume) with its line number.
+    logged: Option<(u64, LogLine)>,
     error: Option<String>,
 }
 
@@ -121,6 +122,8 @@ pub struct StageContext<'a> {
     pub stage: &'a Stage,
     /// Lines of this stage already in `trials.jsonl` (replayed, not run).
     pub logged: &'a [LogLine],
+    /// Their line numbers in the store.
+    pub logged_lines: &'a [u64],
     /// Trials in flight at once.
     pub window: usize,
     /// How run costs are measured.
@@ -199,9 +202,12 @@ impl StageRun<'_, '_, '_> {
         let trial = self.kernel.ask();
         let index = self.asked;
         self.asked += 1;
-        let logged = self.cx.logged.get(index as usize).cloned();
+        let logged = self.cx.logged.get(index as usize).map(|l| {
+            let number = self.cx.logged_lines.get(index as usize).copied();
+            (number.unwrap_or(index + 1), l.clone())
+        });
         match &logged {
-            Some(l) => check_logged(l, &trial, &self.label, index)?,
+            Some((_, l)) => check_logged(l, &trial, &self.label, index)?,
             None => {
                 self.send(&trial, Which::Hf, &self.theta_hf)?;
                 if let Some(theta) = &trial.theta_lf {
@@ -368,19 +374,34 @@ fn tell(
             .map_err(|e| diverged(format!("the failed trial cannot be withdrawn: {e}")))
     };
     match slot.logged {
-        Some(LogLine::Failed(f)) => {
+        Some((_, LogLine::Failed(f))) => {
             withdraw(kernel)?;
             return Ok(LogLine::Failed(f));
         }
-        Some(LogLine::Trial(l)) => {
+        Some((number, LogLine::Trial(l))) => {
+            let tampered = |field: &str, logged: String, computed: String| {
+                CampaignError::Log {
+                store: store.location(),
+                line: number as usize,
+                message: format!(
+                    "field `{field}` is {logged} but replaying the trial gives {computed}: the line was edited, or written by another campaign"
+                ),
+            }
+            };
+            check_costs(&l, cost, &tampered)?;
             let record = kernel
                 .tell(slot.trial.id, l.observation())
                 .map_err(|e| diverged(format!("the logged outcome cannot be told: {e}")))?;
-            if record.credit != l.credit {
-                return Err(diverged(format!(
-                    "the kernel credits {:?} where the log says {:?}",
-                    record.credit, l.credit
-                )));
+            let show = |v: &dyn std::fmt::Debug| format!("{v:?}");
+            let checks = [
+                ("phase", show(&l.phase), show(&slot.trial.phase)),
+                ("budget", show(&l.budget), show(&stage.budget)),
+                ("outcome", show(&l.outcome), show(&record.outcome)),
+                ("cost_ratio", show(&l.cost_ratio), show(&record.cost_ratio)),
+                ("credit", show(&l.credit), show(&record.credit)),
+            ];
+            if let Some((field, logged, computed)) = checks.into_iter().find(|(_, a, b)| a != b) {
+                return Err(tampered(field, logged, computed));
             }
             return Ok(LogLine::Trial(l));
         }
@@ -410,6 +431,30 @@ fn tell(
     let line = LogLine::Trial(line);
     store.append(&line.to_value())?;
     Ok(line)
+}
+
+/// A stored trial's costs must be what the protocol's cost measure gives: its work units, or
+/// its measured wall-clock seconds.
+fn check_costs(
+    l: &TrialLine,
+    cost: CostMeasure,
+    tampered: &dyn Fn(&str, String, String) -> CampaignError,
+) -> Result<(), CampaignError> {
+    for (name, run) in [("hf", Some(&l.hf)), ("lf", l.lf.as_ref())] {
+        let Some(run) = run else { continue };
+        let expected = match cost {
+            CostMeasure::Work => run.work.map(|w| w as f64),
+            CostMeasure::Wall => Some(run.wall_seconds),
+        };
+        if expected != Some(run.runtime) {
+            return Err(tampered(
+                &format!("{name}.runtime"),
+                run.runtime.to_string(),
+                expected.map_or("no cost".into(), |e| e.to_string()),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The line of a trial whose runs are in (before the kernel's assessment).
