@@ -348,10 +348,7 @@ fn bad_input_is_refused_before_any_simulation() {
             err.contains(needle),
             "{extra:?}: expected `{needle}` in: {err}"
         );
-        assert!(
-            !dir.join("trials.jsonl").exists(),
-            "{extra:?} started a campaign"
-        );
+        assert!(!dir.exists(), "{extra:?} created the output directory");
     };
     bad(&["--train-scenarios", "1,42"], "unknown scenario `42`");
     bad(
@@ -365,6 +362,15 @@ fn bad_input_is_refused_before_any_simulation() {
         "`train_iterations`: must be at least 1",
     );
     bad(&["--eval-iterations", "0"], "`eval_iterations`");
+    bad(
+        &["--iterations", "10000000000"],
+        "`train_iterations`: 10000000000 is more than savme runs in one stage",
+    );
+    bad(
+        &["--test-iterations", "18446744073709551615"],
+        "`test_iterations`: 18446744073709551615 is more",
+    );
+    bad(&["--window", "0"], "`window`: 0 is not between 1 and");
     bad(&["--jobs", "0"], "`--jobs`: must be at least 1");
 
     // An output directory that cannot be created.

@@ -33,6 +33,13 @@ impl Cost {
     }
 }
 
+/// The most trials one stage may run (10⁸: years of simulation even at a millisecond a run).
+pub const MAX_ITERATIONS: u64 = 100_000_000;
+/// The most trials in flight at once.
+pub const MAX_WINDOW: usize = 100_000;
+/// The most compute budgets in one protocol.
+pub const MAX_BUDGETS: usize = 100;
+
 /// Everything that decides a campaign's trials. Saved as `protocol.json` in the output
 /// directory, so that `--resume` continues exactly the same campaign.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -156,6 +163,12 @@ impl Protocol {
             if n == 0 {
                 return bad(field, "must be at least 1".into());
             }
+            if n > MAX_ITERATIONS {
+                return bad(
+                    field,
+                    format!("{n} is more than savme runs in one stage ({MAX_ITERATIONS})"),
+                );
+            }
         }
         if self.train_scenarios.is_empty() {
             return bad("train_scenarios", "at least one scenario is needed".into());
@@ -163,8 +176,15 @@ impl Protocol {
         if self.test_scenarios.is_empty() {
             return bad("test_scenarios", "at least one scenario is needed".into());
         }
-        if self.fidelity_bins == 0 {
-            return bad("fidelity_bins", "must be at least 1".into());
+        if self.fidelity_bins == 0 || self.fidelity_bins as usize > savme_kernel::MAX_ARMS {
+            return bad(
+                "fidelity_bins",
+                format!(
+                    "{} is not between 1 and {}",
+                    self.fidelity_bins,
+                    savme_kernel::MAX_ARMS
+                ),
+            );
         }
         if !(self.prior_strength > 0.0 && self.prior_strength.is_finite()) {
             return bad(
@@ -172,8 +192,17 @@ impl Protocol {
                 format!("{} is not a positive number", self.prior_strength),
             );
         }
-        if self.window == 0 {
-            return bad("window", "must be at least 1".into());
+        if self.window == 0 || self.window > MAX_WINDOW {
+            return bad(
+                "window",
+                format!("{} is not between 1 and {MAX_WINDOW}", self.window),
+            );
+        }
+        if self.budgets.len() > MAX_BUDGETS {
+            return bad(
+                "budgets",
+                format!("{} budgets; at most {MAX_BUDGETS}", self.budgets.len()),
+            );
         }
         for (name, w) in &self.weights {
             if !(*w > 0.0 && w.is_finite()) {
@@ -224,9 +253,12 @@ impl Protocol {
         s
     }
 
-    /// Total trials over all stages.
+    /// Total trials over all stages (saturating: an unvalidated protocol may ask for more than
+    /// a `u64` holds).
     pub fn total_trials(&self) -> u64 {
-        self.stages().iter().map(|s| s.iterations).sum()
+        self.stages()
+            .iter()
+            .fold(0u64, |sum, s| sum.saturating_add(s.iterations))
     }
 
     /// The seed of the kernel named `label`: the master seed mixed with the label (FNV-1a,
@@ -341,6 +373,18 @@ mod tests {
             (Box::new(|p| p.test_scenarios.clear()), "test_scenarios"),
             (Box::new(|p| p.window = 0), "window"),
             (Box::new(|p| p.prior_strength = -1.0), "prior_strength"),
+            (
+                Box::new(|p| p.train_iterations = 10_000_000_000),
+                "train_iterations",
+            ),
+            (
+                Box::new(|p| p.test_iterations = u64::MAX),
+                "test_iterations",
+            ),
+            (Box::new(|p| p.fidelity_bins = 0), "fidelity_bins"),
+            (Box::new(|p| p.fidelity_bins = 100_000), "fidelity_bins"),
+            (Box::new(|p| p.window = usize::MAX), "window"),
+            (Box::new(|p| p.budgets = vec![0.5; 101]), "budgets"),
         ];
         for (change, field) in cases {
             let mut p = p();
