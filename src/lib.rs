@@ -7,12 +7,11 @@
 //!   the trial store ([`campaign::store`]), reports and figures;
 //! - [`viewer`]: recording to the rerun viewer (feature `rerun`);
 //! - [`serve`]: the kernel behind a JSON-lines protocol, for harnesses in any language;
-//! - [`fmu_campaign`]: campaign files on FMUs; [`toy`]: a small paired simulator to try things on.
+//! - [`toy`]: a small paired simulator to try things on.
 #![warn(missing_docs)]
 
 pub use savme_kernel as kernel;
 pub mod campaign;
-pub mod fmu_campaign;
 pub mod serve;
 pub mod toy;
 pub mod viewer;

@@ -394,7 +394,12 @@ fn bad_campaign_files_name_the_file_line_and_key() {
     );
     check(
         &TINY.replace("budgets = [0.3]", "budgets = [1.3]"),
-        &["campaign.budgets", "outside (0, 1]"],
+        &["line 12", "campaign.budgets", "outside (0, 1]"],
+    );
+    // Zero bins for the paper's fidelity space (it cannot be built).
+    check(
+        &TINY.replace("budgets = [0.3]", "budgets = [0.3]\nfidelity_bins = 0"),
+        &["line 13", "campaign.fidelity_bins", "must be at least 1"],
     );
     check(
         &TINY.replace(

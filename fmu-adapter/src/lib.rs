@@ -7,7 +7,8 @@
 //! be a fidelity variable), reads a failure signal (a Boolean output, or a Real output against
 //! a threshold; optionally stopping at the failure) and a cost (wall-clock or an output);
 //! [`worker`] runs evaluations in a child process so that a crashing or hanging FMU costs one
-//! trial, not the campaign.
+//! trial, not the campaign; [`campaign_file`] reads and checks the TOML campaign file of
+//! `savme run --config` against its FMUs.
 //!
 //! Unpacking and model-description parsing use `fmu-runner`; the calls on an instance go
 //! through libfmi's bindings directly (fmu-runner has no `fmi2Reset`, allocates a map per
@@ -15,11 +16,14 @@
 
 #![warn(missing_docs)]
 
+pub mod backend;
+pub mod campaign_file;
 pub mod file;
 pub mod instance;
 pub mod simulator;
 pub mod worker;
 
+pub use backend::FmuBackend;
 pub use file::{FmuFile, VarCausality, VarInfo, VarType};
 pub use simulator::{
     Binding, CostSource, Crossing, Failure, Fixed, FmuSimulator, RunSpec, ScenarioSpec, StepSize,

@@ -2,8 +2,10 @@
 //! command line's flags — in one place, for every command: a preset (or a file's `[campaign]`
 //! section) first, then the flags, then validation.
 
-use super::{CampaignError, Problem, Protocol};
+use super::{CampaignError, Cost, OnError, Problem, Protocol};
+use savme_fmu::campaign_file::{self, CampaignFile, CampaignSection, ConfigError};
 use savme_sim::sim::DrivingSimulator;
+use std::path::Path;
 
 /// The simulator label of the bundled simulator with camera + lidar perception.
 pub const SENSORS: &str = "savme-sim/sensors";
@@ -172,4 +174,117 @@ pub fn bundled_simulator(p: &Protocol) -> Result<DrivingSimulator, CampaignError
             message: format!("`{other}` is not the bundled simulator ({SENSORS} or {IDEAL})"),
         }),
     }
+}
+
+impl From<&CampaignSection> for Overrides {
+    /// A campaign file's `[campaign]` section as overrides of the paper's protocol.
+    fn from(c: &CampaignSection) -> Self {
+        Overrides {
+            seed: c.seed,
+            cost: c.cost.map(|c| match c {
+                campaign_file::Cost::Wall => Cost::Wall,
+                campaign_file::Cost::Work => Cost::Work,
+            }),
+            budgets: c.budgets.clone(),
+            train_iterations: c.train_iterations,
+            eval_iterations: c.eval_iterations,
+            test_iterations: c.test_iterations,
+            baseline_train_iterations: c.baseline_train_iterations,
+            baseline_test_iterations: c.baseline_test_iterations,
+            fidelity_bins: c.fidelity_bins,
+            prior_strength: c.prior_strength,
+            window: c.window,
+            train_scenarios: None,
+            test_scenarios: None,
+        }
+    }
+}
+
+/// A campaign on FMUs: its protocol and problem, and the checked campaign file (FMU paths,
+/// bindings, isolation, output directory).
+#[derive(Debug)]
+pub struct FmuCampaign {
+    /// The protocol: the paper's, the file's `[campaign]` section, then the flags.
+    pub protocol: Protocol,
+    /// The fidelity space with θ_HF and the scenario spaces of the file.
+    pub problem: Problem,
+    /// The file as read and checked against its FMUs.
+    pub file: CampaignFile,
+}
+
+/// Reads and checks the campaign file at `path` (with the bundled simulator's fidelity table
+/// for `[fidelity] paper = true`), then builds its protocol: the paper's, the file's
+/// `[campaign]` section, then `flags`, validated. An error in a value the file gave names the
+/// file, line and key; one in a flag names the protocol field.
+pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignError> {
+    let paper = |bins| {
+        (
+            savme_sim::fidelity::space(bins),
+            savme_sim::fidelity::theta_hf(),
+        )
+    };
+    let file = CampaignFile::load(path, &paper)?;
+    let mut p = Protocol::paper(&file.label, file.train.clone(), file.test.clone());
+    p.weights = file.weights.clone();
+    p.on_error = if file.skip_failed_runs {
+        OnError::Skip
+    } else {
+        OnError::Abort
+    };
+    let known = file
+        .scenarios
+        .keys()
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    let lookup = |k: &str| file.scenarios.contains_key(k).then(|| k.to_string());
+    let overrides = Overrides::from(&file.campaign).then(flags);
+    overrides.apply(&mut p, &lookup, &known)?;
+    p.validate().map_err(|e| in_file(e, &file, flags))?;
+    let problem = Problem {
+        fidelity: file.fidelity.clone(),
+        theta_hf: file.theta_hf.clone(),
+        scenarios: file.scenarios.clone(),
+    };
+    Ok(FmuCampaign {
+        protocol: p,
+        problem,
+        file,
+    })
+}
+
+/// A protocol error of a value the campaign file gave, as an error naming its key and line.
+fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> CampaignError {
+    let CampaignError::Protocol { field, message } = e else {
+        return e;
+    };
+    let from_flags = Overrides::default().then(flags);
+    let given_as_flag = match field.as_str() {
+        "train_iterations" => from_flags.train_iterations.is_some(),
+        "eval_iterations" => from_flags.eval_iterations.is_some(),
+        "test_iterations" => from_flags.test_iterations.is_some(),
+        "baseline_train_iterations" => from_flags.baseline_train_iterations.is_some(),
+        "baseline_test_iterations" => from_flags.baseline_test_iterations.is_some(),
+        "budgets" => from_flags.budgets.is_some(),
+        "window" => from_flags.window.is_some(),
+        "seed" => from_flags.seed.is_some(),
+        _ => false,
+    };
+    if given_as_flag {
+        return CampaignError::Protocol { field, message };
+    }
+    let (key, line) = match field.as_str() {
+        "train_scenarios" | "test_scenarios" => ("scenario.role".to_string(), None),
+        "weights" => ("scenario.weight".to_string(), None),
+        other => (
+            format!("campaign.{other}"),
+            file.campaign.lines.get(other).copied(),
+        ),
+    };
+    CampaignError::File(ConfigError {
+        file: file.path.display().to_string(),
+        line,
+        key: Some(key),
+        message,
+    })
 }

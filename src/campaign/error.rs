@@ -32,6 +32,9 @@ pub enum CampaignError {
         /// The error.
         source: std::io::Error,
     },
+    /// A campaign file is invalid (names the file, line and key).
+    #[error(transparent)]
+    File(#[from] savme_fmu::campaign_file::ConfigError),
     /// The trial store failed (locked by another process, unreadable, unwritable).
     #[error(transparent)]
     Store(#[from] StoreError),

@@ -1,8 +1,9 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
 use super::{run_campaign, ProtocolArgs, RunnerArgs, Target};
-use savme::fmu_campaign::{Campaign as FmuCampaign, FmuBackend};
+use savme::campaign::config;
 use savme::viewer::Frames;
+use savme_fmu::FmuBackend;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -30,7 +31,7 @@ pub fn run(a: Args) -> Result<(), String> {
     if a.resume.is_some() && overrides.any() {
         return Err("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --config, --resume, --jobs and --quiet".into());
     }
-    let c = FmuCampaign::load_with(&config, &overrides).map_err(|e| e.to_string())?;
+    let c = config::fmu_file(&config, &overrides).map_err(|e| e.to_string())?;
     let target = match a.resume {
         Some(dir) => Target {
             out: dir,
@@ -39,12 +40,20 @@ pub fn run(a: Args) -> Result<(), String> {
         None => Target {
             out: a
                 .out
-                .or(c.out.clone())
+                .or(c.file.campaign.out.clone())
                 .unwrap_or_else(|| PathBuf::from("savme-fmu-results")),
             resume: false,
         },
     };
-    let backend = FmuBackend::new(&c)?;
+    let worker = if c.file.isolate {
+        let exe = std::env::current_exe()
+            .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
+        Some(vec![exe.display().to_string(), "fmu-worker".into()])
+    } else {
+        None
+    };
+    let backend =
+        FmuBackend::new(&c.file.init, worker, c.file.timeout).map_err(|e| e.to_string())?;
     run_campaign(
         c.protocol,
         c.problem,

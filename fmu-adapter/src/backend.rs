@@ -1,0 +1,60 @@
+//! [`FmuBackend`]: a campaign's FMU simulator — in this process, or in worker processes.
+
+use crate::worker::{IsolatedSimulator, WorkerInit};
+use crate::{FmuError, FmuSimulator};
+use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
+use std::time::Duration;
+
+/// The simulator a campaign on FMUs runs: the FMUs loaded in this process, or (isolation) each
+/// evaluation in a worker process, so that a crashing or hanging FMU costs one run.
+#[derive(Debug, Clone)]
+pub enum FmuBackend {
+    /// In this process.
+    InProcess(FmuSimulator),
+    /// In worker child processes.
+    Isolated(IsolatedSimulator),
+}
+
+impl FmuBackend {
+    /// The backend for `init`: isolated when `worker` (the command that starts a worker, e.g.
+    /// `["savme", "fmu-worker"]`) is given, each run limited to `timeout`; else in-process.
+    pub fn new(
+        init: &WorkerInit,
+        worker: Option<Vec<String>>,
+        timeout: Duration,
+    ) -> Result<FmuBackend, FmuError> {
+        match worker {
+            Some(command) => {
+                IsolatedSimulator::new(command, init, timeout).map(FmuBackend::Isolated)
+            }
+            None => init.simulator().map(FmuBackend::InProcess),
+        }
+    }
+}
+
+impl Simulator for FmuBackend {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        match self {
+            FmuBackend::InProcess(s) => s.simulate(scenario, phi, fidelity),
+            FmuBackend::Isolated(s) => s.simulate(scenario, phi, fidelity),
+        }
+    }
+
+    fn simulate_as(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        match self {
+            FmuBackend::InProcess(s) => s.simulate_as(role, scenario, phi, fidelity),
+            FmuBackend::Isolated(s) => s.simulate_as(role, scenario, phi, fidelity),
+        }
+    }
+}

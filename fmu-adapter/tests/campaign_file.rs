@@ -1,0 +1,270 @@
+//! Campaign files on the test-kit FMU: a good one loads into its parts; a binding the FMU does
+//! not have, or of the wrong type, is named with its line and key.
+use savme_fmu::campaign_file::{CampaignFile, ConfigError, Cost};
+use savme_fmu::{CostSource, Failure, StepSize};
+use savme_kernel::{Assignment, Space, Value};
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+use std::time::Duration;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("savme-fmu-campaign-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The test kit's shared library, built by cargo next to this test binary.
+fn testkit_library() -> PathBuf {
+    let exe = std::env::current_exe().unwrap();
+    let deps = exe.parent().unwrap();
+    let name = format!(
+        "{}savme_fmu_testkit{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    );
+    for dir in [deps, deps.parent().unwrap()] {
+        if dir.join(&name).exists() {
+            return dir.join(&name);
+        }
+    }
+    panic!("{name} not found next to {}", exe.display());
+}
+
+/// The test-kit FMU, packed once.
+fn packed() -> &'static Path {
+    static FMU: OnceLock<PathBuf> = OnceLock::new();
+    FMU.get_or_init(|| {
+        let out = temp_dir("packed").join("testkit.fmu");
+        savme_fmi_export::pack(
+            &savme_fmu_testkit::model_description(),
+            "savme_fmu_testkit",
+            &testkit_library(),
+            &out,
+        )
+        .unwrap();
+        out
+    })
+}
+
+/// A directory with the test-kit FMU as `testkit.fmu` and `body` as `campaign.toml`.
+fn campaign(name: &str, body: &str) -> PathBuf {
+    let dir = temp_dir(name);
+    std::fs::copy(packed(), dir.join("testkit.fmu")).unwrap();
+    let path = dir.join("campaign.toml");
+    std::fs::write(&path, body).unwrap();
+    path
+}
+
+fn no_paper(_: u32) -> (Space, Assignment) {
+    panic!("the paper's space was asked for")
+}
+
+const GOOD: &str = r#"
+[fmu]
+hf = "testkit.fmu"
+stop_time = 1.0
+step = { rate_of = "rate" }
+cost = "steps"
+isolate = true
+timeout_s = 5.0
+on_error = "skip"
+
+[failure]
+boolean = "failed"
+
+[campaign]
+seed = 3
+budgets = [0.5]
+cost = "work"
+out = "results"
+
+[fidelity]
+[[fidelity.variable]]
+name = "rate"
+values = [1.0, 2.0]
+hf = 2.0
+
+[[scenario]]
+name = "grow"
+role = "train"
+fixed = { threshold = 0.5, fault = 0 }
+[[scenario.phi]]
+name = "start"
+fmu = "x0"
+range = [0.0, 1.0]
+bins = 4
+
+[[scenario]]
+name = "slow"
+role = "test"
+weight = 2.0
+fixed = { threshold = 0.9 }
+[[scenario.phi]]
+name = "x0"
+range = [0.0, 0.5]
+"#;
+
+#[test]
+fn a_good_file_loads_into_its_parts() {
+    let path = campaign("good", GOOD);
+    let dir = path.parent().unwrap();
+    let f = CampaignFile::load(&path, &no_paper).unwrap();
+    let fmu = dir.join("testkit.fmu");
+    assert_eq!(f.path, path);
+    assert_eq!((&f.init.hf, &f.init.lf), (&fmu, &fmu));
+    assert_eq!(f.label, format!("fmu:{}|{}", fmu.display(), fmu.display()));
+    assert!(f.isolate && f.skip_failed_runs);
+    assert_eq!(f.timeout, Duration::from_secs(5));
+    assert_eq!(f.train, ["grow"]);
+    assert_eq!(f.test, ["slow"]);
+    assert_eq!(
+        f.weights.into_iter().collect::<Vec<_>>(),
+        [("slow".to_string(), 2.0)]
+    );
+    assert_eq!(f.theta_hf, Assignment::new().with("rate", 2.0));
+    assert_eq!(f.fidelity.variables()[0].arms(), 2);
+    assert_eq!(f.scenarios["grow"].variables()[0].arms(), 4);
+    assert_eq!(f.init.phi, f.scenarios);
+    // The run specification the simulator is built from.
+    let spec = &f.init.spec;
+    assert_eq!(spec.step, StepSize::RateOf("rate".into()));
+    assert_eq!(spec.cost, CostSource::Output("steps".into()));
+    assert!(matches!(&spec.failure, Failure::Boolean { variable } if variable == "failed"));
+    let grow = &spec.scenarios[0];
+    assert_eq!(grow.phi[0].fmu_variable, "x0");
+    let fixed: Vec<(&str, &Value)> = grow
+        .fixed
+        .iter()
+        .map(|x| (x.fmu_variable.as_str(), &x.value))
+        .collect();
+    assert_eq!(
+        fixed,
+        [("fault", &Value::Int(0)), ("threshold", &Value::Real(0.5))]
+    );
+    // The [campaign] section as written, with its lines.
+    let c = &f.campaign;
+    assert_eq!((c.seed, c.cost), (Some(3), Some(Cost::Work)));
+    assert_eq!(c.budgets, Some(vec![0.5]));
+    assert_eq!(c.train_iterations, None);
+    assert_eq!(c.out, Some(dir.join("results")));
+    assert_eq!(c.lines["seed"], 15);
+    assert_eq!(c.lines["budgets"], 16);
+    // The simulator builds from it.
+    f.init.simulator().unwrap();
+}
+
+fn error(name: &str, from: &str, to: &str) -> ConfigError {
+    assert!(GOOD.contains(from), "{from}");
+    let path = campaign(name, &GOOD.replacen(from, to, 1));
+    let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+    assert_eq!(e.file, path.display().to_string());
+    e
+}
+
+#[test]
+fn fmu_bindings_are_named_with_their_line_and_key() {
+    for (from, to, line, key, message) in [
+        (
+            "fmu = \"x0\"",
+            "fmu = \"x00\"",
+            32,
+            "scenario[0].phi[0].fmu",
+            "no variable `x00`",
+        ),
+        (
+            "name = \"x0\"",
+            "name = \"y0\"",
+            41,
+            "scenario[1].phi[0].fmu",
+            "no variable `y0`",
+        ),
+        (
+            "boolean = \"failed\"",
+            "boolean = \"x\"",
+            12,
+            "failure.boolean",
+            "variable `x` is Real, expected Boolean",
+        ),
+        (
+            "fault = 0",
+            "fault = true",
+            29,
+            "scenario[0].fixed.fault",
+            "variable `fault` is Integer",
+        ),
+        (
+            "cost = \"steps\"",
+            "cost = \"stepz\"",
+            6,
+            "fmu.cost",
+            "no variable `stepz`",
+        ),
+        (
+            "hf = 2.0",
+            "hf = 2.0\nfmu = \"rat\"",
+            25,
+            "fidelity.variable[0].fmu",
+            "no variable `rat`",
+        ),
+    ] {
+        let e = error("binding", from, to);
+        assert_eq!((e.line, e.key.as_deref()), (Some(line), Some(key)), "{e}");
+        assert!(e.message.contains(message), "{message}: {e}");
+    }
+}
+
+#[test]
+fn a_missing_fmu_is_named_at_its_line() {
+    let e = error("no-hf", "hf = \"testkit.fmu\"", "hf = \"nowhere.fmu\"");
+    assert_eq!(
+        (e.line, e.key.as_deref()),
+        (Some(3), Some("fmu.hf / fmu.lf"))
+    );
+    assert!(e.message.contains("nowhere.fmu"), "{e}");
+    let e = error(
+        "no-lf",
+        "hf = \"testkit.fmu\"",
+        "hf = \"testkit.fmu\"\nlf = \"lf.fmu\"",
+    );
+    assert_eq!(
+        (e.line, e.key.as_deref()),
+        (Some(4), Some("fmu.hf / fmu.lf"))
+    );
+    assert!(e.message.contains("lf.fmu"), "{e}");
+}
+
+#[test]
+fn run_settings_are_checked() {
+    let e = error("step", "step = { rate_of = \"rate\" }", "step = -0.1");
+    assert_eq!((e.line, e.key.as_deref()), (None, Some("fmu")));
+    assert!(e.message.starts_with("run specification: "), "{e}");
+    for t in ["0.0", "-1.0", "nan", "inf", "1e300"] {
+        let e = error("timeout", "timeout_s = 5.0", &format!("timeout_s = {t}"));
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(8), Some("fmu.timeout_s")),
+            "{t}"
+        );
+        assert_eq!(e.message, "must be positive");
+    }
+}
+
+#[test]
+fn absolute_paths_stay_absolute() {
+    let path = campaign("absolute", GOOD);
+    let fmu = path.parent().unwrap().join("testkit.fmu");
+    let moved = temp_dir("absolute-elsewhere").join("campaign.toml");
+    let body = GOOD.replacen(
+        "hf = \"testkit.fmu\"",
+        &format!("hf = {:?}", fmu.display().to_string()),
+        1,
+    );
+    std::fs::write(&moved, body).unwrap();
+    let f = CampaignFile::load(&moved, &no_paper).unwrap();
+    assert_eq!(f.init.hf, fmu);
+    assert_eq!(
+        f.campaign.out,
+        Some(moved.parent().unwrap().join("results"))
+    );
+}
