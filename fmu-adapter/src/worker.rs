@@ -224,18 +224,19 @@ impl IsolatedSimulator {
     }
 
     fn start(&self) -> Result<Worker, SimError> {
-        let mut child = Command::new(&self.command[0])
+        let mut command = Command::new(&self.command[0]);
+        command
             .args(&self.command[1..])
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .map_err(|e| {
-                SimError::Failed(format!(
-                    "cannot start the FMU worker {:?}: {e}",
-                    self.command
-                ))
-            })?;
+            .stderr(Stdio::inherit());
+        die_with_parent(&mut command);
+        let mut child = command.spawn().map_err(|e| {
+            SimError::Failed(format!(
+                "cannot start the FMU worker {:?}: {e}",
+                self.command
+            ))
+        })?;
         let (Some(mut stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
             return Err(SimError::Failed("the FMU worker has no pipes".into()));
         };
@@ -364,4 +365,34 @@ impl Drop for IsolatedSimulator {
             let _ = child.wait();
         }
     }
+}
+
+/// A worker must not outlive the process that started it: one hanging in an FMU never reads
+/// the end of its input, so on Linux the kernel kills it (`PR_SET_PDEATHSIG`, SIGKILL) when
+/// the starting thread's process dies — even by `kill -9`. (The signal follows the thread that
+/// spawned the worker; the campaign's worker threads live as long as the campaign.) Elsewhere
+/// the worker exits when its input closes.
+fn die_with_parent(command: &mut Command) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: getpid is async-signal-safe.
+        let parent = unsafe { libc::getpid() };
+        // SAFETY: the closure runs in the forked child before exec and calls only
+        // async-signal-safe functions (prctl, getppid, _exit).
+        unsafe {
+            command.pre_exec(move || {
+                if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                // The parent may have died before prctl took effect.
+                if libc::getppid() != parent {
+                    libc::_exit(1);
+                }
+                Ok(())
+            });
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = command;
 }

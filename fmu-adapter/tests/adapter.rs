@@ -415,4 +415,86 @@ mod isolation {
         let e = iso.simulate("grow", &phi, &theta).unwrap_err().to_string();
         assert!(e.contains("absent.fmu"), "{e}");
     }
+
+    /// Not a test on its own: the parent process of `a_worker_dies_with_the_process_that_started_it`
+    /// (run as a child of the test with SAVME_TEST_HANG_FMU set): starts a worker that hangs.
+    #[test]
+    fn helper_parent_of_a_hanging_worker() {
+        let Some(fmu) = std::env::var_os("SAVME_TEST_HANG_FMU") else {
+            return;
+        };
+        let mut iso = isolated(Path::new(&fmu), 3, Duration::from_secs(3600));
+        let (phi, theta) = args(0.0, 0.1);
+        let _ = iso.simulate_as(Role::High, "grow", &phi, &theta);
+    }
+
+    /// The pids of the processes whose parent is `pid` (Linux /proc).
+    fn children(pid: u32) -> Vec<u32> {
+        let mut out = Vec::new();
+        for e in std::fs::read_dir("/proc").unwrap().flatten() {
+            let Ok(child) = e.file_name().to_string_lossy().parse::<u32>() else {
+                continue;
+            };
+            let stat = std::fs::read_to_string(e.path().join("stat")).unwrap_or_default();
+            // pid (comm) state ppid …; comm may hold spaces, so split after the last ')'.
+            let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+            if rest.split_whitespace().nth(1) == Some(&pid.to_string()) {
+                out.push(child);
+            }
+        }
+        out
+    }
+
+    /// Alive: exists and is not a zombie.
+    fn alive(pid: u32) -> bool {
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+        let state = stat
+            .rsplit_once(')')
+            .and_then(|(_, r)| r.split_whitespace().next());
+        matches!(state, Some(s) if s != "Z" && s != "X")
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_worker_dies_with_the_process_that_started_it() {
+        let dir = temp_dir("iso-orphan");
+        let fmu = testkit(&dir);
+        let mut parent = std::process::Command::new(std::env::current_exe().unwrap())
+            .args([
+                "--exact",
+                "isolation::helper_parent_of_a_hanging_worker",
+                "--nocapture",
+            ])
+            .env("SAVME_TEST_HANG_FMU", &fmu)
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let t = Instant::now();
+        let worker = loop {
+            if let Some(&w) = children(parent.id()).first() {
+                let cmd = std::fs::read_to_string(format!("/proc/{w}/cmdline")).unwrap_or_default();
+                if cmd.contains("savme-fmu-worker") {
+                    break w;
+                }
+            }
+            assert!(t.elapsed() < Duration::from_secs(60), "no worker started");
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        // Let it reach the hang, then kill its parent with SIGKILL.
+        std::thread::sleep(Duration::from_millis(500));
+        assert!(alive(worker));
+        parent.kill().unwrap();
+        parent.wait().unwrap();
+        let t = Instant::now();
+        while alive(worker) {
+            if t.elapsed() > Duration::from_secs(10) {
+                // Kill it, or it would hold the test's output open forever.
+                let _ = std::process::Command::new("kill")
+                    .args(["-9", &worker.to_string()])
+                    .status();
+                panic!("worker {worker} outlived its parent");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
 }
