@@ -90,6 +90,7 @@ pub struct TrialRecord {
 
 /// A scenario: its name, its φ-space and its weight in p(s).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Scenario {
     /// Unique name.
     pub name: Arc<str>,
@@ -101,6 +102,7 @@ pub struct Scenario {
 
 /// A fidelity prior carried over from an earlier posterior (meta-testing).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FidelityPrior {
     /// The posterior p_ω(θ_LF) of an earlier run (must fit the fidelity space).
     pub posterior: Posterior,
@@ -110,6 +112,7 @@ pub struct FidelityPrior {
 
 /// Everything that defines a kernel before its first ask. Serialisable: it heads every journal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct KernelConfig {
     /// Scenarios with their φ-spaces and weights.
     pub scenarios: Vec<Scenario>,

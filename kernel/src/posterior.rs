@@ -58,6 +58,7 @@ impl Arm {
 
 /// Prior pseudo-counts `(n_prior,S, n_prior,L)` given to every arm; uniform is `(1, 1)`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PriorCounts {
     /// Pseudo-successes (added to α).
     pub successes: f64,

@@ -61,12 +61,77 @@ pub enum Domain {
 /// assert_eq!(b.arms(), 2);
 /// ```
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawVariable")]
 pub struct Variable {
     /// The variable's name, unique in its space.
     pub name: Arc<str>,
     /// Its values.
     #[serde(flatten)]
     pub domain: Domain,
+}
+
+/// A variable as written in JSON: every key of either kind, unknown keys refused.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawVariable {
+    name: Arc<str>,
+    #[serde(rename = "type")]
+    kind: RawKind,
+    values: Option<Vec<Value>>,
+    lo: Option<f64>,
+    hi: Option<f64>,
+    bins: Option<u32>,
+    scale: Option<Scale>,
+}
+
+#[derive(Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum RawKind {
+    Discrete,
+    Continuous,
+}
+
+impl TryFrom<RawVariable> for Variable {
+    type Error = String;
+
+    fn try_from(r: RawVariable) -> Result<Self, String> {
+        let name = r.name.clone();
+        let domain = match r.kind {
+            RawKind::Discrete => {
+                if r.lo.is_some() || r.hi.is_some() || r.bins.is_some() || r.scale.is_some() {
+                    return Err(format!(
+                        "discrete variable `{name}` takes `values`, not `lo`/`hi`/`bins`/`scale`"
+                    ));
+                }
+                let values = r
+                    .values
+                    .ok_or_else(|| format!("discrete variable `{name}` needs `values`"))?;
+                Domain::Discrete { values }
+            }
+            RawKind::Continuous => {
+                if r.values.is_some() {
+                    return Err(format!(
+                        "continuous variable `{name}` takes `lo`, `hi`, `bins`, `scale`, not `values`"
+                    ));
+                }
+                let need = |v: Option<f64>, key: &str| {
+                    v.ok_or_else(|| format!("continuous variable `{name}` needs `{key}`"))
+                };
+                Domain::Continuous {
+                    lo: need(r.lo, "lo")?,
+                    hi: need(r.hi, "hi")?,
+                    bins: r
+                        .bins
+                        .ok_or_else(|| format!("continuous variable `{name}` needs `bins`"))?,
+                    scale: r.scale.unwrap_or(Scale::Linear),
+                }
+            }
+        };
+        Ok(Variable {
+            name: r.name,
+            domain,
+        })
+    }
 }
 
 impl Variable {

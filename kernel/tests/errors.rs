@@ -301,3 +301,37 @@ fn an_observation_with_an_unknown_key_is_refused_naming_it() {
     .unwrap_err();
     assert!(e.to_string().contains("unknown field `runtme`"), "{e}");
 }
+
+#[test]
+fn a_configuration_with_an_unknown_or_misplaced_key_is_refused_naming_it() {
+    let json = common::kernel().config().clone();
+    let text = serde_json::to_string(&json).unwrap();
+    assert!(serde_json::from_str::<savme_kernel::KernelConfig>(&text).is_ok());
+    let cases = [
+        (
+            text.replacen("\"budget\":", "\"budgt\":1,\"budget\":", 1),
+            "unknown field `budgt`",
+        ),
+        (
+            text.replacen("\"weight\":", "\"wieght\":1,\"weight\":", 1),
+            "unknown field `wieght`",
+        ),
+        (
+            text.replacen("\"bins\":", "\"binz\":1,\"bins\":", 1),
+            "unknown field `binz`",
+        ),
+        (
+            text.replacen("\"bins\":", "\"values\":[1],\"bins\":", 1),
+            "not `values`",
+        ),
+        (
+            text.replacen("\"successes\":", "\"sucesses\":1,\"successes\":", 1),
+            "unknown field `sucesses`",
+        ),
+    ];
+    for (bad, needle) in cases {
+        assert_ne!(bad, text, "{needle}: the edit did not apply");
+        let e = serde_json::from_str::<savme_kernel::KernelConfig>(&bad).unwrap_err();
+        assert!(e.to_string().contains(needle), "{needle}: {e}");
+    }
+}
