@@ -366,7 +366,7 @@ mod tests {
 
     /// A store that refuses any write once it holds `room` lines (a full disk).
     struct Full {
-        lines: Vec<Value>,
+        lines: Vec<String>,
         room: usize,
     }
 
@@ -377,14 +377,14 @@ mod tests {
         fn load(&mut self) -> Result<crate::campaign::store::Loaded, StoreError> {
             Ok(Default::default())
         }
-        fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+        fn append_json(&mut self, lines: &[String]) -> Result<(), StoreError> {
             if self.lines.len() + lines.len() > self.room {
                 return Err(StoreError::io(
                     "full",
                     std::io::Error::other("no space left"),
                 ));
             }
-            self.lines.extend_from_slice(lines);
+            self.lines.extend(lines.iter().cloned());
             Ok(())
         }
     }

@@ -418,7 +418,7 @@ fn tell(
             theta_lf: slot.trial.theta_lf.clone(),
             error,
         });
-        store.append(&line.to_value())?;
+        store.append_json(&[line.to_json()])?;
         return Ok(line);
     }
     let mut line = trial_line(&slot, label, stage, cost)?;
@@ -429,7 +429,7 @@ fn tell(
     line.outcome = record.outcome;
     line.credit = record.credit;
     let line = LogLine::Trial(line);
-    store.append(&line.to_value())?;
+    store.append_json(&[line.to_json()])?;
     Ok(line)
 }
 

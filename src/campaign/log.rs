@@ -148,10 +148,10 @@ impl LogLine {
         })
     }
 
-    /// The line as the store keeps it.
-    pub fn to_value(&self) -> serde_json::Value {
+    /// The line as the store keeps it (a JSON object's text).
+    pub fn to_json(&self) -> String {
         // Serialising these plain structs cannot fail (string keys, no custom serialisers).
-        serde_json::to_value(self).unwrap_or_default()
+        serde_json::to_string(self).unwrap_or_default()
     }
 }
 

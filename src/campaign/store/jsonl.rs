@@ -2,9 +2,8 @@
 //! it.
 
 use super::{decode, encode, Loaded, StoreError, StoreLock, StoredLine, TornTail, TrialStore};
-use serde_json::Value;
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Read, Seek, SeekFrom, Write};
+use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// The embedded default store: `PATH` holds the lines, `PATH.lock` the lock (see
@@ -72,6 +71,22 @@ impl JsonlStore {
     }
 }
 
+/// Writes `bytes` at `offset` (one `pwrite` on Unix: no seek, no buffering).
+fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Result<()> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileExt;
+        file.write_all_at(bytes, offset)
+    }
+    #[cfg(not(unix))]
+    {
+        use std::io::Write;
+        let mut f = file;
+        f.seek(SeekFrom::Start(offset))?;
+        f.write_all(bytes)
+    }
+}
+
 /// The length of the file's complete lines: the position after its last newline.
 fn end_of_last_line(file: &mut File, len: u64) -> std::io::Result<u64> {
     let mut pos = len;
@@ -130,21 +145,17 @@ impl TrialStore for JsonlStore {
         Ok(loaded)
     }
 
-    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
         let mut bytes = Vec::new();
-        for line in lines {
-            bytes.extend(encode(line).map_err(|message| StoreError::BadLine {
+        for object in objects {
+            encode(object, &mut bytes).map_err(|message| StoreError::BadLine {
                 store: self.location(),
                 line: 0,
                 message,
-            })?);
+            })?;
         }
         self.cut_torn_tail()?;
-        let written = self
-            .file
-            .seek(SeekFrom::Start(self.end))
-            .and_then(|_| self.file.write_all(&bytes))
-            .and_then(|()| self.file.flush());
+        let written = write_at(&self.file, &bytes, self.end);
         match written {
             Ok(()) => {
                 self.end += bytes.len() as u64;
@@ -167,6 +178,7 @@ impl TrialStore for JsonlStore {
 mod tests {
     use super::*;
     use serde_json::json;
+    use std::io::Write;
 
     fn temp(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("savme-jsonl-{}-{name}", std::process::id()));

@@ -132,9 +132,26 @@ pub trait TrialStore: Send {
     /// reported); later appends go after the last complete line.
     fn load(&mut self) -> Result<Loaded, StoreError>;
 
-    /// Appends JSON objects as lines, all or none, durably (handed whole to the operating
-    /// system) before returning. On an error nothing was appended.
-    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError>;
+    /// Appends serialised JSON objects (each the text of one object, without a top-level `v`
+    /// key, which the store adds) as lines, all or none, durably (handed whole to the
+    /// operating system) before returning. On an error nothing was appended.
+    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError>;
+
+    /// Appends JSON objects as lines, all or none ([`TrialStore::append_json`]).
+    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+        let texts = lines
+            .iter()
+            .map(|v| match v {
+                Value::Object(m) if !m.contains_key("v") => Ok(v.to_string()),
+                _ => Err(StoreError::BadLine {
+                    store: self.location(),
+                    line: 0,
+                    message: "a store line must be a JSON object without a `v` key".into(),
+                }),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        self.append_json(&texts)
+    }
 
     /// Appends one JSON object as a line ([`TrialStore::append_all`] of one).
     fn append(&mut self, line: &Value) -> Result<(), StoreError> {
@@ -151,28 +168,29 @@ impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
         (**self).load()
     }
 
-    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
-        (**self).append_all(lines)
+    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
+        (**self).append_json(objects)
     }
 }
 
-/// `value` as a line: `{"v":FORMAT,` followed by the object's own keys.
-pub(crate) fn encode(value: &Value) -> Result<Vec<u8>, String> {
-    let Value::Object(map) = value else {
-        return Err("a store line must be a JSON object".into());
-    };
-    if map.contains_key("v") {
-        return Err("a store line may not have its own `v` key".into());
+/// A serialised object as a line: `{"v":FORMAT,` followed by the object's own keys, appended
+/// to `out`.
+pub(crate) fn encode(object: &str, out: &mut Vec<u8>) -> Result<(), String> {
+    let body = object.trim();
+    let inner = body
+        .strip_prefix('{')
+        .and_then(|b| b.strip_suffix('}'))
+        .ok_or("a store line must be a JSON object")?;
+    if inner.contains('\n') {
+        return Err("a store line must be one line of JSON".into());
     }
-    let body = serde_json::to_vec(value).map_err(|e| e.to_string())?;
-    let mut out = Vec::with_capacity(body.len() + 8);
     out.extend_from_slice(format!("{{\"v\":{FORMAT}").as_bytes());
-    if body.len() > 2 {
+    if !inner.trim().is_empty() {
         out.push(b',');
     }
-    out.extend_from_slice(&body[1..]);
-    out.push(b'\n');
-    Ok(out)
+    out.extend_from_slice(inner.as_bytes());
+    out.extend_from_slice(b"}\n");
+    Ok(())
 }
 
 /// A complete line (without its newline) back to its object; the error says what is wrong.
@@ -203,17 +221,20 @@ mod tests {
     #[test]
     fn lines_carry_the_format_version_first_and_round_trip() {
         let v = json!({"stage": "train@0.3", "x": [1.5, null]});
-        let line = encode(&v).unwrap();
+        let mut line = Vec::new();
+        encode(&v.to_string(), &mut line).unwrap();
         assert!(line.starts_with(b"{\"v\":1,\"stage\""));
         assert_eq!(decode(&line[..line.len() - 1]).unwrap(), v);
-        assert_eq!(encode(&json!({})).unwrap(), b"{\"v\":1}\n");
+        let mut empty = Vec::new();
+        encode("{}", &mut empty).unwrap();
+        assert_eq!(empty, b"{\"v\":1}\n");
         assert_eq!(decode(b"{\"a\":1}").unwrap(), json!({"a": 1}));
     }
 
     #[test]
     fn bad_lines_say_what_is_wrong() {
-        assert!(encode(&json!([1])).is_err());
-        assert!(encode(&json!({"v": 2})).is_err());
+        assert!(encode("[1]", &mut Vec::new()).is_err());
+        assert!(encode("{\"a\":\n1}", &mut Vec::new()).is_err());
         let cases: [(&[u8], &str); 4] = [
             (b"{\"v\":2,\"a\":1}", "version 2 is not supported"),
             (b"[1,2]", "not a JSON object"),
