@@ -409,3 +409,25 @@ fn bad_campaign_files_name_the_file_line_and_key() {
         &["fmu.step.rate_of", "`fps`"],
     );
 }
+
+#[test]
+fn run_refuses_an_output_directory_that_is_a_file() {
+    let dir = temp_dir("out-file");
+    let config = campaign_file(&dir, TINY);
+    let file = dir.join("afile");
+    std::fs::write(&file, "mine").unwrap();
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        file.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("{} is a file, not a directory", file.display())),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+}
