@@ -324,30 +324,34 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
     assert_eq!(trials("in-process"), strip(fixture));
 }
 
+/// Runs `savme run` on `body` (in `dir`) and checks that it is refused before a campaign
+/// starts, with an error naming the file and each of `needles`.
+fn assert_refused(dir: &Path, body: &str, needles: &[&str]) {
+    let config = campaign_file(dir, body);
+    let out = dir.join("out");
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        !out.join("trials.jsonl").exists(),
+        "a campaign started: {body}"
+    );
+    assert!(!ok, "accepted: {body}");
+    assert!(err.contains("campaign.toml"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "expected `{n}` in: {err}");
+    }
+}
+
 #[test]
 fn bad_campaign_files_name_the_file_line_and_key() {
     let dir = temp_dir("bad-config");
-    let check = |body: &str, needles: &[&str]| {
-        let config = campaign_file(&dir, body);
-        let out = dir.join("out");
-        let (ok, _, err) = savme(&[
-            "run",
-            "--config",
-            config.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert!(
-            !out.join("trials.jsonl").exists(),
-            "a campaign started: {body}"
-        );
-        assert!(!ok, "accepted: {body}");
-        assert!(err.contains("campaign.toml"), "{err}");
-        for n in needles {
-            assert!(err.contains(n), "expected `{n}` in: {err}");
-        }
-    };
+    let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
     // TOML-level: an unknown key, a wrong type.
     check(
         &TINY.replace("stop_time = 12.0", "stop_time = 12.0\nstop_tme = 3"),
@@ -407,6 +411,17 @@ fn bad_campaign_files_name_the_file_line_and_key() {
             "step = { rate_of = \"fps\" }",
         ),
         &["fmu.step.rate_of", "`fps`"],
+    );
+}
+
+#[test]
+fn an_fmu_variable_used_twice_is_blamed_on_the_right_binding() {
+    let dir = temp_dir("bad-bindings");
+    let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
+    // The failure signal as the cost: the cost is blamed, not the failure signal.
+    check(
+        &TINY.replacen("cost = \"work\"", "cost = \"collision\"", 1),
+        &["line 6", "key `fmu.cost`", "`collision` is Boolean"],
     );
 }
 
