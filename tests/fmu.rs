@@ -415,13 +415,36 @@ fn bad_campaign_files_name_the_file_line_and_key() {
 }
 
 #[test]
-fn an_fmu_variable_used_twice_is_blamed_on_the_right_binding() {
+fn conflicting_bindings_are_refused_naming_both() {
     let dir = temp_dir("bad-bindings");
     let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
     // The failure signal as the cost: the cost is blamed, not the failure signal.
     check(
         &TINY.replacen("cost = \"work\"", "cost = \"collision\"", 1),
         &["line 6", "key `fmu.cost`", "`collision` is Boolean"],
+    );
+    // One FMU variable set twice in a run: fixed and φ, φ and a paper fidelity setting.
+    check(
+        &TINY.replace(
+            "fixed = { scenario = 7 }",
+            "fixed = { scenario = 7, gap = 10.0 }",
+        ),
+        &[
+            "line 34",
+            "key `scenario[0].phi[2].name`",
+            "FMU variable `gap` is already bound by `scenario[0].fixed.gap` (line 26)",
+        ],
+    );
+    check(
+        &TINY.replace(
+            "name = \"time_offset\"",
+            "name = \"time_offset\"\nfmu = \"simulation_rate_hz\"",
+        ),
+        &[
+            "line 55",
+            "key `scenario[1].phi[2].fmu`",
+            "is already bound by `fidelity.paper` (line 21)",
+        ],
     );
 }
 

@@ -6,8 +6,11 @@
 //! against both). Every error is a [`ConfigError`] naming the file and, where known, the line and
 //! the key (an error that names a key always names a line: of the part of a table it is about)
 //! — also for an FMU variable that does not fit, by remembering where each FMU variable name came
-//! from and checking the FMUs one use at a time (failure signal, cost, fidelity, each scenario). The `[campaign]` section is protocol data: it comes back as written
-//! ([`CampaignSection`], with the line of each key) for the caller to apply and validate.
+//! from and checking the FMUs one use at a time (failure signal, cost, fidelity, each scenario).
+//! Two bindings that would set one FMU variable in the same run (a scenario's φ and fixed
+//! parameters, the fidelity settings) are refused, naming both. The `[campaign]` section is
+//! protocol data: it comes back as written ([`CampaignSection`], with the line of each key) for
+//! the caller to apply and validate.
 //!
 //! ```toml
 //! [fmu]
@@ -166,7 +169,8 @@ impl CampaignFile {
     /// Reads and checks `path`: the TOML, then the FMUs (opened, every binding and signal
     /// type-checked against both). `paper(bins)` gives the fidelity space and θ_HF of
     /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, at least 1), each
-    /// setting bound to the FMU variable of its name.
+    /// setting bound to the FMU variable of its name. Bindings that would set one FMU variable
+    /// twice in a run (a scenario's φ and fixed parameters, the fidelity settings) are refused.
     ///
     /// ```no_run
     /// use savme_fmu::campaign_file::CampaignFile;
@@ -1282,6 +1286,113 @@ range = [0.0, 1.0]
                 ),
             ],
         );
+    }
+
+    /// Two bindings that would set one FMU variable in the same run are refused at the later
+    /// one, naming the other with its line.
+    #[test]
+    fn conflicting_bindings_are_refused_naming_both() {
+        let phi_start = "name = \"start\"\nrange = [0.0, 1.0]\n";
+        for (name, replace, line, key, message) in [
+            (
+                "fixed-and-phi",
+                vec![("threshold = 0.5", "threshold = 0.5, x0 = 1.0")],
+                26,
+                "scenario[0].phi[0].fmu",
+                "FMU variable `x0` is already bound by `scenario[0].fixed.x0` (line 23)",
+            ),
+            (
+                "two-phi-by-name",
+                vec![(phi_start, "name = \"start\"\nrange = [0.0, 1.0]\n[[scenario.phi]]\nname = \"end\"\nfmu = \"start\"\nrange = [0.0, 1.0]\n")],
+                37,
+                "scenario[1].phi[1].fmu",
+                "FMU variable `start` is already bound by `scenario[1].phi[0].name` (line 33)",
+            ),
+            (
+                "two-phi-by-fmu",
+                vec![("range = [0.0, 1.0]\n\n", "range = [0.0, 1.0]\n[[scenario.phi]]\nname = \"end\"\nfmu = \"x0\"\nrange = [0.0, 1.0]\n\n")],
+                30,
+                "scenario[0].phi[1].fmu",
+                "FMU variable `x0` is already bound by `scenario[0].phi[0].fmu` (line 26)",
+            ),
+            (
+                "phi-and-fidelity",
+                vec![(phi_start, "name = \"start\"\nfmu = \"rate\"\nrange = [0.0, 1.0]\n")],
+                34,
+                "scenario[1].phi[0].fmu",
+                "FMU variable `rate` is already bound by `fidelity.variable[0].name` (line 16)",
+            ),
+            (
+                "fixed-and-fidelity",
+                vec![("threshold = 0.5", "threshold = 0.5, rate = 1.0")],
+                23,
+                "scenario[0].fixed.rate",
+                "FMU variable `rate` is already bound by `fidelity.variable[0].name` (line 16)",
+            ),
+            (
+                "two-fidelity",
+                vec![("hf = 2.0", "hf = 2.0\n[[fidelity.variable]]\nname = \"fps\"\nfmu = \"rate\"\nvalues = [1]\nhf = 1")],
+                21,
+                "fidelity.variable[1].fmu",
+                "FMU variable `rate` is already bound by `fidelity.variable[0].name` (line 16)",
+            ),
+        ] {
+            let e = error(name, &replace);
+            assert_eq!(at(&e), (Some(line), Some(key)), "{name}: {e}");
+            assert_eq!(e.message, message, "{name}");
+        }
+        // The later binding is blamed whichever is read first: here the fidelity comes last.
+        let body = BASE.replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
+        let (head, fidelity) = body.split_at(body.find("[fidelity]").unwrap());
+        let (fidelity, scenarios) = fidelity.split_at(fidelity.find("[[scenario]]").unwrap());
+        let path = dir("fidelity-last").join("campaign.toml");
+        std::fs::write(&path, format!("{head}{scenarios}\n{fidelity}")).unwrap();
+        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        assert_eq!(at(&e), (Some(32), Some("fidelity.variable[0].name")), "{e}");
+        assert_eq!(
+            e.message,
+            "FMU variable `rate` is already bound by `scenario[0].fixed.rate` (line 17)"
+        );
+    }
+
+    #[test]
+    fn a_paper_setting_cannot_be_bound_again() {
+        let body = BASE
+            .replacen(
+                "[[fidelity.variable]]\nname = \"rate\"\nvalues = [1.0, 2.0]\nhf = 2.0",
+                "",
+                1,
+            )
+            .replacen("[fidelity]", "[fidelity]\npaper = true", 1)
+            .replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
+        let path = dir("paper-bound").join("campaign.toml");
+        std::fs::write(&path, body).unwrap();
+        let e = CampaignFile::load(&path, &paper).unwrap_err();
+        assert_eq!(at(&e), (Some(21), Some("scenario[0].fixed.rate")), "{e}");
+        assert_eq!(
+            e.message,
+            "FMU variable `rate` is already bound by `fidelity.paper` (line 15)"
+        );
+    }
+
+    #[test]
+    fn scenarios_may_share_fmu_variables() {
+        // Scenario 1 sets `x0` by φ, scenario 0 by φ and scenario 1 fixes `threshold` too: they
+        // are set in different runs, so the file gets as far as its FMU.
+        let e = error(
+            "shared",
+            &[
+                (
+                    "role = \"test\"\n",
+                    "role = \"test\"\nfixed = { threshold = 0.1 }\n",
+                ),
+                (
+                    "name = \"start\"\nrange = [0.0, 1.0]\n",
+                    "name = \"start\"\nfmu = \"x0\"\nrange = [0.0, 1.0]\n",
+                ),
+            ],
+        );
+        assert_eq!(at(&e), (Some(3), Some("fmu.hf / fmu.lf")), "{e}");
     }
 
     #[test]

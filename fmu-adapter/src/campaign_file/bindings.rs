@@ -1,5 +1,6 @@
-//! Where each FMU variable of a campaign file is bound, and for what: the FMU check runs one use
-//! at a time so that an error about an FMU variable lands on the binding it is about.
+//! Where each FMU variable of a campaign file is bound, and for what: conflicting bindings are
+//! refused as they are read, and the FMU check runs one use at a time so that an error about an
+//! FMU variable lands on the binding it is about.
 
 use super::raw::FmuSection;
 use super::{ConfigError, Source};
@@ -19,6 +20,19 @@ pub(super) enum Use {
     Fidelity,
     /// `scenario[k]`'s φ and fixed parameters: set in its runs.
     Scenario(usize),
+}
+
+impl Use {
+    /// True when a binding of `self` and one of `other` are set in the same run: the fidelity
+    /// settings with each other and with every scenario, a scenario with itself.
+    fn set_with(self, other: Use) -> bool {
+        match (self, other) {
+            (Use::Fidelity, Use::Fidelity | Use::Scenario(_))
+            | (Use::Scenario(_), Use::Fidelity) => true,
+            (Use::Scenario(a), Use::Scenario(b)) => a == b,
+            _ => false,
+        }
+    }
 }
 
 /// One binding: the FMU variable, the line and key that name it, and its use.
@@ -45,15 +59,35 @@ impl Origins {
         });
     }
 
-    /// Remembers an input the runs set.
+    /// Remembers an input the runs set, refusing an FMU variable another binding already sets
+    /// in the same runs (one value would silently overwrite the other). The error is at the
+    /// later of the two lines and names the other binding with its line.
     pub(super) fn set(
         &mut self,
-        _src: &Source,
+        src: &Source,
         fmu_variable: &str,
         line: usize,
         key: &str,
         used: Use,
     ) -> Result<(), ConfigError> {
+        let clash = self
+            .0
+            .iter()
+            .find(|o| o.fmu_variable == fmu_variable && o.used.set_with(used));
+        if let Some(o) = clash {
+            let ((at, here), (there, other)) = if line >= o.line {
+                ((line, key), (o.line, o.key.as_str()))
+            } else {
+                ((o.line, o.key.as_str()), (line, key))
+            };
+            return Err(src.err(
+                Some(at),
+                Some(here),
+                format!(
+                    "FMU variable `{fmu_variable}` is already bound by `{other}` (line {there})"
+                ),
+            ));
+        }
         self.read(fmu_variable, line, key, used);
         Ok(())
     }
