@@ -415,7 +415,7 @@ fn bad_campaign_files_name_the_file_line_and_key() {
 }
 
 #[test]
-fn conflicting_bindings_are_refused_naming_both() {
+fn conflicting_bindings_and_scenario_errors_name_their_line() {
     let dir = temp_dir("bad-bindings");
     let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
     // The failure signal as the cost: the cost is blamed, not the failure signal.
@@ -444,6 +444,26 @@ fn conflicting_bindings_are_refused_naming_both() {
             "line 55",
             "key `scenario[1].phi[2].fmu`",
             "is already bound by `fidelity.paper` (line 21)",
+        ],
+    );
+    // Protocol errors about scenarios name the scenario's line.
+    check(
+        &TINY.replace("role = \"test\"", "role = \"train\""),
+        &[
+            "line 25",
+            "key `scenario[0].role`",
+            "no scenario has role \"test\"",
+        ],
+    );
+    check(
+        &TINY.replace(
+            "name = \"on_ramp_merge\"",
+            "name = \"on_ramp_merge\"\nweight = -1.0",
+        ),
+        &[
+            "line 45",
+            "key `scenario[1].weight`",
+            "-1 is not a positive weight",
         ],
     );
 }

@@ -159,10 +159,28 @@ pub struct CampaignFile {
     pub test: Vec<String>,
     /// Scenario weights other than 1.
     pub weights: BTreeMap<String, f64>,
+    /// Where each scenario is in the file, in file order: to name the line of an error found
+    /// later in its role or weight (a protocol without meta-testing scenarios, a weight ≤ 0).
+    pub scenario_lines: Vec<ScenarioLines>,
     /// The `[campaign]` section.
     pub campaign: CampaignSection,
     /// `fmu:<hf path>|<lf path>`: which simulator ran the trials.
     pub label: String,
+}
+
+/// Where one `[[scenario]]` table is in its file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ScenarioLines {
+    /// The scenario's name.
+    pub name: String,
+    /// Its position among the file's scenarios: its keys are `scenario[index].…`.
+    pub index: usize,
+    /// The 1-based line of its `[[scenario]]` header.
+    pub table: usize,
+    /// The line of its `role`.
+    pub role: usize,
+    /// The line of its `weight`, when given.
+    pub weight: Option<usize>,
 }
 
 impl CampaignFile {
@@ -243,6 +261,7 @@ impl CampaignFile {
             train: scenarios.train,
             test: scenarios.test,
             weights: scenarios.weights,
+            scenario_lines: scenarios.lines,
             campaign,
         })
     }
@@ -266,7 +285,7 @@ mod raw {
         pub campaign: CampaignSection,
         pub fidelity: Spanned<FidelitySection>,
         #[serde(rename = "scenario")]
-        pub scenarios: Vec<Spanned<ScenarioSection>>,
+        pub scenarios: Spanned<Vec<Spanned<ScenarioSection>>>,
     }
 
     #[derive(Debug, Deserialize)]
@@ -595,7 +614,7 @@ fn bind(
     Ok(name.clone())
 }
 
-/// The scenarios: spaces, run specifications, roles and weights.
+/// The scenarios: spaces, run specifications, roles, weights and lines.
 #[derive(Default)]
 struct ScenarioParts {
     spaces: BTreeMap<String, Space>,
@@ -603,16 +622,24 @@ struct ScenarioParts {
     train: Vec<String>,
     test: Vec<String>,
     weights: BTreeMap<String, f64>,
+    lines: Vec<ScenarioLines>,
 }
 
-/// `[[scenario]]`: every scenario.
+/// `[[scenario]]`: every scenario, at least one.
 fn scenarios(
     src: &Source,
-    list: &[Spanned<raw::ScenarioSection>],
+    list: &Spanned<Vec<Spanned<raw::ScenarioSection>>>,
     origins: &mut Origins,
 ) -> Result<ScenarioParts, ConfigError> {
+    if list.get_ref().is_empty() {
+        return Err(src.err(
+            Some(src.line(list.span())),
+            Some("scenario"),
+            "no scenarios: give [[scenario]] tables",
+        ));
+    }
     let mut parts = ScenarioParts::default();
-    for (k, table) in list.iter().enumerate() {
+    for (k, table) in list.get_ref().iter().enumerate() {
         let key = format!("scenario[{k}]");
         let s = table.get_ref();
         let name = s.name.get_ref();
@@ -638,6 +665,13 @@ fn scenarios(
         if weight != 1.0 {
             parts.weights.insert(name.clone(), weight);
         }
+        parts.lines.push(ScenarioLines {
+            name: name.clone(),
+            index: k,
+            table: src.line(table.span()),
+            role: src.line(s.role.span()),
+            weight: s.weight.as_ref().map(|w| src.line(w.span())),
+        });
         let (space, spec) = scenario(src, k, table, origins)?;
         parts.spaces.insert(name.clone(), space);
         parts.specs.push(spec);
@@ -1393,6 +1427,17 @@ range = [0.0, 1.0]
             ],
         );
         assert_eq!(at(&e), (Some(3), Some("fmu.hf / fmu.lf")), "{e}");
+    }
+
+    #[test]
+    fn a_file_without_scenarios_is_refused_at_its_line() {
+        let body = BASE.replacen("\n[fmu]", "\nscenario = []\n[fmu]", 1);
+        let body = &body[..body.find("[[scenario]]").unwrap()];
+        let path = dir("no-scenarios").join("campaign.toml");
+        std::fs::write(&path, body).unwrap();
+        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        assert_eq!(at(&e), (Some(2), Some("scenario")), "{e}");
+        assert_eq!(e.message, "no scenarios: give [[scenario]] tables");
     }
 
     #[test]

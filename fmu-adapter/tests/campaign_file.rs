@@ -122,6 +122,16 @@ fn a_good_file_loads_into_its_parts() {
         f.weights.into_iter().collect::<Vec<_>>(),
         [("slow".to_string(), 2.0)]
     );
+    // Where each scenario is, for protocol errors found later (role, weight).
+    let lines: Vec<_> = f
+        .scenario_lines
+        .iter()
+        .map(|s| (s.name.as_str(), s.index, s.table, s.role, s.weight))
+        .collect();
+    assert_eq!(
+        lines,
+        [("grow", 0, 26, 28, None), ("slow", 1, 36, 38, Some(39))]
+    );
     assert_eq!(f.theta_hf, Assignment::new().with("rate", 2.0));
     assert_eq!(f.fidelity.variables()[0].arms(), 2);
     assert_eq!(f.scenarios["grow"].variables()[0].arms(), 4);
