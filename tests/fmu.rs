@@ -324,30 +324,34 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
     assert_eq!(trials("in-process"), strip(fixture));
 }
 
+/// Runs `savme run` on `body` (in `dir`) and checks that it is refused before a campaign
+/// starts, with an error naming the file and each of `needles`.
+fn assert_refused(dir: &Path, body: &str, needles: &[&str]) {
+    let config = campaign_file(dir, body);
+    let out = dir.join("out");
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(
+        !out.join("trials.jsonl").exists(),
+        "a campaign started: {body}"
+    );
+    assert!(!ok, "accepted: {body}");
+    assert!(err.contains("campaign.toml"), "{err}");
+    for n in needles {
+        assert!(err.contains(n), "expected `{n}` in: {err}");
+    }
+}
+
 #[test]
 fn bad_campaign_files_name_the_file_line_and_key() {
     let dir = temp_dir("bad-config");
-    let check = |body: &str, needles: &[&str]| {
-        let config = campaign_file(&dir, body);
-        let out = dir.join("out");
-        let (ok, _, err) = savme(&[
-            "run",
-            "--config",
-            config.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert!(
-            !out.join("trials.jsonl").exists(),
-            "a campaign started: {body}"
-        );
-        assert!(!ok, "accepted: {body}");
-        assert!(err.contains("campaign.toml"), "{err}");
-        for n in needles {
-            assert!(err.contains(n), "expected `{n}` in: {err}");
-        }
-    };
+    let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
     // TOML-level: an unknown key, a wrong type.
     check(
         &TINY.replace("stop_time = 12.0", "stop_time = 12.0\nstop_tme = 3"),
@@ -408,4 +412,80 @@ fn bad_campaign_files_name_the_file_line_and_key() {
         ),
         &["fmu.step.rate_of", "`fps`"],
     );
+}
+
+#[test]
+fn conflicting_bindings_and_scenario_errors_name_their_line() {
+    let dir = temp_dir("bad-bindings");
+    let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
+    // The failure signal as the cost: the cost is blamed, not the failure signal.
+    check(
+        &TINY.replacen("cost = \"work\"", "cost = \"collision\"", 1),
+        &["line 6", "key `fmu.cost`", "`collision` is Boolean"],
+    );
+    // One FMU variable set twice in a run: fixed and φ, φ and a paper fidelity setting.
+    check(
+        &TINY.replace(
+            "fixed = { scenario = 7 }",
+            "fixed = { scenario = 7, gap = 10.0 }",
+        ),
+        &[
+            "line 34",
+            "key `scenario[0].phi[2].name`",
+            "FMU variable `gap` is already bound by `scenario[0].fixed.gap` (line 26)",
+        ],
+    );
+    check(
+        &TINY.replace(
+            "name = \"time_offset\"",
+            "name = \"time_offset\"\nfmu = \"simulation_rate_hz\"",
+        ),
+        &[
+            "line 55",
+            "key `scenario[1].phi[2].fmu`",
+            "is already bound by `fidelity.paper` (line 21)",
+        ],
+    );
+    // Protocol errors about scenarios name the scenario's line.
+    check(
+        &TINY.replace("role = \"test\"", "role = \"train\""),
+        &[
+            "line 25",
+            "key `scenario[0].role`",
+            "no scenario has role \"test\"",
+        ],
+    );
+    check(
+        &TINY.replace(
+            "name = \"on_ramp_merge\"",
+            "name = \"on_ramp_merge\"\nweight = -1.0",
+        ),
+        &[
+            "line 45",
+            "key `scenario[1].weight`",
+            "-1 is not a positive weight",
+        ],
+    );
+}
+
+#[test]
+fn run_refuses_an_output_directory_that_is_a_file() {
+    let dir = temp_dir("out-file");
+    let config = campaign_file(&dir, TINY);
+    let file = dir.join("afile");
+    std::fs::write(&file, "mine").unwrap();
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        file.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("{} is a file, not a directory", file.display())),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
 }

@@ -382,6 +382,28 @@ fn bad_input_is_refused_before_any_simulation() {
         err.contains(&file.join("out").display().to_string()),
         "{err}"
     );
+    // An output directory that is a file: named, and said to be one (not "File exists").
+    let (ok, _, err) = reproduce(&file, &[]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("{} is a file, not a directory", file.display())),
+        "{err}"
+    );
+    assert!(!err.contains("os error"), "{err}");
+    // The same for --resume, and for a file further up the path.
+    let (ok, _, err) = resume(&file);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("{} is a file, not a directory", file.display())),
+        "{err}"
+    );
+    let (ok, _, err) = reproduce(&file.join("out").join("deeper"), &[]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("{} is a file, not a directory", file.display())),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "not a directory");
     let _ = std::fs::remove_file(&file);
 
     // A directory that holds a campaign is not overwritten.

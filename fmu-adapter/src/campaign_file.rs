@@ -4,9 +4,13 @@
 //! [`CampaignFile::load`] reads and checks a file: the TOML (syntax, unknown keys, types), the
 //! spaces, the run specification, then both FMUs (opened, every binding and signal type-checked
 //! against both). Every error is a [`ConfigError`] naming the file and, where known, the line and
-//! the key — also for an FMU variable that does not fit, by remembering where each FMU variable
-//! name came from. The `[campaign]` section is protocol data: it comes back as written
-//! ([`CampaignSection`], with the line of each key) for the caller to apply and validate.
+//! the key (an error that names a key always names a line: of the part of a table it is about)
+//! — also for an FMU variable that does not fit, by remembering where each FMU variable name came
+//! from and checking the FMUs one use at a time (failure signal, cost, fidelity, each scenario).
+//! Two bindings that would set one FMU variable in the same run (a scenario's φ and fixed
+//! parameters, the fidelity settings) are refused, naming both. The `[campaign]` section is
+//! protocol data: it comes back as written ([`CampaignSection`], with the line of each key) for
+//! the caller to apply and validate.
 //!
 //! ```toml
 //! [fmu]
@@ -42,12 +46,13 @@
 //! range = [2.0, 8.0]
 //! ```
 
+mod bindings;
+
 use crate::worker::WorkerInit;
-use crate::{
-    Binding, CostSource, Crossing, Failure, Fixed, FmuError, RunSpec, ScenarioSpec, StepSize,
-};
-use raw::{FmuSection, ScaleSection, StepSection, VarSection};
-use savme_kernel::{Assignment, Scale, Space, Value, Variable};
+use crate::{Binding, CostSource, Crossing, Failure, Fixed, RunSpec, ScenarioSpec, StepSize};
+use bindings::{Origins, Use};
+use raw::{ScaleSection, StepSection, VarSection};
+use savme_kernel::{Assignment, Scale, Space, SpaceError, Value, Variable};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -154,17 +159,36 @@ pub struct CampaignFile {
     pub test: Vec<String>,
     /// Scenario weights other than 1.
     pub weights: BTreeMap<String, f64>,
+    /// Where each scenario is in the file, in file order: to name the line of an error found
+    /// later in its role or weight (a protocol without meta-testing scenarios, a weight ≤ 0).
+    pub scenario_lines: Vec<ScenarioLines>,
     /// The `[campaign]` section.
     pub campaign: CampaignSection,
     /// `fmu:<hf path>|<lf path>`: which simulator ran the trials.
     pub label: String,
 }
 
+/// Where one `[[scenario]]` table is in its file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ScenarioLines {
+    /// The scenario's name.
+    pub name: String,
+    /// Its position among the file's scenarios: its keys are `scenario[index].…`.
+    pub index: usize,
+    /// The 1-based line of its `[[scenario]]` header.
+    pub table: usize,
+    /// The line of its `role`.
+    pub role: usize,
+    /// The line of its `weight`, when given.
+    pub weight: Option<usize>,
+}
+
 impl CampaignFile {
     /// Reads and checks `path`: the TOML, then the FMUs (opened, every binding and signal
     /// type-checked against both). `paper(bins)` gives the fidelity space and θ_HF of
     /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, at least 1), each
-    /// setting bound to the FMU variable of its name.
+    /// setting bound to the FMU variable of its name. Bindings that would set one FMU variable
+    /// twice in a run (a scenario's φ and fixed parameters, the fidelity settings) are refused.
     ///
     /// ```no_run
     /// use savme_fmu::campaign_file::CampaignFile;
@@ -196,12 +220,13 @@ impl CampaignFile {
         let mut origins = Origins::default();
         let fidelity = fidelity(&src, &f.fidelity, &campaign, paper, &mut origins)?;
         let scenarios = scenarios(&src, &f.scenarios, &mut origins)?;
-        let step = step(&src, &f.fmu.step, &fidelity.space)?;
+        let fmu = f.fmu.get_ref();
+        let step = step(&src, &fmu.step, &fidelity.space)?;
+        let stop_time = stop_time(&src, &fmu.stop_time)?;
         let failure = failure(&src, &f.failure, &mut origins)?;
-        let cost = cost_source(&src, f.fmu.cost.as_ref(), &mut origins);
-        let hf = resolve(base, f.fmu.hf.get_ref());
-        let lf = f
-            .fmu
+        let cost = cost_source(&src, fmu.cost.as_ref(), &mut origins);
+        let hf = resolve(base, fmu.hf.get_ref());
+        let lf = fmu
             .lf
             .as_ref()
             .map_or(hf.clone(), |l| resolve(base, l.get_ref()));
@@ -209,10 +234,10 @@ impl CampaignFile {
             hf,
             lf,
             spec: RunSpec {
-                stop_time: f.fmu.stop_time,
+                stop_time,
                 step,
                 failure,
-                stop_on_failure: f.fmu.stop_on_failure,
+                stop_on_failure: fmu.stop_on_failure,
                 cost,
                 fidelity: fidelity.bindings,
                 scenarios: scenarios.specs,
@@ -221,28 +246,30 @@ impl CampaignFile {
             phi: scenarios.spaces.clone(),
             theta_hf: Some(fidelity.theta_hf.clone()),
         };
-        check_fmus(&src, &init, &f.fmu, &origins)?;
-        let timeout = timeout(&src, f.fmu.timeout_s.as_ref())?;
+        bindings::check_fmus(&src, &init, &f.fmu, &origins)?;
+        let timeout = timeout(&src, fmu.timeout_s.as_ref())?;
         Ok(CampaignFile {
             path: path.to_path_buf(),
             label: format!("fmu:{}|{}", init.hf.display(), init.lf.display()),
             init,
-            isolate: f.fmu.isolate,
+            isolate: fmu.isolate,
             timeout,
-            skip_failed_runs: f.fmu.on_error == raw::OnError::Skip,
+            skip_failed_runs: fmu.on_error == raw::OnError::Skip,
             fidelity: fidelity.space,
             theta_hf: fidelity.theta_hf,
             scenarios: scenarios.spaces,
             train: scenarios.train,
             test: scenarios.test,
             weights: scenarios.weights,
+            scenario_lines: scenarios.lines,
             campaign,
         })
     }
 }
 
 /// The file as serde reads it. Keep the type names: serde names some of them in its messages
-/// (e.g. "untagged enum StepSection").
+/// (e.g. "untagged enum StepSection"). Values an error may be about later are spanned, to name
+/// their line.
 mod raw {
     use super::Cost;
     use serde::Deserialize;
@@ -252,13 +279,13 @@ mod raw {
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub struct File {
-        pub fmu: FmuSection,
-        pub failure: FailureSection,
+        pub fmu: Spanned<FmuSection>,
+        pub failure: Spanned<FailureSection>,
         #[serde(default)]
         pub campaign: CampaignSection,
-        pub fidelity: FidelitySection,
+        pub fidelity: Spanned<FidelitySection>,
         #[serde(rename = "scenario")]
-        pub scenarios: Vec<ScenarioSection>,
+        pub scenarios: Spanned<Vec<Spanned<ScenarioSection>>>,
     }
 
     #[derive(Debug, Deserialize)]
@@ -266,7 +293,7 @@ mod raw {
     pub struct FmuSection {
         pub hf: Spanned<String>,
         pub lf: Option<Spanned<String>>,
-        pub stop_time: f64,
+        pub stop_time: Spanned<f64>,
         pub step: Spanned<StepSection>,
         #[serde(default = "yes")]
         pub stop_on_failure: bool,
@@ -303,8 +330,8 @@ mod raw {
     pub struct FailureSection {
         pub boolean: Option<Spanned<String>>,
         pub threshold: Option<Spanned<String>>,
-        pub above: Option<f64>,
-        pub below: Option<f64>,
+        pub above: Option<Spanned<f64>>,
+        pub below: Option<Spanned<f64>>,
     }
 
     #[derive(Debug, Default, Deserialize)]
@@ -329,7 +356,7 @@ mod raw {
     pub struct FidelitySection {
         /// The paper's Table I, each setting bound to the FMU variable of the same name.
         #[serde(default)]
-        pub paper: bool,
+        pub paper: Option<Spanned<bool>>,
         #[serde(default, rename = "variable")]
         pub variables: Vec<Spanned<VarSection>>,
     }
@@ -337,19 +364,15 @@ mod raw {
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub struct VarSection {
-        pub name: String,
+        pub name: Spanned<String>,
         pub fmu: Option<Spanned<String>>,
-        pub values: Option<Vec<toml::Value>>,
-        pub range: Option<[f64; 2]>,
-        #[serde(default = "ten")]
-        pub bins: u32,
-        #[serde(default)]
-        pub scale: ScaleSection,
-        pub hf: Option<toml::Value>,
-    }
-
-    fn ten() -> u32 {
-        10
+        pub values: Option<Spanned<Vec<toml::Value>>>,
+        pub range: Option<Spanned<[f64; 2]>>,
+        /// Default 10.
+        pub bins: Option<Spanned<u32>>,
+        /// Default linear.
+        pub scale: Option<Spanned<ScaleSection>>,
+        pub hf: Option<Spanned<toml::Value>>,
     }
 
     #[derive(Debug, Deserialize, Default, Clone, Copy)]
@@ -364,17 +387,13 @@ mod raw {
     #[serde(deny_unknown_fields)]
     pub struct ScenarioSection {
         pub name: Spanned<String>,
-        #[serde(default = "unit")]
-        pub weight: f64,
+        /// Default 1.
+        pub weight: Option<Spanned<f64>>,
         pub role: Spanned<String>,
         #[serde(default)]
         pub fixed: BTreeMap<String, Spanned<toml::Value>>,
         #[serde(rename = "phi")]
         pub phi: Vec<Spanned<VarSection>>,
-    }
-
-    fn unit() -> f64 {
-        1.0
     }
 }
 
@@ -428,36 +447,6 @@ fn resolve(base: &Path, p: &str) -> PathBuf {
     }
 }
 
-/// Where each FMU variable name came from: its line and key, to point at the line of a mapping
-/// error the FMU check reports by variable name.
-#[derive(Debug, Default)]
-struct Origins(Vec<(String, usize, String)>);
-
-impl Origins {
-    fn add(&mut self, fmu_variable: &str, line: usize, key: impl Into<String>) {
-        self.0.push((fmu_variable.to_string(), line, key.into()));
-    }
-
-    /// The line and key of the first binding of `fmu_variable`.
-    fn of(&self, fmu_variable: &str) -> Option<(usize, &str)> {
-        self.0
-            .iter()
-            .find(|(n, _, _)| n == fmu_variable)
-            .map(|(_, l, k)| (*l, k.as_str()))
-    }
-}
-
-/// The FMU variable a savme variable binds to (its `fmu` key, else its own name), remembered
-/// with its line (the `fmu` key's, else the variable's) and key.
-fn bind(src: &Source, v: &VarSection, line: usize, key: &str, origins: &mut Origins) -> String {
-    let (name, at) = match &v.fmu {
-        Some(f) => (f.get_ref().clone(), src.line(f.span())),
-        None => (v.name.clone(), line),
-    };
-    origins.add(&name, at, key);
-    name
-}
-
 /// The `[campaign]` section without its spans, `out` resolved.
 fn campaign_section(src: &Source, c: raw::CampaignSection, base: &Path) -> CampaignSection {
     let mut lines = BTreeMap::new();
@@ -497,16 +486,23 @@ struct FidelityParts {
     bindings: Vec<Binding>,
 }
 
+/// `[fidelity]`: the paper's settings, or the variables listed.
 fn fidelity(
     src: &Source,
-    f: &raw::FidelitySection,
+    section: &Spanned<raw::FidelitySection>,
     campaign: &CampaignSection,
     paper: &dyn Fn(u32) -> (Space, Assignment),
     origins: &mut Origins,
 ) -> Result<FidelityParts, ConfigError> {
-    if !f.paper {
-        return listed_fidelity(src, &f.variables, origins);
-    }
+    let f = section.get_ref();
+    let Some(paper_line) = f
+        .paper
+        .as_ref()
+        .filter(|p| *p.get_ref())
+        .map(|p| src.line(p.span()))
+    else {
+        return listed_fidelity(src, section, origins);
+    };
     if let Some(first) = f.variables.first() {
         return Err(src.err(
             Some(src.line(first.span())),
@@ -523,15 +519,15 @@ fn fidelity(
         ));
     }
     let (space, theta_hf) = paper(bins);
-    let bindings = space
-        .variables()
-        .iter()
-        .map(|v| Binding {
+    let mut bindings = Vec::new();
+    for v in space.variables() {
+        origins.set(src, &v.name, paper_line, "fidelity.paper", Use::Fidelity)?;
+        bindings.push(Binding {
             variable: v.name.to_string(),
             fmu_variable: v.name.to_string(),
             labels: crate::simulator::labels_of(&space, &v.name),
-        })
-        .collect();
+        });
+    }
     Ok(FidelityParts {
         space,
         theta_hf,
@@ -542,41 +538,29 @@ fn fidelity(
 /// `[[fidelity.variable]]`: each variable with its θ_HF value and FMU binding.
 fn listed_fidelity(
     src: &Source,
-    variables: &[Spanned<VarSection>],
+    section: &Spanned<raw::FidelitySection>,
     origins: &mut Origins,
 ) -> Result<FidelityParts, ConfigError> {
-    let mut vars = Vec::new();
+    let list = &section.get_ref().variables;
+    let vars = variables(src, "fidelity.variable", list)?;
+    let space = Space::new(vars.clone()).map_err(|e| {
+        src.err(
+            Some(src.line(section.span())),
+            Some("fidelity"),
+            format!("{e}: give `paper = true` or [[fidelity.variable]] tables"),
+        )
+    })?;
     let mut theta_hf = Assignment::new();
-    let mut bound = Vec::new();
-    for (k, sv) in variables.iter().enumerate() {
+    let mut bindings = Vec::new();
+    for (k, (sv, var)) in list.iter().zip(&vars).enumerate() {
         let key = format!("fidelity.variable[{k}]");
-        let line = src.line(sv.span());
-        let v = sv.get_ref();
-        let var = variable(v).map_err(|m| src.err(Some(line), Some(&key), m))?;
-        let hf = v.hf.as_ref().and_then(toml_value).ok_or_else(|| {
-            src.err(
-                Some(line),
-                Some(&format!("{key}.hf")),
-                "θ_HF value missing or not a number/boolean/string",
-            )
-        })?;
-        theta_hf.set(&v.name, hf);
-        let fmu = bind(src, v, line, &format!("{key}.fmu"), origins);
-        bound.push((v.name.clone(), fmu));
-        vars.push(var);
+        theta_hf.set(&var.name, theta_hf_value(src, &key, sv, var)?);
+        bindings.push(Binding {
+            variable: var.name.to_string(),
+            fmu_variable: bind(src, sv, &key, Use::Fidelity, origins)?,
+            labels: crate::simulator::labels_of(&space, &var.name),
+        });
     }
-    let space = Space::new(vars).map_err(|e| src.err(None, Some("fidelity"), e.to_string()))?;
-    space
-        .arms_of(&theta_hf)
-        .map_err(|e| src.err(None, Some("fidelity.variable.hf"), format!("θ_HF: {e}")))?;
-    let bindings = bound
-        .into_iter()
-        .map(|(name, fmu)| Binding {
-            labels: crate::simulator::labels_of(&space, &name),
-            variable: name,
-            fmu_variable: fmu,
-        })
-        .collect();
     Ok(FidelityParts {
         space,
         theta_hf,
@@ -584,7 +568,53 @@ fn listed_fidelity(
     })
 }
 
-/// The scenarios: spaces, run specifications, roles and weights.
+/// θ_HF of a fidelity variable: its `hf` value, which must lie inside the variable.
+fn theta_hf_value(
+    src: &Source,
+    key: &str,
+    sv: &Spanned<VarSection>,
+    var: &Variable,
+) -> Result<Value, ConfigError> {
+    let hf = sv
+        .get_ref()
+        .hf
+        .as_ref()
+        .and_then(|h| toml_value(h.get_ref()));
+    let hf = hf.ok_or_else(|| {
+        var_error(
+            src,
+            key,
+            sv,
+            Part::Hf,
+            "θ_HF value missing or not a number/boolean/string",
+        )
+    })?;
+    let one = Assignment::new().with(&var.name, hf.clone());
+    Space::new(vec![var.clone()])
+        .and_then(|s| s.arms_of(&one))
+        .map_err(|e| var_error(src, key, sv, Part::Hf, format!("θ_HF: {e}")))?;
+    Ok(hf)
+}
+
+/// The FMU variable a savme variable binds to — its `fmu` key, else its own name — remembered
+/// with the line and key that name it (`….fmu`, else `….name`), as set by `used`.
+fn bind(
+    src: &Source,
+    sv: &Spanned<VarSection>,
+    key: &str,
+    used: Use,
+    origins: &mut Origins,
+) -> Result<String, ConfigError> {
+    let v = sv.get_ref();
+    let (name, span, key) = match &v.fmu {
+        Some(f) => (f.get_ref(), f.span(), format!("{key}.fmu")),
+        None => (v.name.get_ref(), v.name.span(), format!("{key}.name")),
+    };
+    origins.set(src, name, src.line(span), &key, used)?;
+    Ok(name.clone())
+}
+
+/// The scenarios: spaces, run specifications, roles, weights and lines.
 #[derive(Default)]
 struct ScenarioParts {
     spaces: BTreeMap<String, Space>,
@@ -592,16 +622,26 @@ struct ScenarioParts {
     train: Vec<String>,
     test: Vec<String>,
     weights: BTreeMap<String, f64>,
+    lines: Vec<ScenarioLines>,
 }
 
+/// `[[scenario]]`: every scenario, at least one.
 fn scenarios(
     src: &Source,
-    list: &[raw::ScenarioSection],
+    list: &Spanned<Vec<Spanned<raw::ScenarioSection>>>,
     origins: &mut Origins,
 ) -> Result<ScenarioParts, ConfigError> {
+    if list.get_ref().is_empty() {
+        return Err(src.err(
+            Some(src.line(list.span())),
+            Some("scenario"),
+            "no scenarios: give [[scenario]] tables",
+        ));
+    }
     let mut parts = ScenarioParts::default();
-    for (k, s) in list.iter().enumerate() {
+    for (k, table) in list.get_ref().iter().enumerate() {
         let key = format!("scenario[{k}]");
+        let s = table.get_ref();
         let name = s.name.get_ref();
         if parts.spaces.contains_key(name) {
             return Err(src.err(
@@ -621,37 +661,42 @@ fn scenarios(
                 ))
             }
         }
-        if s.weight != 1.0 {
-            parts.weights.insert(name.clone(), s.weight);
+        let weight = s.weight.as_ref().map_or(1.0, |w| *w.get_ref());
+        if weight != 1.0 {
+            parts.weights.insert(name.clone(), weight);
         }
-        let (space, spec) = scenario(src, &key, s, origins)?;
+        parts.lines.push(ScenarioLines {
+            name: name.clone(),
+            index: k,
+            table: src.line(table.span()),
+            role: src.line(s.role.span()),
+            weight: s.weight.as_ref().map(|w| src.line(w.span())),
+        });
+        let (space, spec) = scenario(src, k, table, origins)?;
         parts.spaces.insert(name.clone(), space);
         parts.specs.push(spec);
     }
     Ok(parts)
 }
 
-/// One scenario's φ-space and run specification (its φ bindings and fixed parameters).
+/// Scenario `k`'s φ-space and run specification (its fixed parameters and φ bindings).
 fn scenario(
     src: &Source,
-    key: &str,
-    s: &raw::ScenarioSection,
+    k: usize,
+    table: &Spanned<raw::ScenarioSection>,
     origins: &mut Origins,
 ) -> Result<(Space, ScenarioSpec), ConfigError> {
-    let mut vars = Vec::new();
-    let mut phi = Vec::new();
-    for (j, sv) in s.phi.iter().enumerate() {
-        let pkey = format!("{key}.phi[{j}]");
-        let line = src.line(sv.span());
-        let v = sv.get_ref();
-        vars.push(variable(v).map_err(|m| src.err(Some(line), Some(&pkey), m))?);
-        phi.push(Binding {
-            variable: v.name.clone(),
-            fmu_variable: bind(src, v, line, &format!("{pkey}.fmu"), origins),
-            labels: None,
-        });
-    }
-    let space = Space::new(vars).map_err(|e| src.err(None, Some(key), e.to_string()))?;
+    let key = format!("scenario[{k}]");
+    let s = table.get_ref();
+    let vars = variables(src, &format!("{key}.phi"), &s.phi)?;
+    let space = Space::new(vars).map_err(|e| {
+        src.err(
+            Some(src.line(table.span())),
+            Some(&format!("{key}.phi")),
+            format!("{e}: give at least one [[scenario.phi]] table"),
+        )
+    })?;
+    let used = Use::Scenario(k);
     let mut fixed = Vec::new();
     for (name, v) in &s.fixed {
         let fkey = format!("{key}.fixed.{name}");
@@ -663,10 +708,18 @@ fn scenario(
                 "expected a number, boolean or string",
             )
         })?;
-        origins.add(name, line, fkey);
+        origins.set(src, name, line, &fkey, used)?;
         fixed.push(Fixed {
             fmu_variable: name.clone(),
             value,
+        });
+    }
+    let mut phi = Vec::new();
+    for (j, sv) in s.phi.iter().enumerate() {
+        phi.push(Binding {
+            variable: sv.get_ref().name.get_ref().clone(),
+            fmu_variable: bind(src, sv, &format!("{key}.phi[{j}]"), used, origins)?,
+            labels: None,
         });
     }
     let spec = ScenarioSpec {
@@ -677,35 +730,136 @@ fn scenario(
     Ok((space, spec))
 }
 
-/// A savme variable from its TOML section.
-fn variable(v: &VarSection) -> Result<Variable, String> {
-    match (&v.values, v.range) {
-        (Some(values), None) => {
-            let values: Option<Vec<Value>> = values.iter().map(toml_value).collect();
-            let values = values.ok_or("`values` must be numbers, booleans or strings")?;
-            if values.is_empty() {
-                return Err("`values` is empty".into());
-            }
-            Ok(Variable::discrete(&v.name, values))
+/// The variables of `[[fidelity.variable]]` or of a scenario's `[[scenario.phi]]` tables (keys
+/// `{prefix}[j]`): each checked as the kernel checks it, no name twice.
+fn variables(
+    src: &Source,
+    prefix: &str,
+    list: &[Spanned<VarSection>],
+) -> Result<Vec<Variable>, ConfigError> {
+    let mut vars: Vec<Variable> = Vec::new();
+    for (j, sv) in list.iter().enumerate() {
+        let key = format!("{prefix}[{j}]");
+        let var = variable(sv.get_ref()).map_err(|(part, m)| var_error(src, &key, sv, part, m))?;
+        if vars.iter().any(|w| w.name == var.name) {
+            let message = format!("variable `{}` is defined twice", var.name);
+            return Err(var_error(src, &key, sv, Part::Name, message));
         }
-        (None, Some([lo, hi])) => {
-            if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
-                return Err(format!("`range` = [{lo}, {hi}] is empty"));
-            }
-            if v.bins == 0 {
-                return Err("`bins` must be at least 1".into());
-            }
-            let scale = match v.scale {
-                ScaleSection::Linear => Scale::Linear,
-                ScaleSection::Log if lo > 0.0 => Scale::Log,
-                ScaleSection::Log => {
-                    return Err(format!("a log scale needs 0 < lo (range [{lo}, {hi}])"))
-                }
-            };
-            Ok(Variable::continuous(&v.name, lo, hi, v.bins, scale))
-        }
-        _ => Err("give either `values` (discrete) or `range` (continuous)".into()),
+        vars.push(var);
     }
+    Ok(vars)
+}
+
+/// The part of a variable's table an error is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    /// The table as a whole.
+    Table,
+    Name,
+    Values,
+    Range,
+    Bins,
+    Scale,
+    Hf,
+}
+
+impl Part {
+    /// The part's key below the table's (`""` for the table) and its span in `v`, if written.
+    fn locate(self, v: &VarSection) -> (&'static str, Option<Range<usize>>) {
+        fn span<T>(x: &Option<Spanned<T>>) -> Option<Range<usize>> {
+            x.as_ref().map(Spanned::span)
+        }
+        match self {
+            Part::Table => ("", None),
+            Part::Name => (".name", Some(v.name.span())),
+            Part::Values => (".values", span(&v.values)),
+            Part::Range => (".range", span(&v.range)),
+            Part::Bins => (".bins", span(&v.bins)),
+            Part::Scale => (".scale", span(&v.scale)),
+            Part::Hf => (".hf", span(&v.hf)),
+        }
+    }
+
+    /// The part a kernel error about a single variable `v` is about.
+    fn of(e: &SpaceError, v: &VarSection) -> Part {
+        match e {
+            SpaceError::EmptyName => Part::Name,
+            SpaceError::NoValues { .. }
+            | SpaceError::DuplicateValue { .. }
+            | SpaceError::NonFiniteValue { .. } => Part::Values,
+            SpaceError::NonFiniteBound { .. } | SpaceError::EmptyRange { .. } => Part::Range,
+            SpaceError::TooManyArms { .. } if v.values.is_some() => Part::Values,
+            SpaceError::ZeroBins { .. } | SpaceError::TooManyArms { .. } => Part::Bins,
+            SpaceError::LogRangeNotPositive { .. } => Part::Scale,
+            _ => Part::Table,
+        }
+    }
+}
+
+/// An error about `part` of the variable table `sv` at `key`: named `{key}.{part}`, at the
+/// part's line when the file gives the part, else at the table's.
+fn var_error(
+    src: &Source,
+    key: &str,
+    sv: &Spanned<VarSection>,
+    part: Part,
+    message: impl Into<String>,
+) -> ConfigError {
+    let (suffix, span) = part.locate(sv.get_ref());
+    let line = src.line(span.unwrap_or_else(|| sv.span()));
+    src.err(Some(line), Some(&format!("{key}{suffix}")), message)
+}
+
+/// A savme variable from its TOML section, checked as the kernel checks it; an error names the
+/// part of the section at fault.
+fn variable(v: &VarSection) -> Result<Variable, (Part, String)> {
+    let name = v.name.get_ref();
+    let var = match (&v.values, &v.range) {
+        (Some(values), None) => {
+            let values: Option<Vec<Value>> = values.get_ref().iter().map(toml_value).collect();
+            let values = values.ok_or_else(|| {
+                (
+                    Part::Values,
+                    "`values` must be numbers, booleans or strings".to_string(),
+                )
+            })?;
+            if values.is_empty() {
+                return Err((Part::Values, "`values` is empty".into()));
+            }
+            Variable::discrete(name, values)
+        }
+        (None, Some(range)) => continuous(v, *range.get_ref())?,
+        _ => {
+            return Err((
+                Part::Table,
+                "give either `values` (discrete) or `range` (continuous)".into(),
+            ))
+        }
+    };
+    Space::new(vec![var.clone()]).map_err(|e| (Part::of(&e, v), e.to_string()))?;
+    Ok(var)
+}
+
+/// A continuous savme variable over `[lo, hi]` with the section's bins (default 10) and scale.
+fn continuous(v: &VarSection, [lo, hi]: [f64; 2]) -> Result<Variable, (Part, String)> {
+    if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
+        return Err((Part::Range, format!("`range` = [{lo}, {hi}] is empty")));
+    }
+    let bins = v.bins.as_ref().map_or(10, |b| *b.get_ref());
+    if bins == 0 {
+        return Err((Part::Bins, "`bins` must be at least 1".into()));
+    }
+    let scale = match v.scale.as_ref().map(|s| *s.get_ref()).unwrap_or_default() {
+        ScaleSection::Linear => Scale::Linear,
+        ScaleSection::Log if lo > 0.0 => Scale::Log,
+        ScaleSection::Log => {
+            return Err((
+                Part::Scale,
+                format!("a log scale needs 0 < lo (range [{lo}, {hi}])"),
+            ))
+        }
+    };
+    Ok(Variable::continuous(v.name.get_ref(), lo, hi, bins, scale))
 }
 
 /// A savme value from a TOML scalar (None for arrays, tables and dates).
@@ -719,16 +873,22 @@ fn toml_value(v: &toml::Value) -> Option<Value> {
     })
 }
 
-/// `[fmu] step`: fixed, or the rate a fidelity variable gives.
+/// `[fmu] step`: a fixed positive step, or the rate a fidelity variable gives.
 fn step(
     src: &Source,
     step: &Spanned<StepSection>,
     fidelity: &Space,
 ) -> Result<StepSize, ConfigError> {
+    let line = Some(src.line(step.span()));
     match step.get_ref() {
+        StepSection::Fixed(h) if !(*h > 0.0 && h.is_finite()) => Err(src.err(
+            line,
+            Some("fmu.step"),
+            format!("step size {h} is not a positive number of seconds"),
+        )),
         StepSection::Fixed(h) => Ok(StepSize::Fixed(*h)),
         StepSection::Rate { rate_of } if fidelity.variable(rate_of).is_none() => Err(src.err(
-            Some(src.line(step.span())),
+            line,
             Some("fmu.step.rate_of"),
             format!("`{rate_of}` is not a fidelity variable"),
         )),
@@ -736,21 +896,45 @@ fn step(
     }
 }
 
+/// `[fmu] stop_time`: positive and finite.
+fn stop_time(src: &Source, t: &Spanned<f64>) -> Result<f64, ConfigError> {
+    let s = *t.get_ref();
+    if s > 0.0 && s.is_finite() {
+        return Ok(s);
+    }
+    Err(src.err(
+        Some(src.line(t.span())),
+        Some("fmu.stop_time"),
+        format!("stop time {s} is not a positive number of seconds"),
+    ))
+}
+
+/// What a `[failure]` section must be.
+const FAILURE_FORMS: &str =
+    "give `boolean = \"output\"`, or `threshold = \"output\"` with one of `above` / `below`";
+
 /// `[failure]`: a Boolean output, or an output against a threshold.
 fn failure(
     src: &Source,
-    f: &raw::FailureSection,
+    section: &Spanned<raw::FailureSection>,
     origins: &mut Origins,
 ) -> Result<Failure, ConfigError> {
-    match (&f.boolean, &f.threshold, f.above, f.below) {
+    let f = section.get_ref();
+    match (&f.boolean, &f.threshold, &f.above, &f.below) {
         (Some(b), None, None, None) => {
-            origins.add(b.get_ref(), src.line(b.span()), "failure.boolean");
+            origins.read(
+                b.get_ref(),
+                src.line(b.span()),
+                "failure.boolean",
+                Use::Failure,
+            );
             Ok(Failure::Boolean {
                 variable: b.get_ref().clone(),
             })
         }
         (None, Some(t), Some(value), None) | (None, Some(t), None, Some(value)) => {
-            origins.add(t.get_ref(), src.line(t.span()), "failure.threshold");
+            let line = src.line(t.span());
+            origins.read(t.get_ref(), line, "failure.threshold", Use::Failure);
             Ok(Failure::Threshold {
                 variable: t.get_ref().clone(),
                 when: if f.above.is_some() {
@@ -758,22 +942,37 @@ fn failure(
                 } else {
                     Crossing::Below
                 },
-                value,
+                value: *value.get_ref(),
             })
         }
-        _ => Err(src.err(
-            None,
-            Some("failure"),
-            "give `boolean = \"output\"`, or `threshold = \"output\"` with one of `above` / `below`",
-        )),
+        _ => Err(failure_error(src, section)),
     }
+}
+
+/// The error of a `[failure]` section that is neither a Boolean output nor a one-sided
+/// threshold: at the key that does not fit (a threshold next to a Boolean, a side next to a
+/// Boolean, the second side; the threshold without a side), else at the section.
+fn failure_error(src: &Source, section: &Spanned<raw::FailureSection>) -> ConfigError {
+    let f = section.get_ref();
+    let above = f.above.as_ref().map(|a| ("failure.above", a.span()));
+    let below = f.below.as_ref().map(|b| ("failure.below", b.span()));
+    let culprit = match (&f.boolean, &f.threshold) {
+        (Some(_), Some(t)) => Some(("failure.threshold", t.span())),
+        (Some(_), None) => above.or(below),
+        (None, Some(t)) => below
+            .filter(|_| above.is_some())
+            .or(Some(("failure.threshold", t.span()))),
+        (None, None) => None,
+    };
+    let (key, span) = culprit.unwrap_or(("failure", section.span()));
+    src.err(Some(src.line(span)), Some(key), FAILURE_FORMS)
 }
 
 /// `[fmu] cost`: wall-clock (the default, or `"wall"`), else the output it names.
 fn cost_source(src: &Source, cost: Option<&Spanned<String>>, origins: &mut Origins) -> CostSource {
     match cost {
         Some(c) if c.get_ref() != "wall" => {
-            origins.add(c.get_ref(), src.line(c.span()), "fmu.cost");
+            origins.read(c.get_ref(), src.line(c.span()), "fmu.cost", Use::Cost);
             CostSource::Output(c.get_ref().clone())
         }
         _ => CostSource::Wall,
@@ -796,45 +995,6 @@ fn timeout(src: &Source, t: Option<&Spanned<f64>>) -> Result<Duration, ConfigErr
                 "must be positive",
             )
         })
-}
-
-/// Opens both FMUs and checks every binding now, naming the line and key of a bad variable.
-fn check_fmus(
-    src: &Source,
-    init: &WorkerInit,
-    fmu: &FmuSection,
-    origins: &Origins,
-) -> Result<(), ConfigError> {
-    init.simulator().map(drop).map_err(|e| {
-        let (line, key) = locate(src, &e, fmu, origins);
-        src.err(line, key, e.to_string())
-    })
-}
-
-/// The line and key an FMU error comes from: a variable's binding, the run specification
-/// (`fmu`), or the FMU file (`fmu.hf / fmu.lf`, at the line of the one the error names).
-fn locate<'a>(
-    src: &Source,
-    e: &FmuError,
-    fmu: &FmuSection,
-    origins: &'a Origins,
-) -> (Option<usize>, Option<&'a str>) {
-    match e {
-        FmuError::UnknownVariable { variable, .. }
-        | FmuError::WrongType { variable, .. }
-        | FmuError::WrongCausality { variable, .. } => origins
-            .of(variable)
-            .map_or((None, None), |(line, key)| (Some(line), Some(key))),
-        FmuError::Spec(_) => (None, Some("fmu")),
-        _ => {
-            let message = e.to_string();
-            let span = match &fmu.lf {
-                Some(lf) if message.contains(lf.get_ref().as_str()) => lf.span(),
-                _ => fmu.hf.span(),
-            };
-            (Some(src.line(span)), Some("fmu.hf / fmu.lf"))
-        }
-    }
 }
 
 #[cfg(test)]
@@ -963,34 +1123,321 @@ range = [0.0, 1.0]
     }
 
     #[test]
-    fn bad_variables_name_their_table() {
-        for (from, to, message) in [
+    fn bad_variables_name_their_part() {
+        for (from, to, line, key, message) in [
             (
                 "range = [0.0, 1.0]",
                 "range = [1.0, 0.0]",
+                27,
+                "range",
                 "`range` = [1, 0] is empty",
             ),
             (
                 "range = [0.0, 1.0]",
                 "range = [0.0, 1.0]\nbins = 0",
+                28,
+                "bins",
                 "`bins` must be at least 1",
             ),
             (
                 "range = [0.0, 1.0]",
                 "range = [0.0, 1.0]\nscale = \"log\"",
+                28,
+                "scale",
                 "a log scale needs 0 < lo (range [0, 1])",
             ),
-            ("range = [0.0, 1.0]", "values = []", "`values` is empty"),
+            (
+                "range = [0.0, 1.0]",
+                "values = []",
+                27,
+                "values",
+                "`values` is empty",
+            ),
             (
                 "range = [0.0, 1.0]",
                 "values = [[1]]",
+                27,
+                "values",
                 "`values` must be numbers, booleans or strings",
             ),
         ] {
             let e = error("variable", &[(from, to)]);
-            assert_eq!(at(&e), (Some(24), Some("scenario[0].phi[0]")), "{e}");
+            let key = format!("scenario[0].phi[0].{key}");
+            assert_eq!(at(&e), (Some(line), Some(key.as_str())), "{e}");
             assert_eq!(e.message, message);
         }
+    }
+
+    /// A replacement in BASE, and where the error is: line, key and part of the message.
+    type Case<'a> = (&'a [(&'a str, &'a str)], usize, &'a str, &'a str);
+
+    /// Checks (in the directory `name`) that each case's error names its line and key: every error before the FMU check
+    /// that names a key also names the line of the part of the file it is about.
+    fn expect_lines(name: &str, cases: &[Case]) {
+        let mut wrong = Vec::new();
+        for &(replace, line, key, message) in cases {
+            let e = error(name, replace);
+            if at(&e) != (Some(line), Some(key)) || !e.message.contains(message) {
+                wrong.push(format!(
+                    "{replace:?}\n  expected line {line}, key `{key}`, `{message}`\n  got {e}"
+                ));
+            }
+        }
+        assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    }
+
+    const SIDES: &str = "`above` / `below`";
+
+    #[test]
+    fn a_bad_failure_section_names_the_key_that_does_not_fit() {
+        let b = "boolean = \"failed\"";
+        expect_lines(
+            "failure-keys",
+            &[
+                (&[(b, "threshold = \"x\"")], 8, "failure.threshold", SIDES),
+                (
+                    &[(b, "threshold = \"x\"\nabove = 1.0\nbelow = 0.0")],
+                    10,
+                    "failure.below",
+                    SIDES,
+                ),
+                (
+                    &[(b, "boolean = \"failed\"\nthreshold = \"x\"\nabove = 1.0")],
+                    9,
+                    "failure.threshold",
+                    SIDES,
+                ),
+                (
+                    &[(b, "boolean = \"failed\"\nabove = 1.0")],
+                    9,
+                    "failure.above",
+                    SIDES,
+                ),
+                (&[(b, "")], 7, "failure", SIDES),
+            ],
+        );
+    }
+
+    #[test]
+    fn a_bad_fidelity_space_names_the_part_at_fault() {
+        let values = "values = [1.0, 2.0]";
+        let second = "hf = 2.0\n[[fidelity.variable]]\nname = \"rate\"\nvalues = [3.0]\nhf = 3.0";
+        let all = "[[fidelity.variable]]\nname = \"rate\"\nvalues = [1.0, 2.0]\nhf = 2.0";
+        let k = "fidelity.variable[0]";
+        expect_lines(
+            "fidelity-keys",
+            &[
+                (
+                    &[(values, "values = [1.0, 1.0]")],
+                    17,
+                    &format!("{k}.values"),
+                    "lists the value 1 twice",
+                ),
+                (
+                    &[(values, "values = [1.0, nan]")],
+                    17,
+                    &format!("{k}.values"),
+                    "NaN",
+                ),
+                (
+                    &[("name = \"rate\"", "name = \" \"")],
+                    16,
+                    &format!("{k}.name"),
+                    "empty name",
+                ),
+                (
+                    &[("hf = 2.0", second)],
+                    20,
+                    "fidelity.variable[1].name",
+                    "`rate` is defined twice",
+                ),
+                (
+                    &[(values, "range = [1.0, 2.0]\nbins = 100000")],
+                    18,
+                    &format!("{k}.bins"),
+                    "arms",
+                ),
+                (
+                    &[(values, "range = [1.0, inf]")],
+                    17,
+                    &format!("{k}.range"),
+                    "non-finite",
+                ),
+                (
+                    &[("hf = 2.0", "hf = 3.0")],
+                    18,
+                    &format!("{k}.hf"),
+                    "θ_HF: value 3 is outside",
+                ),
+                (
+                    &[("hf = 2.0", "hf = [2.0]")],
+                    18,
+                    &format!("{k}.hf"),
+                    "θ_HF value",
+                ),
+                (&[(all, "")], 14, "fidelity", "no variables"),
+            ],
+        );
+    }
+
+    #[test]
+    fn a_bad_phi_space_or_run_setting_names_its_line() {
+        let start = "name = \"start\"\nrange = [0.0, 1.0]";
+        let twice = "name = \"start\"\nrange = [0.0, 1.0]\n[[scenario.phi]]\nname = \"start\"\nfmu = \"y\"\nrange = [0.0, 1.0]";
+        let role = "role = \"test\"\n[[scenario.phi]]\nname = \"start\"\nrange = [0.0, 1.0]";
+        expect_lines(
+            "phi-keys",
+            &[
+                (
+                    &[("range = [0.0, 1.0]", "range = [0.0, inf]")],
+                    27,
+                    "scenario[0].phi[0].range",
+                    "non-finite",
+                ),
+                (
+                    &[(start, twice)],
+                    36,
+                    "scenario[1].phi[1].name",
+                    "`start` is defined twice",
+                ),
+                (
+                    &[(role, "role = \"test\"\nphi = []")],
+                    29,
+                    "scenario[1].phi",
+                    "no variables",
+                ),
+                (
+                    &[("stop_time = 1.0", "stop_time = 0.0")],
+                    4,
+                    "fmu.stop_time",
+                    "stop time 0 is not a positive",
+                ),
+                (
+                    &[("step = { rate_of = \"rate\" }", "step = -0.5")],
+                    5,
+                    "fmu.step",
+                    "step size -0.5 is not a positive",
+                ),
+            ],
+        );
+    }
+
+    /// Two bindings that would set one FMU variable in the same run are refused at the later
+    /// one, naming the other with its line.
+    #[test]
+    fn conflicting_bindings_are_refused_naming_both() {
+        let phi_start = "name = \"start\"\nrange = [0.0, 1.0]\n";
+        for (name, replace, line, key, message) in [
+            (
+                "fixed-and-phi",
+                vec![("threshold = 0.5", "threshold = 0.5, x0 = 1.0")],
+                26,
+                "scenario[0].phi[0].fmu",
+                "FMU variable `x0` is already bound by `scenario[0].fixed.x0` (line 23)",
+            ),
+            (
+                "two-phi-by-name",
+                vec![(phi_start, "name = \"start\"\nrange = [0.0, 1.0]\n[[scenario.phi]]\nname = \"end\"\nfmu = \"start\"\nrange = [0.0, 1.0]\n")],
+                37,
+                "scenario[1].phi[1].fmu",
+                "FMU variable `start` is already bound by `scenario[1].phi[0].name` (line 33)",
+            ),
+            (
+                "two-phi-by-fmu",
+                vec![("range = [0.0, 1.0]\n\n", "range = [0.0, 1.0]\n[[scenario.phi]]\nname = \"end\"\nfmu = \"x0\"\nrange = [0.0, 1.0]\n\n")],
+                30,
+                "scenario[0].phi[1].fmu",
+                "FMU variable `x0` is already bound by `scenario[0].phi[0].fmu` (line 26)",
+            ),
+            (
+                "phi-and-fidelity",
+                vec![(phi_start, "name = \"start\"\nfmu = \"rate\"\nrange = [0.0, 1.0]\n")],
+                34,
+                "scenario[1].phi[0].fmu",
+                "FMU variable `rate` is already bound by `fidelity.variable[0].name` (line 16)",
+            ),
+            (
+                "fixed-and-fidelity",
+                vec![("threshold = 0.5", "threshold = 0.5, rate = 1.0")],
+                23,
+                "scenario[0].fixed.rate",
+                "FMU variable `rate` is already bound by `fidelity.variable[0].name` (line 16)",
+            ),
+            (
+                "two-fidelity",
+                vec![("hf = 2.0", "hf = 2.0\n[[fidelity.variable]]\nname = \"fps\"\nfmu = \"rate\"\nvalues = [1]\nhf = 1")],
+                21,
+                "fidelity.variable[1].fmu",
+                "FMU variable `rate` is already bound by `fidelity.variable[0].name` (line 16)",
+            ),
+        ] {
+            let e = error(name, &replace);
+            assert_eq!(at(&e), (Some(line), Some(key)), "{name}: {e}");
+            assert_eq!(e.message, message, "{name}");
+        }
+        // The later binding is blamed whichever is read first: here the fidelity comes last.
+        let body = BASE.replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
+        let (head, fidelity) = body.split_at(body.find("[fidelity]").unwrap());
+        let (fidelity, scenarios) = fidelity.split_at(fidelity.find("[[scenario]]").unwrap());
+        let path = dir("fidelity-last").join("campaign.toml");
+        std::fs::write(&path, format!("{head}{scenarios}\n{fidelity}")).unwrap();
+        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        assert_eq!(at(&e), (Some(32), Some("fidelity.variable[0].name")), "{e}");
+        assert_eq!(
+            e.message,
+            "FMU variable `rate` is already bound by `scenario[0].fixed.rate` (line 17)"
+        );
+    }
+
+    #[test]
+    fn a_paper_setting_cannot_be_bound_again() {
+        let body = BASE
+            .replacen(
+                "[[fidelity.variable]]\nname = \"rate\"\nvalues = [1.0, 2.0]\nhf = 2.0",
+                "",
+                1,
+            )
+            .replacen("[fidelity]", "[fidelity]\npaper = true", 1)
+            .replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
+        let path = dir("paper-bound").join("campaign.toml");
+        std::fs::write(&path, body).unwrap();
+        let e = CampaignFile::load(&path, &paper).unwrap_err();
+        assert_eq!(at(&e), (Some(21), Some("scenario[0].fixed.rate")), "{e}");
+        assert_eq!(
+            e.message,
+            "FMU variable `rate` is already bound by `fidelity.paper` (line 15)"
+        );
+    }
+
+    #[test]
+    fn scenarios_may_share_fmu_variables() {
+        // Scenario 1 sets `x0` by φ, scenario 0 by φ and scenario 1 fixes `threshold` too: they
+        // are set in different runs, so the file gets as far as its FMU.
+        let e = error(
+            "shared",
+            &[
+                (
+                    "role = \"test\"\n",
+                    "role = \"test\"\nfixed = { threshold = 0.1 }\n",
+                ),
+                (
+                    "name = \"start\"\nrange = [0.0, 1.0]\n",
+                    "name = \"start\"\nfmu = \"x0\"\nrange = [0.0, 1.0]\n",
+                ),
+            ],
+        );
+        assert_eq!(at(&e), (Some(3), Some("fmu.hf / fmu.lf")), "{e}");
+    }
+
+    #[test]
+    fn a_file_without_scenarios_is_refused_at_its_line() {
+        let body = BASE.replacen("\n[fmu]", "\nscenario = []\n[fmu]", 1);
+        let body = &body[..body.find("[[scenario]]").unwrap()];
+        let path = dir("no-scenarios").join("campaign.toml");
+        std::fs::write(&path, body).unwrap();
+        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        assert_eq!(at(&e), (Some(2), Some("scenario")), "{e}");
+        assert_eq!(e.message, "no scenarios: give [[scenario]] tables");
     }
 
     #[test]
@@ -1026,7 +1473,7 @@ range = [0.0, 1.0]
         let e = error("no-hf", &[("hf = 2.0", "")]);
         assert_eq!(at(&e), (Some(15), Some("fidelity.variable[0].hf")));
         let e = error("hf-out", &[("hf = 2.0", "hf = 3.0")]);
-        assert_eq!(at(&e), (None, Some("fidelity.variable.hf")));
+        assert_eq!(at(&e), (Some(18), Some("fidelity.variable[0].hf")));
         assert!(e.message.starts_with("θ_HF: "), "{e}");
     }
 
@@ -1079,16 +1526,23 @@ range = [0.0, 1.0]
 
     #[test]
     fn the_failure_signal_is_boolean_or_a_threshold_with_one_side() {
-        for (to, name) in [
-            ("threshold = \"x\"", "no-side"),
-            ("threshold = \"x\"\nabove = 1.0\nbelow = 0.0", "two-sides"),
+        for (to, name, line, key) in [
+            ("threshold = \"x\"", "no-side", 8, "failure.threshold"),
+            (
+                "threshold = \"x\"\nabove = 1.0\nbelow = 0.0",
+                "two-sides",
+                10,
+                "failure.below",
+            ),
             (
                 "boolean = \"failed\"\nthreshold = \"x\"\nabove = 1.0",
                 "both",
+                9,
+                "failure.threshold",
             ),
         ] {
             let e = error(name, &[("boolean = \"failed\"", to)]);
-            assert_eq!(at(&e), (None, Some("failure")), "{name}");
+            assert_eq!(at(&e), (Some(line), Some(key)), "{name}");
             assert!(e.message.contains("`above` / `below`"), "{e}");
         }
     }

@@ -36,14 +36,20 @@ pub struct WorkerInit {
 }
 
 impl WorkerInit {
-    /// Opens both FMUs and builds the in-process simulator.
-    pub fn simulator(&self) -> Result<FmuSimulator, FmuError> {
+    /// Opens both FMUs (once when they are the same file).
+    pub fn open(&self) -> Result<(Arc<FmuFile>, Arc<FmuFile>), FmuError> {
         let hf = Arc::new(FmuFile::open(&self.hf)?);
         let lf = if self.lf == self.hf {
             hf.clone()
         } else {
             Arc::new(FmuFile::open(&self.lf)?)
         };
+        Ok((hf, lf))
+    }
+
+    /// Opens both FMUs and builds the in-process simulator.
+    pub fn simulator(&self) -> Result<FmuSimulator, FmuError> {
+        let (hf, lf) = self.open()?;
         FmuSimulator::new(
             hf,
             lf,

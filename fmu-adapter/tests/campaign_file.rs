@@ -122,6 +122,16 @@ fn a_good_file_loads_into_its_parts() {
         f.weights.into_iter().collect::<Vec<_>>(),
         [("slow".to_string(), 2.0)]
     );
+    // Where each scenario is, for protocol errors found later (role, weight).
+    let lines: Vec<_> = f
+        .scenario_lines
+        .iter()
+        .map(|s| (s.name.as_str(), s.index, s.table, s.role, s.weight))
+        .collect();
+    assert_eq!(
+        lines,
+        [("grow", 0, 26, 28, None), ("slow", 1, 36, 38, Some(39))]
+    );
     assert_eq!(f.theta_hf, Assignment::new().with("rate", 2.0));
     assert_eq!(f.fidelity.variables()[0].arms(), 2);
     assert_eq!(f.scenarios["grow"].variables()[0].arms(), 4);
@@ -175,8 +185,8 @@ fn fmu_bindings_are_named_with_their_line_and_key() {
         (
             "name = \"x0\"",
             "name = \"y0\"",
-            41,
-            "scenario[1].phi[0].fmu",
+            42,
+            "scenario[1].phi[0].name",
             "no variable `y0`",
         ),
         (
@@ -214,6 +224,57 @@ fn fmu_bindings_are_named_with_their_line_and_key() {
     }
 }
 
+/// An FMU variable used twice is blamed on the binding the error is about: the FMU check looks
+/// at the failure signal, the cost, the fidelity settings and each scenario in turn.
+#[test]
+fn a_binding_error_is_put_on_the_use_that_failed() {
+    for (from, to, line, key, message) in [
+        // The failure signal is fine as a Boolean; as the cost it is not.
+        (
+            "cost = \"steps\"",
+            "cost = \"failed\"",
+            6,
+            "fmu.cost",
+            "variable `failed` is Boolean, expected Real or Integer",
+        ),
+        // Inputs as the failure signal or the cost, outputs as inputs: refused by causality, at
+        // the binding that reads (or sets) it.
+        (
+            "boolean = \"failed\"",
+            "boolean = \"x0\"",
+            12,
+            "failure.boolean",
+            "variable `x0` cannot be used here: expected an output",
+        ),
+        (
+            "cost = \"steps\"",
+            "cost = \"x0\"",
+            6,
+            "fmu.cost",
+            "variable `x0` cannot be used here: expected an output",
+        ),
+        (
+            "fmu = \"x0\"",
+            "fmu = \"failed\"",
+            32,
+            "scenario[0].phi[0].fmu",
+            "variable `failed` cannot be used here: expected a parameter or an input",
+        ),
+        // Two scenarios bind `x0`; the second as a Boolean.
+        (
+            "name = \"x0\"\nrange = [0.0, 0.5]",
+            "name = \"x0\"\nvalues = [true, false]",
+            42,
+            "scenario[1].phi[0].name",
+            "variable `x0` is Real, expected Boolean (for `x0`)",
+        ),
+    ] {
+        let e = error("use", from, to);
+        assert_eq!((e.line, e.key.as_deref()), (Some(line), Some(key)), "{e}");
+        assert!(e.message.ends_with(message), "{message}: {e}");
+    }
+}
+
 #[test]
 fn a_missing_fmu_is_named_at_its_line() {
     let e = error("no-hf", "hf = \"testkit.fmu\"", "hf = \"nowhere.fmu\"");
@@ -237,8 +298,14 @@ fn a_missing_fmu_is_named_at_its_line() {
 #[test]
 fn run_settings_are_checked() {
     let e = error("step", "step = { rate_of = \"rate\" }", "step = -0.1");
-    assert_eq!((e.line, e.key.as_deref()), (None, Some("fmu")));
-    assert!(e.message.starts_with("run specification: "), "{e}");
+    assert_eq!((e.line, e.key.as_deref()), (Some(5), Some("fmu.step")));
+    assert_eq!(
+        e.message,
+        "step size -0.1 is not a positive number of seconds"
+    );
+    let e = error("stop", "stop_time = 1.0", "stop_time = 0.0");
+    assert_eq!((e.line, e.key.as_deref()), (Some(4), Some("fmu.stop_time")));
+    assert_eq!(e.message, "stop time 0 is not a positive number of seconds");
     for t in ["0.0", "-1.0", "nan", "inf", "1e300"] {
         let e = error("timeout", "timeout_s = 5.0", &format!("timeout_s = {t}"));
         assert_eq!(

@@ -195,6 +195,7 @@ impl<'o> Campaign<'o> {
         files: &Outputs,
         custom: Option<Box<dyn TrialStore>>,
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
+        outputs::usable_dir(&self.out)?;
         if self.resume {
             let saved = outputs::load_protocol(&self.out)?;
             if saved != self.protocol {

@@ -268,17 +268,21 @@ fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> Campaign
         "budgets" => from_flags.budgets.is_some(),
         "window" => from_flags.window.is_some(),
         "seed" => from_flags.seed.is_some(),
+        "train_scenarios" => from_flags.train_scenarios.is_some(),
+        "test_scenarios" => from_flags.test_scenarios.is_some(),
         _ => false,
     };
     if given_as_flag {
         return CampaignError::Protocol { field, message };
     }
-    let (key, line) = match field.as_str() {
-        "train_scenarios" | "test_scenarios" => ("scenario.role".to_string(), None),
-        "weights" => ("scenario.weight".to_string(), None),
+    let (key, line, message) = match field.as_str() {
+        "train_scenarios" => missing_role(file, "train", message),
+        "test_scenarios" => missing_role(file, "test", message),
+        "weights" => bad_weight(file, message),
         other => (
             format!("campaign.{other}"),
             file.campaign.lines.get(other).copied(),
+            message,
         ),
     };
     CampaignError::File(ConfigError {
@@ -287,4 +291,32 @@ fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> Campaign
         key: Some(key),
         message,
     })
+}
+
+/// The key, line and message of a file without a scenario of `role`: at the role of its first
+/// scenario (they all have the other role).
+fn missing_role(
+    file: &CampaignFile,
+    role: &str,
+    message: String,
+) -> (String, Option<usize>, String) {
+    let message = format!("no scenario has role \"{role}\": {message}");
+    match file.scenario_lines.first() {
+        Some(s) => (format!("scenario[{}].role", s.index), Some(s.role), message),
+        None => ("scenario".into(), None, message),
+    }
+}
+
+/// The key, line and message of a weight the protocol refused: the weight of the first
+/// scenario (by name, as [`Protocol::validate`] checks them) that is not positive and finite.
+fn bad_weight(file: &CampaignFile, message: String) -> (String, Option<usize>, String) {
+    let bad = file
+        .weights
+        .iter()
+        .find(|(_, w)| !(**w > 0.0 && w.is_finite()))
+        .and_then(|(name, _)| file.scenario_lines.iter().find(|s| &s.name == name));
+    match bad {
+        Some(s) => (format!("scenario[{}].weight", s.index), s.weight, message),
+        None => ("scenario.weight".into(), None, message),
+    }
 }

@@ -64,6 +64,14 @@ pub enum CampaignError {
         /// The directory.
         path: PathBuf,
     },
+    /// The output directory, or a directory above it, is a file.
+    #[error("{}", not_a_directory(path, file))]
+    NotADirectory {
+        /// The output directory.
+        path: PathBuf,
+        /// The file in its way: the output directory itself or one above it.
+        file: PathBuf,
+    },
     /// `--resume` on a directory without a campaign.
     #[error("{}: no protocol.json — is this a savme output directory?", path.display())]
     NothingToResume {
@@ -118,6 +126,23 @@ pub struct SimulationError {
     pub run: &'static str,
     /// The simulator's error.
     pub source: SimError,
+}
+
+/// The message of [`CampaignError::NotADirectory`]: names the file, and the output directory
+/// when the file is further up its path.
+fn not_a_directory(path: &Path, file: &Path) -> String {
+    if path == file {
+        format!(
+            "{} is a file, not a directory; choose another output directory",
+            file.display()
+        )
+    } else {
+        format!(
+            "{}: {} is a file, not a directory",
+            path.display(),
+            file.display()
+        )
+    }
 }
 
 impl CampaignError {

@@ -41,6 +41,7 @@ impl Outputs {
 
 /// Reads the protocol of the campaign in `dir` (for `--resume`).
 pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
+    usable_dir(dir)?;
     let path = Outputs::in_dir(dir).protocol;
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
@@ -56,6 +57,22 @@ pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
         line: e.line(),
         message: e.to_string(),
     })
+}
+
+/// Refuses an output directory that is a file, or lies below one (instead of the I/O error
+/// "File exists" or "Not a directory" creating or reading it would give).
+pub(crate) fn usable_dir(dir: &Path) -> Result<(), CampaignError> {
+    let in_the_way = dir
+        .ancestors()
+        .filter(|p| !p.as_os_str().is_empty())
+        .find(|p| p.exists() && !p.is_dir());
+    match in_the_way {
+        Some(file) => Err(CampaignError::NotADirectory {
+            path: dir.to_path_buf(),
+            file: file.to_path_buf(),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// Writes `protocol.json` for a new campaign.

@@ -1,0 +1,196 @@
+//! Where each FMU variable of a campaign file is bound, and for what: conflicting bindings are
+//! refused as they are read, and the FMU check runs one use at a time so that an error about an
+//! FMU variable lands on the binding it is about.
+
+use super::raw::FmuSection;
+use super::{ConfigError, Source};
+use crate::worker::WorkerInit;
+use crate::{CostSource, FmuError, FmuSimulator, RunSpec};
+use toml::Spanned;
+
+/// What a campaign file does with an FMU variable: reads it as the failure signal or the cost,
+/// or sets it as a fidelity setting or for one scenario (φ or `fixed`, by file position).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Use {
+    /// `[failure]`: read.
+    Failure,
+    /// `[fmu] cost`: read.
+    Cost,
+    /// The fidelity settings: set in every run.
+    Fidelity,
+    /// `scenario[k]`'s φ and fixed parameters: set in its runs.
+    Scenario(usize),
+}
+
+impl Use {
+    /// True when a binding of `self` and one of `other` are set in the same run: the fidelity
+    /// settings with each other and with every scenario, a scenario with itself.
+    fn set_with(self, other: Use) -> bool {
+        match (self, other) {
+            (Use::Fidelity, Use::Fidelity | Use::Scenario(_))
+            | (Use::Scenario(_), Use::Fidelity) => true,
+            (Use::Scenario(a), Use::Scenario(b)) => a == b,
+            _ => false,
+        }
+    }
+}
+
+/// One binding: the FMU variable, the line and key that name it, and its use.
+#[derive(Debug)]
+struct Origin {
+    fmu_variable: String,
+    line: usize,
+    key: String,
+    used: Use,
+}
+
+/// Every binding of the file, in the order read.
+#[derive(Debug, Default)]
+pub(super) struct Origins(Vec<Origin>);
+
+impl Origins {
+    /// Remembers an output the runs read (`used` is [`Use::Failure`] or [`Use::Cost`]).
+    pub(super) fn read(&mut self, fmu_variable: &str, line: usize, key: &str, used: Use) {
+        self.0.push(Origin {
+            fmu_variable: fmu_variable.into(),
+            line,
+            key: key.into(),
+            used,
+        });
+    }
+
+    /// Remembers an input the runs set, refusing an FMU variable another binding already sets
+    /// in the same runs (one value would silently overwrite the other). The error is at the
+    /// later of the two lines and names the other binding with its line.
+    pub(super) fn set(
+        &mut self,
+        src: &Source,
+        fmu_variable: &str,
+        line: usize,
+        key: &str,
+        used: Use,
+    ) -> Result<(), ConfigError> {
+        let clash = self
+            .0
+            .iter()
+            .find(|o| o.fmu_variable == fmu_variable && o.used.set_with(used));
+        if let Some(o) = clash {
+            let ((at, here), (there, other)) = if line >= o.line {
+                ((line, key), (o.line, o.key.as_str()))
+            } else {
+                ((o.line, o.key.as_str()), (line, key))
+            };
+            return Err(src.err(
+                Some(at),
+                Some(here),
+                format!(
+                    "FMU variable `{fmu_variable}` is already bound by `{other}` (line {there})"
+                ),
+            ));
+        }
+        self.read(fmu_variable, line, key, used);
+        Ok(())
+    }
+
+    /// The line and key of the binding of `fmu_variable` for `used`.
+    fn of(&self, fmu_variable: &str, used: Use) -> Option<(usize, &str)> {
+        self.0
+            .iter()
+            .find(|o| o.fmu_variable == fmu_variable && o.used == used)
+            .map(|o| (o.line, o.key.as_str()))
+    }
+}
+
+/// Opens both FMUs and checks every binding and signal against them (types, causalities), one
+/// use at a time — the failure signal, the cost, the fidelity settings, each scenario, then the
+/// whole run specification — so that an error about an FMU variable is put on the binding of
+/// the use that failed: `cost = "collision"` is blamed, not `failure.boolean = "collision"`.
+pub(super) fn check_fmus(
+    src: &Source,
+    init: &WorkerInit,
+    fmu: &Spanned<FmuSection>,
+    origins: &Origins,
+) -> Result<(), ConfigError> {
+    let (hf, lf) = init.open().map_err(|e| fmu_file_error(src, &e, fmu))?;
+    for (used, spec) in stages(&init.spec) {
+        FmuSimulator::new(
+            hf.clone(),
+            lf.clone(),
+            spec,
+            init.fidelity.as_ref(),
+            &|name| init.phi.get(name).cloned(),
+            None,
+        )
+        .map_err(|e| {
+            let (line, key) = locate(src, &e, used, fmu, origins);
+            src.err(Some(line), Some(key), e.to_string())
+        })?;
+    }
+    Ok(())
+}
+
+/// The run specifications the FMU check builds in turn, each adding one use to the last (and
+/// the whole specification, with no use of its own, at the end).
+fn stages(spec: &RunSpec) -> Vec<(Option<Use>, RunSpec)> {
+    let failure = RunSpec {
+        cost: CostSource::Wall,
+        fidelity: Vec::new(),
+        scenarios: Vec::new(),
+        ..spec.clone()
+    };
+    let cost = RunSpec {
+        cost: spec.cost.clone(),
+        ..failure.clone()
+    };
+    let fidelity = RunSpec {
+        fidelity: spec.fidelity.clone(),
+        ..cost.clone()
+    };
+    let mut stages = vec![
+        (Some(Use::Failure), failure),
+        (Some(Use::Cost), cost),
+        (Some(Use::Fidelity), fidelity.clone()),
+    ];
+    for (k, s) in spec.scenarios.iter().enumerate() {
+        let one = RunSpec {
+            scenarios: vec![s.clone()],
+            ..fidelity.clone()
+        };
+        stages.push((Some(Use::Scenario(k)), one));
+    }
+    stages.push((None, spec.clone()));
+    stages
+}
+
+/// The line and key of an error of the FMU check in the stage of `used`: the binding of the
+/// variable it names, else the `[fmu]` section.
+fn locate<'a>(
+    src: &Source,
+    e: &FmuError,
+    used: Option<Use>,
+    fmu: &Spanned<FmuSection>,
+    origins: &'a Origins,
+) -> (usize, &'a str) {
+    let variable = match e {
+        FmuError::UnknownVariable { variable, .. }
+        | FmuError::WrongType { variable, .. }
+        | FmuError::WrongCausality { variable, .. } => Some(variable),
+        _ => None,
+    };
+    variable
+        .zip(used)
+        .and_then(|(v, u)| origins.of(v, u))
+        .unwrap_or((src.line(fmu.span()), "fmu"))
+}
+
+/// An error opening an FMU: at the line of the one it names (`fmu.lf` when the message names
+/// that path, else `fmu.hf`).
+fn fmu_file_error(src: &Source, e: &FmuError, fmu: &Spanned<FmuSection>) -> ConfigError {
+    let message = e.to_string();
+    let f = fmu.get_ref();
+    let span = match &f.lf {
+        Some(lf) if message.contains(lf.get_ref().as_str()) => lf.span(),
+        _ => f.hf.span(),
+    };
+    src.err(Some(src.line(span)), Some("fmu.hf / fmu.lf"), message)
+}
