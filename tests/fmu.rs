@@ -361,6 +361,14 @@ fn bad_campaign_files_name_the_file_line_and_key() {
         &TINY.replace("stop_time = 12.0", "stop_time = \"long\""),
         &["line 4", "invalid type"],
     );
+    // Sizes beyond the protocol's limits are refused before anything is allocated.
+    check(
+        &TINY.replace("train_iterations = 8", "train_iterations = 10000000000"),
+        &[
+            "campaign.train_iterations",
+            "10000000000 is more than savme runs in one stage",
+        ],
+    );
     // An FMU variable that does not exist, named with its line and key.
     check(
         &TINY.replace(

@@ -213,3 +213,28 @@ pub fn split_by_stage<'a>(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stored_line_with_an_unknown_key_names_the_store_line_and_key() {
+        let good = r#"{"stage":"train@0.3","index":0,"id":0,"phase":"train","budget":0.3,"scenario":"s","phi":{},"theta_lf":{},"hf":{"failure":true,"runtime":1.0,"wall_seconds":1.0,"work":null},"lf":{"failure":true,"runtime":0.2,"wall_seconds":0.2,"work":null},"cost_ratio":0.2,"outcome":"TP","credit":{"fidelity":true,"scenario":true}}"#;
+        let line = |text: &str| StoredLine {
+            line: 7,
+            value: serde_json::from_str(text).unwrap(),
+        };
+        assert!(LogLine::from_stored(&line(good), "t.jsonl").is_ok());
+        let bad = good.replacen("\"index\"", "\"idx\":1,\"index\"", 1);
+        let e = LogLine::from_stored(&line(&bad), "t.jsonl").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("t.jsonl, line 7: unknown field `idx`"),
+            "{e}"
+        );
+        let failed = r#"{"stage":"train@0.3","index":0,"id":0,"scenario":"s","phi":{},"theta_lf":null,"error":"boom","eror":1}"#;
+        let e = LogLine::from_stored(&line(failed), "t.jsonl").unwrap_err();
+        assert!(e.to_string().contains("unknown field `eror`"), "{e}");
+    }
+}
