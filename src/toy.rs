@@ -91,20 +91,43 @@ fn number(a: &Assignment, name: &str) -> Result<f64, SimError> {
     })
 }
 
-impl Simulator for ToySimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        let start = Instant::now();
+/// A run's scenario inputs: the ego's initial speed, the initial gap and, for `braking_lead`,
+/// the lead's deceleration.
+struct Scenario {
+    v0: f64,
+    gap0: f64,
+    lead_decel: Option<f64>,
+}
+
+impl Scenario {
+    /// Reads φ of `scenario` (unknown scenarios and missing or non-numeric values are errors).
+    fn read(scenario: &str, phi: &Assignment) -> Result<Scenario, SimError> {
         let v0 = number(phi, "ego_speed")?;
         let (gap0, lead_decel) = match scenario {
             "stopped_obstacle" => (number(phi, "gap")?, None),
             "braking_lead" => (number(phi, "headway")?, Some(number(phi, "lead_decel")?)),
             other => return Err(SimError::UnknownScenario(other.into())),
         };
+        Ok(Scenario {
+            v0,
+            gap0,
+            lead_decel,
+        })
+    }
+}
+
+/// The fidelity effects: the step, the number of steps in the horizon, the integrator and
+/// whether the range measurements are noisy.
+struct Fidelity {
+    dt: f64,
+    steps: u64,
+    rk4: bool,
+    noise: bool,
+}
+
+impl Fidelity {
+    /// Reads and checks θ.
+    fn read(fidelity: &Assignment) -> Result<Fidelity, SimError> {
         let rate = number(fidelity, "rate_hz")?;
         let horizon = number(fidelity, "horizon_s")?;
         let rk4 = match fidelity.get("integrator").and_then(|v| v.as_label()) {
@@ -132,57 +155,98 @@ impl Simulator for ToySimulator {
                 expected: "positive numbers".into(),
             });
         }
-        let dt = 1.0 / rate;
-        let steps = (horizon * rate).round() as u64;
+        Ok(Fidelity {
+            dt: 1.0 / rate,
+            steps: (horizon * rate).round() as u64,
+            rk4,
+            noise,
+        })
+    }
+}
+
+/// The system under test: brakes (for good) once the time to collision estimated from the
+/// last two measured gaps falls below [`TTC_THRESHOLD`].
+#[derive(Default)]
+struct Braking {
+    braking: bool,
+    last_measure: Option<f64>,
+}
+
+impl Braking {
+    /// Takes the gap measured at this step; returns whether the ego brakes.
+    fn decide(&mut self, measured: f64, dt: f64) -> bool {
+        if let Some(prev) = self.last_measure {
+            let closing = (prev - measured) / dt;
+            if closing > 0.0 && measured / closing < TTC_THRESHOLD {
+                self.braking = true;
+            }
+        }
+        self.last_measure = Some(measured);
+        self.braking
+    }
+}
+
+/// Advances a vehicle at position `x` and speed `v` by one step `dt` under the constant
+/// acceleration `a`; a speed never goes below zero. Returns the work (force evaluations).
+fn integrate(x: &mut f64, v: &mut f64, a: f64, dt: f64, rk4: bool) -> u64 {
+    if rk4 {
+        // Four evaluations of the (constant) force: exact for a constant acceleration.
+        let stop = if a < 0.0 { (*v / -a).min(dt) } else { dt };
+        *x += *v * stop + 0.5 * a * stop * stop;
+        *v = (*v + a * stop).max(0.0);
+        4
+    } else {
+        // Explicit Euler: position from the speed at the start of the step.
+        *x += *v * dt;
+        *v = (*v + a * dt).max(0.0);
+        1
+    }
+}
+
+/// Runs the scenario to the horizon or the first collision; returns whether it collided and
+/// the work (force evaluations + noise samples).
+fn collides(s: &Scenario, f: &Fidelity, rng: &mut Pcg64, normal: &Normal<f64>) -> (bool, u64) {
+    let dt = f.dt;
+    // State: ego position and speed, lead position and speed.
+    let (mut xe, mut ve) = (0.0, s.v0);
+    let (mut xl, mut vl) = (s.gap0, if s.lead_decel.is_some() { s.v0 } else { 0.0 });
+    let mut sut = Braking::default();
+    let mut work = 0u64;
+    for k in 0..f.steps {
+        let t = k as f64 * dt;
+        // Perception and decision at every step.
+        let measured = (xl - xe) + if f.noise { normal.sample(rng) } else { 0.0 };
+        work += u64::from(f.noise);
+        let braking = sut.decide(measured, dt);
+        // Accelerations during this step (piecewise constant).
+        let ae = if braking && ve > 0.0 { -EGO_DECEL } else { 0.0 };
+        let al = match s.lead_decel {
+            Some(d) if t >= 1.0 && vl > 0.0 => -d,
+            _ => 0.0,
+        };
+        work += integrate(&mut xe, &mut ve, ae, dt, f.rk4);
+        work += integrate(&mut xl, &mut vl, al, dt, f.rk4);
+        if xl - xe <= 0.0 {
+            return (true, work);
+        }
+    }
+    (false, work)
+}
+
+impl Simulator for ToySimulator {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        let start = Instant::now();
+        let s = Scenario::read(scenario, phi)?;
+        let f = Fidelity::read(fidelity)?;
         // Same φ, same noise: a trial's HF and LF runs see one random stream.
         let mut rng = Pcg64::seed_from_u64(phi.stable_hash(scenario));
         let normal = Normal::new(0.0, NOISE_SD).map_err(|e| SimError::Failed(e.to_string()))?;
-
-        // State: ego position and speed, lead position and speed.
-        let (mut xe, mut ve) = (0.0, v0);
-        let (mut xl, mut vl) = (gap0, if lead_decel.is_some() { v0 } else { 0.0 });
-        let mut braking = false;
-        let mut last_measure: Option<f64> = None;
-        let mut work = 0u64;
-        let mut failure = false;
-        for k in 0..steps {
-            let t = k as f64 * dt;
-            // Perception and decision at every step.
-            let measured = (xl - xe) + if noise { normal.sample(&mut rng) } else { 0.0 };
-            work += u64::from(noise);
-            if let Some(prev) = last_measure {
-                let closing = (prev - measured) / dt;
-                if closing > 0.0 && measured / closing < TTC_THRESHOLD {
-                    braking = true;
-                }
-            }
-            last_measure = Some(measured);
-            // Accelerations during this step (piecewise constant).
-            let ae = if braking && ve > 0.0 { -EGO_DECEL } else { 0.0 };
-            let al = match lead_decel {
-                Some(d) if t >= 1.0 && vl > 0.0 => -d,
-                _ => 0.0,
-            };
-            // Advance both vehicles; a speed never goes below zero.
-            for (x, v, a) in [(&mut xe, &mut ve, ae), (&mut xl, &mut vl, al)] {
-                let stop = if a < 0.0 { (*v / -a).min(dt) } else { dt };
-                if rk4 {
-                    // Four evaluations of the (constant) force: exact for a constant acceleration.
-                    work += 4;
-                    *x += *v * stop + 0.5 * a * stop * stop;
-                    *v = (*v + a * stop).max(0.0);
-                } else {
-                    // Explicit Euler: position from the speed at the start of the step.
-                    work += 1;
-                    *x += *v * dt;
-                    *v = (*v + a * dt).max(0.0);
-                }
-            }
-            if xl - xe <= 0.0 {
-                failure = true;
-                break;
-            }
-        }
+        let (failure, work) = collides(&s, &f, &mut rng, &normal);
         Ok(SimResult::new(
             failure,
             start.elapsed().as_secs_f64(),

@@ -3,7 +3,9 @@
 //! fmu-runner and loading its shared library once.
 
 use crate::FmuError;
-use fmu_runner::model_description::{Causality as MdCausality, SignalType};
+use fmu_runner::model_description::{
+    Causality as MdCausality, FmiModelDescription as ModelDescription, SignalType,
+};
 use libfmi::Fmi2Dll;
 use std::collections::HashMap;
 use std::io::Read;
@@ -99,53 +101,8 @@ impl std::fmt::Debug for FmuFile {
 /// reject with an unclear error (or accept wrongly): FMI version and co-simulation support.
 fn precheck(path: &Path) -> Result<(), FmuError> {
     let shown = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|e| FmuError::Missing {
-        fmu: shown.clone(),
-        source: e,
-    })?;
-    let mut zip = zip::ZipArchive::new(file).map_err(|e| FmuError::NotAZip {
-        fmu: shown.clone(),
-        message: e.to_string(),
-    })?;
-    let mut xml = String::new();
-    match zip.by_name("modelDescription.xml") {
-        Ok(mut f) => {
-            f.read_to_string(&mut xml)
-                .map_err(|e| FmuError::BadModelDescription {
-                    fmu: shown.clone(),
-                    message: e.to_string(),
-                })?;
-        }
-        Err(_) => return Err(FmuError::NoModelDescription { fmu: shown }),
-    }
-    let mut reader = quick_xml::Reader::from_str(&xml);
-    let mut version = None;
-    let mut co_simulation = false;
-    loop {
-        match reader.read_event() {
-            Ok(quick_xml::events::Event::Start(e)) | Ok(quick_xml::events::Event::Empty(e)) => {
-                match e.name().as_ref() {
-                    b"fmiModelDescription" => {
-                        for a in e.attributes().flatten() {
-                            if a.key.as_ref() == b"fmiVersion" {
-                                version = Some(String::from_utf8_lossy(&a.value).into_owned());
-                            }
-                        }
-                    }
-                    b"CoSimulation" => co_simulation = true,
-                    _ => {}
-                }
-            }
-            Ok(quick_xml::events::Event::Eof) => break,
-            Ok(_) => {}
-            Err(e) => {
-                return Err(FmuError::BadModelDescription {
-                    fmu: shown,
-                    message: format!("at byte {}: {e}", reader.buffer_position()),
-                })
-            }
-        }
-    }
+    let xml = read_model_description(path, &shown)?;
+    let (version, co_simulation) = scan_model_description(&xml, &shown)?;
     match version.as_deref() {
         Some("2.0") => {}
         Some(v) => {
@@ -167,100 +124,177 @@ fn precheck(path: &Path) -> Result<(), FmuError> {
     Ok(())
 }
 
+/// The archive check: `path` exists, is a zip and holds a readable `modelDescription.xml`,
+/// returned as text.
+fn read_model_description(path: &Path, shown: &str) -> Result<String, FmuError> {
+    let file = std::fs::File::open(path).map_err(|e| FmuError::Missing {
+        fmu: shown.into(),
+        source: e,
+    })?;
+    let mut zip = zip::ZipArchive::new(file).map_err(|e| FmuError::NotAZip {
+        fmu: shown.into(),
+        message: e.to_string(),
+    })?;
+    let mut xml = String::new();
+    match zip.by_name("modelDescription.xml") {
+        Ok(mut f) => {
+            f.read_to_string(&mut xml)
+                .map_err(|e| FmuError::BadModelDescription {
+                    fmu: shown.into(),
+                    message: e.to_string(),
+                })?;
+        }
+        Err(_) => return Err(FmuError::NoModelDescription { fmu: shown.into() }),
+    }
+    Ok(xml)
+}
+
+/// The model description check: well-formed XML; returns its `fmiVersion` (if any) and
+/// whether it declares `CoSimulation`.
+fn scan_model_description(xml: &str, shown: &str) -> Result<(Option<String>, bool), FmuError> {
+    let mut reader = quick_xml::Reader::from_str(xml);
+    let mut version = None;
+    let mut co_simulation = false;
+    loop {
+        match reader.read_event() {
+            Ok(quick_xml::events::Event::Start(e)) | Ok(quick_xml::events::Event::Empty(e)) => {
+                match e.name().as_ref() {
+                    b"fmiModelDescription" => {
+                        for a in e.attributes().flatten() {
+                            if a.key.as_ref() == b"fmiVersion" {
+                                version = Some(String::from_utf8_lossy(&a.value).into_owned());
+                            }
+                        }
+                    }
+                    b"CoSimulation" => co_simulation = true,
+                    _ => {}
+                }
+            }
+            Ok(quick_xml::events::Event::Eof) => break,
+            Ok(_) => {}
+            Err(e) => {
+                return Err(FmuError::BadModelDescription {
+                    fmu: shown.into(),
+                    message: format!("at byte {}: {e}", reader.buffer_position()),
+                })
+            }
+        }
+    }
+    Ok((version, co_simulation))
+}
+
+/// Unpacks `path` into a fresh private directory and parses it with fmu-runner.
+fn unpack(path: &Path, shown: &str) -> Result<(tempfile::TempDir, fmu_runner::Fmu), FmuError> {
+    let dir = tempfile::Builder::new()
+        .prefix("savme-fmu-")
+        .tempdir()
+        .map_err(|e| FmuError::Io {
+            what: "a temporary directory for the FMU".into(),
+            source: e,
+        })?;
+    let fmu = fmu_runner::Fmu::unpack_to(path, dir.path()).map_err(|e| {
+        FmuError::BadModelDescription {
+            fmu: shown.into(),
+            message: format!("{e}{}", source_text(&e)),
+        }
+    })?;
+    Ok((dir, fmu))
+}
+
+/// The platform binary check: the unpacked FMU holds
+/// `binaries/<platform>/<modelIdentifier>.<dll extension>` for this platform.
+fn platform_binary(dir: &Path, model_identifier: &str, shown: &str) -> Result<PathBuf, FmuError> {
+    let lib_path = dir.join("binaries").join(savme_platform()).join(format!(
+        "{}.{}",
+        model_identifier,
+        std::env::consts::DLL_EXTENSION
+    ));
+    if !lib_path.exists() {
+        return Err(FmuError::NoBinary {
+            fmu: shown.into(),
+            expected: format!(
+                "binaries/{}/{}.{}",
+                savme_platform(),
+                model_identifier,
+                std::env::consts::DLL_EXTENSION
+            ),
+        });
+    }
+    Ok(lib_path)
+}
+
+/// Loads the shared library at `lib_path`, checks that it exports the [`REQUIRED`] functions
+/// and binds them.
+fn load_library(lib_path: &Path, shown: &str) -> Result<Fmi2Dll, FmuError> {
+    // SAFETY: loading a shared library runs its initialisers; that is what an FMU is for.
+    let lib = unsafe { libloading::Library::new(lib_path) }.map_err(|e| FmuError::Load {
+        fmu: shown.into(),
+        message: e.to_string(),
+    })?;
+    for name in REQUIRED {
+        let symbol = format!("{name}\0");
+        // SAFETY: only checks that the symbol exists.
+        if unsafe { lib.get::<*const ()>(symbol.as_bytes()) }.is_err() {
+            return Err(FmuError::MissingFunction {
+                fmu: shown.into(),
+                function: name.into(),
+            });
+        }
+    }
+    // SAFETY: the library exports the FMI 2.0 functions checked above.
+    unsafe { Fmi2Dll::from_library(lib) }.map_err(|e| FmuError::Load {
+        fmu: shown.into(),
+        message: e.to_string(),
+    })
+}
+
+/// The model description's scalar variables by name, with savme's type and causality.
+fn variables(md: &ModelDescription) -> HashMap<String, VarInfo> {
+    md.model_variables
+        .scalar_variable
+        .values()
+        .map(|v| {
+            let kind = match v.signal_type {
+                SignalType::Real(_) => VarType::Real,
+                SignalType::Integer(_) => VarType::Integer,
+                SignalType::Boolean(_) => VarType::Boolean,
+                SignalType::String => VarType::String,
+                SignalType::Enumeration => VarType::Enumeration,
+            };
+            let causality = match v.causality {
+                MdCausality::Parameter | MdCausality::CalculatedParameter => {
+                    VarCausality::Parameter
+                }
+                MdCausality::Input => VarCausality::Input,
+                MdCausality::Output => VarCausality::Output,
+                _ => VarCausality::Other,
+            };
+            (
+                v.name.clone(),
+                VarInfo {
+                    name: v.name.clone(),
+                    vr: v.value_reference,
+                    kind,
+                    causality,
+                },
+            )
+        })
+        .collect()
+}
+
 impl FmuFile {
     /// Opens, checks, unpacks and loads `path`.
     pub fn open(path: &Path) -> Result<FmuFile, FmuError> {
         precheck(path)?;
         let shown = path.display().to_string();
-        let dir = tempfile::Builder::new()
-            .prefix("savme-fmu-")
-            .tempdir()
-            .map_err(|e| FmuError::Io {
-                what: "a temporary directory for the FMU".into(),
-                source: e,
-            })?;
-        let fmu = fmu_runner::Fmu::unpack_to(path, dir.path()).map_err(|e| {
-            FmuError::BadModelDescription {
-                fmu: shown.clone(),
-                message: format!("{e}{}", source_text(&e)),
-            }
-        })?;
+        let (dir, fmu) = unpack(path, &shown)?;
         let md = &fmu.model_description;
         let cs = md
             .co_simulation
             .as_ref()
             .ok_or_else(|| FmuError::NoCoSimulation { fmu: shown.clone() })?;
-        let lib_path = dir
-            .path()
-            .join("binaries")
-            .join(savme_platform())
-            .join(format!(
-                "{}.{}",
-                cs.model_identifier,
-                std::env::consts::DLL_EXTENSION
-            ));
-        if !lib_path.exists() {
-            return Err(FmuError::NoBinary {
-                fmu: shown,
-                expected: format!(
-                    "binaries/{}/{}.{}",
-                    savme_platform(),
-                    cs.model_identifier,
-                    std::env::consts::DLL_EXTENSION
-                ),
-            });
-        }
-        // SAFETY: loading a shared library runs its initialisers; that is what an FMU is for.
-        let lib = unsafe { libloading::Library::new(&lib_path) }.map_err(|e| FmuError::Load {
-            fmu: shown.clone(),
-            message: e.to_string(),
-        })?;
-        for name in REQUIRED {
-            let symbol = format!("{name}\0");
-            // SAFETY: only checks that the symbol exists.
-            if unsafe { lib.get::<*const ()>(symbol.as_bytes()) }.is_err() {
-                return Err(FmuError::MissingFunction {
-                    fmu: shown,
-                    function: name.into(),
-                });
-            }
-        }
-        // SAFETY: the library exports the FMI 2.0 functions checked above.
-        let dll = unsafe { Fmi2Dll::from_library(lib) }.map_err(|e| FmuError::Load {
-            fmu: shown.clone(),
-            message: e.to_string(),
-        })?;
-        let variables = md
-            .model_variables
-            .scalar_variable
-            .values()
-            .map(|v| {
-                let kind = match v.signal_type {
-                    SignalType::Real(_) => VarType::Real,
-                    SignalType::Integer(_) => VarType::Integer,
-                    SignalType::Boolean(_) => VarType::Boolean,
-                    SignalType::String => VarType::String,
-                    SignalType::Enumeration => VarType::Enumeration,
-                };
-                let causality = match v.causality {
-                    MdCausality::Parameter | MdCausality::CalculatedParameter => {
-                        VarCausality::Parameter
-                    }
-                    MdCausality::Input => VarCausality::Input,
-                    MdCausality::Output => VarCausality::Output,
-                    _ => VarCausality::Other,
-                };
-                (
-                    v.name.clone(),
-                    VarInfo {
-                        name: v.name.clone(),
-                        vr: v.value_reference,
-                        kind,
-                        causality,
-                    },
-                )
-            })
-            .collect();
+        let lib_path = platform_binary(dir.path(), &cs.model_identifier, &shown)?;
+        let dll = load_library(&lib_path, &shown)?;
         let default_experiment = md.default_experiment.as_ref().map_or((None, None), |d| {
             ((d.stop_time > 0.0).then_some(d.stop_time), d.step_size)
         });
@@ -268,7 +302,7 @@ impl FmuFile {
             path: path.to_path_buf(),
             model_name: md.model_name.clone(),
             guid: md.guid.clone(),
-            variables,
+            variables: variables(md),
             default_experiment,
             dll,
             _unpacked: dir,

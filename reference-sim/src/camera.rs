@@ -568,39 +568,7 @@ impl Camera {
         let mut work = 0u64;
         let far = settings.view_distance as f32;
         let near = settings.camera_near_clip as f32;
-        // Faces of everything within the view distance (plus a margin for big buildings).
-        let mut list = Vec::new();
-        let mut objects = Vec::new();
-        for (i, o) in scene.world.objects().iter().enumerate() {
-            // Cull by bounding sphere: what may be seen, and what may cast a shadow into view
-            // (a shadow reaches 0.7 × the object's height away from it, for this sun).
-            let ObjectShape::Box(h) = o.shape;
-            let r = h.norm();
-            let c = pose.to_camera(Point3::from(o.pose.translation.vector));
-            let top = o.pose.translation.vector.z + h.z;
-            let shadow_r = r + 0.7 * top.max(0.0);
-            let within = |r: f32| {
-                c.x > -r
-                    && c.x - r < far
-                    && c.norm() - r < far
-                    && (c.y.abs() - c.x) * std::f32::consts::FRAC_1_SQRT_2 < r
-            };
-            let (seen, shades) = (within(r), within(shadow_r));
-            if seen || (shades && !settings.disable_shadows) {
-                let first = list.len();
-                faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
-                for f in &mut list[first..] {
-                    f.in_view = seen;
-                }
-                objects.push(first..list.len());
-            }
-        }
-        for v in scene.vehicles {
-            let h = crate::vehicle::body().half_extents;
-            let first = list.len();
-            faces(ObjectShape::Box(h), &v.pose(), INTRUDER_PAINT, &mut list);
-            objects.push(first..list.len());
-        }
+        let (list, objects) = visible_faces(scene, pose, settings, far);
         work += list.len() as u64;
         let shadows = (!settings.disable_shadows)
             .then(|| ShadowMap::build(&objects, &list, pose.eye, &mut work));
@@ -646,34 +614,94 @@ impl Camera {
                 image.pixels[i] = albedo.map(|a| a * light);
             }
         }
+        self.post_process(image, settings, rng, &mut work);
+        work
+    }
+
+    /// The post-processing chain on the shaded image, each stage unless its setting disables
+    /// it: depth of field, lens distortion, bloom, shot noise; then the clamp to [0, 1].
+    fn post_process<R: Rng + ?Sized>(
+        &mut self,
+        image: &mut Image,
+        settings: &Settings,
+        rng: &mut R,
+        work: &mut u64,
+    ) {
         if !settings.disable_depth_of_field {
-            depth_of_field(&image.pixels, &b.depth, &mut self.spare, &mut work);
+            depth_of_field(&image.pixels, &self.buffers.depth, &mut self.spare, work);
             std::mem::swap(&mut image.pixels, &mut self.spare);
         }
         if !settings.disable_lens_model {
-            distort(&image.pixels, &mut self.spare, &mut work);
+            distort(&image.pixels, &mut self.spare, work);
             std::mem::swap(&mut image.pixels, &mut self.spare);
         }
         if !settings.disable_bloom {
-            bloom(image, settings.bloom_level, &mut self.glow, &mut work);
+            bloom(image, settings.bloom_level, &mut self.glow, work);
         }
         if !settings.camera_disable_shot_noise {
-            // Photon noise: one draw per pixel, growing with the square root of its brightness.
-            let table = noise_table();
-            for p in &mut image.pixels {
-                let z = table[(rng.next_u32() >> (32 - NOISE_TABLE_BITS)) as usize];
-                for c in p.iter_mut() {
-                    *c += z * (0.25 + c.max(0.0)).sqrt();
-                }
-                work += 1;
-            }
+            shot_noise(&mut image.pixels, rng, work);
         }
         for p in &mut image.pixels {
             for c in p.iter_mut() {
                 *c = c.clamp(0.0, 1.0);
             }
         }
-        work
+    }
+}
+
+/// The faces to rasterise: those of every world object within the view distance (plus a
+/// margin for big buildings), and of the vehicles; with the range of faces of each object that
+/// may cast a shadow.
+fn visible_faces(
+    scene: &Scene,
+    pose: &CameraPose,
+    settings: &Settings,
+    far: f32,
+) -> (Vec<Face>, Vec<std::ops::Range<usize>>) {
+    let mut list = Vec::new();
+    let mut objects = Vec::new();
+    for (i, o) in scene.world.objects().iter().enumerate() {
+        // Cull by bounding sphere: what may be seen, and what may cast a shadow into view
+        // (a shadow reaches 0.7 × the object's height away from it, for this sun).
+        let ObjectShape::Box(h) = o.shape;
+        let r = h.norm();
+        let c = pose.to_camera(Point3::from(o.pose.translation.vector));
+        let top = o.pose.translation.vector.z + h.z;
+        let shadow_r = r + 0.7 * top.max(0.0);
+        let within = |r: f32| {
+            c.x > -r
+                && c.x - r < far
+                && c.norm() - r < far
+                && (c.y.abs() - c.x) * std::f32::consts::FRAC_1_SQRT_2 < r
+        };
+        let (seen, shades) = (within(r), within(shadow_r));
+        if seen || (shades && !settings.disable_shadows) {
+            let first = list.len();
+            faces(o.shape, &o.pose, kind_albedo(o.kind, i), &mut list);
+            for f in &mut list[first..] {
+                f.in_view = seen;
+            }
+            objects.push(first..list.len());
+        }
+    }
+    for v in scene.vehicles {
+        let h = crate::vehicle::body().half_extents;
+        let first = list.len();
+        faces(ObjectShape::Box(h), &v.pose(), INTRUDER_PAINT, &mut list);
+        objects.push(first..list.len());
+    }
+    (list, objects)
+}
+
+/// Photon noise: one draw per pixel, growing with the square root of its brightness.
+fn shot_noise<R: Rng + ?Sized>(pixels: &mut [[f32; 3]], rng: &mut R, work: &mut u64) {
+    let table = noise_table();
+    for p in pixels {
+        let z = table[(rng.next_u32() >> (32 - NOISE_TABLE_BITS)) as usize];
+        for c in p.iter_mut() {
+            *c += z * (0.25 + c.max(0.0)).sqrt();
+        }
+        *work += 1;
     }
 }
 
@@ -838,8 +866,31 @@ fn bloom(img: &mut Image, level: BloomLevel, buffers: &mut [Vec<[f32; 3]>; 2], w
         BloomLevel::High => (1, 4),
         BloomLevel::Low => (2, 2),
     };
-    let (w, h) = (WIDTH / scale, HEIGHT / scale);
+    let blur = BoxBlur {
+        w: WIDTH / scale,
+        h: HEIGHT / scale,
+        radius,
+        norm: 1.0 / (2 * radius + 1) as f32,
+    };
     let [bright, across] = buffers;
+    bright_pass(img, scale, bright, work);
+    blur.across_rows(bright, across, work);
+    blur.down_columns(across, bright, work);
+    let glow = bright;
+    let w = blur.w;
+    for (i, p) in img.pixels.iter_mut().enumerate() {
+        let g = glow[(i / WIDTH / scale) * w + (i % WIDTH) / scale];
+        for c in 0..3 {
+            p[c] += 1.5 * g[c];
+        }
+    }
+}
+
+/// The bright pass of the bloom into `bright`: the part of each pixel's colour above the
+/// luminance threshold, averaged over `scale` × `scale` blocks.
+#[inline]
+fn bright_pass(img: &Image, scale: usize, bright: &mut Vec<[f32; 3]>, work: &mut u64) {
+    let (w, h) = (WIDTH / scale, HEIGHT / scale);
     bright.clear();
     bright.resize(w * h, [0.0; 3]);
     for y in 0..h {
@@ -860,10 +911,23 @@ fn bloom(img: &mut Image, level: BloomLevel, buffers: &mut [Vec<[f32; 3]>; 2], w
         }
     }
     *work += (WIDTH * HEIGHT) as u64;
-    // Running-sum box passes: along each row, then down the columns (row by row, with one
-    // running sum per column, so that memory is read in order).
-    let norm = 1.0 / (2 * radius + 1) as f32;
-    let across_rows = |src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64| {
+}
+
+/// A box blur of a `w` × `h` image with a box of `2 · radius + 1` pixels (`norm` is one over
+/// that), in two running-sum passes: along each row, then down the columns (row by row, with
+/// one running sum per column, so that memory is read in order).
+struct BoxBlur {
+    w: usize,
+    h: usize,
+    radius: usize,
+    norm: f32,
+}
+
+impl BoxBlur {
+    /// The pass along each row.
+    #[inline]
+    fn across_rows(&self, src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64) {
+        let (w, radius, norm) = (self.w, self.radius, self.norm);
         out.clear();
         out.resize(src.len(), [0.0; 3]);
         for (row, o) in src.chunks_exact(w).zip(out.chunks_exact_mut(w)) {
@@ -888,8 +952,12 @@ fn bloom(img: &mut Image, level: BloomLevel, buffers: &mut [Vec<[f32; 3]>; 2], w
             }
         }
         *work += src.len() as u64;
-    };
-    let down_columns = |src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64| {
+    }
+
+    /// The pass down the columns.
+    #[inline]
+    fn down_columns(&self, src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64) {
+        let (w, h, radius, norm) = (self.w, self.h, self.radius, self.norm);
         out.clear();
         out.resize(src.len(), [0.0; 3]);
         let mut acc = vec![[0.0f32; 3]; w];
@@ -924,14 +992,5 @@ fn bloom(img: &mut Image, level: BloomLevel, buffers: &mut [Vec<[f32; 3]>; 2], w
             }
         }
         *work += src.len() as u64;
-    };
-    across_rows(bright, across, work);
-    down_columns(across, bright, work);
-    let glow = bright;
-    for (i, p) in img.pixels.iter_mut().enumerate() {
-        let g = glow[(i / WIDTH / scale) * w + (i % WIDTH) / scale];
-        for c in 0..3 {
-            p[c] += 1.5 * g[c];
-        }
     }
 }

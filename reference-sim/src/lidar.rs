@@ -94,112 +94,197 @@ pub fn scan<R: Rng + ?Sized>(
     settings: &Settings,
     rng: &mut R,
 ) -> LidarScan {
+    let sweep = Sweep {
+        scene,
+        origin,
+        settings,
+        noise: Normal::new(0.0f32, RANGE_NOISE).expect("valid noise"),
+        near: settings.lidar_near_clip as f32,
+        subsamples: settings.subsamples.clamp(1, SUBSAMPLE.len() as u32) as usize,
+        div: DIVERGENCE_DEG.to_radians(),
+    };
     let mut out = LidarScan::default();
-    let noise = Normal::new(0.0f32, RANGE_NOISE).expect("valid noise");
-    let near = settings.lidar_near_clip as f32;
-    let subsamples = settings.subsamples.clamp(1, SUBSAMPLE.len() as u32) as usize;
     let steps = (2.0 * HALF_FOV_DEG / AZIMUTH_STEP_DEG).round() as i32;
-    let div = DIVERGENCE_DEG.to_radians();
     for el_deg in ELEVATIONS_DEG {
         let el = el_deg.to_radians();
         for k in 0..=steps {
             let az = heading + (-HALF_FOV_DEG + k as f32 * AZIMUTH_STEP_DEG).to_radians();
-            let beam = direction(az, el);
-            // Subsample rays: average the ranges and intensities of those that hit.
-            let (mut sum_d, mut sum_i, mut hits) = (0.0f32, 0.0f32, 0u32);
-            let mut first: Option<SceneHit> = None;
-            for &(da, de) in &SUBSAMPLE[..subsamples] {
-                let dir = direction(az + da * div, el + de * div);
-                out.rays += 1;
-                if let Some(h) = scene.cast(origin, dir, MAX_RANGE, None) {
-                    let mut d = h.distance;
-                    if !settings.lidar_disable_shot_noise {
-                        out.draws += 1;
-                        d += noise.sample(rng);
-                    }
-                    let opaque_glass = h.glass && settings.disable_translucency;
-                    let refl = if opaque_glass {
-                        0.3
-                    } else {
-                        scene.reflectivity(&h)
-                    };
-                    sum_d += d;
-                    sum_i += refl * (-dir.dot(&h.normal)).abs().max(0.05);
-                    hits += 1;
-                    first.get_or_insert(h);
-                }
-            }
-            if let Some(h) = first {
-                let range = sum_d / hits as f32;
-                if range >= near {
-                    out.points.push(LidarPoint {
-                        position: origin + beam * range,
-                        intensity: sum_i / hits as f32,
-                        kind: ReturnKind::Surface,
-                        surface: Some(h.surface),
-                    });
-                    let hit_point = origin + beam * h.distance;
-                    // Glass lets part of the light through to what is behind it.
-                    if h.glass && !settings.disable_translucency {
-                        out.rays += 1;
-                        let from = hit_point + beam * 0.05;
-                        if let Some(t) = scene.cast(from, beam, MAX_RANGE, Some(h.surface)) {
-                            out.points.push(LidarPoint {
-                                position: from + beam * t.distance,
-                                intensity: 0.5 * scene.reflectivity(&t),
-                                kind: ReturnKind::Transmitted,
-                                surface: Some(t.surface),
-                            });
-                        }
-                    }
-                    // Shiny surfaces (paint, glass) reflect the beam onward: multi-path ghosts.
-                    let shiny = h.glass || matches!(h.surface, Surface::Vehicle(_));
-                    if shiny {
-                        let (mut dir, mut at, mut normal) = (beam, hit_point, h.normal);
-                        let mut path = h.distance;
-                        let mut gain = 1.0f32;
-                        let mut last = h.surface;
-                        for _ in 0..settings.bounces {
-                            dir = reflect(dir, normal);
-                            out.rays += 1;
-                            let Some(b) = scene.cast(at + dir * 0.05, dir, MAX_RANGE, Some(last))
-                            else {
-                                break;
-                            };
-                            path += b.distance;
-                            gain *= 0.15;
-                            out.points.push(LidarPoint {
-                                position: origin + beam * path,
-                                intensity: gain * scene.reflectivity(&b),
-                                kind: ReturnKind::MultiPath,
-                                surface: None,
-                            });
-                            at += dir * (0.05 + b.distance);
-                            normal = b.normal;
-                            last = b.surface;
-                            if !(b.glass || matches!(b.surface, Surface::Vehicle(_))) {
-                                break;
-                            }
-                        }
-                    }
-                }
-            }
-            if !settings.disable_ambient {
-                out.draws += 1;
-                if rng.random::<f64>() < AMBIENT_RATE {
-                    out.draws += 1;
-                    let range = rng.random_range(2.0f32..60.0);
-                    if range >= near {
-                        out.points.push(LidarPoint {
-                            position: origin + beam * range,
-                            intensity: 0.05,
-                            kind: ReturnKind::Ambient,
-                            surface: None,
-                        });
-                    }
-                }
-            }
+            sweep.beam(az, el, rng, &mut out);
         }
     }
     out
+}
+
+/// What every beam of a sweep shares.
+struct Sweep<'a> {
+    scene: &'a Scene<'a>,
+    origin: Point3<f32>,
+    settings: &'a Settings,
+    noise: Normal<f32>,
+    /// Near clipping, metres.
+    near: f32,
+    /// Subsample rays per beam.
+    subsamples: usize,
+    /// The beam divergence, radians.
+    div: f32,
+}
+
+/// The subsample rays of a beam that hit: the first one's hit, and their mean range and
+/// intensity.
+struct BeamHit {
+    first: SceneHit,
+    range: f32,
+    intensity: f32,
+}
+
+impl Sweep<'_> {
+    /// One beam at azimuth `az`, elevation `el`: its surface return with what glass lets
+    /// through and the multi-path ghosts of shiny surfaces, then a possible sunlight return.
+    #[inline]
+    fn beam<R: Rng + ?Sized>(&self, az: f32, el: f32, rng: &mut R, out: &mut LidarScan) {
+        let beam = direction(az, el);
+        if let Some(hit) = self.subsample(az, el, rng, out) {
+            let (h, range) = (hit.first, hit.range);
+            if range >= self.near {
+                out.points.push(LidarPoint {
+                    position: self.origin + beam * range,
+                    intensity: hit.intensity,
+                    kind: ReturnKind::Surface,
+                    surface: Some(h.surface),
+                });
+                let hit_point = self.origin + beam * h.distance;
+                // Glass lets part of the light through to what is behind it.
+                if h.glass && !self.settings.disable_translucency {
+                    self.transmitted(beam, hit_point, &h, out);
+                }
+                // Shiny surfaces (paint, glass) reflect the beam onward: multi-path ghosts.
+                let shiny = h.glass || matches!(h.surface, Surface::Vehicle(_));
+                if shiny {
+                    self.multi_path(beam, hit_point, &h, out);
+                }
+            }
+        }
+        if !self.settings.disable_ambient {
+            self.ambient(beam, rng, out);
+        }
+    }
+
+    /// Casts the beam's subsample rays and averages the ranges (with shot noise) and
+    /// intensities of those that hit; `None` when none hits.
+    #[inline]
+    fn subsample<R: Rng + ?Sized>(
+        &self,
+        az: f32,
+        el: f32,
+        rng: &mut R,
+        out: &mut LidarScan,
+    ) -> Option<BeamHit> {
+        let (scene, settings, div) = (self.scene, self.settings, self.div);
+        let (mut sum_d, mut sum_i, mut hits) = (0.0f32, 0.0f32, 0u32);
+        let mut first: Option<SceneHit> = None;
+        for &(da, de) in &SUBSAMPLE[..self.subsamples] {
+            let dir = direction(az + da * div, el + de * div);
+            out.rays += 1;
+            if let Some(h) = scene.cast(self.origin, dir, MAX_RANGE, None) {
+                let mut d = h.distance;
+                if !settings.lidar_disable_shot_noise {
+                    out.draws += 1;
+                    d += self.noise.sample(rng);
+                }
+                let opaque_glass = h.glass && settings.disable_translucency;
+                let refl = if opaque_glass {
+                    0.3
+                } else {
+                    scene.reflectivity(&h)
+                };
+                sum_d += d;
+                sum_i += refl * (-dir.dot(&h.normal)).abs().max(0.05);
+                hits += 1;
+                first.get_or_insert(h);
+            }
+        }
+        first.map(|first| BeamHit {
+            first,
+            range: sum_d / hits as f32,
+            intensity: sum_i / hits as f32,
+        })
+    }
+
+    /// The return of what is behind the glass hit `h` at `hit_point`.
+    #[inline]
+    fn transmitted(
+        &self,
+        beam: Vector3<f32>,
+        hit_point: Point3<f32>,
+        h: &SceneHit,
+        out: &mut LidarScan,
+    ) {
+        out.rays += 1;
+        let from = hit_point + beam * 0.05;
+        if let Some(t) = self.scene.cast(from, beam, MAX_RANGE, Some(h.surface)) {
+            out.points.push(LidarPoint {
+                position: from + beam * t.distance,
+                intensity: 0.5 * self.scene.reflectivity(&t),
+                kind: ReturnKind::Transmitted,
+                surface: Some(t.surface),
+            });
+        }
+    }
+
+    /// The ghosts of the beam reflected off the shiny hit `h` at `hit_point`, up to
+    /// `bounces` times while it keeps meeting shiny surfaces; each reported along the beam
+    /// at the total path length.
+    #[inline]
+    fn multi_path(
+        &self,
+        beam: Vector3<f32>,
+        hit_point: Point3<f32>,
+        h: &SceneHit,
+        out: &mut LidarScan,
+    ) {
+        let scene = self.scene;
+        let (mut dir, mut at, mut normal) = (beam, hit_point, h.normal);
+        let mut path = h.distance;
+        let mut gain = 1.0f32;
+        let mut last = h.surface;
+        for _ in 0..self.settings.bounces {
+            dir = reflect(dir, normal);
+            out.rays += 1;
+            let Some(b) = scene.cast(at + dir * 0.05, dir, MAX_RANGE, Some(last)) else {
+                break;
+            };
+            path += b.distance;
+            gain *= 0.15;
+            out.points.push(LidarPoint {
+                position: self.origin + beam * path,
+                intensity: gain * scene.reflectivity(&b),
+                kind: ReturnKind::MultiPath,
+                surface: None,
+            });
+            at += dir * (0.05 + b.distance);
+            normal = b.normal;
+            last = b.surface;
+            if !(b.glass || matches!(b.surface, Surface::Vehicle(_))) {
+                break;
+            }
+        }
+    }
+
+    /// A spurious sunlight return along the beam, with probability [`AMBIENT_RATE`].
+    #[inline]
+    fn ambient<R: Rng + ?Sized>(&self, beam: Vector3<f32>, rng: &mut R, out: &mut LidarScan) {
+        out.draws += 1;
+        if rng.random::<f64>() < AMBIENT_RATE {
+            out.draws += 1;
+            let range = rng.random_range(2.0f32..60.0);
+            if range >= self.near {
+                out.points.push(LidarPoint {
+                    position: self.origin + beam * range,
+                    intensity: 0.05,
+                    kind: ReturnKind::Ambient,
+                    surface: None,
+                });
+            }
+        }
+    }
 }

@@ -305,12 +305,11 @@ pub struct Setup {
 fn intersection_paths(id: u8) -> &'static (Path, Path, f64, f64) {
     static CACHE: [OnceLock<(Path, Path, f64, f64)>; 4] = [const { OnceLock::new() }; 4];
     CACHE[usize::from(id - 1)].get_or_init(|| {
-        let far = 120.0;
         let (ego, intruder) = match id {
-            1 => (lanes::northbound(-far), lanes::east_then_north(-far)),
-            2 => (lanes::north_then_west(-far), lanes::westbound(far)),
-            3 => (lanes::northbound(-far), lanes::south_then_east(far)),
-            _ => (lanes::north_then_west(-far), lanes::southbound(far)),
+            1 => (lanes::northbound(-FAR), lanes::east_then_north(-FAR)),
+            2 => (lanes::north_then_west(-FAR), lanes::westbound(FAR)),
+            3 => (lanes::northbound(-FAR), lanes::south_then_east(FAR)),
+            _ => (lanes::north_then_west(-FAR), lanes::southbound(FAR)),
         };
         let (se, si) = crossing(&ego, &intruder);
         (ego, intruder, se, si)
@@ -359,6 +358,11 @@ fn value(phi: &Assignment, name: &str, space: &Space) -> Result<f64, SimError> {
     Ok(x)
 }
 
+/// Where the straight roads start (x = −`FAR`), metres.
+const FAR: f64 = 120.0;
+/// The ego's start on the straight road of the same-direction scenarios (x = −`FAR` + this).
+const EGO_X: f64 = 10.0;
+
 /// Turns a φ into a set-up. φ must name exactly the scenario's variables, each in range.
 pub fn setup(info: &'static ScenarioInfo, phi: &Assignment) -> Result<Setup, SimError> {
     let space = phi_space(info);
@@ -380,136 +384,174 @@ pub fn setup(info: &'static ScenarioInfo, phi: &Assignment) -> Result<Setup, Sim
     }
     let get = |name: &str| value(phi, name, &space);
     let ego_speed = get("ego_speed")?;
-    let far = 120.0;
     // Paths, then timing.
-    if (1..=4).contains(&info.id) {
-        let (ego_path, intruder_path, se, si) = intersection_paths(info.id);
-        let profile = Profile::constant(get("intruder_speed")?);
-        let late = get("time_offset")?;
-        let (travel, _) = profile.at((CONFLICT_TIME + late).max(0.0));
-        return Ok(Setup {
-            info,
-            ego_path: ego_path.clone(),
-            ego_start: se - ego_speed * CONFLICT_TIME,
-            ego_speed,
-            intruder_path: intruder_path.clone(),
-            intruder_start: si - travel,
-            intruder_profile: profile,
-        });
-    }
-    let ego_path = lanes::eastbound(-far);
-    if info.id == 8 {
-        // Pull out forward from a spot south of the road, turn right into the eastbound lane.
-        // The intruder starts from rest 2 s before the ego is CONFLICT_TIME (+ time_offset)
-        // from where the intruder joins the lane.
-        let spot_y = -(LANE + 1.5 + 2.4);
-        let r = 4.0;
-        let path = Path::start(Point2::new(0.0, spot_y), FRAC_PI_2)
-            .line((-LANE / 2.0 - r - spot_y).max(0.1))
-            .arc(r, -FRAC_PI_2)
-            .line(150.0);
-        let accel = get("intruder_accel")?;
-        let start = (CONFLICT_TIME + get("time_offset")? - 2.0).max(0.0);
-        return Ok(Setup {
-            info,
-            ego_path,
-            ego_start: far + r - ego_speed * CONFLICT_TIME,
-            ego_speed,
-            intruder_path: path,
-            intruder_start: 0.0,
-            intruder_profile: Profile {
-                v0: 0.0,
-                phases: vec![(start, accel)],
-                v_max: 7.0,
-            },
-        });
-    }
-    // Same-direction scenarios on straight roads; the ego starts at x = −far + 10.
-    let ego_x = 10.0;
     match info.id {
-        5 => {
-            let v = get("intruder_speed")?;
-            let gap = get("gap")?;
-            let t_cut = get("cut_in_time")?;
-            // The intruder starts `gap` metres (bumper to bumper) ahead in the left lane and
-            // moves into the right lane over 2.5 s of travel.
-            let start_x = -far + ego_x + crate::vehicle::LENGTH + gap;
-            let cut_at = start_x + v * t_cut;
-            let path = lanes::lane_change(start_x, LANE / 2.0, cut_at, (v * 2.5).max(8.0), false);
-            Ok(Setup {
-                info,
-                ego_path,
-                ego_start: ego_x,
-                ego_speed,
-                intruder_path: path,
-                intruder_start: 0.0,
-                intruder_profile: Profile::constant(v),
-            })
-        }
-        6 => {
-            let v = get("intruder_speed")?;
-            let offset = get("offset")?;
-            let t_lc = get("lane_change_time")?;
-            let start = -far + ego_x;
-            let path = lanes::lane_change(
-                start,
-                -LANE / 2.0,
-                start + ego_speed * t_lc,
-                (ego_speed * 3.0).max(10.0),
-                true,
-            );
-            Ok(Setup {
-                info,
-                ego_path: path,
-                ego_start: 0.0,
-                ego_speed,
-                intruder_path: lanes::eastbound_left(start + offset),
-                intruder_start: 0.0,
-                intruder_profile: Profile::constant(v),
-            })
-        }
-        7 | 9 => {
-            let v = get("lead_speed")?;
-            let gap = get("gap")?;
-            let decel = get("lead_decel")?;
-            let t_brake = if info.id == 7 {
-                get("brake_time")?
-            } else {
-                1.5
-            };
-            Ok(Setup {
-                info,
-                ego_path,
-                ego_start: ego_x,
-                ego_speed,
-                intruder_path: lanes::eastbound(-far + ego_x + crate::vehicle::LENGTH + gap),
-                intruder_start: 0.0,
-                intruder_profile: Profile {
-                    v0: v,
-                    phases: vec![(t_brake, -decel)],
-                    v_max: v,
-                },
-            })
-        }
-        _ => {
-            // 10: merge from the on-ramp; the conflict point is where the merge ends.
-            let ramp = lanes::on_ramp();
-            let road = lanes::eastbound(-250.0);
-            let merge_end = ramp.project(Point2::new(20.0, -LANE / 2.0), None).s;
-            let road_at = road.project(Point2::new(20.0, -LANE / 2.0), None).s;
-            let v = get("intruder_speed")?;
-            let late = get("time_offset")?;
-            Ok(Setup {
-                info,
-                ego_path: ramp,
-                ego_start: merge_end - ego_speed * CONFLICT_TIME,
-                ego_speed,
-                intruder_path: road,
-                intruder_start: road_at - v * (CONFLICT_TIME + late),
-                intruder_profile: Profile::constant(v),
-            })
-        }
+        1..=4 => intersection(info, ego_speed, &get),
+        5 => cut_in(info, ego_speed, &get),
+        6 => ego_lane_change(info, ego_speed, &get),
+        7 | 9 => lead_brakes(info, ego_speed, &get),
+        8 => pull_out(info, ego_speed, &get),
+        _ => on_ramp_merge(info, ego_speed, &get),
     }
+}
+
+/// Scenarios 1–4: both reach the crossing of their paths `CONFLICT_TIME` (+ the intruder's
+/// `time_offset`) from the start.
+fn intersection(
+    info: &'static ScenarioInfo,
+    ego_speed: f64,
+    get: &impl Fn(&str) -> Result<f64, SimError>,
+) -> Result<Setup, SimError> {
+    let (ego_path, intruder_path, se, si) = intersection_paths(info.id);
+    let profile = Profile::constant(get("intruder_speed")?);
+    let late = get("time_offset")?;
+    let (travel, _) = profile.at((CONFLICT_TIME + late).max(0.0));
+    Ok(Setup {
+        info,
+        ego_path: ego_path.clone(),
+        ego_start: se - ego_speed * CONFLICT_TIME,
+        ego_speed,
+        intruder_path: intruder_path.clone(),
+        intruder_start: si - travel,
+        intruder_profile: profile,
+    })
+}
+
+/// Scenario 8: pull out forward from a spot south of the road, turn right into the eastbound
+/// lane. The intruder starts from rest 2 s before the ego is `CONFLICT_TIME` (+ `time_offset`)
+/// from where the intruder joins the lane.
+fn pull_out(
+    info: &'static ScenarioInfo,
+    ego_speed: f64,
+    get: &impl Fn(&str) -> Result<f64, SimError>,
+) -> Result<Setup, SimError> {
+    let spot_y = -(LANE + 1.5 + 2.4);
+    let r = 4.0;
+    let path = Path::start(Point2::new(0.0, spot_y), FRAC_PI_2)
+        .line((-LANE / 2.0 - r - spot_y).max(0.1))
+        .arc(r, -FRAC_PI_2)
+        .line(150.0);
+    let accel = get("intruder_accel")?;
+    let start = (CONFLICT_TIME + get("time_offset")? - 2.0).max(0.0);
+    Ok(Setup {
+        info,
+        ego_path: lanes::eastbound(-FAR),
+        ego_start: FAR + r - ego_speed * CONFLICT_TIME,
+        ego_speed,
+        intruder_path: path,
+        intruder_start: 0.0,
+        intruder_profile: Profile {
+            v0: 0.0,
+            phases: vec![(start, accel)],
+            v_max: 7.0,
+        },
+    })
+}
+
+/// Scenario 5: the intruder starts `gap` metres (bumper to bumper) ahead in the left lane and
+/// moves into the right lane over 2.5 s of travel.
+fn cut_in(
+    info: &'static ScenarioInfo,
+    ego_speed: f64,
+    get: &impl Fn(&str) -> Result<f64, SimError>,
+) -> Result<Setup, SimError> {
+    let v = get("intruder_speed")?;
+    let gap = get("gap")?;
+    let t_cut = get("cut_in_time")?;
+    let start_x = -FAR + EGO_X + crate::vehicle::LENGTH + gap;
+    let cut_at = start_x + v * t_cut;
+    let path = lanes::lane_change(start_x, LANE / 2.0, cut_at, (v * 2.5).max(8.0), false);
+    Ok(Setup {
+        info,
+        ego_path: lanes::eastbound(-FAR),
+        ego_start: EGO_X,
+        ego_speed,
+        intruder_path: path,
+        intruder_start: 0.0,
+        intruder_profile: Profile::constant(v),
+    })
+}
+
+/// Scenario 6: the ego changes into the left lane, where the intruder drives `offset` metres
+/// from the ego's start.
+fn ego_lane_change(
+    info: &'static ScenarioInfo,
+    ego_speed: f64,
+    get: &impl Fn(&str) -> Result<f64, SimError>,
+) -> Result<Setup, SimError> {
+    let v = get("intruder_speed")?;
+    let offset = get("offset")?;
+    let t_lc = get("lane_change_time")?;
+    let start = -FAR + EGO_X;
+    let path = lanes::lane_change(
+        start,
+        -LANE / 2.0,
+        start + ego_speed * t_lc,
+        (ego_speed * 3.0).max(10.0),
+        true,
+    );
+    Ok(Setup {
+        info,
+        ego_path: path,
+        ego_start: 0.0,
+        ego_speed,
+        intruder_path: lanes::eastbound_left(start + offset),
+        intruder_start: 0.0,
+        intruder_profile: Profile::constant(v),
+    })
+}
+
+/// Scenarios 7 and 9: a lead `gap` metres ahead brakes at `lead_decel` (at `brake_time` in 7,
+/// at 1.5 s in 9).
+fn lead_brakes(
+    info: &'static ScenarioInfo,
+    ego_speed: f64,
+    get: &impl Fn(&str) -> Result<f64, SimError>,
+) -> Result<Setup, SimError> {
+    let v = get("lead_speed")?;
+    let gap = get("gap")?;
+    let decel = get("lead_decel")?;
+    let t_brake = if info.id == 7 {
+        get("brake_time")?
+    } else {
+        1.5
+    };
+    Ok(Setup {
+        info,
+        ego_path: lanes::eastbound(-FAR),
+        ego_start: EGO_X,
+        ego_speed,
+        intruder_path: lanes::eastbound(-FAR + EGO_X + crate::vehicle::LENGTH + gap),
+        intruder_start: 0.0,
+        intruder_profile: Profile {
+            v0: v,
+            phases: vec![(t_brake, -decel)],
+            v_max: v,
+        },
+    })
+}
+
+/// Scenario 10: merge from the on-ramp; the conflict point is where the merge ends.
+fn on_ramp_merge(
+    info: &'static ScenarioInfo,
+    ego_speed: f64,
+    get: &impl Fn(&str) -> Result<f64, SimError>,
+) -> Result<Setup, SimError> {
+    let ramp = lanes::on_ramp();
+    let road = lanes::eastbound(-250.0);
+    let merge_end = ramp.project(Point2::new(20.0, -LANE / 2.0), None).s;
+    let road_at = road.project(Point2::new(20.0, -LANE / 2.0), None).s;
+    let v = get("intruder_speed")?;
+    let late = get("time_offset")?;
+    Ok(Setup {
+        info,
+        ego_path: ramp,
+        ego_start: merge_end - ego_speed * CONFLICT_TIME,
+        ego_speed,
+        intruder_path: road,
+        intruder_start: road_at - v * (CONFLICT_TIME + late),
+        intruder_profile: Profile::constant(v),
+    })
 }
 
 #[cfg(test)]

@@ -66,6 +66,14 @@ fn intruder_at(setup: &Setup, t: f64) -> VehicleState {
     )
 }
 
+/// What the ego does during a step: steering, acceleration, and whether it brakes.
+#[derive(Debug, Clone, Copy)]
+struct Control {
+    steer: f64,
+    accel: f64,
+    braking: bool,
+}
+
 /// A run in progress, advanced one simulation step at a time (what the FMU export drives);
 /// [`run`] steps it to the end.
 #[derive(Debug, Clone)]
@@ -193,6 +201,8 @@ impl<P: Perception> Stepper<P> {
         self.finished
     }
 
+    /// One step: decide ([`Self::perceive_plan_control`]), then move with the swept contact
+    /// checks ([`Self::sweep`]); the run finishes on a collision or at its last step.
     fn advance(&mut self) {
         let k = self.taken;
         if k >= self.steps {
@@ -200,10 +210,26 @@ impl<P: Perception> Stepper<P> {
             return;
         }
         self.taken += 1;
-        let (dt, setup) = (self.dt, &self.setup);
-        let t = k as f64 * dt;
+        let t = k as f64 * self.dt;
         let ego = self.ego;
-        let intruder = intruder_at(setup, t);
+        let intruder = intruder_at(&self.setup, t);
+        let control = self.perceive_plan_control(t, ego, intruder);
+        let collided = self.sweep(t, ego, intruder, control);
+        if collided || self.taken >= self.steps {
+            self.finished = true;
+        }
+    }
+
+    /// The step's decision at time `t`: perceive the intruder, plan (brake or not), steer and
+    /// set the speed; records the step's frame when recording.
+    #[inline]
+    fn perceive_plan_control(
+        &mut self,
+        t: f64,
+        ego: VehicleState,
+        intruder: VehicleState,
+    ) -> Control {
+        let (dt, setup) = (self.dt, &self.setup);
         let measured = self.perception.perceive(&Sensing {
             time: t,
             ego: &ego,
@@ -227,8 +253,31 @@ impl<P: Perception> Stepper<P> {
                 predicted,
             });
         }
-        // Advance, checking for contact along the way: the ego's motion is re-integrated
-        // exactly to each check point, the intruder's read from its script.
+        Control {
+            steer,
+            accel,
+            braking,
+        }
+    }
+
+    /// Advances the ego from `ego` under `control` over the step from `t`, checking for contact
+    /// along the way: the ego's motion is re-integrated exactly to each check point, the
+    /// intruder's read from its script. Returns whether they collided (the run then ends there);
+    /// otherwise the ego has moved to the end of the step.
+    #[inline]
+    fn sweep(
+        &mut self,
+        t: f64,
+        ego: VehicleState,
+        intruder: VehicleState,
+        control: Control,
+    ) -> bool {
+        let (dt, setup) = (self.dt, &self.setup);
+        let Control {
+            steer,
+            accel,
+            braking,
+        } = control;
         let mut after = ego;
         after.step(steer, accel, dt);
         let next_intruder = intruder_at(setup, t + dt);
@@ -267,14 +316,11 @@ impl<P: Perception> Stepper<P> {
                         predicted: None,
                     });
                 }
-                self.finished = true;
-                return;
+                return true;
             }
         }
         self.ego = after;
-        if self.taken >= self.steps {
-            self.finished = true;
-        }
+        false
     }
 
     /// The result so far (of the whole run once finished); the wall time counts set-up and

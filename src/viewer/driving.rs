@@ -6,8 +6,10 @@
 use super::recorder::{err, RecordError, TrialFrames};
 use rerun::RecordingStream;
 use savme_kernel::Assignment;
+use savme_sim::perception::SensorFrame;
 use savme_sim::scenario;
 use savme_sim::sim::{DrivingSimulator, Frame, RunResult};
+use savme_sim::vehicle::VehicleState;
 use savme_sim::world::{ObjectShape, World};
 use std::collections::BTreeSet;
 
@@ -65,88 +67,70 @@ fn log_run(
     phi: &Assignment,
     r: &RunResult,
 ) -> Result<(), RecordError> {
-    // The planned paths.
     if let Ok(setup) = scenario::setup(info, phi) {
-        for (name, path) in [
-            ("ego_path", &setup.ego_path),
-            ("intruder_path", &setup.intruder_path),
-        ] {
-            let n = (path.length() / 1.0).ceil() as usize + 1;
-            let pts: Vec<(f32, f32, f32)> = (0..n)
-                .map(|k| {
-                    let p = path.point_at(k as f64 * path.length() / (n - 1).max(1) as f64);
-                    (p.x as f32, p.y as f32, 0.02)
-                })
-                .collect();
-            rec.log_static(
-                format!("{base}/{name}"),
-                &rerun::LineStrips3D::new([pts]).with_colors([rerun::Color::from_rgb(90, 90, 200)]),
-            )
-            .map_err(err)?;
-        }
+        log_planned_paths(rec, base, &setup)?;
     }
     let frames: &[Frame] = r.trajectory.as_deref().unwrap_or(&[]);
-    let body = savme_sim::vehicle::body().half_extents;
+    log_frames(rec, base, frames)?;
+    log_closest_approach(rec, base, frames, r.min_distance)?;
+    for sf in r.sensor_frames.as_deref().unwrap_or(&[]) {
+        rec.set_duration_secs("sim_time", sf.time);
+        log_camera(rec, base, sf)?;
+        log_lidar(rec, base, sf)?;
+    }
+    Ok(())
+}
+
+/// The ego's and the intruder's planned paths, sampled every metre, as static line strips.
+fn log_planned_paths(
+    rec: &RecordingStream,
+    base: &str,
+    setup: &scenario::Setup,
+) -> Result<(), RecordError> {
+    for (name, path) in [
+        ("ego_path", &setup.ego_path),
+        ("intruder_path", &setup.intruder_path),
+    ] {
+        let n = (path.length() / 1.0).ceil() as usize + 1;
+        let pts: Vec<(f32, f32, f32)> = (0..n)
+            .map(|k| {
+                let p = path.point_at(k as f64 * path.length() / (n - 1).max(1) as f64);
+                (p.x as f32, p.y as f32, 0.02)
+            })
+            .collect();
+        rec.log_static(
+            format!("{base}/{name}"),
+            &rerun::LineStrips3D::new([pts]).with_colors([rerun::Color::from_rgb(90, 90, 200)]),
+        )
+        .map_err(err)?;
+    }
+    Ok(())
+}
+
+/// Every step on the `sim_time` timeline: both vehicles with their trajectories so far, the
+/// planner's predicted closest approach (cleared when it has none) and the perceived obstacle.
+fn log_frames(rec: &RecordingStream, base: &str, frames: &[Frame]) -> Result<(), RecordError> {
     let mut ego_track = Vec::new();
     let mut intruder_track = Vec::new();
     for f in frames {
         rec.set_duration_secs("sim_time", f.time);
-        for (name, v, colour, track) in [
-            (
-                "ego",
-                &f.ego,
-                rerun::Color::from_rgb(220, 40, 40),
-                &mut ego_track,
-            ),
-            (
-                "intruder",
-                &f.intruder,
-                rerun::Color::from_rgb(230, 110, 20),
-                &mut intruder_track,
-            ),
-        ] {
-            let c = v.center();
-            track.push((c.x as f32, c.y as f32, 0.1f32));
-            let q = v.pose().rotation;
-            rec.log(
-                format!("{base}/{name}"),
-                &rerun::Boxes3D::from_centers_and_half_sizes(
-                    [(c.x as f32, c.y as f32, body.z)],
-                    [(body.x, body.y, body.z)],
-                )
-                .with_quaternions([rerun::Quaternion::from_xyzw([q.i, q.j, q.k, q.w])])
-                .with_colors([colour])
-                .with_labels([name]),
-            )
-            .map_err(err)?;
-            rec.log(
-                format!("{base}/{name}_trajectory"),
-                &rerun::LineStrips3D::new([track.clone()]).with_colors([colour]),
-            )
-            .map_err(err)?;
-        }
-        if let Some(pr) = f.predicted {
-            rec.log(
-                format!("{base}/predicted_closest_approach"),
-                &rerun::LineStrips3D::new([[
-                    (pr.ego.x as f32, pr.ego.y as f32, 1.2f32),
-                    (pr.obstacle.x as f32, pr.obstacle.y as f32, 1.2),
-                ]])
-                .with_colors([rerun::Color::from_rgb(255, 0, 255)])
-                .with_labels([format!(
-                    "predicted clearance {:.1} m in {:.1} s",
-                    pr.clearance,
-                    pr.time - f.time
-                )]),
-            )
-            .map_err(err)?;
-        } else {
-            rec.log(
-                format!("{base}/predicted_closest_approach"),
-                &rerun::Clear::flat(),
-            )
-            .map_err(err)?;
-        }
+        log_vehicle(
+            rec,
+            base,
+            "ego",
+            &f.ego,
+            rerun::Color::from_rgb(220, 40, 40),
+            &mut ego_track,
+        )?;
+        log_vehicle(
+            rec,
+            base,
+            "intruder",
+            &f.intruder,
+            rerun::Color::from_rgb(230, 110, 20),
+            &mut intruder_track,
+        )?;
+        log_predicted_closest_approach(rec, base, f)?;
         if let Some(m) = f.measured {
             rec.log(
                 format!("{base}/measured"),
@@ -157,7 +141,78 @@ fn log_run(
             .map_err(err)?;
         }
     }
-    // The closest approach: the two centres where the bodies came closest.
+    Ok(())
+}
+
+/// A vehicle's body as a box under `base/name`, and its trajectory (`track`, extended by this
+/// frame's centre) under `base/name_trajectory`.
+fn log_vehicle(
+    rec: &RecordingStream,
+    base: &str,
+    name: &str,
+    v: &VehicleState,
+    colour: rerun::Color,
+    track: &mut Vec<(f32, f32, f32)>,
+) -> Result<(), RecordError> {
+    let body = savme_sim::vehicle::body().half_extents;
+    let c = v.center();
+    track.push((c.x as f32, c.y as f32, 0.1f32));
+    let q = v.pose().rotation;
+    rec.log(
+        format!("{base}/{name}"),
+        &rerun::Boxes3D::from_centers_and_half_sizes(
+            [(c.x as f32, c.y as f32, body.z)],
+            [(body.x, body.y, body.z)],
+        )
+        .with_quaternions([rerun::Quaternion::from_xyzw([q.i, q.j, q.k, q.w])])
+        .with_colors([colour])
+        .with_labels([name]),
+    )
+    .map_err(err)?;
+    rec.log(
+        format!("{base}/{name}_trajectory"),
+        &rerun::LineStrips3D::new([track.clone()]).with_colors([colour]),
+    )
+    .map_err(err)
+}
+
+/// The planner's predicted closest approach at this frame, or a clear when it has none.
+fn log_predicted_closest_approach(
+    rec: &RecordingStream,
+    base: &str,
+    f: &Frame,
+) -> Result<(), RecordError> {
+    if let Some(pr) = f.predicted {
+        rec.log(
+            format!("{base}/predicted_closest_approach"),
+            &rerun::LineStrips3D::new([[
+                (pr.ego.x as f32, pr.ego.y as f32, 1.2f32),
+                (pr.obstacle.x as f32, pr.obstacle.y as f32, 1.2),
+            ]])
+            .with_colors([rerun::Color::from_rgb(255, 0, 255)])
+            .with_labels([format!(
+                "predicted clearance {:.1} m in {:.1} s",
+                pr.clearance,
+                pr.time - f.time
+            )]),
+        )
+        .map_err(err)
+    } else {
+        rec.log(
+            format!("{base}/predicted_closest_approach"),
+            &rerun::Clear::flat(),
+        )
+        .map_err(err)
+    }
+}
+
+/// The closest approach: the two centres where the bodies came closest, at that frame's time.
+fn log_closest_approach(
+    rec: &RecordingStream,
+    base: &str,
+    frames: &[Frame],
+    min_distance: f64,
+) -> Result<(), RecordError> {
     if let Some(f) = frames.iter().min_by(|a, b| {
         let d = |f: &Frame| (f.ego.center() - f.intruder.center()).norm();
         d(a).total_cmp(&d(b))
@@ -171,60 +226,65 @@ fn log_run(
                 (b.x as f32, b.y as f32, 1.6),
             ]])
             .with_colors([rerun::Color::from_rgb(250, 220, 0)])
-            .with_labels([format!("min body distance {:.2} m", r.min_distance)]),
-        )
-        .map_err(err)?;
-    }
-    for sf in r.sensor_frames.as_deref().unwrap_or(&[]) {
-        rec.set_duration_secs("sim_time", sf.time);
-        rec.log(
-            format!("{base}/camera"),
-            &rerun::Image::from_rgb24(
-                sf.image.to_rgb8(),
-                [
-                    savme_sim::camera::WIDTH as u32,
-                    savme_sim::camera::HEIGHT as u32,
-                ],
-            ),
-        )
-        .map_err(err)?;
-        match &sf.detection {
-            Some(bb) => rec
-                .log(
-                    format!("{base}/camera/detection"),
-                    &rerun::Boxes2D::from_mins_and_sizes(
-                        [(bb.u0 as f32, bb.v0 as f32)],
-                        [((bb.u1 - bb.u0) as f32, (bb.v1 - bb.v0) as f32)],
-                    )
-                    .with_labels(["vehicle"]),
-                )
-                .map_err(err)?,
-            None => rec
-                .log(format!("{base}/camera/detection"), &rerun::Clear::flat())
-                .map_err(err)?,
-        }
-        let pts: Vec<(f32, f32, f32)> = sf
-            .cloud
-            .iter()
-            .map(|p| (p.position.x, p.position.y, p.position.z))
-            .collect();
-        let colours: Vec<rerun::Color> = sf
-            .cloud
-            .iter()
-            .map(|p| {
-                let i = (p.intensity.clamp(0.0, 1.0) * 255.0) as u8;
-                rerun::Color::from_rgb(i, 255 - i, 255)
-            })
-            .collect();
-        rec.log(
-            format!("{base}/lidar"),
-            &rerun::Points3D::new(pts)
-                .with_colors(colours)
-                .with_radii([0.06f32]),
+            .with_labels([format!("min body distance {min_distance:.2} m")]),
         )
         .map_err(err)?;
     }
     Ok(())
+}
+
+/// The camera image and the detector's box on it (cleared when it detected nothing).
+fn log_camera(rec: &RecordingStream, base: &str, sf: &SensorFrame) -> Result<(), RecordError> {
+    rec.log(
+        format!("{base}/camera"),
+        &rerun::Image::from_rgb24(
+            sf.image.to_rgb8(),
+            [
+                savme_sim::camera::WIDTH as u32,
+                savme_sim::camera::HEIGHT as u32,
+            ],
+        ),
+    )
+    .map_err(err)?;
+    match &sf.detection {
+        Some(bb) => rec
+            .log(
+                format!("{base}/camera/detection"),
+                &rerun::Boxes2D::from_mins_and_sizes(
+                    [(bb.u0 as f32, bb.v0 as f32)],
+                    [((bb.u1 - bb.u0) as f32, (bb.v1 - bb.v0) as f32)],
+                )
+                .with_labels(["vehicle"]),
+            )
+            .map_err(err),
+        None => rec
+            .log(format!("{base}/camera/detection"), &rerun::Clear::flat())
+            .map_err(err),
+    }
+}
+
+/// The lidar cloud, coloured by intensity.
+fn log_lidar(rec: &RecordingStream, base: &str, sf: &SensorFrame) -> Result<(), RecordError> {
+    let pts: Vec<(f32, f32, f32)> = sf
+        .cloud
+        .iter()
+        .map(|p| (p.position.x, p.position.y, p.position.z))
+        .collect();
+    let colours: Vec<rerun::Color> = sf
+        .cloud
+        .iter()
+        .map(|p| {
+            let i = (p.intensity.clamp(0.0, 1.0) * 255.0) as u8;
+            rerun::Color::from_rgb(i, 255 - i, 255)
+        })
+        .collect();
+    rec.log(
+        format!("{base}/lidar"),
+        &rerun::Points3D::new(pts)
+            .with_colors(colours)
+            .with_radii([0.06f32]),
+    )
+    .map_err(err)
 }
 
 impl TrialFrames for DrivingFrames {

@@ -60,8 +60,19 @@ fn phi_names() -> &'static [(String, f64, f64, f64)] {
     })
 }
 
+/// The model's variables, in value-reference order: the fixed parameters, φ, the fidelity
+/// settings, then the outputs.
 fn variables() -> Vec<Variable> {
-    let mut v = vec![
+    let mut v = fixed_parameters();
+    v.extend(phi_parameters());
+    v.extend(fidelity_parameters());
+    v.extend(outputs());
+    v
+}
+
+/// `scenario` and `perception` (value references [`vr::SCENARIO`] and [`vr::PERCEPTION`]).
+fn fixed_parameters() -> Vec<Variable> {
+    vec![
         Variable::parameter(
             "scenario",
             Scalar::Integer(7),
@@ -74,84 +85,108 @@ fn variables() -> Vec<Variable> {
             "0 = camera + lidar, 1 = idealised (ground truth + noise)",
         )
         .range(0.0, 1.0),
-    ];
-    for (name, lo, hi, start) in phi_names() {
-        v.push(
+    ]
+}
+
+/// The scenario parameters φ of all scenarios, over the union of their ranges.
+fn phi_parameters() -> Vec<Variable> {
+    phi_names()
+        .iter()
+        .map(|(name, lo, hi, start)| {
             Variable::parameter(
                 name,
                 Scalar::Real(*start),
                 "scenario parameter (each scenario checks its own range)",
             )
-            .range(*lo, *hi),
-        );
-    }
+            .range(*lo, *hi)
+        })
+        .collect()
+}
+
+/// The fidelity settings of Table I, starting at θ_HF.
+fn fidelity_parameters() -> Vec<Variable> {
     let hf = fidelity::theta_hf();
-    for var in fidelity::space(10).variables() {
-        let name: &str = &var.name;
-        let start = hf.get(name).cloned().unwrap_or(Value::Bool(false));
-        let scalar = match (&var.domain, &start) {
-            (_, Value::Bool(b)) => Scalar::Boolean(*b),
-            (Domain::Discrete { values }, Value::Label(l)) => Scalar::Integer(
-                values
-                    .iter()
-                    .position(|x| x.as_label() == Some(&**l))
-                    .unwrap_or(0) as i32,
-            ),
-            (_, Value::Int(i)) => Scalar::Integer(*i as i32),
-            (_, other) => Scalar::Real(other.as_f64().unwrap_or(0.0)),
-        };
-        let mut variable = Variable::parameter(name, scalar, "fidelity setting (Table I)");
-        match &var.domain {
-            Domain::Continuous { lo, hi, .. } => variable = variable.range(*lo, *hi).unit("m"),
-            Domain::Discrete { values } => {
-                if let Scalar::Integer(_) = scalar {
-                    let nums: Vec<f64> = values.iter().filter_map(Value::as_f64).collect();
-                    let (lo, hi) = if nums.is_empty() {
-                        (0.0, (values.len() - 1) as f64)
-                    } else {
-                        (
-                            nums.iter().copied().fold(f64::INFINITY, f64::min),
-                            nums.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                        )
-                    };
-                    variable = variable.range(lo, hi);
-                }
+    let space = fidelity::space(10);
+    space
+        .variables()
+        .iter()
+        .map(|var| fidelity_parameter(var, &hf))
+        .collect()
+}
+
+/// One fidelity setting, starting at its θ_HF value: an Integer has the range of its values,
+/// a Real its interval (in metres).
+fn fidelity_parameter(var: &savme_kernel::Variable, hf: &Assignment) -> Variable {
+    let name: &str = &var.name;
+    let start = hf.get(name).cloned().unwrap_or(Value::Bool(false));
+    let scalar = fidelity_scalar(&var.domain, &start);
+    let variable = Variable::parameter(name, scalar, "fidelity setting (Table I)");
+    match &var.domain {
+        Domain::Continuous { lo, hi, .. } => variable.range(*lo, *hi).unit("m"),
+        Domain::Discrete { values } => {
+            if let Scalar::Integer(_) = scalar {
+                let (lo, hi) = discrete_range(values);
+                variable.range(lo, hi)
+            } else {
+                variable
             }
         }
-        v.push(variable);
     }
-    v.push(Variable::output(
-        "collision",
-        Scalar::Boolean(false),
-        "the ego collided",
-    ));
-    v.push(
+}
+
+/// A setting's value as an FMI scalar: a Boolean, a label as its position in the setting's
+/// list of values, an Integer, or a Real.
+fn fidelity_scalar(domain: &Domain, start: &Value) -> Scalar {
+    match (domain, start) {
+        (_, Value::Bool(b)) => Scalar::Boolean(*b),
+        (Domain::Discrete { values }, Value::Label(l)) => Scalar::Integer(
+            values
+                .iter()
+                .position(|x| x.as_label() == Some(&**l))
+                .unwrap_or(0) as i32,
+        ),
+        (_, Value::Int(i)) => Scalar::Integer(*i as i32),
+        (_, other) => Scalar::Real(other.as_f64().unwrap_or(0.0)),
+    }
+}
+
+/// The range of an Integer setting: its smallest and largest number, or the positions of its
+/// labels.
+fn discrete_range(values: &[Value]) -> (f64, f64) {
+    let nums: Vec<f64> = values.iter().filter_map(Value::as_f64).collect();
+    if nums.is_empty() {
+        (0.0, (values.len() - 1) as f64)
+    } else {
+        (
+            nums.iter().copied().fold(f64::INFINITY, f64::min),
+            nums.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        )
+    }
+}
+
+/// The outputs, in the order of [`OUTPUTS`].
+fn outputs() -> Vec<Variable> {
+    vec![
+        Variable::output("collision", Scalar::Boolean(false), "the ego collided"),
         Variable::output(
             "min_distance",
             Scalar::Real(1e6),
             "smallest distance between the two bodies so far (1e6 before the first check)",
         )
         .unit("m"),
-    );
-    v.push(
         Variable::output(
             "collision_time",
             Scalar::Real(-1.0),
             "time of the collision, -1 without one",
         )
         .unit("s"),
-    );
-    v.push(Variable::output(
-        "work",
-        Scalar::Real(0.0),
-        "deterministic work units so far (steps, checks, pixels, rays)",
-    ));
-    v.push(Variable::output(
-        "steps",
-        Scalar::Integer(0),
-        "simulation steps taken",
-    ));
-    v
+        Variable::output(
+            "work",
+            Scalar::Real(0.0),
+            "deterministic work units so far (steps, checks, pixels, rays)",
+        ),
+        Variable::output("steps", Scalar::Integer(0), "simulation steps taken"),
+    ]
 }
 
 /// Value references of [`OUTPUTS`], looked up once.
