@@ -122,6 +122,7 @@ fn main() -> ExitCode {
     }
 }
 
+// Long because it is the walk-through the README points to, read top to bottom.
 fn demo(o: &Options) -> Result<(), Box<dyn Error>> {
     let unit = match o.cost {
         CostMeasure::Wall => "s",

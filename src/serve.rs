@@ -122,40 +122,8 @@ impl Session {
                 }
                 Ok(json!({"ok": true}))
             }
-            Request::Estimate { estimator } => {
-                let k = self.kernel();
-                let est = estimator.unwrap_or(k.config().estimator);
-                let evidence = evidence(k.fidelity_posterior());
-                let mut answer = json!({
-                    "ok": true,
-                    "theta_lf": k.fidelity_estimate(est),
-                    "evidence": evidence,
-                    "learned": evidence > 0.0,
-                });
-                if evidence == 0.0 {
-                    answer["warning"] = json!(
-                        "nothing has been learned yet (no credited trial and no transferred prior): this is the untrained prior's choice"
-                    );
-                }
-                Ok(answer)
-            }
-            Request::Posterior {} => {
-                let k = self.kernel();
-                let scenarios: serde_json::Map<String, Value> = k
-                    .config()
-                    .scenarios
-                    .iter()
-                    .map(|s| {
-                        let p = k.scenario_posterior(&s.name);
-                        (s.name.to_string(), json!(p))
-                    })
-                    .collect();
-                Ok(json!({
-                    "ok": true,
-                    "fidelity": k.fidelity_posterior(),
-                    "scenarios": scenarios,
-                }))
-            }
+            Request::Estimate { estimator } => Ok(estimate(self.kernel(), estimator)),
+            Request::Posterior {} => Ok(posterior(self.kernel())),
             Request::Pending {} => {
                 let trials: Vec<_> = self.kernel().pending().cloned().collect();
                 Ok(json!({"ok": true, "trials": trials}))
@@ -205,6 +173,42 @@ impl Session {
             output.flush()?;
         }
     }
+}
+
+/// The answer to `estimate`: θ_LF* with the evidence behind it.
+fn estimate(k: &Kernel, estimator: Option<Estimator>) -> Value {
+    let est = estimator.unwrap_or(k.config().estimator);
+    let evidence = evidence(k.fidelity_posterior());
+    let mut answer = json!({
+        "ok": true,
+        "theta_lf": k.fidelity_estimate(est),
+        "evidence": evidence,
+        "learned": evidence > 0.0,
+    });
+    if evidence == 0.0 {
+        answer["warning"] = json!(
+                "nothing has been learned yet (no credited trial and no transferred prior): this is the untrained prior's choice"
+            );
+    }
+    answer
+}
+
+/// The answer to `posterior`: the fidelity posterior and every scenario's.
+fn posterior(k: &Kernel) -> Value {
+    let scenarios: serde_json::Map<String, Value> = k
+        .config()
+        .scenarios
+        .iter()
+        .map(|s| {
+            let p = k.scenario_posterior(&s.name);
+            (s.name.to_string(), json!(p))
+        })
+        .collect();
+    json!({
+        "ok": true,
+        "fidelity": k.fidelity_posterior(),
+        "scenarios": scenarios,
+    })
 }
 
 /// How many observations stand behind the fidelity posterior (told or transferred): the

@@ -13,6 +13,7 @@ use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::settings::cheapest_value;
 use savme_sim::sim::DrivingSimulator;
 
+// Long because it is a straight-line study script: sample, run, tabulate, print.
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);
     let pairs: usize = args.next().map_or(Ok(200), |a| a.parse())?;
