@@ -120,7 +120,6 @@ fn row(table: &str, key: &str) -> Vec<String> {
 }
 // Long because it recomputes every output (both tables, the summary, the figures) from the
 // trial lines of one run, which is slow to produce: one run, many checks.
-
 #[test]
 fn a_tiny_reproduction_writes_outputs_that_agree_with_its_trials() {
     let dir = temp_dir("e2e");
@@ -340,7 +339,6 @@ fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
     }
 }
 // Long because it is one table of bad inputs, each checked the same way.
-
 #[test]
 fn bad_input_is_refused_before_any_simulation() {
     let dir = temp_dir("bad");

@@ -98,7 +98,6 @@ fn weights_are_normalised() {
     );
 }
 // Long because it is one table of bad tells, each checked the same way.
-
 #[test]
 fn bad_tells_are_typed_errors_and_change_nothing() {
     let mut k = common::kernel();
