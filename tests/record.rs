@@ -107,6 +107,7 @@ fn simulate_records_a_run_with_its_sensor_frames() {
         l.texts
     );
 }
+
 // Long because it checks every entity of one recorded campaign, which is slow to produce.
 #[test]
 fn a_campaign_records_bounded_frames_and_its_learning() {

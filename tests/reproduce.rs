@@ -118,6 +118,7 @@ fn row(table: &str, key: &str) -> Vec<String> {
         .map(String::from)
         .collect()
 }
+
 // Long because it recomputes every output (both tables, the summary, the figures) from the
 // trial lines of one run, which is slow to produce: one run, many checks.
 #[test]
@@ -338,6 +339,7 @@ fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
 // Long because it is one table of bad inputs, each checked the same way.
 #[test]
 fn bad_input_is_refused_before_any_simulation() {

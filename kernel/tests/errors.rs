@@ -97,6 +97,7 @@ fn weights_are_normalised() {
         "{p:?}"
     );
 }
+
 // Long because it is one table of bad tells, each checked the same way.
 #[test]
 fn bad_tells_are_typed_errors_and_change_nothing() {
