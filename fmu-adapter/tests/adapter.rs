@@ -1,5 +1,6 @@
 //! The adapter on small FMUs this test builds: the trivial test-kit FMU (packed from the
 //! `savme-fmu-testkit` library built alongside the tests) and deliberately broken variants.
+mod common;
 use savme_fmu::{
     Binding, CostSource, Crossing, Failure, FmuError, FmuFile, FmuSimulator, RunSpec, ScenarioSpec,
     StepSize,
@@ -10,28 +11,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("savme-fmu-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("savme-fmu", name)
 }
 
-/// The test kit's shared library, built by cargo next to this test binary.
-fn testkit_library() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let deps = exe.parent().unwrap();
-    let name = format!(
-        "{}savme_fmu_testkit{}",
-        std::env::consts::DLL_PREFIX,
-        std::env::consts::DLL_SUFFIX
-    );
-    for dir in [deps, deps.parent().unwrap()] {
-        if dir.join(&name).exists() {
-            return dir.join(&name);
-        }
-    }
-    panic!("{name} not found next to {}", exe.display());
-}
+use common::testkit_library;
 
 fn pack_xml(dir: &Path, file: &str, xml: &str) -> PathBuf {
     let out = dir.join(file);

@@ -1,5 +1,6 @@
 //! Campaign files on the test-kit FMU: a good one loads into its parts; a binding the FMU does
 //! not have, or of the wrong type, is named with its line and key.
+mod common;
 use savme_fmu::campaign_file::{CampaignFile, ConfigError, Cost};
 use savme_fmu::{CostSource, Failure, StepSize};
 use savme_kernel::{Assignment, Space, Value};
@@ -8,28 +9,10 @@ use std::sync::OnceLock;
 use std::time::Duration;
 
 fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("savme-fmu-campaign-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::temp_dir("savme-fmu-campaign", name)
 }
 
-/// The test kit's shared library, built by cargo next to this test binary.
-fn testkit_library() -> PathBuf {
-    let exe = std::env::current_exe().unwrap();
-    let deps = exe.parent().unwrap();
-    let name = format!(
-        "{}savme_fmu_testkit{}",
-        std::env::consts::DLL_PREFIX,
-        std::env::consts::DLL_SUFFIX
-    );
-    for dir in [deps, deps.parent().unwrap()] {
-        if dir.join(&name).exists() {
-            return dir.join(&name);
-        }
-    }
-    panic!("{name} not found next to {}", exe.display());
-}
+use common::testkit_library;
 
 /// The test-kit FMU, packed once.
 fn packed() -> &'static Path {
