@@ -145,10 +145,35 @@ fn recording_without_the_rerun_feature_says_how_to_get_it() {
     ] {
         let mut args = vec!["simulate", "--scenario", "7", "--phi", phi];
         args.extend_from_slice(flags);
-        let (ok, _, err) = savme(&args);
+        let (ok, out, err) = savme(&args);
         assert!(!ok, "{flags:?}");
         assert!(err.contains("--features rerun"), "{err}");
+        // Refused before running: no result, neither printed nor inside the error.
+        assert!(out.is_empty(), "{out}");
+        assert!(
+            !err.contains("COLLISION") && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+    // The flags a build cannot use are hidden from the help.
+    for cmd in ["simulate", "reproduce", "run"] {
+        let (ok, help, _) = savme(&[cmd, "--help"]);
+        assert!(ok);
+        assert!(
+            !help.contains("--record") && !help.contains("--spawn"),
+            "{help}"
+        );
     }
     let (ok, _, err) = savme(&["reproduce", "--quick", "--spawn", "--out", "/nonexistent/x"]);
     assert!(!ok && err.contains("--features rerun"), "{err}");
+}
+
+#[test]
+fn simulate_has_no_campaign_recording_flags() {
+    let phi = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+    for flag in ["--record-every", "--record-failures"] {
+        let (ok, out, err) = savme(&["simulate", "--scenario", "7", "--phi", phi, flag, "3"]);
+        assert!(!ok && out.is_empty(), "{flag}: {out}");
+        assert!(err.contains(flag), "{flag}: {err}");
+    }
 }

@@ -97,38 +97,63 @@ pub struct RunnerArgs {
     #[arg(long, short)]
     quiet: bool,
     #[command(flatten)]
-    record: RecordArgs,
+    record: CampaignRecordArgs,
 }
 
-/// Recording to the rerun viewer (a build with `--features rerun`).
+/// Where to record (a build with `--features rerun`; without it the flags are hidden from
+/// `--help` and refused before anything runs).
 #[derive(clap::Args, Debug, Clone)]
 pub struct RecordArgs {
     /// Record to a rerun file (open it with `rerun FILE.rrd`).
-    #[arg(long, value_name = "FILE.rrd")]
+    #[arg(long, value_name = "FILE.rrd", hide = !cfg!(feature = "rerun"))]
     record: Option<PathBuf>,
     /// Record to a newly started rerun viewer.
-    #[arg(long)]
+    #[arg(long, hide = !cfg!(feature = "rerun"))]
     spawn: bool,
     /// Record to a running rerun viewer (default rerun+http://127.0.0.1:9876/proxy).
-    #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+    #[arg(
+        long,
+        value_name = "URL",
+        num_args = 0..=1,
+        default_missing_value = "",
+        hide = !cfg!(feature = "rerun")
+    )]
     connect: Option<String>,
+}
+
+/// Recording a campaign: where, and which trials get sensor frames.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CampaignRecordArgs {
+    #[command(flatten)]
+    sink: RecordArgs,
     /// Sensor frames for every N-th trial.
-    #[arg(long, value_name = "N", default_value_t = 200)]
+    #[arg(long, value_name = "N", default_value_t = 200, hide = !cfg!(feature = "rerun"))]
     record_every: u64,
     /// ... plus trials whose HF run failed, up to N.
-    #[arg(long, value_name = "N", default_value_t = 10)]
+    #[arg(long, value_name = "N", default_value_t = 10, hide = !cfg!(feature = "rerun"))]
     record_failures: u64,
 }
 
 impl RecordArgs {
-    /// The recording asked for.
+    /// The recording asked for (one run: no frame selection).
     pub fn request(&self) -> RecordRequest {
         RecordRequest {
             file: self.record.clone(),
             spawn: self.spawn,
             connect: self.connect.clone(),
+            every: 1,
+            failures: 0,
+        }
+    }
+}
+
+impl CampaignRecordArgs {
+    /// The recording asked for.
+    pub fn request(&self) -> RecordRequest {
+        RecordRequest {
             every: self.record_every,
             failures: self.record_failures,
+            ..self.sink.request()
         }
     }
 }

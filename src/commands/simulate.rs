@@ -25,17 +25,19 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<(), String> {
-    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
+    // A recording that cannot be made is refused before anything runs.
     let request = a.record.request();
-    if request.wanted() {
+    let record = request.check().map_err(|e| e.to_string())?;
+    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
+    super::print(&text)?;
+    if record {
         // `simulate` checked the arguments.
         let info = scenario::find(&a.scenario).ok_or("unknown scenario")?;
         let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
         let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-        savme::viewer::record_run(&request, info.name, &phi, &theta)
-            .map_err(|e| format!("{text}{e}"))?;
+        savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?;
     }
-    super::print(&text)
+    Ok(())
 }
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,
