@@ -592,3 +592,31 @@ fn a_resume_refuses_any_edited_field_the_reports_use_naming_line_and_field() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn without_a_terminal_progress_comes_as_plain_lines_per_stage() {
+    let dir = temp_dir("lines");
+    let flags: Vec<&str> = TINY.iter().copied().filter(|f| *f != "--quiet").collect();
+    let o = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(&dir)
+        .args(&flags)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.lines()
+            .next()
+            .is_some_and(|l| l.starts_with("baseline-train started: 0/14 trials")),
+        "{err}"
+    );
+    assert!(
+        err.contains("train@0.3 done: 16/16 trials,") && err.contains("failure"),
+        "{err}"
+    );
+    // No bar drawing characters when stderr is not a terminal.
+    assert!(!err.contains('\r') && !err.contains("\u{1b}["), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
