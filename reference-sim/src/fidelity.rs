@@ -38,6 +38,24 @@ pub fn space(bins: u32) -> Space {
     Space::new(vars).expect("Table I is a valid space")
 }
 
+/// The unit of a fidelity setting: `Hz` and `m` as the names end; flags, levels and counts
+/// have none.
+///
+/// ```
+/// assert_eq!(savme_sim::fidelity::unit("simulation_rate_hz"), Some("Hz"));
+/// assert_eq!(savme_sim::fidelity::unit("lidar_near_clipping_m"), Some("m"));
+/// assert_eq!(savme_sim::fidelity::unit("lidar_subsample_count"), None);
+/// ```
+pub fn unit(setting: &str) -> Option<&'static str> {
+    if setting.ends_with("_hz") {
+        Some("Hz")
+    } else if setting.ends_with("_m") {
+        Some("m")
+    } else {
+        None
+    }
+}
+
 /// θ_HF: Table I's bold values.
 pub fn theta_hf() -> Assignment {
     Assignment::new()

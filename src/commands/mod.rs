@@ -11,6 +11,7 @@ pub mod serve;
 pub mod simulate;
 
 use savme::campaign::config::Overrides;
+use savme::campaign::CampaignError;
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
 };
@@ -19,6 +20,59 @@ use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Write};
 use std::path::PathBuf;
+
+/// Why a command failed, which decides the exit status.
+#[derive(Debug)]
+pub enum Failure {
+    /// The command line is wrong: a flag's value savme refuses before running anything
+    /// (exit status 2, as for clap's own parse errors).
+    Usage(String),
+    /// Running failed: a file, a simulator, the trial store, the output (exit status 1).
+    Runtime(String),
+}
+
+impl Failure {
+    /// The process exit status.
+    pub fn code(&self) -> u8 {
+        match self {
+            Failure::Usage(_) => 2,
+            Failure::Runtime(_) => 1,
+        }
+    }
+
+    /// The message.
+    pub fn message(&self) -> &str {
+        match self {
+            Failure::Usage(m) | Failure::Runtime(m) => m,
+        }
+    }
+}
+
+impl From<String> for Failure {
+    fn from(m: String) -> Self {
+        Failure::Runtime(m)
+    }
+}
+
+impl From<&str> for Failure {
+    fn from(m: &str) -> Self {
+        Failure::Runtime(m.into())
+    }
+}
+
+/// A flag's value is wrong.
+pub fn usage(message: impl std::fmt::Display) -> Failure {
+    Failure::Usage(message.to_string())
+}
+
+/// An error building a campaign's protocol: one in a protocol field that a flag gave is a usage
+/// error; one in a file (named with its line and key) or elsewhere a runtime error.
+pub fn config_failure(e: CampaignError) -> Failure {
+    match e {
+        CampaignError::Protocol { .. } | CampaignError::UnknownScenario { .. } => usage(e),
+        other => Failure::Runtime(other.to_string()),
+    }
+}
 
 /// Protocol values on the command line (they override the preset or the campaign file).
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -175,7 +229,7 @@ pub fn run_campaign<S>(
     runner: &RunnerArgs,
     frames: Frames,
     sim: &S,
-) -> Result<(), String>
+) -> Result<(), Failure>
 where
     S: Simulator + Clone + Send,
 {
@@ -184,15 +238,15 @@ where
         .resume(target.resume);
     if let Some(j) = runner.jobs {
         if j == 0 {
-            return Err("protocol: `--jobs`: must be at least 1".into());
+            return Err(usage("protocol: `--jobs`: must be at least 1"));
         }
         campaign = campaign.jobs(j);
     }
-    for o in observers(runner, frames, &problem)? {
+    for o in observers(runner, frames, &problem).map_err(usage)? {
         campaign = campaign.boxed_observer(o);
     }
     let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
-    print(&summary_text(&outcome, &problem))
+    Ok(print(&summary_text(&outcome, &problem))?)
 }
 
 fn observers(
