@@ -28,7 +28,7 @@ enum Command {
     ExampleConfig,
     /// List the bundled driving simulator's scenarios with their parameter spaces.
     Scenarios(commands::scenarios::Args),
-    /// List the 16 fidelity settings (the paper's Table I) with their high-fidelity values.
+    /// List the 16 fidelity settings (the paper's Table II) with their high-fidelity values.
     Fidelity(commands::fidelity::Args),
     /// Reproduce the paper's protocol on the bundled simulator: baseline, meta-training per
     /// budget, evaluation, meta-testing. Writes table.md, fidelity.md, summary.json,

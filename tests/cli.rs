@@ -64,7 +64,7 @@ fn scenarios_and_fidelity_print_json_with_units() {
 }
 
 #[test]
-fn fidelity_lists_table_i_with_hf_values() {
+fn fidelity_lists_table_ii_with_hf_values() {
     let (ok, out, _) = savme(&["fidelity"]);
     assert!(ok);
     assert_eq!(out.lines().count(), 17, "{out}");

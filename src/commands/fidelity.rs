@@ -1,4 +1,4 @@
-//! `savme fidelity`: the 16 fidelity settings (the paper's Table I) with their θ_HF values.
+//! `savme fidelity`: the 16 fidelity settings (the paper's Table II) with their θ_HF values.
 
 use savme::kernel::Domain;
 use savme_sim::fidelity;
@@ -40,7 +40,7 @@ fn fidelity_json() -> serde_json::Value {
     serde_json::json!({ "format_version": 1, "settings": settings })
 }
 
-/// `savme fidelity`: the 16 fidelity settings of Table I with their θ_HF values.
+/// `savme fidelity`: the 16 fidelity settings of Table II with their θ_HF values.
 fn fidelity_text() -> String {
     use std::fmt::Write;
     let mut out = String::from(
