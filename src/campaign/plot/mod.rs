@@ -72,7 +72,11 @@ fn break_even_mark<DB: DrawingBackend>(
         return Ok(());
     };
     let (x, y) = (t * k, s.curve.failures_at(t));
-    let label = format!("break-even {x:.1} {unit}");
+    // Seconds below three minutes of wall time, whatever the axis shows.
+    let label = match unit {
+        "s" | "min" if t < 180.0 => format!("break-even {t:.1} s"),
+        _ => format!("break-even {x:.1} {unit}"),
+    };
     let colour = s.colour;
     chart
         .draw_series(std::iter::once(
