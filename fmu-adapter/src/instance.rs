@@ -31,7 +31,8 @@ impl std::fmt::Debug for Instance {
 }
 
 impl Instance {
-    /// `fmi2Instantiate` (co-simulation, not visible, logging off).
+    /// `fmi2Instantiate` (co-simulation, not visible, logging off), with the `file://` URI of
+    /// the unpacked `resources/` directory as `fmuResourceLocation`.
     pub fn new(file: Arc<FmuFile>, name: &str) -> Result<Instance, FmuError> {
         let callbacks = Box::new(fmi2CallbackFunctions {
             logger: Some(libfmi::logger::callback_logger_handler),
@@ -41,15 +42,14 @@ impl Instance {
             componentEnvironment: std::ptr::null_mut(),
         });
         let name = CString::new(name).unwrap_or_default();
-        let guid = CString::new(file.guid.clone()).unwrap_or_default();
-        let resources = CString::new("").unwrap_or_default();
+        let guid = CString::new(file.model.guid.clone()).unwrap_or_default();
         // SAFETY: valid C strings and callbacks that outlive the instance.
         let component = unsafe {
             file.dll.fmi2Instantiate(
                 name.as_ptr(),
                 fmi2Type::fmi2CoSimulation,
                 guid.as_ptr(),
-                resources.as_ptr(),
+                file.resource_uri.as_ptr(),
                 &*callbacks,
                 0,
                 0,

@@ -10,21 +10,23 @@
 //! trial, not the campaign; [`campaign_file`] reads and checks the TOML campaign file of
 //! `savme run --config` against its FMUs.
 //!
-//! Unpacking and model-description parsing use `fmu-runner`; the calls on an instance go
-//! through libfmi's bindings directly (fmu-runner has no `fmi2Reset`, allocates a map per
-//! get/set and treats `fmi2Warning` as an error).
+//! The model description is parsed here ([`description`], quick-xml) and the archive unpacked
+//! with the zip crate; the calls on an instance go through libfmi's bindings of the FMI 2.0
+//! C API directly.
 
 #![warn(missing_docs)]
 
 pub mod backend;
 pub mod campaign_file;
+pub mod description;
 pub mod file;
 pub mod instance;
 pub mod simulator;
 pub mod worker;
 
 pub use backend::FmuBackend;
-pub use file::{FmuFile, VarCausality, VarInfo, VarType};
+pub use description::{ModelDescription, VarCausality, VarInfo, VarType};
+pub use file::{FmuDescription, FmuFile};
 pub use simulator::{
     Binding, CostSource, Crossing, Failure, Fixed, FmuSimulator, RunSpec, ScenarioSpec, StepSize,
 };

@@ -1,7 +1,8 @@
 //! Running a scenario on a pair of FMUs: how savme's variables map to FMU variables, what
 //! counts as a failure, how long to simulate, what a run costs.
 
-use crate::file::{FmuFile, VarCausality, VarInfo, VarType};
+use crate::description::{VarCausality, VarInfo, VarType};
+use crate::file::{FmuDescription, FmuFile};
 use crate::instance::Instance;
 use crate::FmuError;
 use savme_kernel::{Assignment, Domain, Role, SimError, SimResult, Simulator, Space, Value};
@@ -157,7 +158,7 @@ struct Resolved {
     labels: Option<Vec<String>>,
 }
 
-fn settable(file: &FmuFile, name: &str) -> Result<VarInfo, FmuError> {
+fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     let v = file.variable(name)?.clone();
     if !matches!(v.causality, VarCausality::Parameter | VarCausality::Input) {
         return Err(FmuError::WrongCausality {
@@ -169,7 +170,11 @@ fn settable(file: &FmuFile, name: &str) -> Result<VarInfo, FmuError> {
     Ok(v)
 }
 
-fn resolve(file: &FmuFile, b: &Binding, space: Option<&Space>) -> Result<Resolved, FmuError> {
+fn resolve(
+    file: &FmuDescription,
+    b: &Binding,
+    space: Option<&Space>,
+) -> Result<Resolved, FmuError> {
     let var = settable(file, &b.fmu_variable)?;
     if let Some(allowed) = space.and_then(|s| needed(s, &b.variable)) {
         if !allowed.contains(&var.kind) {
@@ -208,7 +213,7 @@ struct Plan {
     scenarios: Vec<ScenarioPlan>,
 }
 
-fn output(file: &FmuFile, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuError> {
+fn output(file: &FmuDescription, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuError> {
     let v = file.variable(name)?.clone();
     if v.causality != VarCausality::Output {
         return Err(FmuError::WrongCausality {
@@ -234,7 +239,7 @@ fn output(file: &FmuFile, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuE
 
 impl Plan {
     fn new(
-        file: &FmuFile,
+        file: &FmuDescription,
         spec: &RunSpec,
         fidelity: Option<&Space>,
         phi: &dyn Fn(&str) -> Option<Space>,
@@ -272,7 +277,10 @@ impl Plan {
                         let fits = matches!(
                             (&f.value, v.kind),
                             (Value::Bool(_), VarType::Boolean)
-                                | (Value::Int(_), VarType::Integer | VarType::Real)
+                                | (
+                                    Value::Int(_),
+                                    VarType::Integer | VarType::Real | VarType::Enumeration
+                                )
                                 | (Value::Real(_), VarType::Real)
                         );
                         if !fits {
@@ -385,7 +393,7 @@ impl FmuSimulator {
         };
         match var.kind {
             VarType::Real => inst.set_real(var.vr, value.as_f64().ok_or_else(|| bad("a number"))?),
-            VarType::Integer => {
+            VarType::Integer | VarType::Enumeration => {
                 let i = match (value, labels) {
                     (Value::Label(l), Some(labels)) => labels
                         .iter()
@@ -405,7 +413,7 @@ impl FmuSimulator {
             VarType::Boolean => {
                 inst.set_boolean(var.vr, value.as_bool().ok_or_else(|| bad("a boolean"))?)
             }
-            VarType::String | VarType::Enumeration => Err(bad("Real, Integer or Boolean")),
+            VarType::String => Err(bad("Real, Integer, Boolean or Enumeration")),
         }
     }
 

@@ -1,0 +1,119 @@
+//! The adapter on FMUs as vendors ship them: the `braking` FMU written in C against the FMI 2.0
+//! C API (compiled by the test kit's build script from `examples/fmu/braking`), which reads a
+//! resource file during initialisation, asks to end the simulation, logs through the
+//! environment's logger, and declares bounds, an enumeration and a String parameter.
+mod common;
+use savme_fmu::instance::Instance;
+use savme_fmu::{
+    Binding, CostSource, Failure, Fixed, FmuError, FmuFile, FmuSimulator, RunSpec, ScenarioSpec,
+    StepSize,
+};
+use savme_kernel::{Assignment, Role, Scale, Space, Value, Variable};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn temp_dir(name: &str) -> PathBuf {
+    common::temp_dir("savme-vendor", name)
+}
+
+/// The `braking` FMU packed into `dir` (with its resources unless `with_resources` is false).
+fn braking(dir: &Path, with_resources: bool) -> PathBuf {
+    let out = dir.join("braking.fmu");
+    savme_fmu_testkit::pack_braking(
+        &out,
+        savme_fmu_testkit::BRAKING_MODEL_DESCRIPTION,
+        with_resources,
+    )
+    .unwrap();
+    out
+}
+
+/// A scenario searching the initial speed on a fixed gap, with `fixed` added.
+fn spec(fixed: Vec<Fixed>) -> RunSpec {
+    let mut all = vec![Fixed {
+        fmu_variable: "gap".into(),
+        value: Value::Real(40.0),
+    }];
+    all.extend(fixed);
+    RunSpec {
+        stop_time: 8.0,
+        step: StepSize::Fixed(0.05),
+        failure: Failure::Boolean {
+            variable: "collision".into(),
+        },
+        stop_on_failure: false,
+        cost: CostSource::Output("steps".into()),
+        fidelity: Vec::new(),
+        scenarios: vec![ScenarioSpec {
+            name: "brake".into(),
+            phi: vec![Binding {
+                variable: "v".into(),
+                fmu_variable: "speed0".into(),
+                labels: None,
+            }],
+            fixed: all,
+        }],
+    }
+}
+
+fn phi_space() -> Space {
+    Space::new(vec![Variable::continuous("v", 5.0, 25.0, 4, Scale::Linear)]).unwrap()
+}
+
+fn simulator(fmu: &Path, spec: RunSpec) -> Result<FmuSimulator, FmuError> {
+    let file = Arc::new(FmuFile::open(fmu)?);
+    let phi = phi_space();
+    FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None)
+}
+
+fn run(sim: &mut FmuSimulator, v: f64) -> Result<savme_kernel::SimResult, FmuError> {
+    sim.run(
+        Role::High,
+        "brake",
+        &Assignment::new().with("v", v),
+        &Assignment::new(),
+    )
+}
+
+/// Item 1: the FMU gets the `file://` URI of its unpacked `resources/` directory and reads
+/// `friction.txt` from it while it initialises.
+#[test]
+fn the_fmu_reads_its_resources_during_initialisation() {
+    let dir = temp_dir("resources");
+    let fmu = braking(&dir, true);
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let uri = file.resource_uri.to_str().unwrap().to_string();
+    assert!(
+        uri.starts_with("file:///") && uri.ends_with("/resources"),
+        "{uri}"
+    );
+    let friction = file.variable("friction").unwrap().vr;
+    let road = file.variable("road").unwrap().vr;
+    for (surface, mu) in [(1, 0.8), (2, 0.5), (3, 0.15)] {
+        let mut inst = Instance::new(file.clone(), "resources").unwrap();
+        inst.setup(0.0, Some(1.0)).unwrap();
+        inst.set_integer(road, surface).unwrap();
+        inst.initialize().unwrap();
+        assert_eq!(inst.real(friction).unwrap(), mu, "road {surface}");
+    }
+    // And the friction read decides the outcome: 10 m/s stops in time on a dry road, not on ice.
+    let mut dry = simulator(&fmu, spec(Vec::new())).unwrap();
+    assert!(!run(&mut dry, 10.0).unwrap().failure);
+    let ice = Fixed {
+        fmu_variable: "road".into(),
+        value: Value::Int(3),
+    };
+    let mut icy = simulator(&fmu, spec(vec![ice])).unwrap();
+    assert!(run(&mut icy, 10.0).unwrap().failure);
+}
+
+/// Without its resources the FMU cannot initialise: the error names the FMU and the call.
+#[test]
+fn an_fmu_without_its_resources_fails_to_initialise_naming_the_call() {
+    let dir = temp_dir("no-resources");
+    let fmu = braking(&dir, false);
+    let mut sim = simulator(&fmu, spec(Vec::new())).unwrap();
+    let e = run(&mut sim, 10.0).unwrap_err().to_string();
+    assert!(e.contains(&fmu.display().to_string()), "{e}");
+    assert!(e.contains("fmi2ExitInitializationMode failed"), "{e}");
+}
