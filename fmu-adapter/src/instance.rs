@@ -5,9 +5,23 @@
 
 use crate::file::FmuFile;
 use crate::FmuError;
-use libfmi::{fmi2CallbackFunctions, fmi2Component, fmi2Status, fmi2Type};
+use libfmi::{fmi2CallbackFunctions, fmi2Component, fmi2Status, fmi2StatusKind, fmi2Type};
 use std::ffi::CString;
 use std::sync::Arc;
+
+/// How an `fmi2DoStep` ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    /// The step completed: the FMU is at the next communication point.
+    Completed,
+    /// The FMU returned `fmi2Discard`: it asks to end the simulation at the last completed
+    /// communication point. `terminated` is its `fmi2GetBooleanStatus(fmi2Terminated)` answer
+    /// (`None` when it does not give one).
+    StopRequested {
+        /// The FMU's `fmi2Terminated` status.
+        terminated: Option<bool>,
+    },
+}
 
 /// A live instance of an FMU.
 pub struct Instance {
@@ -119,11 +133,33 @@ impl Instance {
         self.status("fmi2ExitInitializationMode", s)
     }
 
-    /// `fmi2DoStep`.
-    pub fn step(&mut self, time: f64, h: f64) -> Result<(), FmuError> {
+    /// `fmi2DoStep`. `fmi2Discard` is the FMU asking to end the simulation (FMI 2.0 §4.2.2:
+    /// it could not complete the step; `fmi2GetBooleanStatus(fmi2Terminated)` then says whether
+    /// it wants to terminate): both come back as [`Step::StopRequested`], not as an error.
+    pub fn step(&mut self, time: f64, h: f64) -> Result<Step, FmuError> {
         // SAFETY: a live component of this library.
         let s = unsafe { self.file.dll.fmi2DoStep(self.component, time, h, 1) };
-        self.status("fmi2DoStep", s)
+        if s == fmi2Status::fmi2Discard {
+            return Ok(Step::StopRequested {
+                terminated: self.terminated(),
+            });
+        }
+        self.status("fmi2DoStep", s).map(|()| Step::Completed)
+    }
+
+    /// `fmi2GetBooleanStatus(fmi2Terminated)`, when the FMU exports it and answers.
+    fn terminated(&mut self) -> Option<bool> {
+        self.file.dll.fmi2GetBooleanStatus.as_ref().ok()?;
+        let mut v = 0;
+        // SAFETY: the function exists (checked above); one writable slot.
+        let s = unsafe {
+            self.file.dll.fmi2GetBooleanStatus(
+                self.component,
+                fmi2StatusKind::fmi2Terminated,
+                &mut v,
+            )
+        };
+        matches!(s, fmi2Status::fmi2OK | fmi2Status::fmi2Warning).then_some(v != 0)
     }
 
     /// `fmi2Terminate`.

@@ -3,7 +3,7 @@
 
 use crate::description::{VarCausality, VarInfo, VarType};
 use crate::file::{FmuDescription, FmuFile};
-use crate::instance::Instance;
+use crate::instance::{Instance, Step};
 use crate::FmuError;
 use savme_kernel::{Assignment, Domain, Role, SimError, SimResult, Simulator, Space, Value};
 use serde::{Deserialize, Serialize};
@@ -511,7 +511,11 @@ impl FmuSimulator {
         let mut k = 0u64;
         while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
             let dt = h.min(stop - t);
-            inst.step(t, dt)?;
+            if let Step::StopRequested { .. } = inst.step(t, dt)? {
+                // The FMU ends the simulation: the run ends at the last completed communication
+                // point, judged on the signals seen up to there.
+                break;
+            }
             k += 1;
             t = if (stop - (t + dt)).abs() < 1e-12 {
                 stop

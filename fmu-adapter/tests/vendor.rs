@@ -117,3 +117,36 @@ fn an_fmu_without_its_resources_fails_to_initialise_naming_the_call() {
     assert!(e.contains(&fmu.display().to_string()), "{e}");
     assert!(e.contains("fmi2ExitInitializationMode failed"), "{e}");
 }
+
+/// Item 3: `fmi2Discard` with `fmi2Terminated` (the car left the map) ends the run at the last
+/// completed communication point, judged on the signals seen so far — not an error.
+#[test]
+fn a_stop_request_ends_the_run_at_the_last_completed_point() {
+    let dir = temp_dir("stop");
+    let fmu = braking(&dir, true);
+    // 20 m/s towards an obstacle 40 m ahead collides when the map is long enough …
+    let mut full = simulator(&fmu, spec(Vec::new())).unwrap();
+    let r = run(&mut full, 20.0).unwrap();
+    assert!(r.failure);
+    // … but the map ends after 10 m: at 1 m per step of 0.05 s, 10 steps complete, the 11th is
+    // discarded and the run ends there, before any collision. The instance is reused after it.
+    let map = Fixed {
+        fmu_variable: "map_length".into(),
+        value: Value::Real(10.0),
+    };
+    let mut short = simulator(&fmu, spec(vec![map])).unwrap();
+    for _ in 0..3 {
+        let r = run(&mut short, 20.0).unwrap();
+        assert!(!r.failure, "judged on the signals before the stop request");
+        assert_eq!(r.work, Some(10), "ten completed steps");
+    }
+    // Through the kernel's Simulator interface too (what a campaign calls): a result, no error.
+    let r = savme_kernel::Simulator::simulate(
+        &mut short,
+        "brake",
+        &Assignment::new().with("v", 20.0),
+        &Assignment::new(),
+    )
+    .unwrap();
+    assert!(!r.failure);
+}
