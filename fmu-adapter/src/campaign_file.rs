@@ -23,6 +23,7 @@
 //! isolate = false                # run every evaluation in a worker process
 //! timeout_s = 60.0               # per run, with isolation
 //! on_error = "abort"             # or "skip"
+//! log = false                    # print every FMU log message (errors always carry the last ones)
 //!
 //! [failure]
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
@@ -241,6 +242,7 @@ impl CampaignFile {
                 cost,
                 fidelity: fidelity.bindings,
                 scenarios: scenarios.specs,
+                fmu_log: fmu.log,
             },
             fidelity: Some(fidelity.space.clone()),
             phi: scenarios.spaces.clone(),
@@ -304,6 +306,9 @@ mod raw {
         pub timeout_s: Option<Spanned<f64>>,
         #[serde(default)]
         pub on_error: OnError,
+        /// Print every FMU log message (also `savme run --fmu-log`).
+        #[serde(default)]
+        pub log: bool,
     }
 
     fn yes() -> bool {

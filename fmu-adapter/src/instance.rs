@@ -4,6 +4,7 @@
 //! reuses its instance with `fmi2Reset`.
 
 use crate::file::FmuFile;
+use crate::log::{savme_fmu_logger, LogSink};
 use crate::FmuError;
 use libfmi::{fmi2CallbackFunctions, fmi2Component, fmi2Status, fmi2StatusKind, fmi2Type};
 use std::ffi::CString;
@@ -27,8 +28,9 @@ pub enum Step {
 pub struct Instance {
     file: Arc<FmuFile>,
     component: fmi2Component,
-    // The environment's callbacks must outlive the instance.
+    // The environment's callbacks and the log sink they point to must outlive the instance.
     _callbacks: Box<fmi2CallbackFunctions>,
+    log: Box<LogSink>,
     _name: CString,
 }
 
@@ -48,12 +50,19 @@ impl Instance {
     /// `fmi2Instantiate` (co-simulation, not visible, logging off), with the `file://` URI of
     /// the unpacked `resources/` directory as `fmuResourceLocation`.
     pub fn new(file: Arc<FmuFile>, name: &str) -> Result<Instance, FmuError> {
+        Instance::with_log(file, name, false)
+    }
+
+    /// `fmi2Instantiate` whose log messages are kept for errors and, with `echo`, printed to
+    /// standard error as they come (the instance is then created with `loggingOn`).
+    pub fn with_log(file: Arc<FmuFile>, name: &str, echo: bool) -> Result<Instance, FmuError> {
+        let log = Box::new(LogSink::new(file.path.display().to_string(), echo));
         let callbacks = Box::new(fmi2CallbackFunctions {
-            logger: Some(libfmi::logger::callback_logger_handler),
+            logger: Some(savme_fmu_logger),
             allocateMemory: Some(libc_calloc),
             freeMemory: Some(libc_free),
             stepFinished: None,
-            componentEnvironment: std::ptr::null_mut(),
+            componentEnvironment: &*log as *const LogSink as *mut std::ffi::c_void,
         });
         let name = CString::new(name).unwrap_or_default();
         let guid = CString::new(file.model.guid.clone()).unwrap_or_default();
@@ -66,7 +75,7 @@ impl Instance {
                 file.resource_uri.as_ptr(),
                 &*callbacks,
                 0,
-                0,
+                i32::from(echo),
             )
         };
         if component.is_null() {
@@ -74,12 +83,14 @@ impl Instance {
                 fmu: file.path.display().to_string(),
                 call: "fmi2Instantiate".into(),
                 status: "returned no instance".into(),
+                log: log.suffix(),
             });
         }
         Ok(Instance {
             file,
             component,
             _callbacks: callbacks,
+            log,
             _name: name,
         })
     }
@@ -96,8 +107,14 @@ impl Instance {
                 fmu: self.file.path.display().to_string(),
                 call: call.into(),
                 status: format!("{other:?}"),
+                log: self.log.suffix(),
             }),
         }
+    }
+
+    /// Forgets the log messages kept so far (a new run begins).
+    pub fn clear_log(&mut self) {
+        self.log.clear();
     }
 
     /// `fmi2Reset`.

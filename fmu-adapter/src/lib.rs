@@ -21,6 +21,7 @@ pub mod campaign_file;
 pub mod description;
 pub mod file;
 pub mod instance;
+pub mod log;
 pub mod simulator;
 pub mod worker;
 
@@ -143,7 +144,7 @@ pub enum FmuError {
         variable: String,
     },
     /// An FMI call failed.
-    #[error("{fmu}: {call} failed ({status})")]
+    #[error("{fmu}: {call} failed ({status}){log}")]
     Call {
         /// The FMU.
         fmu: String,
@@ -151,6 +152,9 @@ pub enum FmuError {
         call: String,
         /// Its status.
         status: String,
+        /// The FMU's last log messages of the run (bounded), as `; the FMU logged: …`, or
+        /// `""`.
+        log: String,
     },
     /// The run specification is invalid.
     #[error("run specification: {0}")]

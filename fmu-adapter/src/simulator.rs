@@ -112,6 +112,10 @@ pub struct RunSpec {
     pub fidelity: Vec<Binding>,
     /// The scenarios.
     pub scenarios: Vec<ScenarioSpec>,
+    /// Print every FMU log message to standard error (the instances are created with
+    /// `loggingOn`); errors carry the last messages of their run either way.
+    #[serde(default)]
+    pub fmu_log: bool,
 }
 
 /// Labels of a discrete variable with label values (for [`Binding::labels`]).
@@ -446,10 +450,15 @@ impl FmuSimulator {
         let clock = Instant::now();
         let mut inst = match self.instances[k].take() {
             Some(mut i) => {
+                i.clear_log();
                 i.reset()?;
                 i
             }
-            None => Instance::new(self.files[k].clone(), &format!("savme-{}", ["hf", "lf"][k]))?,
+            None => Instance::with_log(
+                self.files[k].clone(),
+                &format!("savme-{}", ["hf", "lf"][k]),
+                self.spec.fmu_log,
+            )?,
         };
         let result = self.run_on(&mut inst, &plan, scenario, phi, fidelity);
         if result.is_ok() {

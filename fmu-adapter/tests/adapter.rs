@@ -48,6 +48,7 @@ fn spaces() -> (Space, Space) {
 
 fn spec(fixed_fault: i32, stop_on_failure: bool) -> RunSpec {
     RunSpec {
+        fmu_log: false,
         stop_time: 1.0,
         step: StepSize::Fixed(0.01),
         failure: Failure::Boolean {

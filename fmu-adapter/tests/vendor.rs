@@ -36,6 +36,7 @@ fn spec(fixed: Vec<Fixed>) -> RunSpec {
     }];
     all.extend(fixed);
     RunSpec {
+        fmu_log: false,
         stop_time: 8.0,
         step: StepSize::Fixed(0.05),
         failure: Failure::Boolean {
@@ -149,4 +150,81 @@ fn a_stop_request_ends_the_run_at_the_last_completed_point() {
     )
     .unwrap();
     assert!(!r.failure);
+}
+
+/// Item 4: the FMU's log messages (printf-style, formatted by savme's logger) come with the
+/// error of the failed call — and so with the trial's log line.
+#[test]
+fn a_failed_call_carries_the_fmus_log_messages() {
+    let dir = temp_dir("log");
+    let fmu = braking(&dir, false);
+    let mut sim = simulator(&fmu, spec(Vec::new())).unwrap();
+    for _ in 0..2 {
+        let e = run(&mut sim, 10.0).unwrap_err().to_string();
+        assert!(
+            e.contains("fmi2ExitInitializationMode failed (fmi2Error)"),
+            "{e}"
+        );
+        // "cannot open %s: %s" with the path and strerror, formatted.
+        assert!(
+            e.contains("; the FMU logged: [error] cannot open /")
+                && e.contains("/resources/friction.txt: No such file or directory"),
+            "{e}"
+        );
+        // Each run starts with an empty log: the message appears once.
+        assert_eq!(e.matches("cannot open").count(), 1, "{e}");
+    }
+}
+
+/// With `fmu_log` every message (also the informational ones the FMU only sends with
+/// `loggingOn`) is printed to standard error as it comes: here through a real worker process
+/// (`savme-fmu-worker`, what `savme run` starts with `isolate = true`), whose standard error
+/// the test reads.
+#[test]
+fn fmu_log_prints_every_message() {
+    use std::io::Write;
+    let dir = temp_dir("log-all");
+    let fmu = braking(&dir, true);
+    for fmu_log in [true, false] {
+        let init = savme_fmu::worker::WorkerInit {
+            hf: fmu.clone(),
+            lf: fmu.clone(),
+            spec: RunSpec {
+                fmu_log,
+                ..spec(Vec::new())
+            },
+            fidelity: None,
+            phi: [("brake".to_string(), phi_space())].into_iter().collect(),
+            theta_hf: None,
+        };
+        let request = savme_fmu::worker::WorkerRequest {
+            learned: false,
+            scenario: "brake".into(),
+            phi: Assignment::new().with("v", 10.0),
+            fidelity: Assignment::new(),
+        };
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_savme-fmu-worker"))
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut stdin = child.stdin.take().unwrap();
+        writeln!(stdin, "{}", serde_json::to_string(&init).unwrap()).unwrap();
+        writeln!(stdin, "{}", serde_json::to_string(&request).unwrap()).unwrap();
+        drop(stdin);
+        let out = child.wait_with_output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stdout.contains("\"done\""), "{stdout}");
+        let line = format!(
+            "{} [savme-hf] ok logAll: friction 0.80 for the dry road from /",
+            fmu.display()
+        );
+        assert_eq!(
+            stderr.contains(&line),
+            fmu_log,
+            "fmu_log {fmu_log}: {stderr}"
+        );
+    }
 }
