@@ -64,6 +64,7 @@ fn bench(c: &mut Criterion) {
     .expect("space");
     let spec = RunSpec {
         fmu_log: false,
+        tolerance: None,
         stop_time: 1.0,
         step: StepSize::Fixed(0.01),
         failure: Failure::Boolean {

@@ -124,14 +124,20 @@ impl Instance {
         self.status("fmi2Reset", s)
     }
 
-    /// `fmi2SetupExperiment` with a start and an optional stop time.
-    pub fn setup(&mut self, start: f64, stop: Option<f64>) -> Result<(), FmuError> {
+    /// `fmi2SetupExperiment` with a start time, an optional stop time and an optional
+    /// tolerance.
+    pub fn setup(
+        &mut self,
+        start: f64,
+        stop: Option<f64>,
+        tolerance: Option<f64>,
+    ) -> Result<(), FmuError> {
         // SAFETY: a live component of this library.
         let s = unsafe {
             self.file.dll.fmi2SetupExperiment(
                 self.component,
-                0,
-                0.0,
+                i32::from(tolerance.is_some()),
+                tolerance.unwrap_or(0.0),
                 start,
                 i32::from(stop.is_some()),
                 stop.unwrap_or(0.0),

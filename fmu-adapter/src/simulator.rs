@@ -70,6 +70,19 @@ pub enum StepSize {
     Fixed(f64),
     /// 1 / (a fidelity variable in Hz), e.g. the simulation rate.
     RateOf(String),
+    /// A fidelity variable's value, seconds: the step size is itself the fidelity (the
+    /// variable is bound to no FMU variable).
+    Of(String),
+}
+
+/// The `tolerance` passed to `fmi2SetupExperiment` (none: `toleranceDefined = false`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tolerance {
+    /// The same tolerance for every run.
+    Fixed(f64),
+    /// A fidelity variable's value (bound to no FMU variable).
+    Of(String),
 }
 
 /// What a run costs.
@@ -102,6 +115,9 @@ pub struct RunSpec {
     pub stop_time: f64,
     /// Communication step size.
     pub step: StepSize,
+    /// The solver tolerance handed to the FMU, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<Tolerance>,
     /// The failure signal.
     pub failure: Failure,
     /// Stop as soon as the failure is reached.
@@ -365,6 +381,11 @@ impl FmuSimulator {
                 return Err(FmuError::Spec(format!("step size {h} is not positive")));
             }
         }
+        if let Some(Tolerance::Fixed(t)) = spec.tolerance {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(FmuError::Spec(format!("tolerance {t} is not positive")));
+            }
+        }
         let plans = [
             Plan::new(&hf, &spec, fidelity, phi)?,
             Plan::new(&lf, &spec, fidelity, phi)?,
@@ -484,7 +505,12 @@ impl FmuSimulator {
             .find(|(n, _, _)| n == scenario)
             .ok_or_else(|| FmuError::Spec(format!("unknown scenario `{scenario}`")))?;
         let stop = spec.stop_time;
-        inst.setup(0.0, Some(stop))?;
+        let tolerance = match &spec.tolerance {
+            None => None,
+            Some(Tolerance::Fixed(t)) => Some(*t),
+            Some(Tolerance::Of(var)) => Some(positive(fidelity, var, "tolerance")?),
+        };
+        inst.setup(0.0, Some(stop), tolerance)?;
         for (var, value) in fixed {
             Self::set(inst, var, value, None)?;
         }
@@ -501,19 +527,8 @@ impl FmuSimulator {
         inst.initialize()?;
         let h = match &spec.step {
             StepSize::Fixed(h) => *h,
-            StepSize::RateOf(var) => {
-                let rate = fidelity
-                    .get_f64(var)
-                    .ok_or_else(|| FmuError::MissingValue {
-                        variable: var.clone(),
-                    })?;
-                if !(rate > 0.0 && rate.is_finite()) {
-                    return Err(FmuError::Spec(format!(
-                        "`{var}` = {rate} is not a positive rate"
-                    )));
-                }
-                1.0 / rate
-            }
+            StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
+            StepSize::Of(var) => positive(fidelity, var, "step size")?,
         };
         let mut failure = self.failed(inst, plan)?;
         let mut t = 0.0;
@@ -545,6 +560,22 @@ impl FmuSimulator {
         };
         inst.terminate()?;
         Ok((failure, work))
+    }
+}
+
+/// The positive, finite value of fidelity variable `var` (a `what`: rate, step size, …).
+fn positive(fidelity: &Assignment, var: &str, what: &str) -> Result<f64, FmuError> {
+    let x = fidelity
+        .get_f64(var)
+        .ok_or_else(|| FmuError::MissingValue {
+            variable: var.into(),
+        })?;
+    if x > 0.0 && x.is_finite() {
+        Ok(x)
+    } else {
+        Err(FmuError::Spec(format!(
+            "`{var}` = {x} is not a positive {what}"
+        )))
     }
 }
 

@@ -37,6 +37,7 @@ fn spec(fixed: Vec<Fixed>) -> RunSpec {
     all.extend(fixed);
     RunSpec {
         fmu_log: false,
+        tolerance: None,
         stop_time: 8.0,
         step: StepSize::Fixed(0.05),
         failure: Failure::Boolean {
@@ -92,7 +93,7 @@ fn the_fmu_reads_its_resources_during_initialisation() {
     let road = file.variable("road").unwrap().vr;
     for (surface, mu) in [(1, 0.8), (2, 0.5), (3, 0.15)] {
         let mut inst = Instance::new(file.clone(), "resources").unwrap();
-        inst.setup(0.0, Some(1.0)).unwrap();
+        inst.setup(0.0, Some(1.0), None).unwrap();
         inst.set_integer(road, surface).unwrap();
         inst.initialize().unwrap();
         assert_eq!(inst.real(friction).unwrap(), mu, "road {surface}");
@@ -227,4 +228,53 @@ fn fmu_log_prints_every_message() {
             "fmu_log {fmu_log}: {stderr}"
         );
     }
+}
+
+/// Item 2: the communication step size and the tolerance handed to `fmi2SetupExperiment` are
+/// fidelity variables of their own, bound to no FMU variable — for an FMU (like `braking`)
+/// without a fidelity parameter.
+#[test]
+fn the_step_size_and_the_tolerance_can_be_the_fidelity() {
+    let dir = temp_dir("step-fidelity");
+    let fmu = braking(&dir, true);
+    let theta_space = Space::new(vec![
+        Variable::discrete("h", [0.4, 0.1, 0.02]),
+        Variable::discrete("tol", [1.0, 0.01]),
+    ])
+    .unwrap();
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let phi = phi_space();
+    let mut sim = FmuSimulator::new(
+        file.clone(),
+        file,
+        RunSpec {
+            step: StepSize::Of("h".into()),
+            tolerance: Some(savme_fmu::Tolerance::Of("tol".into())),
+            ..spec(Vec::new())
+        },
+        Some(&theta_space),
+        &|_| Some(phi.clone()),
+        None,
+    )
+    .unwrap();
+    let mut at = |v: f64, h: f64, tol: f64| {
+        let theta = Assignment::new().with("h", h).with("tol", tol);
+        sim.run(
+            Role::Learned,
+            "brake",
+            &Assignment::new().with("v", v),
+            &theta,
+        )
+        .unwrap()
+    };
+    // The work is the FMU's Euler steps: one per communication step over 8 s, or sub-steps of
+    // at most `tolerance` seconds when the tolerance is smaller than the step.
+    assert_eq!(at(10.0, 0.1, 1.0).work, Some(80));
+    assert_eq!(at(10.0, 0.4, 1.0).work, Some(20));
+    assert_eq!(at(10.0, 0.1, 0.01).work, Some(800));
+    // And the fidelity changes the verdict: at 19 m/s the car stops about 2 m short of the
+    // obstacle, which explicit Euler at 0.4 s overshoots (by about v·h/2 = 3.8 m).
+    assert!(at(19.0, 0.4, 1.0).failure);
+    assert!(!at(19.0, 0.02, 1.0).failure);
+    assert!(!at(19.0, 0.4, 0.01).failure, "sub-steps of 0.01 s");
 }

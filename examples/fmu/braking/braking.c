@@ -351,8 +351,8 @@ static void euler(Model *m, double t, double dt) {
     if (m->v > 0) {
         m->x += m->v * dt;
         m->v = m->v - a * dt > 0 ? m->v - a * dt : 0.0;
+        if (m->gap - m->x <= 0) m->collision = 1; /* reached the obstacle while moving */
     }
-    if (m->gap - m->x <= 0 && m->v > 0) m->collision = 1;
     m->steps++;
 }
 
