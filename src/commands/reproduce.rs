@@ -1,7 +1,8 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
 use super::{
-    resume_dir, run_campaign, stored_protocol, ProtocolArgs, RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, stored_protocol, usage, Failure, ProtocolArgs,
+    RunnerArgs, StorageArgs, Target,
 };
 use savme::campaign::config::{self, Preset};
 use savme::campaign::store::TrialStore;
@@ -40,7 +41,7 @@ enum Perception {
     Ideal,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let overrides = a.protocol.overrides();
     let preset = Preset {
         quick: a.quick,
@@ -50,7 +51,7 @@ pub fn run(a: Args) -> Result<(), String> {
     let remote = a.storage.remote(store.as_ref())?;
     let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
     if resume.is_some() && (overrides.any() || preset != Preset::default()) {
-        return Err("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --jobs and --quiet".into());
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
     let out = a.out.unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
     let (protocol, target) = match (resume, store) {
@@ -74,7 +75,7 @@ pub fn run(a: Args) -> Result<(), String> {
         ),
         (None, store) => (
             config::bundled(preset, &overrides)
-                .map_err(|e| e.to_string())?
+                .map_err(config_failure)?
                 .0,
             Target {
                 out,

@@ -1,6 +1,9 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
-use super::{resume_dir, run_campaign, ProtocolArgs, RunnerArgs, StorageArgs, Target};
+use super::{
+    config_failure, resume_dir, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs,
+    StorageArgs, Target,
+};
 use savme::campaign::config;
 use savme::campaign::store::TrialStore;
 use savme::viewer::Frames;
@@ -27,18 +30,20 @@ pub struct Args {
     runner: RunnerArgs,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let Some(config) = a.config else {
-        return Err("give --config FILE (and --resume DIR to continue a campaign)".into());
+        return Err(usage(
+            "give --config FILE (and --resume DIR to continue a campaign)",
+        ));
     };
     let overrides = a.protocol.overrides();
     let store = a.storage.open()?;
     let remote = a.storage.remote(store.as_ref())?;
     let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
     if resume.is_some() && overrides.any() {
-        return Err("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --jobs and --quiet".into());
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
-    let c = config::fmu_file(&config, &overrides).map_err(|e| e.to_string())?;
+    let c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
     let out = a
         .out
         .or(c.file.campaign.out.clone())

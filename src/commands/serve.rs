@@ -24,7 +24,8 @@ pub struct Args {
 }
 
 pub fn run(a: Args) -> Result<(), String> {
-    let store: Option<Box<dyn TrialStore>> = match (a.journal.as_deref(), a.storage.open()?) {
+    let database = a.storage.open().map_err(|e| e.message().to_string())?;
+    let store: Option<Box<dyn TrialStore>> = match (a.journal.as_deref(), database) {
         (Some(path), _) => Some(Box::new(JsonlStore::open(path).map_err(|e| e.to_string())?)),
         (None, Some(db)) => Some(Box::new(db)),
         (None, None) => None,

@@ -4,7 +4,8 @@
 //! CPU; `--null` runs nothing at all.
 
 use super::{
-    resume_dir, run_campaign, stored_protocol, ProtocolArgs, RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, stored_protocol, usage, Failure, ProtocolArgs,
+    RunnerArgs, StorageArgs, Target,
 };
 use savme::campaign::config::{self, named_simulator, toy_label, NULL};
 use savme::campaign::load_protocol;
@@ -34,13 +35,13 @@ pub struct Args {
     runner: RunnerArgs,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let overrides = a.protocol.overrides();
     let store = a.storage.open()?;
     let remote = a.storage.remote(store.as_ref())?;
     let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
     if resume.is_some() && overrides.any() {
-        return Err("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet".into());
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
     let label = if a.null {
         NULL.to_string()
@@ -54,7 +55,7 @@ pub fn run(a: Args) -> Result<(), String> {
         (None, _) => None,
     };
     let label = protocol.as_ref().map_or(label, |p| p.simulator.clone());
-    let (fresh, problem) = config::toy(&label, &overrides).map_err(|e| e.to_string())?;
+    let (fresh, problem) = config::toy(&label, &overrides).map_err(config_failure)?;
     let protocol = protocol.unwrap_or(fresh);
     let sim = named_simulator(&protocol.simulator)
         .ok_or_else(|| format!("`{}` is not a toy simulator", protocol.simulator))?;

@@ -2,6 +2,7 @@
 //! campaign whose coordinator was started with `--remote`, on this host, until the campaign
 //! is finished.
 
+use super::{config_failure, usage, Failure};
 use savme::campaign::config::{self, named_simulator};
 use savme::campaign::store::postgres::{find_campaign, Session};
 use savme::campaign::worker::{work, WorkerOptions};
@@ -28,20 +29,22 @@ pub struct Args {
     wait: f64,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let Some((db, name)) = a.storage.database()? else {
-        return Err(
-            "savme worker needs --storage URL (or --storage-file FILE) and --campaign NAME".into(),
-        );
+        return Err(usage(
+            "savme worker needs --storage URL (or --storage-file FILE) and --campaign NAME",
+        ));
     };
     if a.jobs == 0 {
-        return Err("--jobs: must be at least 1".into());
+        return Err(usage("--jobs: must be at least 1"));
     }
     let seconds = |flag: &str, v: f64| {
         if v.is_finite() && v > 0.0 {
             Ok(Duration::from_secs_f64(v))
         } else {
-            Err(format!("--{flag}: {v} is not a positive number of seconds"))
+            Err(usage(format!(
+                "--{flag}: {v} is not a positive number of seconds"
+            )))
         }
     };
     let options = WorkerOptions {
@@ -53,21 +56,21 @@ pub fn run(a: Args) -> Result<(), String> {
     let report = match (named_simulator(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
         (None, Some(file)) => {
-            let c = config::fmu_file(file, &Default::default()).map_err(|e| e.to_string())?;
+            let c = config::fmu_file(file, &Default::default()).map_err(config_failure)?;
             if c.protocol.simulator != label {
-                return Err(format!(
+                return Err(Failure::Runtime(format!(
                     "{}: this campaign file describes simulator {:?}, but campaign {name:?} runs {label:?}",
                     file.display(),
                     c.protocol.simulator
-                ));
+                )));
             }
             let backend = super::run::fmu_backend(&c.file)?;
             work(&db, &name, &backend, &options)
         }
         (None, None) => {
-            return Err(format!(
+            return Err(usage(format!(
                 "campaign {name:?} runs simulator {label:?}, which savme cannot build from its name: give its campaign file with --config FILE (the FMUs are resolved on this host)"
-            ))
+            )))
         }
     }
     .map_err(|e| e.to_string())?;
