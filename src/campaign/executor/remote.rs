@@ -105,11 +105,7 @@ impl Remote {
 impl Runner for Remote {
     fn submit(&mut self, task: Task) -> Result<(), CampaignError> {
         let campaign = self.campaign;
-        let id = self.session.run(|c| {
-            let id = queue::submit(c, campaign, &task)?;
-            queue::wake_workers(c, campaign)?;
-            Ok(id)
-        })?;
+        let id = self.session.run(|c| queue::submit(c, campaign, &task))?;
         self.waiting.insert(id, (task.trial, task.which));
         Ok(())
     }

@@ -32,7 +32,7 @@ pub use connect::{reconnect_for, Database, RECONNECT_FOR};
 pub use session::Session;
 
 use super::{Loaded, StoreError, StoredLine, TrialStore, FORMAT};
-use postgres::Client;
+use postgres::{Client, GenericClient, Statement};
 use serde_json::Value;
 
 /// The longest campaign name.
@@ -47,6 +47,8 @@ pub struct PostgresStore {
     /// Lines stored so far (the last line number).
     lines: i64,
     location: String,
+    /// The prepared insert of a line, on the current connection.
+    insert: Option<Statement>,
 }
 
 impl std::fmt::Debug for PostgresStore {
@@ -127,6 +129,7 @@ impl PostgresStore {
             client,
             lines: 0,
             location,
+            insert: None,
         };
         store.attach()?;
         Ok(store)
@@ -310,20 +313,45 @@ const INSERT: &str =
   VALUES ($1, $2, $3, $4::text::json, $5, $6, $7, $8, $9, $10, $11::text::jsonb,
     $12::text::jsonb, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22, $23, $24, $25)";
 
-/// Inserts `rows` (text, fields) as lines `first..`, in one transaction.
+/// Inserts `rows` (text, fields) as lines `first..` with the prepared `statement`: one
+/// statement for one row (atomic by itself), else one transaction.
 fn insert(
     client: &mut Client,
+    statement: &Statement,
     campaign: i32,
     first: i64,
     rows: &[(String, Columns)],
 ) -> Result<(), postgres::Error> {
+    if let [(text, columns)] = rows {
+        return insert_one(client, statement, campaign, first, text, columns);
+    }
     let mut tx = client.transaction()?;
-    let statement = tx.prepare(INSERT)?;
+    for (k, (text, columns)) in rows.iter().enumerate() {
+        insert_one(
+            &mut tx,
+            statement,
+            campaign,
+            first + k as i64,
+            text,
+            columns,
+        )?;
+    }
+    tx.commit()
+}
+
+/// Inserts one line.
+fn insert_one(
+    client: &mut impl GenericClient,
+    statement: &Statement,
+    campaign: i32,
+    line: i64,
+    text: &String,
+    c: &Columns,
+) -> Result<(), postgres::Error> {
     let v = FORMAT as i32;
-    for (k, (text, c)) in rows.iter().enumerate() {
-        let line = first + k as i64;
-        tx.execute(
-            &statement,
+    client
+        .execute(
+            statement,
             &[
                 &campaign,
                 &line,
@@ -351,9 +379,8 @@ fn insert(
                 &c.credit_scenario,
                 &c.error,
             ],
-        )?;
-    }
-    tx.commit()
+        )
+        .map(|_| ())
 }
 
 impl TrialStore for PostgresStore {
@@ -416,20 +443,33 @@ impl TrialStore for PostgresStore {
         }
         let first = self.lines + 1;
         let last = self.lines + rows.len() as i64;
-        // After a reconnect the transaction may have committed before the connection broke:
-        // the line count says (this store is the only writer).
+        // After a reconnect the insert may have committed before the connection broke: the
+        // line count says (this store is the only writer). The prepared statement is kept
+        // between appends, and prepared again on a new connection.
+        let mut statement = self.insert.take();
+        let mut retry = false;
         self.retrying(|c, id| {
-            let stored: i64 = c
-                .query_one(
-                    "SELECT coalesce(max(line), 0) FROM savme.trials WHERE campaign_id = $1",
-                    &[&id],
-                )?
-                .get(0);
-            if stored >= last {
-                return Ok(());
+            if retry {
+                statement = None;
+                let stored: i64 = c
+                    .query_one(
+                        "SELECT coalesce(max(line), 0) FROM savme.trials WHERE campaign_id = $1",
+                        &[&id],
+                    )?
+                    .get(0);
+                if stored >= last {
+                    return Ok(());
+                }
             }
-            insert(c, id, first, &rows)
+            retry = true;
+            let prepared = match &statement {
+                Some(s) => s.clone(),
+                None => c.prepare(INSERT)?,
+            };
+            statement = Some(prepared.clone());
+            insert(c, &prepared, id, first, &rows)
         })?;
+        self.insert = statement;
         self.lines = last;
         Ok(())
     }

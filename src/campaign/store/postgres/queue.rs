@@ -27,20 +27,24 @@ pub fn done_channel(campaign: i32) -> String {
     format!("savme_done_{campaign}")
 }
 
-/// Submits `task`; returns its row id. A row that failed before is queued again.
+/// Submits `task` and wakes the workers; returns its row id. A row that failed before is
+/// queued again.
 pub fn submit(client: &mut Client, campaign: i32, task: &Task) -> Result<i64, postgres::Error> {
     let phi = serde_json::to_string(&task.phi).unwrap_or_default();
     let fidelity = serde_json::to_string(&task.fidelity).unwrap_or_default();
     let trial = task.trial as i64;
     let stage: &str = &task.stage;
     let scenario: &str = &task.scenario;
+    // One round trip: the upsert, and the notification that wakes idle workers.
     let row = client.query_one(
-        "INSERT INTO savme.runs (campaign_id, stage, trial_id, role, scenario, phi, fidelity)
-         VALUES ($1, $2, $3, $4, $5, $6::text::json, $7::text::json)
-         ON CONFLICT (campaign_id, stage, trial_id, role) DO UPDATE
-            SET state = CASE WHEN runs.state = 'failed' THEN 'queued' ELSE runs.state END,
-                error = CASE WHEN runs.state = 'failed' THEN NULL ELSE runs.error END
-         RETURNING id",
+        "WITH run AS (
+            INSERT INTO savme.runs (campaign_id, stage, trial_id, role, scenario, phi, fidelity)
+            VALUES ($1, $2, $3, $4, $5, $6::text::json, $7::text::json)
+            ON CONFLICT (campaign_id, stage, trial_id, role) DO UPDATE
+               SET state = CASE WHEN runs.state = 'failed' THEN 'queued' ELSE runs.state END,
+                   error = CASE WHEN runs.state = 'failed' THEN NULL ELSE runs.error END
+            RETURNING id, state)
+         SELECT id, CASE WHEN state = 'queued' THEN pg_notify($8, '') END IS NULL FROM run",
         &[
             &campaign,
             &stage,
@@ -49,6 +53,7 @@ pub fn submit(client: &mut Client, campaign: i32, task: &Task) -> Result<i64, po
             &scenario,
             &phi,
             &fidelity,
+            &tasks_channel(campaign),
         ],
     )?;
     Ok(row.get(0))
@@ -217,7 +222,6 @@ pub fn finish(
     worker: &str,
     result: &Result<SimResult, SimError>,
 ) -> Result<bool, postgres::Error> {
-    let mut tx = client.transaction()?;
     let (state, failure, wall, work, error) = match result {
         Ok(r) => (
             "done",
@@ -228,20 +232,26 @@ pub fn finish(
         ),
         Err(e) => ("failed", None, None, None, Some(e.to_string())),
     };
-    let n = tx.execute(
-        "UPDATE savme.runs SET state = $3, failure = $4, wall_seconds = $5, work = $6,
-                error = $7, finished_at = clock_timestamp(), lease_until = NULL
-          WHERE id = $1 AND worker = $2 AND state = 'running'",
-        &[&id, &worker, &state, &failure, &wall, &work, &error],
+    // One statement (atomic, one round trip): the result, and the coordinator's wake-up.
+    let rows = client.query(
+        "WITH run AS (
+            UPDATE savme.runs SET state = $3, failure = $4, wall_seconds = $5, work = $6,
+                   error = $7, finished_at = clock_timestamp(), lease_until = NULL
+             WHERE id = $1 AND worker = $2 AND state = 'running'
+            RETURNING id)
+         SELECT pg_notify($8, id::text) FROM run",
+        &[
+            &id,
+            &worker,
+            &state,
+            &failure,
+            &wall,
+            &work,
+            &error,
+            &done_channel(campaign),
+        ],
     )?;
-    if n == 1 {
-        tx.execute(
-            "SELECT pg_notify($1, $2)",
-            &[&done_channel(campaign), &id.to_string()],
-        )?;
-    }
-    tx.commit()?;
-    Ok(n == 1)
+    Ok(rows.len() == 1)
 }
 
 /// Starts listening on `channel` on this connection.
