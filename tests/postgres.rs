@@ -36,16 +36,6 @@ const TINY: &[&str] = &[
 ];
 const TINY_TRIALS: usize = 14 + 16 + 6 + 8 + 2 * 8;
 
-/// TINY with the values of the flags in `changed` replaced.
-fn tiny_with(changed: &[(&str, &str)]) -> Vec<String> {
-    let mut a: Vec<String> = TINY.iter().map(|s| s.to_string()).collect();
-    for (flag, value) in changed {
-        let k = a.iter().position(|x| x == flag).unwrap();
-        a[k + 1] = value.to_string();
-    }
-    a
-}
-
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("savme-pgtest-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -305,9 +295,32 @@ fn a_killed_coordinator_resumes_from_the_database_and_a_second_one_is_refused() 
     };
     let url = server.create_db("resume");
     let (full, out) = (temp_dir("resume-full"), temp_dir("resume-out"));
-    let longer = tiny_with(&[("--iterations", "200"), ("--baseline-iterations", "100")]);
+    // The toy simulator sleeping 20 ms a run: slow enough to kill the coordinator midway and
+    // to try a second one while it runs (120 trials, one run at a time: over 3 s).
+    let longer: Vec<String> = [
+        "--sleep-ms",
+        "20",
+        "--iterations",
+        "50",
+        "--eval-iterations",
+        "10",
+        "--test-iterations",
+        "15",
+        "--baseline-iterations",
+        "20",
+        "--baseline-test-iterations",
+        "10",
+        "--cost",
+        "work",
+        "--seed",
+        "7",
+        "--quiet",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
     let o = Command::new(EXE)
-        .args(["reproduce", "--out"])
+        .args(["toy", "--out"])
         .arg(&full)
         .args(&longer)
         .output()
@@ -316,7 +329,7 @@ fn a_killed_coordinator_resumes_from_the_database_and_a_second_one_is_refused() 
     let expected = file_trials(&full);
 
     let mut first = Command::new(EXE)
-        .args(["reproduce", "--storage", &url, "--campaign", "c", "--out"])
+        .args(["toy", "--storage", &url, "--campaign", "c", "--out"])
         .arg(&out)
         .args(&longer)
         .args(["--jobs", "1"])
@@ -335,15 +348,19 @@ fn a_killed_coordinator_resumes_from_the_database_and_a_second_one_is_refused() 
     // naming the first one's process, and changes nothing.
     let before = count(&mut client, "c");
     for resume in [true, false] {
-        let mut args = vec!["reproduce", "--storage", &url, "--campaign", "c"];
+        let mut args = vec!["toy", "--storage", &url, "--campaign", "c"];
         if resume {
             args.extend(["--resume", "--quiet"]);
         } else {
             args.extend(longer.iter().map(String::as_str));
         }
         let o = savme(&args);
-        assert!(!o.status.success());
         let t = text(&o);
+        assert!(
+            !o.status.success(),
+            "first exited: {:?}; {t}",
+            first.try_wait()
+        );
         assert!(
             t.contains("is in use by another savme coordinator")
                 && t.contains(&format!("savme coordinator pid {}", first.id())),
@@ -357,7 +374,7 @@ fn a_killed_coordinator_resumes_from_the_database_and_a_second_one_is_refused() 
     assert!(stored < expected.len(), "finished before the kill");
     // The server drops the dead session's lock: the campaign resumes and completes.
     let o = savme(&[
-        "reproduce",
+        "toy",
         "--storage",
         &url,
         "--campaign",

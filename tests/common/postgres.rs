@@ -147,7 +147,10 @@ impl Server {
             .arg(&self.dir)
             .args(["-p", &self.port.to_string()])
             .args(["-c", "listen_addresses=127.0.0.1", "-c", "fsync=off"])
-            .args(["-c", "max_connections=100"])
+            // Light: several servers run at once (one per test), and CI containers may have a
+            // small /dev/shm.
+            .args(["-c", "max_connections=60", "-c", "shared_buffers=16MB"])
+            .args(["-c", "dynamic_shared_memory_type=mmap"])
             .stdin(Stdio::null())
             .stdout(log.try_clone().unwrap())
             .stderr(log)
