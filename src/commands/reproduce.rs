@@ -20,7 +20,7 @@ pub struct Args {
     /// continue the database's campaign (no DIR).
     #[arg(long, value_name = "DIR", num_args = 0..=1)]
     resume: Option<Option<PathBuf>>,
-    /// A short preset (one budget, fewer iterations) that finishes in about a minute.
+    /// A short preset: one budget, fewer iterations (860 trials, about 100 CPU-seconds).
     #[arg(long)]
     quick: bool,
     /// Perception of the system under test: camera + lidar (the paper's), or idealised

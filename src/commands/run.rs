@@ -22,6 +22,10 @@ pub struct Args {
     /// database's campaign (no DIR).
     #[arg(long, value_name = "DIR", num_args = 0..=1)]
     resume: Option<Option<PathBuf>>,
+    /// Print every FMU log message to standard error (also `[fmu] log = true`); errors carry
+    /// the last messages of their run either way.
+    #[arg(long)]
+    fmu_log: bool,
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
@@ -43,7 +47,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if resume.is_some() && overrides.any() {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
-    let c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
+    let mut c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
+    c.file.init.spec.fmu_log |= a.fmu_log;
     let out = a
         .out
         .or(c.file.campaign.out.clone())
