@@ -572,6 +572,39 @@ fn storage_flags_are_checked() {
         assert!(text(&o).contains(message), "{args:?}: {}", text(&o));
         assert!(!text(&o).contains("pw@"), "{}", text(&o));
     }
+    // Misused flags are usage errors (exit status 2, like clap's own).
+    let url = "postgresql://u@h/d";
+    for (args, message) in [
+        (
+            vec!["toy", "--remote"],
+            "--remote runs trials through a database's work queue",
+        ),
+        (vec!["worker"], "savme worker needs --storage URL"),
+        (
+            vec!["toy", "--resume"],
+            "--resume needs the campaign's directory",
+        ),
+        (
+            vec!["worker", "--storage", url, "--campaign", "x", "--jobs", "0"],
+            "--jobs: must be at least 1",
+        ),
+        (
+            vec![
+                "worker",
+                "--storage",
+                url,
+                "--campaign",
+                "x",
+                "--lease",
+                "0",
+            ],
+            "--lease: 0 is not a positive number of seconds",
+        ),
+    ] {
+        let o = savme(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(message), "{args:?}: {}", text(&o));
+    }
 }
 
 #[test]
