@@ -120,8 +120,15 @@ impl Server {
             "initdb failed: {}",
             String::from_utf8_lossy(&out.stderr)
         );
-        server.run();
-        Some(server)
+        // A free port can be taken by another test's server between our probe and its bind:
+        // then try another.
+        for _ in 0..5 {
+            if server.try_run() {
+                return Some(server);
+            }
+            server.port = free_port();
+        }
+        panic!("postgres did not start on 5 ports: {}", server.log());
     }
 
     /// A command running `program` of the PostgreSQL binaries, as `nobody` when we are root.
@@ -138,6 +145,11 @@ impl Server {
 
     /// Starts `postgres` on the data directory and waits until it accepts connections.
     fn run(&mut self) {
+        assert!(self.try_run(), "postgres exited: {}", self.log());
+    }
+
+    /// [`Server::run`]; false if the server exited at once (its port was taken).
+    fn try_run(&mut self) -> bool {
         let log = std::fs::File::create(self.dir.join("server.log")).unwrap();
         let child = self
             .command("postgres")
@@ -159,11 +171,22 @@ impl Server {
         self.child = Some(child);
         let deadline = Instant::now() + Duration::from_secs(60);
         loop {
-            if postgres::Client::connect(&self.url(), postgres::NoTls).is_ok() {
-                return;
+            if let Some(Ok(Some(_))) = self.child.as_mut().map(|c| c.try_wait()) {
+                self.child = None;
+                return false;
             }
-            if let Some(Ok(Some(status))) = self.child.as_mut().map(|c| c.try_wait()) {
-                panic!("postgres exited ({status}): {}", self.log());
+            // Ours, not another test's server that took the port first.
+            let data = self.dir.join("data").display().to_string();
+            let ours = postgres::Client::connect(&self.url(), postgres::NoTls)
+                .and_then(|mut c| c.query_one("SHOW data_directory", &[]))
+                .map(|r| r.get::<_, String>(0) == data);
+            match ours {
+                Ok(true) => return true,
+                Ok(false) => {
+                    self.stop();
+                    return false;
+                }
+                Err(_) => {}
             }
             assert!(
                 Instant::now() < deadline,
