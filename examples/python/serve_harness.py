@@ -3,7 +3,7 @@
 
     cargo build --release
     target/release/savme example-config > kernel.json      # edit to your spaces
-    python3 examples/python/harness.py --savme target/release/savme --config kernel.json
+    python3 examples/python/serve_harness.py --savme target/release/savme --config kernel.json
 
 The simulators here are a stand-in written in Python for the toy problem's variables (see
 `savme example-config`): replace `run_simulator` with calls into your own HF and LF simulators.
