@@ -15,11 +15,16 @@ the high-fidelity simulator, within a compute budget.
 
 from ._savme import (
     Boolean,
+    Campaign,
+    CampaignError,
+    CampaignResult,
     Continuous,
     Discrete,
     JournalError,
     Kernel,
     Posterior,
+    Problem,
+    Protocol,
     Record,
     Space,
     TellError,
@@ -27,18 +32,28 @@ from ._savme import (
     Variable,
     __version__,
 )
+from . import campaign, fmu, integrations, sim
 
 __all__ = [
     "Boolean",
+    "Campaign",
+    "CampaignError",
+    "CampaignResult",
     "Continuous",
     "Discrete",
     "JournalError",
     "Kernel",
     "Posterior",
+    "Problem",
+    "Protocol",
     "Record",
     "Space",
     "TellError",
     "Trial",
     "Variable",
     "__version__",
+    "campaign",
+    "fmu",
+    "integrations",
+    "sim",
 ]

@@ -1,7 +1,7 @@
 """Type stubs for savme's Rust extension module (re-exported by the `savme` package)."""
 
 from os import PathLike
-from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union, final, overload
+from typing import Any, Callable, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union, final, overload
 
 _Value = Union[bool, int, float, str]
 """A variable's value: a bool, int, float or str."""
@@ -12,7 +12,11 @@ _RunResult = Tuple[bool, float]
 """One simulation's result as (failure, runtime); runtimes finite and > 0, on a common scale."""
 
 __version__: str
-__all__ = ["__version__", "TellError", "JournalError", "Variable", "Space", "Discrete", "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel"]
+__all__ = [
+    "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
+    "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Protocol", "Problem",
+    "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator",
+]
 
 class TellError(ValueError):
     """A tell or cancel the kernel refused: an unknown or already told trial, a paired
@@ -23,6 +27,11 @@ class JournalError(Exception):
     """A journal could not be opened, replayed or written: held by another process (the
     message names its pid), a bad line (named by file and line), another configuration, a
     full disk. The kernel is unchanged."""
+
+class CampaignError(Exception):
+    """A campaign could not run or finish: its directory, store or stored trials, or a
+    simulation that failed (the message names the trial and the simulator's error). A
+    campaign stopped this way resumes with resume=True."""
 
 @final
 class Variable:
@@ -276,3 +285,185 @@ class Kernel:
         raise ValueError."""
     def __enter__(self) -> Kernel: ...
     def __exit__(self, *exc: object) -> bool: ...
+
+_SimulatorFn = Callable[[str, Dict[str, _Value], Dict[str, _Value]], Union[bool, Tuple[bool, int]]]
+"""A Python simulator: (scenario, phi, theta) -> failure, or (failure, work_units)."""
+
+@final
+class Protocol:
+    """What a campaign runs: the paper's protocol (or the quick preset) for the given
+    meta-training and meta-testing scenarios, any field overridden; validated (ValueError
+    names the field)."""
+
+    def __new__(
+        cls,
+        train_scenarios: Sequence[str],
+        test_scenarios: Sequence[str],
+        *,
+        preset: Literal["paper", "quick"] = "paper",
+        simulator: str = "python",
+        seed: Optional[int] = None,
+        budgets: Optional[Sequence[float]] = None,
+        train_iterations: Optional[int] = None,
+        eval_iterations: Optional[int] = None,
+        test_iterations: Optional[int] = None,
+        baseline_train_iterations: Optional[int] = None,
+        baseline_test_iterations: Optional[int] = None,
+        cost: Optional[Literal["wall", "work"]] = None,
+        fidelity_bins: Optional[int] = None,
+        prior_strength: Optional[float] = None,
+        window: Optional[int] = None,
+        weights: Optional[Mapping[str, float]] = None,
+        on_error: Optional[Literal["abort", "skip"]] = None,
+    ) -> Protocol:
+        """cost="work" makes a campaign reproducible bit for bit (simulators must then return
+        (failure, work_units)); "wall" (default) measures each call's wall-clock time.
+        window: trials in flight; on_error="skip" withdraws a trial whose simulation raised."""
+    def to_json(self) -> str:
+        """The protocol as JSON (a campaign directory's protocol.json)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The protocol as a dict."""
+    @staticmethod
+    def load(out: Union[str, PathLike[str]]) -> Protocol:
+        """The protocol saved in campaign directory `out`."""
+    @property
+    def total_trials(self) -> int:
+        """How many trials the campaign runs in all."""
+
+@final
+class Problem:
+    """What a campaign searches: the fidelity space with θ_HF, and each scenario's φ-space."""
+
+    def __new__(
+        cls, *, fidelity: Space, theta_hf: Mapping[str, _Value], scenarios: Mapping[str, Space]
+    ) -> Problem: ...
+    @staticmethod
+    def driving(bins: int = 10) -> Problem:
+        """The bundled driving simulator's problem (Table I, θ_HF, the ten scenarios)."""
+    @property
+    def scenarios(self) -> List[str]:
+        """The scenarios' names."""
+
+@final
+class CampaignResult:
+    """A finished campaign."""
+
+    @property
+    def out(self) -> PathLike[str]:
+        """The campaign directory."""
+    @property
+    def report(self) -> Dict[str, Any]:
+        """The report: baselines, per budget training/evaluation/meta-testing figures."""
+    @property
+    def table_md(self) -> str:
+        """Table III as Markdown (table.md)."""
+    @property
+    def files(self) -> Dict[str, PathLike[str]]:
+        """protocol, trials, table, fidelity, summary, breakeven, meta_testing."""
+    @property
+    def replayed(self) -> int:
+        """Trials replayed from trials.jsonl (a resumed campaign)."""
+    @property
+    def ran(self) -> int:
+        """Trials run by this call."""
+    @property
+    def elapsed_seconds(self) -> float:
+        """Wall-clock seconds this call took."""
+
+@final
+class Campaign:
+    """A campaign run by savme's Rust campaign loop, with `savme run`'s outputs and resume.
+
+    Python simulators are called from worker threads, each call holding the GIL; see the
+    savme.campaign module for CPU-bound Python simulators."""
+
+    def __new__(
+        cls,
+        protocol: Optional[Protocol],
+        problem: Problem,
+        *,
+        out: Optional[Union[str, PathLike[str]]] = None,
+        resume: bool = False,
+        jobs: Optional[int] = None,
+        progress: bool = False,
+    ) -> Campaign:
+        """out: the campaign directory (default "savme-results"); resume=True continues the campaign in `out` (protocol=None takes its
+        protocol.json); jobs: worker threads (default: one per core); progress: one line per
+        finished stage on stderr."""
+    def run(
+        self,
+        simulate: Optional[_SimulatorFn] = None,
+        *,
+        hf: Optional[_SimulatorFn] = None,
+        lf: Optional[_SimulatorFn] = None,
+        sim: Optional[Union[Driving, Simulator]] = None,
+    ) -> CampaignResult:
+        """Runs (or resumes) the campaign: one `simulate` callable for both runs, or `hf=`
+        and `lf=` callables, or a bundled simulator `sim=`. Raises CampaignError (a failed
+        simulation names the trial and the exception), ValueError for a bad protocol."""
+    @property
+    def protocol(self) -> Protocol:
+        """The protocol."""
+    @property
+    def out(self) -> PathLike[str]:
+        """The output directory."""
+
+def load_campaign(
+    path: Union[str, PathLike[str]],
+    *,
+    out: Optional[Union[str, PathLike[str]]] = None,
+    resume: bool = False,
+    jobs: Optional[int] = None,
+    progress: bool = False,
+) -> Campaign:
+    """A campaign file (TOML, as `savme run --config` reads) as a campaign with its FMUs
+    bound (`savme.campaign.load`)."""
+
+@final
+class Driving:
+    """The bundled driving simulator: the paper's ten scenarios, camera + lidar perception
+    with Table I's 16 fidelity settings, the paper's system under test."""
+
+    def __new__(cls, perception: Literal["sensors", "ideal"] = "sensors") -> Driving: ...
+    def simulate(
+        self, scenario: str, phi: Mapping[str, _Value], theta: Optional[Mapping[str, _Value]] = None
+    ) -> Dict[str, Any]:
+        """One run (θ_HF by default): {"failure", "wall_seconds", "work", "min_distance",
+        "collision_time"}. The GIL is released while it runs."""
+    @staticmethod
+    def scenarios() -> List[Dict[str, Any]]:
+        """The ten scenarios: id, name, description, training (1–8) or not."""
+    @staticmethod
+    def phi_space(scenario: str) -> Space:
+        """A scenario's φ-space (by name or number)."""
+    @staticmethod
+    def fidelity_space(bins: int = 10) -> Space:
+        """Table I: the 16 fidelity settings, continuous ones in `bins` log bins."""
+    @staticmethod
+    def theta_hf() -> Dict[str, _Value]:
+        """θ_HF of Table I."""
+
+@final
+class Simulator:
+    """The HF and LF FMUs of a campaign file, their bindings checked (savme.fmu.Simulator)."""
+
+    def __new__(cls, path: Union[str, PathLike[str]]) -> Simulator: ...
+    def simulate(
+        self,
+        scenario: str,
+        phi: Mapping[str, _Value],
+        theta: Optional[Mapping[str, _Value]] = None,
+        role: Literal["hf", "lf"] = "hf",
+    ) -> Dict[str, Any]:
+        """One run on the HF (or LF) FMU: {"failure", "wall_seconds", "work"}."""
+    @property
+    def scenarios(self) -> List[str]:
+        """The scenarios' names."""
+    def phi_space(self, scenario: str) -> Space:
+        """A scenario's φ-space (KeyError if there is none)."""
+    @property
+    def fidelity(self) -> Space:
+        """The fidelity space."""
+    @property
+    def theta_hf(self) -> Dict[str, _Value]:
+        """θ_HF."""

@@ -23,6 +23,25 @@ create_exception!(
     "A journal or trial store could not be opened, replayed or written (locked by another process, a bad line, a full disk); the kernel is unchanged."
 );
 
+create_exception!(
+    savme,
+    CampaignError,
+    PyException,
+    "A campaign could not run or finish: its directory, store or stored trials, or a simulation that failed (the message names the trial and the simulator's error). A campaign stopped this way resumes with resume=True."
+);
+
+/// A campaign error: a bad protocol field or campaign file line is a `ValueError`, anything
+/// else a `savme.CampaignError`.
+pub fn campaign(e: savme::campaign::CampaignError) -> PyErr {
+    use savme::campaign::CampaignError as E;
+    match e {
+        E::Protocol { .. } | E::File(_) | E::UnknownScenario { .. } => {
+            PyValueError::new_err(e.to_string())
+        }
+        _ => CampaignError::new_err(e.to_string()),
+    }
+}
+
 /// A [`SessionError`] as the matching Python exception.
 pub fn session(e: SessionError) -> PyErr {
     match e {

@@ -31,9 +31,11 @@ pub fn parse_phase(phase: &str) -> PyResult<Phase> {
         "evaluate" => Phase::Evaluate,
         "baseline" => Phase::Baseline,
         "test" => Phase::Test,
-        other => return Err(PyValueError::new_err(format!(
+        other => {
+            return Err(PyValueError::new_err(format!(
             "unknown phase {other:?}: expected \"train\", \"evaluate\", \"baseline\" or \"test\""
-        ))),
+        )))
+        }
     })
 }
 
