@@ -34,6 +34,17 @@ fn assignment_for(
     }
 }
 
+/// A bundled scenario by name or number (KeyError listing the names otherwise).
+fn find_scenario(scenario: &str) -> PyResult<&'static savme_sim::scenario::ScenarioInfo> {
+    savme_sim::scenario::find(scenario).ok_or_else(|| {
+        convert::unknown(
+            "scenario",
+            scenario,
+            savme_sim::scenario::SCENARIOS.iter().map(|s| s.name),
+        )
+    })
+}
+
 /// A simulation's result as a dict.
 fn result_dict<'py>(py: Python<'py>, r: &SimResult) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
@@ -79,13 +90,7 @@ impl PyDriving {
         phi: &Bound<'py, PyDict>,
         theta: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyDict>> {
-        let info = savme_sim::scenario::find(scenario).ok_or_else(|| {
-            convert::unknown(
-                "scenario",
-                scenario,
-                savme_sim::scenario::SCENARIOS.iter().map(|s| s.name),
-            )
-        })?;
+        let info = find_scenario(scenario)?;
         let space = savme_sim::scenario::phi_space(info);
         let phi = assignment_for("phi", phi, Some(&space))?;
         let theta = match theta {
@@ -124,13 +129,7 @@ impl PyDriving {
     /// Scenario `scenario`'s φ-space.
     #[staticmethod]
     fn phi_space(scenario: &str) -> PyResult<PySpace> {
-        let info = savme_sim::scenario::find(scenario).ok_or_else(|| {
-            convert::unknown(
-                "scenario",
-                scenario,
-                savme_sim::scenario::SCENARIOS.iter().map(|s| s.name),
-            )
-        })?;
+        let info = find_scenario(scenario)?;
         Ok(PySpace {
             space: savme_sim::scenario::phi_space(info),
         })
