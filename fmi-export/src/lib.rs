@@ -9,6 +9,50 @@
 //!
 //! Values live in the export layer, indexed by value reference; the model reads its parameters
 //! from them when initialised and writes its outputs into them when stepped.
+//!
+//! ```
+//! use savme_fmi_export::{model_description, Model, Scalar, Variable};
+//! use std::sync::OnceLock;
+//!
+//! /// A car braking from `speed` at `decel`: fails when it has not stopped within `room` metres.
+//! #[derive(Clone)]
+//! struct Braking { speed: f64, decel: f64, room: f64, travelled: f64 }
+//!
+//! impl Model for Braking {
+//!     const MODEL_NAME: &'static str = "braking";
+//!     const MODEL_IDENTIFIER: &'static str = "braking";
+//!     const GUID: &'static str = "{0b7a1c2e-0000-4000-8000-000000000001}";
+//!     const DESCRIPTION: &'static str = "a braking car";
+//!     const DEFAULT_EXPERIMENT: (f64, f64) = (10.0, 0.01);
+//!
+//!     fn variables() -> &'static [Variable] {
+//!         static VARS: OnceLock<Vec<Variable>> = OnceLock::new();
+//!         VARS.get_or_init(|| vec![
+//!             Variable::parameter("speed", Scalar::Real(20.0), "initial speed").unit("m/s"),
+//!             Variable::parameter("decel", Scalar::Real(6.0), "deceleration").range(1.0, 10.0),
+//!             Variable::parameter("room", Scalar::Real(30.0), "distance to the obstacle"),
+//!             Variable::output("collision", Scalar::Boolean(false), "hit the obstacle"),
+//!         ])
+//!     }
+//!
+//!     fn initialize(v: &mut [Scalar], _start: f64) -> Result<Self, String> {
+//!         let [speed, decel, room] = [0, 1, 2].map(|i| v[i].as_f64());
+//!         Ok(Braking { speed, decel, room, travelled: 0.0 })
+//!     }
+//!
+//!     fn do_step(&mut self, v: &mut [Scalar], _time: f64, step: f64) -> Result<(), String> {
+//!         self.travelled += self.speed * step;
+//!         self.speed = (self.speed - self.decel * step).max(0.0);
+//!         v[3] = Scalar::Boolean(self.travelled >= self.room);
+//!         Ok(())
+//!     }
+//! }
+//!
+//! // In a `cdylib` crate: `savme_fmi_export::export_fmi2!(Braking);` defines the C API, and
+//! // `pack` zips this description with the built library into `braking.fmu`.
+//! let xml = model_description::<Braking>();
+//! assert!(xml.contains(r#"modelIdentifier="braking""#) && xml.contains(r#"name="collision""#));
+//! ```
 
 #![warn(missing_docs)]
 

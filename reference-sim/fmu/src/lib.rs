@@ -9,6 +9,15 @@
 //! The FMU steps the very same [`savme_sim::sim::Stepper`] that `DrivingSimulator` runs
 //! in-process, so the two give identical outcomes. `savme fmu pack` zips
 //! [`model_description`] and the shared library built from this crate into an `.fmu`.
+//!
+//! ```
+//! let xml = savme_sim_fmu::model_description();
+//! // Every fidelity setting of the paper's Table II is a parameter of the FMU.
+//! for setting in savme_sim::fidelity::space(10).variables() {
+//!     assert!(xml.contains(&format!(r#"name="{}""#, setting.name)), "{}", setting.name);
+//! }
+//! assert!(xml.contains(r#"name="collision""#));
+//! ```
 
 use savme_fmi_export::{Model, Scalar, Variable};
 use savme_kernel::{Assignment, Domain, Value};
