@@ -17,7 +17,9 @@ pub enum FmuBackend {
 
 impl FmuBackend {
     /// The backend for `init`: isolated when `worker` (the command that starts a worker, e.g.
-    /// `["savme", "fmu-worker"]`) is given, each run limited to `timeout`; else in-process.
+    /// `["savme", "fmu-worker"]`) is given, each run limited to `timeout`; else in-process —
+    /// refused for an FMU that can be instantiated only once per process (a campaign runs
+    /// several instances: one per thread and role).
     pub fn new(
         init: &WorkerInit,
         worker: Option<Vec<String>>,
@@ -27,7 +29,16 @@ impl FmuBackend {
             Some(command) => {
                 IsolatedSimulator::new(command, init, timeout).map(FmuBackend::Isolated)
             }
-            None => init.simulator().map(FmuBackend::InProcess),
+            None => {
+                for path in [&init.hf, &init.lf] {
+                    if crate::FmuDescription::read(path)?.only_once_per_process() {
+                        return Err(FmuError::OnlyOncePerProcess {
+                            fmu: path.display().to_string(),
+                        });
+                    }
+                }
+                init.simulator().map(FmuBackend::InProcess)
+            }
         }
     }
 }

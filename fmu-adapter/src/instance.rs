@@ -214,6 +214,23 @@ impl Instance {
         self.status("fmi2SetBoolean", s)
     }
 
+    /// `fmi2SetString` of one variable (a string with a NUL byte is refused).
+    pub fn set_string(&mut self, vr: u32, v: &str) -> Result<(), FmuError> {
+        let text =
+            CString::new(v).map_err(|_| FmuError::Spec(format!("{v:?} holds a NUL byte")))?;
+        if self.file.dll.fmi2SetString.is_err() {
+            return Err(FmuError::MissingFunction {
+                fmu: self.file.path.display().to_string(),
+                function: "fmi2SetString".into(),
+            });
+        }
+        let p = text.as_ptr();
+        // SAFETY: the function exists (checked above); one value reference and one C string
+        // that outlives the call.
+        let s = unsafe { self.file.dll.fmi2SetString(self.component, &vr, 1, &p) };
+        self.status("fmi2SetString", s)
+    }
+
     /// `fmi2GetReal` of one variable.
     pub fn real(&mut self, vr: u32) -> Result<f64, FmuError> {
         let mut v = 0.0;

@@ -18,6 +18,7 @@
 
 pub mod backend;
 pub mod campaign_file;
+mod declared;
 pub mod description;
 pub mod file;
 pub mod instance;
@@ -137,6 +138,23 @@ pub enum FmuError {
         variable: String,
         /// What was needed.
         expected: String,
+    },
+    /// A value outside what the model description declares for a variable (its `min` / `max`,
+    /// its enumeration items).
+    #[error("{fmu}: variable `{variable}` {message}")]
+    OutOfRange {
+        /// The FMU.
+        fmu: String,
+        /// The variable.
+        variable: String,
+        /// What is declared and what lies outside.
+        message: String,
+    },
+    /// An FMU that can be instantiated only once per process, asked to run in this one.
+    #[error("{fmu}: the FMU declares canBeInstantiatedOnlyOncePerProcess=\"true\": savme runs it in worker processes only (set [fmu] isolate = true)")]
+    OnlyOncePerProcess {
+        /// The FMU.
+        fmu: String,
     },
     /// A trial lacks a value for a bound variable.
     #[error("no value for `{variable}` in the trial")]
