@@ -112,6 +112,8 @@ fn the_step_size_example_campaign_runs() {
 fn fmu_log_prints_the_fmus_messages() {
     let (dir, config) = example_dir("fmu-log");
     let small = [
+        "--cost",
+        "wall",
         "--iterations",
         "2",
         "--eval-iterations",
@@ -137,8 +139,11 @@ fn fmu_log_prints_the_fmus_messages() {
         if flag {
             args.push("--fmu-log");
         }
-        let (ok, _, err) = savme(&args);
+        let (ok, stdout, err) = savme(&args);
         assert!(ok, "{err}");
+        // Item 9: times below a second in ms or µs, never "0.0 s".
+        assert!(!stdout.contains(" 0.0 s"), "{stdout}");
+        assert!(stdout.contains(" ms") || stdout.contains(" µs"), "{stdout}");
         assert_eq!(
             err.contains("[savme-hf] ok logAll: friction 0.80 for the dry road from /"),
             flag,

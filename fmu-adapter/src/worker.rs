@@ -287,9 +287,8 @@ impl IsolatedSimulator {
                 .map_err(|e| SimError::Failed(format!("FMU worker sent {line:?}: {e}"))),
             Ok(Err(e)) => Err(SimError::Failed(format!("FMU worker: {e}"))),
             Err(RecvTimeoutError::Timeout) => Err(SimError::Failed(format!(
-                "{}: no answer within {:.1} s — the run hung; its worker was killed",
+                "{}: no answer within {timeout:?} — the run hung; its worker was killed",
                 self.fmu,
-                timeout.as_secs_f64()
             ))),
             Err(RecvTimeoutError::Disconnected) => Err(SimError::Failed(format!(
                 "{}: the FMU worker died during the run",
