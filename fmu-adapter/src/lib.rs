@@ -175,6 +175,10 @@ pub enum FmuError {
         /// `""`.
         log: String,
     },
+    /// An FMU worker could not load the FMUs (the message names the FMU and, for a crash, the
+    /// signal).
+    #[error("{0}")]
+    Worker(String),
     /// The run specification is invalid.
     #[error("run specification: {0}")]
     Spec(String),

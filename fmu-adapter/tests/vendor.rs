@@ -539,3 +539,61 @@ range = [5.0, 20.0]
     let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
     assert!(f.isolate, "forced by canBeInstantiatedOnlyOncePerProcess");
 }
+
+/// Item 5: with isolation the FMU's library is loaded in the worker only — one that crashes
+/// while loading (SIGBUS in its constructor) is reported naming the FMU, before any run, and
+/// neither the campaign-file check nor the backend loads it in this process (which would kill
+/// this test).
+#[test]
+fn a_library_crashing_while_loading_is_reported_naming_the_fmu() {
+    use savme_fmu::FmuBackend;
+    let dir = temp_dir("crash-on-load");
+    let fmu = dir.join("braking.fmu");
+    savme_fmu_testkit::pack_braking_library(
+        &fmu,
+        savme_fmu_testkit::BRAKING_MODEL_DESCRIPTION,
+        true,
+        &savme_fmu_testkit::crash_on_load_library(),
+    )
+    .unwrap();
+    let path = dir.join("campaign.toml");
+    std::fs::write(
+        &path,
+        r#"
+[fmu]
+hf = "braking.fmu"
+stop_time = 8.0
+step = 0.1
+isolate = true
+
+[failure]
+boolean = "collision"
+
+[fidelity]
+[[fidelity.variable]]
+name = "road"
+values = ["dry", "ice"]
+hf = "dry"
+
+[[scenario]]
+name = "s"
+role = "train"
+[[scenario.phi]]
+name = "speed0"
+range = [5.0, 20.0]
+"#,
+    )
+    .unwrap();
+    let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
+    let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
+    let e = FmuBackend::new(&f.init, Some(worker), std::time::Duration::from_secs(30))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        format!(
+            "{}: the FMU worker died while loading this FMU (killed by signal 7 (SIGBUS: the FMU crashed))",
+            fmu.display()
+        )
+    );
+}
