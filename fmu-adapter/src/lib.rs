@@ -21,6 +21,7 @@ pub mod campaign_file;
 mod declared;
 pub mod description;
 pub mod file;
+pub mod inspect;
 pub mod instance;
 pub mod log;
 pub mod simulator;
