@@ -283,3 +283,115 @@ fn fmu_validate_lists_every_problem() {
         "{text}"
     );
 }
+
+/// FMPy (PyPI `fmpy`) when the environment provides it: `.ci/run` installs it and sets
+/// SAVME_FMPY_PYTHON and SAVME_REQUIRE_FMPY=1 (then a missing FMPy fails instead of skipping).
+fn fmpy_python() -> Option<String> {
+    let python = std::env::var("SAVME_FMPY_PYTHON").ok();
+    let required = std::env::var("SAVME_REQUIRE_FMPY").is_ok_and(|v| v == "1");
+    match python {
+        Some(p) => Some(p),
+        None if required => panic!("SAVME_REQUIRE_FMPY=1 but SAVME_FMPY_PYTHON is not set"),
+        None => {
+            eprintln!("FMPy cross-check skipped: set SAVME_FMPY_PYTHON to a python with fmpy");
+            None
+        }
+    }
+}
+
+/// FMPy, the independent FMI client, and savme give the braking FMU the same outcomes: its
+/// resources found the same way, the enumeration and the String parameter set alike.
+#[test]
+fn fmpy_runs_the_braking_fmu_like_savme() {
+    use savme::kernel::{Assignment, Role, Scale, Space, Value, Variable};
+    use savme_fmu::{Binding, CostSource, Failure, Fixed, FmuFile, FmuSimulator, RunSpec};
+    let Some(python) = fmpy_python() else { return };
+    let dir = temp_dir("fmpy");
+    let fmu = pack(&dir, &model_description());
+    let file = std::sync::Arc::new(FmuFile::open(&fmu).unwrap());
+    let phi = Space::new(vec![Variable::continuous("v", 4.0, 25.0, 4, Scale::Linear)]).unwrap();
+    let cases = [
+        (12.0, "dry", 1, "alert"),
+        (16.0, "dry", 1, "distracted"),
+        (10.0, "ice", 3, "alert"),
+        (20.0, "wet", 2, "alert"),
+    ];
+    let mut failures = 0;
+    for (v, road, value, driver) in cases {
+        let spec = RunSpec {
+            stop_time: 8.0,
+            // Exact in binary: both clients reach the same communication points.
+            step: savme_fmu::StepSize::Fixed(0.125),
+            tolerance: None,
+            failure: Failure::Boolean {
+                variable: "collision".into(),
+            },
+            stop_on_failure: false,
+            cost: CostSource::Output("steps".into()),
+            fidelity: Vec::new(),
+            fmu_log: false,
+            scenarios: vec![savme_fmu::ScenarioSpec {
+                name: "s".into(),
+                phi: vec![Binding {
+                    variable: "v".into(),
+                    fmu_variable: "speed0".into(),
+                    labels: None,
+                }],
+                fixed: vec![
+                    Fixed {
+                        fmu_variable: "road".into(),
+                        value: Value::from(road),
+                    },
+                    Fixed {
+                        fmu_variable: "driver".into(),
+                        value: Value::from(driver),
+                    },
+                ],
+            }],
+        };
+        let mut sim = FmuSimulator::new(
+            file.clone(),
+            file.clone(),
+            spec,
+            None,
+            &|_| Some(phi.clone()),
+            None,
+        )
+        .unwrap();
+        let local = sim
+            .run(
+                Role::High,
+                "s",
+                &Assignment::new().with("v", v),
+                &Assignment::new(),
+            )
+            .unwrap();
+        let script = format!(
+            "import fmpy\n\
+             r = fmpy.simulate_fmu(r'{}', start_values={{'speed0': {v:?}, 'road': {value}, 'driver': '{driver}'}}, \
+             stop_time=8.0, output_interval=0.125, output=['collision', 'steps'])\n\
+             print(bool(r['collision'][-1]), int(r['steps'][-1]))\n",
+            fmu.display()
+        );
+        let o = Command::new(&python)
+            .arg("-c")
+            .arg(&script)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout);
+        let f: Vec<&str> = out.split_whitespace().collect();
+        assert_eq!(f.len(), 2, "{out}");
+        assert_eq!(f[0] == "True", local.failure, "{v} {road} {driver}: {out}");
+        assert_eq!(
+            f[1].parse::<u64>().ok(),
+            local.work,
+            "{v} {road} {driver}: {out}"
+        );
+        failures += usize::from(local.failure);
+    }
+    assert!(
+        failures > 0 && failures < cases.len(),
+        "the cases differ in outcome"
+    );
+}
