@@ -469,7 +469,8 @@ impl FmuSimulator {
         fidelity: &Assignment,
     ) -> Result<SimResult, FmuError> {
         let k = usize::from(role == Role::Learned);
-        let plan = self.plans[k].clone();
+        // The plans are shared (an Arc): no copy of the bindings per evaluation.
+        let plans = self.plans.clone();
         let clock = Instant::now();
         if self.files[k].only_once_per_process() && Arc::ptr_eq(&self.files[0], &self.files[1]) {
             // One instance per process: the other role's instance goes first.
@@ -487,7 +488,7 @@ impl FmuSimulator {
                 self.spec.fmu_log,
             )?,
         };
-        let result = self.run_on(&mut inst, &plan, scenario, phi, fidelity);
+        let result = self.run_on(&mut inst, &plans[k], scenario, phi, fidelity);
         if result.is_ok() {
             // Only a healthy instance is reused; a failed one is freed.
             self.instances[k] = Some(inst);
