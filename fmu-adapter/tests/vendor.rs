@@ -501,7 +501,8 @@ fn an_fmu_instantiable_once_per_process_runs_isolated_only() {
 }
 
 /// Item 6 in a campaign file: an FMU instantiable once per process forces isolation, and its
-/// library is not loaded by the check (the workers load it).
+/// library is not loaded by the check (the workers load it). (And `[fmu] log = true` is item 4's
+/// config key.)
 #[test]
 fn a_campaign_on_an_fmu_instantiable_once_is_isolated() {
     let dir = temp_dir("once-campaign");
@@ -515,6 +516,7 @@ hf = "braking-once.fmu"
 stop_time = 8.0
 cost = "steps"
 isolate = false
+log = true
 
 [failure]
 boolean = "collision"
@@ -538,6 +540,7 @@ range = [5.0, 20.0]
     .unwrap();
     let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
     assert!(f.isolate, "forced by canBeInstantiatedOnlyOncePerProcess");
+    assert!(f.init.spec.fmu_log, "[fmu] log = true");
 }
 
 /// Item 5: with isolation the FMU's library is loaded in the worker only — one that crashes
