@@ -112,6 +112,8 @@ fn the_step_size_example_campaign_runs() {
 fn fmu_log_prints_the_fmus_messages() {
     let (dir, config) = example_dir("fmu-log");
     let small = [
+        "--cost",
+        "wall",
         "--iterations",
         "2",
         "--eval-iterations",
@@ -137,12 +139,259 @@ fn fmu_log_prints_the_fmus_messages() {
         if flag {
             args.push("--fmu-log");
         }
-        let (ok, _, err) = savme(&args);
+        let (ok, stdout, err) = savme(&args);
         assert!(ok, "{err}");
+        // Item 9: times below a second in ms or µs, never "0.0 s".
+        assert!(!stdout.contains(" 0.0 s"), "{stdout}");
+        assert!(stdout.contains(" ms") || stdout.contains(" µs"), "{stdout}");
         assert_eq!(
             err.contains("[savme-hf] ok logAll: friction 0.80 for the dry road from /"),
             flag,
             "--fmu-log {flag}: {err}"
         );
     }
+}
+
+/// Item 8: `savme fmu info` shows what `fmpy info` shows — version, kinds, platforms,
+/// capabilities, variables with causality, type, start, min/max, unit (and items) — as text
+/// or JSON.
+#[test]
+fn fmu_info_shows_the_model_and_its_variables() {
+    let dir = temp_dir("info");
+    let fmu = pack(&dir, &model_description());
+    let (ok, text, err) = savme(&["fmu", "info", fmu.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    for needle in [
+        "FMI version      2.0",
+        "Kinds            co-simulation",
+        "Model name       braking",
+        &format!("Platforms        {}", savme_fmi_export::platform_folder()),
+        "Default run      start 0, stop 8, step 0.1, tolerance -",
+        "Co-simulation    model identifier braking; canHandleVariableCommunicationStepSize",
+    ] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+    let row = |name: &str| {
+        text.lines()
+            .find(|l| l.starts_with(&format!("{name} ")))
+            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+            .unwrap_or_default()
+    };
+    assert_eq!(
+        row("speed0"),
+        "speed0 parameter Real 15.0 4 25 m/s initial speed"
+    );
+    assert_eq!(
+        row("road"),
+        "road parameter Enumeration 1 dry=1 wet=2 ice=3"
+    );
+    assert_eq!(
+        row("friction"),
+        "friction calculatedParameter Real from resources/friction.txt"
+    );
+    let (ok, json, err) = savme(&["fmu", "info", fmu.to_str().unwrap(), "--json"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["model"]["fmi_version"], "2.0");
+    assert_eq!(v["model"]["co_simulation"]["model_identifier"], "braking");
+    let vars = v["model"]["variables"].as_array().unwrap();
+    assert_eq!(vars.len(), 10);
+    assert_eq!(vars[0]["name"], "speed0");
+    assert_eq!(
+        (vars[0]["min"].as_f64(), vars[0]["max"].as_f64()),
+        (Some(4.0), Some(25.0))
+    );
+    assert_eq!(vars[0]["unit"], "m/s");
+    assert_eq!(vars[2]["items"][2]["name"], "ice");
+    assert_eq!(vars[2]["items"][2]["value"], 3);
+    // A file that is no FMU is named.
+    let (ok, _, err) = savme(&["fmu", "info", dir.join("none.fmu").to_str().unwrap()]);
+    assert!(!ok && err.contains("none.fmu"), "{err}");
+}
+
+/// Item 8: `savme fmu validate` makes every check savme makes before a campaign (the library
+/// in a child process): exit status 0, or 1 with the list of problems — as text or JSON.
+#[test]
+fn fmu_validate_lists_every_problem() {
+    let dir = temp_dir("validate");
+    let good = pack(&dir, &model_description());
+    let (ok, text, err) = savme(&["fmu", "validate", good.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    assert!(
+        text.ends_with(": valid — every check savme makes before a campaign passes\n"),
+        "{text}"
+    );
+    // Two bad declarations: both are listed.
+    let bad = dir.join("bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    let xml = model_description()
+        .replacen(
+            "min=\"4.0\" max=\"25.0\" start=\"15.0\"",
+            "min=\"4.0\" max=\"25.0\" start=\"30.0\"",
+            1,
+        )
+        .replacen(
+            "<Enumeration declaredType=\"Road\" start=\"1\"/>",
+            "<Enumeration declaredType=\"Road\" start=\"7\"/>",
+            1,
+        );
+    let fmu = pack(&bad, &xml);
+    let (ok, json, err) = savme(&["fmu", "validate", fmu.to_str().unwrap(), "--json"]);
+    assert!(!ok && err.contains("not valid (2 problem(s))"), "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v["valid"], false);
+    assert_eq!(
+        v["problems"],
+        serde_json::json!([
+            "variable `speed0`: start 30.0 lies outside [min, max]",
+            "variable `road`: start 7 is none of its enumeration's items"
+        ])
+    );
+    // A GUID the library does not know: found by instantiating it.
+    let guid = dir.join("guid");
+    std::fs::create_dir_all(&guid).unwrap();
+    let fmu = pack(
+        &guid,
+        &model_description().replacen("{b7a1e000", "{00000000", 1),
+    );
+    let (ok, text, _) = savme(&["fmu", "validate", fmu.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(text.contains(": 1 problem(s)\n  - "), "{text}");
+    assert!(
+        text.contains("fmi2Instantiate failed (returned no instance)"),
+        "{text}"
+    );
+    // A library that crashes while loading is a problem, not the end of savme.
+    let crash = dir.join("crash");
+    std::fs::create_dir_all(&crash).unwrap();
+    let lib = crash.join("crash.so");
+    let status = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
+        .args(["-shared", "-fPIC", "-o"])
+        .arg(&lib)
+        .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu-adapter/testkit/c/crash_on_load.c"))
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let fmu = crash.join("braking.fmu");
+    savme_fmi_export::pack(&model_description(), "braking", &lib, &fmu).unwrap();
+    let (ok, text, _) = savme(&["fmu", "validate", fmu.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(
+        text.contains(
+            "the library crashed while it was loaded or instantiated (killed by signal 7)"
+        ),
+        "{text}"
+    );
+}
+
+/// FMPy (PyPI `fmpy`) when the environment provides it: `.ci/run` installs it and sets
+/// SAVME_FMPY_PYTHON and SAVME_REQUIRE_FMPY=1 (then a missing FMPy fails instead of skipping).
+fn fmpy_python() -> Option<String> {
+    let python = std::env::var("SAVME_FMPY_PYTHON").ok();
+    let required = std::env::var("SAVME_REQUIRE_FMPY").is_ok_and(|v| v == "1");
+    match python {
+        Some(p) => Some(p),
+        None if required => panic!("SAVME_REQUIRE_FMPY=1 but SAVME_FMPY_PYTHON is not set"),
+        None => {
+            eprintln!("FMPy cross-check skipped: set SAVME_FMPY_PYTHON to a python with fmpy");
+            None
+        }
+    }
+}
+
+/// FMPy, the independent FMI client, and savme give the braking FMU the same outcomes: its
+/// resources found the same way, the enumeration and the String parameter set alike.
+#[test]
+fn fmpy_runs_the_braking_fmu_like_savme() {
+    use savme::kernel::{Assignment, Role, Scale, Space, Value, Variable};
+    use savme_fmu::{Binding, CostSource, Failure, Fixed, FmuFile, FmuSimulator, RunSpec};
+    let Some(python) = fmpy_python() else { return };
+    let dir = temp_dir("fmpy");
+    let fmu = pack(&dir, &model_description());
+    let file = std::sync::Arc::new(FmuFile::open(&fmu).unwrap());
+    let phi = Space::new(vec![Variable::continuous("v", 4.0, 25.0, 4, Scale::Linear)]).unwrap();
+    let cases = [
+        (12.0, "dry", 1, "alert"),
+        (16.0, "dry", 1, "distracted"),
+        (10.0, "ice", 3, "alert"),
+        (20.0, "wet", 2, "alert"),
+    ];
+    let mut failures = 0;
+    for (v, road, value, driver) in cases {
+        let spec = RunSpec {
+            stop_time: 8.0,
+            // Exact in binary: both clients reach the same communication points.
+            step: savme_fmu::StepSize::Fixed(0.125),
+            tolerance: None,
+            failure: Failure::Boolean {
+                variable: "collision".into(),
+            },
+            stop_on_failure: false,
+            cost: CostSource::Output("steps".into()),
+            fidelity: Vec::new(),
+            fmu_log: false,
+            scenarios: vec![savme_fmu::ScenarioSpec {
+                name: "s".into(),
+                phi: vec![Binding {
+                    variable: "v".into(),
+                    fmu_variable: "speed0".into(),
+                    labels: None,
+                }],
+                fixed: vec![
+                    Fixed {
+                        fmu_variable: "road".into(),
+                        value: Value::from(road),
+                    },
+                    Fixed {
+                        fmu_variable: "driver".into(),
+                        value: Value::from(driver),
+                    },
+                ],
+            }],
+        };
+        let mut sim = FmuSimulator::new(
+            file.clone(),
+            file.clone(),
+            spec,
+            None,
+            &|_| Some(phi.clone()),
+            None,
+        )
+        .unwrap();
+        let local = sim
+            .run(
+                Role::High,
+                "s",
+                &Assignment::new().with("v", v),
+                &Assignment::new(),
+            )
+            .unwrap();
+        let script = format!(
+            "import fmpy\n\
+             r = fmpy.simulate_fmu(r'{}', start_values={{'speed0': {v:?}, 'road': {value}, 'driver': '{driver}'}}, \
+             stop_time=8.0, output_interval=0.125, output=['collision', 'steps'])\n\
+             print(bool(r['collision'][-1]), int(r['steps'][-1]))\n",
+            fmu.display()
+        );
+        let o = Command::new(&python)
+            .arg("-c")
+            .arg(&script)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout);
+        let f: Vec<&str> = out.split_whitespace().collect();
+        assert_eq!(f.len(), 2, "{out}");
+        assert_eq!(f[0] == "True", local.failure, "{v} {road} {driver}: {out}");
+        assert_eq!(
+            f[1].parse::<u64>().ok(),
+            local.work,
+            "{v} {road} {driver}: {out}"
+        );
+        failures += usize::from(local.failure);
+    }
+    assert!(
+        failures > 0 && failures < cases.len(),
+        "the cases differ in outcome"
+    );
 }

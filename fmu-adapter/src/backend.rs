@@ -17,7 +17,11 @@ pub enum FmuBackend {
 
 impl FmuBackend {
     /// The backend for `init`: isolated when `worker` (the command that starts a worker, e.g.
-    /// `["savme", "fmu-worker"]`) is given, each run limited to `timeout`; else in-process.
+    /// `["savme", "fmu-worker"]`) is given, each run limited to `timeout` — a first worker is
+    /// started at once, loading and checking the FMUs in it (not in this process); else
+    /// in-process —
+    /// refused for an FMU that can be instantiated only once per process (a campaign runs
+    /// several instances: one per thread and role).
     pub fn new(
         init: &WorkerInit,
         worker: Option<Vec<String>>,
@@ -25,9 +29,27 @@ impl FmuBackend {
     ) -> Result<FmuBackend, FmuError> {
         match worker {
             Some(command) => {
-                IsolatedSimulator::new(command, init, timeout).map(FmuBackend::Isolated)
+                let mut isolated = IsolatedSimulator::new(command, init, timeout)?;
+                // Load and check the FMUs in a first worker, so that a library that cannot be
+                // loaded (or crashes while loading) is reported before the campaign starts.
+                isolated.start_now().map_err(|e| {
+                    FmuError::Worker(match e {
+                        SimError::Failed(m) => m,
+                        other => other.to_string(),
+                    })
+                })?;
+                Ok(FmuBackend::Isolated(isolated))
             }
-            None => init.simulator().map(FmuBackend::InProcess),
+            None => {
+                for path in [&init.hf, &init.lf] {
+                    if crate::FmuDescription::read(path)?.only_once_per_process() {
+                        return Err(FmuError::OnlyOncePerProcess {
+                            fmu: path.display().to_string(),
+                        });
+                    }
+                }
+                init.simulator().map(FmuBackend::InProcess)
+            }
         }
     }
 }

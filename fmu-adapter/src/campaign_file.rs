@@ -21,7 +21,8 @@
 //! tolerance = 1e-6               # optional: passed to fmi2SetupExperiment
 //! stop_on_failure = true         # default true
 //! cost = "wall"                  # or the name of an output counting work units
-//! isolate = false                # run every evaluation in a worker process
+//! isolate = false                # run every evaluation in a worker process (forced for an FMU
+//!                                # with canBeInstantiatedOnlyOncePerProcess="true")
 //! timeout_s = 60.0               # per run, with isolation
 //! on_error = "abort"             # or "skip"
 //! log = false                    # print every FMU log message (errors always carry the last ones)
@@ -147,7 +148,9 @@ pub struct CampaignFile {
     /// What the simulator (in-process or in workers) is built from: the FMU paths (resolved
     /// relative to the file), the run specification, the spaces and θ_HF.
     pub init: WorkerInit,
-    /// `[fmu] isolate`: run each evaluation in a worker process.
+    /// `[fmu] isolate`: run each evaluation in a worker process — also when an FMU declares
+    /// `canBeInstantiatedOnlyOncePerProcess`. Without isolation the FMUs' libraries were
+    /// loaded by [`CampaignFile::load`] (as a check); with it nothing was loaded.
     pub isolate: bool,
     /// `[fmu] timeout_s`: per-run timeout with isolation (default 60 s).
     pub timeout: Duration,
@@ -255,13 +258,18 @@ impl CampaignFile {
             phi: scenarios.spaces.clone(),
             theta_hf: Some(fidelity.theta_hf.clone()),
         };
-        bindings::check_fmus(&src, &init, &f.fmu, &origins)?;
+        let (hf, lf) = bindings::check_fmus(&src, &init, &f.fmu, &origins)?;
+        // An FMU that can be instantiated only once per process runs in workers only.
+        let isolate = fmu.isolate || hf.only_once_per_process() || lf.only_once_per_process();
+        if !isolate {
+            bindings::load_fmus(&src, &init, &f.fmu)?;
+        }
         let timeout = timeout(&src, fmu.timeout_s.as_ref())?;
         Ok(CampaignFile {
             path: path.to_path_buf(),
             label: format!("fmu:{}|{}", init.hf.display(), init.lf.display()),
             init,
-            isolate: fmu.isolate,
+            isolate,
             timeout,
             skip_failed_runs: fmu.on_error == raw::OnError::Skip,
             fidelity: fidelity.space,

@@ -50,6 +50,31 @@ impl FmuDescription {
     /// Reads and checks `path`: a zip archive holding a well-formed FMI 2.0
     /// `modelDescription.xml` with a `CoSimulation` element, and a binary for this platform.
     pub fn read(path: &Path) -> Result<FmuDescription, FmuError> {
+        let d = FmuDescription::inspect(path)?;
+        let shown = path.display().to_string();
+        let model = &d.model;
+        if model.fmi_version != "2.0" {
+            return Err(FmuError::UnsupportedVersion {
+                fmu: shown,
+                version: model.fmi_version.clone(),
+            });
+        }
+        let Some(cs) = &model.co_simulation else {
+            return Err(FmuError::NoCoSimulation { fmu: shown });
+        };
+        let binary = binary_path(&cs.model_identifier);
+        if !d.files.contains(&binary) {
+            return Err(FmuError::NoBinary {
+                fmu: shown,
+                expected: binary,
+            });
+        }
+        Ok(d)
+    }
+
+    /// Reads `path`'s archive and model description without checking that savme can run it
+    /// (any FMI version, model exchange, other platforms): what `savme fmu info` shows.
+    pub fn inspect(path: &Path) -> Result<FmuDescription, FmuError> {
         let shown = path.display().to_string();
         let (xml, files) = read_archive(path, &shown)?;
         let model =
@@ -57,22 +82,6 @@ impl FmuDescription {
                 fmu: shown.clone(),
                 message,
             })?;
-        if model.fmi_version != "2.0" {
-            return Err(FmuError::UnsupportedVersion {
-                fmu: shown,
-                version: model.fmi_version,
-            });
-        }
-        let Some(cs) = &model.co_simulation else {
-            return Err(FmuError::NoCoSimulation { fmu: shown });
-        };
-        let binary = binary_path(&cs.model_identifier);
-        if !files.contains(&binary) {
-            return Err(FmuError::NoBinary {
-                fmu: shown,
-                expected: binary,
-            });
-        }
         let by_name = model
             .variables
             .iter()
@@ -85,6 +94,20 @@ impl FmuDescription {
             files,
             by_name,
         })
+    }
+
+    /// The platforms the archive has binaries for (`binaries/<platform>/…`).
+    pub fn platforms(&self) -> Vec<String> {
+        let mut p: Vec<String> = self
+            .files
+            .iter()
+            .filter_map(|f| f.strip_prefix("binaries/")?.split_once('/'))
+            .filter(|(_, file)| !file.is_empty())
+            .map(|(platform, _)| platform.to_string())
+            .collect();
+        p.sort();
+        p.dedup();
+        p
     }
 
     /// The variable called `name`, or an error naming the FMU and listing its variables.

@@ -100,15 +100,24 @@ impl Instance {
         &self.file
     }
 
+    /// OK for `fmi2OK` and `fmi2Warning`; the error of `call` otherwise. Inlined into every
+    /// call on the hot path, its error built out of line.
+    #[inline]
     fn status(&self, call: &str, s: fmi2Status) -> Result<(), FmuError> {
         match s {
             fmi2Status::fmi2OK | fmi2Status::fmi2Warning => Ok(()),
-            other => Err(FmuError::Call {
-                fmu: self.file.path.display().to_string(),
-                call: call.into(),
-                status: format!("{other:?}"),
-                log: self.log.suffix(),
-            }),
+            other => Err(self.call_error(call, other)),
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn call_error(&self, call: &str, status: fmi2Status) -> FmuError {
+        FmuError::Call {
+            fmu: self.file.path.display().to_string(),
+            call: call.into(),
+            status: format!("{status:?}"),
+            log: self.log.suffix(),
         }
     }
 
@@ -159,15 +168,21 @@ impl Instance {
     /// `fmi2DoStep`. `fmi2Discard` is the FMU asking to end the simulation (FMI 2.0 §4.2.2:
     /// it could not complete the step; `fmi2GetBooleanStatus(fmi2Terminated)` then says whether
     /// it wants to terminate): both come back as [`Step::StopRequested`], not as an error.
+    #[inline]
     pub fn step(&mut self, time: f64, h: f64) -> Result<Step, FmuError> {
         // SAFETY: a live component of this library.
         let s = unsafe { self.file.dll.fmi2DoStep(self.component, time, h, 1) };
         if s == fmi2Status::fmi2Discard {
-            return Ok(Step::StopRequested {
-                terminated: self.terminated(),
-            });
+            return Ok(self.stop_requested());
         }
         self.status("fmi2DoStep", s).map(|()| Step::Completed)
+    }
+
+    #[cold]
+    fn stop_requested(&mut self) -> Step {
+        Step::StopRequested {
+            terminated: self.terminated(),
+        }
     }
 
     /// `fmi2GetBooleanStatus(fmi2Terminated)`, when the FMU exports it and answers.
@@ -212,6 +227,23 @@ impl Instance {
         // SAFETY: one value reference and one value.
         let s = unsafe { self.file.dll.fmi2SetBoolean(self.component, &vr, 1, &b) };
         self.status("fmi2SetBoolean", s)
+    }
+
+    /// `fmi2SetString` of one variable (a string with a NUL byte is refused).
+    pub fn set_string(&mut self, vr: u32, v: &str) -> Result<(), FmuError> {
+        let text =
+            CString::new(v).map_err(|_| FmuError::Spec(format!("{v:?} holds a NUL byte")))?;
+        if self.file.dll.fmi2SetString.is_err() {
+            return Err(FmuError::MissingFunction {
+                fmu: self.file.path.display().to_string(),
+                function: "fmi2SetString".into(),
+            });
+        }
+        let p = text.as_ptr();
+        // SAFETY: the function exists (checked above); one value reference and one C string
+        // that outlives the call.
+        let s = unsafe { self.file.dll.fmi2SetString(self.component, &vr, 1, &p) };
+        self.status("fmi2SetString", s)
     }
 
     /// `fmi2GetReal` of one variable.

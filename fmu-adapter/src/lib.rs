@@ -18,8 +18,10 @@
 
 pub mod backend;
 pub mod campaign_file;
+mod declared;
 pub mod description;
 pub mod file;
+pub mod inspect;
 pub mod instance;
 pub mod log;
 pub mod simulator;
@@ -138,6 +140,23 @@ pub enum FmuError {
         /// What was needed.
         expected: String,
     },
+    /// A value outside what the model description declares for a variable (its `min` / `max`,
+    /// its enumeration items).
+    #[error("{fmu}: variable `{variable}` {message}")]
+    OutOfRange {
+        /// The FMU.
+        fmu: String,
+        /// The variable.
+        variable: String,
+        /// What is declared and what lies outside.
+        message: String,
+    },
+    /// An FMU that can be instantiated only once per process, asked to run in this one.
+    #[error("{fmu}: the FMU declares canBeInstantiatedOnlyOncePerProcess=\"true\": savme runs it in worker processes only (set [fmu] isolate = true)")]
+    OnlyOncePerProcess {
+        /// The FMU.
+        fmu: String,
+    },
     /// A trial lacks a value for a bound variable.
     #[error("no value for `{variable}` in the trial")]
     MissingValue {
@@ -157,6 +176,10 @@ pub enum FmuError {
         /// `""`.
         log: String,
     },
+    /// An FMU worker could not load the FMUs (the message names the FMU and, for a crash, the
+    /// signal).
+    #[error("{0}")]
+    Worker(String),
     /// The run specification is invalid.
     #[error("run specification: {0}")]
     Spec(String),

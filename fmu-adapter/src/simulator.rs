@@ -1,6 +1,7 @@
 //! Running a scenario on a pair of FMUs: how savme's variables map to FMU variables, what
 //! counts as a failure, how long to simulate, what a run costs.
 
+use crate::declared;
 use crate::description::{VarCausality, VarInfo, VarType};
 use crate::file::{FmuDescription, FmuFile};
 use crate::instance::{Instance, Step};
@@ -157,12 +158,12 @@ fn needed(space: &Space, name: &str) -> Option<&'static [VarType]> {
             if values.iter().all(|x| matches!(x, Value::Bool(_))) {
                 &[VarType::Boolean]
             } else if values.iter().all(|x| x.as_label().is_some()) {
-                &[VarType::Integer]
+                &[VarType::Integer, VarType::Enumeration]
             } else if values
                 .iter()
                 .all(|x| x.as_f64().is_some_and(|f| f.fract() == 0.0))
             {
-                &[VarType::Integer, VarType::Real]
+                &[VarType::Integer, VarType::Real, VarType::Enumeration]
             } else {
                 &[VarType::Real]
             }
@@ -190,10 +191,13 @@ fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     Ok(v)
 }
 
+/// Binding `b` resolved against `file`: a settable variable of a type that takes the savme
+/// variable's values (`role`: φ or θ), each inside its declared bounds or items.
 fn resolve(
     file: &FmuDescription,
     b: &Binding,
     space: Option<&Space>,
+    role: &str,
 ) -> Result<Resolved, FmuError> {
     let var = settable(file, &b.fmu_variable)?;
     if let Some(allowed) = space.and_then(|s| needed(s, &b.variable)) {
@@ -214,11 +218,46 @@ fn resolve(
             });
         }
     }
+    if let Some(v) = space.and_then(|s| s.variable(&b.variable)) {
+        declared::check_domain(file, &var, v, b.labels.as_deref(), role)?;
+    }
     Ok(Resolved {
         variable: b.variable.clone(),
         var,
         labels: b.labels.clone(),
     })
+}
+
+/// A fixed value resolved against `file`: a settable variable of a type that takes it, inside
+/// its declared bounds or items.
+fn resolve_fixed(file: &FmuDescription, f: &Fixed) -> Result<(VarInfo, Value), FmuError> {
+    let v = settable(file, &f.fmu_variable)?;
+    let fits = matches!(
+        (&f.value, v.kind),
+        (Value::Bool(_), VarType::Boolean)
+            | (
+                Value::Int(_),
+                VarType::Integer | VarType::Real | VarType::Enumeration
+            )
+            | (Value::Real(_), VarType::Real)
+            | (Value::Label(_), VarType::String | VarType::Enumeration)
+    );
+    if !fits {
+        return Err(FmuError::WrongType {
+            fmu: file.path.display().to_string(),
+            variable: f.fmu_variable.clone(),
+            found: format!("{:?}", v.kind),
+            expected: format!("a variable that takes the value {}", f.value),
+        });
+    }
+    declared::check_value(
+        file,
+        &v,
+        &f.value,
+        None,
+        &format!("the fixed value {}", f.value),
+    )?;
+    Ok((v, f.value.clone()))
 }
 
 /// A scenario's name, φ bindings and fixed values, resolved.
@@ -277,7 +316,7 @@ impl Plan {
         let fidelity = spec
             .fidelity
             .iter()
-            .map(|b| resolve(file, b, fidelity))
+            .map(|b| resolve(file, b, fidelity, "θ"))
             .collect::<Result<_, _>>()?;
         let scenarios = spec
             .scenarios
@@ -287,32 +326,12 @@ impl Plan {
                 let bindings = s
                     .phi
                     .iter()
-                    .map(|b| resolve(file, b, space.as_ref()))
+                    .map(|b| resolve(file, b, space.as_ref(), "φ"))
                     .collect::<Result<Vec<_>, _>>()?;
                 let fixed = s
                     .fixed
                     .iter()
-                    .map(|f| {
-                        let v = settable(file, &f.fmu_variable)?;
-                        let fits = matches!(
-                            (&f.value, v.kind),
-                            (Value::Bool(_), VarType::Boolean)
-                                | (
-                                    Value::Int(_),
-                                    VarType::Integer | VarType::Real | VarType::Enumeration
-                                )
-                                | (Value::Real(_), VarType::Real)
-                        );
-                        if !fits {
-                            return Err(FmuError::WrongType {
-                                fmu: file.path.display().to_string(),
-                                variable: f.fmu_variable.clone(),
-                                found: format!("{:?}", v.kind),
-                                expected: format!("a variable that takes the value {}", f.value),
-                            });
-                        }
-                        Ok((v, f.value.clone()))
-                    })
+                    .map(|f| resolve_fixed(file, f))
                     .collect::<Result<Vec<_>, _>>()?;
                 Ok((s.name.clone(), bindings, fixed))
             })
@@ -370,26 +389,7 @@ impl FmuSimulator {
         phi: &dyn Fn(&str) -> Option<Space>,
         theta_hf: Option<Assignment>,
     ) -> Result<FmuSimulator, FmuError> {
-        if !(spec.stop_time > 0.0 && spec.stop_time.is_finite()) {
-            return Err(FmuError::Spec(format!(
-                "stop time {} is not positive",
-                spec.stop_time
-            )));
-        }
-        if let StepSize::Fixed(h) = spec.step {
-            if !(h > 0.0 && h.is_finite()) {
-                return Err(FmuError::Spec(format!("step size {h} is not positive")));
-            }
-        }
-        if let Some(Tolerance::Fixed(t)) = spec.tolerance {
-            if !(t > 0.0 && t.is_finite()) {
-                return Err(FmuError::Spec(format!("tolerance {t} is not positive")));
-            }
-        }
-        let plans = [
-            Plan::new(&hf, &spec, fidelity, phi)?,
-            Plan::new(&lf, &spec, fidelity, phi)?,
-        ];
+        let plans = plans(&hf, &lf, &spec, fidelity, phi)?;
         Ok(FmuSimulator {
             files: [hf, lf],
             plans: Arc::new(plans),
@@ -397,6 +397,18 @@ impl FmuSimulator {
             theta_hf,
             instances: [None, None],
         })
+    }
+
+    /// The checks of [`FmuSimulator::new`] on the FMUs' descriptions alone — nothing loaded
+    /// (what `savme run` does before it starts FMU workers, and `savme fmu validate`).
+    pub fn check(
+        hf: &FmuDescription,
+        lf: &FmuDescription,
+        spec: &RunSpec,
+        fidelity: Option<&Space>,
+        phi: &dyn Fn(&str) -> Option<Space>,
+    ) -> Result<(), FmuError> {
+        plans(hf, lf, spec, fidelity, phi).map(|_| ())
     }
 
     /// The run specification.
@@ -419,26 +431,16 @@ impl FmuSimulator {
         match var.kind {
             VarType::Real => inst.set_real(var.vr, value.as_f64().ok_or_else(|| bad("a number"))?),
             VarType::Integer | VarType::Enumeration => {
-                let i = match (value, labels) {
-                    (Value::Label(l), Some(labels)) => labels
-                        .iter()
-                        .position(|x| **x == **l)
-                        .ok_or_else(|| bad("one of the variable's labels"))?
-                        as i32,
-                    _ => {
-                        let f = value.as_f64().ok_or_else(|| bad("an integer"))?;
-                        if f.fract() != 0.0 || f.abs() > f64::from(i32::MAX) {
-                            return Err(bad("an integer"));
-                        }
-                        f as i32
-                    }
-                };
+                let i = declared::integer_of(var, value, labels)
+                    .ok_or_else(|| bad("an integer, a label or an enumeration item"))?;
                 inst.set_integer(var.vr, i)
             }
             VarType::Boolean => {
                 inst.set_boolean(var.vr, value.as_bool().ok_or_else(|| bad("a boolean"))?)
             }
-            VarType::String => Err(bad("Real, Integer, Boolean or Enumeration")),
+            VarType::String => {
+                inst.set_string(var.vr, value.as_label().ok_or_else(|| bad("a string"))?)
+            }
         }
     }
 
@@ -467,8 +469,13 @@ impl FmuSimulator {
         fidelity: &Assignment,
     ) -> Result<SimResult, FmuError> {
         let k = usize::from(role == Role::Learned);
-        let plan = self.plans[k].clone();
+        // The plans are shared (an Arc): no copy of the bindings per evaluation.
+        let plans = self.plans.clone();
         let clock = Instant::now();
+        if self.files[k].only_once_per_process() && Arc::ptr_eq(&self.files[0], &self.files[1]) {
+            // One instance per process: the other role's instance goes first.
+            self.instances[1 - k] = None;
+        }
         let mut inst = match self.instances[k].take() {
             Some(mut i) => {
                 i.clear_log();
@@ -481,7 +488,7 @@ impl FmuSimulator {
                 self.spec.fmu_log,
             )?,
         };
-        let result = self.run_on(&mut inst, &plan, scenario, phi, fidelity);
+        let result = self.run_on(&mut inst, &plans[k], scenario, phi, fidelity);
         if result.is_ok() {
             // Only a healthy instance is reused; a failed one is freed.
             self.instances[k] = Some(inst);
@@ -561,6 +568,36 @@ impl FmuSimulator {
         inst.terminate()?;
         Ok((failure, work))
     }
+}
+
+/// The run settings checked and the bindings resolved against the HF and the LF FMU.
+fn plans(
+    hf: &FmuDescription,
+    lf: &FmuDescription,
+    spec: &RunSpec,
+    fidelity: Option<&Space>,
+    phi: &dyn Fn(&str) -> Option<Space>,
+) -> Result<[Plan; 2], FmuError> {
+    if !(spec.stop_time > 0.0 && spec.stop_time.is_finite()) {
+        return Err(FmuError::Spec(format!(
+            "stop time {} is not positive",
+            spec.stop_time
+        )));
+    }
+    if let StepSize::Fixed(h) = spec.step {
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(FmuError::Spec(format!("step size {h} is not positive")));
+        }
+    }
+    if let Some(Tolerance::Fixed(t)) = spec.tolerance {
+        if !(t > 0.0 && t.is_finite()) {
+            return Err(FmuError::Spec(format!("tolerance {t} is not positive")));
+        }
+    }
+    Ok([
+        Plan::new(hf, spec, fidelity, phi)?,
+        Plan::new(lf, spec, fidelity, phi)?,
+    ])
 }
 
 /// The positive, finite value of fidelity variable `var` (a `what`: rate, step size, …).

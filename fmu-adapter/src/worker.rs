@@ -13,7 +13,7 @@ use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator, Space};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::Arc;
 use std::time::Duration;
@@ -38,10 +38,21 @@ pub struct WorkerInit {
 impl WorkerInit {
     /// Opens both FMUs (once when they are the same file).
     pub fn open(&self) -> Result<(Arc<FmuFile>, Arc<FmuFile>), FmuError> {
+        self.open_telling(&mut |_| {})
+    }
+
+    /// [`WorkerInit::open`], calling `loading` with each FMU's path before its library is
+    /// loaded (a worker tells its parent, so that a crash while loading names the FMU).
+    fn open_telling(
+        &self,
+        loading: &mut dyn FnMut(&Path),
+    ) -> Result<(Arc<FmuFile>, Arc<FmuFile>), FmuError> {
+        loading(&self.hf);
         let hf = Arc::new(FmuFile::open(&self.hf)?);
         let lf = if self.lf == self.hf {
             hf.clone()
         } else {
+            loading(&self.lf);
             Arc::new(FmuFile::open(&self.lf)?)
         };
         Ok((hf, lf))
@@ -49,7 +60,11 @@ impl WorkerInit {
 
     /// Opens both FMUs and builds the in-process simulator.
     pub fn simulator(&self) -> Result<FmuSimulator, FmuError> {
-        let (hf, lf) = self.open()?;
+        self.simulator_telling(&mut |_| {})
+    }
+
+    fn simulator_telling(&self, loading: &mut dyn FnMut(&Path)) -> Result<FmuSimulator, FmuError> {
+        let (hf, lf) = self.open_telling(loading)?;
         FmuSimulator::new(
             hf,
             lf,
@@ -78,6 +93,9 @@ pub struct WorkerRequest {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WorkerResponse {
+    /// The worker is about to load this FMU's library (a crash before the next answer is a
+    /// crash while loading it).
+    Loading(String),
     /// The simulator is built.
     Ready,
     /// A run's result.
@@ -114,10 +132,20 @@ pub fn serve(input: impl BufRead, mut output: impl Write) -> std::io::Result<()>
                 &mut output,
             )
         }
-        Ok(init) => match init.simulator() {
-            Ok(s) => s,
-            Err(e) => return say(&WorkerResponse::Error(e.to_string()), &mut output),
-        },
+        Ok(init) => {
+            let mut told: std::io::Result<()> = Ok(());
+            let built = init.simulator_telling(&mut |path| {
+                if told.is_ok() {
+                    let loading = WorkerResponse::Loading(path.display().to_string());
+                    told = say(&loading, &mut output);
+                }
+            });
+            told?;
+            match built {
+                Ok(s) => s,
+                Err(e) => return say(&WorkerResponse::Error(e.to_string()), &mut output),
+            }
+        }
     };
     say(&WorkerResponse::Ready, &mut output)?;
     for line in lines {
@@ -164,6 +192,7 @@ fn describe(status: std::process::ExitStatus) -> String {
         if let Some(sig) = status.signal() {
             let name = match sig {
                 6 => " (SIGABRT: the FMU aborted)",
+                7 => " (SIGBUS: the FMU crashed)",
                 9 => " (SIGKILL)",
                 11 => " (SIGSEGV: the FMU crashed)",
                 _ => "",
@@ -258,25 +287,54 @@ impl IsolatedSimulator {
         writeln!(stdin, "{}", self.init)
             .and_then(|()| stdin.flush())
             .map_err(|e| SimError::Failed(format!("FMU worker: {e}")))?;
-        let mut w = Worker {
+        let w = Worker {
             child,
             stdin,
             lines: rx,
         };
-        match self.answer(&mut w, Duration::from_secs(60).max(self.timeout)) {
-            Ok(WorkerResponse::Ready) => Ok(w),
-            Ok(WorkerResponse::Error(e)) => {
-                w.kill();
-                Err(SimError::Failed(e))
+        self.ready(w)
+    }
+
+    /// Waits for a started worker to load and check its FMUs. A worker that dies meanwhile is
+    /// reported naming the FMU it was loading (a library that crashes while it loads), a worker
+    /// that reports an error or does not answer is killed.
+    fn ready(&self, mut w: Worker) -> Result<Worker, SimError> {
+        let mut loading: Option<String> = None;
+        loop {
+            match self.answer(&mut w, Duration::from_secs(60).max(self.timeout)) {
+                Ok(WorkerResponse::Loading(fmu)) => loading = Some(fmu),
+                Ok(WorkerResponse::Ready) => return Ok(w),
+                Ok(WorkerResponse::Error(e)) => {
+                    w.kill();
+                    return Err(SimError::Failed(e));
+                }
+                Ok(other) => {
+                    w.kill();
+                    return Err(SimError::Failed(format!(
+                        "FMU worker: unexpected {other:?}"
+                    )));
+                }
+                Err(e) => {
+                    let status = w.kill();
+                    return Err(match loading {
+                        Some(fmu) => SimError::Failed(format!(
+                            "{fmu}: the FMU worker died while loading this FMU ({status})"
+                        )),
+                        None => e,
+                    });
+                }
             }
-            Ok(other) => {
-                w.kill();
-                Err(SimError::Failed(format!(
-                    "FMU worker: unexpected {other:?}"
-                )))
-            }
-            Err(e) => Err(e),
         }
+    }
+
+    /// Starts this simulator's worker now (else it starts at the first run): the FMUs are
+    /// loaded and checked in it, and a failure — also a crash while loading, naming the FMU —
+    /// comes back here, before any run.
+    pub fn start_now(&mut self) -> Result<(), SimError> {
+        if self.worker.is_none() {
+            self.worker = Some(self.start()?);
+        }
+        Ok(())
     }
 
     /// The next response, or an error after `timeout` (the worker is then dead or killed and
@@ -287,9 +345,8 @@ impl IsolatedSimulator {
                 .map_err(|e| SimError::Failed(format!("FMU worker sent {line:?}: {e}"))),
             Ok(Err(e)) => Err(SimError::Failed(format!("FMU worker: {e}"))),
             Err(RecvTimeoutError::Timeout) => Err(SimError::Failed(format!(
-                "{}: no answer within {:.1} s — the run hung; its worker was killed",
+                "{}: no answer within {timeout:?} — the run hung; its worker was killed",
                 self.fmu,
-                timeout.as_secs_f64()
             ))),
             Err(RecvTimeoutError::Disconnected) => Err(SimError::Failed(format!(
                 "{}: the FMU worker died during the run",
@@ -347,9 +404,11 @@ impl Simulator for IsolatedSimulator {
                 self.worker = Some(w);
                 Err(SimError::Failed(e))
             }
-            Ok(WorkerResponse::Ready) => {
+            Ok(other @ (WorkerResponse::Ready | WorkerResponse::Loading(_))) => {
                 w.kill();
-                Err(SimError::Failed("FMU worker: unexpected ready".into()))
+                Err(SimError::Failed(format!(
+                    "FMU worker: unexpected {other:?}"
+                )))
             }
             Err(SimError::Failed(msg)) => {
                 let status = w.kill();

@@ -386,7 +386,7 @@ mod isolation {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("no answer within 1.5 s") && e.contains("hung"),
+            e.contains("no answer within 1.5s") && e.contains("hung"),
             "{e}"
         );
         assert!(t.elapsed() < Duration::from_secs(30));

@@ -433,3 +433,34 @@ fn a_step_size_or_tolerance_variable_is_checked() {
         "{e}"
     );
 }
+
+/// A value outside the bounds the model description declares is named at its binding.
+#[test]
+fn declared_bounds_are_checked_at_the_binding() {
+    // The test kit declares `fault` in [0, 4].
+    let e = error("bounds-fixed", "fault = 0", "fault = 7");
+    assert_eq!(
+        (e.line, e.key.as_deref()),
+        (Some(29), Some("scenario[0].fixed.fault"))
+    );
+    assert!(
+        e.message.ends_with(
+            "variable `fault` is declared in [0, 4] (min/max); the fixed value 7 lies outside"
+        ),
+        "{e}"
+    );
+    let e = error(
+        "bounds-phi",
+        "name = \"x0\"\nrange = [0.0, 0.5]",
+        "name = \"x0\"\nrange = [0.0, 0.5]\n[[scenario.phi]]\nname = \"fault\"\nvalues = [0, 5]",
+    );
+    assert_eq!(
+        (e.line, e.key.as_deref()),
+        (Some(45), Some("scenario[1].phi[1].name"))
+    );
+    assert!(
+        e.message
+            .ends_with("is declared in [0, 4] (min/max); φ `fault` value 5 lies outside"),
+        "{e}"
+    );
+}

@@ -278,3 +278,325 @@ fn the_step_size_and_the_tolerance_can_be_the_fidelity() {
     assert!(!at(19.0, 0.02, 1.0).failure);
     assert!(!at(19.0, 0.4, 0.01).failure, "sub-steps of 0.01 s");
 }
+
+fn fixed(name: &str, value: Value) -> Fixed {
+    Fixed {
+        fmu_variable: name.into(),
+        value,
+    }
+}
+
+/// Item 6: φ ranges, fixed values and θ values are checked against the `min` / `max` the
+/// model description declares, before any run, naming the variable and its bounds.
+#[test]
+fn values_outside_the_declared_bounds_are_refused_before_any_run() {
+    let dir = temp_dir("bounds");
+    let fmu = braking(&dir, true);
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let build = |spec: RunSpec, phi: Space, theta: Option<Space>| {
+        FmuSimulator::new(
+            file.clone(),
+            file.clone(),
+            spec,
+            theta.as_ref(),
+            &|_| Some(phi.clone()),
+            None,
+        )
+        .map(|_| ())
+        .unwrap_err()
+        .to_string()
+    };
+    let wide = Space::new(vec![Variable::continuous(
+        "v",
+        0.0,
+        100.0,
+        4,
+        Scale::Linear,
+    )])
+    .unwrap();
+    let e = build(spec(Vec::new()), wide, None);
+    assert_eq!(
+        e,
+        format!(
+            "{}: variable `speed0` is declared in [4, 25] (min/max); φ `v` ranges over [0, 100], outside it",
+            fmu.display()
+        )
+    );
+    let e = build(
+        spec(vec![fixed("gap", Value::Real(500.0))]),
+        phi_space(),
+        None,
+    );
+    assert!(
+        e.ends_with(
+            "variable `gap` is declared in [1, 200] (min/max); the fixed value 500 lies outside"
+        ),
+        "{e}"
+    );
+    let theta = Space::new(vec![Variable::discrete("m", [-1.0, 5.0])]).unwrap();
+    let e = build(
+        RunSpec {
+            fidelity: vec![Binding {
+                variable: "m".into(),
+                fmu_variable: "map_length".into(),
+                labels: None,
+            }],
+            ..spec(Vec::new())
+        },
+        phi_space(),
+        Some(theta),
+    );
+    assert!(
+        e.ends_with(
+            "variable `map_length` is declared in [0, inf] (min/max); θ `m` value -1 lies outside"
+        ),
+        "{e}"
+    );
+}
+
+/// Item 6: an enumeration is set through `fmi2SetInteger`, by item name or value — fixed or
+/// searched (φ labels are item names); a value that is no item is refused before any run.
+#[test]
+fn enumerations_are_set_by_item_name_or_value() {
+    let dir = temp_dir("enum");
+    let fmu = braking(&dir, true);
+    // 10 m/s on a 40 m gap: stops in time on a dry or wet road, not on ice.
+    let verdict = |road: Value| {
+        let mut sim = simulator(&fmu, spec(vec![fixed("road", road)])).unwrap();
+        run(&mut sim, 10.0).unwrap().failure
+    };
+    assert!(!verdict(Value::from("dry")));
+    assert!(!verdict(Value::from("wet")));
+    assert!(verdict(Value::from("ice")));
+    assert!(verdict(Value::Int(3)));
+    for (bad, shown) in [(Value::from("snow"), "snow"), (Value::Int(4), "4")] {
+        let e = simulator(&fmu, spec(vec![fixed("road", bad)]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with(&format!(
+                "variable `road` is an enumeration (dry = 1, wet = 2, ice = 3); the fixed value {shown} is none of its items (give an item's name or value)"
+            )),
+            "{e}"
+        );
+    }
+    // Searched: φ with the item names as labels.
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let phi = Space::new(vec![
+        Variable::continuous("v", 5.0, 25.0, 4, Scale::Linear),
+        Variable::discrete("surface", ["dry", "ice"]),
+    ])
+    .unwrap();
+    let mut s = spec(Vec::new());
+    s.scenarios[0].phi.push(Binding {
+        variable: "surface".into(),
+        fmu_variable: "road".into(),
+        labels: Some(vec!["dry".into(), "ice".into()]),
+    });
+    let mut sim =
+        FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()), None).unwrap();
+    for (surface, failure) in [("dry", false), ("ice", true)] {
+        let phi = Assignment::new().with("v", 10.0).with("surface", surface);
+        let r = sim
+            .run(Role::High, "brake", &phi, &Assignment::new())
+            .unwrap();
+        assert_eq!(r.failure, failure, "{surface}");
+    }
+}
+
+/// Item 6: a String parameter can be fixed (`fmi2SetString`); a value the FMU rejects fails in
+/// initialisation with its message.
+#[test]
+fn string_parameters_can_be_fixed() {
+    let dir = temp_dir("string");
+    let fmu = braking(&dir, true);
+    // 16 m/s on 40 m: an alert driver (0.8 s) stops in time, a distracted one (1.6 s) does not.
+    for (driver, failure) in [("alert", false), ("distracted", true)] {
+        let mut sim = simulator(&fmu, spec(vec![fixed("driver", Value::from(driver))])).unwrap();
+        assert_eq!(run(&mut sim, 16.0).unwrap().failure, failure, "{driver}");
+    }
+    let mut sim = simulator(&fmu, spec(vec![fixed("driver", Value::from("sleepy"))])).unwrap();
+    let e = run(&mut sim, 15.0).unwrap_err().to_string();
+    assert!(
+        e.ends_with("unknown driver profile 'sleepy' (expected alert or distracted)"),
+        "{e}"
+    );
+    // A number is not a string.
+    let e = simulator(&fmu, spec(vec![fixed("driver", Value::Int(1))]))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.ends_with("variable `driver` is String, expected a variable that takes the value 1"),
+        "{e}"
+    );
+}
+
+/// The braking FMU declaring `canBeInstantiatedOnlyOncePerProcess="true"`, built to refuse a
+/// second live instance.
+fn braking_once(dir: &Path) -> PathBuf {
+    let out = dir.join("braking-once.fmu");
+    let xml = savme_fmu_testkit::BRAKING_MODEL_DESCRIPTION.replacen(
+        "canNotUseMemoryManagementFunctions=\"true\"",
+        "canNotUseMemoryManagementFunctions=\"true\" canBeInstantiatedOnlyOncePerProcess=\"true\"",
+        1,
+    );
+    savme_fmu_testkit::pack_braking_library(
+        &out,
+        &xml,
+        true,
+        &savme_fmu_testkit::braking_once_library(),
+    )
+    .unwrap();
+    out
+}
+
+/// Item 6: `canBeInstantiatedOnlyOncePerProcess="true"` is refused in-process (a campaign runs
+/// several instances) and runs isolated, where the worker keeps one instance at a time even
+/// when the HF and LF runs alternate on the same FMU.
+#[test]
+fn an_fmu_instantiable_once_per_process_runs_isolated_only() {
+    use savme_fmu::worker::WorkerInit;
+    use savme_fmu::FmuBackend;
+    use savme_kernel::Simulator;
+    let dir = temp_dir("once");
+    let fmu = braking_once(&dir);
+    // The library really refuses a second instance.
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    assert!(file.only_once_per_process());
+    let first = Instance::new(file.clone(), "first").unwrap();
+    let e = Instance::new(file.clone(), "second")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("fmi2Instantiate failed (returned no instance); the FMU logged: [error] an instance is alive"),
+        "{e}"
+    );
+    drop(first);
+    let init = WorkerInit {
+        hf: fmu.clone(),
+        lf: fmu.clone(),
+        spec: spec(Vec::new()),
+        fidelity: None,
+        phi: [("brake".to_string(), phi_space())].into_iter().collect(),
+        theta_hf: None,
+    };
+    let e = FmuBackend::new(&init, None, std::time::Duration::from_secs(30)).unwrap_err();
+    assert!(
+        e.to_string().ends_with("the FMU declares canBeInstantiatedOnlyOncePerProcess=\"true\": savme runs it in worker processes only (set [fmu] isolate = true)"),
+        "{e}"
+    );
+    let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
+    let mut backend =
+        FmuBackend::new(&init, Some(worker), std::time::Duration::from_secs(30)).unwrap();
+    for k in 0..4 {
+        let role = if k % 2 == 0 {
+            Role::High
+        } else {
+            Role::Learned
+        };
+        let phi = Assignment::new().with("v", 10.0);
+        let r = backend.simulate_as(role, "brake", &phi, &Assignment::new());
+        assert!(!r.unwrap().failure, "run {k}");
+    }
+}
+
+/// Item 6 in a campaign file: an FMU instantiable once per process forces isolation, and its
+/// library is not loaded by the check (the workers load it). (And `[fmu] log = true` is item 4's
+/// config key.)
+#[test]
+fn a_campaign_on_an_fmu_instantiable_once_is_isolated() {
+    let dir = temp_dir("once-campaign");
+    braking_once(&dir);
+    let path = dir.join("campaign.toml");
+    std::fs::write(
+        &path,
+        r#"
+[fmu]
+hf = "braking-once.fmu"
+stop_time = 8.0
+cost = "steps"
+isolate = false
+log = true
+
+[failure]
+boolean = "collision"
+
+[fidelity]
+[[fidelity.variable]]
+name = "step"
+drives = "step_size"
+values = [0.1, 0.01]
+hf = 0.01
+
+[[scenario]]
+name = "ice"
+role = "train"
+fixed = { road = "ice", driver = "alert" }
+[[scenario.phi]]
+name = "speed0"
+range = [5.0, 20.0]
+"#,
+    )
+    .unwrap();
+    let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
+    assert!(f.isolate, "forced by canBeInstantiatedOnlyOncePerProcess");
+    assert!(f.init.spec.fmu_log, "[fmu] log = true");
+}
+
+/// Item 5: with isolation the FMU's library is loaded in the worker only — one that crashes
+/// while loading (SIGBUS in its constructor) is reported naming the FMU, before any run, and
+/// neither the campaign-file check nor the backend loads it in this process (which would kill
+/// this test).
+#[test]
+fn a_library_crashing_while_loading_is_reported_naming_the_fmu() {
+    use savme_fmu::FmuBackend;
+    let dir = temp_dir("crash-on-load");
+    let fmu = dir.join("braking.fmu");
+    savme_fmu_testkit::pack_braking_library(
+        &fmu,
+        savme_fmu_testkit::BRAKING_MODEL_DESCRIPTION,
+        true,
+        &savme_fmu_testkit::crash_on_load_library(),
+    )
+    .unwrap();
+    let path = dir.join("campaign.toml");
+    std::fs::write(
+        &path,
+        r#"
+[fmu]
+hf = "braking.fmu"
+stop_time = 8.0
+step = 0.1
+isolate = true
+
+[failure]
+boolean = "collision"
+
+[fidelity]
+[[fidelity.variable]]
+name = "road"
+values = ["dry", "ice"]
+hf = "dry"
+
+[[scenario]]
+name = "s"
+role = "train"
+[[scenario.phi]]
+name = "speed0"
+range = [5.0, 20.0]
+"#,
+    )
+    .unwrap();
+    let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
+    let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
+    let e = FmuBackend::new(&f.init, Some(worker), std::time::Duration::from_secs(30))
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        format!(
+            "{}: the FMU worker died while loading this FMU (killed by signal 7 (SIGBUS: the FMU crashed))",
+            fmu.display()
+        )
+    );
+}

@@ -189,9 +189,12 @@ impl Counts {
     }
 }
 
-/// `42 s`, `3 min 05 s`, `1 h 02 min`.
+/// `42 s`, `3 min 05 s`, `1 h 02 min`; below a second `350.0 ms`, `12.0 µs`.
 fn human_seconds(s: f64) -> String {
-    let s = s.max(0.0).round() as u64;
+    if s < 1.0 {
+        return super::report::format_seconds(s);
+    }
+    let s = s.round() as u64;
     match s {
         0..=59 => format!("{s} s"),
         60..=3599 => format!("{} min {:02} s", s / 60, s % 60),
@@ -342,10 +345,17 @@ mod tests {
         let (a, b) = (stages[0].label(), stages[1].label());
         let n = stages[0].iterations;
         assert_eq!(lines.len(), 7, "{text}");
+        // Times below a second in ms or µs (here microseconds have passed).
+        let started = format!("{a} started: 0/{n} trials, 0 failures (HF), ");
+        assert!(lines[0].starts_with(&started), "{text}");
         assert!(
-            lines[0].starts_with(&format!(
-                "{a} started: 0/{n} trials, 0 failures (HF), 0 s elapsed, ETA ?"
-            )),
+            [
+                " µs elapsed, ETA ?",
+                " ms elapsed, ETA ?",
+                "0 s elapsed, ETA ?"
+            ]
+            .iter()
+            .any(|t| lines[0][started.len()..].contains(t)),
             "{text}"
         );
         assert!(
@@ -391,6 +401,8 @@ mod tests {
         assert_eq!(plural(1, "failure"), "1 failure");
         assert_eq!(plural(0, "failure"), "0 failures");
         assert_eq!(human_seconds(42.4), "42 s");
+        assert_eq!(human_seconds(0.35), "350.0 ms");
+        assert_eq!(human_seconds(1.2e-5), "12.0 µs");
         assert_eq!(human_seconds(185.0), "3 min 05 s");
         assert_eq!(human_seconds(3720.0), "1 h 02 min");
     }

@@ -447,13 +447,40 @@ fn cost_name(c: Cost) -> &'static str {
     }
 }
 
-/// A cumulative cost for people: minutes/seconds for wall-clock, millions of work units.
+/// A cumulative cost for people: minutes, seconds, milliseconds or microseconds for
+/// wall-clock; work units, thousands or millions of them.
+///
+/// ```
+/// use savme::campaign::report::format_cost;
+/// use savme::campaign::Cost;
+/// assert_eq!(format_cost(Cost::Wall, 0.0123), "12.3 ms");
+/// assert_eq!(format_cost(Cost::Work, 800.0), "800 work units");
+/// ```
 pub fn format_cost(c: Cost, v: f64) -> String {
     match c {
-        Cost::Wall if v >= 120.0 => format!("{:.1} min", v / 60.0),
-        Cost::Wall => format!("{v:.1} s"),
+        Cost::Wall => format_seconds(v),
         Cost::Work if v >= 1e7 => format!("{:.1} M work units", v / 1e6),
-        Cost::Work => format!("{:.0} k work units", v / 1e3),
+        Cost::Work if v >= 1e4 => format!("{:.0} k work units", v / 1e3),
+        Cost::Work => format!("{v:.0} work units"),
+    }
+}
+
+/// A duration for people: `2.5 min` from two minutes on, `1.5 s`, `12.3 ms`, `4.2 µs`, `0 s` —
+/// never `0.0 s` for a time below a second.
+///
+/// ```
+/// use savme::campaign::report::format_seconds;
+/// assert_eq!(format_seconds(0.0042), "4.2 ms");
+/// assert_eq!(format_seconds(3.1e-6), "3.1 µs");
+/// assert_eq!(format_seconds(41.25), "41.2 s");
+/// ```
+pub fn format_seconds(s: f64) -> String {
+    match s {
+        s if s >= 120.0 => format!("{:.1} min", s / 60.0),
+        s if s >= 1.0 => format!("{s:.1} s"),
+        s if s >= 1e-3 => format!("{:.1} ms", s * 1e3),
+        s if s > 0.0 => format!("{:.1} µs", s * 1e6),
+        _ => "0 s".into(),
     }
 }
 

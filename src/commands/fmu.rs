@@ -1,5 +1,6 @@
-//! `savme fmu pack` (the bundled simulator as an FMU) and the hidden `savme fmu-worker` (serves
-//! isolated FMU evaluations to `savme run`).
+//! `savme fmu pack` (the bundled simulator as an FMU), `savme fmu info` / `validate` (any FMU,
+//! like `fmpy info` / `validate`), and the hidden `savme fmu-worker` (serves isolated FMU
+//! evaluations to `savme run`).
 
 use std::path::{Path, PathBuf};
 
@@ -14,6 +15,32 @@ pub enum Command {
         #[arg(long)]
         library: Option<PathBuf>,
     },
+    /// Show an FMU: FMI version, kinds, platforms, capabilities, default experiment, and its
+    /// variables with causality, type, start, min/max, unit (and enumeration items).
+    Info {
+        /// The .fmu.
+        file: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Make every check savme makes on an FMU before a campaign: archive, model description,
+    /// FMI 2.0 co-simulation, a binary for this platform, every variable's declaration, and the
+    /// library (loaded, its FMI functions, instantiated with its GUID and resources — in a
+    /// child process). Exit status 0, or 1 with the list of problems.
+    Validate {
+        /// The .fmu.
+        file: PathBuf,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The library part of `validate`, in this process: prints the problems as JSON.
+    #[command(hide = true)]
+    ValidateLibrary {
+        /// The .fmu.
+        file: PathBuf,
+    },
 }
 
 pub fn run(c: Command) -> Result<(), String> {
@@ -21,7 +48,86 @@ pub fn run(c: Command) -> Result<(), String> {
         Command::Pack { out, library } => {
             pack(&out, library.as_deref()).and_then(|t| super::print(&t))
         }
+        Command::Info { file, json } => {
+            let info = savme_fmu::inspect::Info::read(&file).map_err(|e| e.to_string())?;
+            let text = if json {
+                serde_json::to_string_pretty(&info).map_err(|e| e.to_string())? + "\n"
+            } else {
+                info.text()
+            };
+            super::print(&text)
+        }
+        Command::Validate { file, json } => validate(&file, json),
+        Command::ValidateLibrary { file } => {
+            let problems = savme_fmu::inspect::load_problems(&file);
+            super::print(&(serde_json::to_string(&problems).map_err(|e| e.to_string())? + "\n"))
+        }
     }
+}
+
+/// `savme fmu validate`: the checks without loading, then (if they pass) the library's in a
+/// child process (`savme fmu validate-library`), so that one that crashes is a problem.
+fn validate(file: &Path, json: bool) -> Result<(), String> {
+    let mut problems = savme_fmu::inspect::problems(file);
+    if problems.is_empty() {
+        problems = library_problems(file)?;
+    }
+    let shown = file.display().to_string();
+    let text = if json {
+        let report = serde_json::json!({
+            "fmu": shown,
+            "valid": problems.is_empty(),
+            "problems": problems,
+        });
+        serde_json::to_string_pretty(&report).map_err(|e| e.to_string())? + "\n"
+    } else if problems.is_empty() {
+        format!("{shown}: valid — every check savme makes before a campaign passes\n")
+    } else {
+        let mut t = format!("{shown}: {} problem(s)\n", problems.len());
+        for p in &problems {
+            t.push_str(&format!("  - {p}\n"));
+        }
+        t
+    };
+    super::print(&text)?;
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{shown}: not valid ({} problem(s))",
+            problems.len()
+        ))
+    }
+}
+
+/// The library checks of `file`, run by this binary in a child process.
+fn library_problems(file: &Path) -> Result<Vec<String>, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find the savme binary: {e}"))?;
+    let out = std::process::Command::new(exe)
+        .args(["fmu", "validate-library"])
+        .arg(file)
+        .output()
+        .map_err(|e| format!("cannot start the library check: {e}"))?;
+    if out.status.success() {
+        return serde_json::from_slice(&out.stdout)
+            .map_err(|e| format!("the library check answered badly: {e}"));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = out.status.signal() {
+            return Ok(vec![format!(
+                "{}: the library crashed while it was loaded or instantiated (killed by signal {sig})",
+                file.display()
+            )]);
+        }
+    }
+    Ok(vec![format!(
+        "{}: the library check failed ({}): {}",
+        file.display(),
+        out.status,
+        String::from_utf8_lossy(&out.stderr).trim()
+    )])
 }
 
 /// Where the bundled simulator's FMU library is: given, or next to the savme binary (cargo

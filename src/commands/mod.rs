@@ -389,11 +389,11 @@ pub fn summary_text(o: &CampaignOutcome, problem: &Problem) -> String {
     let _ = writeln!(s, "{}", r.findings_text());
     let _ = writeln!(
         s,
-        "{} trials ({} replayed from the trial store, {} run) in {:.1} s; outputs in {}",
+        "{} trials ({} replayed from the trial store, {} run) in {}; outputs in {}",
         o.replayed + o.ran,
         o.replayed,
         o.ran,
-        o.elapsed_seconds,
+        savme::campaign::report::format_seconds(o.elapsed_seconds),
         o.outputs
             .table
             .parent()

@@ -128,12 +128,27 @@ static char *uri_to_path(const char *uri) {
 EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
 EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
 
+#ifdef BRAKING_ONLY_ONCE
+/* Built with -DBRAKING_ONLY_ONCE (savme's tests): one instance per process at a time, as its
+ * model description then declares (canBeInstantiatedOnlyOncePerProcess="true"). */
+static int live_instances = 0;
+#endif
+
 EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid,
                                      fmi2String resources, const fmi2CallbackFunctions *cb,
                                      fmi2Boolean visible, fmi2Boolean loggingOn) {
     Model *m;
     (void)visible;
     if (type != fmi2CoSimulation || !guid || strcmp(guid, GUID) != 0 || !cb) return NULL;
+#ifdef BRAKING_ONLY_ONCE
+    if (live_instances > 0) {
+        if (cb->logger)
+            cb->logger(cb->componentEnvironment, name, fmi2Error, "logStatusError",
+                       "an instance is alive: this FMU can be instantiated only once per process");
+        return NULL;
+    }
+    live_instances++;
+#endif
     m = calloc(1, sizeof *m);
     if (!m) return NULL;
     m->name = strdup(name ? name : "braking");
@@ -148,6 +163,9 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
 EXPORT void fmi2FreeInstance(fmi2Component c) {
     Model *m = c;
     if (!m) return;
+#ifdef BRAKING_ONLY_ONCE
+    live_instances--;
+#endif
     free(m->name);
     free(m->resources);
     free(m);

@@ -5,7 +5,7 @@
 use super::raw::FmuSection;
 use super::{ConfigError, Source};
 use crate::worker::WorkerInit;
-use crate::{CostSource, FmuError, FmuSimulator, RunSpec};
+use crate::{CostSource, FmuDescription, FmuError, FmuSimulator, RunSpec};
 use toml::Spanned;
 
 /// What a campaign file does with an FMU variable: reads it as the failure signal or the cost,
@@ -101,32 +101,49 @@ impl Origins {
     }
 }
 
-/// Opens both FMUs and checks every binding and signal against them (types, causalities), one
-/// use at a time — the failure signal, the cost, the fidelity settings, each scenario, then the
-/// whole run specification — so that an error about an FMU variable is put on the binding of
-/// the use that failed: `cost = "collision"` is blamed, not `failure.boolean = "collision"`.
+/// Reads both FMUs' descriptions (nothing loaded: with isolation the libraries are loaded in
+/// the workers only) and checks every binding and signal against them (types, causalities,
+/// declared bounds and items), one use at a time — the failure signal, the cost, the fidelity
+/// settings, each scenario, then the whole run specification — so that an error about an FMU
+/// variable is put on the binding of the use that failed: `cost = "collision"` is blamed, not
+/// `failure.boolean = "collision"`. Returns the descriptions (HF, LF).
 pub(super) fn check_fmus(
     src: &Source,
     init: &WorkerInit,
     fmu: &Spanned<FmuSection>,
     origins: &Origins,
-) -> Result<(), ConfigError> {
-    let (hf, lf) = init.open().map_err(|e| fmu_file_error(src, &e, fmu))?;
+) -> Result<(FmuDescription, FmuDescription), ConfigError> {
+    let read = |path: &std::path::Path| {
+        FmuDescription::read(path).map_err(|e| fmu_file_error(src, &e, fmu))
+    };
+    let hf = read(&init.hf)?;
+    let lf = if init.lf == init.hf {
+        hf.clone()
+    } else {
+        read(&init.lf)?
+    };
     for (used, spec) in stages(&init.spec) {
-        FmuSimulator::new(
-            hf.clone(),
-            lf.clone(),
-            spec,
-            init.fidelity.as_ref(),
-            &|name| init.phi.get(name).cloned(),
-            None,
-        )
+        FmuSimulator::check(&hf, &lf, &spec, init.fidelity.as_ref(), &|name| {
+            init.phi.get(name).cloned()
+        })
         .map_err(|e| {
             let (line, key) = locate(src, &e, used, fmu, origins);
             src.err(Some(line), Some(key), e.to_string())
         })?;
     }
-    Ok(())
+    Ok((hf, lf))
+}
+
+/// Loads both FMUs in this process (for a campaign without isolation): a library that cannot
+/// be loaded, or lacks an FMI function, is named at the line of its FMU.
+pub(super) fn load_fmus(
+    src: &Source,
+    init: &WorkerInit,
+    fmu: &Spanned<FmuSection>,
+) -> Result<(), ConfigError> {
+    init.open()
+        .map(|_| ())
+        .map_err(|e| fmu_file_error(src, &e, fmu))
 }
 
 /// The run specifications the FMU check builds in turn, each adding one use to the last (and
@@ -174,7 +191,8 @@ fn locate<'a>(
     let variable = match e {
         FmuError::UnknownVariable { variable, .. }
         | FmuError::WrongType { variable, .. }
-        | FmuError::WrongCausality { variable, .. } => Some(variable),
+        | FmuError::WrongCausality { variable, .. }
+        | FmuError::OutOfRange { variable, .. } => Some(variable),
         _ => None,
     };
     variable

@@ -132,6 +132,12 @@ pub const BRAKING_MODEL_DESCRIPTION: &str =
 pub const BRAKING_FRICTION: &str =
     include_str!("../../../examples/fmu/braking/resources/friction.txt");
 
+/// The `braking` FMU built to refuse a second live instance in a process (for a model
+/// description that declares `canBeInstantiatedOnlyOncePerProcess="true"`).
+pub fn braking_once_library() -> std::path::PathBuf {
+    env!("SAVME_BRAKING_ONCE_LIB").into()
+}
+
 /// Packs the `braking` FMU into `out` with `model_description` and, when `with_resources`, its
 /// `resources/friction.txt`.
 pub fn pack_braking(
@@ -139,12 +145,22 @@ pub fn pack_braking(
     model_description: &str,
     with_resources: bool,
 ) -> Result<(), savme_fmi_export::PackError> {
+    pack_braking_library(out, model_description, with_resources, &braking_library())
+}
+
+/// [`pack_braking`] with another build of its library.
+pub fn pack_braking_library(
+    out: &std::path::Path,
+    model_description: &str,
+    with_resources: bool,
+    library: &std::path::Path,
+) -> Result<(), savme_fmi_export::PackError> {
     let files: &[(&str, &[u8])] = if with_resources {
         &[("resources/friction.txt", BRAKING_FRICTION.as_bytes())]
     } else {
         &[]
     };
-    savme_fmi_export::pack_with(model_description, "braking", &braking_library(), files, out)
+    savme_fmi_export::pack_with(model_description, "braking", library, files, out)
 }
 
 /// A shared library that dies of SIGBUS while it is loaded (its constructor raises it).
