@@ -184,6 +184,7 @@ impl<'o> Campaign<'o> {
             outputs: files,
             replayed,
             elapsed_seconds: clock.elapsed().as_secs_f64(),
+            trials,
         })
     }
 

@@ -132,13 +132,23 @@ impl Observer for ProgressBars {
 /// output that is not a terminal.
 pub struct ProgressLines<W: Write> {
     out: W,
+    prefix: String,
     current: Option<(String, u64, u64, Instant)>,
 }
 
 impl<W: Write> ProgressLines<W> {
     /// Lines written to `out` (e.g. standard error).
     pub fn new(out: W) -> Self {
-        ProgressLines { out, current: None }
+        ProgressLines::with_prefix(out, "")
+    }
+
+    /// Lines starting with `prefix` (e.g. `seed 3: `, for campaigns running side by side).
+    pub fn with_prefix(out: W, prefix: &str) -> Self {
+        ProgressLines {
+            out,
+            prefix: prefix.into(),
+            current: None,
+        }
     }
 
     fn end_stage(&mut self) {
@@ -146,7 +156,8 @@ impl<W: Write> ProgressLines<W> {
             // Progress is best effort: a closed pipe must not stop the campaign.
             let _ = writeln!(
                 self.out,
-                "{label}: {trials} trials, {failures} HF failures, {:.1} s",
+                "{}{label}: {trials} trials, {failures} HF failures, {:.1} s",
+                self.prefix,
                 since.elapsed().as_secs_f64()
             );
         }

@@ -9,6 +9,8 @@ use plotters::prelude::*;
 use savme_kernel::metrics::FailureCurve;
 use std::path::Path;
 
+pub mod bands;
+
 const FONT: &str = "sans-serif";
 
 /// Registers the bundled font once (plotters draws text with it; no system fonts needed).

@@ -9,6 +9,10 @@ use savme_kernel::{Assignment, Outcome, Space};
 use serde::Serialize;
 use std::fmt::Write as _;
 
+pub mod ablation;
+pub mod intervals;
+pub mod repeated;
+
 /// Failure counts of an HF-only baseline stage.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Baseline {
@@ -107,6 +111,9 @@ pub struct BudgetReport {
     pub evaluation: Option<Evaluation>,
     /// Meta-testing (None until it ran).
     pub meta_testing: Option<MetaTesting>,
+    /// The prior-strength ablation (None without `prior_strengths`, or until it ran).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ablation: Option<ablation::Ablation>,
 }
 
 /// The campaign's results.
@@ -135,6 +142,7 @@ fn stage_of(p: &Protocol, kind: StageKind, budget: Option<f64>) -> Stage {
             kind,
             budget,
             iterations: 0,
+            strength: None,
         })
 }
 
@@ -290,6 +298,7 @@ impl Report {
                     training,
                     evaluation,
                     meta_testing,
+                    ablation: ablation::at_budget(protocol, lines, b),
                 }
             })
             .collect();
@@ -318,14 +327,30 @@ impl Report {
             cost_name(p.cost),
             p.seed
         );
-        let _ = writeln!(s, "| C_budget | TP-rate | mean LF cost | speedup |");
-        let _ = writeln!(s, "|---|---|---|---|");
+        let _ = writeln!(
+            s,
+            "| C_budget | TP-rate | mean LF cost | speedup | TP-rate 95 % interval (Wilson) |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|");
+        let wilson = |k: u64, n: u64| match intervals::Interval::wilson(k, n) {
+            Some(intervals::Interval {
+                lo: Some(lo),
+                hi: Some(hi),
+                ..
+            }) => format!("[{lo:.2}, {hi:.2}]"),
+            _ => "–".into(),
+        };
         match &self.baseline_train {
             Some(b) => {
-                let _ = writeln!(s, "| baseline | {:.2} | 1.00 | 1.00 |", b.failure_rate);
+                let _ = writeln!(
+                    s,
+                    "| baseline | {:.2} | 1.00 | 1.00 | {} |",
+                    b.failure_rate,
+                    wilson(b.failures, b.trials)
+                );
             }
             None => {
-                let _ = writeln!(s, "| baseline | – | – | – |");
+                let _ = writeln!(s, "| baseline | – | – | – | – |");
             }
         }
         for b in &self.budgets {
@@ -333,15 +358,16 @@ impl Report {
                 Some(e) => {
                     let _ = writeln!(
                         s,
-                        "| {} | {:.2} | {:.2} | {} |",
+                        "| {} | {:.2} | {:.2} | {} | {} |",
                         b.budget,
                         e.tp_rate,
                         e.mean_lf_cost,
-                        e.speedup.map_or("–".into(), |x| format!("{x:.2}"))
+                        e.speedup.map_or("–".into(), |x| format!("{x:.2}")),
+                        wilson(e.tp, e.trials)
                     );
                 }
                 None => {
-                    let _ = writeln!(s, "| {} | – | – | – |", b.budget);
+                    let _ = writeln!(s, "| {} | – | – | – | – |", b.budget);
                 }
             }
         }
@@ -434,6 +460,25 @@ impl Report {
                     let _ = writeln!(s, "  C_budget = {}: not run", b.budget);
                 }
             }
+        }
+        let ablations: Vec<_> = self
+            .budgets
+            .iter()
+            .filter_map(|b| b.ablation.as_ref().map(|a| (b.budget, a)))
+            .collect();
+        if !ablations.is_empty() {
+            let _ = writeln!(
+                s,
+                "Prior-strength ablation (failures by the common runtime, every run charged; gain over strength 0 = uniform prior):"
+            );
+        }
+        for (budget, a) in ablations {
+            let rows: Vec<String> = a
+                .rows
+                .iter()
+                .map(|r| format!("{}: {} ({})", r.strength, r.all_runs, pct(r.gain_all_runs)))
+                .collect();
+            let _ = writeln!(s, "  C_budget = {budget}: {}", rows.join(", "));
         }
         s
     }

@@ -1,8 +1,8 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
-use super::{run_campaign, ProtocolArgs, RunnerArgs, Target};
+use super::{run_campaign, run_repeated, ProtocolArgs, RunnerArgs, Target};
 use savme::campaign::config::{self, Preset};
-use savme::campaign::{load_protocol, Problem};
+use savme::campaign::{load_protocol, load_repeat, Problem};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
@@ -39,12 +39,19 @@ pub fn run(a: Args) -> Result<(), String> {
         quick: a.quick,
         ideal: a.perception == Perception::Ideal,
     };
+    let mut repeat = config::check_repeat(overrides.repeat).map_err(|e| e.to_string())?;
     let (protocol, problem, target) = match a.resume {
         Some(dir) => {
             if overrides.any() || preset != Preset::default() {
                 return Err("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --resume, --jobs and --quiet".into());
             }
-            let p = load_protocol(&dir).map_err(|e| e.to_string())?;
+            let p = match load_repeat(&dir).map_err(|e| e.to_string())? {
+                Some(file) => {
+                    repeat = Some(file.repeat);
+                    file.protocol
+                }
+                None => load_protocol(&dir).map_err(|e| e.to_string())?,
+            };
             let problem = Problem::driving(p.fidelity_bins);
             (
                 p,
@@ -68,6 +75,9 @@ pub fn run(a: Args) -> Result<(), String> {
         }
     };
     let sim = config::bundled_simulator(&protocol).map_err(|e| e.to_string())?;
+    if let Some(n) = repeat {
+        return run_repeated(protocol, problem, n, target, &a.runner, &sim);
+    }
     run_campaign(
         protocol,
         problem,

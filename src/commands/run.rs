@@ -1,6 +1,6 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
-use super::{run_campaign, ProtocolArgs, RunnerArgs, Target};
+use super::{run_campaign, run_repeated, ProtocolArgs, RunnerArgs, Target};
 use savme::campaign::config;
 use savme::viewer::Frames;
 use savme_fmu::FmuBackend;
@@ -54,6 +54,10 @@ pub fn run(a: Args) -> Result<(), String> {
     };
     let backend =
         FmuBackend::new(&c.file.init, worker, c.file.timeout).map_err(|e| e.to_string())?;
+    let repeat = overrides.repeat.or(c.file.campaign.repeat);
+    if let Some(n) = repeat {
+        return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
+    }
     run_campaign(
         c.protocol,
         c.problem,
