@@ -198,7 +198,7 @@ impl CampaignFile {
     /// use savme_fmu::campaign_file::CampaignFile;
     /// use savme_kernel::{Assignment, Space, Variable};
     ///
-    /// // The caller's "paper" fidelity table (savme passes the bundled simulator's Table I).
+    /// // The caller's "paper" fidelity table (savme passes the bundled simulator's Table II).
     /// let file = CampaignFile::load("campaign.toml".as_ref(), &|_bins| {
     ///     let space = Space::new(vec![Variable::discrete("rate_hz", [2, 10])]).expect("valid");
     ///     (space, Assignment::new().with("rate_hz", 10))
@@ -360,7 +360,7 @@ mod raw {
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub struct FidelitySection {
-        /// The paper's Table I, each setting bound to the FMU variable of the same name.
+        /// The paper's Table II, each setting bound to the FMU variable of the same name.
         #[serde(default)]
         pub paper: Option<Spanned<bool>>,
         #[serde(default, rename = "variable")]

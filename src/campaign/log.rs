@@ -66,7 +66,7 @@ pub struct TrialLine {
     pub cost_ratio: Option<f64>,
     /// TP / TN / FP / FN.
     pub outcome: Option<Outcome>,
-    /// What the kernel credited (Table II).
+    /// What the kernel credited (Table I).
     pub credit: Credit,
 }
 

@@ -1,6 +1,8 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
-use super::{run_campaign, run_repeated, ProtocolArgs, RunnerArgs, Target};
+use super::{
+    config_failure, run_campaign, run_repeated, usage, Failure, ProtocolArgs, RunnerArgs, Target,
+};
 use savme::campaign::config::{self, Preset};
 use savme::campaign::{load_protocol, load_repeat, Problem};
 use savme::viewer::Frames;
@@ -33,17 +35,17 @@ enum Perception {
     Ideal,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let overrides = a.protocol.overrides();
     let preset = Preset {
         quick: a.quick,
         ideal: a.perception == Perception::Ideal,
     };
-    let mut repeat = config::check_repeat(overrides.repeat).map_err(|e| e.to_string())?;
+    let mut repeat = config::check_repeat(overrides.repeat).map_err(config_failure)?;
     let (protocol, problem, target) = match a.resume {
         Some(dir) => {
             if overrides.any() || preset != Preset::default() {
-                return Err("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --resume, --jobs and --quiet".into());
+                return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --resume, --jobs and --quiet"));
             }
             let p = match load_repeat(&dir).map_err(|e| e.to_string())? {
                 Some(file) => {
@@ -63,7 +65,7 @@ pub fn run(a: Args) -> Result<(), String> {
             )
         }
         None => {
-            let (p, problem) = config::bundled(preset, &overrides).map_err(|e| e.to_string())?;
+            let (p, problem) = config::bundled(preset, &overrides).map_err(config_failure)?;
             (
                 p,
                 problem,

@@ -1,6 +1,7 @@
 //! `savme simulate`: one run of the bundled driving simulator, described or as JSON, optionally
 //! recorded to the viewer.
 
+use super::{usage, Failure};
 use savme::kernel::{Assignment, Domain, Value};
 use savme_sim::fidelity;
 use savme_sim::scenario;
@@ -24,18 +25,20 @@ pub struct Args {
     record: super::RecordArgs,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
-    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
+pub fn run(a: Args) -> Result<(), Failure> {
+    // A recording that cannot be made is refused before anything runs.
     let request = a.record.request();
-    if request.wanted() {
+    let record = request.check().map_err(usage)?;
+    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
+    super::print(&text)?;
+    if record {
         // `simulate` checked the arguments.
         let info = scenario::find(&a.scenario).ok_or("unknown scenario")?;
         let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
         let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-        savme::viewer::record_run(&request, info.name, &phi, &theta)
-            .map_err(|e| format!("{text}{e}"))?;
+        savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?;
     }
-    super::print(&text)
+    Ok(())
 }
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,
@@ -97,12 +100,17 @@ fn parse_fidelity(text: &str) -> Result<Assignment, String> {
 }
 
 /// Runs one simulation and describes it (or gives it as JSON).
-fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, String> {
+fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, Failure> {
     let info = scenario::find(scenario).ok_or_else(|| {
-        format!("unknown scenario `{scenario}`: give 1–10 or a name from `savme scenarios`")
+        usage(format!(
+            "unknown scenario `{scenario}`: give 1–10 or a name from `savme scenarios`"
+        ))
     })?;
-    let phi = parse_assignment(phi).map_err(|e| format!("--phi: {e}"))?;
-    let theta = parse_fidelity(fidelity).map_err(|e| format!("--fidelity: {e}"))?;
+    let phi = parse_assignment(phi).map_err(|e| usage(format!("--phi: {e}")))?;
+    let theta = parse_fidelity(fidelity).map_err(|e| usage(format!("--fidelity: {e}")))?;
+    scenario::phi_space(info)
+        .arms_of(&phi)
+        .map_err(|e| usage(format!("--phi: scenario {} ({}): {e}", info.id, info.name)))?;
     let r = DrivingSimulator::default()
         .run(info.name, &phi, &theta, false)
         .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?;

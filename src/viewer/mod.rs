@@ -43,6 +43,36 @@ impl RecordRequest {
     pub fn wanted(&self) -> bool {
         self.file.is_some() || self.spawn || self.connect.is_some()
     }
+
+    /// Whether a recording can be made as asked: `Ok(true)` when one was asked for and this
+    /// build can make it, `Ok(false)` when none was asked for; an error for more than one sink
+    /// or, in a build without the `rerun` feature, for any request (saying how to get it).
+    /// Commands call it before they run anything.
+    ///
+    /// ```
+    /// use savme::viewer::RecordRequest;
+    /// assert!(matches!(RecordRequest::default().check(), Ok(false)));
+    /// let twice = RecordRequest { spawn: true, connect: Some(String::new()), ..Default::default() };
+    /// assert!(twice.check().is_err());
+    /// ```
+    pub fn check(&self) -> Result<bool, CampaignError> {
+        if !self.wanted() {
+            return Ok(false);
+        }
+        let n = usize::from(self.file.is_some())
+            + usize::from(self.spawn)
+            + usize::from(self.connect.is_some());
+        if n > 1 {
+            return Err(asked_twice());
+        }
+        if cfg!(feature = "rerun") {
+            Ok(true)
+        } else {
+            Err(CampaignError::Recording(
+                "this savme was built without the `rerun` feature; rebuild with `cargo build --release --features rerun`".into(),
+            ))
+        }
+    }
 }
 
 /// The simulator whose frames a recording shows.
@@ -75,28 +105,8 @@ pub fn start(
     #[cfg(not(feature = "rerun"))]
     {
         let _ = (frames, theta_hf);
-        check(req)?;
+        req.check()?;
         Ok(None)
-    }
-}
-
-/// One sink at most; without the feature, any request is an error saying how to get it.
-fn check(req: &RecordRequest) -> Result<bool, CampaignError> {
-    if !req.wanted() {
-        return Ok(false);
-    }
-    let n = usize::from(req.file.is_some())
-        + usize::from(req.spawn)
-        + usize::from(req.connect.is_some());
-    if n > 1 {
-        return Err(asked_twice());
-    }
-    if cfg!(feature = "rerun") {
-        Ok(true)
-    } else {
-        Err(CampaignError::Recording(
-            "this savme was built without the `rerun` feature; rebuild with `cargo build --release --features rerun`".into(),
-        ))
     }
 }
 
@@ -106,7 +116,7 @@ fn recorder(
     frames: Frames,
     theta_hf: Assignment,
 ) -> Result<Option<Recorder>, CampaignError> {
-    if !check(req)? {
+    if !req.check()? {
         return Ok(None);
     }
     let sink = match (&req.file, req.spawn, &req.connect) {
@@ -150,6 +160,6 @@ pub fn record_run(
     #[cfg(not(feature = "rerun"))]
     {
         let _ = (scenario, phi, theta);
-        check(req).map(|_| ())
+        req.check().map(|_| ())
     }
 }
