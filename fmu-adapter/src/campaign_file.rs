@@ -130,6 +130,10 @@ pub struct CampaignSection {
     pub prior_strengths: Option<Vec<f64>>,
     /// `repeat`: run the protocol with this many seeds.
     pub repeat: Option<u32>,
+    /// `screen_iterations`: LF screening trials per budget.
+    pub screen_iterations: Option<u64>,
+    /// `audit_fraction`: the screening's audit fraction α.
+    pub audit_fraction: Option<f64>,
     /// `out`, resolved relative to the campaign file.
     pub out: Option<PathBuf>,
     /// The 1-based line of each key given (`"budgets"` → 12), to name the line of an error
@@ -354,6 +358,8 @@ mod raw {
         pub prior_strength: Option<Spanned<f64>>,
         pub prior_strengths: Option<Spanned<Vec<f64>>>,
         pub repeat: Option<Spanned<u32>>,
+        pub screen_iterations: Option<Spanned<u64>>,
+        pub audit_fraction: Option<Spanned<f64>>,
         pub out: Option<Spanned<String>>,
     }
 
@@ -482,6 +488,8 @@ fn campaign_section(src: &Source, c: raw::CampaignSection, base: &Path) -> Campa
         prior_strength: field!(prior_strength),
         prior_strengths: field!(prior_strengths),
         repeat: field!(repeat),
+        screen_iterations: field!(screen_iterations),
+        audit_fraction: field!(audit_fraction),
         out: out.map(|o| resolve(base, &o)),
         lines,
     }

@@ -44,6 +44,10 @@ pub struct Overrides {
     pub test_scenarios: Option<Vec<String>>,
     /// The meta-testing prior-strength ablation.
     pub prior_strengths: Option<Vec<f64>>,
+    /// LF screening trials per budget.
+    pub screen_iterations: Option<u64>,
+    /// Audit fraction of the screening.
+    pub audit_fraction: Option<f64>,
     /// Seeds to run the protocol with ([`super::Repeated`]); not part of the protocol (each
     /// seed's `protocol.json` differs only in its seed), read by the command.
     pub repeat: Option<u32>,
@@ -77,6 +81,8 @@ impl Overrides {
             test_scenarios: l.test_scenarios.or(self.test_scenarios),
             prior_strengths: l.prior_strengths.or(self.prior_strengths),
             repeat: l.repeat.or(self.repeat),
+            screen_iterations: l.screen_iterations.or(self.screen_iterations),
+            audit_fraction: l.audit_fraction.or(self.audit_fraction),
         }
     }
 
@@ -111,6 +117,8 @@ impl Overrides {
         set(&mut p.prior_strength, &self.prior_strength);
         set(&mut p.window, &self.window);
         set(&mut p.prior_strengths, &self.prior_strengths);
+        set(&mut p.screen_iterations, &self.screen_iterations);
+        set(&mut p.audit_fraction, &self.audit_fraction);
         let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
             given
                 .iter()
@@ -225,6 +233,8 @@ impl From<&CampaignSection> for Overrides {
             test_scenarios: None,
             prior_strengths: c.prior_strengths.clone(),
             repeat: c.repeat,
+            screen_iterations: c.screen_iterations,
+            audit_fraction: c.audit_fraction,
         }
     }
 }
@@ -303,6 +313,8 @@ fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> Campaign
         "prior_strengths" => from_flags.prior_strengths.is_some(),
         "prior_strength" => from_flags.prior_strength.is_some(),
         "repeat" => from_flags.repeat.is_some(),
+        "screen_iterations" => from_flags.screen_iterations.is_some(),
+        "audit_fraction" => from_flags.audit_fraction.is_some(),
         _ => false,
     };
     if given_as_flag {

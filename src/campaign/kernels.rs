@@ -112,7 +112,7 @@ impl<'a> StageKernels<'a> {
         let n = self.protocol.budgets.len();
         match (stage.kind, stage.budget) {
             (StageKind::BaselineTrain, _) => Ok(&mut self.kernels[0]),
-            (StageKind::Train | StageKind::Evaluate, Some(b)) => {
+            (StageKind::Train | StageKind::Evaluate | StageKind::Screen, Some(b)) => {
                 let i = 1 + self.budget_index(b);
                 Ok(&mut self.kernels[i])
             }

@@ -90,6 +90,21 @@ pub struct Protocol {
     /// budget (`test-learned-s0.1@0.3`). Empty: no ablation.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub prior_strengths: Vec<f64>,
+    /// LF screening trials per budget after the evaluation (φ ~ p_ψ, θ_LF*; HF only to
+    /// confirm an LF failure or for the audit). 0: no screening stage.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub screen_iterations: u64,
+    /// The fraction α of LF passes re-run on HF in screening, to estimate the miss rate.
+    #[serde(default = "default_audit_fraction")]
+    pub audit_fraction: f64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
+
+fn default_audit_fraction() -> f64 {
+    0.1
 }
 
 /// What a failed simulation (a crash, a hang, an FMU error) does to a campaign.
@@ -132,6 +147,8 @@ impl Protocol {
             weights: Default::default(),
             on_error: OnError::Abort,
             prior_strengths: Vec::new(),
+            screen_iterations: 0,
+            audit_fraction: default_audit_fraction(),
         }
     }
 
@@ -228,6 +245,21 @@ impl Protocol {
                 return bad("prior_strengths", format!("{s} is given twice"));
             }
         }
+        if self.screen_iterations > MAX_ITERATIONS {
+            return bad(
+                "screen_iterations",
+                format!(
+                    "{} is more than savme runs in one stage ({MAX_ITERATIONS})",
+                    self.screen_iterations
+                ),
+            );
+        }
+        if !(0.0..=1.0).contains(&self.audit_fraction) {
+            return bad(
+                "audit_fraction",
+                format!("{} is outside [0, 1]", self.audit_fraction),
+            );
+        }
         if self.prior_strengths.len() > MAX_BUDGETS {
             return bad(
                 "prior_strengths",
@@ -266,6 +298,9 @@ impl Protocol {
         for &b in &self.budgets {
             s.push(stage(StageKind::Train, Some(b), self.train_iterations));
             s.push(stage(StageKind::Evaluate, Some(b), self.eval_iterations));
+            if self.screen_iterations > 0 {
+                s.push(stage(StageKind::Screen, Some(b), self.screen_iterations));
+            }
         }
         s.push(stage(
             StageKind::BaselineTest,
@@ -326,6 +361,8 @@ pub enum StageKind {
     Train,
     /// Evaluation of the meta-training posterior at a budget.
     Evaluate,
+    /// LF screening with HF confirmation of the meta-training posterior at a budget.
+    Screen,
     /// Uniform φ on the meta-testing scenarios, HF only.
     BaselineTest,
     /// Meta-testing with the meta-training posterior as the fidelity prior.
@@ -341,6 +378,7 @@ impl StageKind {
             StageKind::BaselineTrain => "baseline-train",
             StageKind::Train => "train",
             StageKind::Evaluate => "evaluate",
+            StageKind::Screen => "screen",
             StageKind::BaselineTest => "baseline-test",
             StageKind::TestLearned => "test-learned",
             StageKind::TestUniform => "test-uniform",
@@ -369,7 +407,7 @@ impl Stage {
         match self.kind {
             StageKind::BaselineTrain | StageKind::BaselineTest => Phase::Baseline,
             StageKind::Train => Phase::Train,
-            StageKind::Evaluate => Phase::Evaluate,
+            StageKind::Evaluate | StageKind::Screen => Phase::Evaluate,
             StageKind::TestLearned | StageKind::TestUniform => Phase::Test,
         }
     }

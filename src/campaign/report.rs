@@ -2,7 +2,7 @@
 //! against `trials.jsonl`): the paper's Table III and Table IV, break-even times and the
 //! meta-testing gain.
 
-use super::log::TrialLine;
+use super::log::{self, TrialLine};
 use super::protocol::{Cost, Protocol, Stage, StageKind};
 use savme_kernel::metrics::{break_even, speedup, Accounting, FailureCurve};
 use savme_kernel::{Assignment, Outcome, Space};
@@ -12,6 +12,7 @@ use std::fmt::Write as _;
 pub mod ablation;
 pub mod intervals;
 pub mod repeated;
+pub mod screening;
 
 /// Failure counts of an HF-only baseline stage.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -95,6 +96,10 @@ pub struct MetaTesting {
     /// Only the LF runs charged, a failure found when the LF run finds a true one (TP): the
     /// failures the learned-fidelity simulator itself finds per LF runtime.
     pub lf_only: FoundByHorizon,
+    /// LF screening with HF confirmation (no audit) as the deployment-realistic accounting:
+    /// the LF run charged, the HF run only to confirm an LF failure; a failure is found when
+    /// the HF run confirms it (TP).
+    pub screened: FoundByHorizon,
     /// Total cost of the learned-prior and uniform-prior runs.
     pub learned_runtime: f64,
     /// See `learned_runtime`.
@@ -115,6 +120,9 @@ pub struct BudgetReport {
     /// The prior-strength ablation (None without `prior_strengths`, or until it ran).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ablation: Option<ablation::Ablation>,
+    /// LF screening with HF confirmation (None without a screening stage, or until it ran).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub screening: Option<screening::Screening>,
 }
 
 /// The campaign's results.
@@ -160,6 +168,10 @@ pub fn curve_as(lines: &[&TrialLine], accounting: Accounting) -> FailureCurve {
             (_, None) => (l.hf.runtime, l.hf.failure),
             (Accounting::AllRuns, Some(lf)) => (l.hf.runtime + lf.runtime, l.hf.failure),
             (Accounting::LfOnly, Some(lf)) => (lf.runtime, l.hf.failure && lf.failure),
+            (Accounting::Screened, Some(lf)) => (
+                lf.runtime + if lf.failure { l.hf.runtime } else { 0.0 },
+                l.hf.failure && lf.failure,
+            ),
         };
         c.push(cost, found);
     }
@@ -291,6 +303,12 @@ impl Report {
                             &base_test,
                             Accounting::LfOnly,
                         ),
+                        screened: found_by_horizon(
+                            &learned,
+                            &uniform,
+                            &base_test,
+                            Accounting::Screened,
+                        ),
                         learned_runtime: curve(&learned).end(),
                         uniform_runtime: curve(&uniform).end(),
                     });
@@ -300,6 +318,7 @@ impl Report {
                     evaluation,
                     meta_testing,
                     ablation: ablation::at_budget(protocol, lines, b),
+                    screening: None,
                 }
             })
             .collect();
@@ -308,6 +327,20 @@ impl Report {
             baseline_train,
             baseline_test,
             budgets,
+        }
+    }
+
+    /// Adds the screening stages' results (`screened`: their lines; `trials`: every other
+    /// trial of the campaign, for the paired evaluation and the baseline it is compared with).
+    pub fn add_screening(&mut self, screened: &[log::ScreenLine], trials: &[TrialLine]) {
+        let p = &self.protocol;
+        let base = stage_lines(trials, &stage_of(p, StageKind::BaselineTrain, None));
+        for b in &mut self.budgets {
+            let label = stage_of(p, StageKind::Screen, Some(b.budget)).label();
+            let lines: Vec<&log::ScreenLine> =
+                screened.iter().filter(|l| l.stage == label).collect();
+            let eval = stage_lines(trials, &stage_of(p, StageKind::Evaluate, Some(b.budget)));
+            b.screening = screening::report(&lines, &eval, &base, p.audit_fraction);
         }
     }
 
@@ -443,6 +476,7 @@ impl Report {
                     for (what, f) in [
                         ("every run charged", &m.all_runs),
                         ("LF runs only (TP)", &m.lf_only),
+                        ("LF screening, HF confirms (TP)", &m.screened),
                     ] {
                         let _ = writeln!(
                             s,
@@ -460,6 +494,26 @@ impl Report {
                 None => {
                     let _ = writeln!(s, "  C_budget = {}: not run", b.budget);
                 }
+            }
+        }
+        for b in &self.budgets {
+            if let Some(x) = &b.screening {
+                let times = |v: Option<f64>| v.map_or("n/a".into(), |v| format!("{v:.2} ×"));
+                let _ = writeln!(
+                    s,
+                    "LF screening with HF confirmation, C_budget = {}: {} confirmed of {} LF failures in {} trials ({}); {} vs the paired evaluation, {} vs the baseline; audit {} of {} LF passes (α = {}): miss rate {}",
+                    b.budget,
+                    x.counts.confirmed,
+                    x.counts.lf_failures,
+                    x.counts.trials,
+                    format_cost(p.cost, x.counts.runtime()),
+                    times(x.vs_paired),
+                    times(x.vs_baseline),
+                    x.counts.audit_misses,
+                    x.counts.audited,
+                    x.audit_fraction,
+                    x.miss_rate.map_or("n/a".into(), |i| i.show(3)),
+                );
             }
         }
         let ablations: Vec<_> = self

@@ -119,6 +119,12 @@ pub struct ProtocolArgs {
     /// uniform prior), e.g. 0,0.1,0.3,1.
     #[arg(long, value_delimiter = ',')]
     prior_strengths: Option<Vec<f64>>,
+    /// LF screening with HF confirmation: trials per budget after the evaluation (0: none).
+    #[arg(long, value_name = "N")]
+    screen_iterations: Option<u64>,
+    /// Fraction α of LF passes the screening re-runs on HF to estimate the miss rate.
+    #[arg(long, value_name = "ALPHA")]
+    audit_fraction: Option<f64>,
     /// Run the protocol with N seeds (--seed, --seed + 1, …), in parallel, each in
     /// OUT/seed-<s>/; OUT gets the results over the seeds with 95 % intervals.
     #[arg(long, value_name = "N")]
@@ -152,6 +158,8 @@ impl ProtocolArgs {
             prior_strength: self.prior_strength,
             prior_strengths: self.prior_strengths.clone(),
             repeat: self.repeat,
+            screen_iterations: self.screen_iterations,
+            audit_fraction: self.audit_fraction,
             ..Overrides::default()
         }
     }

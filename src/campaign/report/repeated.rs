@@ -95,6 +95,21 @@ pub struct RepeatedMetaTesting {
     pub gain_vs_uniform_lf_only: Stat,
     /// learned / baseline − 1, every run charged.
     pub gain_vs_baseline: Stat,
+    /// learned / uniform − 1 under LF screening with HF confirmation.
+    pub gain_vs_uniform_screened: Stat,
+}
+
+/// LF screening at one budget over the seeds.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RepeatedScreening {
+    /// Confirmed failures per runtime / the paired evaluation's HF failures per runtime.
+    pub vs_paired: Stat,
+    /// … / the baseline's.
+    pub vs_baseline: Stat,
+    /// The miss rate among LF passes from the audits (pooled with Wilson, and per seed).
+    pub miss_rate: Rate,
+    /// Share of LF failures confirmed by HF.
+    pub confirmed_share: Rate,
 }
 
 /// One strength of the prior-strength ablation over the seeds.
@@ -129,6 +144,8 @@ pub struct RepeatedBudget {
     pub meta_testing: RepeatedMetaTesting,
     /// The prior-strength ablation (empty without one).
     pub ablation: Vec<RepeatedStrength>,
+    /// LF screening (None without a screening stage).
+    pub screening: Option<RepeatedScreening>,
 }
 
 /// The results of N seeds of one protocol.
@@ -253,6 +270,32 @@ impl RepeatedReport {
                 m.gain_vs_baseline.show(2),
             );
         }
+        if self.budgets.iter().any(|b| b.screening.is_some()) {
+            let _ = writeln!(
+                s,
+                "\n## LF screening with HF confirmation ({} trials per budget and seed, audit α = {})\n",
+                p.screen_iterations, p.audit_fraction
+            );
+            let _ = writeln!(
+                s,
+                "| C_budget | confirmed failures / runtime vs paired evaluation | vs HF-only baseline | LF failures confirmed (pooled) | miss rate of LF passes (pooled audit) | meta-testing gain vs uniform (screened) |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|---|");
+            for b in &self.budgets {
+                if let Some(x) = &b.screening {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} × | {} × | {} | {} | {} |",
+                        b.budget,
+                        x.vs_paired.show(2),
+                        x.vs_baseline.show(1),
+                        show_opt(x.confirmed_share.pooled, 3),
+                        show_opt(x.miss_rate.pooled, 3),
+                        b.meta_testing.gain_vs_uniform_screened.show(2),
+                    );
+                }
+            }
+        }
         if self.budgets.iter().any(|b| !b.ablation.is_empty()) {
             let _ = writeln!(
                 s,
@@ -356,9 +399,34 @@ fn budget(reports: &[Report], i: usize, b: f64) -> RepeatedBudget {
             gain_vs_uniform: meta(|m| m.all_runs.gain_vs_uniform),
             gain_vs_uniform_lf_only: meta(|m| m.lf_only.gain_vs_uniform),
             gain_vs_baseline: meta(|m| m.all_runs.gain_vs_baseline),
+            gain_vs_uniform_screened: meta(|m| m.screened.gain_vs_uniform),
         },
         ablation,
+        screening: screening(reports, i),
     }
+}
+
+/// The screening of budget `i` over the seeds (None if no seed screened).
+fn screening(reports: &[Report], i: usize) -> Option<RepeatedScreening> {
+    let per: Vec<Option<&super::screening::Screening>> = reports
+        .iter()
+        .map(|r| r.budgets.get(i).and_then(|b| b.screening.as_ref()))
+        .collect();
+    if per.iter().all(Option::is_none) {
+        return None;
+    }
+    let stat = |f: fn(&super::screening::Screening) -> Option<f64>| {
+        Stat::of(per.iter().map(|s| s.and_then(f)).collect())
+    };
+    let rate = |f: fn(&super::screening::Screening) -> (u64, u64)| {
+        Rate::of(&per.iter().map(|s| s.map(f)).collect::<Vec<_>>())
+    };
+    Some(RepeatedScreening {
+        vs_paired: stat(|s| s.vs_paired),
+        vs_baseline: stat(|s| s.vs_baseline),
+        miss_rate: rate(|s| (s.counts.audit_misses, s.counts.audited)),
+        confirmed_share: rate(|s| (s.counts.confirmed, s.counts.lf_failures)),
+    })
 }
 
 #[cfg(test)]
