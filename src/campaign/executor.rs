@@ -496,6 +496,20 @@ fn tell(
     Ok(line)
 }
 
+/// The line of a run of `slot`'s trial, with the protocol's cost.
+fn run_line(
+    r: &SimResult,
+    which: &'static str,
+    slot: &Slot,
+    label: &str,
+    cost: CostMeasure,
+) -> Result<RunLine, CampaignError> {
+    let run = r
+        .run(cost)
+        .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
+    Ok(RunLine::new(r, run.runtime))
+}
+
 /// Tells the kernel a screened trial: paired when HF ran, LF alone otherwise.
 fn tell_screened(
     kernel: &mut Kernel,
@@ -525,12 +539,7 @@ fn screen_line(
     stage: &Stage,
     cost: CostMeasure,
 ) -> Result<ScreenLine, CampaignError> {
-    let run_line = |r: &SimResult, which: &'static str| -> Result<RunLine, CampaignError> {
-        let run = r
-            .run(cost)
-            .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
-        Ok(RunLine::new(r, run.runtime))
-    };
+    let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
     let lf = run_line(slot.lf.as_ref().ok_or(CampaignError::WorkersGone)?, "LF")?;
     let hf = match &slot.hf {
         Some(r) => Some(run_line(r, "HF")?),
@@ -583,12 +592,7 @@ fn trial_line(
     stage: &Stage,
     cost: CostMeasure,
 ) -> Result<TrialLine, CampaignError> {
-    let run_line = |r: &SimResult, which: &'static str| -> Result<RunLine, CampaignError> {
-        let run = r
-            .run(cost)
-            .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
-        Ok(RunLine::new(r, run.runtime))
-    };
+    let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
     let hf = run_line(slot.hf.as_ref().ok_or(CampaignError::WorkersGone)?, "HF")?;
     let lf = match &slot.lf {
         Some(r) => Some(run_line(r, "LF")?),
