@@ -16,7 +16,7 @@ pub struct Args {
     /// Continue the campaign in DIR after an interruption (even `kill -9`).
     #[arg(long, value_name = "DIR", conflicts_with = "out")]
     resume: Option<PathBuf>,
-    /// A short preset (one budget, fewer iterations) that finishes in about a minute.
+    /// A short preset: one budget, fewer iterations (860 trials, about 100 CPU-seconds).
     #[arg(long)]
     quick: bool,
     /// Perception of the system under test: camera + lidar (the paper's), or idealised

@@ -19,6 +19,10 @@ pub struct Args {
     /// Continue the campaign in DIR (give the same --config).
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
+    /// Print every FMU log message to standard error (also `[fmu] log = true`); errors carry
+    /// the last messages of their run either way.
+    #[arg(long)]
+    fmu_log: bool,
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
@@ -35,7 +39,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if a.resume.is_some() && overrides.any() {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --config, --resume, --jobs and --quiet"));
     }
-    let c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
+    let mut c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
+    c.file.init.spec.fmu_log |= a.fmu_log;
     let target = match a.resume {
         Some(dir) => Target {
             out: dir,

@@ -5,7 +5,7 @@
 //! `--record-failures N`) and [`start`], which turns it into a campaign observer — or, in a
 //! build without the `rerun` feature, into a clear error instead of an unknown flag. What is
 //! logged lives behind the feature: `recorder` (the learning view, outcomes, sampling, the
-//! [`TrialFrames`] trait a simulator implements to offer frames) and `driving` (the bundled
+//! `TrialFrames` trait a simulator implements to offer frames) and `driving` (the bundled
 //! simulator's frames).
 
 #[cfg(feature = "rerun")]

@@ -1,7 +1,7 @@
 //! The figures of a repeated campaign: per curve the median over the seeds and a band from the
 //! smallest to the largest seed, on a common runtime grid.
 
-use super::{lines_of, save, scale, FONT, PALETTE};
+use super::{bitmap, lines_of, save, scale, tick, FONT, PALETTE};
 use crate::campaign::log::TrialLine;
 use crate::campaign::protocol::{Cost, Protocol, StageKind};
 use crate::campaign::report::curve;
@@ -57,7 +57,7 @@ fn draw_bands<DB: DrawingBackend>(
     cost: Cost,
     x_max: f64,
 ) -> Result<(), String> {
-    let (k, x_desc) = scale(cost, x_max);
+    let (k, x_desc, _) = scale(cost, x_max);
     let bands: Vec<Band> = series.iter().map(|s| s.band(x_max)).collect();
     let y_end = bands
         .iter()
@@ -75,6 +75,7 @@ fn draw_bands<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc(x_desc)
         .y_desc("found failures")
+        .x_label_formatter(&|x| tick(*x))
         .label_style((FONT, 14))
         .draw()
         .map_err(e)?;
@@ -133,7 +134,7 @@ pub fn breakeven(path: &Path, p: &Protocol, runs: &[&[TrialLine]]) -> Result<(),
         .map(BandSeries::common_end)
         .fold(f64::INFINITY, f64::min);
     save(path, |path| {
-        let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+        let root = bitmap(path, (900, 560))?;
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         draw_bands(
             &root,
@@ -185,7 +186,7 @@ pub fn meta_testing(path: &Path, p: &Protocol, runs: &[&[TrialLine]]) -> Result<
         .collect();
     save(path, |path| {
         let width = 620 * panels.len().max(1) as u32;
-        let root = BitMapBackend::new(path, (width, 520)).into_drawing_area();
+        let root = bitmap(path, (width, 520))?;
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let areas = root.split_evenly((1, panels.len().max(1)));
         for ((title, series), area) in panels.iter().zip(areas.iter()) {
