@@ -217,8 +217,7 @@ impl RepeatedReport {
         );
         let _ = writeln!(
             s,
-            "| C_budget | TP-rate (mean of seeds) | TP-rate (pooled, Wilson) | mean LF cost | speedup | break-even ({}) |",
-            p.cost.unit()
+            "| C_budget | TP-rate (mean of seeds) | TP-rate (pooled, Wilson) | mean LF cost | speedup | break-even |"
         );
         let _ = writeln!(s, "|---|---|---|---|---|---|");
         let _ = writeln!(
@@ -236,7 +235,7 @@ impl RepeatedReport {
                 show_opt(b.tp_rate.pooled, 3),
                 b.mean_lf_cost.show(3),
                 b.speedup.show(1),
-                b.break_even.show(1),
+                show_cost(&b.break_even, p.cost),
                 b.break_even.defined(),
             );
         }
@@ -339,6 +338,21 @@ fn seed_list(seeds: &[u64]) -> String {
             .map(u64::to_string)
             .collect::<Vec<_>>()
             .join(", "),
+    }
+}
+
+/// A cost statistic for people (`41.2 s [30.1 s, 52.3 s]`, `2.7 M work units […]`).
+fn show_cost(s: &Stat, cost: crate::campaign::protocol::Cost) -> String {
+    let f = |v: f64| super::format_cost(cost, v);
+    match s.mean {
+        Some(Interval {
+            mean,
+            lo: Some(lo),
+            hi: Some(hi),
+            ..
+        }) => format!("{} [{}, {}]", f(mean), f(lo), f(hi)),
+        Some(i) => f(i.mean),
+        None => "–".into(),
     }
 }
 
