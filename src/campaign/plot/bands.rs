@@ -76,6 +76,7 @@ fn draw_bands<DB: DrawingBackend>(
         .x_desc(x_desc)
         .y_desc("found failures")
         .x_label_formatter(&|x| tick(*x))
+        .y_label_formatter(&|y| format!("{y:.0}"))
         .label_style((FONT, 14))
         .draw()
         .map_err(e)?;
