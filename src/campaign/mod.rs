@@ -38,6 +38,7 @@ pub mod protocol;
 mod repeat;
 pub mod report;
 pub mod store;
+pub mod worker;
 
 pub use builder::Campaign;
 pub use error::{CampaignError, SimulationError};
