@@ -191,12 +191,22 @@ fn a_tiny_reproduction_writes_outputs_that_agree_with_its_trials() {
         .map(|v| v["lf"]["runtime"].as_f64().unwrap() / v["hf"]["runtime"].as_f64().unwrap())
         .sum::<f64>()
         / eval.len() as f64;
+    let base_row = row(&table, "baseline");
     assert_eq!(
-        row(&table, "baseline"),
+        base_row[..3],
         [format!("{base_rate:.2}"), "1.00".into(), "1.00".into()]
     );
+    // The rates carry their Wilson 95 % interval: p̃ ± z·√(p(1−p)/n + z²/4n²) / (1 + z²/n).
+    let wilson = |p: f64, n: f64| {
+        let z = 1.959964f64;
+        let c = (p + z * z / (2.0 * n)) / (1.0 + z * z / n);
+        let h = z / (1.0 + z * z / n) * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt();
+        format!("[{:.2}, {:.2}]", (c - h).max(0.0), (c + h).min(1.0))
+    };
+    assert_eq!(base_row[3], wilson(base_rate, base.len() as f64), "{table}");
     let r = row(&table, "0.3");
     assert_eq!(r[0], format!("{tp:.2}"), "{table}");
+    assert_eq!(r[3], wilson(tp, eval.len() as f64), "{table}");
     assert_eq!(r[1], format!("{cost:.2}"), "{table}");
     if tp > 0.0 && base_rate > 0.0 {
         assert_eq!(r[2], format!("{:.2}", tp / cost / base_rate), "{table}");

@@ -133,6 +133,14 @@ pub struct CampaignSection {
     pub window: Option<usize>,
     /// `prior_strength`.
     pub prior_strength: Option<f64>,
+    /// `prior_strengths`: the meta-testing prior-strength ablation.
+    pub prior_strengths: Option<Vec<f64>>,
+    /// `repeat`: run the protocol with this many seeds.
+    pub repeat: Option<u32>,
+    /// `screen_iterations`: LF screening trials per budget.
+    pub screen_iterations: Option<u64>,
+    /// `audit_fraction`: the screening's audit fraction α.
+    pub audit_fraction: Option<f64>,
     /// `out`, resolved relative to the campaign file.
     pub out: Option<PathBuf>,
     /// The 1-based line of each key given (`"budgets"` → 12), to name the line of an error
@@ -369,6 +377,10 @@ mod raw {
         pub cost: Option<Spanned<Cost>>,
         pub window: Option<Spanned<usize>>,
         pub prior_strength: Option<Spanned<f64>>,
+        pub prior_strengths: Option<Spanned<Vec<f64>>>,
+        pub repeat: Option<Spanned<u32>>,
+        pub screen_iterations: Option<Spanned<u64>>,
+        pub audit_fraction: Option<Spanned<f64>>,
         pub out: Option<Spanned<String>>,
     }
 
@@ -504,6 +516,10 @@ fn campaign_section(src: &Source, c: raw::CampaignSection, base: &Path) -> Campa
         cost: field!(cost),
         window: field!(window),
         prior_strength: field!(prior_strength),
+        prior_strengths: field!(prior_strengths),
+        repeat: field!(repeat),
+        screen_iterations: field!(screen_iterations),
+        audit_fraction: field!(audit_fraction),
         out: out.map(|o| resolve(base, &o)),
         lines,
     }
@@ -1727,7 +1743,7 @@ range = [0.0, 1.0]
     fn the_campaign_section_keeps_its_values_and_lines() {
         let text = BASE.replacen(
             "budgets = [0.5]",
-            "budgets = [0.5]\nseed = 7\ncost = \"work\"\nprior_strength = 0.5",
+            "budgets = [0.5]\nseed = 7\ncost = \"work\"\nprior_strength = 0.5\nrepeat = 3\nprior_strengths = [0, 0.5]",
             1,
         );
         let src = Source {
@@ -1740,6 +1756,8 @@ range = [0.0, 1.0]
         assert_eq!(c.seed, Some(7));
         assert_eq!(c.cost, Some(Cost::Work));
         assert_eq!(c.prior_strength, Some(0.5));
+        assert_eq!(c.repeat, Some(3));
+        assert_eq!(c.prior_strengths, Some(vec![0.0, 0.5]));
         assert_eq!(c.train_iterations, None);
         assert_eq!(c.fidelity_bins, None);
         assert_eq!(c.out, Some(PathBuf::from("/runs/results")));
@@ -1749,8 +1767,10 @@ range = [0.0, 1.0]
             [
                 ("budgets", 11),
                 ("cost", 13),
-                ("out", 15),
+                ("out", 17),
                 ("prior_strength", 14),
+                ("prior_strengths", 16),
+                ("repeat", 15),
                 ("seed", 12)
             ]
         );

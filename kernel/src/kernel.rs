@@ -213,6 +213,16 @@ pub enum TellError {
         /// The runtime given.
         runtime: f64,
     },
+    /// An LF-only (screened, unconfirmed) tell for a trial that learns or runs HF only.
+    #[error(
+        "trial {id} is a {phase} trial: only evaluation trials take an LF run alone (screening)"
+    )]
+    NotScreened {
+        /// The trial.
+        id: u64,
+        /// Its phase.
+        phase: Phase,
+    },
     /// Runtimes whose ratio t_LF / t_HF is not a finite number (e.g. HF 5e-324, LF 1): the
     /// ratio could not be credited, logged or replayed.
     #[error("trial {id}: the runtime ratio LF {lf} / HF {hf} is not a finite number; give runtimes on a common scale")]
@@ -633,6 +643,42 @@ impl Kernel {
             cost_ratio: assessed.cost_ratio,
             credit: assessed.credit,
         }
+    }
+
+    /// Tells an evaluation trial whose HF run was not made: LF screening passed it without an
+    /// audit ([`crate::screening`]). Only trials of a phase that runs both simulators and
+    /// learns nothing take it; on error nothing changes.
+    ///
+    /// ```
+    /// use savme_kernel::{Kernel, Phase, Run, Space, Variable, Assignment, Scale};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 4, Scale::Linear)])?;
+    /// let mut k = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .build()?;
+    /// let learning = k.ask();
+    /// assert!(k.tell_unconfirmed(learning.id, Run::new(false, 0.2)).is_err());
+    /// k.set_phase(Phase::Evaluate);
+    /// let t = k.ask();
+    /// assert_eq!(k.tell_unconfirmed(t.id, Run::new(false, 0.2))?.id, t.id);
+    /// assert_eq!(k.stats().told, 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn tell_unconfirmed(&mut self, id: u64, lf: Run) -> Result<Trial, TellError> {
+        let index = self.pending_index(id)?;
+        let phase = self.state.pending[index].trial.phase;
+        if phase.learns() || !phase.is_paired() {
+            return Err(TellError::NotScreened { id, phase });
+        }
+        if !(lf.runtime.is_finite() && lf.runtime > 0.0) {
+            return Err(TellError::BadRuntime {
+                id,
+                simulator: "LF",
+                runtime: lf.runtime,
+            });
+        }
+        self.state.stats.told += 1;
+        Ok(self.state.pending.remove(index).trial)
     }
 
     /// Withdraws a pending trial (e.g. its simulation crashed); it will never be told.

@@ -42,6 +42,7 @@ pub mod metrics;
 mod outcome;
 mod posterior;
 mod sampler;
+pub mod screening;
 mod simulator;
 mod space;
 mod value;

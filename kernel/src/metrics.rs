@@ -115,6 +115,10 @@ pub enum Accounting {
     /// Only the LF run costs and a failure is found when it is a TP (for HF-only trials: the HF
     /// run). This is deploying θ_LF* alone, as the evaluation's speedup assumes.
     LfOnly,
+    /// LF screening with HF confirmation ([`crate::screening`], without audit): the LF run
+    /// costs, the HF run only when the LF run failed (the confirmation), and a failure is found
+    /// when the HF run confirms it (TP). The deployment-realistic accounting.
+    Screened,
 }
 
 /// A point of a [`FailureCurve`].
@@ -161,6 +165,10 @@ impl FailureCurve {
                 (_, None) => (hf.runtime, hf.failure),
                 (Accounting::AllRuns, Some(lf)) => (hf.runtime + lf.runtime, hf.failure),
                 (Accounting::LfOnly, Some(lf)) => (lf.runtime, hf.failure && lf.failure),
+                (Accounting::Screened, Some(lf)) => (
+                    lf.runtime + if lf.failure { hf.runtime } else { 0.0 },
+                    hf.failure && lf.failure,
+                ),
             };
             c.push(cost, found);
         }

@@ -165,6 +165,10 @@ impl<'o> Campaign<'o> {
                     cost: p.cost.measure(),
                     store: store.as_mut(),
                     on_error: p.on_error,
+                    screen: (stage.kind == super::StageKind::Screen).then(|| executor::Audit {
+                        seed: p.kernel_seed(&format!("audit:{}", stage.label())),
+                        fraction: p.audit_fraction,
+                    }),
                 };
                 let lines = executor::run_stage(runner, kernel, cx, |line, kernel| {
                     for o in observers.iter_mut() {
@@ -184,22 +188,28 @@ impl<'o> Campaign<'o> {
         }
         drop(store);
 
-        let count = |l: &[LogLine]| l.iter().filter(|x| x.trial().is_some()).count() as u64;
+        let count = |l: &[LogLine]| l.iter().filter(|x| x.is_told()).count() as u64;
         let replayed = count(&logged);
         let trials: Vec<TrialLine> = all_lines
             .iter()
             .filter_map(|l| l.trial().cloned())
             .collect();
-        let failed = all_lines.len() - trials.len();
-        let report = Report::from_trials(p, &trials);
+        let screened: Vec<_> = all_lines
+            .iter()
+            .filter_map(|l| l.screened().cloned())
+            .collect();
+        let failed = all_lines.iter().filter(|l| !l.is_told()).count();
+        let mut report = Report::from_trials(p, &trials);
+        report.add_screening(&screened, &trials);
         let elapsed = clock.elapsed().as_secs_f64();
         outputs::write(&report, &trials, failed, &files, &self.problem, elapsed)?;
         Ok(CampaignOutcome {
-            ran: trials.len() as u64 - replayed,
+            ran: count(&all_lines) - replayed,
             report,
             outputs: files,
             replayed,
             elapsed_seconds: clock.elapsed().as_secs_f64(),
+            trials,
         })
     }
 

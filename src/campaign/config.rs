@@ -44,6 +44,15 @@ pub struct Overrides {
     pub train_scenarios: Option<Vec<String>>,
     /// Meta-testing scenarios.
     pub test_scenarios: Option<Vec<String>>,
+    /// The meta-testing prior-strength ablation.
+    pub prior_strengths: Option<Vec<f64>>,
+    /// LF screening trials per budget.
+    pub screen_iterations: Option<u64>,
+    /// Audit fraction of the screening.
+    pub audit_fraction: Option<f64>,
+    /// Seeds to run the protocol with ([`super::Repeated`]); not part of the protocol (each
+    /// seed's `protocol.json` differs only in its seed), read by the command.
+    pub repeat: Option<u32>,
 }
 
 impl Overrides {
@@ -72,6 +81,10 @@ impl Overrides {
             window: l.window.or(self.window),
             train_scenarios: l.train_scenarios.or(self.train_scenarios),
             test_scenarios: l.test_scenarios.or(self.test_scenarios),
+            prior_strengths: l.prior_strengths.or(self.prior_strengths),
+            repeat: l.repeat.or(self.repeat),
+            screen_iterations: l.screen_iterations.or(self.screen_iterations),
+            audit_fraction: l.audit_fraction.or(self.audit_fraction),
         }
     }
 
@@ -105,6 +118,9 @@ impl Overrides {
         set(&mut p.fidelity_bins, &self.fidelity_bins);
         set(&mut p.prior_strength, &self.prior_strength);
         set(&mut p.window, &self.window);
+        set(&mut p.prior_strengths, &self.prior_strengths);
+        set(&mut p.screen_iterations, &self.screen_iterations);
+        set(&mut p.audit_fraction, &self.audit_fraction);
         let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
             given
                 .iter()
@@ -164,6 +180,25 @@ pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), Cam
     p.validate()?;
     let problem = Problem::driving(p.fidelity_bins);
     Ok((p, problem))
+}
+
+/// The number of seeds `repeat` asks for (None: one campaign, not a repeated one), checked
+/// against [`super::MAX_REPEAT`].
+///
+/// ```
+/// use savme::campaign::config::check_repeat;
+/// assert_eq!(check_repeat(Some(5)).unwrap(), Some(5));
+/// assert_eq!(check_repeat(None).unwrap(), None);
+/// assert!(check_repeat(Some(0)).unwrap_err().to_string().contains("`repeat`"));
+/// ```
+pub fn check_repeat(repeat: Option<u32>) -> Result<Option<u32>, CampaignError> {
+    match repeat {
+        Some(n) if n == 0 || n > super::MAX_REPEAT => Err(CampaignError::Protocol {
+            field: "repeat".into(),
+            message: format!("{n} is not between 1 and {}", super::MAX_REPEAT),
+        }),
+        r => Ok(r),
+    }
 }
 
 /// The simulator label of the toy simulator (`savme toy`).
@@ -296,6 +331,10 @@ impl From<&CampaignSection> for Overrides {
             window: c.window,
             train_scenarios: None,
             test_scenarios: None,
+            prior_strengths: c.prior_strengths.clone(),
+            repeat: c.repeat,
+            screen_iterations: c.screen_iterations,
+            audit_fraction: c.audit_fraction,
         }
     }
 }
@@ -341,6 +380,7 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
     let overrides = Overrides::from(&file.campaign).then(flags);
     overrides.apply(&mut p, &lookup, &known)?;
     p.validate().map_err(|e| in_file(e, &file, flags))?;
+    check_repeat(overrides.repeat).map_err(|e| in_file(e, &file, flags))?;
     let problem = Problem {
         fidelity: file.fidelity.clone(),
         theta_hf: file.theta_hf.clone(),
@@ -370,6 +410,11 @@ fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> Campaign
         "seed" => from_flags.seed.is_some(),
         "train_scenarios" => from_flags.train_scenarios.is_some(),
         "test_scenarios" => from_flags.test_scenarios.is_some(),
+        "prior_strengths" => from_flags.prior_strengths.is_some(),
+        "prior_strength" => from_flags.prior_strength.is_some(),
+        "repeat" => from_flags.repeat.is_some(),
+        "screen_iterations" => from_flags.screen_iterations.is_some(),
+        "audit_fraction" => from_flags.audit_fraction.is_some(),
         _ => false,
     };
     if given_as_flag {

@@ -120,6 +120,16 @@ pub enum CampaignError {
     /// The worker threads stopped unexpectedly.
     #[error("the worker threads stopped unexpectedly")]
     WorkersGone,
+    /// The campaign of one seed of a repeated campaign failed.
+    #[error("seed {seed} ({}): {source}", dir.display())]
+    Seed {
+        /// The seed.
+        seed: u64,
+        /// Its campaign's directory.
+        dir: PathBuf,
+        /// What failed.
+        source: Box<CampaignError>,
+    },
 }
 
 /// A simulation of a trial failed.

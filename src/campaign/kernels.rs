@@ -62,7 +62,7 @@ impl<'a> StageKernels<'a> {
         kernels.push(k.builder(&k.test_spaces, 1.0, "baseline-test").build()?);
         k.kernels = kernels;
         // The meta-testing kernels are built per stage; build one now to check them too.
-        k.test_kernel(StageKind::TestUniform, protocol.budgets[0])?;
+        k.test_kernel(StageKind::TestUniform, protocol.budgets[0], None)?;
         Ok(k)
     }
 
@@ -88,13 +88,20 @@ impl<'a> StageKernels<'a> {
     /// A meta-testing kernel at budget `b`: with the meta-training posterior as its fidelity
     /// prior (learned), or a uniform one. Both share a seed: common random numbers make the
     /// comparison fairer.
-    fn test_kernel(&self, kind: StageKind, b: f64) -> Result<Kernel, CampaignError> {
+    /// A prior-strength ablation stage (`strength`) is a learned-prior kernel with another
+    /// strength, from the same seed too.
+    fn test_kernel(
+        &self,
+        kind: StageKind,
+        b: f64,
+        strength: Option<f64>,
+    ) -> Result<Kernel, CampaignError> {
         let mut builder = self.builder(&self.test_spaces, b, &format!("test@{b}"));
         if kind == StageKind::TestLearned {
             let trained = &self.kernels[1 + self.budget_index(b)];
             builder = builder.fidelity_prior(
                 trained.fidelity_posterior().clone(),
-                self.protocol.prior_strength,
+                strength.unwrap_or(self.protocol.prior_strength),
             );
         }
         Ok(builder.build()?)
@@ -105,13 +112,13 @@ impl<'a> StageKernels<'a> {
         let n = self.protocol.budgets.len();
         match (stage.kind, stage.budget) {
             (StageKind::BaselineTrain, _) => Ok(&mut self.kernels[0]),
-            (StageKind::Train | StageKind::Evaluate, Some(b)) => {
+            (StageKind::Train | StageKind::Evaluate | StageKind::Screen, Some(b)) => {
                 let i = 1 + self.budget_index(b);
                 Ok(&mut self.kernels[i])
             }
             (StageKind::BaselineTest, _) => Ok(&mut self.kernels[1 + n]),
             (kind, b) => {
-                let kernel = self.test_kernel(kind, b.unwrap_or(1.0))?;
+                let kernel = self.test_kernel(kind, b.unwrap_or(1.0), stage.strength)?;
                 Ok(self.test.insert(kernel))
             }
         }

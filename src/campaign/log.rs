@@ -105,7 +105,36 @@ pub struct FailedLine {
     pub error: String,
 }
 
-/// A line of `trials.jsonl`: a told trial, or a withdrawn one.
+/// A trial of an LF screening stage: the LF run, and the HF run when the screening made one
+/// (to confirm an LF failure, or for the audit).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScreenLine {
+    /// The stage label, e.g. `screen@0.3`.
+    pub stage: String,
+    /// Position of the trial within its stage, from 0.
+    pub index: u64,
+    /// The kernel's trial id.
+    pub id: u64,
+    /// The stage's budget.
+    pub budget: Option<f64>,
+    /// Scenario name.
+    pub scenario: String,
+    /// Scenario parameters φ.
+    pub phi: Assignment,
+    /// θ_LF* (the evaluation's).
+    pub theta_lf: Option<Assignment>,
+    /// What the LF result called for: confirm, audit or pass.
+    pub screen: savme_kernel::screening::Screen,
+    /// The LF run.
+    pub lf: RunLine,
+    /// The HF run (confirmations and audits only).
+    pub hf: Option<RunLine>,
+    /// TP / TN / FP / FN when HF ran.
+    pub outcome: Option<Outcome>,
+}
+
+/// A line of `trials.jsonl`: a told trial, a screened one, or a withdrawn one.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum LogLine {
@@ -113,6 +142,8 @@ pub enum LogLine {
     Trial(TrialLine),
     /// A trial withdrawn after its simulation failed.
     Failed(FailedLine),
+    /// A trial of a screening stage.
+    Screen(ScreenLine),
 }
 
 impl LogLine {
@@ -121,15 +152,29 @@ impl LogLine {
         match self {
             LogLine::Trial(t) => &t.stage,
             LogLine::Failed(f) => &f.stage,
+            LogLine::Screen(s) => &s.stage,
         }
     }
 
-    /// The told trial, if it is one.
+    /// The told trial, if it is a paired or baseline one.
     pub fn trial(&self) -> Option<&TrialLine> {
         match self {
             LogLine::Trial(t) => Some(t),
-            LogLine::Failed(_) => None,
+            LogLine::Failed(_) | LogLine::Screen(_) => None,
         }
+    }
+
+    /// The screened trial, if it is one.
+    pub fn screened(&self) -> Option<&ScreenLine> {
+        match self {
+            LogLine::Screen(s) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// True for a told (or screened) trial, false for a withdrawn one.
+    pub fn is_told(&self) -> bool {
+        !matches!(self, LogLine::Failed(_))
     }
 }
 
@@ -140,6 +185,8 @@ impl LogLine {
         let failed = line.value.get("error").is_some();
         let parsed = if failed {
             serde_json::from_value(line.value.clone()).map(LogLine::Failed)
+        } else if line.value.get("screen").is_some() {
+            serde_json::from_value(line.value.clone()).map(LogLine::Screen)
         } else {
             serde_json::from_value(line.value.clone()).map(LogLine::Trial)
         };
@@ -179,10 +226,7 @@ pub fn split_by_stage<'a>(
             .iter()
             .take_while(|l| l.stage() == label)
             .count();
-        let told = lines[at..at + n]
-            .iter()
-            .filter(|l| l.trial().is_some())
-            .count();
+        let told = lines[at..at + n].iter().filter(|l| l.is_told()).count();
         if told as u64 > stage.iterations {
             return Err(bad(
                 at + n - 1,

@@ -35,6 +35,7 @@ pub mod observer;
 pub mod outputs;
 pub mod plot;
 pub mod protocol;
+mod repeat;
 pub mod report;
 pub mod store;
 pub mod worker;
@@ -44,6 +45,7 @@ pub use error::{CampaignError, SimulationError};
 pub use observer::{Observer, ProgressBars, ProgressLines};
 pub use outputs::{load_protocol, Outputs};
 pub use protocol::{Cost, OnError, Protocol, Stage, StageKind};
+pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;
 
 use savme_kernel::Space;
@@ -62,6 +64,8 @@ pub struct CampaignOutcome {
     pub ran: u64,
     /// Wall-clock seconds this process spent.
     pub elapsed_seconds: f64,
+    /// Every told trial (replayed and run), in store order.
+    pub trials: Vec<log::TrialLine>,
 }
 
 /// What is searched: the fidelity space with θ_HF, and each scenario's parameter space.

@@ -156,6 +156,7 @@ pub struct ProgressLines<W: Write> {
     every: Duration,
     campaign: Counts,
     stage: Option<(String, Counts)>,
+    prefix: String,
 }
 
 /// Trials done out of a total, failures among them, since when, and when last printed.
@@ -216,9 +217,18 @@ impl<W: Write> ProgressLines<W> {
     pub fn new(out: W) -> Self {
         ProgressLines {
             out,
+            prefix: String::new(),
             every: Duration::from_secs(10),
             campaign: Counts::new(0),
             stage: None,
+        }
+    }
+
+    /// Lines starting with `prefix` (e.g. `seed 3: `, for campaigns running side by side).
+    pub fn with_prefix(out: W, prefix: &str) -> Self {
+        ProgressLines {
+            prefix: prefix.into(),
+            ..ProgressLines::new(out)
         }
     }
 
@@ -251,7 +261,8 @@ impl<W: Write> ProgressLines<W> {
         // Progress is best effort: a closed pipe must not stop the campaign.
         let _ = writeln!(
             self.out,
-            "{label} {state}: {}/{} trials, {} (HF), {} elapsed{eta}",
+            "{}{label} {state}: {}/{} trials, {} (HF), {} elapsed{eta}",
+            self.prefix,
             c.done,
             c.total,
             plural(c.failures, "failure"),

@@ -134,3 +134,37 @@ pub(crate) fn write(
     plot::meta_testing(&files.meta_testing, &report.protocol, lines)?;
     Ok(())
 }
+
+/// Writes the results of a repeated campaign into its parent directory `out`: `table.md`
+/// (with intervals), `summary.json` (the aggregate with every seed's values) and the figures
+/// with median curves and bands. `runs` are the seeds' trial lines, in seed order.
+pub(crate) fn write_repeated(
+    report: &super::report::repeated::RepeatedReport,
+    runs: &[&[TrialLine]],
+    out: &Path,
+    elapsed: f64,
+) -> Result<(), CampaignError> {
+    let write = |path: &Path, text: String| {
+        std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
+    };
+    let version = format!("\n<!-- savme format_version {FORMAT_VERSION} -->\n");
+    write(&out.join("table.md"), report.table_md() + &version)?;
+    let summary = serde_json::json!({
+        "format_version": FORMAT_VERSION,
+        "repeated": report,
+        "seed_dirs": report
+            .seeds
+            .iter()
+            .map(|&s| format!("seed-{s}"))
+            .collect::<Vec<_>>(),
+        "trials_per_seed": runs.iter().map(|r| r.len()).collect::<Vec<_>>(),
+        "elapsed_seconds_of_last_process": elapsed,
+    });
+    write(
+        &out.join("summary.json"),
+        serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
+    )?;
+    plot::bands::breakeven(&out.join("breakeven.png"), &report.protocol, runs)?;
+    plot::bands::meta_testing(&out.join("meta_testing.png"), &report.protocol, runs)?;
+    Ok(())
+}

@@ -84,6 +84,27 @@ pub struct Protocol {
     /// What a failed simulation does: abort the campaign, or skip the trial.
     #[serde(default)]
     pub on_error: OnError,
+    /// The prior-strength ablation of meta-testing: the strengths (≥ 0) whose learned-prior
+    /// meta-testing is compared. Strength 0 is the uniform prior (the `test-uniform` stage)
+    /// and `prior_strength` is the `test-learned` stage; every other one adds a stage per
+    /// budget (`test-learned-s0.1@0.3`). Empty: no ablation.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub prior_strengths: Vec<f64>,
+    /// LF screening trials per budget after the evaluation (φ ~ p_ψ, θ_LF*; HF only to
+    /// confirm an LF failure or for the audit). 0: no screening stage.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub screen_iterations: u64,
+    /// The fraction α of LF passes re-run on HF in screening, to estimate the miss rate.
+    #[serde(default = "default_audit_fraction")]
+    pub audit_fraction: f64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
+
+fn default_audit_fraction() -> f64 {
+    0.1
 }
 
 /// What a failed simulation (a crash, a hang, an FMU error) does to a campaign.
@@ -125,6 +146,9 @@ impl Protocol {
             simulator: simulator.into(),
             weights: Default::default(),
             on_error: OnError::Abort,
+            prior_strengths: Vec::new(),
+            screen_iterations: 0,
+            audit_fraction: default_audit_fraction(),
         }
     }
 
@@ -213,6 +237,38 @@ impl Protocol {
                 format!("{} budgets; at most {MAX_BUDGETS}", self.budgets.len()),
             );
         }
+        for (i, s) in self.prior_strengths.iter().enumerate() {
+            if !(*s >= 0.0 && s.is_finite()) {
+                return bad("prior_strengths", format!("{s} is not a number ≥ 0"));
+            }
+            if self.prior_strengths[..i].contains(s) {
+                return bad("prior_strengths", format!("{s} is given twice"));
+            }
+        }
+        if self.screen_iterations > MAX_ITERATIONS {
+            return bad(
+                "screen_iterations",
+                format!(
+                    "{} is more than savme runs in one stage ({MAX_ITERATIONS})",
+                    self.screen_iterations
+                ),
+            );
+        }
+        if !(0.0..=1.0).contains(&self.audit_fraction) {
+            return bad(
+                "audit_fraction",
+                format!("{} is outside [0, 1]", self.audit_fraction),
+            );
+        }
+        if self.prior_strengths.len() > MAX_BUDGETS {
+            return bad(
+                "prior_strengths",
+                format!(
+                    "{} strengths; at most {MAX_BUDGETS}",
+                    self.prior_strengths.len()
+                ),
+            );
+        }
         for (name, w) in &self.weights {
             if !(*w > 0.0 && w.is_finite()) {
                 return bad("weights", format!("`{name}`: {w} is not a positive weight"));
@@ -228,38 +284,49 @@ impl Protocol {
 
     /// The stages in the order they run.
     pub fn stages(&self) -> Vec<Stage> {
-        let mut s = vec![Stage {
-            kind: StageKind::BaselineTrain,
-            budget: None,
-            iterations: self.baseline_train_iterations,
-        }];
+        let stage = |kind, budget, iterations| Stage {
+            kind,
+            budget,
+            iterations,
+            strength: None,
+        };
+        let mut s = vec![stage(
+            StageKind::BaselineTrain,
+            None,
+            self.baseline_train_iterations,
+        )];
         for &b in &self.budgets {
-            s.push(Stage {
-                kind: StageKind::Train,
-                budget: Some(b),
-                iterations: self.train_iterations,
-            });
-            s.push(Stage {
-                kind: StageKind::Evaluate,
-                budget: Some(b),
-                iterations: self.eval_iterations,
-            });
+            s.push(stage(StageKind::Train, Some(b), self.train_iterations));
+            s.push(stage(StageKind::Evaluate, Some(b), self.eval_iterations));
+            if self.screen_iterations > 0 {
+                s.push(stage(StageKind::Screen, Some(b), self.screen_iterations));
+            }
         }
-        s.push(Stage {
-            kind: StageKind::BaselineTest,
-            budget: None,
-            iterations: self.baseline_test_iterations,
-        });
+        s.push(stage(
+            StageKind::BaselineTest,
+            None,
+            self.baseline_test_iterations,
+        ));
         for &b in &self.budgets {
             for kind in [StageKind::TestLearned, StageKind::TestUniform] {
+                s.push(stage(kind, Some(b), self.test_iterations));
+            }
+            for &strength in self.ablation_strengths() {
                 s.push(Stage {
-                    kind,
-                    budget: Some(b),
-                    iterations: self.test_iterations,
+                    strength: Some(strength),
+                    ..stage(StageKind::TestLearned, Some(b), self.test_iterations)
                 });
             }
         }
         s
+    }
+
+    /// The strengths of `prior_strengths` that need a stage of their own: not 0 (that is
+    /// `test-uniform`) and not `prior_strength` (that is `test-learned`).
+    pub fn ablation_strengths(&self) -> impl Iterator<Item = &f64> {
+        self.prior_strengths
+            .iter()
+            .filter(move |&&s| s != 0.0 && s != self.prior_strength)
     }
 
     /// Total trials over all stages (saturating: an unvalidated protocol may ask for more than
@@ -294,6 +361,8 @@ pub enum StageKind {
     Train,
     /// Evaluation of the meta-training posterior at a budget.
     Evaluate,
+    /// LF screening with HF confirmation of the meta-training posterior at a budget.
+    Screen,
     /// Uniform φ on the meta-testing scenarios, HF only.
     BaselineTest,
     /// Meta-testing with the meta-training posterior as the fidelity prior.
@@ -309,6 +378,7 @@ impl StageKind {
             StageKind::BaselineTrain => "baseline-train",
             StageKind::Train => "train",
             StageKind::Evaluate => "evaluate",
+            StageKind::Screen => "screen",
             StageKind::BaselineTest => "baseline-test",
             StageKind::TestLearned => "test-learned",
             StageKind::TestUniform => "test-uniform",
@@ -325,6 +395,9 @@ pub struct Stage {
     pub budget: Option<f64>,
     /// Trials it runs.
     pub iterations: u64,
+    /// The fidelity prior's strength of a prior-strength ablation stage (None: the protocol's
+    /// `prior_strength` for `test-learned`, nothing for the others).
+    pub strength: Option<f64>,
 }
 
 impl Stage {
@@ -334,16 +407,21 @@ impl Stage {
         match self.kind {
             StageKind::BaselineTrain | StageKind::BaselineTest => Phase::Baseline,
             StageKind::Train => Phase::Train,
-            StageKind::Evaluate => Phase::Evaluate,
+            StageKind::Evaluate | StageKind::Screen => Phase::Evaluate,
             StageKind::TestLearned | StageKind::TestUniform => Phase::Test,
         }
     }
 
-    /// Its label in `trials.jsonl` and progress bars, e.g. `train@0.3`.
+    /// Its label in `trials.jsonl` and progress bars, e.g. `train@0.3`, or
+    /// `test-learned-s0.1@0.3` for a prior-strength ablation stage.
     pub fn label(&self) -> String {
-        match self.budget {
-            Some(b) => format!("{}@{b}", self.kind.name()),
+        let kind = match self.strength {
+            Some(s) => format!("{}-s{s}", self.kind.name()),
             None => self.kind.name().into(),
+        };
+        match self.budget {
+            Some(b) => format!("{kind}@{b}"),
+            None => kind,
         }
     }
 }
@@ -394,6 +472,18 @@ mod tests {
             (Box::new(|p| p.fidelity_bins = 100_000), "fidelity_bins"),
             (Box::new(|p| p.window = usize::MAX), "window"),
             (Box::new(|p| p.budgets = vec![0.5; 101]), "budgets"),
+            (
+                Box::new(|p| p.prior_strengths = vec![-0.1]),
+                "prior_strengths",
+            ),
+            (
+                Box::new(|p| p.prior_strengths = vec![0.3, 0.3]),
+                "prior_strengths",
+            ),
+            (
+                Box::new(|p| p.prior_strengths = vec![f64::INFINITY]),
+                "prior_strengths",
+            ),
         ];
         for (change, field) in cases {
             let mut p = p();
@@ -403,6 +493,26 @@ mod tests {
                 other => panic!("expected an error on {field}, got {other:?}"),
             }
         }
+    }
+
+    #[test]
+    fn the_prior_strength_ablation_adds_a_stage_per_new_strength_and_budget() {
+        let mut p = p();
+        p.prior_strengths = vec![0.0, 0.1, 0.3, 1.0];
+        p.validate().unwrap();
+        let labels: Vec<String> = p.stages().iter().map(Stage::label).collect();
+        // 0 is test-uniform and 1 is test-learned: two new stages per budget.
+        assert_eq!(labels.len(), 1 + 3 * 2 + 1 + 3 * 4);
+        let at = labels.iter().position(|l| l == "test-uniform@0.2").unwrap();
+        assert_eq!(
+            labels[at + 1..at + 3],
+            ["test-learned-s0.1@0.2", "test-learned-s0.3@0.2"]
+        );
+        // An old protocol.json (no key) reads as no ablation, and writes no key.
+        let json = serde_json::to_string(&Protocol::paper("t", vec![], vec![])).unwrap();
+        assert!(!json.contains("prior_strengths"));
+        let back: Protocol = serde_json::from_str(&json).unwrap();
+        assert!(back.prior_strengths.is_empty());
     }
 
     #[test]

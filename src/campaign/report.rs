@@ -2,12 +2,17 @@
 //! against `trials.jsonl`): the paper's Table III and Table IV, break-even times and the
 //! meta-testing gain.
 
-use super::log::TrialLine;
+use super::log::{self, TrialLine};
 use super::protocol::{Cost, Protocol, Stage, StageKind};
 use savme_kernel::metrics::{break_even, speedup, Accounting, FailureCurve};
 use savme_kernel::{Assignment, Outcome, Space};
 use serde::Serialize;
 use std::fmt::Write as _;
+
+pub mod ablation;
+pub mod intervals;
+pub mod repeated;
+pub mod screening;
 
 /// Failure counts of an HF-only baseline stage.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -91,6 +96,10 @@ pub struct MetaTesting {
     /// Only the LF runs charged, a failure found when the LF run finds a true one (TP): the
     /// failures the learned-fidelity simulator itself finds per LF runtime.
     pub lf_only: FoundByHorizon,
+    /// LF screening with HF confirmation (no audit) as the deployment-realistic accounting:
+    /// the LF run charged, the HF run only to confirm an LF failure; a failure is found when
+    /// the HF run confirms it (TP).
+    pub screened: FoundByHorizon,
     /// Total cost of the learned-prior and uniform-prior runs.
     pub learned_runtime: f64,
     /// See `learned_runtime`.
@@ -108,6 +117,12 @@ pub struct BudgetReport {
     pub evaluation: Option<Evaluation>,
     /// Meta-testing (None until it ran).
     pub meta_testing: Option<MetaTesting>,
+    /// The prior-strength ablation (None without `prior_strengths`, or until it ran).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ablation: Option<ablation::Ablation>,
+    /// LF screening with HF confirmation (None without a screening stage, or until it ran).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub screening: Option<screening::Screening>,
 }
 
 /// The campaign's results.
@@ -136,6 +151,7 @@ fn stage_of(p: &Protocol, kind: StageKind, budget: Option<f64>) -> Stage {
             kind,
             budget,
             iterations: 0,
+            strength: None,
         })
 }
 
@@ -152,6 +168,10 @@ pub fn curve_as(lines: &[&TrialLine], accounting: Accounting) -> FailureCurve {
             (_, None) => (l.hf.runtime, l.hf.failure),
             (Accounting::AllRuns, Some(lf)) => (l.hf.runtime + lf.runtime, l.hf.failure),
             (Accounting::LfOnly, Some(lf)) => (lf.runtime, l.hf.failure && lf.failure),
+            (Accounting::Screened, Some(lf)) => (
+                lf.runtime + if lf.failure { l.hf.runtime } else { 0.0 },
+                l.hf.failure && lf.failure,
+            ),
         };
         c.push(cost, found);
     }
@@ -283,6 +303,12 @@ impl Report {
                             &base_test,
                             Accounting::LfOnly,
                         ),
+                        screened: found_by_horizon(
+                            &learned,
+                            &uniform,
+                            &base_test,
+                            Accounting::Screened,
+                        ),
                         learned_runtime: curve(&learned).end(),
                         uniform_runtime: curve(&uniform).end(),
                     });
@@ -291,6 +317,8 @@ impl Report {
                     training,
                     evaluation,
                     meta_testing,
+                    ablation: ablation::at_budget(protocol, lines, b),
+                    screening: None,
                 }
             })
             .collect();
@@ -299,6 +327,20 @@ impl Report {
             baseline_train,
             baseline_test,
             budgets,
+        }
+    }
+
+    /// Adds the screening stages' results (`screened`: their lines; `trials`: every other
+    /// trial of the campaign, for the paired evaluation and the baseline it is compared with).
+    pub fn add_screening(&mut self, screened: &[log::ScreenLine], trials: &[TrialLine]) {
+        let p = &self.protocol;
+        let base = stage_lines(trials, &stage_of(p, StageKind::BaselineTrain, None));
+        for b in &mut self.budgets {
+            let label = stage_of(p, StageKind::Screen, Some(b.budget)).label();
+            let lines: Vec<&log::ScreenLine> =
+                screened.iter().filter(|l| l.stage == label).collect();
+            let eval = stage_lines(trials, &stage_of(p, StageKind::Evaluate, Some(b.budget)));
+            b.screening = screening::report(&lines, &eval, &base, p.audit_fraction);
         }
     }
 
@@ -319,14 +361,30 @@ impl Report {
             cost_name(p.cost),
             p.seed
         );
-        let _ = writeln!(s, "| C_budget | TP-rate | mean LF cost | speedup |");
-        let _ = writeln!(s, "|---|---|---|---|");
+        let _ = writeln!(
+            s,
+            "| C_budget | TP-rate | mean LF cost | speedup | TP-rate 95 % interval (Wilson) |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|");
+        let wilson = |k: u64, n: u64| match intervals::Interval::wilson(k, n) {
+            Some(intervals::Interval {
+                lo: Some(lo),
+                hi: Some(hi),
+                ..
+            }) => format!("[{lo:.2}, {hi:.2}]"),
+            _ => "–".into(),
+        };
         match &self.baseline_train {
             Some(b) => {
-                let _ = writeln!(s, "| baseline | {:.2} | 1.00 | 1.00 |", b.failure_rate);
+                let _ = writeln!(
+                    s,
+                    "| baseline | {:.2} | 1.00 | 1.00 | {} |",
+                    b.failure_rate,
+                    wilson(b.failures, b.trials)
+                );
             }
             None => {
-                let _ = writeln!(s, "| baseline | – | – | – |");
+                let _ = writeln!(s, "| baseline | – | – | – | – |");
             }
         }
         for b in &self.budgets {
@@ -334,15 +392,16 @@ impl Report {
                 Some(e) => {
                     let _ = writeln!(
                         s,
-                        "| {} | {:.2} | {:.2} | {} |",
+                        "| {} | {:.2} | {:.2} | {} | {} |",
                         b.budget,
                         e.tp_rate,
                         e.mean_lf_cost,
-                        e.speedup.map_or("–".into(), |x| format!("{x:.2}"))
+                        e.speedup.map_or("–".into(), |x| format!("{x:.2}")),
+                        wilson(e.tp, e.trials)
                     );
                 }
                 None => {
-                    let _ = writeln!(s, "| {} | – | – | – |", b.budget);
+                    let _ = writeln!(s, "| {} | – | – | – | – |", b.budget);
                 }
             }
         }
@@ -417,6 +476,7 @@ impl Report {
                     for (what, f) in [
                         ("every run charged", &m.all_runs),
                         ("LF runs only (TP)", &m.lf_only),
+                        ("LF screening, HF confirms (TP)", &m.screened),
                     ] {
                         let _ = writeln!(
                             s,
@@ -435,6 +495,45 @@ impl Report {
                     let _ = writeln!(s, "  C_budget = {}: not run", b.budget);
                 }
             }
+        }
+        for b in &self.budgets {
+            if let Some(x) = &b.screening {
+                let times = |v: Option<f64>| v.map_or("n/a".into(), |v| format!("{v:.2} ×"));
+                let _ = writeln!(
+                    s,
+                    "LF screening with HF confirmation, C_budget = {}: {} confirmed of {} LF failures in {} trials ({}); {} vs the paired evaluation, {} vs the baseline; audit {} of {} LF passes (α = {}): miss rate {}",
+                    b.budget,
+                    x.counts.confirmed,
+                    x.counts.lf_failures,
+                    x.counts.trials,
+                    format_cost(p.cost, x.counts.runtime()),
+                    times(x.vs_paired),
+                    times(x.vs_baseline),
+                    x.counts.audit_misses,
+                    x.counts.audited,
+                    x.audit_fraction,
+                    x.miss_rate.map_or("n/a".into(), |i| i.show(3)),
+                );
+            }
+        }
+        let ablations: Vec<_> = self
+            .budgets
+            .iter()
+            .filter_map(|b| b.ablation.as_ref().map(|a| (b.budget, a)))
+            .collect();
+        if !ablations.is_empty() {
+            let _ = writeln!(
+                s,
+                "Prior-strength ablation (failures by the common runtime, every run charged; gain over strength 0 = uniform prior):"
+            );
+        }
+        for (budget, a) in ablations {
+            let rows: Vec<String> = a
+                .rows
+                .iter()
+                .map(|r| format!("{}: {} ({})", r.strength, r.all_runs, pct(r.gain_all_runs)))
+                .collect();
+            let _ = writeln!(s, "  C_budget = {budget}: {}", rows.join(", "));
         }
         s
     }

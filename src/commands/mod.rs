@@ -19,6 +19,7 @@ use savme::campaign::store::TrialStore;
 use savme::campaign::CampaignError;
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
+    Repeated, RepeatedOutcome,
 };
 use savme::kernel::Simulator;
 use savme::viewer::{self, Frames, RecordRequest};
@@ -116,6 +117,24 @@ pub struct ProtocolArgs {
     /// Trials in flight at once (changes the results slightly; the number of jobs does not).
     #[arg(long)]
     window: Option<usize>,
+    /// Strength of the transferred fidelity prior in meta-testing (power prior; 1 = the
+    /// meta-training posterior as is).
+    #[arg(long)]
+    prior_strength: Option<f64>,
+    /// Meta-testing prior-strength ablation: strengths to compare, comma-separated (0 = the
+    /// uniform prior), e.g. 0,0.1,0.3,1.
+    #[arg(long, value_delimiter = ',')]
+    prior_strengths: Option<Vec<f64>>,
+    /// LF screening with HF confirmation: trials per budget after the evaluation (0: none).
+    #[arg(long, value_name = "N")]
+    screen_iterations: Option<u64>,
+    /// Fraction α of LF passes the screening re-runs on HF to estimate the miss rate.
+    #[arg(long, value_name = "ALPHA")]
+    audit_fraction: Option<f64>,
+    /// Run the protocol with N seeds (--seed, --seed + 1, …), in parallel, each in
+    /// OUT/seed-<s>/; OUT gets the results over the seeds with 95 % intervals.
+    #[arg(long, value_name = "N")]
+    repeat: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug, clap::ValueEnum)]
@@ -142,6 +161,11 @@ impl ProtocolArgs {
             train_scenarios: self.train_scenarios.clone(),
             test_scenarios: self.test_scenarios.clone(),
             window: self.window,
+            prior_strength: self.prior_strength,
+            prior_strengths: self.prior_strengths.clone(),
+            repeat: self.repeat,
+            screen_iterations: self.screen_iterations,
+            audit_fraction: self.audit_fraction,
             ..Overrides::default()
         }
     }
@@ -359,6 +383,72 @@ where
     }
     let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
     Ok(print(&summary_text(&outcome, &problem))?)
+}
+
+/// Runs `protocol` with `repeat` seeds ([`Repeated`]): one plain progress line per finished
+/// stage and seed (none with --quiet), then prints the results over the seeds.
+pub fn run_repeated<S>(
+    protocol: Protocol,
+    problem: Problem,
+    repeat: u32,
+    target: Target,
+    runner: &RunnerArgs,
+    sim: &S,
+) -> Result<(), Failure>
+where
+    S: Simulator + Clone + Send,
+{
+    let r = runner.record.request();
+    if r.file.is_some() || r.spawn || r.connect.is_some() {
+        return Err(usage(
+            "`--repeat` cannot record to the viewer; record one seed's campaign instead",
+        ));
+    }
+    if target.store.is_some() || target.remote.is_some() {
+        return Err(usage(
+            "`--repeat` runs each seed in its own directory with the default trial store; it cannot use --storage or --remote",
+        ));
+    }
+    let quiet = runner.quiet;
+    let factory = move |seed: u64| -> Vec<Box<dyn Observer + Send>> {
+        if quiet {
+            return Vec::new();
+        }
+        vec![Box::new(ProgressLines::with_prefix(
+            io::stderr(),
+            &format!("seed {seed}: "),
+        ))]
+    };
+    let mut repeated = Repeated::new(protocol, problem, repeat)
+        .out(target.out)
+        .resume(target.resume)
+        .observers(&factory);
+    if let Some(j) = runner.jobs {
+        if j == 0 {
+            return Err(usage("protocol: `--jobs`: must be at least 1"));
+        }
+        repeated = repeated.jobs(j);
+    }
+    let outcome = repeated.run(sim).map_err(config_failure)?;
+    Ok(print(&repeated_text(&outcome))?)
+}
+
+/// What a repeated campaign prints at the end.
+fn repeated_text(o: &RepeatedOutcome) -> String {
+    let mut s = o.report.table_md();
+    let (replayed, ran): (u64, u64) = o
+        .runs
+        .iter()
+        .fold((0, 0), |(a, b), r| (a + r.replayed, b + r.ran));
+    let _ = writeln!(
+        s,
+        "\n{} seeds, {} trials ({replayed} replayed, {ran} run) in {:.1} s; outputs in {} (each seed in seed-<s>/)",
+        o.runs.len(),
+        replayed + ran,
+        o.elapsed_seconds,
+        o.out.display()
+    );
+    s
 }
 
 fn observers(

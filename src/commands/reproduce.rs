@@ -1,12 +1,12 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
 use super::{
-    config_failure, resume_dir, run_campaign, stored_protocol, usage, Failure, ProtocolArgs,
-    RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage, Failure,
+    ProtocolArgs, RunnerArgs, StorageArgs, Target,
 };
 use savme::campaign::config::{self, Preset};
 use savme::campaign::store::TrialStore;
-use savme::campaign::{load_protocol, Problem};
+use savme::campaign::{load_protocol, load_repeat, Problem};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
@@ -54,9 +54,16 @@ pub fn run(a: Args) -> Result<(), Failure> {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
     let out = a.out.unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
+    let mut repeat = config::check_repeat(overrides.repeat).map_err(config_failure)?;
     let (protocol, target) = match (resume, store) {
         (Some(dir), None) => (
-            load_protocol(&dir).map_err(|e| e.to_string())?,
+            match load_repeat(&dir).map_err(|e| e.to_string())? {
+                Some(file) => {
+                    repeat = Some(file.repeat);
+                    file.protocol
+                }
+                None => load_protocol(&dir).map_err(|e| e.to_string())?,
+            },
             Target {
                 out: dir,
                 resume: true,
@@ -87,6 +94,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let problem = Problem::driving(protocol.fidelity_bins);
     let sim = config::bundled_simulator(&protocol).map_err(|e| e.to_string())?;
+    if let Some(n) = repeat {
+        return run_repeated(protocol, problem, n, target, &a.runner, &sim);
+    }
     run_campaign(
         protocol,
         problem,

@@ -1,8 +1,8 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
 use super::{
-    config_failure, resume_dir, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs,
-    StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, usage, Failure, ProtocolArgs,
+    RunnerArgs, StorageArgs, Target,
 };
 use savme::campaign::config;
 use savme::campaign::store::TrialStore;
@@ -63,6 +63,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
         remote,
     };
     let backend = fmu_backend(&c.file)?;
+    let repeat = overrides.repeat.or(c.file.campaign.repeat);
+    if let Some(n) = repeat {
+        return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
+    }
     run_campaign(
         c.protocol,
         c.problem,

@@ -8,7 +8,7 @@ pub mod remote;
 
 pub use local::{with_pool, Pool};
 
-use super::log::{FailedLine, LogLine, RunLine, TrialLine};
+use super::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
 use super::protocol::{OnError, Stage};
 use super::store::TrialStore;
 use super::CampaignError;
@@ -112,14 +112,31 @@ struct Slot {
     /// The stored line of this trial (resume) with its line number.
     logged: Option<(u64, LogLine)>,
     error: Option<String>,
+    /// In a screening stage: whether the trial belongs to the audit sample.
+    audit: Option<bool>,
 }
 
 impl Slot {
     fn ready(&self) -> bool {
-        self.logged.is_some()
-            || self.error.is_some()
-            || (self.hf.is_some() && (self.lf.is_some() || self.trial.theta_lf.is_none()))
+        if self.logged.is_some() || self.error.is_some() {
+            return true;
+        }
+        match (self.audit, &self.lf) {
+            // Screening: the LF run, then HF only to confirm a failure or for the audit.
+            (Some(audit), Some(lf)) => self.hf.is_some() || !(lf.failure || audit),
+            (Some(_), None) => false,
+            (None, _) => self.hf.is_some() && (self.lf.is_some() || self.trial.theta_lf.is_none()),
+        }
     }
+}
+
+/// A screening stage's audit: its seed and fraction α ([`savme_kernel::screening::audited`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Audit {
+    /// Seed of the audit draws.
+    pub seed: u64,
+    /// Fraction of LF passes run on HF.
+    pub fraction: f64,
 }
 
 /// What a stage needs besides the kernel.
@@ -138,6 +155,8 @@ pub struct StageContext<'a> {
     pub store: &'a mut dyn TrialStore,
     /// What a failed simulation does.
     pub on_error: OnError,
+    /// Some for an LF screening stage.
+    pub screen: Option<Audit>,
 }
 
 fn which_name(w: Which) -> &'static str {
@@ -210,11 +229,17 @@ impl StageRun<'_, '_, '_> {
             let number = self.cx.logged_lines.get(index as usize).copied();
             (number.unwrap_or(index + 1), l.clone())
         });
+        let audit = self
+            .cx
+            .screen
+            .map(|a| savme_kernel::screening::audited(a.seed, index, a.fraction));
         match &logged {
             Some((_, l)) => check_logged(l, &trial, &self.label, index)?,
             None => {
-                let theta_hf = self.theta_hf.clone();
-                self.send(&trial, Which::Hf, &theta_hf)?;
+                if audit.is_none() {
+                    let theta_hf = self.theta_hf.clone();
+                    self.send(&trial, Which::Hf, &theta_hf)?;
+                }
                 if let Some(theta) = &trial.theta_lf {
                     self.send(&trial, Which::Lf, theta)?;
                 }
@@ -227,6 +252,7 @@ impl StageRun<'_, '_, '_> {
             lf: None,
             logged,
             error: None,
+            audit,
         });
         Ok(true)
     }
@@ -268,6 +294,7 @@ impl StageRun<'_, '_, '_> {
             )?;
             match &line {
                 LogLine::Trial(t) => progress(t, self.kernel),
+                LogLine::Screen(_) => {}
                 LogLine::Failed(f) => {
                     self.failed += 1;
                     if self.failed > self.cx.stage.iterations {
@@ -293,7 +320,15 @@ impl StageRun<'_, '_, '_> {
         match done.result {
             Ok(r) => match done.which {
                 Which::Hf => slot.hf = Some(r),
-                Which::Lf => slot.lf = Some(r),
+                Which::Lf => {
+                    // Screening: an LF failure is confirmed on HF, an audited pass checked.
+                    let confirm = slot.audit.is_some_and(|audit| r.failure || audit);
+                    slot.lf = Some(r);
+                    if confirm {
+                        let (trial, theta_hf) = (slot.trial.clone(), self.theta_hf.clone());
+                        self.send(&trial, Which::Hf, &theta_hf)?;
+                    }
+                }
             },
             Err(source) if self.cx.on_error == OnError::Skip => {
                 slot.error
@@ -333,6 +368,7 @@ fn check_logged(l: &LogLine, t: &Trial, label: &str, index: u64) -> Result<(), C
     let (stage, i, id, scenario, phi, theta) = match l {
         LogLine::Trial(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
         LogLine::Failed(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
+        LogLine::Screen(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
     };
     let same = stage == label
         && i == index
@@ -381,6 +417,24 @@ fn tell(
             withdraw(kernel)?;
             return Ok(LogLine::Failed(f));
         }
+        Some((number, LogLine::Screen(l))) => {
+            let expected = savme_kernel::screening::decide(l.lf.failure, slot.audit == Some(true));
+            let hf_expected = expected != savme_kernel::screening::Screen::Pass;
+            if slot.audit.is_none() || l.screen != expected || l.hf.is_some() != hf_expected {
+                return Err(CampaignError::Log {
+                    store: store.location(),
+                    line: number as usize,
+                    message: format!(
+                        "field `screen` is {:?} (HF run: {}) but replaying the trial gives {expected:?}: the line was edited, or written by another campaign",
+                        l.screen,
+                        l.hf.is_some()
+                    ),
+                });
+            }
+            tell_screened(kernel, slot.trial.id, &l.lf, l.hf.as_ref())
+                .map_err(|e| diverged(format!("the logged outcome cannot be told: {e}")))?;
+            return Ok(LogLine::Screen(l));
+        }
         Some((number, LogLine::Trial(l))) => {
             let tampered = |field: &str, logged: String, computed: String| {
                 CampaignError::Log {
@@ -424,6 +478,15 @@ fn tell(
         store.append_json(&[line.to_json()])?;
         return Ok(line);
     }
+    if let Some(audit) = slot.audit {
+        let line = LogLine::Screen(screen_line(&slot, audit, label, stage, cost)?);
+        if let LogLine::Screen(l) = &line {
+            tell_screened(kernel, slot.trial.id, &l.lf, l.hf.as_ref())
+                .map_err(|e| diverged(format!("the outcome cannot be told: {e}")))?;
+        }
+        store.append_json(&[line.to_json()])?;
+        return Ok(line);
+    }
     let mut line = trial_line(&slot, label, stage, cost)?;
     let record = kernel
         .tell(slot.trial.id, line.observation())
@@ -434,6 +497,71 @@ fn tell(
     let line = LogLine::Trial(line);
     store.append_json(&[line.to_json()])?;
     Ok(line)
+}
+
+/// The line of a run of `slot`'s trial, with the protocol's cost.
+fn run_line(
+    r: &SimResult,
+    which: &'static str,
+    slot: &Slot,
+    label: &str,
+    cost: CostMeasure,
+) -> Result<RunLine, CampaignError> {
+    let run = r
+        .run(cost)
+        .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
+    Ok(RunLine::new(r, run.runtime))
+}
+
+/// Tells the kernel a screened trial: paired when HF ran, LF alone otherwise.
+fn tell_screened(
+    kernel: &mut Kernel,
+    id: u64,
+    lf: &RunLine,
+    hf: Option<&RunLine>,
+) -> Result<(), savme_kernel::TellError> {
+    match hf {
+        Some(hf) => kernel
+            .tell(
+                id,
+                savme_kernel::Observation::Paired {
+                    hf: hf.run(),
+                    lf: lf.run(),
+                },
+            )
+            .map(|_| ()),
+        None => kernel.tell_unconfirmed(id, lf.run()).map(|_| ()),
+    }
+}
+
+/// The line of a screened trial whose runs are in.
+fn screen_line(
+    slot: &Slot,
+    audit: bool,
+    label: &str,
+    stage: &Stage,
+    cost: CostMeasure,
+) -> Result<ScreenLine, CampaignError> {
+    let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
+    let lf = run_line(slot.lf.as_ref().ok_or(CampaignError::WorkersGone)?, "LF")?;
+    let hf = match &slot.hf {
+        Some(r) => Some(run_line(r, "HF")?),
+        None => None,
+    };
+    let outcome = hf.map(|h| savme_kernel::Outcome::classify(h.failure, lf.failure));
+    Ok(ScreenLine {
+        stage: label.into(),
+        index: slot.index,
+        id: slot.trial.id,
+        budget: stage.budget,
+        scenario: slot.trial.scenario.to_string(),
+        phi: slot.trial.phi.clone(),
+        theta_lf: slot.trial.theta_lf.clone(),
+        screen: savme_kernel::screening::decide(lf.failure, audit),
+        lf,
+        hf,
+        outcome,
+    })
 }
 
 /// A stored trial's costs must be what the protocol's cost measure gives: its work units, or
@@ -467,12 +595,7 @@ fn trial_line(
     stage: &Stage,
     cost: CostMeasure,
 ) -> Result<TrialLine, CampaignError> {
-    let run_line = |r: &SimResult, which: &'static str| -> Result<RunLine, CampaignError> {
-        let run = r
-            .run(cost)
-            .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
-        Ok(RunLine::new(r, run.runtime))
-    };
+    let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
     let hf = run_line(slot.hf.as_ref().ok_or(CampaignError::WorkersGone)?, "HF")?;
     let lf = match &slot.lf {
         Some(r) => Some(run_line(r, "LF")?),

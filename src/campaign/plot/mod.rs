@@ -13,6 +13,8 @@ use savme_kernel::metrics::{break_even, FailureCurve};
 use std::path::Path;
 use text::GlyphText;
 
+pub mod bands;
+
 const FONT: &str = "sans-serif";
 
 /// Registers the bundled font once (plotters draws text with it; no system fonts needed).

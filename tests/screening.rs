@@ -1,0 +1,217 @@
+//! LF screening with HF confirmation end to end (`savme reproduce --screen-iterations`): HF runs
+//! exactly for LF failures and the audit sample, the report agrees with the trial lines, the
+//! stage is independent of the jobs and resumes, and an edited screening line is refused.
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("savme-screen-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+const ARGS: &[&str] = &[
+    "--perception",
+    "ideal",
+    "--budgets",
+    "0.3",
+    "--iterations",
+    "60",
+    "--eval-iterations",
+    "30",
+    "--test-iterations",
+    "10",
+    "--baseline-iterations",
+    "60",
+    "--baseline-test-iterations",
+    "10",
+    "--screen-iterations",
+    "150",
+    "--audit-fraction",
+    "0.25",
+    "--cost",
+    "work",
+    "--seed",
+    "3",
+    "--quiet",
+];
+
+fn run(args: &[&str]) -> (bool, String, String) {
+    let o = Command::new(EXE).args(args).output().unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn reproduce(out: &Path, jobs: &str) -> (bool, String, String) {
+    let out = out.display().to_string();
+    let mut a = vec!["reproduce", "--out", &out, "--jobs", jobs];
+    a.extend(ARGS);
+    run(&a)
+}
+
+fn lines(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("trials.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
+    for v in &mut t {
+        for run in ["hf", "lf"] {
+            if let Some(r) = v[run].as_object_mut() {
+                r.remove("wall_seconds");
+            }
+        }
+    }
+    t
+}
+
+// Long because it recomputes the screening report from the trial lines: one run, many checks.
+#[test]
+fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran() {
+    let dir = temp_dir("e2e");
+    let (ok, out, err) = reproduce(&dir, "2");
+    assert!(ok, "{err}");
+    let all = lines(&dir);
+    let screen: Vec<&Value> = all.iter().filter(|v| v["stage"] == "screen@0.3").collect();
+    assert_eq!(screen.len(), 150);
+    // θ_LF is the evaluation's θ*.
+    let eval: Vec<&Value> = all
+        .iter()
+        .filter(|v| v["stage"] == "evaluate@0.3")
+        .collect();
+    assert!(screen.iter().all(|v| v["theta_lf"] == eval[0]["theta_lf"]));
+    let (mut confirmed, mut lf_failures, mut audited, mut misses, mut cost) = (0, 0, 0, 0, 0.0);
+    for v in &screen {
+        let lf_failed = v["lf"]["failure"] == true;
+        let kind = v["screen"].as_str().unwrap();
+        // HF ran exactly for LF failures (confirm) and audited passes.
+        assert_eq!(v["hf"].is_null(), kind == "pass", "{v}");
+        assert_eq!(lf_failed, kind == "confirm", "{v}");
+        cost += v["lf"]["runtime"].as_f64().unwrap() + v["hf"]["runtime"].as_f64().unwrap_or(0.0);
+        let hf_failed = v["hf"]["failure"] == true;
+        match kind {
+            "confirm" => {
+                lf_failures += 1;
+                confirmed += u64::from(hf_failed);
+            }
+            "audit" => {
+                audited += 1;
+                misses += u64::from(hf_failed);
+            }
+            _ => {}
+        }
+    }
+    // α = 0.25 of the LF passes, within a binomial margin (± 4 standard deviations).
+    let passes = 150 - lf_failures;
+    let expected = 0.25 * passes as f64;
+    let sd = (passes as f64 * 0.25 * 0.75).sqrt();
+    assert!(
+        (audited as f64 - expected).abs() < 4.0 * sd,
+        "{audited} audited of {passes} passes"
+    );
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let s = &summary["report"]["budgets"][0]["screening"];
+    assert_eq!(s["counts"]["confirmed"], confirmed);
+    assert_eq!(s["counts"]["lf_failures"], lf_failures);
+    assert_eq!(s["counts"]["audited"], audited);
+    assert_eq!(s["counts"]["audit_misses"], misses);
+    let per = s["confirmed_per_runtime"].as_f64().unwrap();
+    assert!((per - confirmed as f64 / cost).abs() < 1e-12 * per.max(1.0));
+    // Against the paired evaluation: HF failures per (HF + LF) cost.
+    let eval_cost: f64 = eval
+        .iter()
+        .map(|v| v["hf"]["runtime"].as_f64().unwrap() + v["lf"]["runtime"].as_f64().unwrap())
+        .sum();
+    let eval_failures = eval.iter().filter(|v| v["hf"]["failure"] == true).count();
+    let paired = eval_failures as f64 / eval_cost;
+    let vs = s["vs_paired"].as_f64().unwrap();
+    assert!((vs - per / paired).abs() < 1e-9 * vs, "{vs}");
+    // The miss rate carries its Wilson interval, around the observed rate.
+    let miss = &s["miss_rate"];
+    assert_eq!(miss["n"], audited);
+    assert!(miss["lo"].as_f64().unwrap() <= miss["mean"].as_f64().unwrap());
+    assert!(miss["hi"].as_f64().unwrap() >= miss["mean"].as_f64().unwrap());
+    assert!(
+        out.contains("LF screening with HF confirmation, C_budget = 0.3"),
+        "{out}"
+    );
+    assert!(out.contains("LF screening, HF confirms (TP)"), "{out}");
+
+    // The same campaign with one job, and a resumed one cut inside the screening stage.
+    let one = temp_dir("one");
+    assert!(reproduce(&one, "1").0);
+    assert_eq!(without_wall(lines(&one)), without_wall(all.clone()));
+    let cut = temp_dir("cut");
+    std::fs::create_dir_all(&cut).unwrap();
+    std::fs::copy(dir.join("protocol.json"), cut.join("protocol.json")).unwrap();
+    let first = all.iter().position(|v| v["stage"] == "screen@0.3").unwrap();
+    let text: Vec<&str> = std::fs::read_to_string(dir.join("trials.jsonl"))
+        .unwrap()
+        .leak()
+        .lines()
+        .collect();
+    std::fs::write(
+        cut.join("trials.jsonl"),
+        text[..first + 40].join("\n") + "\n",
+    )
+    .unwrap();
+    let resume = |d: &Path| run(&["reproduce", "--quiet", "--resume", &d.display().to_string()]);
+    let (ok, _, err) = resume(&cut);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(lines(&cut)), without_wall(all.clone()));
+
+    // A screening line edited to skip its HF run is refused, naming the line and field.
+    let edited = temp_dir("edited");
+    std::fs::create_dir_all(&edited).unwrap();
+    std::fs::copy(dir.join("protocol.json"), edited.join("protocol.json")).unwrap();
+    let k = all
+        .iter()
+        .position(|v| v["screen"] == "audit")
+        .expect("an audited trial");
+    let mut bad: Vec<String> = text.iter().map(|s| s.to_string()).collect();
+    let mut v: Value = serde_json::from_str(&bad[k]).unwrap();
+    v["screen"] = "pass".into();
+    v["hf"] = Value::Null;
+    v["outcome"] = Value::Null;
+    bad[k] = v.to_string();
+    std::fs::write(edited.join("trials.jsonl"), bad.join("\n") + "\n").unwrap();
+    let (ok, _, err) = resume(&edited);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("line {}", k + 1)) && err.contains("field `screen`"),
+        "{err}"
+    );
+    for d in [dir, one, cut, edited] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn bad_screening_values_are_refused_naming_the_flag() {
+    let dir = temp_dir("bad");
+    for (flag, value, message) in [
+        (
+            "--audit-fraction",
+            "1.5",
+            "`audit_fraction`: 1.5 is outside [0, 1]",
+        ),
+        ("--audit-fraction", "NaN", "`audit_fraction`"),
+        ("--screen-iterations", "200000000", "`screen_iterations`"),
+    ] {
+        let d = dir.display().to_string();
+        let (ok, _, err) = run(&["reproduce", "--out", &d, "--quiet", flag, value]);
+        assert!(!ok, "{flag} {value} accepted");
+        assert!(err.contains(message), "{flag} {value}: {err}");
+        assert!(!dir.exists());
+    }
+}
