@@ -99,6 +99,7 @@ impl PyProtocol {
             window,
             train_scenarios: None,
             test_scenarios: None,
+            ..Overrides::default()
         };
         let lookup = |k: &str| Some(k.to_string());
         o.apply(&mut p, &lookup, "").map_err(errors::value)?;
