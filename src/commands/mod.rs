@@ -112,10 +112,12 @@ pub struct RecordArgs {
     /// Record to a running rerun viewer (default rerun+http://127.0.0.1:9876/proxy).
     #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
     connect: Option<String>,
-    /// Sensor frames for every N-th trial.
+    /// Campaigns: a trial recording (frames of its HF and LF runs) for every N-th trial (0: none).
     #[arg(long, value_name = "N", default_value_t = 200)]
     record_every: u64,
-    /// ... plus trials whose HF run failed, up to N.
+    /// Campaigns: ... plus up to N informative trials, chosen when the campaign ends: FN and FP
+    /// of meta-training, evaluation and meta-testing first (alternately, in campaign order),
+    /// then TP, then HF failures of the baselines (which have no LF run).
     #[arg(long, value_name = "N", default_value_t = 10)]
     record_failures: u64,
 }
@@ -154,7 +156,7 @@ pub fn run_campaign<S>(
 where
     S: Simulator + Clone + Send,
 {
-    let mut campaign = Campaign::new(protocol, problem.clone())
+    let mut campaign = Campaign::new(protocol.clone(), problem.clone())
         .out(target.out)
         .resume(target.resume);
     if let Some(j) = runner.jobs {
@@ -163,7 +165,7 @@ where
         }
         campaign = campaign.jobs(j);
     }
-    for o in observers(runner, frames, &problem)? {
+    for o in observers(runner, frames, &protocol, &problem)? {
         campaign = campaign.boxed_observer(o);
     }
     let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
@@ -173,6 +175,7 @@ where
 fn observers(
     runner: &RunnerArgs,
     frames: Frames,
+    protocol: &Protocol,
     problem: &Problem,
 ) -> Result<Vec<Box<dyn Observer>>, String> {
     let mut out: Vec<Box<dyn Observer>> = Vec::new();
@@ -183,7 +186,7 @@ fn observers(
             out.push(Box::new(ProgressLines::new(io::stderr())));
         }
     }
-    let recording = viewer::start(&runner.record.request(), frames, problem.theta_hf.clone())
+    let recording = viewer::start(&runner.record.request(), frames, protocol, problem)
         .map_err(|e| e.to_string())?;
     out.extend(recording);
     Ok(out)

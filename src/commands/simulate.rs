@@ -4,7 +4,7 @@
 use savme::kernel::{Assignment, Domain, Value};
 use savme_sim::fidelity;
 use savme_sim::scenario;
-use savme_sim::sim::DrivingSimulator;
+use savme_sim::sim::{DrivingSimulator, RunResult};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -24,18 +24,26 @@ pub struct Args {
     record: super::RecordArgs,
 }
 
+/// Runs the simulation once — with recording on when a recording is asked for (then the HF
+/// run is recorded beside an LF one) — and prints it.
 pub fn run(a: Args) -> Result<(), String> {
-    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
+    let info = scenario::find(&a.scenario).ok_or_else(|| {
+        format!(
+            "unknown scenario `{}`: give 1–10 or a name from `savme scenarios`",
+            a.scenario
+        )
+    })?;
+    let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
+    let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
     let request = a.record.request();
-    if request.wanted() {
-        // `simulate` checked the arguments.
-        let info = scenario::find(&a.scenario).ok_or("unknown scenario")?;
-        let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
-        let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-        savme::viewer::record_run(&request, info.name, &phi, &theta)
-            .map_err(|e| format!("{text}{e}"))?;
-    }
-    super::print(&text)
+    let r = if request.wanted() {
+        savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?
+    } else {
+        DrivingSimulator::default()
+            .run(info.name, &phi, &theta, false)
+            .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?
+    };
+    super::print(&describe(info, &phi, &theta, &r, a.json))
 }
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,
@@ -96,16 +104,14 @@ fn parse_fidelity(text: &str) -> Result<Assignment, String> {
     Ok(theta)
 }
 
-/// Runs one simulation and describes it (or gives it as JSON).
-fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, String> {
-    let info = scenario::find(scenario).ok_or_else(|| {
-        format!("unknown scenario `{scenario}`: give 1–10 or a name from `savme scenarios`")
-    })?;
-    let phi = parse_assignment(phi).map_err(|e| format!("--phi: {e}"))?;
-    let theta = parse_fidelity(fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-    let r = DrivingSimulator::default()
-        .run(info.name, &phi, &theta, false)
-        .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?;
+/// Describes a run (or gives it as JSON).
+fn describe(
+    info: &scenario::ScenarioInfo,
+    phi: &Assignment,
+    theta: &Assignment,
+    r: &RunResult,
+    json: bool,
+) -> String {
     if json {
         let out = serde_json::json!({
             "scenario": info.name,
@@ -118,13 +124,13 @@ fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<Str
             "work": r.work,
             "wall_seconds": r.wall_seconds,
         });
-        return Ok(format!("{out}\n"));
+        return format!("{out}\n");
     }
     let outcome = match r.collision_time {
         Some(t) => format!("COLLISION at {t:.2} s"),
         None => format!("no collision, minimum distance {:.2} m", r.min_distance),
     };
-    Ok(format!(
+    format!(
         "scenario {} {}: {phi}\nfidelity: {theta}\noutcome: {outcome}\n\
          cost: {:.3} ms wall-clock, {} work units ({} steps)\n",
         info.id,
@@ -132,7 +138,7 @@ fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<Str
         r.wall_seconds * 1e3,
         r.work,
         r.steps
-    ))
+    )
 }
 
 #[cfg(test)]
