@@ -3,13 +3,17 @@
 mod commands;
 
 use clap::{Parser, Subcommand};
+use commands::Failure;
 use std::process::ExitCode;
 
 #[derive(Parser)]
 #[command(
     name = "savme",
     version,
-    about = "Find the failures of an autonomous system in simulation, fast (SAVME)."
+    about = "Find the failures of an autonomous system in simulation, fast (SAVME).",
+    after_help = "Exit status: 0 on success; 1 when running failed (a file, a simulator, the trial store, \
+                  the output); 2 when the command line is wrong (an unknown flag, or a value savme \
+                  refuses before running anything)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -23,9 +27,9 @@ enum Command {
     /// Print a kernel configuration (the toy simulator's) to start editing from.
     ExampleConfig,
     /// List the bundled driving simulator's scenarios with their parameter spaces.
-    Scenarios,
-    /// List the 16 fidelity settings (the paper's Table I) with their high-fidelity values.
-    Fidelity,
+    Scenarios(commands::scenarios::Args),
+    /// List the 16 fidelity settings (the paper's Table II) with their high-fidelity values.
+    Fidelity(commands::fidelity::Args),
     /// Reproduce the paper's protocol on the bundled simulator: baseline, meta-training per
     /// budget, evaluation, meta-testing. Writes table.md, fidelity.md, summary.json,
     /// trials.jsonl, breakeven.png and meta_testing.png.
@@ -43,22 +47,23 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // Each command fails with a message (a runtime failure) or a `Failure` that says which.
     let result = match Cli::parse().command {
-        Command::Serve(a) => commands::serve::run(a),
-        Command::ExampleConfig => commands::serve::example_config(),
-        Command::Scenarios => commands::scenarios::run(),
-        Command::Fidelity => commands::fidelity::run(),
+        Command::Serve(a) => commands::serve::run(a).map_err(Failure::from),
+        Command::ExampleConfig => commands::serve::example_config().map_err(Failure::from),
+        Command::Scenarios(a) => commands::scenarios::run(a).map_err(Failure::from),
+        Command::Fidelity(a) => commands::fidelity::run(a).map_err(Failure::from),
         Command::Reproduce(a) => commands::reproduce::run(a),
         Command::Run(a) => commands::run::run(a),
-        Command::Fmu(c) => commands::fmu::run(c),
-        Command::FmuWorker => commands::fmu::worker(),
+        Command::Fmu(c) => commands::fmu::run(c).map_err(Failure::from),
+        Command::FmuWorker => commands::fmu::worker().map_err(Failure::from),
         Command::Simulate(a) => commands::simulate::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("savme: {e}");
-            ExitCode::FAILURE
+            eprintln!("savme: {}", e.message());
+            ExitCode::from(e.code())
         }
     }
 }

@@ -2,8 +2,9 @@
 //! obstacle, an emergency-braking system under test, and four fidelity settings that really
 //! change both the work done and the result.
 //!
-//! It is a stand-in until the bundled camera/lidar driving simulator (`savme-sim`) lands, and a
-//! fast, deterministic workload for tests. The physics is one-dimensional:
+//! It is the simulator `savme example-config` and the `serve` examples use, and a fast,
+//! deterministic workload for tests (the paper's camera/lidar driving simulator is the
+//! `savme-sim` crate). The physics is one-dimensional:
 //!
 //! * `stopped_obstacle` — the ego drives at `ego_speed` towards a standing obstacle `gap`
 //!   metres ahead.
@@ -14,9 +15,9 @@
 //! the time to collision from the last two measurements, and brakes at 7 m/s² once it falls
 //! below 2 s. A collision (gap ≤ 0) within the horizon is a failure.
 //!
-//! Fidelity settings (θ_HF in brackets): `rate_hz` {5, 10, 20, 50, [100]} — the step;
-//! `integrator` {euler, [rk4]} — explicit Euler overshoots while braking; `disable_sensor_noise`
-//! {true, [false]}; `horizon_s` [3, 15] s, [15] — shorter runs miss late collisions.
+//! Fidelity settings (θ_HF marked with a star): `rate_hz` {5, 10, 20, 50, 100\*} — the step;
+//! `integrator` {euler, rk4\*} — explicit Euler overshoots while braking; `disable_sensor_noise`
+//! {true, false\*}; `horizon_s` in 3–15 s, 15\* — shorter runs miss late collisions.
 //! Work units = force evaluations + noise samples.
 
 use rand::SeedableRng;

@@ -26,7 +26,45 @@ fn scenarios_lists_all_ten_with_their_spaces() {
 }
 
 #[test]
-fn fidelity_lists_table_i_with_hf_values() {
+fn scenarios_and_fidelity_print_json_with_units() {
+    let (ok, out, err) = savme(&["scenarios", "--json"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["format_version"], 1);
+    let s = v["scenarios"].as_array().unwrap();
+    assert_eq!(s.len(), 10);
+    assert_eq!(s[6]["name"], "lead_vehicle_brakes");
+    assert_eq!(s[8]["role"], "meta-testing");
+    let gap = &s[6]["parameters"][2];
+    assert_eq!((&gap["name"], &gap["unit"]), (&"gap".into(), &"m".into()));
+    assert_eq!(
+        (&gap["lo"], &gap["hi"], &gap["bins"]),
+        (&8.0.into(), &28.0.into(), &10.into())
+    );
+
+    let (ok, out, err) = savme(&["fidelity", "--json"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["format_version"], 1);
+    let settings = v["settings"].as_array().unwrap();
+    assert_eq!(settings.len(), 16);
+    assert_eq!(settings[0]["name"], "simulation_rate_hz");
+    assert_eq!(
+        (&settings[0]["unit"], &settings[0]["hf"]),
+        (&"Hz".into(), &10.into())
+    );
+    let clip = settings
+        .iter()
+        .find(|s| s["name"] == "lidar_near_clipping_m")
+        .unwrap();
+    assert_eq!(
+        (&clip["scale"], &clip["unit"], &clip["hf"]),
+        (&"log".into(), &"m".into(), &0.2.into())
+    );
+}
+
+#[test]
+fn fidelity_lists_table_ii_with_hf_values() {
     let (ok, out, _) = savme(&["fidelity"]);
     assert!(ok);
     assert_eq!(out.lines().count(), 17, "{out}");
@@ -128,10 +166,17 @@ fn bad_inputs_are_named() {
         ),
     ];
     for (args, expected) in cases {
-        let (ok, _, err) = savme(args);
-        assert!(!ok, "{args:?} succeeded");
+        let out = Command::new(EXE).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        // Wrong flag values are usage errors: exit status 2, as for clap's own errors.
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(expected), "{args:?}: {err}");
     }
+    let (ok, help, _) = savme(&["--help"]);
+    assert!(
+        ok && help.contains("Exit status: 0 on success; 1 when running failed"),
+        "{help}"
+    );
 }
 
 #[cfg(not(feature = "rerun"))]
@@ -145,10 +190,35 @@ fn recording_without_the_rerun_feature_says_how_to_get_it() {
     ] {
         let mut args = vec!["simulate", "--scenario", "7", "--phi", phi];
         args.extend_from_slice(flags);
-        let (ok, _, err) = savme(&args);
+        let (ok, out, err) = savme(&args);
         assert!(!ok, "{flags:?}");
         assert!(err.contains("--features rerun"), "{err}");
+        // Refused before running: no result, neither printed nor inside the error.
+        assert!(out.is_empty(), "{out}");
+        assert!(
+            !err.contains("COLLISION") && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+    // The flags a build cannot use are hidden from the help.
+    for cmd in ["simulate", "reproduce", "run"] {
+        let (ok, help, _) = savme(&[cmd, "--help"]);
+        assert!(ok);
+        assert!(
+            !help.contains("--record") && !help.contains("--spawn"),
+            "{help}"
+        );
     }
     let (ok, _, err) = savme(&["reproduce", "--quick", "--spawn", "--out", "/nonexistent/x"]);
     assert!(!ok && err.contains("--features rerun"), "{err}");
+}
+
+#[test]
+fn simulate_has_no_campaign_recording_flags() {
+    let phi = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+    for flag in ["--record-every", "--record-failures"] {
+        let (ok, out, err) = savme(&["simulate", "--scenario", "7", "--phi", phi, flag, "3"]);
+        assert!(!ok && out.is_empty(), "{flag}: {out}");
+        assert!(err.contains(flag), "{flag}: {err}");
+    }
 }

@@ -60,7 +60,7 @@ fn through_fmu(
     theta: &Assignment,
 ) -> (bool, f64, f64) {
     let mut i = Instance::new(file.clone(), "cross-check").unwrap();
-    i.setup(0.0, Some(12.0)).unwrap();
+    i.setup(0.0, Some(12.0), None).unwrap();
     let vr = |n: &str| file.variable(n).unwrap().vr;
     i.set_integer(vr("scenario"), i32::from(id)).unwrap();
     for (n, v) in phi.iter() {

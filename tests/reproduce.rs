@@ -54,6 +54,12 @@ fn args(extra: &[&str]) -> Vec<String> {
 }
 
 fn reproduce(out: &Path, extra: &[&str]) -> (bool, String, String) {
+    let (code, out, err) = reproduce_status(out, extra);
+    (code == Some(0), out, err)
+}
+
+/// `reproduce` with its exit status.
+fn reproduce_status(out: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
     let o = Command::new(EXE)
         .arg("reproduce")
         .arg("--out")
@@ -62,7 +68,7 @@ fn reproduce(out: &Path, extra: &[&str]) -> (bool, String, String) {
         .output()
         .unwrap();
     (
-        o.status.success(),
+        o.status.code(),
         String::from_utf8_lossy(&o.stdout).into_owned(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
     )
@@ -216,7 +222,25 @@ fn a_tiny_reproduction_writes_outputs_that_agree_with_its_trials() {
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["trials"], TINY_TRIALS);
+    assert_eq!(summary["format_version"], 1);
     let e = &summary["report"]["budgets"][0]["evaluation"];
+    // The four classes under their own names (not `fn_`), adding up to the evaluation.
+    let classes: Vec<u64> = ["tp", "tn", "fp", "fn"]
+        .iter()
+        .map(|k| e[*k].as_u64().unwrap_or_else(|| panic!("{k}: {e}")))
+        .collect();
+    assert_eq!(classes.iter().sum::<u64>(), 6, "{e}");
+    assert!(e.get("fn_").is_none(), "{e}");
+    let protocol: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("protocol.json")).unwrap()).unwrap();
+    assert_eq!(protocol["format_version"], 1);
+    for md in ["table.md", "fidelity.md"] {
+        let text = std::fs::read_to_string(dir.join(md)).unwrap();
+        assert!(
+            text.ends_with("<!-- savme format_version 1 -->\n"),
+            "{md}: {text}"
+        );
+    }
     assert!((e["tp_rate"].as_f64().unwrap() - tp).abs() < 1e-12);
     assert!((e["mean_lf_cost"].as_f64().unwrap() - cost).abs() < 1e-9);
     let m = &summary["report"]["budgets"][0]["meta_testing"];
@@ -344,9 +368,10 @@ fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
 #[test]
 fn bad_input_is_refused_before_any_simulation() {
     let dir = temp_dir("bad");
+    // A flag's value savme refuses is a usage error: exit status 2, as for clap's own.
     let bad = |extra: &[&str], needle: &str| {
-        let (ok, _, err) = reproduce(&dir, extra);
-        assert!(!ok, "{extra:?} was accepted");
+        let (code, _, err) = reproduce_status(&dir, extra);
+        assert_eq!(code, Some(2), "{extra:?}: {err}");
         assert!(
             err.contains(needle),
             "{extra:?}: expected `{needle}` in: {err}"
@@ -379,8 +404,9 @@ fn bad_input_is_refused_before_any_simulation() {
     // An output directory that cannot be created.
     let file = temp_dir("bad-file");
     std::fs::write(&file, "not a directory").unwrap();
-    let (ok, _, err) = reproduce(&file.join("out"), &[]);
-    assert!(!ok);
+    // ... while a failure running the command is a runtime error: exit status 1.
+    let (code, _, err) = reproduce_status(&file.join("out"), &[]);
+    assert_eq!(code, Some(1), "{err}");
     assert!(
         err.contains(&file.join("out").display().to_string()),
         "{err}"
@@ -424,7 +450,7 @@ fn bad_input_is_refused_before_any_simulation() {
         .arg(&done)
         .output()
         .unwrap();
-    assert!(!o.status.success());
+    assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("keeps its protocol"));
 
     let good = temp_dir("bad-corrupt");
@@ -590,5 +616,33 @@ fn a_resume_refuses_any_edited_field_the_reports_use_naming_line_and_field() {
             "{field}: changed"
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn without_a_terminal_progress_comes_as_plain_lines_per_stage() {
+    let dir = temp_dir("lines");
+    let flags: Vec<&str> = TINY.iter().copied().filter(|f| *f != "--quiet").collect();
+    let o = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(&dir)
+        .args(&flags)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.lines()
+            .next()
+            .is_some_and(|l| l.starts_with("baseline-train started: 0/14 trials")),
+        "{err}"
+    );
+    assert!(
+        err.contains("train@0.3 done: 16/16 trials,") && err.contains("failure"),
+        "{err}"
+    );
+    // No bar drawing characters when stderr is not a terminal.
+    assert!(!err.contains('\r') && !err.contains("\u{1b}["), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

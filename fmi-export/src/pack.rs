@@ -47,6 +47,17 @@ pub fn pack(
     library: &Path,
     out: &Path,
 ) -> Result<(), PackError> {
+    pack_with(model_description, identifier, library, &[], out)
+}
+
+/// [`pack`] with more files in the archive, e.g. `("resources/table.txt", bytes)`.
+pub fn pack_with(
+    model_description: &str,
+    identifier: &str,
+    library: &Path,
+    files: &[(&str, &[u8])],
+    out: &Path,
+) -> Result<(), PackError> {
     let io = |path: &Path| {
         let path = path.display().to_string();
         move |source| PackError::Io { path, source }
@@ -71,6 +82,10 @@ pub fn pack(
     )
     .map_err(zip_err)?;
     z.write_all(&lib).map_err(io(out))?;
+    for (name, bytes) in files {
+        z.start_file(*name, opts).map_err(zip_err)?;
+        z.write_all(bytes).map_err(io(out))?;
+    }
     z.finish().map_err(zip_err)?;
     Ok(())
 }

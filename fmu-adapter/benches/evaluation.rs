@@ -63,6 +63,8 @@ fn bench(c: &mut Criterion) {
     )])
     .expect("space");
     let spec = RunSpec {
+        fmu_log: false,
+        tolerance: None,
         stop_time: 1.0,
         step: StepSize::Fixed(0.01),
         failure: Failure::Boolean {

@@ -17,12 +17,14 @@
 //! hf = "hf.fmu"                  # paths relative to the campaign file
 //! lf = "lf.fmu"                  # optional: the HF FMU with other settings
 //! stop_time = 12.0
-//! step = { rate_of = "rate" }    # or a fixed step: step = 0.1
+//! step = { rate_of = "rate" }    # or a fixed step: step = 0.1 (or see `drives` below)
+//! tolerance = 1e-6               # optional: passed to fmi2SetupExperiment
 //! stop_on_failure = true         # default true
 //! cost = "wall"                  # or the name of an output counting work units
 //! isolate = false                # run every evaluation in a worker process
 //! timeout_s = 60.0               # per run, with isolation
 //! on_error = "abort"             # or "skip"
+//! log = false                    # print every FMU log message (errors always carry the last ones)
 //!
 //! [failure]
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
@@ -35,6 +37,8 @@
 //! name = "rate"                  # bound to the FMU variable `rate` unless fmu = "…"
 //! values = [2, 4, 10]            # or range = [lo, hi], bins = 10, scale = "linear" | "log"
 //! hf = 10                        # θ_HF
+//! # drives = "step_size"         # or "tolerance": the variable IS the step size (seconds) or
+//! #                              # the tolerance, bound to no FMU variable; then no `step`
 //!
 //! [[scenario]]
 //! name = "cut_in"
@@ -49,9 +53,11 @@
 mod bindings;
 
 use crate::worker::WorkerInit;
-use crate::{Binding, CostSource, Crossing, Failure, Fixed, RunSpec, ScenarioSpec, StepSize};
+use crate::{
+    Binding, CostSource, Crossing, Failure, Fixed, RunSpec, ScenarioSpec, StepSize, Tolerance,
+};
 use bindings::{Origins, Use};
-use raw::{ScaleSection, StepSection, VarSection};
+use raw::{Drives, ScaleSection, StepSection, VarSection};
 use savme_kernel::{Assignment, Scale, Space, SpaceError, Value, Variable};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -194,7 +200,7 @@ impl CampaignFile {
     /// use savme_fmu::campaign_file::CampaignFile;
     /// use savme_kernel::{Assignment, Space, Variable};
     ///
-    /// // The caller's "paper" fidelity table (savme passes the bundled simulator's Table I).
+    /// // The caller's "paper" fidelity table (savme passes the bundled simulator's Table II).
     /// let file = CampaignFile::load("campaign.toml".as_ref(), &|_bins| {
     ///     let space = Space::new(vec![Variable::discrete("rate_hz", [2, 10])]).expect("valid");
     ///     (space, Assignment::new().with("rate_hz", 10))
@@ -221,7 +227,8 @@ impl CampaignFile {
         let fidelity = fidelity(&src, &f.fidelity, &campaign, paper, &mut origins)?;
         let scenarios = scenarios(&src, &f.scenarios, &mut origins)?;
         let fmu = f.fmu.get_ref();
-        let step = step(&src, &fmu.step, &fidelity.space)?;
+        let step = step(&src, &f.fmu, &fidelity)?;
+        let tolerance = tolerance(&src, fmu.tolerance.as_ref(), &fidelity)?;
         let stop_time = stop_time(&src, &fmu.stop_time)?;
         let failure = failure(&src, &f.failure, &mut origins)?;
         let cost = cost_source(&src, fmu.cost.as_ref(), &mut origins);
@@ -236,11 +243,13 @@ impl CampaignFile {
             spec: RunSpec {
                 stop_time,
                 step,
+                tolerance,
                 failure,
                 stop_on_failure: fmu.stop_on_failure,
                 cost,
                 fidelity: fidelity.bindings,
                 scenarios: scenarios.specs,
+                fmu_log: fmu.log,
             },
             fidelity: Some(fidelity.space.clone()),
             phi: scenarios.spaces.clone(),
@@ -294,7 +303,8 @@ mod raw {
         pub hf: Spanned<String>,
         pub lf: Option<Spanned<String>>,
         pub stop_time: Spanned<f64>,
-        pub step: Spanned<StepSection>,
+        pub step: Option<Spanned<StepSection>>,
+        pub tolerance: Option<Spanned<f64>>,
         #[serde(default = "yes")]
         pub stop_on_failure: bool,
         #[serde(default)]
@@ -304,6 +314,9 @@ mod raw {
         pub timeout_s: Option<Spanned<f64>>,
         #[serde(default)]
         pub on_error: OnError,
+        /// Print every FMU log message (also `savme run --fmu-log`).
+        #[serde(default)]
+        pub log: bool,
     }
 
     fn yes() -> bool {
@@ -354,7 +367,7 @@ mod raw {
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
     pub struct FidelitySection {
-        /// The paper's Table I, each setting bound to the FMU variable of the same name.
+        /// The paper's Table II, each setting bound to the FMU variable of the same name.
         #[serde(default)]
         pub paper: Option<Spanned<bool>>,
         #[serde(default, rename = "variable")]
@@ -373,6 +386,15 @@ mod raw {
         /// Default linear.
         pub scale: Option<Spanned<ScaleSection>>,
         pub hf: Option<Spanned<toml::Value>>,
+        /// A fidelity variable that is the step size or the tolerance, bound to no FMU variable.
+        pub drives: Option<Spanned<Drives>>,
+    }
+
+    #[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
+    #[serde(rename_all = "snake_case")]
+    pub enum Drives {
+        StepSize,
+        Tolerance,
     }
 
     #[derive(Debug, Deserialize, Default, Clone, Copy)]
@@ -484,6 +506,16 @@ struct FidelityParts {
     space: Space,
     theta_hf: Assignment,
     bindings: Vec<Binding>,
+    /// The variables that drive the step size or the tolerance.
+    drivers: Vec<Driver>,
+}
+
+/// A fidelity variable with `drives`: what it drives, where it is.
+struct Driver {
+    drives: Drives,
+    variable: String,
+    line: usize,
+    key: String,
 }
 
 /// `[fidelity]`: the paper's settings, or the variables listed.
@@ -532,6 +564,7 @@ fn fidelity(
         space,
         theta_hf,
         bindings,
+        drivers: Vec::new(),
     })
 }
 
@@ -552,9 +585,14 @@ fn listed_fidelity(
     })?;
     let mut theta_hf = Assignment::new();
     let mut bindings = Vec::new();
+    let mut drivers = Vec::new();
     for (k, (sv, var)) in list.iter().zip(&vars).enumerate() {
         let key = format!("fidelity.variable[{k}]");
         theta_hf.set(&var.name, theta_hf_value(src, &key, sv, var)?);
+        if let Some(d) = &sv.get_ref().drives {
+            drivers.push(driver(src, &key, sv, d, var, &drivers)?);
+            continue;
+        }
         bindings.push(Binding {
             variable: var.name.to_string(),
             fmu_variable: bind(src, sv, &key, Use::Fidelity, origins)?,
@@ -565,6 +603,65 @@ fn listed_fidelity(
         space,
         theta_hf,
         bindings,
+        drivers,
+    })
+}
+
+/// A fidelity variable with `drives`: bound to no FMU variable (no `fmu` key), every value a
+/// positive number of seconds (step size) or a positive tolerance, at most one per kind.
+fn driver(
+    src: &Source,
+    key: &str,
+    sv: &Spanned<VarSection>,
+    drives: &Spanned<Drives>,
+    var: &Variable,
+    earlier: &[Driver],
+) -> Result<Driver, ConfigError> {
+    let d = *drives.get_ref();
+    let line = src.line(drives.span());
+    let dkey = format!("{key}.drives");
+    let what = match d {
+        Drives::StepSize => "the step size",
+        Drives::Tolerance => "the tolerance",
+    };
+    if let Some(f) = &sv.get_ref().fmu {
+        return Err(src.err(
+            Some(src.line(f.span())),
+            Some(&format!("{key}.fmu")),
+            format!("a variable that drives {what} is bound to no FMU variable: remove `fmu`"),
+        ));
+    }
+    if let Some(o) = earlier.iter().find(|o| o.drives == d) {
+        return Err(src.err(
+            Some(line),
+            Some(&dkey),
+            format!(
+                "`{}` already drives {what} (`{}`, line {})",
+                o.variable, o.key, o.line
+            ),
+        ));
+    }
+    let positive = match &var.domain {
+        savme_kernel::Domain::Continuous { lo, .. } => *lo > 0.0,
+        savme_kernel::Domain::Discrete { values } => values
+            .iter()
+            .all(|v| v.as_f64().is_some_and(|x| x > 0.0 && x.is_finite())),
+    };
+    if !positive {
+        return Err(src.err(
+            Some(line),
+            Some(&dkey),
+            format!(
+                "`{}` drives {what}: every value must be a positive number",
+                var.name
+            ),
+        ));
+    }
+    Ok(Driver {
+        drives: d,
+        variable: var.name.to_string(),
+        line,
+        key: dkey,
     })
 }
 
@@ -873,13 +970,39 @@ fn toml_value(v: &toml::Value) -> Option<Value> {
     })
 }
 
-/// `[fmu] step`: a fixed positive step, or the rate a fidelity variable gives.
+/// `[fmu] step`: a fixed positive step, or the rate a fidelity variable gives — or, without
+/// it, the fidelity variable that `drives = "step_size"`.
 fn step(
     src: &Source,
-    step: &Spanned<StepSection>,
-    fidelity: &Space,
+    fmu: &Spanned<raw::FmuSection>,
+    fidelity: &FidelityParts,
 ) -> Result<StepSize, ConfigError> {
+    let driver = fidelity
+        .drivers
+        .iter()
+        .find(|d| d.drives == Drives::StepSize);
+    let Some(step) = &fmu.get_ref().step else {
+        return match driver {
+            Some(d) => Ok(StepSize::Of(d.variable.clone())),
+            None => Err(src.err(
+                Some(src.line(fmu.span())),
+                Some("fmu.step"),
+                "no step size: give `step` (seconds, or { rate_of = \"…\" }) or a fidelity \
+                 variable with drives = \"step_size\"",
+            )),
+        };
+    };
     let line = Some(src.line(step.span()));
+    if let Some(d) = driver {
+        return Err(src.err(
+            line,
+            Some("fmu.step"),
+            format!(
+                "the step size is the fidelity variable `{}` (`{}`, line {}): remove `step`",
+                d.variable, d.key, d.line
+            ),
+        ));
+    }
     match step.get_ref() {
         StepSection::Fixed(h) if !(*h > 0.0 && h.is_finite()) => Err(src.err(
             line,
@@ -887,12 +1010,46 @@ fn step(
             format!("step size {h} is not a positive number of seconds"),
         )),
         StepSection::Fixed(h) => Ok(StepSize::Fixed(*h)),
-        StepSection::Rate { rate_of } if fidelity.variable(rate_of).is_none() => Err(src.err(
-            line,
-            Some("fmu.step.rate_of"),
-            format!("`{rate_of}` is not a fidelity variable"),
-        )),
+        StepSection::Rate { rate_of } if fidelity.space.variable(rate_of).is_none() => Err(src
+            .err(
+                line,
+                Some("fmu.step.rate_of"),
+                format!("`{rate_of}` is not a fidelity variable"),
+            )),
         StepSection::Rate { rate_of } => Ok(StepSize::RateOf(rate_of.clone())),
+    }
+}
+
+/// `[fmu] tolerance` (positive), or the fidelity variable that `drives = "tolerance"`, or
+/// none (the FMU's own).
+fn tolerance(
+    src: &Source,
+    fixed: Option<&Spanned<f64>>,
+    fidelity: &FidelityParts,
+) -> Result<Option<Tolerance>, ConfigError> {
+    let driver = fidelity
+        .drivers
+        .iter()
+        .find(|d| d.drives == Drives::Tolerance);
+    match (fixed, driver) {
+        (None, None) => Ok(None),
+        (None, Some(d)) => Ok(Some(Tolerance::Of(d.variable.clone()))),
+        (Some(t), Some(d)) => Err(src.err(
+            Some(src.line(t.span())),
+            Some("fmu.tolerance"),
+            format!(
+                "the tolerance is the fidelity variable `{}` (`{}`, line {}): remove `tolerance`",
+                d.variable, d.key, d.line
+            ),
+        )),
+        (Some(t), None) if *t.get_ref() > 0.0 && t.get_ref().is_finite() => {
+            Ok(Some(Tolerance::Fixed(*t.get_ref())))
+        }
+        (Some(t), None) => Err(src.err(
+            Some(src.line(t.span())),
+            Some("fmu.tolerance"),
+            format!("tolerance {} is not a positive number", t.get_ref()),
+        )),
     }
 }
 

@@ -1,56 +1,19 @@
-//! Opening an `.fmu`: the checks a user needs named errors for (missing file, not a zip, no
-//! `modelDescription.xml`, not FMI 2.0, no co-simulation), then unpacking and parsing it with
-//! fmu-runner and loading its shared library once.
+//! Reading and opening an `.fmu`. [`FmuDescription::read`] makes the checks a user needs named
+//! errors for without loading anything (missing file, not a zip, no `modelDescription.xml`,
+//! not FMI 2.0, no co-simulation, no binary for this platform) and parses the model
+//! description; [`FmuFile::open`] then unpacks the archive into a private directory (its
+//! `resources/` folder is handed to every instance as a `file://` URI) and loads the shared
+//! library once.
 
+use crate::description::{ModelDescription, VarInfo};
 use crate::FmuError;
-use fmu_runner::model_description::{
-    Causality as MdCausality, FmiModelDescription as ModelDescription, SignalType,
-};
 use libfmi::Fmi2Dll;
 use std::collections::HashMap;
+use std::ffi::CString;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-/// A variable's type.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum VarType {
-    /// fmi2Real.
-    Real,
-    /// fmi2Integer.
-    Integer,
-    /// fmi2Boolean.
-    Boolean,
-    /// fmi2String (not supported by savme's bindings).
-    String,
-    /// An enumeration (not supported).
-    Enumeration,
-}
-
-/// A variable's causality.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum VarCausality {
-    /// Parameter (or calculated parameter).
-    Parameter,
-    /// Input.
-    Input,
-    /// Output.
-    Output,
-    /// Anything else (local, independent).
-    Other,
-}
-
-/// A variable of the FMU.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct VarInfo {
-    /// Its name.
-    pub name: String,
-    /// Its value reference.
-    pub vr: u32,
-    /// Its type.
-    pub kind: VarType,
-    /// Its causality.
-    pub causality: VarCausality,
-}
+pub use crate::description::{VarCausality, VarType};
 
 /// Symbols a co-simulation FMU must export for savme to run it.
 const REQUIRED: [&str; 14] = [
@@ -70,63 +33,124 @@ const REQUIRED: [&str; 14] = [
     "fmi2DoStep",
 ];
 
-/// An opened FMU: parsed, unpacked to a private directory, its library loaded once and shared
-/// by every instance (one instance per run or worker thread).
-pub struct FmuFile {
+/// An FMU's checked model description, read from the archive without unpacking it or loading
+/// its library: enough to check a campaign's bindings against it.
+#[derive(Debug, Clone)]
+pub struct FmuDescription {
     /// The `.fmu` path, for error messages.
     pub path: PathBuf,
-    /// `modelName`.
-    pub model_name: String,
-    /// `guid`.
-    pub guid: String,
-    /// The variables by name.
-    pub variables: HashMap<String, VarInfo>,
-    /// `DefaultExperiment` stop time and step size, if given.
-    pub default_experiment: (Option<f64>, Option<f64>),
+    /// The parsed model description.
+    pub model: ModelDescription,
+    /// The archive's file names (for `savme fmu info`).
+    pub files: Vec<String>,
+    by_name: HashMap<String, usize>,
+}
+
+impl FmuDescription {
+    /// Reads and checks `path`: a zip archive holding a well-formed FMI 2.0
+    /// `modelDescription.xml` with a `CoSimulation` element, and a binary for this platform.
+    pub fn read(path: &Path) -> Result<FmuDescription, FmuError> {
+        let shown = path.display().to_string();
+        let (xml, files) = read_archive(path, &shown)?;
+        let model =
+            ModelDescription::parse(&xml).map_err(|message| FmuError::BadModelDescription {
+                fmu: shown.clone(),
+                message,
+            })?;
+        if model.fmi_version != "2.0" {
+            return Err(FmuError::UnsupportedVersion {
+                fmu: shown,
+                version: model.fmi_version,
+            });
+        }
+        let Some(cs) = &model.co_simulation else {
+            return Err(FmuError::NoCoSimulation { fmu: shown });
+        };
+        let binary = binary_path(&cs.model_identifier);
+        if !files.contains(&binary) {
+            return Err(FmuError::NoBinary {
+                fmu: shown,
+                expected: binary,
+            });
+        }
+        let by_name = model
+            .variables
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (v.name.clone(), k))
+            .collect();
+        Ok(FmuDescription {
+            path: path.to_path_buf(),
+            model,
+            files,
+            by_name,
+        })
+    }
+
+    /// The variable called `name`, or an error naming the FMU and listing its variables.
+    pub fn variable(&self, name: &str) -> Result<&VarInfo, FmuError> {
+        match self.by_name.get(name) {
+            Some(&k) => Ok(&self.model.variables[k]),
+            None => {
+                let mut known: Vec<&str> = self.by_name.keys().map(String::as_str).collect();
+                known.sort_unstable();
+                Err(FmuError::UnknownVariable {
+                    fmu: self.path.display().to_string(),
+                    variable: name.into(),
+                    known: known.join(", "),
+                })
+            }
+        }
+    }
+
+    /// `canBeInstantiatedOnlyOncePerProcess="true"`: savme runs it in worker processes only.
+    pub fn only_once_per_process(&self) -> bool {
+        self.model
+            .co_simulation
+            .as_ref()
+            .is_some_and(|c| c.can_be_instantiated_only_once_per_process)
+    }
+
+    /// The co-simulation model identifier.
+    pub fn model_identifier(&self) -> &str {
+        self.model
+            .co_simulation
+            .as_ref()
+            .map_or("", |c| c.model_identifier.as_str())
+    }
+}
+
+/// An opened FMU: its checked description, unpacked to a private directory, its library loaded
+/// once and shared by every instance (one instance per run or worker thread). Dereferences to
+/// its [`FmuDescription`].
+pub struct FmuFile {
+    description: FmuDescription,
+    /// The `file://` URI of the unpacked `resources/` directory (`fmuResourceLocation`).
+    pub resource_uri: CString,
     pub(crate) dll: Fmi2Dll,
     _unpacked: tempfile::TempDir,
+}
+
+impl std::ops::Deref for FmuFile {
+    type Target = FmuDescription;
+    fn deref(&self) -> &FmuDescription {
+        &self.description
+    }
 }
 
 impl std::fmt::Debug for FmuFile {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("FmuFile")
             .field("path", &self.path)
-            .field("model_name", &self.model_name)
-            .field("variables", &self.variables.len())
+            .field("model_name", &self.model.model_name)
+            .field("variables", &self.model.variables.len())
             .finish()
     }
 }
 
-/// Reads the model description from the archive and checks what fmu-runner would otherwise
-/// reject with an unclear error (or accept wrongly): FMI version and co-simulation support.
-fn precheck(path: &Path) -> Result<(), FmuError> {
-    let shown = path.display().to_string();
-    let xml = read_model_description(path, &shown)?;
-    let (version, co_simulation) = scan_model_description(&xml, &shown)?;
-    match version.as_deref() {
-        Some("2.0") => {}
-        Some(v) => {
-            return Err(FmuError::UnsupportedVersion {
-                fmu: shown,
-                version: v.into(),
-            })
-        }
-        None => {
-            return Err(FmuError::BadModelDescription {
-                fmu: shown,
-                message: "no fmiModelDescription element with an fmiVersion attribute".into(),
-            })
-        }
-    }
-    if !co_simulation {
-        return Err(FmuError::NoCoSimulation { fmu: shown });
-    }
-    Ok(())
-}
-
 /// The archive check: `path` exists, is a zip and holds a readable `modelDescription.xml`,
-/// returned as text.
-fn read_model_description(path: &Path, shown: &str) -> Result<String, FmuError> {
+/// returned as text with the archive's file names.
+fn read_archive(path: &Path, shown: &str) -> Result<(String, Vec<String>), FmuError> {
     let file = std::fs::File::open(path).map_err(|e| FmuError::Missing {
         fmu: shown.into(),
         source: e,
@@ -135,6 +159,7 @@ fn read_model_description(path: &Path, shown: &str) -> Result<String, FmuError> 
         fmu: shown.into(),
         message: e.to_string(),
     })?;
+    let files = zip.file_names().map(String::from).collect();
     let mut xml = String::new();
     match zip.by_name("modelDescription.xml") {
         Ok(mut f) => {
@@ -146,45 +171,12 @@ fn read_model_description(path: &Path, shown: &str) -> Result<String, FmuError> 
         }
         Err(_) => return Err(FmuError::NoModelDescription { fmu: shown.into() }),
     }
-    Ok(xml)
+    Ok((xml, files))
 }
 
-/// The model description check: well-formed XML; returns its `fmiVersion` (if any) and
-/// whether it declares `CoSimulation`.
-fn scan_model_description(xml: &str, shown: &str) -> Result<(Option<String>, bool), FmuError> {
-    let mut reader = quick_xml::Reader::from_str(xml);
-    let mut version = None;
-    let mut co_simulation = false;
-    loop {
-        match reader.read_event() {
-            Ok(quick_xml::events::Event::Start(e)) | Ok(quick_xml::events::Event::Empty(e)) => {
-                match e.name().as_ref() {
-                    b"fmiModelDescription" => {
-                        for a in e.attributes().flatten() {
-                            if a.key.as_ref() == b"fmiVersion" {
-                                version = Some(String::from_utf8_lossy(&a.value).into_owned());
-                            }
-                        }
-                    }
-                    b"CoSimulation" => co_simulation = true,
-                    _ => {}
-                }
-            }
-            Ok(quick_xml::events::Event::Eof) => break,
-            Ok(_) => {}
-            Err(e) => {
-                return Err(FmuError::BadModelDescription {
-                    fmu: shown.into(),
-                    message: format!("at byte {}: {e}", reader.buffer_position()),
-                })
-            }
-        }
-    }
-    Ok((version, co_simulation))
-}
-
-/// Unpacks `path` into a fresh private directory and parses it with fmu-runner.
-fn unpack(path: &Path, shown: &str) -> Result<(tempfile::TempDir, fmu_runner::Fmu), FmuError> {
+/// Unpacks the archive at `path` into a fresh private directory (entries that would land
+/// outside it are refused).
+fn unpack(path: &Path, shown: &str) -> Result<tempfile::TempDir, FmuError> {
     let dir = tempfile::Builder::new()
         .prefix("savme-fmu-")
         .tempdir()
@@ -192,35 +184,49 @@ fn unpack(path: &Path, shown: &str) -> Result<(tempfile::TempDir, fmu_runner::Fm
             what: "a temporary directory for the FMU".into(),
             source: e,
         })?;
-    let fmu = fmu_runner::Fmu::unpack_to(path, dir.path()).map_err(|e| {
-        FmuError::BadModelDescription {
-            fmu: shown.into(),
-            message: format!("{e}{}", source_text(&e)),
-        }
+    let bad = |message: String| FmuError::NotAZip {
+        fmu: shown.into(),
+        message,
+    };
+    let file = std::fs::File::open(path).map_err(|e| FmuError::Missing {
+        fmu: shown.into(),
+        source: e,
     })?;
-    Ok((dir, fmu))
+    let mut zip = zip::ZipArchive::new(file).map_err(|e| bad(e.to_string()))?;
+    for k in 0..zip.len() {
+        let mut entry = zip.by_index(k).map_err(|e| bad(e.to_string()))?;
+        let Some(rel) = entry.enclosed_name().map(Path::to_path_buf) else {
+            return Err(bad(format!(
+                "entry `{}` would unpack outside its directory",
+                entry.name()
+            )));
+        };
+        let target = dir.path().join(rel);
+        let io = |e: std::io::Error| FmuError::Io {
+            what: format!("unpacking {shown} to {}", target.display()),
+            source: e,
+        };
+        if entry.is_dir() {
+            std::fs::create_dir_all(&target).map_err(io)?;
+            continue;
+        }
+        if let Some(parent) = target.parent() {
+            std::fs::create_dir_all(parent).map_err(io)?;
+        }
+        let mut out = std::fs::File::create(&target).map_err(io)?;
+        std::io::copy(&mut entry, &mut out).map_err(io)?;
+    }
+    Ok(dir)
 }
 
-/// The platform binary check: the unpacked FMU holds
-/// `binaries/<platform>/<modelIdentifier>.<dll extension>` for this platform.
-fn platform_binary(dir: &Path, model_identifier: &str, shown: &str) -> Result<PathBuf, FmuError> {
-    let lib_path = dir.join("binaries").join(savme_platform()).join(format!(
-        "{}.{}",
+/// `binaries/<platform>/<modelIdentifier>.<dll extension>`.
+fn binary_path(model_identifier: &str) -> String {
+    format!(
+        "binaries/{}/{}.{}",
+        savme_platform(),
         model_identifier,
         std::env::consts::DLL_EXTENSION
-    ));
-    if !lib_path.exists() {
-        return Err(FmuError::NoBinary {
-            fmu: shown.into(),
-            expected: format!(
-                "binaries/{}/{}.{}",
-                savme_platform(),
-                model_identifier,
-                std::env::consts::DLL_EXTENSION
-            ),
-        });
-    }
-    Ok(lib_path)
+    )
 }
 
 /// Loads the shared library at `lib_path`, checks that it exports the [`REQUIRED`] functions
@@ -248,86 +254,52 @@ fn load_library(lib_path: &Path, shown: &str) -> Result<Fmi2Dll, FmuError> {
     })
 }
 
-/// The model description's scalar variables by name, with savme's type and causality.
-fn variables(md: &ModelDescription) -> HashMap<String, VarInfo> {
-    md.model_variables
-        .scalar_variable
-        .values()
-        .map(|v| {
-            let kind = match v.signal_type {
-                SignalType::Real(_) => VarType::Real,
-                SignalType::Integer(_) => VarType::Integer,
-                SignalType::Boolean(_) => VarType::Boolean,
-                SignalType::String => VarType::String,
-                SignalType::Enumeration => VarType::Enumeration,
-            };
-            let causality = match v.causality {
-                MdCausality::Parameter | MdCausality::CalculatedParameter => {
-                    VarCausality::Parameter
-                }
-                MdCausality::Input => VarCausality::Input,
-                MdCausality::Output => VarCausality::Output,
-                _ => VarCausality::Other,
-            };
-            (
-                v.name.clone(),
-                VarInfo {
-                    name: v.name.clone(),
-                    vr: v.value_reference,
-                    kind,
-                    causality,
-                },
-            )
-        })
-        .collect()
+/// The `file://` URI of `dir` (RFC 3986: every byte but the unreserved ones and `/`
+/// percent-encoded), as FMI 2.0 wants `fmuResourceLocation`.
+///
+/// ```
+/// assert_eq!(
+///     savme_fmu::file::file_uri(std::path::Path::new("/tmp/a b/resources")),
+///     "file:///tmp/a%20b/resources"
+/// );
+/// ```
+pub fn file_uri(dir: &Path) -> String {
+    let mut uri = String::from("file://");
+    for b in dir.to_string_lossy().bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~/".contains(&b) {
+            uri.push(char::from(b));
+        } else {
+            uri.push_str(&format!("%{b:02X}"));
+        }
+    }
+    uri
 }
 
 impl FmuFile {
-    /// Opens, checks, unpacks and loads `path`.
+    /// Reads, checks, unpacks and loads `path`.
     pub fn open(path: &Path) -> Result<FmuFile, FmuError> {
-        precheck(path)?;
+        let description = FmuDescription::read(path)?;
         let shown = path.display().to_string();
-        let (dir, fmu) = unpack(path, &shown)?;
-        let md = &fmu.model_description;
-        let cs = md
-            .co_simulation
-            .as_ref()
-            .ok_or_else(|| FmuError::NoCoSimulation { fmu: shown.clone() })?;
-        let lib_path = platform_binary(dir.path(), &cs.model_identifier, &shown)?;
+        let dir = unpack(path, &shown)?;
+        let lib_path = dir.path().join(binary_path(description.model_identifier()));
         let dll = load_library(&lib_path, &shown)?;
-        let default_experiment = md.default_experiment.as_ref().map_or((None, None), |d| {
-            ((d.stop_time > 0.0).then_some(d.stop_time), d.step_size)
-        });
+        let resource_uri = CString::new(file_uri(&dir.path().join("resources")))
+            .map_err(|e| FmuError::Spec(format!("the FMU's resource path: {e}")))?;
         Ok(FmuFile {
-            path: path.to_path_buf(),
-            model_name: md.model_name.clone(),
-            guid: md.guid.clone(),
-            variables: variables(md),
-            default_experiment,
+            description,
+            resource_uri,
             dll,
             _unpacked: dir,
         })
     }
 
-    /// The variable called `name`, or an error naming the FMU and listing close names.
-    pub fn variable(&self, name: &str) -> Result<&VarInfo, FmuError> {
-        self.variables.get(name).ok_or_else(|| {
-            let mut known: Vec<&str> = self.variables.keys().map(String::as_str).collect();
-            known.sort_unstable();
-            FmuError::UnknownVariable {
-                fmu: self.path.display().to_string(),
-                variable: name.into(),
-                known: known.join(", "),
-            }
-        })
+    /// The checked description.
+    pub fn description(&self) -> &FmuDescription {
+        &self.description
     }
 }
 
 /// The platform folder under `binaries/` (`linux64`, …).
 pub fn savme_platform() -> String {
     savme_fmi_export::platform_folder()
-}
-
-fn source_text(e: &dyn std::error::Error) -> String {
-    e.source().map_or(String::new(), |s| format!(": {s}"))
 }

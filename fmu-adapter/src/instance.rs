@@ -4,17 +4,33 @@
 //! reuses its instance with `fmi2Reset`.
 
 use crate::file::FmuFile;
+use crate::log::{savme_fmu_logger, LogSink};
 use crate::FmuError;
-use libfmi::{fmi2CallbackFunctions, fmi2Component, fmi2Status, fmi2Type};
+use libfmi::{fmi2CallbackFunctions, fmi2Component, fmi2Status, fmi2StatusKind, fmi2Type};
 use std::ffi::CString;
 use std::sync::Arc;
+
+/// How an `fmi2DoStep` ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    /// The step completed: the FMU is at the next communication point.
+    Completed,
+    /// The FMU returned `fmi2Discard`: it asks to end the simulation at the last completed
+    /// communication point. `terminated` is its `fmi2GetBooleanStatus(fmi2Terminated)` answer
+    /// (`None` when it does not give one).
+    StopRequested {
+        /// The FMU's `fmi2Terminated` status.
+        terminated: Option<bool>,
+    },
+}
 
 /// A live instance of an FMU.
 pub struct Instance {
     file: Arc<FmuFile>,
     component: fmi2Component,
-    // The environment's callbacks must outlive the instance.
+    // The environment's callbacks and the log sink they point to must outlive the instance.
     _callbacks: Box<fmi2CallbackFunctions>,
+    log: Box<LogSink>,
     _name: CString,
 }
 
@@ -31,28 +47,35 @@ impl std::fmt::Debug for Instance {
 }
 
 impl Instance {
-    /// `fmi2Instantiate` (co-simulation, not visible, logging off).
+    /// `fmi2Instantiate` (co-simulation, not visible, logging off), with the `file://` URI of
+    /// the unpacked `resources/` directory as `fmuResourceLocation`.
     pub fn new(file: Arc<FmuFile>, name: &str) -> Result<Instance, FmuError> {
+        Instance::with_log(file, name, false)
+    }
+
+    /// `fmi2Instantiate` whose log messages are kept for errors and, with `echo`, printed to
+    /// standard error as they come (the instance is then created with `loggingOn`).
+    pub fn with_log(file: Arc<FmuFile>, name: &str, echo: bool) -> Result<Instance, FmuError> {
+        let log = Box::new(LogSink::new(file.path.display().to_string(), echo));
         let callbacks = Box::new(fmi2CallbackFunctions {
-            logger: Some(libfmi::logger::callback_logger_handler),
+            logger: Some(savme_fmu_logger),
             allocateMemory: Some(libc_calloc),
             freeMemory: Some(libc_free),
             stepFinished: None,
-            componentEnvironment: std::ptr::null_mut(),
+            componentEnvironment: &*log as *const LogSink as *mut std::ffi::c_void,
         });
         let name = CString::new(name).unwrap_or_default();
-        let guid = CString::new(file.guid.clone()).unwrap_or_default();
-        let resources = CString::new("").unwrap_or_default();
+        let guid = CString::new(file.model.guid.clone()).unwrap_or_default();
         // SAFETY: valid C strings and callbacks that outlive the instance.
         let component = unsafe {
             file.dll.fmi2Instantiate(
                 name.as_ptr(),
                 fmi2Type::fmi2CoSimulation,
                 guid.as_ptr(),
-                resources.as_ptr(),
+                file.resource_uri.as_ptr(),
                 &*callbacks,
                 0,
-                0,
+                i32::from(echo),
             )
         };
         if component.is_null() {
@@ -60,12 +83,14 @@ impl Instance {
                 fmu: file.path.display().to_string(),
                 call: "fmi2Instantiate".into(),
                 status: "returned no instance".into(),
+                log: log.suffix(),
             });
         }
         Ok(Instance {
             file,
             component,
             _callbacks: callbacks,
+            log,
             _name: name,
         })
     }
@@ -82,8 +107,14 @@ impl Instance {
                 fmu: self.file.path.display().to_string(),
                 call: call.into(),
                 status: format!("{other:?}"),
+                log: self.log.suffix(),
             }),
         }
+    }
+
+    /// Forgets the log messages kept so far (a new run begins).
+    pub fn clear_log(&mut self) {
+        self.log.clear();
     }
 
     /// `fmi2Reset`.
@@ -93,14 +124,20 @@ impl Instance {
         self.status("fmi2Reset", s)
     }
 
-    /// `fmi2SetupExperiment` with a start and an optional stop time.
-    pub fn setup(&mut self, start: f64, stop: Option<f64>) -> Result<(), FmuError> {
+    /// `fmi2SetupExperiment` with a start time, an optional stop time and an optional
+    /// tolerance.
+    pub fn setup(
+        &mut self,
+        start: f64,
+        stop: Option<f64>,
+        tolerance: Option<f64>,
+    ) -> Result<(), FmuError> {
         // SAFETY: a live component of this library.
         let s = unsafe {
             self.file.dll.fmi2SetupExperiment(
                 self.component,
-                0,
-                0.0,
+                i32::from(tolerance.is_some()),
+                tolerance.unwrap_or(0.0),
                 start,
                 i32::from(stop.is_some()),
                 stop.unwrap_or(0.0),
@@ -119,11 +156,33 @@ impl Instance {
         self.status("fmi2ExitInitializationMode", s)
     }
 
-    /// `fmi2DoStep`.
-    pub fn step(&mut self, time: f64, h: f64) -> Result<(), FmuError> {
+    /// `fmi2DoStep`. `fmi2Discard` is the FMU asking to end the simulation (FMI 2.0 §4.2.2:
+    /// it could not complete the step; `fmi2GetBooleanStatus(fmi2Terminated)` then says whether
+    /// it wants to terminate): both come back as [`Step::StopRequested`], not as an error.
+    pub fn step(&mut self, time: f64, h: f64) -> Result<Step, FmuError> {
         // SAFETY: a live component of this library.
         let s = unsafe { self.file.dll.fmi2DoStep(self.component, time, h, 1) };
-        self.status("fmi2DoStep", s)
+        if s == fmi2Status::fmi2Discard {
+            return Ok(Step::StopRequested {
+                terminated: self.terminated(),
+            });
+        }
+        self.status("fmi2DoStep", s).map(|()| Step::Completed)
+    }
+
+    /// `fmi2GetBooleanStatus(fmi2Terminated)`, when the FMU exports it and answers.
+    fn terminated(&mut self) -> Option<bool> {
+        self.file.dll.fmi2GetBooleanStatus.as_ref().ok()?;
+        let mut v = 0;
+        // SAFETY: the function exists (checked above); one writable slot.
+        let s = unsafe {
+            self.file.dll.fmi2GetBooleanStatus(
+                self.component,
+                fmi2StatusKind::fmi2Terminated,
+                &mut v,
+            )
+        };
+        matches!(s, fmi2Status::fmi2OK | fmi2Status::fmi2Warning).then_some(v != 0)
     }
 
     /// `fmi2Terminate`.

@@ -10,23 +10,27 @@
 //! trial, not the campaign; [`campaign_file`] reads and checks the TOML campaign file of
 //! `savme run --config` against its FMUs.
 //!
-//! Unpacking and model-description parsing use `fmu-runner`; the calls on an instance go
-//! through libfmi's bindings directly (fmu-runner has no `fmi2Reset`, allocates a map per
-//! get/set and treats `fmi2Warning` as an error).
+//! The model description is parsed here ([`description`], quick-xml) and the archive unpacked
+//! with the zip crate; the calls on an instance go through libfmi's bindings of the FMI 2.0
+//! C API directly.
 
 #![warn(missing_docs)]
 
 pub mod backend;
 pub mod campaign_file;
+pub mod description;
 pub mod file;
 pub mod instance;
+pub mod log;
 pub mod simulator;
 pub mod worker;
 
 pub use backend::FmuBackend;
-pub use file::{FmuFile, VarCausality, VarInfo, VarType};
+pub use description::{ModelDescription, VarCausality, VarInfo, VarType};
+pub use file::{FmuDescription, FmuFile};
 pub use simulator::{
     Binding, CostSource, Crossing, Failure, Fixed, FmuSimulator, RunSpec, ScenarioSpec, StepSize,
+    Tolerance,
 };
 
 /// Why an FMU could not be used. Every variant names the FMU (its path) and, where there is
@@ -141,7 +145,7 @@ pub enum FmuError {
         variable: String,
     },
     /// An FMI call failed.
-    #[error("{fmu}: {call} failed ({status})")]
+    #[error("{fmu}: {call} failed ({status}){log}")]
     Call {
         /// The FMU.
         fmu: String,
@@ -149,6 +153,9 @@ pub enum FmuError {
         call: String,
         /// Its status.
         status: String,
+        /// The FMU's last log messages of the run (bounded), as `; the FMU logged: …`, or
+        /// `""`.
+        log: String,
     },
     /// The run specification is invalid.
     #[error("run specification: {0}")]

@@ -1,8 +1,9 @@
 //! Running a scenario on a pair of FMUs: how savme's variables map to FMU variables, what
 //! counts as a failure, how long to simulate, what a run costs.
 
-use crate::file::{FmuFile, VarCausality, VarInfo, VarType};
-use crate::instance::Instance;
+use crate::description::{VarCausality, VarInfo, VarType};
+use crate::file::{FmuDescription, FmuFile};
+use crate::instance::{Instance, Step};
 use crate::FmuError;
 use savme_kernel::{Assignment, Domain, Role, SimError, SimResult, Simulator, Space, Value};
 use serde::{Deserialize, Serialize};
@@ -69,6 +70,19 @@ pub enum StepSize {
     Fixed(f64),
     /// 1 / (a fidelity variable in Hz), e.g. the simulation rate.
     RateOf(String),
+    /// A fidelity variable's value, seconds: the step size is itself the fidelity (the
+    /// variable is bound to no FMU variable).
+    Of(String),
+}
+
+/// The `tolerance` passed to `fmi2SetupExperiment` (none: `toleranceDefined = false`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Tolerance {
+    /// The same tolerance for every run.
+    Fixed(f64),
+    /// A fidelity variable's value (bound to no FMU variable).
+    Of(String),
 }
 
 /// What a run costs.
@@ -101,6 +115,9 @@ pub struct RunSpec {
     pub stop_time: f64,
     /// Communication step size.
     pub step: StepSize,
+    /// The solver tolerance handed to the FMU, if any.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<Tolerance>,
     /// The failure signal.
     pub failure: Failure,
     /// Stop as soon as the failure is reached.
@@ -111,6 +128,10 @@ pub struct RunSpec {
     pub fidelity: Vec<Binding>,
     /// The scenarios.
     pub scenarios: Vec<ScenarioSpec>,
+    /// Print every FMU log message to standard error (the instances are created with
+    /// `loggingOn`); errors carry the last messages of their run either way.
+    #[serde(default)]
+    pub fmu_log: bool,
 }
 
 /// Labels of a discrete variable with label values (for [`Binding::labels`]).
@@ -157,7 +178,7 @@ struct Resolved {
     labels: Option<Vec<String>>,
 }
 
-fn settable(file: &FmuFile, name: &str) -> Result<VarInfo, FmuError> {
+fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     let v = file.variable(name)?.clone();
     if !matches!(v.causality, VarCausality::Parameter | VarCausality::Input) {
         return Err(FmuError::WrongCausality {
@@ -169,7 +190,11 @@ fn settable(file: &FmuFile, name: &str) -> Result<VarInfo, FmuError> {
     Ok(v)
 }
 
-fn resolve(file: &FmuFile, b: &Binding, space: Option<&Space>) -> Result<Resolved, FmuError> {
+fn resolve(
+    file: &FmuDescription,
+    b: &Binding,
+    space: Option<&Space>,
+) -> Result<Resolved, FmuError> {
     let var = settable(file, &b.fmu_variable)?;
     if let Some(allowed) = space.and_then(|s| needed(s, &b.variable)) {
         if !allowed.contains(&var.kind) {
@@ -208,7 +233,7 @@ struct Plan {
     scenarios: Vec<ScenarioPlan>,
 }
 
-fn output(file: &FmuFile, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuError> {
+fn output(file: &FmuDescription, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuError> {
     let v = file.variable(name)?.clone();
     if v.causality != VarCausality::Output {
         return Err(FmuError::WrongCausality {
@@ -234,7 +259,7 @@ fn output(file: &FmuFile, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuE
 
 impl Plan {
     fn new(
-        file: &FmuFile,
+        file: &FmuDescription,
         spec: &RunSpec,
         fidelity: Option<&Space>,
         phi: &dyn Fn(&str) -> Option<Space>,
@@ -272,7 +297,10 @@ impl Plan {
                         let fits = matches!(
                             (&f.value, v.kind),
                             (Value::Bool(_), VarType::Boolean)
-                                | (Value::Int(_), VarType::Integer | VarType::Real)
+                                | (
+                                    Value::Int(_),
+                                    VarType::Integer | VarType::Real | VarType::Enumeration
+                                )
                                 | (Value::Real(_), VarType::Real)
                         );
                         if !fits {
@@ -353,6 +381,11 @@ impl FmuSimulator {
                 return Err(FmuError::Spec(format!("step size {h} is not positive")));
             }
         }
+        if let Some(Tolerance::Fixed(t)) = spec.tolerance {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(FmuError::Spec(format!("tolerance {t} is not positive")));
+            }
+        }
         let plans = [
             Plan::new(&hf, &spec, fidelity, phi)?,
             Plan::new(&lf, &spec, fidelity, phi)?,
@@ -385,7 +418,7 @@ impl FmuSimulator {
         };
         match var.kind {
             VarType::Real => inst.set_real(var.vr, value.as_f64().ok_or_else(|| bad("a number"))?),
-            VarType::Integer => {
+            VarType::Integer | VarType::Enumeration => {
                 let i = match (value, labels) {
                     (Value::Label(l), Some(labels)) => labels
                         .iter()
@@ -405,7 +438,7 @@ impl FmuSimulator {
             VarType::Boolean => {
                 inst.set_boolean(var.vr, value.as_bool().ok_or_else(|| bad("a boolean"))?)
             }
-            VarType::String | VarType::Enumeration => Err(bad("Real, Integer or Boolean")),
+            VarType::String => Err(bad("Real, Integer, Boolean or Enumeration")),
         }
     }
 
@@ -438,10 +471,15 @@ impl FmuSimulator {
         let clock = Instant::now();
         let mut inst = match self.instances[k].take() {
             Some(mut i) => {
+                i.clear_log();
                 i.reset()?;
                 i
             }
-            None => Instance::new(self.files[k].clone(), &format!("savme-{}", ["hf", "lf"][k]))?,
+            None => Instance::with_log(
+                self.files[k].clone(),
+                &format!("savme-{}", ["hf", "lf"][k]),
+                self.spec.fmu_log,
+            )?,
         };
         let result = self.run_on(&mut inst, &plan, scenario, phi, fidelity);
         if result.is_ok() {
@@ -467,7 +505,12 @@ impl FmuSimulator {
             .find(|(n, _, _)| n == scenario)
             .ok_or_else(|| FmuError::Spec(format!("unknown scenario `{scenario}`")))?;
         let stop = spec.stop_time;
-        inst.setup(0.0, Some(stop))?;
+        let tolerance = match &spec.tolerance {
+            None => None,
+            Some(Tolerance::Fixed(t)) => Some(*t),
+            Some(Tolerance::Of(var)) => Some(positive(fidelity, var, "tolerance")?),
+        };
+        inst.setup(0.0, Some(stop), tolerance)?;
         for (var, value) in fixed {
             Self::set(inst, var, value, None)?;
         }
@@ -484,26 +527,19 @@ impl FmuSimulator {
         inst.initialize()?;
         let h = match &spec.step {
             StepSize::Fixed(h) => *h,
-            StepSize::RateOf(var) => {
-                let rate = fidelity
-                    .get_f64(var)
-                    .ok_or_else(|| FmuError::MissingValue {
-                        variable: var.clone(),
-                    })?;
-                if !(rate > 0.0 && rate.is_finite()) {
-                    return Err(FmuError::Spec(format!(
-                        "`{var}` = {rate} is not a positive rate"
-                    )));
-                }
-                1.0 / rate
-            }
+            StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
+            StepSize::Of(var) => positive(fidelity, var, "step size")?,
         };
         let mut failure = self.failed(inst, plan)?;
         let mut t = 0.0;
         let mut k = 0u64;
         while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
             let dt = h.min(stop - t);
-            inst.step(t, dt)?;
+            if let Step::StopRequested { .. } = inst.step(t, dt)? {
+                // The FMU ends the simulation: the run ends at the last completed communication
+                // point, judged on the signals seen up to there.
+                break;
+            }
             k += 1;
             t = if (stop - (t + dt)).abs() < 1e-12 {
                 stop
@@ -524,6 +560,22 @@ impl FmuSimulator {
         };
         inst.terminate()?;
         Ok((failure, work))
+    }
+}
+
+/// The positive, finite value of fidelity variable `var` (a `what`: rate, step size, …).
+fn positive(fidelity: &Assignment, var: &str, what: &str) -> Result<f64, FmuError> {
+    let x = fidelity
+        .get_f64(var)
+        .ok_or_else(|| FmuError::MissingValue {
+            variable: var.into(),
+        })?;
+    if x > 0.0 && x.is_finite() {
+        Ok(x)
+    } else {
+        Err(FmuError::Spec(format!(
+            "`{var}` = {x} is not a positive {what}"
+        )))
     }
 }
 

@@ -48,6 +48,8 @@ fn spaces() -> (Space, Space) {
 
 fn spec(fixed_fault: i32, stop_on_failure: bool) -> RunSpec {
     RunSpec {
+        fmu_log: false,
+        tolerance: None,
         stop_time: 1.0,
         step: StepSize::Fixed(0.01),
         failure: Failure::Boolean {
@@ -288,7 +290,7 @@ fn the_export_layer_checks_calls_like_an_fmu_should() {
     let dir = temp_dir("export");
     let file = Arc::new(FmuFile::open(&testkit(&dir)).unwrap());
     let mut i = savme_fmu::instance::Instance::new(file, "t").unwrap();
-    i.setup(0.0, Some(1.0)).unwrap();
+    i.setup(0.0, Some(1.0), None).unwrap();
     let x = savme_fmu_testkit::vr::X;
     assert!(i.set_real(x, 1.0).is_err(), "an output was settable");
     i.set_real(savme_fmu_testkit::vr::RATE, 2.0).unwrap();
@@ -302,7 +304,7 @@ fn the_export_layer_checks_calls_like_an_fmu_should() {
     assert!(i.step(0.7, 0.1).is_err());
     // Reset restores the start values.
     i.reset().unwrap();
-    i.setup(0.0, None).unwrap();
+    i.setup(0.0, None, None).unwrap();
     i.initialize().unwrap();
     i.step(0.0, 0.5).unwrap();
     assert_eq!(i.real(x).unwrap(), 0.5);

@@ -318,3 +318,118 @@ fn absolute_paths_stay_absolute() {
         Some(moved.parent().unwrap().join("results"))
     );
 }
+
+/// `drives = "step_size"` / `"tolerance"`: a fidelity variable that is the step size (or the
+/// tolerance) itself, bound to no FMU variable; then no `[fmu] step`.
+const STEP_FIDELITY: &str = r#"name = "h"
+drives = "step_size"
+values = [0.25, 0.125]
+hf = 0.125"#;
+
+fn with_step_fidelity(extra: &str) -> String {
+    GOOD.replacen("step = { rate_of = \"rate\" }\n", "", 1)
+        .replacen(
+            "name = \"rate\"\nvalues = [1.0, 2.0]\nhf = 2.0",
+            &format!("{STEP_FIDELITY}{extra}"),
+            1,
+        )
+}
+
+#[test]
+fn a_fidelity_variable_can_be_the_step_size_or_the_tolerance() {
+    let body = with_step_fidelity(
+        "\n[[fidelity.variable]]\nname = \"tol\"\ndrives = \"tolerance\"\nrange = [1e-6, 1e-3]\nscale = \"log\"\nhf = 1e-6",
+    );
+    let path = campaign("step-fidelity", &body);
+    let f = CampaignFile::load(&path, &no_paper).unwrap();
+    assert_eq!(f.init.spec.step, StepSize::Of("h".into()));
+    assert_eq!(
+        f.init.spec.tolerance,
+        Some(savme_fmu::Tolerance::Of("tol".into()))
+    );
+    assert!(f.init.spec.fidelity.is_empty(), "bound to no FMU variable");
+    assert_eq!(
+        f.theta_hf,
+        Assignment::new().with("h", 0.125).with("tol", 1e-6)
+    );
+    // It runs in steps of θ[h] (the test kit counts its steps) up to the failure at t = 0.5
+    // (x = t reaches the threshold 0.5; stop_on_failure).
+    let mut sim = f.init.simulator().unwrap();
+    for (h, steps) in [(0.25, 2), (0.125, 4)] {
+        let r = sim
+            .run(
+                savme_kernel::Role::Learned,
+                "grow",
+                &Assignment::new().with("start", 0.0),
+                &Assignment::new().with("h", h).with("tol", 1e-4),
+            )
+            .unwrap();
+        assert_eq!(r.work, Some(steps));
+    }
+}
+
+#[test]
+fn a_step_size_or_tolerance_variable_is_checked() {
+    let cases: [(String, usize, &str, &str); 6] = [
+        // `step` and a step-size variable: which one?
+        (
+            with_step_fidelity("").replacen("stop_time = 1.0\n", "stop_time = 1.0\nstep = 0.1\n", 1),
+            5,
+            "fmu.step",
+            "the step size is the fidelity variable `h` (`fidelity.variable[0].drives`, line 23): remove `step`",
+        ),
+        // Neither.
+        (
+            GOOD.replacen("step = { rate_of = \"rate\" }\n", "", 1),
+            2,
+            "fmu.step",
+            "no step size: give `step` (seconds, or { rate_of = \"…\" }) or a fidelity variable with drives = \"step_size\"",
+        ),
+        (
+            with_step_fidelity("\nfmu = \"rate\""),
+            25,
+            "fidelity.variable[0].fmu",
+            "a variable that drives the step size is bound to no FMU variable: remove `fmu`",
+        ),
+        (
+            with_step_fidelity("").replacen("values = [0.25, 0.125]", "values = [0.125, 0.0]", 1),
+            22,
+            "fidelity.variable[0].drives",
+            "`h` drives the step size: every value must be a positive number",
+        ),
+        (
+            with_step_fidelity("\n[[fidelity.variable]]\nname = \"h2\"\ndrives = \"step_size\"\nvalues = [1.0]\nhf = 1.0"),
+            27,
+            "fidelity.variable[1].drives",
+            "`h` already drives the step size (`fidelity.variable[0].drives`, line 22)",
+        ),
+        (
+            with_step_fidelity("\n[[fidelity.variable]]\nname = \"tol\"\ndrives = \"tolerance\"\nvalues = [0.1]\nhf = 0.1")
+                .replacen("stop_time = 1.0\n", "stop_time = 1.0\ntolerance = 1e-4\n", 1),
+            5,
+            "fmu.tolerance",
+            "the tolerance is the fidelity variable `tol` (`fidelity.variable[1].drives`, line 28): remove `tolerance`",
+        ),
+    ];
+    for (k, (body, line, key, message)) in cases.iter().enumerate() {
+        let path = campaign(&format!("step-bad-{k}"), body);
+        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(*line), Some(*key)),
+            "{k}: {e}"
+        );
+        assert_eq!(e.message, *message, "{k}");
+    }
+    // An unknown kind is a serde error at its line.
+    let path = campaign(
+        "step-bad-kind",
+        &with_step_fidelity("").replacen("\"step_size\"", "\"steps\"", 1),
+    );
+    let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+    assert_eq!(e.line, Some(22), "{e}");
+    assert!(
+        e.message.contains("expected `step_size` or `tolerance`"),
+        "{e}"
+    );
+}

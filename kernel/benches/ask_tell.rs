@@ -1,4 +1,4 @@
-//! Ask+tell cost on the paper's space: Table I's 16 fidelity settings (continuous ones in 10 log
+//! Ask+tell cost on the paper's space: Table II's 16 fidelity settings (continuous ones in 10 log
 //! bins) and one scenario of 4 continuous parameters with 10 bins each.
 //!
 //! `cargo bench -p savme-kernel --bench ask_tell`
@@ -10,7 +10,7 @@ use savme_kernel::{
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-/// The shape (and names, so that name lookups cost the same) of the driving simulator's Table I
+/// The shape (and names, so that name lookups cost the same) of the driving simulator's Table II
 /// space, `savme_sim::fidelity::space(10)`, written out here: the kernel depends on no simulator.
 fn fidelity_space() -> Space {
     let b = Variable::boolean;

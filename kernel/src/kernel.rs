@@ -14,7 +14,7 @@ use std::sync::Arc;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Phase {
-    /// Meta-training: φ and θ_LF by Thompson sampling; both bandits updated (Table II).
+    /// Meta-training: φ and θ_LF by Thompson sampling; both bandits updated (Table I).
     #[default]
     Train,
     /// Evaluation: θ_LF greedy (MAP, or the configured estimator), φ drawn from p_ψ by Thompson
@@ -603,7 +603,7 @@ impl Kernel {
         ))
     }
 
-    /// Ingests the outcome of trial `id`: classifies it, credits the bandits per Table II (in
+    /// Ingests the outcome of trial `id`: classifies it, credits the bandits per Table I (in
     /// the learning phases) and returns the record. On error nothing changes.
     pub fn tell(&mut self, id: u64, observation: Observation) -> Result<TrialRecord, TellError> {
         let (index, assessed) = self.assess(id, &observation)?;

@@ -24,7 +24,8 @@ pub struct Summary {
     pub tn: u64,
     /// Only the LF run failed.
     pub fp: u64,
-    /// Only the HF run failed.
+    /// Only the HF run failed (`fn` in JSON).
+    #[serde(rename = "fn")]
     pub fn_: u64,
     /// Trials whose HF run failed (paired or not).
     pub hf_failures: u64,

@@ -1,5 +1,5 @@
 //! What a trial produced (observations), how the pair of runs is classified (TP/TN/FP/FN), and
-//! what the bandits are credited for it — the paper's Table II.
+//! what the bandits are credited for it — the paper's Table I.
 
 use serde::{Deserialize, Serialize};
 
@@ -109,13 +109,13 @@ impl Outcome {
         }
     }
 
-    /// Table II, fidelity column: a success when the simulators agree (TP or TN) *and*
+    /// Table I, fidelity column: a success when the simulators agree (TP or TN) *and*
     /// `t_LF / t_HF ≤ C_budget`; a loss otherwise.
     pub fn fidelity_success(self, cost_ratio: f64, budget: f64) -> bool {
         matches!(self, Outcome::TP | Outcome::TN) && cost_ratio <= budget
     }
 
-    /// Table II, scenario column: a success when the high-fidelity run failed (TP or FN).
+    /// Table I, scenario column: a success when the high-fidelity run failed (TP or FN).
     pub fn scenario_success(self) -> bool {
         matches!(self, Outcome::TP | Outcome::FN)
     }

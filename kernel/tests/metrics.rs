@@ -13,7 +13,7 @@ const TABLE_III: [(Option<f64>, f64, f64, f64); 4] = [
 ];
 
 #[test]
-fn speedup_reproduces_table_iii_from_its_other_columns() {
+fn speedup_reproduces_table_ii_from_its_other_columns() {
     // The table prints two decimals; every input may be off by up to 0.005. The printed speedup
     // must lie inside the interval the rounded inputs allow.
     let baseline = TABLE_III[0].1;

@@ -1,9 +1,9 @@
-//! The driving simulator's fidelity settings: the SAVME paper's Table I (Schlichting et al.,
+//! The driving simulator's fidelity settings: the SAVME paper's Table II (Schlichting et al.,
 //! ITSC 2023) as a kernel [`Space`], with θ_HF.
 
 use savme_kernel::{Assignment, Scale, Space, Variable};
 
-/// The 16 fidelity settings of Table I, continuous ones cut into `bins` log-scaled bins.
+/// The 16 fidelity settings of Table II, continuous ones cut into `bins` log-scaled bins.
 ///
 /// # Panics
 ///
@@ -35,10 +35,28 @@ pub fn space(bins: u32) -> Space {
         Variable::discrete("lidar_raytracing_bounces", [0, 1, 2, 3, 4]),
         Variable::continuous("lidar_near_clipping_m", 0.2, 20.0, bins, Scale::Log),
     ];
-    Space::new(vars).expect("Table I is a valid space")
+    Space::new(vars).expect("Table II is a valid space")
 }
 
-/// θ_HF: Table I's bold values.
+/// The unit of a fidelity setting: `Hz` and `m` as the names end; flags, levels and counts
+/// have none.
+///
+/// ```
+/// assert_eq!(savme_sim::fidelity::unit("simulation_rate_hz"), Some("Hz"));
+/// assert_eq!(savme_sim::fidelity::unit("lidar_near_clipping_m"), Some("m"));
+/// assert_eq!(savme_sim::fidelity::unit("lidar_subsample_count"), None);
+/// ```
+pub fn unit(setting: &str) -> Option<&'static str> {
+    if setting.ends_with("_hz") {
+        Some("Hz")
+    } else if setting.ends_with("_m") {
+        Some("m")
+    } else {
+        None
+    }
+}
+
+/// θ_HF: Table II's bold values.
 pub fn theta_hf() -> Assignment {
     Assignment::new()
         .with("simulation_rate_hz", 10)

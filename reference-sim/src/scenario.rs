@@ -224,6 +224,22 @@ pub fn phi_space(info: &ScenarioInfo) -> Space {
     Space::new(vars).expect("scenario spaces are valid")
 }
 
+/// The unit of a scenario parameter (an empty string for an unknown name).
+///
+/// ```
+/// assert_eq!(savme_sim::scenario::unit("ego_speed"), "m/s");
+/// assert_eq!(savme_sim::scenario::unit("lead_decel"), "m/s²");
+/// ```
+pub fn unit(parameter: &str) -> &'static str {
+    match parameter {
+        p if p.ends_with("_speed") => "m/s",
+        "lead_decel" | "intruder_accel" => "m/s²",
+        "gap" | "offset" => "m",
+        "time_offset" | "cut_in_time" | "lane_change_time" | "brake_time" => "s",
+        _ => "",
+    }
+}
+
 /// A speed profile: an initial speed and phases of constant acceleration, with a speed floor of
 /// 0 and a cap.
 #[derive(Debug, Clone, PartialEq)]
@@ -557,6 +573,15 @@ fn on_ramp_merge(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_scenario_parameter_has_a_unit() {
+        for info in &SCENARIOS {
+            for v in phi_space(info).variables() {
+                assert!(!unit(&v.name).is_empty(), "{}: {}", info.name, v.name);
+            }
+        }
+    }
 
     #[test]
     fn profiles_integrate_braking_and_acceleration() {

@@ -1,9 +1,9 @@
-//! The paper's 16 fidelity settings (Table I) as typed values.
+//! The paper's 16 fidelity settings (Table II) as typed values.
 
 use crate::fidelity;
 use savme_kernel::{Assignment, Domain, SimError, Value, Variable};
 
-/// The cheapest value of a Table I setting: switches disabled, low bloom, 2 Hz, one subsample,
+/// The cheapest value of a Table II setting: switches disabled, low bloom, 2 Hz, one subsample,
 /// no bounces, the shortest view distance, the largest clipping distances.
 ///
 /// ```

@@ -353,7 +353,7 @@ fn check_logged(l: &LogLine, t: &Trial, label: &str, index: u64) -> Result<(), C
 
 /// Tells the kernel a trial whose runs are in: its logged line on resume (checked against
 /// what the kernel credits), a withdrawal if a run failed, else its runs — storing the line
-/// before the kernel learns from it.
+/// (with the kernel's outcome and credit) before the next trial is told.
 fn tell(
     kernel: &mut Kernel,
     slot: Slot,

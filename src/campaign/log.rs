@@ -1,5 +1,7 @@
 //! The lines of a campaign's trial store (`trials.jsonl` by default): every told trial, stored
-//! before the kernel learns from it, and every withdrawn one. It is the campaign's journal:
+//! as soon as the kernel has assessed it (its outcome and credit are part of the line) and
+//! before the next one is told or any observer sees it, and every withdrawn one. A trial the
+//! process dies before storing is asked and run again on resume. It is the campaign's journal:
 //! `--resume` replays it.
 
 use super::store::StoredLine;
@@ -66,7 +68,7 @@ pub struct TrialLine {
     pub cost_ratio: Option<f64>,
     /// TP / TN / FP / FN.
     pub outcome: Option<Outcome>,
-    /// What the kernel credited (Table II).
+    /// What the kernel credited (Table I).
     pub credit: Credit,
 }
 

@@ -76,7 +76,7 @@ pub struct Problem {
 
 impl Problem {
     /// The bundled driving simulator's problem (its domain knowledge lives in `savme-sim`:
-    /// the paper's Table I with `bins` per continuous setting, θ_HF, the ten scenarios).
+    /// the paper's Table II with `bins` per continuous setting, θ_HF, the ten scenarios).
     pub fn driving(bins: u32) -> Problem {
         Problem {
             fidelity: savme_sim::fidelity::space(bins),

@@ -5,6 +5,12 @@ use super::log::TrialLine;
 use super::{plot, CampaignError, Problem, Protocol, Report};
 use std::path::{Path, PathBuf};
 
+/// The version of the layout of the files a campaign writes: `format_version` in
+/// `summary.json` and `protocol.json`, a closing comment in `table.md` and `fidelity.md`
+/// (`trials.jsonl` versions each line with its `v` key). It changes when a key is renamed or
+/// removed, not when one is added.
+pub const FORMAT_VERSION: u32 = 1;
+
 /// The files a campaign writes.
 #[derive(Debug, Clone)]
 pub struct Outputs {
@@ -52,11 +58,22 @@ pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
         }
         Err(e) => return Err(CampaignError::io(&path, e)),
     };
-    serde_json::from_str(&text).map_err(|e| CampaignError::Log {
+    let p: Protocol = serde_json::from_str(&text).map_err(|e| CampaignError::Log {
         store: path.display().to_string(),
         line: e.line(),
         message: e.to_string(),
-    })
+    })?;
+    if p.format_version != FORMAT_VERSION {
+        return Err(CampaignError::Log {
+            store: path.display().to_string(),
+            line: 2,
+            message: format!(
+                "format_version {}: this savme reads version {FORMAT_VERSION}",
+                p.format_version
+            ),
+        });
+    }
+    Ok(p)
 }
 
 /// Refuses an output directory that is a file, or lies below one (instead of the I/O error
@@ -96,12 +113,14 @@ pub(crate) fn write(
     let write = |path: &Path, text: String| {
         std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
     };
-    write(&files.table, report.table_md())?;
+    let version = format!("\n<!-- savme format_version {FORMAT_VERSION} -->\n");
+    write(&files.table, report.table_md() + &version)?;
     write(
         &files.fidelity,
-        report.fidelity_md(&problem.fidelity, &problem.theta_hf),
+        report.fidelity_md(&problem.fidelity, &problem.theta_hf) + &version,
     )?;
     let summary = serde_json::json!({
+        "format_version": FORMAT_VERSION,
         "report": report,
         "elapsed_seconds_of_last_process": elapsed,
         "trials": lines.len(),

@@ -45,6 +45,10 @@ pub const MAX_BUDGETS: usize = 100;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Protocol {
+    /// The layout version of `protocol.json` ([`super::outputs::FORMAT_VERSION`]); files
+    /// written before the key existed read as 1.
+    #[serde(default = "first_format")]
+    pub format_version: u32,
     /// Master seed; every kernel's seed is derived from it and the stage's name.
     pub seed: u64,
     /// The compute budgets C_budget, each in (0, 1].
@@ -94,12 +98,17 @@ pub enum OnError {
     Skip,
 }
 
+fn first_format() -> u32 {
+    1
+}
+
 impl Protocol {
     /// The paper's protocol: budgets 0.2/0.3/0.4, 500 meta-training iterations, 100
     /// evaluations, 200 meta-testing iterations; scenarios 1–8 for meta-training and 9–10 for
     /// meta-testing. The baselines get enough trials to span the meta-training runtime.
     pub fn paper(simulator: &str, train: Vec<String>, test: Vec<String>) -> Self {
         Protocol {
+            format_version: super::outputs::FORMAT_VERSION,
             seed: 1,
             budgets: vec![0.2, 0.3, 0.4],
             train_iterations: 500,

@@ -39,7 +39,8 @@ pub struct Evaluation {
     pub tn: u64,
     /// Only the LF run failed.
     pub fp: u64,
-    /// Only the HF run failed.
+    /// Only the HF run failed (`fn` in JSON).
+    #[serde(rename = "fn")]
     pub fn_: u64,
     /// The learned fidelity θ_LF* (the evaluation's θ_LF).
     pub theta_star: Option<Assignment>,

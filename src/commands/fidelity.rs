@@ -1,13 +1,46 @@
-//! `savme fidelity`: the 16 fidelity settings (the paper's Table I) with their θ_HF values.
+//! `savme fidelity`: the 16 fidelity settings (the paper's Table II) with their θ_HF values.
 
 use savme::kernel::Domain;
 use savme_sim::fidelity;
 
-pub fn run() -> Result<(), String> {
-    super::print(&fidelity_text())
+#[derive(clap::Args)]
+pub struct Args {
+    /// Print the settings as JSON (with θ_HF and units).
+    #[arg(long)]
+    json: bool,
 }
 
-/// `savme fidelity`: the 16 fidelity settings of Table I with their θ_HF values.
+pub fn run(a: Args) -> Result<(), String> {
+    if a.json {
+        super::print(&(fidelity_json().to_string() + "\n"))
+    } else {
+        super::print(&fidelity_text())
+    }
+}
+
+/// `savme fidelity --json`: every setting as the kernel writes a variable, with its unit and
+/// θ_HF value.
+fn fidelity_json() -> serde_json::Value {
+    let hf = fidelity::theta_hf();
+    let settings: Vec<_> = fidelity::space(10)
+        .variables()
+        .iter()
+        .map(|v| {
+            let mut s = serde_json::to_value(v).unwrap_or_default();
+            if let Some(o) = s.as_object_mut() {
+                o.insert("unit".into(), fidelity::unit(&v.name).into());
+                o.insert(
+                    "hf".into(),
+                    serde_json::to_value(hf.get(&v.name)).unwrap_or_default(),
+                );
+            }
+            s
+        })
+        .collect();
+    serde_json::json!({ "format_version": 1, "settings": settings })
+}
+
+/// `savme fidelity`: the 16 fidelity settings of Table II with their θ_HF values.
 fn fidelity_text() -> String {
     use std::fmt::Write;
     let mut out = String::from(

@@ -11,6 +11,7 @@ pub mod serve;
 pub mod simulate;
 
 use savme::campaign::config::Overrides;
+use savme::campaign::CampaignError;
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
 };
@@ -19,6 +20,59 @@ use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Write};
 use std::path::PathBuf;
+
+/// Why a command failed, which decides the exit status.
+#[derive(Debug)]
+pub enum Failure {
+    /// The command line is wrong: a flag's value savme refuses before running anything
+    /// (exit status 2, as for clap's own parse errors).
+    Usage(String),
+    /// Running failed: a file, a simulator, the trial store, the output (exit status 1).
+    Runtime(String),
+}
+
+impl Failure {
+    /// The process exit status.
+    pub fn code(&self) -> u8 {
+        match self {
+            Failure::Usage(_) => 2,
+            Failure::Runtime(_) => 1,
+        }
+    }
+
+    /// The message.
+    pub fn message(&self) -> &str {
+        match self {
+            Failure::Usage(m) | Failure::Runtime(m) => m,
+        }
+    }
+}
+
+impl From<String> for Failure {
+    fn from(m: String) -> Self {
+        Failure::Runtime(m)
+    }
+}
+
+impl From<&str> for Failure {
+    fn from(m: &str) -> Self {
+        Failure::Runtime(m.into())
+    }
+}
+
+/// A flag's value is wrong.
+pub fn usage(message: impl std::fmt::Display) -> Failure {
+    Failure::Usage(message.to_string())
+}
+
+/// An error building a campaign's protocol: one in a protocol field that a flag gave is a usage
+/// error; one in a file (named with its line and key) or elsewhere a runtime error.
+pub fn config_failure(e: CampaignError) -> Failure {
+    match e {
+        CampaignError::Protocol { .. } | CampaignError::UnknownScenario { .. } => usage(e),
+        other => Failure::Runtime(other.to_string()),
+    }
+}
 
 /// Protocol values on the command line (they override the preset or the campaign file).
 #[derive(clap::Args, Debug, Clone, Default)]
@@ -97,40 +151,65 @@ pub struct RunnerArgs {
     #[arg(long, short)]
     quiet: bool,
     #[command(flatten)]
-    record: RecordArgs,
+    record: CampaignRecordArgs,
 }
 
-/// Recording to the rerun viewer (a build with `--features rerun`).
+/// Where to record (a build with `--features rerun`; without it the flags are hidden from
+/// `--help` and refused before anything runs).
 #[derive(clap::Args, Debug, Clone)]
 pub struct RecordArgs {
     /// Record to a rerun file (open it with `rerun FILE.rrd`).
-    #[arg(long, value_name = "FILE.rrd")]
+    #[arg(long, value_name = "FILE.rrd", hide = !cfg!(feature = "rerun"))]
     record: Option<PathBuf>,
     /// Record to a newly started rerun viewer.
-    #[arg(long)]
+    #[arg(long, hide = !cfg!(feature = "rerun"))]
     spawn: bool,
     /// Record to a running rerun viewer (default rerun+http://127.0.0.1:9876/proxy).
-    #[arg(long, value_name = "URL", num_args = 0..=1, default_missing_value = "")]
+    #[arg(
+        long,
+        value_name = "URL",
+        num_args = 0..=1,
+        default_missing_value = "",
+        hide = !cfg!(feature = "rerun")
+    )]
     connect: Option<String>,
-    /// Campaigns: a trial recording (frames of its HF and LF runs) for every N-th trial (0: none).
-    #[arg(long, value_name = "N", default_value_t = 200)]
+}
+
+/// Recording a campaign: where, and which trials get sensor frames.
+#[derive(clap::Args, Debug, Clone)]
+pub struct CampaignRecordArgs {
+    #[command(flatten)]
+    sink: RecordArgs,
+    /// A trial recording (frames of its HF and LF runs) for every N-th trial (0: none).
+    #[arg(long, value_name = "N", default_value_t = 200, hide = !cfg!(feature = "rerun"))]
     record_every: u64,
-    /// Campaigns: ... plus up to N informative trials, chosen when the campaign ends: FN and FP
-    /// of meta-training, evaluation and meta-testing first (alternately, in campaign order),
-    /// then TP, then HF failures of the baselines (which have no LF run).
-    #[arg(long, value_name = "N", default_value_t = 10)]
+    /// ... plus up to N informative trials, chosen when the campaign ends: FN and FP of
+    /// meta-training, evaluation and meta-testing first (alternately, in campaign order), then
+    /// TP, then HF failures of the baselines (which have no LF run).
+    #[arg(long, value_name = "N", default_value_t = 10, hide = !cfg!(feature = "rerun"))]
     record_failures: u64,
 }
 
 impl RecordArgs {
-    /// The recording asked for.
+    /// The recording asked for (one run: no frame selection).
     pub fn request(&self) -> RecordRequest {
         RecordRequest {
             file: self.record.clone(),
             spawn: self.spawn,
             connect: self.connect.clone(),
+            every: 1,
+            failures: 0,
+        }
+    }
+}
+
+impl CampaignRecordArgs {
+    /// The recording asked for.
+    pub fn request(&self) -> RecordRequest {
+        RecordRequest {
             every: self.record_every,
             failures: self.record_failures,
+            ..self.sink.request()
         }
     }
 }
@@ -152,7 +231,7 @@ pub fn run_campaign<S>(
     runner: &RunnerArgs,
     frames: Frames,
     sim: &S,
-) -> Result<(), String>
+) -> Result<(), Failure>
 where
     S: Simulator + Clone + Send,
 {
@@ -161,15 +240,15 @@ where
         .resume(target.resume);
     if let Some(j) = runner.jobs {
         if j == 0 {
-            return Err("protocol: `--jobs`: must be at least 1".into());
+            return Err(usage("protocol: `--jobs`: must be at least 1"));
         }
         campaign = campaign.jobs(j);
     }
-    for o in observers(runner, frames, &protocol, &problem)? {
+    for o in observers(runner, frames, &protocol, &problem).map_err(usage)? {
         campaign = campaign.boxed_observer(o);
     }
     let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
-    print(&summary_text(&outcome, &problem))
+    Ok(print(&summary_text(&outcome, &problem))?)
 }
 
 fn observers(

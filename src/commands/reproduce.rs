@@ -1,6 +1,6 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
-use super::{run_campaign, ProtocolArgs, RunnerArgs, Target};
+use super::{config_failure, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs, Target};
 use savme::campaign::config::{self, Preset};
 use savme::campaign::{load_protocol, Problem};
 use savme::viewer::Frames;
@@ -14,7 +14,7 @@ pub struct Args {
     /// Continue the campaign in DIR after an interruption (even `kill -9`).
     #[arg(long, value_name = "DIR", conflicts_with = "out")]
     resume: Option<PathBuf>,
-    /// A short preset (one budget, fewer iterations) that finishes in about a minute.
+    /// A short preset: one budget, fewer iterations (860 trials, about 100 CPU-seconds).
     #[arg(long)]
     quick: bool,
     /// Perception of the system under test: camera + lidar (the paper's), or idealised
@@ -33,7 +33,7 @@ enum Perception {
     Ideal,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let overrides = a.protocol.overrides();
     let preset = Preset {
         quick: a.quick,
@@ -42,7 +42,7 @@ pub fn run(a: Args) -> Result<(), String> {
     let (protocol, problem, target) = match a.resume {
         Some(dir) => {
             if overrides.any() || preset != Preset::default() {
-                return Err("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --resume, --jobs and --quiet".into());
+                return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --resume, --jobs and --quiet"));
             }
             let p = load_protocol(&dir).map_err(|e| e.to_string())?;
             let problem = Problem::driving(p.fidelity_bins);
@@ -56,7 +56,7 @@ pub fn run(a: Args) -> Result<(), String> {
             )
         }
         None => {
-            let (p, problem) = config::bundled(preset, &overrides).map_err(|e| e.to_string())?;
+            let (p, problem) = config::bundled(preset, &overrides).map_err(config_failure)?;
             (
                 p,
                 problem,

@@ -1,6 +1,6 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
-use super::{run_campaign, ProtocolArgs, RunnerArgs, Target};
+use super::{config_failure, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs, Target};
 use savme::campaign::config;
 use savme::viewer::Frames;
 use savme_fmu::FmuBackend;
@@ -17,21 +17,28 @@ pub struct Args {
     /// Continue the campaign in DIR (give the same --config).
     #[arg(long, value_name = "DIR")]
     resume: Option<PathBuf>,
+    /// Print every FMU log message to standard error (also `[fmu] log = true`); errors carry
+    /// the last messages of their run either way.
+    #[arg(long)]
+    fmu_log: bool,
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
+pub fn run(a: Args) -> Result<(), Failure> {
     let Some(config) = a.config else {
-        return Err("give --config FILE (and --resume DIR to continue a campaign)".into());
+        return Err(usage(
+            "give --config FILE (and --resume DIR to continue a campaign)",
+        ));
     };
     let overrides = a.protocol.overrides();
     if a.resume.is_some() && overrides.any() {
-        return Err("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --config, --resume, --jobs and --quiet".into());
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --config, --resume, --jobs and --quiet"));
     }
-    let c = config::fmu_file(&config, &overrides).map_err(|e| e.to_string())?;
+    let mut c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
+    c.file.init.spec.fmu_log |= a.fmu_log;
     let target = match a.resume {
         Some(dir) => Target {
             out: dir,

@@ -1,10 +1,30 @@
-//! `savme scenarios`: the bundled simulator's scenarios with their parameter spaces.
+//! `savme scenarios`: the bundled simulator's scenarios with their parameter spaces, as text
+//! or (`--json`) as JSON.
 
 use savme::kernel::Domain;
-use savme_sim::scenario::{self, SCENARIOS};
+use savme_sim::scenario::{self, ScenarioInfo, SCENARIOS};
 
-pub fn run() -> Result<(), String> {
-    super::print(&scenarios_text())
+#[derive(clap::Args)]
+pub struct Args {
+    /// Print the scenarios as JSON (one document; units given per parameter).
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(a: Args) -> Result<(), String> {
+    if a.json {
+        super::print(&(scenarios_json().to_string() + "\n"))
+    } else {
+        super::print(&scenarios_text())
+    }
+}
+
+fn role(info: &ScenarioInfo) -> &'static str {
+    if info.training() {
+        "meta-training"
+    } else {
+        "meta-testing"
+    }
 }
 
 /// `savme scenarios`: the listing.
@@ -12,22 +32,45 @@ fn scenarios_text() -> String {
     use std::fmt::Write;
     let mut out = String::new();
     for info in &SCENARIOS {
-        let phase = if info.training() {
-            "meta-training"
-        } else {
-            "meta-testing"
-        };
         let _ = writeln!(
             out,
-            "{:>2}  {}  ({phase}, {} s)",
-            info.id, info.name, info.duration
+            "{:>2}  {}  ({}, {} s)",
+            info.id,
+            info.name,
+            role(info),
+            info.duration
         );
         let _ = writeln!(out, "    {}", info.description);
         for v in scenario::phi_space(info).variables() {
             if let Domain::Continuous { lo, hi, bins, .. } = v.domain {
-                let _ = writeln!(out, "    {:<18} [{lo}, {hi}] in {bins} bins", v.name);
+                let range = format!("[{lo}, {hi}] {}", scenario::unit(&v.name));
+                let _ = writeln!(out, "    {:<18} {range:<18} in {bins} bins", v.name);
             }
         }
     }
     out
+}
+
+/// `savme scenarios --json`.
+fn scenarios_json() -> serde_json::Value {
+    let scenarios: Vec<_> = SCENARIOS
+        .iter()
+        .map(|info| {
+            serde_json::json!({
+                "id": info.id,
+                "name": info.name,
+                "role": role(info),
+                "duration_s": info.duration,
+                "description": info.description,
+                "parameters": scenario::phi_space(info).variables().iter().map(|v| {
+                    let mut p = serde_json::to_value(v).unwrap_or_default();
+                    if let Some(o) = p.as_object_mut() {
+                        o.insert("unit".into(), scenario::unit(&v.name).into());
+                    }
+                    p
+                }).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    serde_json::json!({ "format_version": 1, "scenarios": scenarios })
 }

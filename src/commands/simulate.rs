@@ -1,6 +1,7 @@
 //! `savme simulate`: one run of the bundled driving simulator, described or as JSON, optionally
 //! recorded to the viewer.
 
+use super::{usage, Failure};
 use savme::kernel::{Assignment, Domain, Value};
 use savme_sim::fidelity;
 use savme_sim::scenario;
@@ -25,25 +26,30 @@ pub struct Args {
 }
 
 /// Runs the simulation once — with recording on when a recording is asked for (then the HF
-/// run is recorded beside an LF one) — and prints it.
-pub fn run(a: Args) -> Result<(), String> {
+/// run is recorded beside an LF one) — and prints it. Bad arguments and a recording that
+/// cannot be made are refused before anything runs.
+pub fn run(a: Args) -> Result<(), Failure> {
+    let request = a.record.request();
+    let record = request.check().map_err(usage)?;
     let info = scenario::find(&a.scenario).ok_or_else(|| {
-        format!(
+        usage(format!(
             "unknown scenario `{}`: give 1–10 or a name from `savme scenarios`",
             a.scenario
-        )
+        ))
     })?;
-    let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
-    let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-    let request = a.record.request();
-    let r = if request.wanted() {
+    let phi = parse_assignment(&a.phi).map_err(|e| usage(format!("--phi: {e}")))?;
+    let theta = parse_fidelity(&a.fidelity).map_err(|e| usage(format!("--fidelity: {e}")))?;
+    scenario::phi_space(info)
+        .arms_of(&phi)
+        .map_err(|e| usage(format!("--phi: scenario {} ({}): {e}", info.id, info.name)))?;
+    let r = if record {
         savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?
     } else {
         DrivingSimulator::default()
             .run(info.name, &phi, &theta, false)
             .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?
     };
-    super::print(&describe(info, &phi, &theta, &r, a.json))
+    Ok(super::print(&describe(info, &phi, &theta, &r, a.json))?)
 }
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,

@@ -61,6 +61,36 @@ impl RecordRequest {
     pub fn wanted(&self) -> bool {
         self.file.is_some() || self.spawn || self.connect.is_some()
     }
+
+    /// Whether a recording can be made as asked: `Ok(true)` when one was asked for and this
+    /// build can make it, `Ok(false)` when none was asked for; an error for more than one sink
+    /// or, in a build without the `rerun` feature, for any request (saying how to get it).
+    /// Commands call it before they run anything.
+    ///
+    /// ```
+    /// use savme::viewer::RecordRequest;
+    /// assert!(matches!(RecordRequest::default().check(), Ok(false)));
+    /// let twice = RecordRequest { spawn: true, connect: Some(String::new()), ..Default::default() };
+    /// assert!(twice.check().is_err());
+    /// ```
+    pub fn check(&self) -> Result<bool, CampaignError> {
+        if !self.wanted() {
+            return Ok(false);
+        }
+        let n = usize::from(self.file.is_some())
+            + usize::from(self.spawn)
+            + usize::from(self.connect.is_some());
+        if n > 1 {
+            return Err(asked_twice());
+        }
+        if cfg!(feature = "rerun") {
+            Ok(true)
+        } else {
+            Err(CampaignError::Recording(
+                "this savme was built without the `rerun` feature; rebuild with `cargo build --release --features rerun`".into(),
+            ))
+        }
+    }
 }
 
 /// The simulator whose frames a recording shows.
@@ -94,28 +124,8 @@ pub fn start(
     #[cfg(not(feature = "rerun"))]
     {
         let _ = (frames, protocol, problem);
-        check(req)?;
+        req.check()?;
         Ok(None)
-    }
-}
-
-/// One sink at most; without the feature, any request is an error saying how to get it.
-fn check(req: &RecordRequest) -> Result<bool, CampaignError> {
-    if !req.wanted() {
-        return Ok(false);
-    }
-    let n = usize::from(req.file.is_some())
-        + usize::from(req.spawn)
-        + usize::from(req.connect.is_some());
-    if n > 1 {
-        return Err(asked_twice());
-    }
-    if cfg!(feature = "rerun") {
-        Ok(true)
-    } else {
-        Err(CampaignError::Recording(
-            "this savme was built without the `rerun` feature; rebuild with `cargo build --release --features rerun`".into(),
-        ))
     }
 }
 
@@ -137,7 +147,7 @@ fn recorder(
     protocol: &Protocol,
     problem: &Problem,
 ) -> Result<Option<Recorder>, CampaignError> {
-    if !check(req)? {
+    if !req.check()? {
         return Ok(None);
     }
     let Some(sink) = sink(req) else {
@@ -157,12 +167,6 @@ fn recorder(
         .map_err(|e| CampaignError::Recording(e.to_string()))
 }
 
-/// Checks a recording request before anything runs: Ok(true) when one is wanted (and this
-/// build can record), an error when it is malformed or this build cannot record.
-pub fn check_request(req: &RecordRequest) -> Result<bool, CampaignError> {
-    check(req)
-}
-
 /// Runs one simulation of the bundled simulator once, with recording on, into the recording
 /// asked for (`savme simulate --record …`): the run at `theta` and, when `theta` is not θ_HF,
 /// the HF run beside it (the trial view, HF | LF). Returns the run at `theta`.
@@ -175,7 +179,7 @@ pub fn record_run(
     #[cfg(feature = "rerun")]
     {
         let rec = |e: RecordError| CampaignError::Recording(e.to_string());
-        check(req)?;
+        req.check()?;
         let sink = sink(req).ok_or_else(|| CampaignError::Recording("no sink".into()))?;
         let theta_hf = savme_sim::fidelity::theta_hf();
         let paired = *theta != theta_hf;
@@ -215,7 +219,7 @@ pub fn record_run(
     #[cfg(not(feature = "rerun"))]
     {
         let _ = (scenario, phi, theta);
-        check(req)?;
+        req.check()?;
         Err(CampaignError::Recording(
             "no recording was asked for".into(),
         ))

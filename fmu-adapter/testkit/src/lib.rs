@@ -117,3 +117,37 @@ savme_fmi_export::export_fmi2!(Trivial);
 pub fn model_description() -> String {
     savme_fmi_export::model_description::<Trivial>()
 }
+
+/// The `braking` test FMU written in C (`examples/fmu/braking`), compiled by this crate's build
+/// script: its shared library.
+pub fn braking_library() -> std::path::PathBuf {
+    env!("SAVME_BRAKING_LIB").into()
+}
+
+/// The `braking` FMU's `modelDescription.xml`.
+pub const BRAKING_MODEL_DESCRIPTION: &str =
+    include_str!("../../../examples/fmu/braking/modelDescription.xml");
+
+/// The `braking` FMU's `resources/friction.txt`.
+pub const BRAKING_FRICTION: &str =
+    include_str!("../../../examples/fmu/braking/resources/friction.txt");
+
+/// Packs the `braking` FMU into `out` with `model_description` and, when `with_resources`, its
+/// `resources/friction.txt`.
+pub fn pack_braking(
+    out: &std::path::Path,
+    model_description: &str,
+    with_resources: bool,
+) -> Result<(), savme_fmi_export::PackError> {
+    let files: &[(&str, &[u8])] = if with_resources {
+        &[("resources/friction.txt", BRAKING_FRICTION.as_bytes())]
+    } else {
+        &[]
+    };
+    savme_fmi_export::pack_with(model_description, "braking", &braking_library(), files, out)
+}
+
+/// A shared library that dies of SIGBUS while it is loaded (its constructor raises it).
+pub fn crash_on_load_library() -> std::path::PathBuf {
+    env!("SAVME_CRASH_ON_LOAD_LIB").into()
+}

@@ -2,7 +2,7 @@
 //!
 //! Parameters: `scenario` (1–10), `perception` (0 camera + lidar, 1 idealised), the scenario
 //! parameters φ of all ten scenarios (each scenario reads its own), and the 16 fidelity
-//! settings of Table I (`camera_bloom_level` as an Integer: 0 = high, 1 = low — a label's
+//! settings of Table II (`camera_bloom_level` as an Integer: 0 = high, 1 = low — a label's
 //! position in the setting's list of values, savme's rule for labels). Outputs: `collision`,
 //! `min_distance`, `collision_time` (−1 without a collision), `work` and `steps`.
 //!
@@ -103,7 +103,7 @@ fn phi_parameters() -> Vec<Variable> {
         .collect()
 }
 
-/// The fidelity settings of Table I, starting at θ_HF.
+/// The fidelity settings of Table II, starting at θ_HF.
 fn fidelity_parameters() -> Vec<Variable> {
     let hf = fidelity::theta_hf();
     let space = fidelity::space(10);
@@ -120,7 +120,7 @@ fn fidelity_parameter(var: &savme_kernel::Variable, hf: &Assignment) -> Variable
     let name: &str = &var.name;
     let start = hf.get(name).cloned().unwrap_or(Value::Bool(false));
     let scalar = fidelity_scalar(&var.domain, &start);
-    let variable = Variable::parameter(name, scalar, "fidelity setting (Table I)");
+    let variable = Variable::parameter(name, scalar, "fidelity setting (Table II)");
     match &var.domain {
         Domain::Continuous { lo, hi, .. } => variable.range(*lo, *hi).unit("m"),
         Domain::Discrete { values } => {
@@ -282,7 +282,7 @@ impl Model for DrivingFmu {
     const MODEL_IDENTIFIER: &'static str = "savme_sim_fmu";
     const GUID: &'static str = "{5a1e5100-7e57-4d0c-9a1b-0000000000a1}";
     const DESCRIPTION: &'static str =
-        "savme's bundled driving simulator: ten AV pre-crash scenarios, camera + lidar with the 16 fidelity settings of SAVME's Table I";
+        "savme's bundled driving simulator: ten AV pre-crash scenarios, camera + lidar with the 16 fidelity settings of SAVME's Table II";
     const DEFAULT_EXPERIMENT: (f64, f64) = (12.0, 0.1);
 
     fn variables() -> &'static [Variable] {

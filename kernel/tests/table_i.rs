@@ -1,4 +1,4 @@
-//! Every cell of the paper's Table II, through the kernel's tell.
+//! Every cell of the paper's Table I, through the kernel's tell.
 mod common;
 use savme_kernel::{Arm, Observation, Outcome, Phase, Run};
 
@@ -25,7 +25,7 @@ const CELLS: [(bool, bool, f64, Outcome, bool, bool); 8] = [
 ];
 
 #[test]
-fn every_cell_credits_exactly_as_table_ii() {
+fn every_cell_credits_exactly_as_table_i() {
     for phase in [Phase::Train, Phase::Test] {
         for &(hf, lf, t_lf, outcome, fid, scen) in &CELLS {
             let mut k = common::kernel();

@@ -1,13 +1,17 @@
 //! The campaign's figures: found failures over runtime during meta-training (break-even) and
-//! during meta-testing, drawn with plotters into PNG files.
+//! during meta-testing, drawn with plotters into PNG files (text laid out by [`text`]).
+
+mod text;
 
 use super::log::TrialLine;
 use super::protocol::{Cost, Protocol, StageKind};
 use super::report::curve;
 use super::CampaignError;
+use plotters::coord::types::{RangedCoordf64, RangedCoordu64};
 use plotters::prelude::*;
-use savme_kernel::metrics::FailureCurve;
+use savme_kernel::metrics::{break_even, FailureCurve};
 use std::path::Path;
+use text::GlyphText;
 
 const FONT: &str = "sans-serif";
 
@@ -21,11 +25,12 @@ fn font() -> Result<(), String> {
     .clone()
 }
 
-/// A curve with its label and colour.
+/// A curve with its label and colour, and where it overtakes the baseline for good.
 struct Series {
     label: String,
     colour: RGBColor,
     curve: FailureCurve,
+    break_even: Option<f64>,
 }
 
 const PALETTE: [RGBColor; 6] = [
@@ -41,14 +46,46 @@ fn lines_of<'a>(lines: &'a [TrialLine], label: &str) -> Vec<&'a TrialLine> {
     lines.iter().filter(|l| l.stage == label).collect()
 }
 
-/// Axis scale and label for cumulative costs up to `end`.
-fn scale(cost: Cost, end: f64) -> (f64, &'static str) {
+/// Axis scale, label and unit for cumulative costs up to `end`.
+fn scale(cost: Cost, end: f64) -> (f64, &'static str, &'static str) {
     match cost {
-        Cost::Wall if end < 180.0 => (1.0, "runtime (s)"),
-        Cost::Wall => (1.0 / 60.0, "runtime (min)"),
-        Cost::Work if end < 1e7 => (1e-3, "runtime (thousand work units)"),
-        Cost::Work => (1e-6, "runtime (million work units)"),
+        Cost::Wall if end < 180.0 => (1.0, "runtime (s)", "s"),
+        Cost::Wall => (1.0 / 60.0, "runtime (min)", "min"),
+        Cost::Work if end < 1e7 => (1e-3, "runtime (thousand work units)", "k work units"),
+        Cost::Work => (1e-6, "runtime (million work units)", "M work units"),
     }
+}
+
+/// A runtime tick label: `20`, `2.5` (no `20.0`).
+fn tick(x: f64) -> String {
+    let s = format!("{x:.1}");
+    s.strip_suffix(".0").map_or(s.clone(), str::to_string)
+}
+
+/// The marker of a break-even point: a dot on the curve and its time.
+fn break_even_mark<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordu64>>,
+    s: &Series,
+    (k, unit): (f64, &str),
+) -> Result<(), String> {
+    let Some(t) = s.break_even else {
+        return Ok(());
+    };
+    let (x, y) = (t * k, s.curve.failures_at(t));
+    // Seconds below three minutes of wall time, whatever the axis shows.
+    let label = match unit {
+        "s" | "min" if t < 180.0 => format!("break-even {t:.1} s"),
+        _ => format!("break-even {x:.1} {unit}"),
+    };
+    let colour = s.colour;
+    chart
+        .draw_series(std::iter::once(
+            EmptyElement::at((x, y))
+                + Circle::new((0, 0), 5, colour.filled())
+                + Text::new(label, (8, 4), (FONT, 14).into_font().color(&colour)),
+        ))
+        .map_err(|e| e.to_string())?;
+    Ok(())
 }
 
 fn draw_panel<DB: DrawingBackend>(
@@ -59,31 +96,34 @@ fn draw_panel<DB: DrawingBackend>(
     x_max: Option<f64>,
 ) -> Result<(), String> {
     let end = x_max.unwrap_or_else(|| series.iter().map(|s| s.curve.end()).fold(0.0, f64::max));
-    let (k, x_desc) = scale(cost, end);
+    let (k, x_desc, unit) = scale(cost, end);
     let x_end = end * k;
     let y_end = series
         .iter()
         .map(|s| s.curve.failures_at(x_end / k))
         .max()
         .unwrap_or(0)
-        .max(1) as f64;
+        .max(1);
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    // Counts on an integer axis: whole-number ticks, no "10.0".
     let mut chart = ChartBuilder::on(area)
         .caption(title, (FONT, 22))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(50)
-        .build_cartesian_2d(0.0..x_end.max(1e-9), 0.0..y_end * 1.05)
+        .build_cartesian_2d(0.0..x_end.max(1e-9), 0u64..y_end + y_end.div_ceil(20))
         .map_err(e)?;
     chart
         .configure_mesh()
         .x_desc(x_desc)
         .y_desc("found failures")
+        .y_labels(y_end.min(10) as usize + 1)
+        .x_label_formatter(&|x| tick(*x))
         .label_style((FONT, 14))
         .draw()
         .map_err(e)?;
     for s in series {
-        let mut pts = vec![(0.0, 0.0)];
+        let mut pts = vec![(0.0, 0)];
         let mut last = 0u64;
         for p in s.curve.points() {
             let x = p.time * k;
@@ -92,10 +132,10 @@ fn draw_panel<DB: DrawingBackend>(
             }
             if p.failures != last {
                 // A step: the count rises when the trial completes.
-                pts.push((x, last as f64));
+                pts.push((x, last));
                 last = p.failures;
             }
-            pts.push((x, last as f64));
+            pts.push((x, last));
         }
         let colour = s.colour;
         chart
@@ -106,6 +146,9 @@ fn draw_panel<DB: DrawingBackend>(
                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
             });
     }
+    for s in series {
+        break_even_mark(&mut chart, s, (k, unit))?;
+    }
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
@@ -115,6 +158,15 @@ fn draw_panel<DB: DrawingBackend>(
         .draw()
         .map_err(e)?;
     Ok(())
+}
+
+/// A PNG of `size` pixels at `path` (text drawn by [`GlyphText`]).
+fn bitmap(
+    path: &Path,
+    size: (u32, u32),
+) -> Result<DrawingArea<GlyphText<BitMapBackend<'_>>, plotters::coord::Shift>, String> {
+    let font = text::font().ok_or("the bundled font could not be read")?;
+    Ok(GlyphText::new(BitMapBackend::new(path, size), font).into_drawing_area())
 }
 
 fn save(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CampaignError> {
@@ -133,16 +185,22 @@ pub fn breakeven(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<(), C
         label: "baseline (φ uniform, HF only)".into(),
         colour: RGBColor(0, 0, 0),
         curve: curve(&lines_of(lines, StageKind::BaselineTrain.name())),
+        break_even: None,
     }];
     for (i, b) in p.budgets.iter().enumerate() {
+        let train = curve(&lines_of(lines, &format!("train@{b}")));
+        let at = (!series[0].curve.points().is_empty())
+            .then(|| break_even(&train, &series[0].curve))
+            .flatten();
         series.push(Series {
             label: format!("SAVME meta-training, C_budget = {b}"),
             colour: PALETTE[i % PALETTE.len()],
-            curve: curve(&lines_of(lines, &format!("train@{b}"))),
+            curve: train,
+            break_even: at,
         });
     }
     save(path, |path| {
-        let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+        let root = bitmap(path, (900, 560))?;
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         draw_panel(
             &root,
@@ -168,16 +226,19 @@ pub fn meta_testing(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<()
                     label: "baseline (φ uniform, HF only)".into(),
                     colour: RGBColor(0, 0, 0),
                     curve: base.clone(),
+                    break_even: None,
                 },
                 Series {
                     label: "uniform fidelity prior".into(),
                     colour: PALETTE[1],
                     curve: curve(&lines_of(lines, &format!("test-uniform@{b}"))),
+                    break_even: None,
                 },
                 Series {
                     label: "learned fidelity prior".into(),
                     colour: PALETTE[0],
                     curve: curve(&lines_of(lines, &format!("test-learned@{b}"))),
+                    break_even: None,
                 },
             ];
             (format!("Meta-testing, C_budget = {b}"), series)
@@ -185,7 +246,7 @@ pub fn meta_testing(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<()
         .collect();
     save(path, |path| {
         let width = 620 * panels.len().max(1) as u32;
-        let root = BitMapBackend::new(path, (width, 520)).into_drawing_area();
+        let root = bitmap(path, (width, 520))?;
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let areas = root.split_evenly((1, panels.len().max(1)));
         for ((title, series), area) in panels.iter().zip(areas.iter()) {
