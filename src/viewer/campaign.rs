@@ -238,7 +238,8 @@ fn log_grid(
     let (mut hf_mins, mut map_mins) = (Vec::new(), Vec::new());
     for (i, arms) in p.arms().iter().enumerate() {
         let y = y0 + i as f32 * h;
-        name_pos.push((-0.5, y + h / 2.0));
+        // Labels are centred on their point: one and a half cells left of the grid.
+        name_pos.push((-1.5 * w, y + h / 2.0));
         names.push(p.names()[i].clone());
         for (a, arm) in arms.iter().enumerate() {
             let x = a as f32 * w;
