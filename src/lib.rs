@@ -18,7 +18,7 @@
 //! use savme::toy::{kernel_builder, ToySimulator};
 //!
 //! let mut kernel = kernel_builder().budget(0.3).seed(1).build()?;
-//! let sim = ToySimulator;
+//! let mut sim = ToySimulator;
 //! for _ in 0..20 {
 //!     let trial = kernel.ask();
 //!     let theta_lf = trial.theta_lf.clone().expect("meta-training pairs HF with LF");

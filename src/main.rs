@@ -44,6 +44,12 @@ enum Command {
     FmuWorker,
     /// Run one simulation on the bundled driving simulator.
     Simulate(commands::simulate::Args),
+    /// Run the paper's protocol on the toy simulator (fast; `--sleep-ms` or `--null` to try
+    /// and benchmark distribution).
+    Toy(commands::toy::Args),
+    /// Run the HF and LF runs of a campaign kept in PostgreSQL whose coordinator was started
+    /// with --remote, on this host, until the campaign is finished.
+    Worker(commands::worker::Args),
 }
 
 fn main() -> ExitCode {
@@ -58,6 +64,8 @@ fn main() -> ExitCode {
         Command::Fmu(c) => commands::fmu::run(c).map_err(Failure::from),
         Command::FmuWorker => commands::fmu::worker().map_err(Failure::from),
         Command::Simulate(a) => commands::simulate::run(a),
+        Command::Toy(a) => commands::toy::run(a),
+        Command::Worker(a) => commands::worker::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

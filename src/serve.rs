@@ -23,8 +23,8 @@
 
 use crate::campaign::store::journal::JournalSink;
 use crate::campaign::store::StoreError;
-use savme_kernel::journal::Journaled;
-use savme_kernel::{Estimator, Kernel, Observation, Phase};
+use savme_kernel::journal::{Journaled, JournaledTellError};
+use savme_kernel::{Estimator, Kernel, Observation, Phase, TellError, Trial, TrialRecord};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::{BufRead, Write};
@@ -72,54 +72,92 @@ pub enum Session {
     Journaled(Journaled<JournalSink>),
 }
 
+/// Why a session refused a call. Either way nothing changed.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The kernel refused the tell or cancel.
+    #[error(transparent)]
+    Refused(#[from] TellError),
+    /// The journal could not record the change.
+    #[error("journal: {0}")]
+    Journal(#[from] StoreError),
+    /// An ask of no trials, or of more than [`MAX_BATCH`].
+    #[error("n must be between 1 and {MAX_BATCH}, got {0}")]
+    BadBatch(usize),
+}
+
+impl From<JournaledTellError<StoreError>> for SessionError {
+    fn from(e: JournaledTellError<StoreError>) -> Self {
+        match e {
+            JournaledTellError::Tell(e) => SessionError::Refused(e),
+            JournaledTellError::Sink(e) => SessionError::Journal(e),
+        }
+    }
+}
+
 impl Session {
-    fn kernel(&self) -> &Kernel {
+    /// The kernel (read-only: changes go through the session, so that they are journaled).
+    pub fn kernel(&self) -> &Kernel {
         match self {
             Session::Plain(k) => k,
             Session::Journaled(j) => j.kernel(),
         }
     }
 
+    /// Asks `n` trials (1 to [`MAX_BATCH`]), all or none.
+    pub fn ask(&mut self, n: usize) -> Result<Vec<Trial>, SessionError> {
+        if n == 0 || n > MAX_BATCH {
+            return Err(SessionError::BadBatch(n));
+        }
+        Ok(match self {
+            Session::Plain(k) => (0..n).map(|_| k.ask()).collect(),
+            Session::Journaled(j) if n == 1 => vec![j.ask()?],
+            Session::Journaled(j) => j.ask_batch(n)?,
+        })
+    }
+
+    /// Tells trial `id`'s observation ([`Kernel::tell`]).
+    pub fn tell(&mut self, id: u64, observation: Observation) -> Result<TrialRecord, SessionError> {
+        Ok(match self {
+            Session::Plain(k) => k.tell(id, observation)?,
+            Session::Journaled(j) => j.tell(id, observation)?,
+        })
+    }
+
+    /// Withdraws pending trial `id` ([`Kernel::cancel`]).
+    pub fn cancel(&mut self, id: u64) -> Result<Trial, SessionError> {
+        Ok(match self {
+            Session::Plain(k) => k.cancel(id)?,
+            Session::Journaled(j) => j.cancel(id)?,
+        })
+    }
+
+    /// Switches the phase of future asks ([`Kernel::set_phase`]).
+    pub fn set_phase(&mut self, phase: Phase) -> Result<(), SessionError> {
+        match self {
+            Session::Plain(k) => k.set_phase(phase),
+            Session::Journaled(j) => j.set_phase(phase)?,
+        }
+        Ok(())
+    }
+
     /// Handles one request line; returns the response object.
     pub fn handle(&mut self, line: &str) -> Value {
         match serde_json::from_str::<Request>(line) {
             Err(e) => error(not_a_request(line, &e)),
-            Ok(r) => self.apply(r).unwrap_or_else(error),
+            Ok(r) => self.apply(r).unwrap_or_else(|e| error(e.to_string())),
         }
     }
 
-    fn apply(&mut self, request: Request) -> Result<Value, String> {
-        let io = |e: StoreError| format!("journal: {e}");
+    fn apply(&mut self, request: Request) -> Result<Value, SessionError> {
         match request {
-            Request::Ask { n } => {
-                if n == 0 || n > MAX_BATCH {
-                    return Err(format!("n must be between 1 and {MAX_BATCH}, got {n}"));
-                }
-                let trials = match self {
-                    Session::Plain(k) => (0..n).map(|_| k.ask()).collect(),
-                    Session::Journaled(j) => j.ask_batch(n).map_err(io)?,
-                };
-                Ok(json!({"ok": true, "trials": trials}))
-            }
+            Request::Ask { n } => Ok(json!({"ok": true, "trials": self.ask(n)?})),
             Request::Tell { id, observation } => {
-                let record = match self {
-                    Session::Plain(k) => k.tell(id, observation).map_err(|e| e.to_string())?,
-                    Session::Journaled(j) => j.tell(id, observation).map_err(|e| e.to_string())?,
-                };
-                Ok(json!({"ok": true, "record": record}))
+                Ok(json!({"ok": true, "record": self.tell(id, observation)?}))
             }
-            Request::Cancel { id } => {
-                let trial = match self {
-                    Session::Plain(k) => k.cancel(id).map_err(|e| e.to_string())?,
-                    Session::Journaled(j) => j.cancel(id).map_err(|e| e.to_string())?,
-                };
-                Ok(json!({"ok": true, "trial": trial}))
-            }
+            Request::Cancel { id } => Ok(json!({"ok": true, "trial": self.cancel(id)?})),
             Request::Phase { phase } => {
-                match self {
-                    Session::Plain(k) => k.set_phase(phase),
-                    Session::Journaled(j) => j.set_phase(phase).map_err(io)?,
-                }
+                self.set_phase(phase)?;
                 Ok(json!({"ok": true}))
             }
             Request::Estimate { estimator } => Ok(estimate(self.kernel(), estimator)),

@@ -256,6 +256,48 @@ impl Simulator for ToySimulator {
     }
 }
 
+/// A simulator that sleeps for a fixed time, then runs `inner`: a stand-in for a vendor
+/// simulator whose runs take long but use no CPU (for trying and benchmarking distribution).
+/// The sleep counts in the measured wall-clock time, not in the work units.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Sleeping<S> {
+    /// The simulator run after the sleep.
+    pub inner: S,
+    /// How long each run sleeps first.
+    pub sleep: std::time::Duration,
+}
+
+impl<S: Simulator> Simulator for Sleeping<S> {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        let start = Instant::now();
+        std::thread::sleep(self.sleep);
+        let mut r = self.inner.simulate(scenario, phi, fidelity)?;
+        r.wall_seconds = start.elapsed().as_secs_f64();
+        Ok(r)
+    }
+}
+
+/// A simulator that does nothing: every run passes, costs one work unit and no time (to
+/// measure what savme itself costs per trial).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NullSimulator;
+
+impl Simulator for NullSimulator {
+    fn simulate(
+        &mut self,
+        _scenario: &str,
+        _phi: &Assignment,
+        _fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        Ok(SimResult::new(false, 0.0, Some(1)))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

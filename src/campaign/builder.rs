@@ -1,11 +1,11 @@
 //! [`Campaign`]: the one loop every front end runs — `savme reproduce`, `savme run`, and
 //! whatever embeds the library.
 
-use super::executor::{self, StageContext};
+use super::executor::{self, remote::Remote, Runner, StageContext};
 use super::kernels::StageKernels;
 use super::log::{self, LogLine, TrialLine};
 use super::outputs::{self, Outputs};
-use super::store::{JsonlStore, TrialStore};
+use super::store::{JsonlStore, Loaded, TrialStore};
 use super::{CampaignError, CampaignOutcome, Observer, Problem, Protocol, Report};
 use savme_kernel::Simulator;
 use std::path::PathBuf;
@@ -38,6 +38,7 @@ pub struct Campaign<'o> {
     resume: bool,
     jobs: usize,
     store: Option<Box<dyn TrialStore>>,
+    remote: Option<Remote>,
     observers: Vec<Box<dyn Observer + 'o>>,
 }
 
@@ -52,6 +53,7 @@ impl<'o> Campaign<'o> {
             resume: false,
             jobs: std::thread::available_parallelism().map_or(1, |n| n.get()),
             store: None,
+            remote: None,
             observers: Vec::new(),
         }
     }
@@ -78,6 +80,13 @@ impl<'o> Campaign<'o> {
     /// The trial store (default: `trials.jsonl` in the output directory, a [`JsonlStore`]).
     pub fn store(mut self, store: Box<dyn TrialStore>) -> Self {
         self.store = Some(store);
+        self
+    }
+
+    /// Runs the HF and LF runs through a database's work queue, by `savme worker` processes
+    /// on any host, instead of local threads (the trials are the same; `jobs` is unused).
+    pub fn remote(mut self, remote: Remote) -> Self {
+        self.remote = Some(remote);
         self
     }
 
@@ -139,7 +148,7 @@ impl<'o> Campaign<'o> {
         }
         let stages = p.stages();
         let mut all_lines: Vec<LogLine> = Vec::new();
-        executor::with_pool(sim, self.jobs, |pool| -> Result<(), CampaignError> {
+        let mut run_all = |runner: &mut dyn Runner| -> Result<(), CampaignError> {
             let mut first = 0;
             for (stage, logged) in stages.iter().zip(&by_stage) {
                 let logged_lines = &numbers[first..first + logged.len()];
@@ -157,7 +166,7 @@ impl<'o> Campaign<'o> {
                     store: store.as_mut(),
                     on_error: p.on_error,
                 };
-                let lines = executor::run_stage(pool, kernel, cx, |line, kernel| {
+                let lines = executor::run_stage(runner, kernel, cx, |line, kernel| {
                     for o in observers.iter_mut() {
                         o.trial(stage, line, kernel);
                     }
@@ -165,7 +174,14 @@ impl<'o> Campaign<'o> {
                 all_lines.extend(lines);
             }
             Ok(())
-        })?;
+        };
+        match self.remote.take() {
+            None => executor::with_pool(sim, self.jobs, |pool| run_all(pool))?,
+            Some(mut remote) => {
+                run_all(&mut remote)?;
+                remote.finish()?;
+            }
+        }
         drop(store);
 
         let count = |l: &[LogLine]| l.iter().filter(|x| x.trial().is_some()).count() as u64;
@@ -196,6 +212,64 @@ impl<'o> Campaign<'o> {
         custom: Option<Box<dyn TrialStore>>,
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
         outputs::usable_dir(&self.out)?;
+        match custom {
+            Some(store) if store.keeps_protocol() => self.open_keeping_store(store),
+            custom => self.open_beside_protocol_file(files, custom),
+        }
+    }
+
+    /// Opens a store that keeps the protocol itself (a database): a new campaign saves it
+    /// there and needs an empty store; a resumed one checks it. The output directory only
+    /// receives the results.
+    fn open_keeping_store(
+        &self,
+        mut store: Box<dyn TrialStore>,
+    ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
+        std::fs::create_dir_all(&self.out).map_err(|e| CampaignError::io(&self.out, e))?;
+        let location = store.location();
+        let saved = store.load_protocol()?;
+        let loaded = store.load()?;
+        match (self.resume, saved) {
+            (true, None) => return Err(CampaignError::NothingToResumeIn { store: location }),
+            (true, Some(saved)) => {
+                let saved: Protocol =
+                    serde_json::from_value(saved).map_err(|e| CampaignError::Log {
+                        store: format!("{location}, protocol"),
+                        line: e.line(),
+                        message: e.to_string(),
+                    })?;
+                if saved != self.protocol {
+                    return Err(CampaignError::Protocol {
+                        field: "protocol".into(),
+                        message: format!(
+                            "{location} holds a different protocol than the one given to resume"
+                        ),
+                    });
+                }
+            }
+            (false, saved) if saved.is_some() || !loaded.lines.is_empty() => {
+                return Err(CampaignError::CampaignExists { store: location })
+            }
+            (false, _) => {
+                let value =
+                    serde_json::to_value(&self.protocol).map_err(|e| CampaignError::Protocol {
+                        field: "protocol".into(),
+                        message: e.to_string(),
+                    })?;
+                store.save_protocol(&value)?;
+            }
+        }
+        let lines = numbered(&loaded, &location)?;
+        Ok((store, lines))
+    }
+
+    /// Opens a store beside `protocol.json` in the output directory (the JSON-lines default,
+    /// or a custom store that does not keep the protocol).
+    fn open_beside_protocol_file(
+        &self,
+        files: &Outputs,
+        custom: Option<Box<dyn TrialStore>>,
+    ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
         if self.resume {
             let saved = outputs::load_protocol(&self.out)?;
             if saved != self.protocol {
@@ -229,12 +303,16 @@ impl<'o> Campaign<'o> {
         if !self.resume {
             outputs::save_protocol(&self.protocol, files)?;
         }
-        let location = store.location();
-        let lines = loaded
-            .lines
-            .iter()
-            .map(|l| LogLine::from_stored(l, &location).map(|x| (l.line, x)))
-            .collect::<Result<_, _>>()?;
+        let lines = numbered(&loaded, &store.location())?;
         Ok((store, lines))
     }
+}
+
+/// The stored lines as trial lines with their line numbers.
+fn numbered(loaded: &Loaded, location: &str) -> Result<NumberedLines, CampaignError> {
+    loaded
+        .lines
+        .iter()
+        .map(|l| LogLine::from_stored(l, location).map(|x| (l.line, x)))
+        .collect()
 }

@@ -3,7 +3,9 @@
 //! section) first, then the flags, then validation.
 
 use super::{CampaignError, Cost, OnError, Problem, Protocol};
+use crate::toy::{NullSimulator, Sleeping, ToySimulator};
 use savme_fmu::campaign_file::{self, CampaignFile, CampaignSection, ConfigError};
+use savme_kernel::{Assignment, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use std::path::Path;
 
@@ -162,6 +164,104 @@ pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), Cam
     p.validate()?;
     let problem = Problem::driving(p.fidelity_bins);
     Ok((p, problem))
+}
+
+/// The simulator label of the toy simulator (`savme toy`).
+pub const TOY: &str = "savme-toy";
+/// The simulator label of the null simulator (`savme toy --null`).
+pub const NULL: &str = "savme-null";
+
+/// The simulators a protocol can name by its label alone (what a `savme worker` runs without
+/// a campaign file): the bundled driving simulator, the toy (optionally sleeping before each
+/// run: `savme-toy/sleep=20ms`) and the null simulator.
+#[derive(Debug, Clone)]
+pub enum NamedSimulator {
+    /// The bundled driving simulator.
+    Driving(DrivingSimulator),
+    /// The toy simulator, sleeping first.
+    Toy(Sleeping<ToySimulator>),
+    /// The null simulator.
+    Null(NullSimulator),
+}
+
+impl Simulator for NamedSimulator {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        match self {
+            NamedSimulator::Driving(s) => s.simulate(scenario, phi, fidelity),
+            NamedSimulator::Toy(s) => s.simulate(scenario, phi, fidelity),
+            NamedSimulator::Null(s) => s.simulate(scenario, phi, fidelity),
+        }
+    }
+}
+
+/// The simulator a protocol's label names, if savme can build it from the label alone (an
+/// FMU campaign's label needs its campaign file: None).
+///
+/// ```
+/// use savme::campaign::config::{named_simulator, toy_label, NamedSimulator};
+/// assert!(matches!(named_simulator("savme-sim/ideal"), Some(NamedSimulator::Driving(_))));
+/// assert!(matches!(named_simulator(&toy_label(20)), Some(NamedSimulator::Toy(_))));
+/// assert!(named_simulator("my-fmu-campaign").is_none());
+/// ```
+pub fn named_simulator(label: &str) -> Option<NamedSimulator> {
+    let sleeping = |ms: u64| {
+        NamedSimulator::Toy(Sleeping {
+            inner: ToySimulator,
+            sleep: std::time::Duration::from_millis(ms),
+        })
+    };
+    match label {
+        SENSORS => Some(NamedSimulator::Driving(DrivingSimulator::default())),
+        IDEAL => Some(NamedSimulator::Driving(DrivingSimulator::ideal())),
+        TOY => Some(sleeping(0)),
+        NULL => Some(NamedSimulator::Null(NullSimulator)),
+        other => other
+            .strip_prefix("savme-toy/sleep=")
+            .and_then(|ms| ms.strip_suffix("ms"))
+            .and_then(|ms| ms.parse().ok())
+            .map(sleeping),
+    }
+}
+
+/// The label of the toy simulator sleeping `ms` milliseconds per run.
+pub fn toy_label(ms: u64) -> String {
+    if ms == 0 {
+        TOY.into()
+    } else {
+        format!("{TOY}/sleep={ms}ms")
+    }
+}
+
+/// The protocol and problem of a campaign on the toy simulator (`savme toy`): the quick
+/// preset's stages on its two scenarios (`stopped_obstacle` for meta-training,
+/// `braking_lead` for meta-testing), under the simulator `label`, validated.
+pub fn toy(label: &str, o: &Overrides) -> Result<(Protocol, Problem), CampaignError> {
+    let (train, test) = (
+        vec![crate::toy::SCENARIOS[0].to_string()],
+        vec![crate::toy::SCENARIOS[1].to_string()],
+    );
+    let mut p = Protocol::quick(label, train, test);
+    let lookup = |k: &str| crate::toy::phi_space(k).map(|_| k.to_string());
+    o.apply(&mut p, &lookup, &crate::toy::SCENARIOS.join(", "))?;
+    p.validate()?;
+    let (fidelity, theta_hf) = crate::toy::fidelity();
+    let scenarios = crate::toy::SCENARIOS
+        .iter()
+        .filter_map(|s| crate::toy::phi_space(s).map(|space| (s.to_string(), space)))
+        .collect();
+    Ok((
+        p,
+        Problem {
+            fidelity,
+            theta_hf,
+            scenarios,
+        },
+    ))
 }
 
 /// The bundled simulator a protocol names (for `--resume`).

@@ -78,6 +78,18 @@ pub enum CampaignError {
         /// The directory.
         path: PathBuf,
     },
+    /// A new campaign in a store (a database) that already holds one of that name.
+    #[error("{store} already holds a campaign; resume it with --resume, or give another --campaign name")]
+    CampaignExists {
+        /// The store, with the campaign's name.
+        store: String,
+    },
+    /// `--resume` on a campaign a store (a database) does not hold.
+    #[error("{store}: no campaign to resume (none was started under this name) — start it without --resume")]
+    NothingToResumeIn {
+        /// The store, with the campaign's name.
+        store: String,
+    },
     /// The kernel rejected its configuration.
     #[error("kernel configuration: {0}")]
     Kernel(#[from] savme_kernel::ConfigError),

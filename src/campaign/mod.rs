@@ -37,6 +37,7 @@ pub mod plot;
 pub mod protocol;
 pub mod report;
 pub mod store;
+pub mod worker;
 
 pub use builder::Campaign;
 pub use error::{CampaignError, SimulationError};

@@ -143,8 +143,13 @@ impl Observer for ProgressBars {
 ///
 /// ```
 /// use savme::campaign::{Observer, ProgressLines, Protocol};
+/// let (train, test) = savme_sim::scenario::train_test_names();
+/// let protocol = Protocol::quick("savme-sim/sensors", train, test);
 /// let mut lines = ProgressLines::new(Vec::new());
-/// lines.start(&Protocol::default());
+/// lines.start(&protocol);
+/// lines.stage(&protocol.stages()[0]);
+/// let text = String::from_utf8(lines.into_inner()).unwrap();
+/// assert!(text.starts_with("baseline-train started: 0/260 trials"));
 /// ```
 pub struct ProgressLines<W: Write> {
     out: W,

@@ -9,8 +9,13 @@ pub mod run;
 pub mod scenarios;
 pub mod serve;
 pub mod simulate;
+pub mod toy;
+pub mod worker;
 
 use savme::campaign::config::Overrides;
+use savme::campaign::executor::remote::Remote;
+use savme::campaign::store::postgres::{Database, PostgresStore};
+use savme::campaign::store::TrialStore;
 use savme::campaign::CampaignError;
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
@@ -20,6 +25,7 @@ use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Write};
 use std::path::PathBuf;
+use std::time::Duration;
 
 /// Why a command failed, which decides the exit status.
 #[derive(Debug)]
@@ -214,12 +220,112 @@ impl CampaignRecordArgs {
     }
 }
 
+/// Where a campaign is kept when not in its output directory: a PostgreSQL database.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct StorageArgs {
+    /// Keep the campaign (protocol, trials, work queue) in a PostgreSQL database instead of
+    /// the output directory: postgresql://USER@HOST[:PORT]/DB. The password comes from the
+    /// URL, PGPASSWORD or ~/.pgpass, and is never printed.
+    #[arg(long, value_name = "URL", conflicts_with = "storage_file")]
+    storage: Option<String>,
+    /// Read the --storage URL from the first line of FILE (keeps the password off the
+    /// command line and out of `ps`).
+    #[arg(long, value_name = "FILE")]
+    storage_file: Option<PathBuf>,
+    /// The campaign's name in the database (with --storage).
+    #[arg(long, value_name = "NAME")]
+    campaign: Option<String>,
+    /// Run the HF and LF runs by `savme worker` processes (on any hosts) through the
+    /// database's work queue instead of local threads (with --storage). The trials are the
+    /// same.
+    #[arg(long)]
+    remote: bool,
+    /// With --remote: say so on stderr when no run finished for this many seconds (no worker
+    /// started, or the workers stopped), then keep waiting.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    worker_wait: f64,
+}
+
+impl StorageArgs {
+    /// The database given, if any (checked: a campaign name goes with it).
+    pub fn database(&self) -> Result<Option<(Database, String)>, Failure> {
+        let db = match (&self.storage, &self.storage_file) {
+            (Some(url), _) => Database::parse(url),
+            (None, Some(file)) => Database::from_file(file),
+            (None, None) => {
+                if self.campaign.is_some() {
+                    return Err(usage("--campaign names a campaign in a database: give --storage URL (or --storage-file FILE) too"));
+                }
+                return Ok(None);
+            }
+        }
+        .map_err(|e| e.to_string())?;
+        let name = self.campaign.clone().ok_or_else(|| {
+            usage("--storage needs --campaign NAME (the campaign's name in the database)")
+        })?;
+        Ok(Some((db, name)))
+    }
+
+    /// Opens (and locks) the campaign in the database given, if any.
+    pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
+        if self.remote && self.storage.is_none() && self.storage_file.is_none() {
+            return Err(usage("--remote runs trials through a database's work queue: give --storage URL --campaign NAME too"));
+        }
+        match self.database()? {
+            Some((db, name)) => PostgresStore::open(&db, &name)
+                .map(Some)
+                .map_err(|e| Failure::Runtime(e.to_string())),
+            None => Ok(None),
+        }
+    }
+
+    /// The work queue of `store`'s campaign, with --remote.
+    pub fn remote(&self, store: Option<&PostgresStore>) -> Result<Option<Remote>, Failure> {
+        let Some(store) = store.filter(|_| self.remote) else {
+            return Ok(None);
+        };
+        if !(self.worker_wait.is_finite() && self.worker_wait > 0.0) {
+            return Err(usage(format!(
+                "--worker-wait: {} is not a positive number of seconds",
+                self.worker_wait
+            )));
+        }
+        Remote::open(
+            store.database(),
+            store.campaign_id(),
+            store.name(),
+            Duration::from_secs_f64(self.worker_wait),
+        )
+        .map(Some)
+        .map_err(|e| Failure::Runtime(e.to_string()))
+    }
+}
+
+/// The protocol a database keeps for campaign `store` (for `--resume`).
+pub fn stored_protocol(store: &mut PostgresStore) -> Result<Protocol, String> {
+    let location = store.location();
+    let value = store
+        .load_protocol()
+        .map_err(|e| e.to_string())?
+        .ok_or_else(|| {
+            savme::campaign::CampaignError::NothingToResumeIn {
+                store: location.clone(),
+            }
+            .to_string()
+        })?;
+    serde_json::from_value(value).map_err(|e| format!("{location}, protocol: {e}"))
+}
+
 /// Where a campaign command writes, and whether it continues a campaign.
 pub struct Target {
     /// The output directory.
     pub out: PathBuf,
-    /// Continue the campaign in `out`.
+    /// Continue the campaign in `out` (or in `store`).
     pub resume: bool,
+    /// The store, when not the output directory's `trials.jsonl`.
+    pub store: Option<Box<dyn TrialStore>>,
+    /// The work queue, when `savme worker` processes run the trials.
+    pub remote: Option<Remote>,
 }
 
 /// Runs a campaign with the observers the flags ask for (progress bars on a terminal, plain
@@ -238,6 +344,12 @@ where
     let mut campaign = Campaign::new(protocol.clone(), problem.clone())
         .out(target.out)
         .resume(target.resume);
+    if let Some(store) = target.store {
+        campaign = campaign.store(store);
+    }
+    if let Some(remote) = target.remote {
+        campaign = campaign.remote(remote);
+    }
     if let Some(j) = runner.jobs {
         if j == 0 {
             return Err(usage("protocol: `--jobs`: must be at least 1"));
@@ -298,5 +410,22 @@ pub fn print(text: &str) -> Result<(), String> {
     match io::stdout().lock().write_all(text.as_bytes()) {
         Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(format!("stdout: {e}")),
         _ => Ok(()),
+    }
+}
+
+/// The directory `--resume` continues (a directory store), `Some("")` for a database's
+/// campaign, or None for a new campaign; refuses the combinations that make no sense.
+pub fn resume_dir(
+    resume: Option<Option<PathBuf>>,
+    out: Option<&std::path::Path>,
+    database: bool,
+) -> Result<Option<PathBuf>, Failure> {
+    match (resume, database) {
+        (None, _) => Ok(None),
+        (Some(Some(dir)), false) if out.is_none() => Ok(Some(dir)),
+        (Some(Some(_)), false) => Err(usage("--resume DIR continues the campaign in DIR: give either --resume DIR or --out DIR")),
+        (Some(None), false) => Err(usage("--resume needs the campaign's directory (--resume DIR), or --storage URL --campaign NAME")),
+        (Some(Some(_)), true) => Err(usage("with --storage, give --resume without a directory: the campaign is in the database")),
+        (Some(None), true) => Ok(Some(PathBuf::new())),
     }
 }

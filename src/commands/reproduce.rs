@@ -1,19 +1,25 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
-use super::{config_failure, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs, Target};
+use super::{
+    config_failure, resume_dir, run_campaign, stored_protocol, usage, Failure, ProtocolArgs,
+    RunnerArgs, StorageArgs, Target,
+};
 use savme::campaign::config::{self, Preset};
+use savme::campaign::store::TrialStore;
 use savme::campaign::{load_protocol, Problem};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Output directory (created if missing; must not hold a campaign already).
-    #[arg(long, default_value = "savme-results")]
-    out: PathBuf,
-    /// Continue the campaign in DIR after an interruption (even `kill -9`).
-    #[arg(long, value_name = "DIR", conflicts_with = "out")]
-    resume: Option<PathBuf>,
+    /// Output directory (created if missing; must not hold a campaign already, unless the
+    /// campaign is kept in a database).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the campaign in DIR after an interruption (even `kill -9`); with --storage,
+    /// continue the database's campaign (no DIR).
+    #[arg(long, value_name = "DIR", num_args = 0..=1)]
+    resume: Option<Option<PathBuf>>,
     /// A short preset: one budget, fewer iterations (860 trials, about 100 CPU-seconds).
     #[arg(long)]
     quick: bool,
@@ -23,6 +29,8 @@ pub struct Args {
     perception: Perception,
     #[command(flatten)]
     protocol: ProtocolArgs,
+    #[command(flatten)]
+    storage: StorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }
@@ -39,34 +47,45 @@ pub fn run(a: Args) -> Result<(), Failure> {
         quick: a.quick,
         ideal: a.perception == Perception::Ideal,
     };
-    let (protocol, problem, target) = match a.resume {
-        Some(dir) => {
-            if overrides.any() || preset != Preset::default() {
-                return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --resume, --jobs and --quiet"));
-            }
-            let p = load_protocol(&dir).map_err(|e| e.to_string())?;
-            let problem = Problem::driving(p.fidelity_bins);
-            (
-                p,
-                problem,
-                Target {
-                    out: dir,
-                    resume: true,
-                },
-            )
-        }
-        None => {
-            let (p, problem) = config::bundled(preset, &overrides).map_err(config_failure)?;
-            (
-                p,
-                problem,
-                Target {
-                    out: a.out,
-                    resume: false,
-                },
-            )
-        }
+    let store = a.storage.open()?;
+    let remote = a.storage.remote(store.as_ref())?;
+    let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
+    if resume.is_some() && (overrides.any() || preset != Preset::default()) {
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
+    }
+    let out = a.out.unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
+    let (protocol, target) = match (resume, store) {
+        (Some(dir), None) => (
+            load_protocol(&dir).map_err(|e| e.to_string())?,
+            Target {
+                out: dir,
+                resume: true,
+                store: None,
+                remote: None,
+            },
+        ),
+        (Some(_), Some(mut store)) => (
+            stored_protocol(&mut store)?,
+            Target {
+                out,
+                resume: true,
+                store: Some(Box::new(store)),
+                remote,
+            },
+        ),
+        (None, store) => (
+            config::bundled(preset, &overrides)
+                .map_err(config_failure)?
+                .0,
+            Target {
+                out,
+                resume: false,
+                store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
+                remote,
+            },
+        ),
     };
+    let problem = Problem::driving(protocol.fidelity_bins);
     let sim = config::bundled_simulator(&protocol).map_err(|e| e.to_string())?;
     run_campaign(
         protocol,
@@ -77,3 +96,5 @@ pub fn run(a: Args) -> Result<(), Failure> {
         &sim,
     )
 }
+
+const DEFAULT_OUT: &str = "savme-results";

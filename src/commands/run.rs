@@ -1,7 +1,11 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
-use super::{config_failure, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs, Target};
+use super::{
+    config_failure, resume_dir, run_campaign, usage, Failure, ProtocolArgs, RunnerArgs,
+    StorageArgs, Target,
+};
 use savme::campaign::config;
+use savme::campaign::store::TrialStore;
 use savme::viewer::Frames;
 use savme_fmu::FmuBackend;
 use std::path::PathBuf;
@@ -14,15 +18,18 @@ pub struct Args {
     /// Output directory (default: the file's `campaign.out`, else savme-fmu-results).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Continue the campaign in DIR (give the same --config).
-    #[arg(long, value_name = "DIR")]
-    resume: Option<PathBuf>,
+    /// Continue the campaign in DIR (give the same --config); with --storage, continue the
+    /// database's campaign (no DIR).
+    #[arg(long, value_name = "DIR", num_args = 0..=1)]
+    resume: Option<Option<PathBuf>>,
     /// Print every FMU log message to standard error (also `[fmu] log = true`); errors carry
     /// the last messages of their run either way.
     #[arg(long)]
     fmu_log: bool,
     #[command(flatten)]
     protocol: ProtocolArgs,
+    #[command(flatten)]
+    storage: StorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }
@@ -34,33 +41,28 @@ pub fn run(a: Args) -> Result<(), Failure> {
         ));
     };
     let overrides = a.protocol.overrides();
-    if a.resume.is_some() && overrides.any() {
-        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol (protocol.json); give only --config, --resume, --jobs and --quiet"));
+    let store = a.storage.open()?;
+    let remote = a.storage.remote(store.as_ref())?;
+    let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
+    if resume.is_some() && overrides.any() {
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
     let mut c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
     c.file.init.spec.fmu_log |= a.fmu_log;
-    let target = match a.resume {
-        Some(dir) => Target {
-            out: dir,
-            resume: true,
+    let out = a
+        .out
+        .or(c.file.campaign.out.clone())
+        .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
+    let target = Target {
+        out: match &resume {
+            Some(dir) if store.is_none() => dir.clone(),
+            _ => out,
         },
-        None => Target {
-            out: a
-                .out
-                .or(c.file.campaign.out.clone())
-                .unwrap_or_else(|| PathBuf::from("savme-fmu-results")),
-            resume: false,
-        },
+        resume: resume.is_some(),
+        store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
+        remote,
     };
-    let worker = if c.file.isolate {
-        let exe = std::env::current_exe()
-            .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
-        Some(vec![exe.display().to_string(), "fmu-worker".into()])
-    } else {
-        None
-    };
-    let backend =
-        FmuBackend::new(&c.file.init, worker, c.file.timeout).map_err(|e| e.to_string())?;
+    let backend = fmu_backend(&c.file)?;
     run_campaign(
         c.protocol,
         c.problem,
@@ -69,4 +71,17 @@ pub fn run(a: Args) -> Result<(), Failure> {
         Frames::None,
         &backend,
     )
+}
+
+/// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the
+/// file asks).
+pub fn fmu_backend(file: &savme_fmu::campaign_file::CampaignFile) -> Result<FmuBackend, String> {
+    let worker = if file.isolate {
+        let exe = std::env::current_exe()
+            .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
+        Some(vec![exe.display().to_string(), "fmu-worker".into()])
+    } else {
+        None
+    };
+    FmuBackend::new(&file.init, worker, file.timeout).map_err(|e| e.to_string())
 }

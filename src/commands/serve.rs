@@ -1,6 +1,7 @@
 //! `savme serve` (the kernel behind JSON lines on stdin/stdout, optionally journaled to a trial
 //! store) and `savme example-config`.
 
+use savme::campaign::store::{journal, JsonlStore, TrialStore};
 use savme::kernel::{Kernel, KernelConfig};
 use savme::serve::Session;
 use std::io;
@@ -14,12 +15,22 @@ pub struct Args {
     config: Option<PathBuf>,
     /// Journal file: created if missing, resumed if it exists. Every ask and tell is logged
     /// to it before it takes effect; a second server on the same journal is refused.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["storage", "storage_file"])]
     journal: Option<PathBuf>,
+    /// Journal into campaign NAME of a PostgreSQL database instead of a file (--storage URL
+    /// --campaign NAME), with the same rules.
+    #[command(flatten)]
+    storage: super::StorageArgs,
 }
 
 pub fn run(a: Args) -> Result<(), String> {
-    serve(a.config.as_deref(), a.journal.as_deref())
+    let database = a.storage.open().map_err(|e| e.message().to_string())?;
+    let store: Option<Box<dyn TrialStore>> = match (a.journal.as_deref(), database) {
+        (Some(path), _) => Some(Box::new(JsonlStore::open(path).map_err(|e| e.to_string())?)),
+        (None, Some(db)) => Some(Box::new(db)),
+        (None, None) => None,
+    };
+    serve(a.config.as_deref(), store)
 }
 
 pub fn example_config() -> Result<(), String> {
@@ -40,8 +51,7 @@ fn read_config(path: &Path) -> Result<KernelConfig, String> {
     Ok(config)
 }
 
-fn serve(config: Option<&Path>, journal: Option<&Path>) -> Result<(), String> {
-    use savme::campaign::store::{journal, JsonlStore};
+fn serve(config: Option<&Path>, journal: Option<Box<dyn TrialStore>>) -> Result<(), String> {
     let config = config.map(read_config).transpose()?;
     let stdin = io::stdin().lock();
     let stdout = io::stdout().lock();
@@ -51,10 +61,9 @@ fn serve(config: Option<&Path>, journal: Option<&Path>) -> Result<(), String> {
             let config = config.ok_or("give --config (or --journal to resume)")?;
             Session::Plain(Kernel::new(config).map_err(|e| e.to_string())?)
         }
-        Some(path) => {
-            let store = JsonlStore::open(path).map_err(|e| e.to_string())?;
-            let opened = journal::open(Box::new(store), config).map_err(|e| e.to_string())?;
-            let shown = path.display();
+        Some(store) => {
+            let shown = store.location();
+            let opened = journal::open(store, config).map_err(|e| e.to_string())?;
             if let Some(tail) = &opened.torn {
                 eprintln!(
                     "savme: {shown}: line {} was cut off mid-write ({} bytes); dropped it",

@@ -1,5 +1,5 @@
 //! The campaign's figures: found failures over runtime during meta-training (break-even) and
-//! during meta-testing, drawn with plotters into PNG files (text laid out by [`text`]).
+//! during meta-testing, drawn with plotters into PNG files (text laid out by `text`).
 
 mod text;
 
@@ -160,7 +160,7 @@ fn draw_panel<DB: DrawingBackend>(
     Ok(())
 }
 
-/// A PNG of `size` pixels at `path` (text drawn by [`GlyphText`]).
+/// A PNG of `size` pixels at `path` (text drawn by `GlyphText`).
 fn bitmap(
     path: &Path,
     size: (u32, u32),

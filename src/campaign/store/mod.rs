@@ -31,6 +31,7 @@
 pub mod journal;
 mod jsonl;
 mod lock;
+pub mod postgres;
 
 pub use jsonl::JsonlStore;
 pub use lock::StoreLock;
@@ -87,6 +88,22 @@ pub enum StoreError {
         store: String,
         /// The holder's process id, when it could be read.
         holder: Option<u32>,
+    },
+    /// Another process holds the campaign in a shared database.
+    #[error("{store} is in use by another savme coordinator ({holder}); it was left unchanged — wait for that process, or stop it")]
+    Held {
+        /// The store.
+        store: String,
+        /// Who holds it, as the database shows it.
+        holder: String,
+    },
+    /// The database refused a connection or a statement (the text never holds a password).
+    #[error("{store}: {message}")]
+    Database {
+        /// The store (or the flag that named it).
+        store: String,
+        /// What the database said.
+        message: String,
     },
     /// A complete line that is not a JSON object of a supported format.
     #[error("{store}, line {line}: {message}")]
@@ -157,6 +174,23 @@ pub trait TrialStore: Send {
     fn append(&mut self, line: &Value) -> Result<(), StoreError> {
         self.append_all(std::slice::from_ref(line))
     }
+
+    /// Whether the store keeps the campaign's protocol itself (a database does). A store that
+    /// does not (a JSON-lines file) leaves it to the campaign's `protocol.json`.
+    fn keeps_protocol(&self) -> bool {
+        false
+    }
+
+    /// The protocol the store keeps, if it keeps one and has been given one.
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
+        Ok(None)
+    }
+
+    /// Keeps `protocol` (a store that [`keeps_protocol`](TrialStore::keeps_protocol); the
+    /// others ignore it).
+    fn save_protocol(&mut self, _protocol: &Value) -> Result<(), StoreError> {
+        Ok(())
+    }
 }
 
 impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
@@ -170,6 +204,18 @@ impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
 
     fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
         (**self).append_json(objects)
+    }
+
+    fn keeps_protocol(&self) -> bool {
+        (**self).keeps_protocol()
+    }
+
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
+        (**self).load_protocol()
+    }
+
+    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
+        (**self).save_protocol(protocol)
     }
 }
 

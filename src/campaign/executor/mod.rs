@@ -1,99 +1,105 @@
-//! Runs a stage's trials on a pool of worker threads: up to `window` trials in flight, every
-//! HF and LF run a separate task (so the two runs of a trial execute concurrently), trials told
-//! strictly in ask order — which makes a campaign independent of the number of workers.
+//! Runs a stage's trials: up to `window` trials in flight, every HF and LF run a separate
+//! [`Task`] (so the two runs of a trial execute concurrently), trials told strictly in ask
+//! order — which makes a campaign independent of the number and the kind of workers. Where the
+//! runs execute is a [`Runner`]: [`local`] threads, or [`remote`] `savme worker` processes.
+
+pub mod local;
+pub mod remote;
+
+pub use local::{with_pool, Pool};
 
 use super::log::{FailedLine, LogLine, RunLine, TrialLine};
 use super::protocol::{OnError, Stage};
 use super::store::TrialStore;
 use super::CampaignError;
-use crossbeam_channel::{Receiver, Sender};
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
 use std::collections::VecDeque;
 use std::panic::AssertUnwindSafe;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Which of a trial's two runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Which {
+pub enum Which {
+    /// The high-fidelity run (θ_HF).
     Hf,
+    /// The low-fidelity run (θ_LF).
     Lf,
 }
 
-struct Task {
-    trial: u64,
-    which: Which,
-    scenario: Arc<str>,
-    phi: Assignment,
-    fidelity: Assignment,
-}
-
-struct Done {
-    trial: u64,
-    which: Which,
-    result: Result<SimResult, SimError>,
-}
-
-/// Worker threads, each with its own simulator.
-pub struct Pool {
-    tasks: Sender<Task>,
-    done: Receiver<Done>,
-}
-
-/// Starts `jobs` workers, each with a clone of `sim`, runs `f` with the pool, and stops the
-/// workers (dropping queued tasks) when `f` returns.
-pub fn with_pool<S, R>(sim: &S, jobs: usize, f: impl FnOnce(&mut Pool) -> R) -> R
-where
-    S: Simulator + Clone + Send,
-{
-    let (task_tx, task_rx) = crossbeam_channel::unbounded::<Task>();
-    let (done_tx, done_rx) = crossbeam_channel::unbounded::<Done>();
-    let stop = Arc::new(AtomicBool::new(false));
-    std::thread::scope(|scope| {
-        for _ in 0..jobs.max(1) {
-            let (rx, tx, stop) = (task_rx.clone(), done_tx.clone(), stop.clone());
-            let mut sim = sim.clone();
-            scope.spawn(move || {
-                for t in rx {
-                    if stop.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let role = match t.which {
-                        Which::Hf => Role::High,
-                        Which::Lf => Role::Learned,
-                    };
-                    let result = std::panic::catch_unwind(AssertUnwindSafe(|| {
-                        sim.simulate_as(role, &t.scenario, &t.phi, &t.fidelity)
-                    }))
-                    .unwrap_or_else(|panic| {
-                        let what = panic
-                            .downcast_ref::<&str>()
-                            .map(|s| s.to_string())
-                            .or_else(|| panic.downcast_ref::<String>().cloned())
-                            .unwrap_or_else(|| "unknown panic".into());
-                        Err(SimError::Failed(format!("the simulator panicked: {what}")))
-                    });
-                    let done = Done {
-                        trial: t.trial,
-                        which: t.which,
-                        result,
-                    };
-                    if tx.send(done).is_err() {
-                        break;
-                    }
-                }
-            });
+impl Which {
+    /// The simulator role of the run.
+    pub fn role(self) -> Role {
+        match self {
+            Which::Hf => Role::High,
+            Which::Lf => Role::Learned,
         }
-        drop(done_tx);
-        drop(task_rx);
-        let mut pool = Pool {
-            tasks: task_tx,
-            done: done_rx,
-        };
-        let r = f(&mut pool);
-        stop.store(true, Ordering::Relaxed);
-        drop(pool);
-        r
+    }
+
+    /// `hf` or `lf` (as stored in the task table).
+    pub fn key(self) -> &'static str {
+        match self {
+            Which::Hf => "hf",
+            Which::Lf => "lf",
+        }
+    }
+}
+
+/// One simulator run a stage wants.
+#[derive(Debug, Clone)]
+pub struct Task {
+    /// The stage's label.
+    pub stage: Arc<str>,
+    /// The kernel's trial id.
+    pub trial: u64,
+    /// HF or LF.
+    pub which: Which,
+    /// The scenario.
+    pub scenario: Arc<str>,
+    /// Its parameters φ.
+    pub phi: Assignment,
+    /// The fidelity settings θ of the run.
+    pub fidelity: Assignment,
+}
+
+/// A finished run.
+#[derive(Debug)]
+pub struct Done {
+    /// The kernel's trial id.
+    pub trial: u64,
+    /// HF or LF.
+    pub which: Which,
+    /// The simulator's result or error.
+    pub result: Result<SimResult, SimError>,
+}
+
+/// Where a stage's runs execute: [`local`] worker threads, or [`remote`] `savme worker`
+/// processes through the database. The stage loop ([`run_stage`]) is the same for both, so
+/// both give the same trials.
+pub trait Runner {
+    /// Starts a run (returns at once).
+    fn submit(&mut self, task: Task) -> Result<(), CampaignError>;
+    /// Waits for the next finished run (any of those submitted, each returned once).
+    fn next_done(&mut self) -> Result<Done, CampaignError>;
+}
+
+/// Runs `sim` under `role` on a task's scenario, φ and θ, a panic reported as the run's error.
+pub fn simulate<S: Simulator>(
+    sim: &mut S,
+    role: Role,
+    scenario: &str,
+    phi: &Assignment,
+    fidelity: &Assignment,
+) -> Result<SimResult, SimError> {
+    std::panic::catch_unwind(AssertUnwindSafe(|| {
+        sim.simulate_as(role, scenario, phi, fidelity)
+    }))
+    .unwrap_or_else(|panic| {
+        let what = panic
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| panic.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown panic".into());
+        Err(SimError::Failed(format!("the simulator panicked: {what}")))
     })
 }
 
@@ -145,7 +151,7 @@ fn which_name(w: Which) -> &'static str {
 /// `progress` after each told trial (with the kernel that learnt from it) and returns the
 /// stage's lines (withdrawn trials included).
 pub fn run_stage(
-    pool: &mut Pool,
+    pool: &mut dyn Runner,
     kernel: &mut Kernel,
     cx: StageContext<'_>,
     mut progress: impl FnMut(&TrialLine, &Kernel),
@@ -153,6 +159,7 @@ pub fn run_stage(
     kernel.set_phase(cx.stage.phase());
     let mut run = StageRun {
         label: cx.stage.label(),
+        stage: cx.stage.label().into(),
         theta_hf: kernel.theta_hf().clone(),
         pool,
         kernel,
@@ -168,11 +175,7 @@ pub fn run_stage(
         if run.queue.is_empty() {
             break;
         }
-        let done = run
-            .pool
-            .done
-            .recv()
-            .map_err(|_| CampaignError::WorkersGone)?;
+        let done = run.pool.next_done()?;
         run.receive(done)?;
     }
     Ok(run.lines)
@@ -180,10 +183,11 @@ pub fn run_stage(
 
 /// A stage in progress: trials in flight in ask order, the lines told so far.
 struct StageRun<'p, 'k, 'c> {
-    pool: &'p mut Pool,
+    pool: &'p mut dyn Runner,
     kernel: &'k mut Kernel,
     cx: StageContext<'c>,
     label: String,
+    stage: Arc<str>,
     theta_hf: Assignment,
     lines: Vec<LogLine>,
     queue: VecDeque<Slot>,
@@ -209,7 +213,8 @@ impl StageRun<'_, '_, '_> {
         match &logged {
             Some((_, l)) => check_logged(l, &trial, &self.label, index)?,
             None => {
-                self.send(&trial, Which::Hf, &self.theta_hf)?;
+                let theta_hf = self.theta_hf.clone();
+                self.send(&trial, Which::Hf, &theta_hf)?;
                 if let Some(theta) = &trial.theta_lf {
                     self.send(&trial, Which::Lf, theta)?;
                 }
@@ -227,22 +232,20 @@ impl StageRun<'_, '_, '_> {
     }
 
     fn send(
-        &self,
+        &mut self,
         trial: &Trial,
         which: Which,
         fidelity: &Assignment,
     ) -> Result<(), CampaignError> {
         let task = Task {
+            stage: self.stage.clone(),
             trial: trial.id,
             which,
             scenario: trial.scenario.clone(),
             phi: trial.phi.clone(),
             fidelity: fidelity.clone(),
         };
-        self.pool
-            .tasks
-            .send(task)
-            .map_err(|_| CampaignError::WorkersGone)
+        self.pool.submit(task)
     }
 
     /// Tells every trial at the front of the queue whose runs are in, in ask order, asking a

@@ -1,0 +1,469 @@
+"""Type stubs for savme's Rust extension module (re-exported by the `savme` package)."""
+
+from os import PathLike
+from typing import Any, Callable, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union, final, overload
+
+_Value = Union[bool, int, float, str]
+"""A variable's value: a bool, int, float or str."""
+
+_Phase = Literal["train", "evaluate", "baseline", "test"]
+_EstimatorName = Literal["map", "mean"]
+_RunResult = Tuple[bool, float]
+"""One simulation's result as (failure, runtime); runtimes finite and > 0, on a common scale."""
+
+__version__: str
+__all__ = [
+    "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
+    "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Protocol", "Problem",
+    "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator",
+]
+
+class TellError(ValueError):
+    """A tell or cancel the kernel refused: an unknown or already told trial, a paired
+    observation for a baseline trial (or the reverse), a runtime that is not finite and > 0.
+    The message names the trial; the kernel is unchanged."""
+
+class JournalError(Exception):
+    """A journal could not be opened, replayed or written: held by another process (the
+    message names its pid), a bad line (named by file and line), another configuration, a
+    full disk. The kernel is unchanged."""
+
+class CampaignError(Exception):
+    """A campaign could not run or finish: its directory, store or stored trials, or a
+    simulation that failed (the message names the trial and the simulator's error). A
+    campaign stopped this way resumes with resume=True."""
+
+@final
+class Variable:
+    """One named variable of a Space; made by Discrete, Boolean or Continuous."""
+
+    @property
+    def name(self) -> str:
+        """The variable's name, unique in its space."""
+    @property
+    def kind(self) -> Literal["discrete", "continuous"]:
+        """Discrete (one arm per value) or continuous (one arm per bin)."""
+    @property
+    def arms(self) -> int:
+        """How many arms the bandit chooses among."""
+    @property
+    def values(self) -> Optional[List[_Value]]:
+        """A discrete variable's values, in arm order (None for a continuous one)."""
+    @property
+    def range(self) -> Optional[Tuple[float, float, int, Literal["linear", "log"]]]:
+        """A continuous variable's (lo, hi, bins, scale) (None for a discrete one)."""
+
+def Discrete(name: str, values: Sequence[_Value]) -> Variable:
+    """A discrete variable with one arm per value (bools, ints, floats or strings).
+
+    Raises ValueError naming the variable for no values, a repeated value or NaN."""
+
+def Boolean(name: str) -> Variable:
+    """A boolean variable: arms False and True."""
+
+def Continuous(
+    name: str, lo: float, hi: float, bins: int = 10, scale: Literal["linear", "log"] = "linear"
+) -> Variable:
+    """A continuous variable on [lo, hi] cut into `bins` arms of equal width ("linear") or
+    equal ratio ("log", needs 0 < lo). Values are drawn uniformly (log-uniformly) in a bin.
+
+    Raises ValueError naming the variable for lo >= hi, no bins, a non-positive log range."""
+
+@final
+class Space:
+    """An ordered, validated list of variables (a scenario's φ, or the fidelity θ)."""
+
+    def __new__(cls, variables: Sequence[Variable]) -> Space:
+        """Raises ValueError for no variables or a name used twice (naming it)."""
+    @property
+    def names(self) -> List[str]:
+        """The variables' names, in order."""
+    @property
+    def variables(self) -> List[Variable]:
+        """The variables, in order."""
+    def to_json(self) -> str:
+        """The space as JSON (the format of the kernel configuration's spaces)."""
+    @staticmethod
+    def from_json(text: str) -> Space:
+        """A space from `to_json()` output; errors name the variable."""
+    def __len__(self) -> int: ...
+    def __getitem__(self, name: str, /) -> Variable:
+        """The variable called `name` (KeyError listing the known names otherwise)."""
+
+@final
+class Trial:
+    """A suggested trial: run `scenario` with `phi` on the high-fidelity simulator (the
+    kernel's `theta_hf`) and, unless it is a baseline trial, with `theta_lf` on the
+    learned-fidelity one; then `Kernel.tell` both runs."""
+
+    @property
+    def id(self) -> int:
+        """Unique id, counting up from 0 in ask order."""
+    @property
+    def phase(self) -> _Phase:
+        """The phase the trial was asked in (its tell is credited by it)."""
+    @property
+    def scenario(self) -> str:
+        """The scenario's name."""
+    @property
+    def phi(self) -> Dict[str, _Value]:
+        """Scenario parameters φ, in space order."""
+    @property
+    def theta_lf(self) -> Optional[Dict[str, _Value]]:
+        """Learned-fidelity settings θ_LF in space order; None for a baseline trial."""
+    @property
+    def paired(self) -> bool:
+        """True when the trial needs both runs (every phase but baseline)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The trial as a dict (the JSON of `savme serve`'s trials)."""
+
+@final
+class Record:
+    """A told trial: what was observed, its class and what the bandits were credited."""
+
+    @property
+    def trial(self) -> Trial:
+        """The trial as it was asked."""
+    @property
+    def id(self) -> int:
+        """The trial's id."""
+    @property
+    def outcome(self) -> Optional[Literal["TP", "TN", "FP", "FN"]]:
+        """HF failure vs LF failure (TP: both failed); None for a baseline trial."""
+    @property
+    def cost_ratio(self) -> Optional[float]:
+        """t_LF / t_HF; None for a baseline trial."""
+    @property
+    def credit(self) -> Dict[str, Optional[bool]]:
+        """{"fidelity": …, "scenario": …}: the success credited to each bandit (Table II of
+        the paper), None when nothing was updated (evaluation and baseline trials)."""
+    @property
+    def hf(self) -> _RunResult:
+        """The HF run as (failure, runtime)."""
+    @property
+    def lf(self) -> Optional[_RunResult]:
+        """The LF run as (failure, runtime); None for a baseline trial."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The record as a dict (the JSON of `savme serve`'s records and journal tells)."""
+
+@final
+class Posterior:
+    """Beta beliefs over the arms of a space: p_ω(θ_LF), or a scenario's p_ψ(φ | s)."""
+
+    @property
+    def names(self) -> List[str]:
+        """The variables' names, in space order."""
+    @property
+    def prior(self) -> Tuple[float, float]:
+        """The base prior counts (successes, losses)."""
+    def arms(self, name: str) -> List[Tuple[float, float]]:
+        """(alpha, beta) of every arm of variable `name` (KeyError if there is none)."""
+    def means(self, name: str) -> List[float]:
+        """The posterior mean of every arm of variable `name`."""
+    def to_json(self) -> str:
+        """The posterior as JSON (to keep it for a meta-testing kernel)."""
+    @staticmethod
+    def from_json(text: str) -> Posterior:
+        """A posterior from `to_json()` output."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The posterior as plain data."""
+
+@final
+class Kernel:
+    """The SAVME ask/tell kernel: Thompson-sampling bandits that learn where the system under
+    test fails (per scenario, over φ) and which cheap fidelity settings θ_LF agree with the
+    high-fidelity simulator within C_budget.
+
+    Deterministic: the same configuration and calls give the same trials as the Rust kernel
+    (and `savme serve`). With `journal=`, every change is written ahead to a crash-safe,
+    locked JSON-lines file in the format of `savme serve --journal`; `Kernel.resume(path)`
+    (or `savme serve --journal path`) continues it exactly.
+
+    Example::
+
+        kernel = savme.Kernel(fidelity=fidelity, theta_hf={"rate_hz": 10},
+                              scenarios={"lead_brakes": phi}, budget=0.3, seed=7)
+        for _ in range(100):
+            t = kernel.ask()
+            kernel.tell(t, hf=run(t.phi, kernel.theta_hf), lf=run(t.phi, t.theta_lf))
+        print(kernel.estimate())
+    """
+
+    def __new__(
+        cls,
+        *,
+        fidelity: Space,
+        theta_hf: Mapping[str, _Value],
+        scenarios: Union[Mapping[str, Space], Sequence[Union[Tuple[str, Space], Tuple[str, Space, float]]]],
+        budget: float = 0.3,
+        seed: int = 0,
+        estimator: _EstimatorName = "map",
+        prior: Optional[Tuple[float, float]] = None,
+        fidelity_prior: Optional[Posterior] = None,
+        prior_strength: float = 1.0,
+        journal: Optional[Union[str, PathLike[str]]] = None,
+    ) -> Kernel:
+        """Builds a kernel in the "train" phase.
+
+        fidelity: the fidelity space; theta_hf: the high-fidelity settings (every variable);
+        scenarios: {name: φ-space} (equal weights) or [(name, φ-space, weight), …];
+        budget: C_budget in (0, 1], the largest cost ratio t_LF / t_HF credited;
+        estimator: how evaluation picks θ_LF ("map" as in the paper, or "mean");
+        prior: base Beta prior counts (successes, losses) of every arm, default (1, 1);
+        fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
+        kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
+        journal: a journal file, created or resumed (it must hold the same configuration).
+
+        Raises ValueError naming the variable or scenario at fault, JournalError for a journal
+        that cannot be used."""
+    @staticmethod
+    def from_config(config: str, journal: Optional[Union[str, PathLike[str]]] = None) -> Kernel:
+        """A kernel from a configuration in JSON (what `savme serve --config` reads and
+        `savme example-config` prints)."""
+    @staticmethod
+    def resume(journal: Union[str, PathLike[str]]) -> Kernel:
+        """Reopens an existing journal, written by Python or `savme serve --journal`: the
+        kernel continues exactly (its pending trials are in `pending()`). A torn last line
+        (a crash mid-write) is dropped with a RuntimeWarning."""
+    @staticmethod
+    def from_json(snapshot: str) -> Kernel:
+        """A kernel restored from `to_json()` output (not journaled)."""
+    def to_json(self) -> str:
+        """The complete state (configuration, posteriors, pending trials, random stream)."""
+    def config_json(self) -> str:
+        """The configuration as JSON (the format `savme serve --config` reads)."""
+    @overload
+    def ask(self, n: None = None) -> Trial:
+        """Suggests the next trial in the current phase."""
+    @overload
+    def ask(self, n: int) -> List[Trial]:
+        """Suggests the next trial in the current phase, or a list of `n` (all or none). Any
+        number may be pending at once; tell them in any order."""
+    def tell(self, trial: Union[Trial, int], hf: _RunResult, lf: Optional[_RunResult] = None) -> Record:
+        """Ingests a trial's runs, hf=(failure, runtime) and (except for baseline trials)
+        lf=(failure, runtime); credits the bandits in the learning phases and returns the
+        record. A refused tell raises TellError naming the trial and changes nothing."""
+    def cancel(self, trial: Union[Trial, int]) -> Trial:
+        """Withdraws a pending trial (its simulation crashed); it is never told."""
+    def set_phase(self, phase: _Phase) -> None:
+        """Switches the phase of future asks: "train" (learn φ and θ), "evaluate" (θ = the
+        estimate, nothing learned), "baseline" (uniform φ, HF only) or "test" (meta-testing).
+        Pending trials keep their phase."""
+    @property
+    def phase(self) -> _Phase:
+        """The phase new asks are drawn in."""
+    def estimate(self, estimator: Optional[_EstimatorName] = None) -> Dict[str, _Value]:
+        """θ_LF*: the greedy fidelity settings (default: the kernel's estimator), continuous
+        settings at their bin's expected value."""
+    def fidelity_posterior(self) -> Posterior:
+        """p_ω(θ_LF); pass it as `fidelity_prior=` to a meta-testing kernel."""
+    def scenario_posterior(self, name: str) -> Posterior:
+        """p_ψ(φ | s) of scenario `name` (KeyError listing the known ones otherwise)."""
+    def posterior(self) -> Dict[str, Any]:
+        """{"fidelity": Posterior, "scenarios": {name: Posterior}}."""
+    def pending(self) -> List[Trial]:
+        """Trials asked and not yet told or cancelled, in id order."""
+    def stats(self) -> Dict[str, int]:
+        """{"asked": …, "told": …, "cancelled": …}."""
+    @property
+    def theta_hf(self) -> Dict[str, _Value]:
+        """The high-fidelity settings, in space order."""
+    @property
+    def budget(self) -> float:
+        """C_budget."""
+    @property
+    def fidelity(self) -> Space:
+        """The fidelity space."""
+    @property
+    def scenarios(self) -> List[str]:
+        """The scenarios' names, in order."""
+    @property
+    def journal(self) -> Optional[PathLike[str]]:
+        """The journal's path, or None."""
+    def close(self) -> None:
+        """Releases the journal and its lock (also on leaving a `with` block); later calls
+        raise ValueError."""
+    def __enter__(self) -> Kernel: ...
+    def __exit__(self, *exc: object) -> bool: ...
+
+_SimulatorFn = Callable[[str, Dict[str, _Value], Dict[str, _Value]], Union[bool, Tuple[bool, int]]]
+"""A Python simulator: (scenario, phi, theta) -> failure, or (failure, work_units)."""
+
+@final
+class Protocol:
+    """What a campaign runs: the paper's protocol (or the quick preset) for the given
+    meta-training and meta-testing scenarios, any field overridden; validated (ValueError
+    names the field)."""
+
+    def __new__(
+        cls,
+        train_scenarios: Sequence[str],
+        test_scenarios: Sequence[str],
+        *,
+        preset: Literal["paper", "quick"] = "paper",
+        simulator: str = "python",
+        seed: Optional[int] = None,
+        budgets: Optional[Sequence[float]] = None,
+        train_iterations: Optional[int] = None,
+        eval_iterations: Optional[int] = None,
+        test_iterations: Optional[int] = None,
+        baseline_train_iterations: Optional[int] = None,
+        baseline_test_iterations: Optional[int] = None,
+        cost: Optional[Literal["wall", "work"]] = None,
+        fidelity_bins: Optional[int] = None,
+        prior_strength: Optional[float] = None,
+        window: Optional[int] = None,
+        weights: Optional[Mapping[str, float]] = None,
+        on_error: Optional[Literal["abort", "skip"]] = None,
+    ) -> Protocol:
+        """cost="work" makes a campaign reproducible bit for bit (simulators must then return
+        (failure, work_units)); "wall" (default) measures each call's wall-clock time.
+        window: trials in flight; on_error="skip" withdraws a trial whose simulation raised."""
+    def to_json(self) -> str:
+        """The protocol as JSON (a campaign directory's protocol.json)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The protocol as a dict."""
+    @staticmethod
+    def load(out: Union[str, PathLike[str]]) -> Protocol:
+        """The protocol saved in campaign directory `out`."""
+    @property
+    def total_trials(self) -> int:
+        """How many trials the campaign runs in all."""
+
+@final
+class Problem:
+    """What a campaign searches: the fidelity space with θ_HF, and each scenario's φ-space."""
+
+    def __new__(
+        cls, *, fidelity: Space, theta_hf: Mapping[str, _Value], scenarios: Mapping[str, Space]
+    ) -> Problem: ...
+    @staticmethod
+    def driving(bins: int = 10) -> Problem:
+        """The bundled driving simulator's problem (Table I, θ_HF, the ten scenarios)."""
+    @property
+    def scenarios(self) -> List[str]:
+        """The scenarios' names."""
+
+@final
+class CampaignResult:
+    """A finished campaign."""
+
+    @property
+    def out(self) -> PathLike[str]:
+        """The campaign directory."""
+    @property
+    def report(self) -> Dict[str, Any]:
+        """The report: baselines, per budget training/evaluation/meta-testing figures."""
+    @property
+    def table_md(self) -> str:
+        """Table III as Markdown (table.md)."""
+    @property
+    def files(self) -> Dict[str, PathLike[str]]:
+        """protocol, trials, table, fidelity, summary, breakeven, meta_testing."""
+    @property
+    def replayed(self) -> int:
+        """Trials replayed from trials.jsonl (a resumed campaign)."""
+    @property
+    def ran(self) -> int:
+        """Trials run by this call."""
+    @property
+    def elapsed_seconds(self) -> float:
+        """Wall-clock seconds this call took."""
+
+@final
+class Campaign:
+    """A campaign run by savme's Rust campaign loop, with `savme run`'s outputs and resume.
+
+    Python simulators are called from worker threads, each call holding the GIL; see the
+    savme.campaign module for CPU-bound Python simulators."""
+
+    def __new__(
+        cls,
+        protocol: Optional[Protocol],
+        problem: Problem,
+        *,
+        out: Optional[Union[str, PathLike[str]]] = None,
+        resume: bool = False,
+        jobs: Optional[int] = None,
+        progress: bool = False,
+    ) -> Campaign:
+        """out: the campaign directory (default "savme-results"); resume=True continues the campaign in `out` (protocol=None takes its
+        protocol.json); jobs: worker threads (default: one per core); progress: one line per
+        finished stage on stderr."""
+    def run(
+        self,
+        simulate: Optional[_SimulatorFn] = None,
+        *,
+        hf: Optional[_SimulatorFn] = None,
+        lf: Optional[_SimulatorFn] = None,
+        sim: Optional[Union[Driving, Simulator]] = None,
+    ) -> CampaignResult:
+        """Runs (or resumes) the campaign: one `simulate` callable for both runs, or `hf=`
+        and `lf=` callables, or a bundled simulator `sim=`. Raises CampaignError (a failed
+        simulation names the trial and the exception), ValueError for a bad protocol."""
+    @property
+    def protocol(self) -> Protocol:
+        """The protocol."""
+    @property
+    def out(self) -> PathLike[str]:
+        """The output directory."""
+
+def load_campaign(
+    path: Union[str, PathLike[str]],
+    *,
+    out: Optional[Union[str, PathLike[str]]] = None,
+    resume: bool = False,
+    jobs: Optional[int] = None,
+    progress: bool = False,
+) -> Campaign:
+    """A campaign file (TOML, as `savme run --config` reads) as a campaign with its FMUs
+    bound (`savme.campaign.load`)."""
+
+@final
+class Driving:
+    """The bundled driving simulator: the paper's ten scenarios, camera + lidar perception
+    with Table I's 16 fidelity settings, the paper's system under test."""
+
+    def __new__(cls, perception: Literal["sensors", "ideal"] = "sensors") -> Driving: ...
+    def simulate(
+        self, scenario: str, phi: Mapping[str, _Value], theta: Optional[Mapping[str, _Value]] = None
+    ) -> Dict[str, Any]:
+        """One run (θ_HF by default): {"failure", "wall_seconds", "work", "min_distance",
+        "collision_time"}. The GIL is released while it runs."""
+    @staticmethod
+    def scenarios() -> List[Dict[str, Any]]:
+        """The ten scenarios: id, name, description, training (1–8) or not."""
+    @staticmethod
+    def phi_space(scenario: str) -> Space:
+        """A scenario's φ-space (by name or number)."""
+    @staticmethod
+    def fidelity_space(bins: int = 10) -> Space:
+        """Table I: the 16 fidelity settings, continuous ones in `bins` log bins."""
+    @staticmethod
+    def theta_hf() -> Dict[str, _Value]:
+        """θ_HF of Table I."""
+
+@final
+class Simulator:
+    """The HF and LF FMUs of a campaign file, their bindings checked (savme.fmu.Simulator)."""
+
+    def __new__(cls, path: Union[str, PathLike[str]]) -> Simulator: ...
+    def simulate(
+        self,
+        scenario: str,
+        phi: Mapping[str, _Value],
+        theta: Optional[Mapping[str, _Value]] = None,
+        role: Literal["hf", "lf"] = "hf",
+    ) -> Dict[str, Any]:
+        """One run on the HF (or LF) FMU: {"failure", "wall_seconds", "work"}."""
+    @property
+    def scenarios(self) -> List[str]:
+        """The scenarios' names."""
+    def phi_space(self, scenario: str) -> Space:
+        """A scenario's φ-space (KeyError if there is none)."""
+    @property
+    def fidelity(self) -> Space:
+        """The fidelity space."""
+    @property
+    def theta_hf(self) -> Dict[str, _Value]:
+        """θ_HF."""

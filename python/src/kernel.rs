@@ -1,0 +1,473 @@
+//! `savme.Kernel`: the ask/tell kernel, plain or journaled to the same store as
+//! `savme serve --journal`.
+
+use crate::convert;
+use crate::errors;
+use crate::space::PySpace;
+use crate::trial::{PyPosterior, PyRecord, PyTrial};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList, PyTuple};
+use savme::campaign::store::{journal, JsonlStore};
+use savme::serve::Session;
+use savme_kernel::{
+    Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Phase, PriorCounts, Run, Scenario,
+    Space,
+};
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
+
+/// The ask/tell kernel.
+#[pyclass(name = "Kernel", module = "savme", frozen)]
+pub struct PyKernel {
+    /// None once closed.
+    session: Mutex<Option<Session>>,
+    journal: Option<PathBuf>,
+}
+
+pub fn parse_phase(phase: &str) -> PyResult<Phase> {
+    Ok(match phase {
+        "train" => Phase::Train,
+        "evaluate" => Phase::Evaluate,
+        "baseline" => Phase::Baseline,
+        "test" => Phase::Test,
+        other => {
+            return Err(PyValueError::new_err(format!(
+            "unknown phase {other:?}: expected \"train\", \"evaluate\", \"baseline\" or \"test\""
+        )))
+        }
+    })
+}
+
+fn parse_estimator(estimator: &str) -> PyResult<Estimator> {
+    match estimator {
+        "map" => Ok(Estimator::Map),
+        "mean" => Ok(Estimator::Mean),
+        other => Err(PyValueError::new_err(format!(
+            "unknown estimator {other:?}: expected \"map\" or \"mean\""
+        ))),
+    }
+}
+
+/// `scenarios=`: a dict {name: Space} (weight 1 each) or a list of (name, Space) or
+/// (name, Space, weight) tuples.
+fn scenarios(arg: &Bound<'_, PyAny>) -> PyResult<Vec<Scenario>> {
+    let one = |name: &Bound<'_, PyAny>, space: &Bound<'_, PyAny>, weight: f64| {
+        let name: String = name.extract().map_err(|_| {
+            PyTypeError::new_err(format!("scenarios: a name must be a str, got {name}"))
+        })?;
+        let space = space.cast::<PySpace>().map_err(|_| {
+            PyTypeError::new_err(format!("scenarios: scenario `{name}` needs a savme.Space"))
+        })?;
+        Ok(Scenario {
+            name: name.as_str().into(),
+            space: space.get().space.clone(),
+            weight,
+        })
+    };
+    if let Ok(d) = arg.cast::<PyDict>() {
+        return d.iter().map(|(k, v)| one(&k, &v, 1.0)).collect();
+    }
+    let bad = || {
+        PyTypeError::new_err(
+            "scenarios: give a dict {name: Space} or a list of (name, Space[, weight]) tuples",
+        )
+    };
+    arg.try_iter()
+        .map_err(|_| bad())?
+        .map(|item| {
+            let item = item?;
+            let t = item.cast::<PyTuple>().map_err(|_| bad())?;
+            match t.len() {
+                2 => one(&t.get_item(0)?, &t.get_item(1)?, 1.0),
+                3 => one(&t.get_item(0)?, &t.get_item(1)?, t.get_item(2)?.extract()?),
+                _ => Err(bad()),
+            }
+        })
+        .collect()
+}
+
+/// `hf=` / `lf=`: a (failure, runtime) pair.
+fn run(which: &str, id: u64, arg: &Bound<'_, PyAny>) -> PyResult<Run> {
+    let (failure, runtime): (Bound<'_, PyAny>, f64) = arg.extract().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair, got {arg}"
+        ))
+    })?;
+    if !failure.is_instance_of::<pyo3::types::PyBool>() && !failure.hasattr("__bool__")? {
+        return Err(PyTypeError::new_err(format!(
+            "tell(trial {id}, {which}=…): failure must be a bool"
+        )));
+    }
+    Ok(Run::new(failure.is_truthy()?, runtime))
+}
+
+impl PyKernel {
+    fn lock(&self) -> PyResult<MutexGuard<'_, Option<Session>>> {
+        self.session.lock().map_err(|_| errors::poisoned())
+    }
+
+    /// Runs `f` on the open session.
+    fn with<T>(&self, f: impl FnOnce(&mut Session) -> PyResult<T>) -> PyResult<T> {
+        let mut guard = self.lock()?;
+        let session = guard.as_mut().ok_or_else(|| {
+            PyValueError::new_err("the kernel is closed (its journal was released by close())")
+        })?;
+        f(session)
+    }
+
+    fn open(py: Python<'_>, config: Option<KernelConfig>, path: Option<PathBuf>) -> PyResult<Self> {
+        let session = match &path {
+            None => {
+                let config = config.ok_or_else(|| PyValueError::new_err("no configuration"))?;
+                Session::Plain(Kernel::new(config).map_err(errors::value)?)
+            }
+            Some(p) => {
+                let store = JsonlStore::open(p).map_err(errors::store)?;
+                let opened = journal::open(Box::new(store), config).map_err(errors::open)?;
+                if let Some(tail) = &opened.torn {
+                    let msg = format!(
+                        "{}: line {} was cut off mid-write ({} bytes); dropped it",
+                        p.display(),
+                        tail.line,
+                        tail.bytes
+                    );
+                    let category = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
+                    PyErr::warn(py, &category, &std::ffi::CString::new(msg)?, 1)?;
+                }
+                Session::Journaled(opened.kernel)
+            }
+        };
+        Ok(PyKernel {
+            session: Mutex::new(Some(session)),
+            journal: path,
+        })
+    }
+
+    fn trial_id(trial: &Bound<'_, PyAny>) -> PyResult<u64> {
+        if let Ok(t) = trial.cast::<PyTrial>() {
+            return Ok(t.get().trial.id);
+        }
+        trial.extract::<u64>().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "expected a Trial or a trial id (a non-negative int), got {trial}"
+            ))
+        })
+    }
+}
+
+#[pymethods]
+impl PyKernel {
+    #[new]
+    #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
+        prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        fidelity: PyRef<'_, PySpace>,
+        theta_hf: &Bound<'_, PyDict>,
+        scenarios: &Bound<'_, PyAny>,
+        budget: f64,
+        seed: u64,
+        estimator: &str,
+        prior: Option<(f64, f64)>,
+        fidelity_prior: Option<PyRef<'_, PyPosterior>>,
+        prior_strength: f64,
+        journal: Option<PathBuf>,
+    ) -> PyResult<Self> {
+        let fidelity: Space = fidelity.space.clone();
+        let config = KernelConfig {
+            scenarios: self::scenarios(scenarios)?,
+            theta_hf: convert::assignment("theta_hf", theta_hf, &fidelity)?,
+            fidelity,
+            budget,
+            seed,
+            prior: prior.map_or(PriorCounts::UNIFORM, |(successes, losses)| PriorCounts {
+                successes,
+                losses,
+            }),
+            estimator: parse_estimator(estimator)?,
+            fidelity_prior: fidelity_prior.map(|p| FidelityPrior {
+                posterior: p.posterior.clone(),
+                strength: prior_strength,
+            }),
+        };
+        Kernel::new(config.clone()).map_err(errors::value)?;
+        PyKernel::open(py, Some(config), journal)
+    }
+
+    /// A kernel from a configuration in JSON (what `savme serve --config` reads and
+    /// `savme example-config` prints), optionally journaled.
+    #[staticmethod]
+    #[pyo3(signature = (config, journal = None))]
+    fn from_config(py: Python<'_>, config: &str, journal: Option<PathBuf>) -> PyResult<Self> {
+        let config: KernelConfig = serde_json::from_str(config)
+            .map_err(|e| PyValueError::new_err(format!("kernel configuration: {e}")))?;
+        Kernel::new(config.clone()).map_err(errors::value)?;
+        PyKernel::open(py, Some(config), journal)
+    }
+
+    /// Reopens an existing journal (written by Python or by `savme serve --journal`).
+    #[staticmethod]
+    fn resume(py: Python<'_>, journal: PathBuf) -> PyResult<Self> {
+        if !journal.is_file() {
+            return Err(errors::JournalError::new_err(format!(
+                "{}: no journal to resume (start one with savme.Kernel(..., journal=...))",
+                journal.display()
+            )));
+        }
+        PyKernel::open(py, None, Some(journal))
+    }
+
+    /// A kernel restored from `to_json()` output (not journaled).
+    #[staticmethod]
+    fn from_json(snapshot: &str) -> PyResult<Self> {
+        let kernel = Kernel::from_json(snapshot).map_err(errors::value)?;
+        Ok(PyKernel {
+            session: Mutex::new(Some(Session::Plain(kernel))),
+            journal: None,
+        })
+    }
+
+    /// The complete state as JSON (`Kernel.from_json` restores it exactly).
+    fn to_json(&self) -> PyResult<String> {
+        self.with(|s| Ok(s.kernel().to_json()))
+    }
+
+    /// The configuration as JSON (the format `savme serve --config` reads).
+    fn config_json(&self) -> PyResult<String> {
+        self.with(|s| serde_json::to_string_pretty(s.kernel().config()).map_err(errors::value))
+    }
+
+    /// Suggests the next trial, or a list of `n` trials (all or none).
+    #[pyo3(signature = (n = None))]
+    fn ask(&self, py: Python<'_>, n: Option<usize>) -> PyResult<Py<PyAny>> {
+        let trials = self.with(|s| s.ask(n.unwrap_or(1)).map_err(errors::session))?;
+        let mut trials = trials.into_iter().map(|trial| PyTrial { trial });
+        match (n, trials.next()) {
+            (None, Some(t)) => Ok(Bound::new(py, t)?.into_any().unbind()),
+            (_, first) => {
+                let all = first
+                    .into_iter()
+                    .chain(trials)
+                    .map(|t| Bound::new(py, t))
+                    .collect::<PyResult<Vec<_>>>()?;
+                Ok(PyList::new(py, all)?.into_any().unbind())
+            }
+        }
+    }
+
+    /// Ingests trial `trial`'s runs: `hf=(failure, runtime)` and, unless it is a baseline
+    /// trial, `lf=(failure, runtime)`. Returns the record; a refused tell raises
+    /// `savme.TellError` and changes nothing.
+    #[pyo3(signature = (trial, hf, lf = None))]
+    fn tell(
+        &self,
+        trial: &Bound<'_, PyAny>,
+        hf: &Bound<'_, PyAny>,
+        lf: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyRecord> {
+        let id = PyKernel::trial_id(trial)?;
+        let hf = run("hf", id, hf)?;
+        let observation = match lf {
+            Some(lf) => Observation::Paired {
+                hf,
+                lf: run("lf", id, lf)?,
+            },
+            None => Observation::HfOnly(hf),
+        };
+        let record = self.with(|s| s.tell(id, observation).map_err(errors::session))?;
+        Ok(PyRecord { record })
+    }
+
+    /// Withdraws a pending trial (its simulation crashed); it will never be told.
+    fn cancel(&self, trial: &Bound<'_, PyAny>) -> PyResult<PyTrial> {
+        let id = PyKernel::trial_id(trial)?;
+        let trial = self.with(|s| s.cancel(id).map_err(errors::session))?;
+        Ok(PyTrial { trial })
+    }
+
+    /// Switches the phase of future asks: "train", "evaluate", "baseline" or "test".
+    fn set_phase(&self, phase: &str) -> PyResult<()> {
+        let phase = parse_phase(phase)?;
+        self.with(|s| s.set_phase(phase).map_err(errors::session))
+    }
+
+    /// The phase new asks are drawn in.
+    #[getter]
+    fn phase(&self) -> PyResult<String> {
+        self.with(|s| Ok(s.kernel().phase().to_string()))
+    }
+
+    /// θ_LF*: the greedy fidelity settings ("map", the paper's, or "mean"; default: the
+    /// kernel's estimator), continuous settings at their bin's expected value.
+    #[pyo3(signature = (estimator = None))]
+    fn estimate<'py>(
+        &self,
+        py: Python<'py>,
+        estimator: Option<&str>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let est = estimator.map(parse_estimator).transpose()?;
+        let theta = self.with(|s| {
+            let k = s.kernel();
+            Ok(k.fidelity_estimate(est.unwrap_or(k.config().estimator)))
+        })?;
+        convert::dict(py, &theta)
+    }
+
+    /// The fidelity posterior p_ω(θ_LF).
+    fn fidelity_posterior(&self) -> PyResult<PyPosterior> {
+        self.with(|s| {
+            Ok(PyPosterior {
+                posterior: s.kernel().fidelity_posterior().clone(),
+            })
+        })
+    }
+
+    /// The φ posterior p_ψ(φ | s) of the scenario `name` (KeyError if there is none).
+    fn scenario_posterior(&self, name: &str) -> PyResult<PyPosterior> {
+        self.with(|s| {
+            let k = s.kernel();
+            let posterior = k.scenario_posterior(name).ok_or_else(|| {
+                convert::unknown(
+                    "scenario",
+                    name,
+                    k.config().scenarios.iter().map(|s| &*s.name),
+                )
+            })?;
+            Ok(PyPosterior {
+                posterior: posterior.clone(),
+            })
+        })
+    }
+
+    /// {"fidelity": Posterior, "scenarios": {name: Posterior}}.
+    fn posterior<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let (fidelity, scenarios) = self.with(|s| {
+            let k = s.kernel();
+            let scenarios: Vec<_> = k
+                .config()
+                .scenarios
+                .iter()
+                .filter_map(|sc| {
+                    Some((sc.name.to_string(), k.scenario_posterior(&sc.name)?.clone()))
+                })
+                .collect();
+            Ok((k.fidelity_posterior().clone(), scenarios))
+        })?;
+        let by_name = PyDict::new(py);
+        for (name, posterior) in scenarios {
+            by_name.set_item(name, PyPosterior { posterior })?;
+        }
+        let d = PyDict::new(py);
+        d.set_item(
+            "fidelity",
+            PyPosterior {
+                posterior: fidelity,
+            },
+        )?;
+        d.set_item("scenarios", by_name)?;
+        Ok(d)
+    }
+
+    /// Trials asked and not yet told or cancelled, in id order (after a restart: the trials
+    /// to run again).
+    fn pending(&self) -> PyResult<Vec<PyTrial>> {
+        self.with(|s| {
+            Ok(s.kernel()
+                .pending()
+                .map(|t| PyTrial { trial: t.clone() })
+                .collect())
+        })
+    }
+
+    /// Counters: {"asked", "told", "cancelled"}.
+    fn stats<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let st = self.with(|s| Ok(s.kernel().stats()))?;
+        let d = PyDict::new(py);
+        d.set_item("asked", st.asked)?;
+        d.set_item("told", st.told)?;
+        d.set_item("cancelled", st.cancelled)?;
+        Ok(d)
+    }
+
+    /// θ_HF, in space order.
+    #[getter]
+    fn theta_hf<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let theta = self.with(|s| Ok(s.kernel().theta_hf().clone()))?;
+        convert::dict(py, &theta)
+    }
+
+    /// C_budget.
+    #[getter]
+    fn budget(&self) -> PyResult<f64> {
+        self.with(|s| Ok(s.kernel().budget()))
+    }
+
+    /// The fidelity space.
+    #[getter]
+    fn fidelity(&self) -> PyResult<PySpace> {
+        self.with(|s| {
+            Ok(PySpace {
+                space: s.kernel().config().fidelity.clone(),
+            })
+        })
+    }
+
+    /// The scenarios' names, in order.
+    #[getter]
+    fn scenarios(&self) -> PyResult<Vec<String>> {
+        self.with(|s| {
+            Ok(s.kernel()
+                .config()
+                .scenarios
+                .iter()
+                .map(|s| s.name.to_string())
+                .collect())
+        })
+    }
+
+    /// The journal's path, or None.
+    #[getter]
+    fn journal(&self) -> Option<&Path> {
+        self.journal.as_deref()
+    }
+
+    /// Releases the journal (and its lock); later calls raise ValueError.
+    fn close(&self) -> PyResult<()> {
+        self.lock()?.take();
+        Ok(())
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_exc))]
+    fn __exit__(&self, _exc: &Bound<'_, PyTuple>) -> PyResult<bool> {
+        self.close()?;
+        Ok(false)
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        let journal = self.journal.as_ref().map_or_else(String::new, |p| {
+            format!(", journal={:?}", p.display().to_string())
+        });
+        let guard = self.lock()?;
+        Ok(match guard.as_ref() {
+            None => format!("Kernel(closed{journal})"),
+            Some(s) => {
+                let k = s.kernel();
+                let st = k.stats();
+                format!(
+                    "Kernel(phase={:?}, budget={}, asked={}, told={}, cancelled={}{journal})",
+                    k.phase().to_string(),
+                    k.budget(),
+                    st.asked,
+                    st.told,
+                    st.cancelled
+                )
+            }
+        })
+    }
+}

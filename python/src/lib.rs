@@ -1,0 +1,45 @@
+//! `savme._savme`: the Rust half of the `savme` Python package (the Python half is
+//! `python/savme/`, which re-exports this module's classes and adds pure-Python helpers).
+//!
+//! One module per concept: [`space`] (spaces and variables), [`trial`] (trials, records,
+//! posteriors), [`kernel`] (the ask/tell kernel, plain or journaled), [`campaign`] (protocol,
+//! problem, the campaign loop on Python callables), [`sim`] (the bundled driving simulator
+//! and FMUs), [`convert`] (values
+//! between Rust and Python) and [`errors`] (Rust errors as Python exceptions).
+
+use pyo3::prelude::*;
+
+mod campaign;
+mod convert;
+mod errors;
+mod kernel;
+mod sim;
+mod space;
+mod trial;
+
+/// The savme kernel (Rust) for Python.
+#[pymodule]
+fn _savme(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("TellError", py.get_type::<errors::TellError>())?;
+    m.add("JournalError", py.get_type::<errors::JournalError>())?;
+    m.add_class::<space::PyVariable>()?;
+    m.add_class::<space::PySpace>()?;
+    m.add_function(wrap_pyfunction!(space::discrete, m)?)?;
+    m.add_function(wrap_pyfunction!(space::boolean, m)?)?;
+    m.add_function(wrap_pyfunction!(space::continuous, m)?)?;
+    m.add_class::<trial::PyTrial>()?;
+    m.add_class::<trial::PyRecord>()?;
+    m.add_class::<trial::PyPosterior>()?;
+    m.add_class::<kernel::PyKernel>()?;
+    m.add("CampaignError", py.get_type::<errors::CampaignError>())?;
+    m.add_class::<campaign::PyProtocol>()?;
+    m.add_class::<campaign::PyProblem>()?;
+    m.add_class::<campaign::PyCampaign>()?;
+    m.add_class::<campaign::PyCampaignResult>()?;
+    m.add_function(wrap_pyfunction!(campaign::load_campaign, m)?)?;
+    m.add_class::<sim::PyDriving>()?;
+    m.add_class::<sim::PyFmuSimulator>()?;
+    Ok(())
+}

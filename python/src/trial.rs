@@ -1,0 +1,236 @@
+//! What the kernel hands out and gives back: `Trial`, `Record`, `Posterior`.
+
+use crate::convert;
+use crate::errors;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyString};
+use savme_kernel::{Posterior, Run, Trial, TrialRecord};
+
+/// A suggested trial: run `scenario` with `phi` on the high-fidelity simulator and, unless
+/// this is a baseline trial, on the learned-fidelity one with `theta_lf`.
+#[pyclass(name = "Trial", module = "savme", frozen)]
+pub struct PyTrial {
+    pub trial: Trial,
+}
+
+#[pymethods]
+impl PyTrial {
+    /// Unique id, counting up from 0 in ask order.
+    #[getter]
+    fn id(&self) -> u64 {
+        self.trial.id
+    }
+
+    /// The phase the trial was asked in: "train", "evaluate", "baseline" or "test".
+    #[getter]
+    fn phase(&self) -> String {
+        self.trial.phase.to_string()
+    }
+
+    /// The scenario's name.
+    #[getter]
+    fn scenario(&self) -> &str {
+        &self.trial.scenario
+    }
+
+    /// Scenario parameters φ, in space order.
+    #[getter]
+    fn phi<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        convert::dict(py, &self.trial.phi)
+    }
+
+    /// Learned-fidelity settings θ_LF in space order; None for a baseline trial.
+    #[getter]
+    fn theta_lf<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.trial
+            .theta_lf
+            .as_ref()
+            .map(|a| convert::dict(py, a))
+            .transpose()
+    }
+
+    /// True when the trial needs both runs (every phase but baseline).
+    #[getter]
+    fn paired(&self) -> bool {
+        self.trial.phase.is_paired()
+    }
+
+    /// The trial as a dict (the JSON of `savme serve`'s trials).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        convert::json_to_py(py, &self.trial)
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<PyTrial>()
+            .is_ok_and(|o| o.get().trial == self.trial)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let t = &self.trial;
+        let lf = match self.theta_lf(py)? {
+            Some(d) => d.repr()?.to_string(),
+            None => "None".to_string(),
+        };
+        Ok(format!(
+            "Trial(id={}, phase='{}', scenario={}, phi={}, theta_lf={lf})",
+            t.id,
+            t.phase,
+            PyString::new(py, &t.scenario).repr()?,
+            self.phi(py)?.repr()?
+        ))
+    }
+}
+
+/// A told trial: the trial, the runs, the outcome, the cost ratio and what was credited.
+#[pyclass(name = "Record", module = "savme", frozen)]
+pub struct PyRecord {
+    pub record: TrialRecord,
+}
+
+fn run_tuple(r: &Run) -> (bool, f64) {
+    (r.failure, r.runtime)
+}
+
+#[pymethods]
+impl PyRecord {
+    /// The trial as it was asked.
+    #[getter]
+    fn trial(&self) -> PyTrial {
+        PyTrial {
+            trial: self.record.trial.clone(),
+        }
+    }
+
+    /// The trial's id.
+    #[getter]
+    fn id(&self) -> u64 {
+        self.record.trial.id
+    }
+
+    /// "TP", "TN", "FP" or "FN" (HF failure vs LF failure); None for a baseline trial.
+    #[getter]
+    fn outcome(&self) -> Option<String> {
+        self.record.outcome.map(|o| format!("{o:?}"))
+    }
+
+    /// t_LF / t_HF; None for a baseline trial.
+    #[getter]
+    fn cost_ratio(&self) -> Option<f64> {
+        self.record.cost_ratio
+    }
+
+    /// What the bandits were credited: {"fidelity": bool | None, "scenario": bool | None}
+    /// (None: not updated — evaluation and baseline trials).
+    #[getter]
+    fn credit<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        d.set_item("fidelity", self.record.credit.fidelity)?;
+        d.set_item("scenario", self.record.credit.scenario)?;
+        Ok(d)
+    }
+
+    /// The HF run as (failure, runtime).
+    #[getter]
+    fn hf(&self) -> (bool, f64) {
+        run_tuple(self.record.observation.hf())
+    }
+
+    /// The LF run as (failure, runtime); None for a baseline trial.
+    #[getter]
+    fn lf(&self) -> Option<(bool, f64)> {
+        self.record.observation.lf().map(run_tuple)
+    }
+
+    /// The record as a dict (the JSON of `savme serve`'s records and of journal tell lines).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        convert::json_to_py(py, &self.record)
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<PyRecord>()
+            .is_ok_and(|o| o.get().record == self.record)
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let outcome = self.outcome().map_or("None".into(), |o| format!("'{o}'"));
+        let ratio = self
+            .record
+            .cost_ratio
+            .map_or("None".into(), |r| format!("{r:?}"));
+        Ok(format!(
+            "Record(id={}, outcome={outcome}, cost_ratio={ratio}, credit={})",
+            self.record.trial.id,
+            self.credit(py)?.repr()?
+        ))
+    }
+}
+
+/// Beta beliefs over the arms of a space (p_ω(θ_LF), or a scenario's p_ψ(φ | s)).
+#[pyclass(name = "Posterior", module = "savme", frozen)]
+pub struct PyPosterior {
+    pub posterior: Posterior,
+}
+
+#[pymethods]
+impl PyPosterior {
+    /// The variables' names, in space order.
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.posterior.names().to_vec()
+    }
+
+    /// The (alpha, beta) of every arm of the variable `name`.
+    fn arms(&self, name: &str) -> PyResult<Vec<(f64, f64)>> {
+        let arms = self
+            .posterior
+            .variable(name)
+            .ok_or_else(|| convert::unknown("variable", name, self.posterior.names()))?;
+        Ok(arms.iter().map(|a| (a.alpha, a.beta)).collect())
+    }
+
+    /// The posterior mean of every arm of the variable `name`.
+    fn means(&self, name: &str) -> PyResult<Vec<f64>> {
+        let arms = self
+            .posterior
+            .variable(name)
+            .ok_or_else(|| convert::unknown("variable", name, self.posterior.names()))?;
+        Ok(arms.iter().map(|a| a.mean()).collect())
+    }
+
+    /// The base prior counts (successes, losses).
+    #[getter]
+    fn prior(&self) -> (f64, f64) {
+        let p = self.posterior.prior();
+        (p.successes, p.losses)
+    }
+
+    /// The posterior as JSON (to save it and carry it over to a meta-testing kernel).
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.posterior).map_err(errors::value)
+    }
+
+    /// A posterior from `to_json()` output.
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<Self> {
+        Ok(PyPosterior {
+            posterior: serde_json::from_str(text).map_err(errors::value)?,
+        })
+    }
+
+    /// The posterior as a dict: {"prior": …, "names": […], "arms": [[{"alpha", "beta"}, …], …]}.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        convert::json_to_py(py, &self.posterior)
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<PyPosterior>()
+            .is_ok_and(|o| o.get().posterior == self.posterior)
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Posterior(names={:?})", self.posterior.names())
+    }
+}

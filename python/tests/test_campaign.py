@@ -1,0 +1,178 @@
+"""savme.Campaign: the Rust campaign loop on Python simulators — outputs, determinism,
+failures, resume — and the bundled driving and FMU simulators from Python."""
+
+import json
+import os
+import shutil
+import subprocess
+
+import pytest
+
+import savme
+from conftest import REPO
+
+
+def problem():
+    fidelity = savme.Space([savme.Discrete("rate_hz", [2, 5, 10, 20]), savme.Boolean("noise")])
+    return savme.Problem(
+        fidelity=fidelity,
+        theta_hf={"rate_hz": 20, "noise": True},
+        scenarios={
+            "stopped": savme.Space([savme.Continuous("speed", 5, 35, bins=6), savme.Continuous("gap", 10, 120, bins=6)]),
+            "braking": savme.Space([savme.Continuous("speed", 5, 35, bins=6), savme.Continuous("gap", 5, 60, bins=6)]),
+            "cut_in": savme.Space([savme.Continuous("speed", 5, 35, bins=6), savme.Continuous("gap", 5, 40, bins=6)]),
+        },
+    )
+
+
+def protocol(**kw):
+    args = dict(preset="quick", seed=3, cost="work", budgets=[0.3], train_iterations=30, eval_iterations=8,
+                test_iterations=12, baseline_train_iterations=20, baseline_test_iterations=10, simulator="python-toy")
+    args.update(kw)
+    return savme.Protocol(["stopped", "braking"], ["cut_in"], **args)
+
+
+def toy(scenario, phi, theta):
+    """Braking distance v²/(2·7) beyond the gap fails; a coarse rate reacts late (more
+    failures); the work is the number of steps."""
+    late = 10.0 / theta["rate_hz"] * phi["speed"] * 0.05
+    fails = phi["speed"] ** 2 / 14.0 + late > phi["gap"]
+    return fails, int(theta["rate_hz"] * 10)
+
+
+def strip_wall(path):
+    """The trial lines without the measured wall-clock seconds."""
+    lines = []
+    for line in path.read_text().splitlines():
+        d = json.loads(line)
+        for run in ("hf", "lf"):
+            if isinstance(d.get(run), dict):
+                d[run].pop("wall_seconds", None)
+        lines.append(d)
+    return lines
+
+
+def test_a_campaign_on_a_python_simulator_writes_savme_runs_outputs(tmp_path):
+    p = protocol()
+    result = savme.Campaign(p, problem(), out=tmp_path / "a", jobs=2).run(toy)
+    assert result.ran == p.total_trials and result.replayed == 0
+    for name in ("protocol", "trials", "table", "fidelity", "summary", "breakeven", "meta_testing"):
+        assert result.files[name].exists(), name
+    assert len(result.files["trials"].read_text().splitlines()) == p.total_trials
+    summary = json.loads(result.files["summary"].read_text())
+    assert "TP-rate" in result.table_md and result.report["protocol"]["simulator"] == "python-toy"
+    assert summary["report"]["budgets"][0]["budget"] == 0.3
+    assert savme.Protocol.load(tmp_path / "a") == p
+    # Work cost: the same seed gives the same trials, whatever the number of workers.
+    again = savme.Campaign(p, problem(), out=tmp_path / "b", jobs=1).run(hf=toy, lf=toy)
+    assert strip_wall(result.files["trials"]) == strip_wall(again.files["trials"])
+
+
+def test_hf_and_lf_callables_get_theta_hf_and_the_learned_theta(tmp_path):
+    seen = {"hf": set(), "lf": set()}
+
+    def hf(scenario, phi, theta):
+        seen["hf"].add(theta["rate_hz"])
+        return toy(scenario, phi, theta)
+
+    def lf(scenario, phi, theta):
+        seen["lf"].add(theta["rate_hz"])
+        return toy(scenario, phi, theta)
+
+    savme.Campaign(protocol(), problem(), out=tmp_path, jobs=2).run(hf=hf, lf=lf)
+    assert seen["hf"] == {20} and len(seen["lf"]) > 1
+
+
+def test_a_raising_simulator_stops_the_campaign_naming_the_trial_and_it_resumes(tmp_path):
+    p = protocol()
+    calls = {"n": 0}
+
+    def flaky(scenario, phi, theta):
+        calls["n"] += 1
+        if calls["n"] == 40:
+            raise RuntimeError("license server unreachable")
+        return toy(scenario, phi, theta)
+
+    with pytest.raises(savme.CampaignError, match="RuntimeError: license server unreachable") as e:
+        savme.Campaign(p, problem(), out=tmp_path / "r", jobs=1).run(flaky)
+    assert "trial" in str(e.value)
+    stored = len((tmp_path / "r" / "trials.jsonl").read_text().splitlines())
+    assert 0 < stored < p.total_trials
+    result = savme.Campaign(None, problem(), out=tmp_path / "r", resume=True, jobs=1).run(toy)
+    assert result.replayed == stored and result.ran == p.total_trials - stored
+    full = savme.Campaign(p, problem(), out=tmp_path / "full", jobs=1).run(toy)
+    assert strip_wall(result.files["trials"]) == strip_wall(full.files["trials"])
+
+
+def test_bad_simulator_results_and_bad_protocols_are_named(tmp_path):
+    with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool\) or \(failure, work_units\), got 0.5"):
+        savme.Campaign(protocol(), problem(), out=tmp_path / "x", jobs=1).run(lambda s, phi, th: 0.5)
+    with pytest.raises(savme.CampaignError, match="work"):
+        # Work cost, but the simulator returns a bare flag (no work count).
+        savme.Campaign(protocol(), problem(), out=tmp_path / "y", jobs=1).run(lambda s, phi, th: False)
+    with pytest.raises(ValueError, match="budgets"):
+        protocol(budgets=[1.5])
+    with pytest.raises(ValueError, match='cost must be "wall" or "work"'):
+        protocol(cost="steps")
+    with pytest.raises(ValueError, match="nope"):
+        savme.Campaign(savme.Protocol(["nope"], ["cut_in"], preset="quick"), problem(), out=tmp_path / "z").run(toy)
+    with pytest.raises(TypeError, match="give both hf= and lf="):
+        savme.Campaign(protocol(), problem(), out=tmp_path / "w").run(hf=toy)
+    with pytest.raises(ValueError, match="high-fidelity settings θ_HF: no value for variable `noise`"):
+        savme.Problem(fidelity=savme.Space([savme.Boolean("noise")]), theta_hf={}, scenarios={})
+    # A campaign directory in use is refused.
+    savme.Campaign(protocol(), problem(), out=tmp_path / "done", jobs=1).run(toy)
+    with pytest.raises(savme.CampaignError):
+        savme.Campaign(protocol(), problem(), out=tmp_path / "done", jobs=1).run(toy)
+
+
+def test_the_bundled_driving_simulator_from_python(tmp_path):
+    sim = savme.sim.Driving("ideal")
+    names = [s["name"] for s in sim.scenarios()]
+    assert len(names) == 10
+    phi_space = sim.phi_space("7")
+    phi = {v.name: (v.range[0] + v.range[1]) / 2 for v in phi_space.variables}
+    r = sim.simulate("7", phi)
+    assert isinstance(r["failure"], bool) and r["work"] > 0 and r["wall_seconds"] > 0
+    assert sim.simulate(names[6], phi) ["min_distance"] == r["min_distance"]  # deterministic
+    assert len(savme.sim.Driving.fidelity_space()) == 16
+    with pytest.raises(KeyError, match="unknown scenario `moon_landing`"):
+        sim.simulate("moon_landing", phi)
+    with pytest.raises(ValueError, match='perception must be "sensors" or "ideal"'):
+        savme.sim.Driving("lidar-only")
+    p = savme.Protocol([names[0]], [names[8]], preset="quick", simulator="savme-sim/ideal", cost="work",
+                       train_iterations=6, eval_iterations=2, test_iterations=4,
+                       baseline_train_iterations=4, baseline_test_iterations=3)
+    result = savme.Campaign(p, savme.Problem.driving(), out=tmp_path, jobs=2).run(sim=sim)
+    assert result.ran == p.total_trials
+
+
+def test_fmu_campaign_files_load_and_simulate(savme_bin, tmp_path):
+    fmu = tmp_path / "savme-sim.fmu"
+    packed = os.environ.get("SAVME_SIM_FMU")  # .ci/run packs it once for every test
+    if packed:
+        shutil.copy(packed, fmu)
+    else:
+        subprocess.run([savme_bin, "fmu", "pack", "--out", str(fmu)], check=True, capture_output=True)
+    text = (REPO / "examples" / "fmu" / "campaign.toml").read_text()
+    text = text.replace("isolate = true", "isolate = false")
+    cfg = tmp_path / "campaign.toml"
+    cfg.write_text(text)
+    sim = savme.fmu.Simulator(cfg)
+    scenario = sim.scenarios[0]
+    phi = {v.name: (v.range[0] + v.range[1]) / 2 for v in sim.phi_space(scenario).variables}
+    hf = sim.simulate(scenario, phi)
+    lf = sim.simulate(scenario, phi, theta=dict(sim.theta_hf, simulation_rate_hz=2), role="lf")
+    assert isinstance(hf["failure"], bool) and hf["wall_seconds"] > 0 and lf["wall_seconds"] > 0
+    # The FMU gives what the bundled simulator gives for the same φ (FMU scenario names are
+    # the bundled ones).
+    assert hf["failure"] == savme.sim.Driving().simulate(scenario, phi)["failure"]
+    campaign = savme.campaign.load(cfg, out=tmp_path / "out")
+    assert campaign.protocol.to_dict()["simulator"].startswith("fmu:")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("[fmu]", "[fmu]\nbogus = 1", 1))
+    with pytest.raises(ValueError, match=r"bad.toml, line \d+.*bogus"):
+        savme.fmu.Simulator(bad)
+    with pytest.raises(KeyError, match="unknown scenario `nope`"):
+        sim.simulate("nope", {})
+    assert scenario in sim.scenarios

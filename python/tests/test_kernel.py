@@ -1,0 +1,302 @@
+"""The kernel API: construction, bad arguments, ask/tell, phases, snapshots, prior transfer."""
+
+import pytest
+
+import savme
+
+
+def fidelity():
+    return savme.Space(
+        [
+            savme.Discrete("rate_hz", [2, 5, 10]),
+            savme.Boolean("disable_shadows"),
+            savme.Continuous("view_m", 10, 5000, bins=10, scale="log"),
+        ]
+    )
+
+
+THETA_HF = {"rate_hz": 10, "disable_shadows": False, "view_m": 5000.0}
+
+
+def phi():
+    return savme.Space([savme.Continuous("gap_m", 5, 50, bins=9), savme.Discrete("weather", ["sun", "rain"])])
+
+
+def kernel(**kw):
+    args = dict(fidelity=fidelity(), theta_hf=THETA_HF, scenarios={"lead_brakes": phi()}, budget=0.3, seed=7)
+    args.update(kw)
+    return savme.Kernel(**args)
+
+
+def runs(trial):
+    """A deterministic stand-in simulator: fails below a gap of 15 m; 2 Hz misses the failure."""
+    fails = trial.phi["gap_m"] < 15.0
+    hf = (fails, 1.0)
+    if not trial.paired:
+        return hf, None
+    lf_fails = fails and trial.theta_lf["rate_hz"] > 2
+    return hf, (lf_fails, trial.theta_lf["rate_hz"] / 10.0)
+
+
+def test_trials_carry_phase_scenario_and_dicts_in_space_order():
+    k = kernel()
+    t = k.ask()
+    assert (t.id, t.phase, t.scenario, t.paired) == (0, "train", "lead_brakes", True)
+    assert list(t.phi) == ["gap_m", "weather"]
+    assert list(t.theta_lf) == ["rate_hz", "disable_shadows", "view_m"]
+    assert 5 <= t.phi["gap_m"] <= 50 and t.phi["weather"] in ("sun", "rain")
+    assert t.theta_lf["rate_hz"] in (2, 5, 10) and isinstance(t.theta_lf["disable_shadows"], bool)
+    assert 10 <= t.theta_lf["view_m"] <= 5000
+    batch = k.ask(3)
+    assert [b.id for b in batch] == [1, 2, 3]
+    assert [p.id for p in k.pending()] == [0, 1, 2, 3]
+    assert k.stats() == {"asked": 4, "told": 0, "cancelled": 0}
+
+
+def test_tell_returns_the_record_and_credits_by_table_ii():
+    k = kernel()
+    t = k.ask()
+    r = k.tell(t, hf=(True, 2.0), lf=(True, 0.4))  # agreed, ratio 0.2 <= 0.3
+    assert (r.id, r.outcome, r.cost_ratio) == (t.id, "TP", 0.2)
+    assert r.credit == {"fidelity": True, "scenario": True}
+    assert r.hf == (True, 2.0) and r.lf == (True, 0.4) and r.trial == t
+    t = k.ask()
+    r = k.tell(t.id, hf=(False, 1.0), lf=(False, 0.5))  # agreed but too expensive
+    assert (r.outcome, r.credit) == ("TN", {"fidelity": False, "scenario": False})
+    t = k.ask()
+    r = k.tell(t, hf=(True, 1.0), lf=(False, 0.1))  # LF missed a failure
+    assert (r.outcome, r.credit) == ("FN", {"fidelity": False, "scenario": True})
+    d = r.to_dict()
+    assert d["outcome"] == "FN" and d["observation"]["paired"]["lf"] == {"failure": False, "runtime": 0.1}
+    assert k.stats()["told"] == 3
+
+
+def test_learning_moves_the_fidelity_estimate_to_the_cheap_agreeing_setting():
+    k = kernel()
+    for _ in range(300):
+        t = k.ask()
+        hf, lf = runs(t)
+        k.tell(t, hf=hf, lf=lf)
+    # Only 2 Hz runs within the budget (cost ratio 0.2; 5 Hz 0.5, 10 Hz 1.0): it is credited
+    # whenever it agrees (it misses failures, but most trials do not fail).
+    post = k.fidelity_posterior()
+    means = post.means("rate_hz")
+    assert means.index(max(means)) == 0, means
+    assert k.estimate()["rate_hz"] == 2
+    assert k.estimate("mean")["rate_hz"] == 2
+    gap = k.scenario_posterior("lead_brakes").means("gap_m")
+    assert max(gap[:3]) > max(gap[4:]), gap  # failures live below 15 m
+
+
+def test_phases_evaluate_baseline_test():
+    k = kernel()
+    for _ in range(50):
+        t = k.ask()
+        k.tell(t, *runs(t))
+    k.set_phase("evaluate")
+    assert k.phase == "evaluate"
+    before = k.fidelity_posterior()
+    e = k.ask()
+    assert e.phase == "evaluate" and e.theta_lf == k.estimate()
+    r = k.tell(e, hf=(True, 1.0), lf=(True, 0.1))
+    assert r.credit == {"fidelity": None, "scenario": None}
+    assert k.fidelity_posterior() == before
+    k.set_phase("baseline")
+    b = k.ask()
+    assert b.phase == "baseline" and b.theta_lf is None and not b.paired
+    with pytest.raises(savme.TellError, match=f"trial {b.id} is a baseline trial"):
+        k.tell(b, hf=(True, 1.0), lf=(True, 0.1))
+    assert k.tell(b, hf=(False, 1.0)).outcome is None
+    k.set_phase("test")
+    assert k.ask().phase == "test"
+    # A trial keeps the phase it was asked in.
+    k.set_phase("train")
+    k.set_phase("evaluate")
+    t = k.ask()
+    k.set_phase("train")
+    assert k.tell(t, hf=(True, 1.0), lf=(True, 0.1)).credit["fidelity"] is None
+
+
+def test_refused_tells_raise_tell_error_naming_the_trial_and_change_nothing():
+    k = kernel()
+    t = k.ask()
+    before = k.to_json()
+    cases = [
+        (dict(trial=99, hf=(True, 1.0), lf=(True, 0.1)), "trial 99 was never asked"),
+        (dict(trial=t.id, hf=(True, 1.0)), f"trial {t.id} is a train trial and needs a paired"),
+        (dict(trial=t.id, hf=(True, float("nan")), lf=(True, 0.1)), f"trial {t.id}: HF runtime must be finite"),
+        (dict(trial=t.id, hf=(True, 1.0), lf=(True, 0.0)), f"trial {t.id}: LF runtime must be finite"),
+        (dict(trial=t.id, hf=(True, -1.0), lf=(True, 0.1)), "HF runtime"),
+        (dict(trial=t.id, hf=(True, 5e-324), lf=(True, 1.0)), "not a finite number"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(savme.TellError, match=message):
+            k.tell(kwargs.pop("trial"), **kwargs)
+        assert k.to_json() == before
+    assert issubclass(savme.TellError, ValueError)
+    k.tell(t, hf=(True, 1.0), lf=(True, 0.1))
+    with pytest.raises(savme.TellError, match=f"trial {t.id} was already told"):
+        k.tell(t, hf=(True, 1.0), lf=(True, 0.1))
+    with pytest.raises(savme.TellError, match=f"trial {t.id} was already told"):
+        k.cancel(t)
+
+
+def test_bad_tell_arguments_are_type_errors_naming_the_argument():
+    k = kernel()
+    t = k.ask()
+    with pytest.raises(TypeError, match=r"tell\(trial 0, hf=…\): expected a \(failure: bool, runtime: float\)"):
+        k.tell(t, hf=True, lf=(True, 0.1))
+    with pytest.raises(TypeError, match=r"lf=…"):
+        k.tell(t, hf=(True, 1.0), lf=(True, "fast"))
+    with pytest.raises(TypeError, match="expected a Trial or a trial id"):
+        k.tell("zero", hf=(True, 1.0), lf=(True, 0.1))
+    with pytest.raises(TypeError, match="expected a Trial or a trial id"):
+        k.tell(-1, hf=(True, 1.0), lf=(True, 0.1))
+    assert k.stats()["told"] == 0
+
+
+def test_bad_spaces_and_configurations_name_the_variable_or_scenario():
+    with pytest.raises(ValueError, match="log-scaled variable `view` needs 0 < lo"):
+        savme.Continuous("view", 0, 100, scale="log")
+    with pytest.raises(ValueError, match="continuous variable `gap` needs lo < hi"):
+        savme.Continuous("gap", 5, 5)
+    with pytest.raises(ValueError, match="`gap` needs at least one bin"):
+        savme.Continuous("gap", 1, 5, bins=0)
+    with pytest.raises(ValueError, match='continuous variable `gap`: scale must be "linear" or "log", got "cubic"'):
+        savme.Continuous("gap", 1, 5, scale="cubic")
+    with pytest.raises(ValueError, match="discrete variable `rate` lists the value 2 twice"):
+        savme.Discrete("rate", [2, 2])
+    with pytest.raises(ValueError, match="discrete variable `rate` has no values"):
+        savme.Discrete("rate", [])
+    with pytest.raises(TypeError, match=r"Discrete\(\"rate\"\) value 1: expected a bool, int, float or str, got list"):
+        savme.Discrete("rate", [2, [3]])
+    with pytest.raises(ValueError, match="variable `a` is defined twice"):
+        savme.Space([savme.Boolean("a"), savme.Boolean("a")])
+    with pytest.raises(ValueError, match="the space has no variables"):
+        savme.Space([])
+    with pytest.raises(ValueError, match="no value for variable `view_m`"):
+        kernel(theta_hf={"rate_hz": 10, "disable_shadows": False})
+    with pytest.raises(ValueError, match="unknown variable `speed`"):
+        kernel(theta_hf=dict(THETA_HF, speed=3))
+    with pytest.raises(ValueError, match="value 7 is outside variable `rate_hz`"):
+        kernel(theta_hf=dict(THETA_HF, rate_hz=7))
+    with pytest.raises(ValueError, match=r"C_budget must lie in \(0, 1\], got 0"):
+        kernel(budget=0.0)
+    with pytest.raises(ValueError, match="scenario `a` has weight -1"):
+        kernel(scenarios=[("a", phi(), -1.0)])
+    with pytest.raises(ValueError, match="no scenarios"):
+        kernel(scenarios={})
+    with pytest.raises(TypeError, match="scenario `a` needs a savme.Space"):
+        kernel(scenarios={"a": [savme.Boolean("x")]})
+    with pytest.raises(ValueError, match='unknown estimator "median"'):
+        kernel(estimator="median")
+    with pytest.raises(ValueError, match="prior counts must be finite and > 0"):
+        kernel(prior=(0.0, 1.0))
+    with pytest.raises(OverflowError, match="seed"):
+        kernel(seed=-1)
+    k = kernel()
+    with pytest.raises(ValueError, match='unknown phase "warmup"'):
+        k.set_phase("warmup")
+    with pytest.raises(KeyError, match="unknown scenario `cut_in` \\(known: lead_brakes\\)"):
+        k.scenario_posterior("cut_in")
+    with pytest.raises(KeyError, match="unknown variable `speed`"):
+        k.fidelity_posterior().arms("speed")
+    with pytest.raises(ValueError, match="n must be between 1 and"):
+        k.ask(0)
+    assert k.stats()["asked"] == 0
+
+
+def test_several_scenarios_with_weights():
+    k = kernel(scenarios=[("often", phi(), 9.0), ("rare", phi(), 1.0)])
+    names = [t.scenario for t in k.ask(400)]
+    assert 300 < names.count("often") < 390, names.count("often")
+    assert k.scenarios == ["often", "rare"]
+
+
+def test_cancel_withdraws_a_pending_trial():
+    k = kernel()
+    a, b = k.ask(2)
+    assert k.cancel(a) == a
+    assert [t.id for t in k.pending()] == [b.id]
+    assert k.stats() == {"asked": 2, "told": 0, "cancelled": 1}
+    with pytest.raises(savme.TellError, match=f"trial {a.id} was already told or cancelled"):
+        k.tell(a, hf=(True, 1.0), lf=(True, 0.1))
+
+
+def test_snapshot_round_trip_asks_the_same_trials():
+    k = kernel()
+    for _ in range(20):
+        t = k.ask()
+        k.tell(t, *runs(t))
+    k.ask(2)  # pending trials survive the snapshot
+    copy = savme.Kernel.from_json(k.to_json())
+    assert copy.pending() == k.pending()
+    assert copy.ask(5) == k.ask(5)
+    with pytest.raises(ValueError, match="snapshot is not valid JSON"):
+        savme.Kernel.from_json('{"config": 1}')
+
+
+def test_same_seed_same_trials_and_another_seed_other_trials():
+    a, b, c = kernel(seed=3), kernel(seed=3), kernel(seed=4)
+    for _ in range(30):
+        ta, tb, tc = a.ask(), b.ask(), c.ask()
+        assert ta == tb
+        a.tell(ta, *runs(ta))
+        b.tell(tb, *runs(tb))
+        c.tell(tc, *runs(tc))
+    assert a.to_json() == b.to_json() != c.to_json()
+
+
+def test_fidelity_prior_transfer_is_the_power_prior():
+    trained = kernel()
+    for _ in range(100):
+        t = trained.ask()
+        trained.tell(t, *runs(t))
+    post = trained.fidelity_posterior()
+    for strength in (1.0, 0.5):
+        fresh = kernel(scenarios={"cut_in": phi()}, fidelity_prior=post, prior_strength=strength)
+        got = fresh.fidelity_posterior()
+        for name in post.names:
+            expected = [(1 + strength * (a - 1), 1 + strength * (b - 1)) for a, b in post.arms(name)]
+            flat = [x for arm in got.arms(name) for x in arm]
+            assert flat == pytest.approx([x for arm in expected for x in arm])
+        assert fresh.estimate() == trained.estimate()
+    # Through JSON too (a posterior saved after meta-training).
+    restored = savme.Posterior.from_json(post.to_json())
+    assert restored == post
+    with pytest.raises(ValueError, match="prior strength must be finite and > 0"):
+        kernel(fidelity_prior=post, prior_strength=0.0)
+    other = savme.Space([savme.Boolean("x")])
+    with pytest.raises(ValueError, match="fidelity prior"):
+        kernel(fidelity=other, theta_hf={"x": True}, fidelity_prior=post)
+
+
+def test_the_configuration_round_trips_through_config_json():
+    k = kernel()
+    again = savme.Kernel.from_config(k.config_json())
+    assert again.ask(10) == k.ask(10)
+    with pytest.raises(ValueError, match="kernel configuration: .*line 1"):
+        savme.Kernel.from_config("{")
+
+
+def test_reprs_and_accessors():
+    k = kernel()
+    assert repr(k).startswith('Kernel(phase="train", budget=0.3')
+    assert k.theta_hf == THETA_HF and list(k.theta_hf) == ["rate_hz", "disable_shadows", "view_m"]
+    assert k.fidelity == fidelity() and k.budget == 0.3 and k.journal is None
+    t = k.ask()
+    assert repr(t).startswith("Trial(id=0, phase='train', scenario='lead_brakes', phi={'gap_m': ")
+    assert t.to_dict()["phi"] == t.phi
+    assert repr(savme.Discrete("w", ["sun", 2, True])) == "Discrete(\"w\", ['sun', 2, True])"
+    assert fidelity()["view_m"].range == (10.0, 5000.0, 10, "log")
+    assert fidelity()["rate_hz"].values == [2, 5, 10]
+    assert savme.Space.from_json(fidelity().to_json()) == fidelity()
+    with pytest.raises(KeyError, match="unknown variable `nope`"):
+        fidelity()["nope"]
+
+
+def test_a_closed_kernel_refuses_calls():
+    with kernel() as k:
+        k.ask()
+    with pytest.raises(ValueError, match="the kernel is closed"):
+        k.ask()

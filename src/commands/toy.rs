@@ -1,0 +1,73 @@
+//! `savme toy`: the paper's protocol on the toy simulator (a one-dimensional braking model
+//! that runs in microseconds) — to try savme, and to try and benchmark distribution:
+//! `--sleep-ms N` makes every run sleep N ms first, like a slow vendor simulator that uses no
+//! CPU; `--null` runs nothing at all.
+
+use super::{
+    config_failure, resume_dir, run_campaign, stored_protocol, usage, Failure, ProtocolArgs,
+    RunnerArgs, StorageArgs, Target,
+};
+use savme::campaign::config::{self, named_simulator, toy_label, NULL};
+use savme::campaign::load_protocol;
+use savme::campaign::store::TrialStore;
+use savme::viewer::Frames;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Output directory (default savme-toy-results).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the campaign in DIR; with --storage, the database's campaign (no DIR).
+    #[arg(long, value_name = "DIR", num_args = 0..=1)]
+    resume: Option<Option<PathBuf>>,
+    /// Every run sleeps this many milliseconds first.
+    #[arg(long, value_name = "MS", default_value_t = 0, conflicts_with = "null")]
+    sleep_ms: u64,
+    /// The null simulator: every run passes at once (measures savme's own cost).
+    #[arg(long)]
+    null: bool,
+    #[command(flatten)]
+    protocol: ProtocolArgs,
+    #[command(flatten)]
+    storage: StorageArgs,
+    #[command(flatten)]
+    runner: RunnerArgs,
+}
+
+pub fn run(a: Args) -> Result<(), Failure> {
+    let overrides = a.protocol.overrides();
+    let store = a.storage.open()?;
+    let remote = a.storage.remote(store.as_ref())?;
+    let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
+    if resume.is_some() && overrides.any() {
+        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
+    }
+    let label = if a.null {
+        NULL.to_string()
+    } else {
+        toy_label(a.sleep_ms)
+    };
+    let mut store = store;
+    let protocol = match (&resume, store.as_mut()) {
+        (Some(dir), None) => Some(load_protocol(dir).map_err(|e| e.to_string())?),
+        (Some(_), Some(s)) => Some(stored_protocol(s)?),
+        (None, _) => None,
+    };
+    let label = protocol.as_ref().map_or(label, |p| p.simulator.clone());
+    let (fresh, problem) = config::toy(&label, &overrides).map_err(config_failure)?;
+    let protocol = protocol.unwrap_or(fresh);
+    let sim = named_simulator(&protocol.simulator)
+        .ok_or_else(|| format!("`{}` is not a toy simulator", protocol.simulator))?;
+    let out = a.out.unwrap_or_else(|| PathBuf::from("savme-toy-results"));
+    let target = Target {
+        out: match &resume {
+            Some(dir) if store.is_none() => dir.clone(),
+            _ => out,
+        },
+        resume: resume.is_some(),
+        store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
+        remote,
+    };
+    run_campaign(protocol, problem, target, &a.runner, Frames::None, &sim)
+}

@@ -1,0 +1,128 @@
+//! `savme worker --storage URL --campaign NAME [--jobs N]`: runs the HF and LF runs of a
+//! campaign whose coordinator was started with `--remote`, on this host, until the campaign
+//! is finished.
+
+use super::{config_failure, usage, Failure};
+use savme::campaign::config::{self, named_simulator};
+use savme::campaign::store::postgres::{find_campaign, Session};
+use savme::campaign::worker::{work, WorkerOptions};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    storage: super::StorageArgs,
+    /// Runs at once on this host (threads, each with its own simulator).
+    #[arg(long, default_value_t = 1)]
+    jobs: usize,
+    /// For an FMU campaign: its campaign file on this host (the FMUs it names are resolved
+    /// here). Not needed for the bundled and toy simulators.
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Seconds a claimed run stays this worker's without a heartbeat (heartbeats come every
+    /// third of it); a killed worker's runs are taken over after this long.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    lease: f64,
+    /// Seconds to wait for the campaign's coordinator to create the campaign.
+    #[arg(long, value_name = "SECONDS", default_value_t = 600.0)]
+    wait: f64,
+}
+
+pub fn run(a: Args) -> Result<(), Failure> {
+    let Some((db, name)) = a.storage.database()? else {
+        return Err(usage(
+            "savme worker needs --storage URL (or --storage-file FILE) and --campaign NAME",
+        ));
+    };
+    if a.jobs == 0 {
+        return Err(usage("--jobs: must be at least 1"));
+    }
+    let seconds = |flag: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(Duration::from_secs_f64(v))
+        } else {
+            Err(usage(format!(
+                "--{flag}: {v} is not a positive number of seconds"
+            )))
+        }
+    };
+    let options = WorkerOptions {
+        jobs: a.jobs,
+        lease: seconds("lease", a.lease)?,
+        wait_for_campaign: seconds("wait", a.wait)?,
+    };
+    let label = simulator_label(&db, &name, options.wait_for_campaign)?;
+    let report = match (named_simulator(&label), &a.config) {
+        (Some(sim), _) => work(&db, &name, &sim, &options),
+        (None, Some(file)) => {
+            let c = config::fmu_file(file, &Default::default()).map_err(config_failure)?;
+            if c.protocol.simulator != label {
+                return Err(Failure::Runtime(format!(
+                    "{}: this campaign file describes simulator {:?}, but campaign {name:?} runs {label:?}",
+                    file.display(),
+                    c.protocol.simulator
+                )));
+            }
+            let backend = super::run::fmu_backend(&c.file)?;
+            work(&db, &name, &backend, &options)
+        }
+        (None, None) => {
+            return Err(usage(format!(
+                "campaign {name:?} runs simulator {label:?}, which savme cannot build from its name: give its campaign file with --config FILE (the FMUs are resolved on this host)"
+            )))
+        }
+    }
+    .map_err(|e| e.to_string())?;
+    eprintln!(
+        "savme worker: campaign {name:?} finished; this worker ran {} runs ({} finished after their lease expired and were dropped)",
+        report.runs, report.dropped
+    );
+    Ok(())
+}
+
+/// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it.
+fn simulator_label(
+    db: &savme::campaign::store::postgres::Database,
+    name: &str,
+    patience: Duration,
+) -> Result<String, String> {
+    let mut s = Session::connect(db, "worker").map_err(|e| e.to_string())?;
+    let start = std::time::Instant::now();
+    let mut said = false;
+    loop {
+        let label: Option<String> = s
+            .run(|c| {
+                let exists: bool = c
+                    .query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])?
+                    .get(0);
+                if !exists || find_campaign(c, name)?.is_none() {
+                    return Ok(None);
+                }
+                Ok(c.query_one(
+                    "SELECT protocol->>'simulator' FROM savme.campaigns WHERE name = $1",
+                    &[&name],
+                )?
+                .get(0))
+            })
+            .map_err(|e| e.to_string())?;
+        if let Some(label) = label {
+            return Ok(label);
+        }
+        if start.elapsed() >= patience {
+            return Err(format!(
+                "{}: no campaign {name:?} was started within {} s (start its coordinator with --storage … --campaign {name:?} --remote)",
+                db.location(),
+                patience.as_secs()
+            ));
+        }
+        if !said {
+            eprintln!(
+                "savme worker: {}: waiting for campaign {name:?} to be started",
+                db.location()
+            );
+            said = true;
+        }
+        std::thread::sleep(Duration::from_millis(500));
+    }
+}

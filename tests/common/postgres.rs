@@ -1,0 +1,276 @@
+//! A throwaway PostgreSQL server for the tests: `initdb` into a temporary directory, `postgres`
+//! on a free TCP port of 127.0.0.1 (and a Unix socket in that directory), stopped and removed
+//! when the [`Server`] is dropped.
+//!
+//! Tests run as root in CI, and PostgreSQL refuses to run as root: then the server runs as the
+//! unprivileged user `nobody` (`runuser -u nobody --`), owning the temporary directory.
+//!
+//! The binaries are found in `PATH`, else in `/usr/lib/postgresql/<version>/bin` (Debian). If
+//! there are none, [`Server::start`] prints a loud message and returns `None` (the test
+//! skips) — unless `SAVME_REQUIRE_POSTGRES=1`, when it panics (CI sets it).
+#![allow(dead_code)]
+
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::{Duration, Instant};
+
+/// The superuser's password (connections over TCP need it: the tests exercise password
+/// authentication and check it never leaks).
+pub const PASSWORD: &str = "s3cret-Pa55word-xyzzy";
+/// The superuser.
+pub const USER: &str = "savme";
+
+/// A running throwaway server.
+pub struct Server {
+    bin: PathBuf,
+    dir: PathBuf,
+    port: u16,
+    child: Option<Child>,
+    as_nobody: bool,
+}
+
+/// The directory holding `initdb`, `postgres` and `pg_ctl`, if any.
+fn find_bin() -> Option<PathBuf> {
+    let has = |d: &Path| d.join("initdb").is_file() && d.join("postgres").is_file();
+    if let Some(path) = std::env::var_os("PATH") {
+        if let Some(d) = std::env::split_paths(&path).find(|d| has(d)) {
+            return Some(d);
+        }
+    }
+    let mut versions: Vec<PathBuf> = std::fs::read_dir("/usr/lib/postgresql")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path().join("bin"))
+        .filter(|d| has(d))
+        .collect();
+    versions.sort();
+    versions.pop()
+}
+
+fn running_as_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false)
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("no free TCP port on 127.0.0.1")
+}
+
+impl Server {
+    /// Starts a new server, or returns `None` (after a loud message) when PostgreSQL is not
+    /// installed and `SAVME_REQUIRE_POSTGRES` is not `1`.
+    pub fn start(test: &str) -> Option<Server> {
+        let Some(bin) = find_bin() else {
+            let message =
+                "no PostgreSQL binaries (initdb, postgres) in PATH or /usr/lib/postgresql/*/bin";
+            if std::env::var("SAVME_REQUIRE_POSTGRES").as_deref() == Ok("1") {
+                panic!("{message}, and SAVME_REQUIRE_POSTGRES=1");
+            }
+            eprintln!("\n!!!!!!!!!! SKIPPED {test}: {message} — install PostgreSQL (Debian: apt-get install postgresql) !!!!!!!!!!\n");
+            return None;
+        };
+        static COUNT: AtomicU32 = AtomicU32::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "savme-pg-{}-{}-{test}",
+            std::process::id(),
+            COUNT.fetch_add(1, Ordering::Relaxed)
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let as_nobody = running_as_root();
+        let pwfile = dir.join("pw");
+        std::fs::write(&pwfile, format!("{PASSWORD}\n")).unwrap();
+        if as_nobody {
+            let ok = Command::new("chown")
+                .args(["-R", "nobody:nogroup"])
+                .arg(&dir)
+                .status()
+                .unwrap()
+                .success();
+            assert!(ok, "chown of {} to nobody failed", dir.display());
+        }
+        let mut server = Server {
+            bin,
+            dir,
+            port: free_port(),
+            child: None,
+            as_nobody,
+        };
+        let data = server.dir.join("data");
+        let out = server
+            .command("initdb")
+            .arg("-D")
+            .arg(&data)
+            .args(["-U", USER, "-N", "-E", "UTF8", "--locale=C"])
+            .args(["--auth-local=trust", "--auth-host=scram-sha-256"])
+            .arg(format!("--pwfile={}", pwfile.display()))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "initdb failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        // A free port can be taken by another test's server between our probe and its bind:
+        // then try another.
+        for _ in 0..5 {
+            if server.try_run() {
+                return Some(server);
+            }
+            server.port = free_port();
+        }
+        panic!("postgres did not start on 5 ports: {}", server.log());
+    }
+
+    /// A command running `program` of the PostgreSQL binaries, as `nobody` when we are root.
+    fn command(&self, program: &str) -> Command {
+        let exe = self.bin.join(program);
+        if self.as_nobody {
+            let mut c = Command::new("runuser");
+            c.args(["-u", "nobody", "--"]).arg(exe);
+            c
+        } else {
+            Command::new(exe)
+        }
+    }
+
+    /// Starts `postgres` on the data directory and waits until it accepts connections.
+    fn run(&mut self) {
+        assert!(self.try_run(), "postgres exited: {}", self.log());
+    }
+
+    /// [`Server::run`]; false if the server exited at once (its port was taken).
+    fn try_run(&mut self) -> bool {
+        let log = std::fs::File::create(self.dir.join("server.log")).unwrap();
+        let child = self
+            .command("postgres")
+            .arg("-D")
+            .arg(self.dir.join("data"))
+            .arg("-k")
+            .arg(&self.dir)
+            .args(["-p", &self.port.to_string()])
+            .args(["-c", "listen_addresses=127.0.0.1", "-c", "fsync=off"])
+            // Light: several servers run at once (one per test), and CI containers may have a
+            // small /dev/shm.
+            .args(["-c", "max_connections=60", "-c", "shared_buffers=16MB"])
+            .args(["-c", "dynamic_shared_memory_type=mmap"])
+            .stdin(Stdio::null())
+            .stdout(log.try_clone().unwrap())
+            .stderr(log)
+            .spawn()
+            .unwrap();
+        self.child = Some(child);
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            if let Some(Ok(Some(_))) = self.child.as_mut().map(|c| c.try_wait()) {
+                self.child = None;
+                return false;
+            }
+            // Ours, not another test's server that took the port first.
+            let data = self.dir.join("data").display().to_string();
+            let ours = postgres::Client::connect(&self.url(), postgres::NoTls)
+                .and_then(|mut c| c.query_one("SHOW data_directory", &[]))
+                .map(|r| r.get::<_, String>(0) == data);
+            match ours {
+                Ok(true) => return true,
+                Ok(false) => {
+                    self.stop();
+                    return false;
+                }
+                Err(_) => {}
+            }
+            assert!(
+                Instant::now() < deadline,
+                "postgres did not accept connections within 60 s: {}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// The server's log so far.
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(self.dir.join("server.log")).unwrap_or_default()
+    }
+
+    /// The superuser's URL (with the password), database `postgres`.
+    pub fn url(&self) -> String {
+        self.url_for(USER, PASSWORD, "postgres")
+    }
+
+    /// A URL for `user` with `password` on database `db`.
+    pub fn url_for(&self, user: &str, password: &str, db: &str) -> String {
+        format!(
+            "postgresql://{user}:{password}@127.0.0.1:{}/{db}",
+            self.port
+        )
+    }
+
+    /// The TCP port.
+    pub fn port(&self) -> u16 {
+        self.port
+    }
+
+    /// A new database (its name), so that tests sharing nothing can share a server.
+    pub fn create_db(&self, name: &str) -> String {
+        let mut c = self.client();
+        c.batch_execute(&format!("CREATE DATABASE \"{name}\""))
+            .unwrap();
+        self.url_for(USER, PASSWORD, name)
+    }
+
+    /// A superuser connection.
+    pub fn client(&self) -> postgres::Client {
+        postgres::Client::connect(&self.url(), postgres::NoTls).unwrap()
+    }
+
+    /// Stops the server (fast shutdown: sessions are ended) and waits for it.
+    pub fn stop(&mut self) {
+        let Some(mut child) = self.child.take() else {
+            return;
+        };
+        // The postmaster's pid is the first line of postmaster.pid (the child may be runuser).
+        let pid = std::fs::read_to_string(self.dir.join("data/postmaster.pid"))
+            .ok()
+            .and_then(|t| t.lines().next().map(str::to_string));
+        match pid {
+            Some(pid) => {
+                let _ = Command::new("kill").args(["-INT", &pid]).status();
+            }
+            None => {
+                let _ = child.kill();
+            }
+        }
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = child.kill();
+        let _ = child.wait();
+    }
+
+    /// Starts the stopped server again (same data, same port).
+    pub fn restart(&mut self) {
+        self.stop();
+        self.run();
+    }
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        self.stop();
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}

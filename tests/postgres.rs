@@ -1,0 +1,676 @@
+//! The PostgreSQL trial store against a real server the test starts itself (see
+//! `common/postgres.rs`): campaigns in the database give the same trials as in a directory,
+//! resume after `kill -9`, refuse a second coordinator (another process), keep the protocol
+//! in the database, and never show the password.
+mod common;
+
+use common::postgres::{Server, PASSWORD};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+/// A tiny protocol on the bundled simulator with idealised perception, work-unit cost.
+const TINY: &[&str] = &[
+    "--budgets",
+    "0.3",
+    "--iterations",
+    "16",
+    "--eval-iterations",
+    "6",
+    "--test-iterations",
+    "8",
+    "--baseline-iterations",
+    "14",
+    "--baseline-test-iterations",
+    "8",
+    "--cost",
+    "work",
+    "--seed",
+    "7",
+    "--perception",
+    "ideal",
+    "--quiet",
+];
+const TINY_TRIALS: usize = 14 + 16 + 6 + 8 + 2 * 8;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("savme-pgtest-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn savme(args: &[&str]) -> Output {
+    Command::new(EXE).args(args).output().unwrap()
+}
+
+/// `savme reproduce` TINY (plus `extra`) into campaign `name` of `url`, results in `out`.
+fn reproduce_in_db(url: &str, name: &str, out: &Path, extra: &[&str]) -> Output {
+    Command::new(EXE)
+        .args(["reproduce", "--storage", url, "--campaign", name, "--out"])
+        .arg(out)
+        .args(TINY)
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+/// The trial lines of campaign `name`, in order, without their wall-clock seconds.
+fn db_trials(client: &mut postgres::Client, name: &str) -> Vec<Value> {
+    let rows = client
+        .query(
+            "SELECT t.body::text FROM savme.trials t JOIN savme.campaigns c ON c.id = t.campaign_id
+              WHERE c.name = $1 ORDER BY t.line",
+            &[&name],
+        )
+        .unwrap();
+    without_wall(
+        rows.iter()
+            .map(|r| serde_json::from_str(r.get::<_, &str>(0)).unwrap())
+            .collect(),
+    )
+}
+
+fn file_trials(dir: &Path) -> Vec<Value> {
+    without_wall(
+        std::fs::read_to_string(dir.join("trials.jsonl"))
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect(),
+    )
+}
+
+fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
+    for v in &mut t {
+        if let Some(o) = v.as_object_mut() {
+            o.remove("v");
+        }
+        for run in ["hf", "lf"] {
+            if let Some(r) = v[run].as_object_mut() {
+                r.remove("wall_seconds");
+            }
+        }
+    }
+    t
+}
+
+fn count(client: &mut postgres::Client, name: &str) -> i64 {
+    client
+        .query_one(
+            "SELECT count(*) FROM savme.trials t JOIN savme.campaigns c ON c.id = t.campaign_id WHERE c.name = $1",
+            &[&name],
+        )
+        .map(|r| r.get(0))
+        .unwrap_or(0)
+}
+
+#[test]
+fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
+    let Some(server) = Server::start("same") else {
+        return;
+    };
+    let url = server.create_db("same");
+    let (dir, out) = (temp_dir("same-dir"), temp_dir("same-out"));
+    let o = Command::new(EXE)
+        .args(["reproduce", "--out"])
+        .arg(&dir)
+        .args(TINY)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let o = reproduce_in_db(&url, "tiny", &out, &["--jobs", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    assert_eq!(db_trials(&mut client, "tiny"), file_trials(&dir));
+    // The results are the same; the protocol is in the database, not in the directory.
+    let read = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
+    assert_eq!(read(&dir, "table.md"), read(&out, "table.md"));
+    assert!(!out.join("protocol.json").exists());
+    assert!(!out.join("trials.jsonl").exists());
+    let protocol: String = client
+        .query_one(
+            "SELECT protocol::text FROM savme.campaigns WHERE name = 'tiny'",
+            &[],
+        )
+        .unwrap()
+        .get(0);
+    let protocol: Value = serde_json::from_str(&protocol).unwrap();
+    let file: Value = serde_json::from_str(&read(&dir, "protocol.json")).unwrap();
+    assert_eq!(protocol, file);
+    // Every field of a trial line is a column.
+    let row = client
+        .query_one(
+            "SELECT stage, idx, trial_id, phase, budget, scenario, phi->>'ego_speed', theta_lf IS NOT NULL,
+                    hf_failure, hf_runtime, hf_work, lf_runtime, cost_ratio, outcome, credit_fidelity, v
+               FROM savme.trials WHERE stage = 'train@0.3' AND idx = 0",
+            &[],
+        )
+        .unwrap();
+    let first = file_trials(&dir)
+        .into_iter()
+        .find(|t| t["stage"] == "train@0.3")
+        .unwrap();
+    assert_eq!(row.get::<_, String>(0), "train@0.3");
+    assert_eq!(row.get::<_, i64>(1), 0);
+    assert_eq!(row.get::<_, i64>(2), first["id"].as_i64().unwrap());
+    assert_eq!(row.get::<_, String>(3), "train");
+    assert_eq!(row.get::<_, f64>(4), 0.3);
+    assert_eq!(row.get::<_, String>(5), first["scenario"].as_str().unwrap());
+    assert!(row.get::<_, Option<String>>(6).is_some());
+    assert!(row.get::<_, bool>(7));
+    assert_eq!(
+        row.get::<_, bool>(8),
+        first["hf"]["failure"].as_bool().unwrap()
+    );
+    assert_eq!(
+        row.get::<_, f64>(9),
+        first["hf"]["runtime"].as_f64().unwrap()
+    );
+    assert_eq!(row.get::<_, i64>(10), first["hf"]["work"].as_i64().unwrap());
+    assert_eq!(
+        row.get::<_, f64>(11),
+        first["lf"]["runtime"].as_f64().unwrap()
+    );
+    assert_eq!(row.get::<_, f64>(12), first["cost_ratio"].as_f64().unwrap());
+    assert_eq!(row.get::<_, String>(13), first["outcome"].as_str().unwrap());
+    assert_eq!(
+        row.get::<_, Option<bool>>(14),
+        first["credit"]["fidelity"].as_bool()
+    );
+    assert_eq!(row.get::<_, i32>(15), 1);
+    // The schema version is recorded.
+    let v: i32 = client
+        .query_one("SELECT max(version) FROM savme.schema_version", &[])
+        .unwrap()
+        .get(0);
+    assert_eq!(v, 1);
+
+    // The three queries of docs/DISTRIBUTED.md give what the trial lines say.
+    let trials = file_trials(&dir);
+    let sql = |marker: &str| common::doc_sql(marker).replace("'night-1'", "'tiny'");
+    let per_scenario = client
+        .query(&sql("query: failures-per-scenario"), &[])
+        .unwrap();
+    let mut total = 0;
+    for row in &per_scenario {
+        let scenario: String = row.get(0);
+        let of = |t: &&Value| t["scenario"] == scenario.as_str();
+        assert_eq!(
+            row.get::<_, i64>(1),
+            trials.iter().filter(of).count() as i64
+        );
+        let failures = trials
+            .iter()
+            .filter(of)
+            .filter(|t| t["hf"]["failure"] == true)
+            .count();
+        assert_eq!(row.get::<_, i64>(2), failures as i64);
+        total += row.get::<_, i64>(1);
+    }
+    assert_eq!(total, TINY_TRIALS as i64);
+    let theta = client.query(&sql("query: learned-theta"), &[]).unwrap();
+    assert_eq!(theta.len(), 1, "one θ* for the one budget");
+    assert_eq!(theta[0].get::<_, f64>(0), 0.3);
+    assert_eq!(theta[0].get::<_, i64>(2), 6);
+    let curve = client
+        .query(&sql("query: failures-over-runtime"), &[])
+        .unwrap();
+    assert_eq!(curve.len(), TINY_TRIALS);
+    let last = curve
+        .iter()
+        .filter(|r| r.get::<_, String>(0) == "train@0.3")
+        .last()
+        .unwrap();
+    let train: Vec<&Value> = trials
+        .iter()
+        .filter(|t| t["stage"] == "train@0.3")
+        .collect();
+    let cost: f64 = train
+        .iter()
+        .map(|t| t["hf"]["runtime"].as_f64().unwrap() + t["lf"]["runtime"].as_f64().unwrap_or(0.0))
+        .sum();
+    assert_eq!(last.get::<_, f64>(2), cost);
+    let found = train.iter().filter(|t| t["hf"]["failure"] == true).count();
+    assert_eq!(last.get::<_, i64>(3), found as i64);
+
+    // Starting it again is refused; resuming it runs nothing and writes the same results.
+    let again = reproduce_in_db(&url, "tiny", &out, &[]);
+    assert!(!again.status.success());
+    assert!(
+        text(&again).contains("already holds a campaign; resume it with --resume"),
+        "{}",
+        text(&again)
+    );
+    let o = savme(&[
+        "reproduce",
+        "--storage",
+        &url,
+        "--campaign",
+        "tiny",
+        "--resume",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!(
+            "({TINY_TRIALS} replayed from the trial store, 0 run)"
+        )),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(read(&dir, "table.md"), read(&out, "table.md"));
+    // Resuming a campaign that does not exist says so.
+    let o = savme(&[
+        "reproduce",
+        "--storage",
+        &url,
+        "--campaign",
+        "nope",
+        "--resume",
+    ]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("no campaign to resume"), "{}", text(&o));
+    for d in [dir, out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn a_killed_coordinator_resumes_from_the_database_and_a_second_one_is_refused() {
+    let Some(server) = Server::start("resume") else {
+        return;
+    };
+    let url = server.create_db("resume");
+    let (full, out) = (temp_dir("resume-full"), temp_dir("resume-out"));
+    // The toy simulator sleeping 20 ms a run: slow enough to kill the coordinator midway and
+    // to try a second one while it runs (120 trials, one run at a time: over 3 s).
+    let longer: Vec<String> = [
+        "--sleep-ms",
+        "20",
+        "--iterations",
+        "50",
+        "--eval-iterations",
+        "10",
+        "--test-iterations",
+        "15",
+        "--baseline-iterations",
+        "20",
+        "--baseline-test-iterations",
+        "10",
+        "--cost",
+        "work",
+        "--seed",
+        "7",
+        "--quiet",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let o = Command::new(EXE)
+        .args(["toy", "--out"])
+        .arg(&full)
+        .args(&longer)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let expected = file_trials(&full);
+
+    let mut first = Command::new(EXE)
+        .args(["toy", "--storage", &url, "--campaign", "c", "--out"])
+        .arg(&out)
+        .args(&longer)
+        .args(["--jobs", "1"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let start = Instant::now();
+    while count(&mut client, "c") < 20 {
+        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
+        assert!(first.try_wait().unwrap().is_none(), "finished too soon");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    // A second coordinator (a resume, and a new campaign of the same name) is refused at once,
+    // naming the first one's process, and changes nothing.
+    let before = count(&mut client, "c");
+    for resume in [true, false] {
+        let mut args = vec!["toy", "--storage", &url, "--campaign", "c"];
+        if resume {
+            args.extend(["--resume", "--quiet"]);
+        } else {
+            args.extend(longer.iter().map(String::as_str));
+        }
+        let o = savme(&args);
+        let t = text(&o);
+        assert!(
+            !o.status.success(),
+            "first exited: {:?}; {t}",
+            first.try_wait()
+        );
+        assert!(
+            t.contains("is in use by another savme coordinator")
+                && t.contains(&format!("savme coordinator pid {}", first.id())),
+            "{t}"
+        );
+    }
+    assert!(count(&mut client, "c") >= before);
+    first.kill().unwrap(); // SIGKILL
+    first.wait().unwrap();
+    let stored = count(&mut client, "c") as usize;
+    assert!(stored < expected.len(), "finished before the kill");
+    // The server drops the dead session's lock: the campaign resumes and completes.
+    let o = savme(&[
+        "toy",
+        "--storage",
+        &url,
+        "--campaign",
+        "c",
+        "--resume",
+        "--quiet",
+        "--jobs",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!("({stored} replayed from the trial store")),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(db_trials(&mut client, "c"), expected);
+    for d in [full, out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn the_password_never_appears_in_output_errors_or_stored_data() {
+    let Some(server) = Server::start("secret") else {
+        return;
+    };
+    let url = server.create_db("secret");
+    assert!(url.contains(PASSWORD));
+    let out = temp_dir("secret-out");
+    let o = reproduce_in_db(&url, "s", &out, &["--jobs", "2"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let mut everything = text(&o);
+    // A refused second coordinator, a wrong password, and a host that does not exist.
+    let mut locked = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let id: i32 = locked
+        .query_one("SELECT id FROM savme.campaigns WHERE name = 's'", &[])
+        .unwrap()
+        .get(0);
+    locked
+        .execute("SELECT pg_advisory_lock(29558, $1)", &[&id])
+        .unwrap();
+    let o = savme(&[
+        "reproduce",
+        "--storage",
+        &url,
+        "--campaign",
+        "s",
+        "--resume",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("a session not started by savme"),
+        "{}",
+        text(&o)
+    );
+    everything += &text(&o);
+    let wrong = url.replace(PASSWORD, &format!("{PASSWORD}-wrong"));
+    let o = savme(&[
+        "reproduce",
+        "--storage",
+        &wrong,
+        "--campaign",
+        "s",
+        "--resume",
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("password authentication failed"),
+        "{}",
+        text(&o)
+    );
+    everything += &text(&o);
+    let bad_host =
+        format!("postgresql://savme:{PASSWORD}@no-such-host.invalid:5432/x?connect_timeout=2");
+    let o = Command::new(EXE)
+        .args(["reproduce", "--storage", &bad_host, "--campaign", "s"])
+        .env("SAVME_RECONNECT_SECONDS", "1")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("postgresql://savme@no-such-host.invalid:5432/x"),
+        "{}",
+        text(&o)
+    );
+    everything += &text(&o);
+    // The URL read from a file (--storage-file) works the same and is not shown either.
+    let file = out.join("storage-url");
+    std::fs::write(&file, format!("# the campaign database\n{url}\n")).unwrap();
+    let o = savme(&[
+        "reproduce",
+        "--storage-file",
+        file.to_str().unwrap(),
+        "--campaign",
+        "s",
+        "--resume",
+    ]);
+    assert!(!o.status.success());
+    everything += &text(&o);
+    drop(locked);
+    let o = savme(&[
+        "reproduce",
+        "--storage-file",
+        file.to_str().unwrap(),
+        "--campaign",
+        "s",
+        "--resume",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    everything += &text(&o);
+    assert!(!everything.contains(PASSWORD), "{everything}");
+    assert!(
+        everything.contains("postgresql://savme@127.0.0.1:"),
+        "{everything}"
+    );
+    // Nothing the campaign wrote holds it: the database's tables, nor the output files.
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let dump: String = client
+        .query_one(
+            "SELECT (SELECT string_agg(body::text, '') FROM savme.trials)
+                 || (SELECT string_agg(protocol::text, '') FROM savme.campaigns)",
+            &[],
+        )
+        .unwrap()
+        .get(0);
+    assert!(!dump.is_empty() && !dump.contains(PASSWORD));
+    for f in std::fs::read_dir(&out).unwrap().flatten() {
+        if f.path() == file {
+            continue;
+        }
+        let bytes = std::fs::read(f.path()).unwrap();
+        let needle = PASSWORD.as_bytes();
+        assert!(
+            !bytes.windows(needle.len()).any(|w| w == needle),
+            "{}",
+            f.path().display()
+        );
+    }
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn storage_flags_are_checked() {
+    for (args, message) in [
+        (
+            vec!["reproduce", "--campaign", "x"],
+            "--campaign names a campaign in a database",
+        ),
+        (
+            vec!["reproduce", "--storage", "postgresql://u@h/d"],
+            "--storage needs --campaign NAME",
+        ),
+        (
+            vec![
+                "reproduce",
+                "--storage",
+                "postgresql://u:pw@h:notaport/d",
+                "--campaign",
+                "x",
+            ],
+            "not a PostgreSQL connection URL",
+        ),
+        (
+            vec!["reproduce", "--resume"],
+            "--resume needs the campaign's directory",
+        ),
+        (
+            vec![
+                "reproduce",
+                "--storage-file",
+                "/nonexistent/savme-url",
+                "--campaign",
+                "x",
+            ],
+            "/nonexistent/savme-url",
+        ),
+        (
+            vec![
+                "reproduce",
+                "--storage",
+                "postgresql://u@h/d",
+                "--campaign",
+                "",
+            ],
+            "is not a campaign name",
+        ),
+    ] {
+        let o = savme(&args);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(text(&o).contains(message), "{args:?}: {}", text(&o));
+        assert!(!text(&o).contains("pw@"), "{}", text(&o));
+    }
+    // Misused flags are usage errors (exit status 2, like clap's own).
+    let url = "postgresql://u@h/d";
+    for (args, message) in [
+        (
+            vec!["toy", "--remote"],
+            "--remote runs trials through a database's work queue",
+        ),
+        (vec!["worker"], "savme worker needs --storage URL"),
+        (
+            vec!["toy", "--resume"],
+            "--resume needs the campaign's directory",
+        ),
+        (
+            vec!["worker", "--storage", url, "--campaign", "x", "--jobs", "0"],
+            "--jobs: must be at least 1",
+        ),
+        (
+            vec![
+                "worker",
+                "--storage",
+                url,
+                "--campaign",
+                "x",
+                "--lease",
+                "0",
+            ],
+            "--lease: 0 is not a positive number of seconds",
+        ),
+    ] {
+        let o = savme(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(message), "{args:?}: {}", text(&o));
+    }
+}
+
+#[test]
+fn savme_serve_journals_into_the_database_and_resumes_after_kill() {
+    use std::io::{BufRead, BufReader, Write};
+    let Some(server) = Server::start("serve") else {
+        return;
+    };
+    let url = server.create_db("serve");
+    let dir = temp_dir("serve");
+    std::fs::create_dir_all(&dir).unwrap();
+    let config = dir.join("kernel.json");
+    std::fs::write(&config, savme(&["example-config"]).stdout).unwrap();
+    let start = |extra: &[&str]| {
+        let mut child = Command::new(EXE)
+            .args(["serve", "--storage", &url, "--campaign", "served"])
+            .args(extra)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let stdin = child.stdin.take().unwrap();
+        let stdout = BufReader::new(child.stdout.take().unwrap());
+        (child, stdin, stdout)
+    };
+    let call = |io: &mut (
+        std::process::ChildStdin,
+        BufReader<std::process::ChildStdout>,
+    ),
+                request: Value| {
+        writeln!(io.0, "{request}").unwrap();
+        io.0.flush().unwrap();
+        let mut line = String::new();
+        io.1.read_line(&mut line).unwrap();
+        serde_json::from_str::<Value>(&line).unwrap()
+    };
+    let (mut first, stdin, stdout) = start(&["--config", config.to_str().unwrap()]);
+    let mut io = (stdin, stdout);
+    for _ in 0..5 {
+        let t = call(&mut io, serde_json::json!({"op": "ask"}))["trials"][0].clone();
+        let run = |failure: bool, runtime: f64| serde_json::json!({"failure": failure, "runtime": runtime});
+        let obs = serde_json::json!({"paired": {"hf": run(true, 1.0), "lf": run(false, 0.25)}});
+        let r = call(
+            &mut io,
+            serde_json::json!({"op": "tell", "id": t["id"], "observation": obs}),
+        );
+        assert_eq!(r["ok"], true, "{r}");
+    }
+    let pending = call(&mut io, serde_json::json!({"op": "ask"}))["trials"][0]["id"].clone();
+    let stats = call(&mut io, serde_json::json!({"op": "stats"}));
+    assert_eq!(stats["stats"]["told"], 5, "{stats}");
+    assert_eq!(stats["pending"], serde_json::json!([pending]));
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let (second, stdin, stdout) = start(&[]);
+    let mut io = (stdin, stdout);
+    let again = call(&mut io, serde_json::json!({"op": "stats"}));
+    assert_eq!(again, stats);
+    drop(io);
+    let out = second.wait_with_output().unwrap();
+    assert!(out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("resumed postgresql://savme@127.0.0.1:"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let _ = std::fs::remove_dir_all(dir);
+}
