@@ -1,7 +1,11 @@
-//! Recordings read back with rerun's ChunkStore (only with `--features rerun`).
+//! Recordings read back with rerun's ChunkStore (only with `--features rerun`): the trial view
+//! of `savme simulate --record`, a campaign's recordings (one per recorded trial, chosen by the
+//! informative-first rule), their blueprints, Ctrl-C, and `--connect` to nowhere.
 #![cfg(feature = "rerun")]
 
+use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
 use rerun::{ChunkStore, ChunkStoreConfig};
+use savme::viewer::layout::names;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -16,102 +20,393 @@ fn temp_dir(name: &str) -> PathBuf {
     d
 }
 
-/// Rows per entity path, and the texts of text logs, from an .rrd file.
-struct Loaded {
+/// One store (a recording or a blueprint) of an .rrd file.
+#[derive(Default, Debug)]
+struct Store {
+    app: String,
+    blueprint: bool,
+    /// Rows per entity path.
     rows: BTreeMap<String, usize>,
-    texts: Vec<String>,
+    /// Texts (logs, documents, labels) per entity path.
+    texts: BTreeMap<String, Vec<String>>,
+    /// Scalars per entity path, in row order.
     scalars: BTreeMap<String, Vec<f64>>,
+    /// Largest time per timeline per entity path.
+    times: BTreeMap<String, BTreeMap<String, i64>>,
+    /// Blobs per entity path.
+    blobs: BTreeMap<String, Vec<Vec<u8>>>,
+    /// The recording's name, or the blueprint's view names.
+    names: Vec<String>,
+    /// Text log levels.
+    levels: Vec<String>,
 }
 
-fn load(path: &Path) -> Loaded {
+impl Store {
+    fn has(&self, e: &str) -> bool {
+        self.rows.contains_key(e)
+    }
+
+    fn text(&self, e: &str) -> String {
+        self.texts.get(e).map(|t| t.join("\n")).unwrap_or_default()
+    }
+
+    fn timelines(&self) -> BTreeSet<String> {
+        self.times
+            .values()
+            .flat_map(|t| t.keys().cloned())
+            .collect()
+    }
+}
+
+// Long because it reads every kind of component the tests look at, chunk by chunk.
+fn load(path: &Path) -> Vec<Store> {
+    use rerun::external::re_sdk_types::archetypes as a;
     let mut f = std::fs::File::open(path).unwrap();
     let stores = ChunkStore::from_rrd_reader(&ChunkStoreConfig::DEFAULT, &mut f)
         .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()));
-    let mut rows = BTreeMap::new();
-    let mut texts = Vec::new();
-    let mut scalars: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-    let text_id = rerun::TextLog::descriptor_text().component;
-    let scalar_id = rerun::Scalars::descriptor_scalars().component;
-    for store in stores.values() {
+    let text_ids = [
+        a::TextLog::descriptor_text().component,
+        a::TextDocument::descriptor_text().component,
+        a::Boxes2D::descriptor_labels().component,
+        a::Points2D::descriptor_labels().component,
+        a::Points3D::descriptor_labels().component,
+        a::Boxes3D::descriptor_labels().component,
+        a::SeriesLines::descriptor_names().component,
+    ];
+    let name_ids = [
+        ViewBlueprint::descriptor_display_name().component,
+        a::RecordingInfo::descriptor_name().component,
+    ];
+    let mut out = Vec::new();
+    for (id, store) in &stores {
+        let mut s = Store {
+            app: id.application_id().to_string(),
+            blueprint: id.is_blueprint(),
+            ..Store::default()
+        };
         for chunk in store.iter_physical_chunks() {
             let entity = chunk.entity_path().to_string();
-            *rows.entry(entity.clone()).or_insert(0) += chunk.num_rows();
-            for t in chunk.iter_component::<rerun::components::Text>(text_id) {
-                texts.extend(t.iter().map(|x| x.as_str().to_string()));
+            *s.rows.entry(entity.clone()).or_insert(0) += chunk.num_rows();
+            for t in text_ids {
+                for x in chunk.iter_component::<rerun::components::Text>(t) {
+                    let v = s.texts.entry(entity.clone()).or_default();
+                    v.extend(x.iter().map(|x| x.as_str().to_string()));
+                }
             }
-            for s in chunk.iter_component::<rerun::components::Scalar>(scalar_id) {
-                scalars
-                    .entry(entity.clone())
-                    .or_default()
-                    .extend(s.iter().map(|x| x.0 .0));
+            for t in name_ids {
+                for x in chunk.iter_component::<rerun::components::Name>(t) {
+                    s.names.extend(x.iter().map(|x| x.as_str().to_string()));
+                }
+            }
+            for x in chunk.iter_component::<rerun::components::Scalar>(
+                rerun::Scalars::descriptor_scalars().component,
+            ) {
+                let v = s.scalars.entry(entity.clone()).or_default();
+                v.extend(x.iter().map(|x| x.0 .0));
+            }
+            for x in chunk.iter_component::<rerun::components::Blob>(
+                a::EncodedImage::descriptor_blob().component,
+            ) {
+                let v = s.blobs.entry(entity.clone()).or_default();
+                v.extend(x.iter().map(|b| b.0.to_vec()));
+            }
+            for x in chunk.iter_component::<rerun::components::TextLogLevel>(
+                a::TextLog::descriptor_level().component,
+            ) {
+                s.levels.extend(x.iter().map(|l| l.as_str().to_string()));
+            }
+            for (name, col) in chunk.timelines() {
+                let max = col.times_raw().iter().copied().max().unwrap_or(0);
+                let t = s.times.entry(entity.clone()).or_default();
+                let m = t.entry(name.to_string()).or_insert(i64::MIN);
+                *m = (*m).max(max);
             }
         }
+        out.push(s);
     }
-    Loaded {
-        rows,
-        texts,
-        scalars,
+    out
+}
+
+fn recordings<'a>(stores: &'a [Store], app: &str) -> Vec<&'a Store> {
+    stores
+        .iter()
+        .filter(|s| !s.blueprint && s.app == app)
+        .collect()
+}
+
+fn blueprint<'a>(stores: &'a [Store], app: &str) -> &'a Store {
+    stores
+        .iter()
+        .find(|s| s.blueprint && s.app == app)
+        .unwrap_or_else(|| panic!("no blueprint for {app}"))
+}
+
+fn assert_views(bp: &Store, views: &[&str]) {
+    for v in views {
+        assert!(
+            bp.names.iter().any(|n| n == v),
+            "no view `{v}` in {:?}",
+            bp.names
+        );
     }
 }
 
-#[test]
-fn simulate_records_a_run_with_its_sensor_frames() {
-    let dir = temp_dir("simulate");
-    let rrd = dir.join("run.rrd");
-    let phi = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+const PHI: &str = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+
+fn phi() -> savme::kernel::Assignment {
+    savme::kernel::Assignment::new()
+        .with("ego_speed", 20.0)
+        .with("lead_speed", 10.0)
+        .with("gap", 8.0)
+        .with("lead_decel", 9.0)
+        .with("brake_time", 0.5)
+}
+
+fn simulate(rrd: &Path, fidelity: &str) -> String {
     let o = Command::new(EXE)
-        .args(["simulate", "--scenario", "7", "--phi", phi, "--record"])
-        .arg(&rrd)
+        .args([
+            "simulate",
+            "--scenario",
+            "7",
+            "--phi",
+            PHI,
+            "--fidelity",
+            fidelity,
+            "--record",
+        ])
+        .arg(rrd)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let l = load(&rrd);
-    for e in [
-        "/world/oneway/scenery",
-        "/run/ego",
-        "/run/intruder",
-        "/run/ego_trajectory",
-        "/run/camera",
-        "/run/lidar",
-        "/run/closest_approach",
-        "/run/predicted_closest_approach",
-        "/run/outcome",
-    ] {
-        assert!(l.rows.contains_key(e), "no {e} in {:?}", l.rows.keys());
-    }
-    // One ego box per simulated step (+ the collision instant), as the in-process run.
-    let run = savme_sim::sim::DrivingSimulator::default()
-        .run(
-            "lead_vehicle_brakes",
-            &savme::kernel::Assignment::new()
-                .with("ego_speed", 20.0)
-                .with("lead_speed", 10.0)
-                .with("gap", 8.0)
-                .with("lead_decel", 9.0)
-                .with("brake_time", 0.5),
-            &savme_sim::fidelity::theta_hf(),
-            true,
-        )
-        .unwrap();
-    assert_eq!(l.rows["/run/ego"], run.trajectory.as_ref().unwrap().len());
-    assert_eq!(
-        l.rows["/run/camera"],
-        run.sensor_frames.as_ref().unwrap().len()
+    String::from_utf8(o.stdout).unwrap()
+}
+
+// Long because it checks every part of the trial view against the in-process runs.
+#[test]
+fn simulate_records_hf_and_lf_side_by_side_with_the_trial_view() {
+    let dir = temp_dir("simulate");
+    let rrd = dir.join("run.rrd");
+    let stdout = simulate(&rrd, "simulation_rate_hz=4");
+    let stores = load(&rrd);
+    let recs = recordings(&stores, savme::viewer::PAIRED_APP);
+    assert_eq!(recs.len(), 1, "one recording");
+    let r = recs[0];
+    assert_views(
+        blueprint(&stores, savme::viewer::PAIRED_APP),
+        &[
+            names::HF_CAMERA,
+            names::LF_CAMERA,
+            names::HF_3D,
+            names::LF_3D,
+            names::CLEARANCE,
+            names::SPEED,
+            names::BRAKING,
+            names::OUTCOME,
+            names::EVENTS,
+        ],
     );
-    let t = run.collision_time.expect("this φ collides");
-    assert!(
-        l.texts
+    let bp = blueprint(&stores, savme::viewer::PAIRED_APP);
+    let eyes = bp
+        .rows
+        .keys()
+        .filter(|e| e.ends_with("/EyeControls3D"))
+        .count();
+    assert_eq!(
+        eyes,
+        2,
+        "each 3D view has its chase eye: {:?}",
+        bp.rows.keys()
+    );
+    let sim = savme_sim::sim::DrivingSimulator::default();
+    let hf_theta = savme_sim::fidelity::theta_hf();
+    let mut lf_theta = hf_theta.clone();
+    lf_theta.set("simulation_rate_hz", 4.0);
+    for (run, theta) in [("hf", &hf_theta), ("lf", &lf_theta)] {
+        let expect = sim.run("lead_vehicle_brakes", &phi(), theta, true).unwrap();
+        let frames = expect.trajectory.as_ref().unwrap();
+        let sensors = expect.sensor_frames.as_ref().unwrap();
+        for e in [
+            "ego/body",
+            "ego/camera",
+            "intruder/body",
+            "lidar",
+            "ego_path",
+            "closest_approach/marker",
+            "events",
+        ] {
+            assert!(
+                r.has(&format!("/{run}/{e}")),
+                "no /{run}/{e} in {:?}",
+                r.rows.keys()
+            );
+        }
+        // The ego as a transform per step; JPEG images per sensor frame.
+        assert_eq!(r.rows[&format!("/{run}/ego")], frames.len());
+        let images = &r.blobs[&format!("/{run}/ego/camera/image")];
+        assert_eq!(images.len(), sensors.len());
+        assert!(images.iter().all(|b| b.starts_with(&[0xFF, 0xD8])), "JPEG");
+        // Time series: the SUT's clearance, speed and braking flag of every step.
+        let clearance: Vec<f64> = frames
             .iter()
-            .any(|x| x.contains(&format!("collision at {t:.2} s"))),
+            .map(|f| (f.ego.center() - f.intruder.center()).norm() - savme_sim::vehicle::LENGTH)
+            .collect();
+        assert_eq!(r.scalars[&format!("/plots/clearance/{run}")], clearance);
+        let braking: Vec<f64> = frames
+            .iter()
+            .map(|f| f64::from(u8::from(f.braking)))
+            .collect();
+        assert_eq!(r.scalars[&format!("/plots/braking/{run}")], braking);
+        assert!(braking.contains(&1.0), "the ego brakes in this scenario");
+        let speed: Vec<f64> = frames.iter().map(|f| f.ego.speed).collect();
+        assert_eq!(r.scalars[&format!("/plots/speed/{run}")], speed);
+        // The collision, as a warning and a labelled marker.
+        let t = expect.collision_time.expect("this φ collides");
+        let warning = format!("{}: collision at {t:.2} s", run.to_uppercase());
+        assert!(
+            r.text(&format!("/{run}/events")).contains(&warning),
+            "{:?}",
+            r.texts
+        );
+        assert!(r
+            .text(&format!("/{run}/closest_approach/marker"))
+            .contains(&warning));
+        // The detector's box carries its class label.
+        if sensors.iter().any(|s| s.detection.is_some()) {
+            assert!(r
+                .text(&format!("/{run}/ego/camera/detection"))
+                .contains("vehicle"));
+        }
+    }
+    assert!(r.levels.iter().all(|l| l == "WARN") && r.levels.len() == 2);
+    let threshold = &r.scalars["/plots/clearance/threshold"];
+    assert!(threshold.iter().all(|x| *x == savme_sim::vehicle::LENGTH));
+    // The outcome document: TP (both collide), φ, the setting off θ_HF, the cost ratio.
+    let md = r.text("/outcome");
+    assert!(md.starts_with("## TP — lead_vehicle_brakes"), "{md}");
+    assert!(
+        md.contains("simulation_rate_hz=4") && md.contains("gap=8") && md.contains("cost ratio"),
+        "{md}"
+    );
+    assert!(r.names.iter().any(|n| n == "simulate lead_vehicle_brakes"));
+    // No stale campaign timeline; one sim_time.
+    assert_eq!(
+        r.timelines(),
+        BTreeSet::from(["sim_time".to_string()]),
         "{:?}",
-        l.texts
+        r.timelines()
+    );
+    // The printed result is the LF run's (the fidelity asked for).
+    let lf = sim
+        .run("lead_vehicle_brakes", &phi(), &lf_theta, false)
+        .unwrap();
+    assert!(
+        stdout.contains(&format!("{} work units", lf.work)),
+        "{stdout}"
     );
 }
 
-// Long because it checks every entity of one recorded campaign, which is slow to produce.
 #[test]
-fn a_campaign_records_bounded_frames_and_its_learning() {
-    let dir = temp_dir("campaign");
+fn simulate_at_hf_records_the_hf_run_alone() {
+    let dir = temp_dir("simulate-hf");
+    let rrd = dir.join("run.rrd");
+    simulate(&rrd, "hf");
+    let stores = load(&rrd);
+    let recs = recordings(&stores, savme::viewer::HF_APP);
+    assert_eq!(recs.len(), 1);
+    assert!(recs[0].has("/hf/ego/camera/image"));
+    assert!(
+        !recs[0].rows.keys().any(|e| e.starts_with("/lf")),
+        "no LF run"
+    );
+    let bp = blueprint(&stores, savme::viewer::HF_APP);
+    assert_views(bp, &[names::HF_CAMERA, names::HF_3D, names::OUTCOME]);
+    assert!(!bp.names.iter().any(|n| n == names::LF_CAMERA));
+    assert!(recs[0].text("/outcome").starts_with("## HF failure"));
+}
+
+#[test]
+fn simulate_refuses_a_viewer_address_where_none_listens_before_running() {
+    // A port nothing listens on: bind one, then free it.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let url = format!("rerun+http://127.0.0.1:{port}/proxy");
+    let o = Command::new(EXE)
+        .args([
+            "simulate",
+            "--scenario",
+            "7",
+            "--phi",
+            PHI,
+            "--connect",
+            &url,
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert_eq!(err.matches("recording:").count(), 1, "{err}");
+    assert!(
+        err.contains(&format!("--connect {url}: no rerun viewer is listening")),
+        "{err}"
+    );
+    assert!(
+        o.stdout.is_empty(),
+        "nothing ran: {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+}
+
+/// The trials that get frames, recomputed from trials.jsonl: every `every`-th, then up to
+/// `cap` of the others — FN and FP alternately, then TP, then baseline HF failures.
+fn expected_recorded(trials: &[serde_json::Value], every: usize, cap: usize) -> BTreeSet<usize> {
+    let mut by_class: [Vec<usize>; 4] = Default::default();
+    let mut out = BTreeSet::new();
+    for (n, t) in trials.iter().enumerate() {
+        if n % every == 0 {
+            out.insert(n);
+            continue;
+        }
+        let class = match t["outcome"].as_str() {
+            Some("FN") => 0,
+            Some("FP") => 1,
+            Some("TP") => 2,
+            None if t["hf"]["failure"] == true => 3,
+            _ => continue,
+        };
+        if by_class[class].len() < cap {
+            by_class[class].push(n);
+        }
+    }
+    let mut chosen: Vec<usize> = Vec::new();
+    for k in 0..cap {
+        chosen.extend(by_class[0].get(k).copied());
+        chosen.extend(by_class[1].get(k).copied());
+    }
+    chosen.extend(by_class[2].iter().copied());
+    chosen.extend(by_class[3].iter().copied());
+    out.extend(chosen.into_iter().take(cap));
+    out
+}
+
+fn trial_name(t: &serde_json::Value) -> String {
+    let outcome = match t["outcome"].as_str() {
+        Some(o) => o.to_string(),
+        None if t["hf"]["failure"] == true => "HF failure".into(),
+        None => "HF pass".into(),
+    };
+    format!(
+        "{} #{} {} {outcome}",
+        t["stage"].as_str().unwrap(),
+        t["index"],
+        t["scenario"].as_str().unwrap()
+    )
+}
+
+fn campaign(dir: &Path, every: &str, failures: &str) -> (PathBuf, Vec<serde_json::Value>) {
     let rrd = dir.join("campaign.rrd");
     let out = dir.join("out");
     let o = Command::new(EXE)
@@ -133,9 +428,9 @@ fn a_campaign_records_bounded_frames_and_its_learning() {
             "--cost",
             "work",
             "--record-every",
-            "7",
+            every,
             "--record-failures",
-            "2",
+            failures,
             "--out",
         ])
         .arg(&out)
@@ -144,61 +439,128 @@ fn a_campaign_records_bounded_frames_and_its_learning() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let l = load(&rrd);
-    // The bounded-frames rule, recomputed from trials.jsonl: every 7th told trial, plus the
-    // first two HF failures among the others.
-    let trials: Vec<serde_json::Value> = std::fs::read_to_string(out.join("trials.jsonl"))
+    let trials = std::fs::read_to_string(out.join("trials.jsonl"))
         .unwrap()
         .lines()
         .map(|x| serde_json::from_str(x).unwrap())
         .collect();
-    let mut expected = BTreeSet::new();
-    let mut failures = 0;
-    for (n, t) in trials.iter().enumerate() {
-        if n % 7 == 0 {
-            expected.insert(n);
-        } else if t["hf"]["failure"] == true && failures < 2 {
-            failures += 1;
-            expected.insert(n);
-        }
-    }
-    let recorded: BTreeSet<usize> = l
-        .rows
-        .keys()
-        .filter_map(|e| e.strip_prefix("/trials/"))
-        .filter_map(|rest| rest.split('/').next()?.parse().ok())
+    (rrd, trials)
+}
+
+// Long because it checks every part of one recorded campaign, which is slow to produce.
+#[test]
+fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() {
+    let dir = temp_dir("campaign");
+    let (rrd, trials) = campaign(&dir, "17", "4");
+    let stores = load(&rrd);
+    // Each recorded trial is its own recording, named by stage, trial, scenario and outcome.
+    let expected = expected_recorded(&trials, 17, 4);
+    let informative = trials
+        .iter()
+        .filter(|t| matches!(t["outcome"].as_str(), Some("FN" | "FP")))
+        .count();
+    assert!(
+        informative >= 2,
+        "the rule is exercised: {informative} FN/FP trials"
+    );
+    let mut names: Vec<String> = stores
+        .iter()
+        .filter(|s| !s.blueprint && s.app != savme::viewer::CAMPAIGN_APP)
+        .flat_map(|s| s.names.clone())
         .collect();
-    assert_eq!(recorded, expected);
-    // Each recorded paired trial has both runs with camera and lidar.
-    for n in &expected {
-        let paired = !trials[*n]["lf"].is_null();
-        for run in if paired { vec!["hf", "lf"] } else { vec!["hf"] } {
-            for what in ["camera", "lidar", "ego"] {
-                let e = format!("/trials/{n}/{run}/{what}");
-                assert!(l.rows.contains_key(&e), "missing {e}");
-            }
+    names.sort();
+    let mut want: Vec<String> = expected.iter().map(|n| trial_name(&trials[*n])).collect();
+    want.sort();
+    assert_eq!(names, want);
+    for s in stores
+        .iter()
+        .filter(|s| !s.blueprint && s.app == savme::viewer::PAIRED_APP)
+    {
+        for e in [
+            "/hf/ego/camera/image",
+            "/lf/ego/camera/image",
+            "/lf/lidar",
+            "/outcome",
+            "/plots/clearance/lf",
+        ] {
+            assert!(s.has(e), "{:?} has no {e}", s.names);
         }
+        assert_eq!(s.timelines(), BTreeSet::from(["sim_time".to_string()]));
     }
-    // Learning: one found-failures point per trial of the stage, ending at its HF failures.
+    // The campaign recording: curves per stage on `trial` and `runtime`, no sim_time.
+    let c = recordings(&stores, savme::viewer::CAMPAIGN_APP);
+    assert_eq!(c.len(), 1);
+    let c = c[0];
+    assert_eq!(
+        c.timelines(),
+        BTreeSet::from(["runtime".to_string(), "trial".to_string()])
+    );
     let train: Vec<&serde_json::Value> = trials
         .iter()
         .filter(|t| t["stage"] == "train@0.3")
         .collect();
-    let curve = l
-        .scalars
-        .get("/campaign/found_failures/train/0_3")
-        .unwrap_or_else(|| panic!("no curve in {:?}", l.scalars.keys()));
+    let curve = &c.scalars["/campaign/found_failures/train_0_3"];
     assert_eq!(curve.len(), train.len());
     let hf_failures = train.iter().filter(|t| t["hf"]["failure"] == true).count();
     assert_eq!(*curve.last().unwrap(), hf_failures as f64);
-    assert!(
-        l.rows
-            .keys()
-            .any(|e| e.starts_with("/campaign/fidelity/train/0_3/")),
-        "{:?}",
-        l.rows.keys()
+    let runtime: f64 = train
+        .iter()
+        .map(|t| {
+            t["hf"]["wall_seconds"].as_f64().unwrap() + t["lf"]["wall_seconds"].as_f64().unwrap()
+        })
+        .sum();
+    let logged = c.times["/campaign/found_failures/train_0_3"]["runtime"] as f64 * 1e-9;
+    assert!((logged - runtime).abs() < 1e-6, "{logged} vs {runtime}");
+    for stage in [
+        "baseline-train",
+        "baseline-test",
+        "test-learned_0_3",
+        "test-uniform_0_3",
+    ] {
+        assert!(
+            c.has(&format!("/campaign/found_failures/{stage}")),
+            "{stage}"
+        );
+    }
+    assert_eq!(
+        c.scalars["/campaign/cost_ratio/train_0_3"].len(),
+        train.len()
     );
-    assert!(l.rows.contains_key("/campaign/budget"));
+    assert_eq!(
+        c.scalars["/campaign/fidelity_success/train_0_3"].len(),
+        train.len()
+    );
+    // The posterior grid: arm names and means, θ_HF and the MAP outlined; φ-bins per scenario.
+    let cells = c.text("/posterior/train_0_3/fidelity/cells");
+    assert!(
+        cells.contains("high ") && cells.contains("true "),
+        "{cells}"
+    );
+    assert!(c
+        .text("/posterior/train_0_3/fidelity/names")
+        .contains("simulation_rate_hz"));
+    assert!(
+        c.has("/posterior/train_0_3/fidelity/theta_hf")
+            && c.has("/posterior/train_0_3/fidelity/map")
+    );
+    assert!(c
+        .rows
+        .keys()
+        .any(|e| e.starts_with("/posterior/train_0_3/scenarios/") && e.ends_with("/cells")));
+    assert!(c
+        .text("/campaign/summary")
+        .contains(&format!("**{} trial recordings**", expected.len())));
+    assert_views(
+        blueprint(&stores, savme::viewer::CAMPAIGN_APP),
+        &[
+            names::FAILURES,
+            names::SUCCESS,
+            names::COST,
+            names::CAMPAIGN,
+            "θ posterior — train_0_3",
+            "φ-bins — test-learned_0_3",
+        ],
+    );
 }
 
 #[test]
@@ -238,10 +600,11 @@ fn ctrl_c_still_closes_the_recording() {
         .success());
     let status = child.wait().unwrap();
     assert!(!status.success(), "it should stop on Ctrl-C");
-    let l = load(&rrd);
+    let stores = load(&rrd);
     assert!(
-        l.rows.keys().any(|e| e.starts_with("/trials/0/hf/")),
-        "{:?}",
-        l.rows.keys()
+        stores
+            .iter()
+            .any(|s| s.has("/hf/ego/camera/image") && s.names.iter().any(|n| n.contains("#0 "))),
+        "trial 0's recording was kept"
     );
 }

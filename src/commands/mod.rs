@@ -210,10 +210,12 @@ pub struct RecordArgs {
 pub struct CampaignRecordArgs {
     #[command(flatten)]
     sink: RecordArgs,
-    /// Sensor frames for every N-th trial.
+    /// A trial recording (frames of its HF and LF runs) for every N-th trial (0: none).
     #[arg(long, value_name = "N", default_value_t = 200, hide = !cfg!(feature = "rerun"))]
     record_every: u64,
-    /// ... plus trials whose HF run failed, up to N.
+    /// ... plus up to N informative trials, chosen when the campaign ends: FN and FP of
+    /// meta-training, evaluation and meta-testing first (alternately, in campaign order), then
+    /// TP, then HF failures of the baselines (which have no LF run).
     #[arg(long, value_name = "N", default_value_t = 10, hide = !cfg!(feature = "rerun"))]
     record_failures: u64,
 }
@@ -363,7 +365,7 @@ pub fn run_campaign<S>(
 where
     S: Simulator + Clone + Send,
 {
-    let mut campaign = Campaign::new(protocol, problem.clone())
+    let mut campaign = Campaign::new(protocol.clone(), problem.clone())
         .out(target.out)
         .resume(target.resume);
     if let Some(store) = target.store {
@@ -378,7 +380,7 @@ where
         }
         campaign = campaign.jobs(j);
     }
-    for o in observers(runner, frames, &problem).map_err(usage)? {
+    for o in observers(runner, frames, &protocol, &problem).map_err(usage)? {
         campaign = campaign.boxed_observer(o);
     }
     let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
@@ -454,6 +456,7 @@ fn repeated_text(o: &RepeatedOutcome) -> String {
 fn observers(
     runner: &RunnerArgs,
     frames: Frames,
+    protocol: &Protocol,
     problem: &Problem,
 ) -> Result<Vec<Box<dyn Observer>>, String> {
     let mut out: Vec<Box<dyn Observer>> = Vec::new();
@@ -464,7 +467,7 @@ fn observers(
             out.push(Box::new(ProgressLines::new(io::stderr())));
         }
     }
-    let recording = viewer::start(&runner.record.request(), frames, problem.theta_hf.clone())
+    let recording = viewer::start(&runner.record.request(), frames, protocol, problem)
         .map_err(|e| e.to_string())?;
     out.extend(recording);
     Ok(out)

@@ -5,7 +5,7 @@ use super::{usage, Failure};
 use savme::kernel::{Assignment, Domain, Value};
 use savme_sim::fidelity;
 use savme_sim::scenario;
-use savme_sim::sim::DrivingSimulator;
+use savme_sim::sim::{DrivingSimulator, RunResult};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,20 +25,31 @@ pub struct Args {
     record: super::RecordArgs,
 }
 
+/// Runs the simulation once — with recording on when a recording is asked for (then the HF
+/// run is recorded beside an LF one) — and prints it. Bad arguments and a recording that
+/// cannot be made are refused before anything runs.
 pub fn run(a: Args) -> Result<(), Failure> {
-    // A recording that cannot be made is refused before anything runs.
     let request = a.record.request();
     let record = request.check().map_err(usage)?;
-    let text = simulate(&a.scenario, &a.phi, &a.fidelity, a.json)?;
-    super::print(&text)?;
-    if record {
-        // `simulate` checked the arguments.
-        let info = scenario::find(&a.scenario).ok_or("unknown scenario")?;
-        let phi = parse_assignment(&a.phi).map_err(|e| format!("--phi: {e}"))?;
-        let theta = parse_fidelity(&a.fidelity).map_err(|e| format!("--fidelity: {e}"))?;
-        savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?;
-    }
-    Ok(())
+    let info = scenario::find(&a.scenario).ok_or_else(|| {
+        usage(format!(
+            "unknown scenario `{}`: give 1–10 or a name from `savme scenarios`",
+            a.scenario
+        ))
+    })?;
+    let phi = parse_assignment(&a.phi).map_err(|e| usage(format!("--phi: {e}")))?;
+    let theta = parse_fidelity(&a.fidelity).map_err(|e| usage(format!("--fidelity: {e}")))?;
+    scenario::phi_space(info)
+        .arms_of(&phi)
+        .map_err(|e| usage(format!("--phi: scenario {} ({}): {e}", info.id, info.name)))?;
+    let r = if record {
+        savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?
+    } else {
+        DrivingSimulator::default()
+            .run(info.name, &phi, &theta, false)
+            .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?
+    };
+    Ok(super::print(&describe(info, &phi, &theta, &r, a.json))?)
 }
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,
@@ -99,21 +110,14 @@ fn parse_fidelity(text: &str) -> Result<Assignment, String> {
     Ok(theta)
 }
 
-/// Runs one simulation and describes it (or gives it as JSON).
-fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<String, Failure> {
-    let info = scenario::find(scenario).ok_or_else(|| {
-        usage(format!(
-            "unknown scenario `{scenario}`: give 1–10 or a name from `savme scenarios`"
-        ))
-    })?;
-    let phi = parse_assignment(phi).map_err(|e| usage(format!("--phi: {e}")))?;
-    let theta = parse_fidelity(fidelity).map_err(|e| usage(format!("--fidelity: {e}")))?;
-    scenario::phi_space(info)
-        .arms_of(&phi)
-        .map_err(|e| usage(format!("--phi: scenario {} ({}): {e}", info.id, info.name)))?;
-    let r = DrivingSimulator::default()
-        .run(info.name, &phi, &theta, false)
-        .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?;
+/// Describes a run (or gives it as JSON).
+fn describe(
+    info: &scenario::ScenarioInfo,
+    phi: &Assignment,
+    theta: &Assignment,
+    r: &RunResult,
+    json: bool,
+) -> String {
     if json {
         let out = serde_json::json!({
             "scenario": info.name,
@@ -126,13 +130,13 @@ fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<Str
             "work": r.work,
             "wall_seconds": r.wall_seconds,
         });
-        return Ok(format!("{out}\n"));
+        return format!("{out}\n");
     }
     let outcome = match r.collision_time {
         Some(t) => format!("COLLISION at {t:.2} s"),
         None => format!("no collision, minimum distance {:.2} m", r.min_distance),
     };
-    Ok(format!(
+    format!(
         "scenario {} {}: {phi}\nfidelity: {theta}\noutcome: {outcome}\n\
          cost: {:.3} ms wall-clock, {} work units ({} steps)\n",
         info.id,
@@ -140,7 +144,7 @@ fn simulate(scenario: &str, phi: &str, fidelity: &str, json: bool) -> Result<Str
         r.wall_seconds * 1e3,
         r.work,
         r.steps
-    ))
+    )
 }
 
 #[cfg(test)]

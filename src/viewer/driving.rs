@@ -1,142 +1,161 @@
-//! The bundled driving simulator's frames for the viewer ([`DrivingFrames`]): the road's
-//! scenery, both vehicles on a `sim_time` timeline with their trajectories and planned paths,
-//! the camera image with the detector's box, the lidar cloud coloured by intensity, the
-//! perceived obstacle, the planner's predicted closest approach and the actual one.
+//! The bundled driving simulator's frames for the viewer ([`DrivingFrames`]), laid out for the
+//! trial view (`super::layout::trial`): under `/hf` or `/lf`, the ego and the intruder as
+//! transforms over `sim_time` with their bodies below them, the camera as a pinhole on the ego
+//! (JPEG image, detector box with its class label), the lidar cloud coloured by range, planned
+//! paths and trajectories, the planner's prediction, the closest approach or collision (a 3D
+//! marker and a warning in `/{run}/events`); and the time series `/plots/clearance/{run}`
+//! (with `/plots/clearance/threshold`), `/plots/speed/{run}`, `/plots/braking/{run}`.
 
-use super::recorder::{err, RecordError, TrialFrames};
+use super::recorder::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::RecordingStream;
 use savme_kernel::Assignment;
+use savme_sim::camera::{FOCAL, HEIGHT, WIDTH};
 use savme_sim::perception::SensorFrame;
 use savme_sim::scenario;
 use savme_sim::sim::{DrivingSimulator, Frame, RunResult};
-use savme_sim::vehicle::VehicleState;
+use savme_sim::vehicle::{VehicleState, LENGTH};
 use savme_sim::world::{ObjectShape, World};
-use std::collections::BTreeSet;
 
-/// Re-runs trials of the bundled simulator with recording on and logs their frames.
+/// Where the camera sits on the ego (as `SensorPerception` mounts it): 1.2 m ahead of the
+/// centre, 1.3 m up; the lidar 0.5 m ahead, 1.9 m up.
+const CAMERA_MOUNT: [f32; 3] = [1.2, 0.0, 1.3];
+const LIDAR_MOUNT: (f64, f32) = (0.5, 1.9);
+/// Lidar ranges the colour map spans, metres.
+const RANGE_COLOURS: (f32, f32) = (2.0, 60.0);
+/// JPEG quality of the camera images.
+const JPEG_QUALITY: u8 = 90;
+
+/// Runs trials of the bundled simulator with recording on and logs their frames.
 #[derive(Debug, Clone, Default)]
 pub struct DrivingFrames {
     sim: DrivingSimulator,
-    layouts_logged: BTreeSet<String>,
+    last: Option<RunResult>,
 }
 
 impl DrivingFrames {
     /// Frames of `sim` (the same deterministic runs as the campaign's).
     pub fn new(sim: DrivingSimulator) -> Self {
-        DrivingFrames {
-            sim,
-            layouts_logged: BTreeSet::new(),
-        }
+        DrivingFrames { sim, last: None }
     }
 
-    fn log_scenery(
-        &mut self,
-        rec: &RecordingStream,
-        info: &'static scenario::ScenarioInfo,
-    ) -> Result<(), RecordError> {
-        let key = format!("{:?}", info.layout).to_lowercase();
-        if !self.layouts_logged.insert(key.clone()) {
-            return Ok(());
-        }
-        let world = World::shared(info.layout);
-        let (mut centres, mut halves, mut rotations) = (Vec::new(), Vec::new(), Vec::new());
-        for o in world.objects() {
-            let ObjectShape::Box(h) = o.shape;
-            let t = o.pose.translation.vector;
-            centres.push((t.x, t.y, t.z));
-            halves.push((h.x, h.y, h.z));
-            let q = o.pose.rotation;
-            rotations.push(rerun::Quaternion::from_xyzw([q.i, q.j, q.k, q.w]));
-        }
-        rec.log_static(
-            format!("world/{key}/scenery"),
-            &rerun::Boxes3D::from_centers_and_half_sizes(centres, halves)
-                .with_quaternions(rotations)
-                .with_colors([rerun::Color::from_rgb(150, 150, 150)]),
-        )
-        .map_err(err)
+    /// The last run recorded (with its trajectory and sensor frames).
+    pub fn take_last(&mut self) -> Option<RunResult> {
+        self.last.take()
     }
 }
 
-/// Logs a run of the bundled simulator under `base`: planned paths, vehicles over `sim_time`,
-/// camera, detections, lidar, closest approach.
-fn log_run(
+fn colour(run: RunSide) -> [rerun::Color; 2] {
+    match run {
+        RunSide::Hf => [
+            rerun::Color::from_rgb(220, 40, 40),
+            rerun::Color::from_rgb(230, 110, 20),
+        ],
+        RunSide::Lf => [
+            rerun::Color::from_rgb(40, 120, 230),
+            rerun::Color::from_rgb(150, 60, 210),
+        ],
+    }
+}
+
+/// The layout's scenery, static under `/world/scenery`, with the world's up axis.
+fn log_scenery(
     rec: &RecordingStream,
-    base: &str,
+    info: &'static scenario::ScenarioInfo,
+) -> Result<(), RecordError> {
+    let world = World::shared(info.layout);
+    let (mut centres, mut halves, mut rotations) = (Vec::new(), Vec::new(), Vec::new());
+    for o in world.objects() {
+        let ObjectShape::Box(h) = o.shape;
+        let t = o.pose.translation.vector;
+        centres.push((t.x, t.y, t.z));
+        halves.push((h.x, h.y, h.z));
+        let q = o.pose.rotation;
+        rotations.push(rerun::Quaternion::from_xyzw([q.i, q.j, q.k, q.w]));
+    }
+    rec.log_static("/", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())
+        .map_err(err)?;
+    rec.log_static(
+        "world/scenery",
+        &rerun::Boxes3D::from_centers_and_half_sizes(centres, halves)
+            .with_quaternions(rotations)
+            .with_colors([rerun::Color::from_rgb(150, 150, 150)]),
+    )
+    .map_err(err)
+}
+
+/// The static parts of a run: bodies, the camera's pinhole, the series' names and colours,
+/// the planned paths.
+fn log_static_parts(
+    rec: &RecordingStream,
+    run: RunSide,
     info: &'static scenario::ScenarioInfo,
     phi: &Assignment,
-    r: &RunResult,
 ) -> Result<(), RecordError> {
-    if let Ok(setup) = scenario::setup(info, phi) {
-        log_planned_paths(rec, base, &setup)?;
-    }
-    let frames: &[Frame] = r.trajectory.as_deref().unwrap_or(&[]);
-    log_frames(rec, base, frames)?;
-    log_closest_approach(rec, base, frames, r.min_distance)?;
-    for sf in r.sensor_frames.as_deref().unwrap_or(&[]) {
-        rec.set_duration_secs("sim_time", sf.time);
-        log_camera(rec, base, sf)?;
-        log_lidar(rec, base, sf)?;
-    }
-    Ok(())
-}
-
-/// The ego's and the intruder's planned paths, sampled every metre, as static line strips.
-fn log_planned_paths(
-    rec: &RecordingStream,
-    base: &str,
-    setup: &scenario::Setup,
-) -> Result<(), RecordError> {
-    for (name, path) in [
-        ("ego_path", &setup.ego_path),
-        ("intruder_path", &setup.intruder_path),
-    ] {
-        let n = (path.length() / 1.0).ceil() as usize + 1;
-        let pts: Vec<(f32, f32, f32)> = (0..n)
-            .map(|k| {
-                let p = path.point_at(k as f64 * path.length() / (n - 1).max(1) as f64);
-                (p.x as f32, p.y as f32, 0.02)
-            })
-            .collect();
+    let base = run.path();
+    let [ego_colour, intruder_colour] = colour(run);
+    let h = savme_sim::vehicle::body().half_extents;
+    for (name, c) in [("ego", ego_colour), ("intruder", intruder_colour)] {
         rec.log_static(
-            format!("{base}/{name}"),
-            &rerun::LineStrips3D::new([pts]).with_colors([rerun::Color::from_rgb(90, 90, 200)]),
+            format!("{base}/{name}/body"),
+            &rerun::Boxes3D::from_centers_and_half_sizes([(0.0, 0.0, h.z)], [(h.x, h.y, h.z)])
+                .with_colors([c])
+                .with_fill_mode(rerun::FillMode::Solid)
+                .with_labels([format!("{} {name}", run.label())]),
         )
         .map_err(err)?;
     }
-    Ok(())
-}
-
-/// Every step on the `sim_time` timeline: both vehicles with their trajectories so far, the
-/// planner's predicted closest approach (cleared when it has none) and the perceived obstacle.
-fn log_frames(rec: &RecordingStream, base: &str, frames: &[Frame]) -> Result<(), RecordError> {
-    let mut ego_track = Vec::new();
-    let mut intruder_track = Vec::new();
-    for f in frames {
-        rec.set_duration_secs("sim_time", f.time);
-        log_vehicle(
-            rec,
-            base,
-            "ego",
-            &f.ego,
-            rerun::Color::from_rgb(220, 40, 40),
-            &mut ego_track,
-        )?;
-        log_vehicle(
-            rec,
-            base,
-            "intruder",
-            &f.intruder,
-            rerun::Color::from_rgb(230, 110, 20),
-            &mut intruder_track,
-        )?;
-        log_predicted_closest_approach(rec, base, f)?;
-        if let Some(m) = f.measured {
-            rec.log(
-                format!("{base}/measured"),
-                &rerun::Points3D::new([(m.x as f32, m.y as f32, 1.0f32)])
-                    .with_radii([0.4f32])
-                    .with_colors([rerun::Color::from_rgb(40, 200, 40)]),
+    rec.log_static(
+        format!("{base}/ego/camera"),
+        &rerun::Transform3D::from_translation(CAMERA_MOUNT),
+    )
+    .map_err(err)?;
+    rec.log_static(
+        format!("{base}/ego/camera"),
+        &rerun::Pinhole::from_focal_length_and_resolution(
+            [FOCAL, FOCAL],
+            [WIDTH as f32, HEIGHT as f32],
+        )
+        .with_camera_xyz(rerun::components::ViewCoordinates::FLU)
+        .with_image_plane_distance(4.0),
+    )
+    .map_err(err)?;
+    for plot in ["clearance", "speed", "braking"] {
+        let mut style = rerun::SeriesLines::new()
+            .with_names([run.label()])
+            .with_colors([ego_colour]);
+        if plot == "braking" {
+            // A flag: held between steps, never averaged.
+            style = style
+                .with_interpolation_mode(rerun::components::InterpolationMode::StepAfter)
+                .with_aggregation_policy(rerun::components::AggregationPolicy::Off);
+        }
+        rec.log_static(format!("plots/{plot}/{base}"), &style)
+            .map_err(err)?;
+    }
+    if run == RunSide::Hf {
+        rec.log_static(
+            "plots/clearance/threshold",
+            &rerun::SeriesLines::new()
+                .with_names(["braking threshold"])
+                .with_colors([rerun::Color::from_rgb(200, 200, 200)]),
+        )
+        .map_err(err)?;
+    }
+    if let Ok(setup) = scenario::setup(info, phi) {
+        for (name, path) in [
+            ("ego_path", &setup.ego_path),
+            ("intruder_path", &setup.intruder_path),
+        ] {
+            let n = path.length().ceil() as usize + 1;
+            let pts: Vec<(f32, f32, f32)> = (0..n)
+                .map(|k| {
+                    let p = path.point_at(k as f64 * path.length() / (n - 1).max(1) as f64);
+                    (p.x as f32, p.y as f32, 0.02)
+                })
+                .collect();
+            rec.log_static(
+                format!("{base}/{name}"),
+                &rerun::LineStrips3D::new([pts]).with_colors([rerun::Color::from_rgb(90, 90, 200)]),
             )
             .map_err(err)?;
         }
@@ -144,47 +163,98 @@ fn log_frames(rec: &RecordingStream, base: &str, frames: &[Frame]) -> Result<(),
     Ok(())
 }
 
-/// A vehicle's body as a box under `base/name`, and its trajectory (`track`, extended by this
-/// frame's centre) under `base/name_trajectory`.
-fn log_vehicle(
-    rec: &RecordingStream,
-    base: &str,
-    name: &str,
-    v: &VehicleState,
-    colour: rerun::Color,
-    track: &mut Vec<(f32, f32, f32)>,
-) -> Result<(), RecordError> {
-    let body = savme_sim::vehicle::body().half_extents;
+/// A vehicle's pose as the transform of its entity.
+fn pose(v: &VehicleState) -> rerun::Transform3D {
     let c = v.center();
-    track.push((c.x as f32, c.y as f32, 0.1f32));
-    let q = v.pose().rotation;
-    rec.log(
-        format!("{base}/{name}"),
-        &rerun::Boxes3D::from_centers_and_half_sizes(
-            [(c.x as f32, c.y as f32, body.z)],
-            [(body.x, body.y, body.z)],
+    let half = (v.heading / 2.0) as f32;
+    rerun::Transform3D::from_translation_rotation(
+        [c.x as f32, c.y as f32, 0.0],
+        rerun::Quaternion::from_xyzw([0.0, 0.0, half.sin(), half.cos()]),
+    )
+}
+
+/// The SUT's clearance: centre distance minus one body length.
+fn clearance(f: &Frame) -> f64 {
+    (f.ego.center() - f.intruder.center()).norm() - LENGTH
+}
+
+/// Every step on `sim_time`: poses, the time series, the planner's prediction, the perceived
+/// obstacle.
+fn log_frames(rec: &RecordingStream, run: RunSide, frames: &[Frame]) -> Result<(), RecordError> {
+    let base = run.path();
+    let threshold = savme_sim::sut::Planner::default().threshold;
+    for f in frames {
+        rec.set_duration_secs("sim_time", f.time);
+        rec.log(format!("{base}/ego"), &pose(&f.ego)).map_err(err)?;
+        rec.log(format!("{base}/intruder"), &pose(&f.intruder))
+            .map_err(err)?;
+        rec.log(
+            format!("plots/clearance/{base}"),
+            &rerun::Scalars::single(clearance(f)),
         )
-        .with_quaternions([rerun::Quaternion::from_xyzw([q.i, q.j, q.k, q.w])])
-        .with_colors([colour])
-        .with_labels([name]),
-    )
-    .map_err(err)?;
-    rec.log(
-        format!("{base}/{name}_trajectory"),
-        &rerun::LineStrips3D::new([track.clone()]).with_colors([colour]),
-    )
-    .map_err(err)
+        .map_err(err)?;
+        if run == RunSide::Hf {
+            rec.log(
+                "plots/clearance/threshold",
+                &rerun::Scalars::single(threshold),
+            )
+            .map_err(err)?;
+        }
+        rec.log(
+            format!("plots/speed/{base}"),
+            &rerun::Scalars::single(f.ego.speed),
+        )
+        .map_err(err)?;
+        rec.log(
+            format!("plots/braking/{base}"),
+            &rerun::Scalars::single(f64::from(u8::from(f.braking))),
+        )
+        .map_err(err)?;
+        log_prediction(rec, base, f)?;
+        match f.measured {
+            Some(m) => rec.log(
+                format!("{base}/measured"),
+                &rerun::Points3D::new([(m.x as f32, m.y as f32, 1.0f32)])
+                    .with_radii([0.4f32])
+                    .with_colors([rerun::Color::from_rgb(40, 200, 40)]),
+            ),
+            None => rec.log(format!("{base}/measured"), &rerun::Clear::flat()),
+        }
+        .map_err(err)?;
+    }
+    let track = |pick: fn(&Frame) -> &VehicleState| -> Vec<(f32, f32, f32)> {
+        frames
+            .iter()
+            .map(|f| {
+                let c = pick(f).center();
+                (c.x as f32, c.y as f32, 0.1)
+            })
+            .collect()
+    };
+    let [ego_colour, intruder_colour] = colour(run);
+    for (name, pts, c) in [
+        ("ego_trajectory", track(|f| &f.ego), ego_colour),
+        (
+            "intruder_trajectory",
+            track(|f| &f.intruder),
+            intruder_colour,
+        ),
+    ] {
+        rec.log_static(
+            format!("{base}/{name}"),
+            &rerun::LineStrips3D::new([pts]).with_colors([c]),
+        )
+        .map_err(err)?;
+    }
+    Ok(())
 }
 
 /// The planner's predicted closest approach at this frame, or a clear when it has none.
-fn log_predicted_closest_approach(
-    rec: &RecordingStream,
-    base: &str,
-    f: &Frame,
-) -> Result<(), RecordError> {
-    if let Some(pr) = f.predicted {
-        rec.log(
-            format!("{base}/predicted_closest_approach"),
+fn log_prediction(rec: &RecordingStream, base: &str, f: &Frame) -> Result<(), RecordError> {
+    let path = format!("{base}/predicted_closest_approach");
+    match f.predicted {
+        Some(pr) => rec.log(
+            path,
             &rerun::LineStrips3D::new([[
                 (pr.ego.x as f32, pr.ego.y as f32, 1.2f32),
                 (pr.obstacle.x as f32, pr.obstacle.y as f32, 1.2),
@@ -195,76 +265,135 @@ fn log_predicted_closest_approach(
                 pr.clearance,
                 pr.time - f.time
             )]),
-        )
-        .map_err(err)
-    } else {
-        rec.log(
-            format!("{base}/predicted_closest_approach"),
-            &rerun::Clear::flat(),
-        )
-        .map_err(err)
+        ),
+        None => rec.log(path, &rerun::Clear::flat()),
     }
+    .map_err(err)
 }
 
-/// The closest approach: the two centres where the bodies came closest, at that frame's time.
+/// The collision, or else the closest approach: a marker in 3D and a warning in the events.
 fn log_closest_approach(
     rec: &RecordingStream,
-    base: &str,
+    run: RunSide,
     frames: &[Frame],
-    min_distance: f64,
+    r: &RunResult,
 ) -> Result<(), RecordError> {
-    if let Some(f) = frames.iter().min_by(|a, b| {
-        let d = |f: &Frame| (f.ego.center() - f.intruder.center()).norm();
-        d(a).total_cmp(&d(b))
-    }) {
-        rec.set_duration_secs("sim_time", f.time);
-        let (a, b) = (f.ego.center(), f.intruder.center());
-        rec.log(
-            format!("{base}/closest_approach"),
-            &rerun::LineStrips3D::new([[
-                (a.x as f32, a.y as f32, 1.6f32),
-                (b.x as f32, b.y as f32, 1.6),
-            ]])
-            .with_colors([rerun::Color::from_rgb(250, 220, 0)])
-            .with_labels([format!("min body distance {min_distance:.2} m")]),
-        )
-        .map_err(err)?;
-    }
-    Ok(())
-}
-
-/// The camera image and the detector's box on it (cleared when it detected nothing).
-fn log_camera(rec: &RecordingStream, base: &str, sf: &SensorFrame) -> Result<(), RecordError> {
-    rec.log(
-        format!("{base}/camera"),
-        &rerun::Image::from_rgb24(
-            sf.image.to_rgb8(),
-            [
-                savme_sim::camera::WIDTH as u32,
-                savme_sim::camera::HEIGHT as u32,
-            ],
+    let base = run.path();
+    let d = |f: &Frame| (f.ego.center() - f.intruder.center()).norm();
+    let Some(f) = frames.iter().min_by(|a, b| d(a).total_cmp(&d(b))) else {
+        return Ok(());
+    };
+    let (time, text, marker) = match r.collision_time {
+        Some(t) => (
+            t,
+            format!("{}: collision at {t:.2} s", run.label()),
+            rerun::Color::from_rgb(255, 30, 30),
         ),
+        None => (
+            f.time,
+            format!(
+                "{}: closest approach {:.2} m at {:.2} s, no collision",
+                run.label(),
+                r.min_distance,
+                f.time
+            ),
+            rerun::Color::from_rgb(250, 220, 0),
+        ),
+    };
+    rec.set_duration_secs("sim_time", time);
+    let (a, b) = (f.ego.center(), f.intruder.center());
+    let mid = ((a.x + b.x) as f32 / 2.0, (a.y + b.y) as f32 / 2.0, 2.5f32);
+    rec.log(
+        format!("{base}/closest_approach"),
+        &rerun::LineStrips3D::new([[
+            (a.x as f32, a.y as f32, 1.6f32),
+            (b.x as f32, b.y as f32, 1.6),
+        ]])
+        .with_colors([marker])
+        .with_radii([0.12f32]),
     )
     .map_err(err)?;
-    match &sf.detection {
-        Some(bb) => rec
-            .log(
-                format!("{base}/camera/detection"),
-                &rerun::Boxes2D::from_mins_and_sizes(
-                    [(bb.u0 as f32, bb.v0 as f32)],
-                    [((bb.u1 - bb.u0) as f32, (bb.v1 - bb.v0) as f32)],
-                )
-                .with_labels(["vehicle"]),
-            )
-            .map_err(err),
-        None => rec
-            .log(format!("{base}/camera/detection"), &rerun::Clear::flat())
-            .map_err(err),
-    }
+    rec.log(
+        format!("{base}/closest_approach/marker"),
+        &rerun::Points3D::new([mid])
+            .with_colors([marker])
+            .with_radii([0.6f32])
+            .with_labels([text.clone()]),
+    )
+    .map_err(err)?;
+    rec.log(
+        format!("{base}/events"),
+        &rerun::TextLog::new(text).with_level(rerun::TextLogLevel::WARN),
+    )
+    .map_err(err)
 }
 
-/// The lidar cloud, coloured by intensity.
-fn log_lidar(rec: &RecordingStream, base: &str, sf: &SensorFrame) -> Result<(), RecordError> {
+/// The ego state at `time` (the frame at or just before it).
+fn ego_at(frames: &[Frame], time: f64) -> Option<&VehicleState> {
+    let k = frames.partition_point(|f| f.time <= time + 1e-9);
+    frames.get(k.checked_sub(1)?).map(|f| &f.ego)
+}
+
+/// A colour map from near (red) over yellow and green to far (blue).
+fn range_colour(range: f32) -> rerun::Color {
+    let (lo, hi) = RANGE_COLOURS;
+    let t = ((range - lo) / (hi - lo)).clamp(0.0, 1.0);
+    // Piecewise-linear through red, yellow, green, cyan, blue.
+    let stops = [
+        [230.0, 40.0, 40.0],
+        [240.0, 220.0, 40.0],
+        [60.0, 200.0, 60.0],
+        [40.0, 200.0, 220.0],
+        [50.0, 70.0, 230.0],
+    ];
+    let x = t * (stops.len() - 1) as f32;
+    let k = (x.floor() as usize).min(stops.len() - 2);
+    let u = x - k as f32;
+    let c = |i: usize| (stops[k][i] * (1.0 - u) + stops[k + 1][i] * u) as u8;
+    rerun::Color::from_rgb(c(0), c(1), c(2))
+}
+
+/// The camera image (JPEG), the detector's box with its class label (cleared when it detected
+/// nothing), and the lidar cloud coloured by range.
+fn log_sensors(
+    rec: &RecordingStream,
+    run: RunSide,
+    sf: &SensorFrame,
+    ego: Option<&VehicleState>,
+) -> Result<(), RecordError> {
+    let base = run.path();
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, JPEG_QUALITY)
+        .encode(
+            &sf.image.to_rgb8(),
+            WIDTH as u32,
+            HEIGHT as u32,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(err)?;
+    rec.log(
+        format!("{base}/ego/camera/image"),
+        &rerun::EncodedImage::from_file_contents(jpeg).with_media_type(rerun::MediaType::JPEG),
+    )
+    .map_err(err)?;
+    let detection = format!("{base}/ego/camera/detection");
+    match &sf.detection {
+        Some(bb) => rec.log(
+            detection,
+            &rerun::Boxes2D::from_mins_and_sizes(
+                [(bb.u0 as f32, bb.v0 as f32)],
+                [((bb.u1 - bb.u0) as f32, (bb.v1 - bb.v0) as f32)],
+            )
+            .with_labels(["vehicle"])
+            .with_colors([rerun::Color::from_rgb(0, 255, 120)]),
+        ),
+        None => rec.log(detection, &rerun::Clear::flat()),
+    }
+    .map_err(err)?;
+    let origin = ego.map(|e| {
+        let c = e.center() + e.direction() * LIDAR_MOUNT.0;
+        (c.x as f32, c.y as f32, LIDAR_MOUNT.1)
+    });
     let pts: Vec<(f32, f32, f32)> = sf
         .cloud
         .iter()
@@ -274,37 +403,58 @@ fn log_lidar(rec: &RecordingStream, base: &str, sf: &SensorFrame) -> Result<(), 
         .cloud
         .iter()
         .map(|p| {
-            let i = (p.intensity.clamp(0.0, 1.0) * 255.0) as u8;
-            rerun::Color::from_rgb(i, 255 - i, 255)
+            range_colour(origin.map_or(RANGE_COLOURS.1, |(x, y, z)| {
+                let d = [p.position.x - x, p.position.y - y, p.position.z - z];
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            }))
         })
         .collect();
     rec.log(
         format!("{base}/lidar"),
         &rerun::Points3D::new(pts)
             .with_colors(colours)
-            .with_radii([0.06f32]),
+            .with_radii([0.08f32]),
     )
     .map_err(err)
 }
 
 impl TrialFrames for DrivingFrames {
+    fn record_scene(&mut self, rec: &RecordingStream, scenario: &str) -> Result<bool, RecordError> {
+        match scenario::find(scenario) {
+            Some(info) => log_scenery(rec, info).map(|()| true),
+            None => Ok(false),
+        }
+    }
+
     fn record_run(
         &mut self,
         rec: &RecordingStream,
-        base: &str,
+        run: RunSide,
         scenario: &str,
         phi: &Assignment,
         theta: &Assignment,
-    ) -> Result<Option<String>, RecordError> {
+    ) -> Result<Option<RunSummary>, RecordError> {
         let Some(info) = scenario::find(scenario) else {
             return Ok(None);
         };
-        self.log_scenery(rec, info)?;
         let r = self.sim.run(info.name, phi, theta, true).map_err(err)?;
-        log_run(rec, base, info, phi, &r)?;
-        Ok(Some(match r.collision_time {
-            Some(t) => format!("collision at {t:.2} s"),
-            None => format!("no collision, min distance {:.2} m", r.min_distance),
-        }))
+        log_static_parts(rec, run, info, phi)?;
+        let frames: &[Frame] = r.trajectory.as_deref().unwrap_or(&[]);
+        log_frames(rec, run, frames)?;
+        for sf in r.sensor_frames.as_deref().unwrap_or(&[]) {
+            rec.set_duration_secs("sim_time", sf.time);
+            log_sensors(rec, run, sf, ego_at(frames, sf.time))?;
+        }
+        log_closest_approach(rec, run, frames, &r)?;
+        let summary = RunSummary {
+            failure: r.failure,
+            collision_time: r.collision_time,
+            min_distance: r.min_distance,
+            steps: r.steps,
+            wall_seconds: r.wall_seconds,
+            work: Some(r.work),
+        };
+        self.last = Some(r);
+        Ok(Some(summary))
     }
 }

@@ -2,25 +2,43 @@
 //!
 //! This module holds what every build has: what the user asked to record ([`RecordRequest`],
 //! from `--record FILE.rrd`, `--spawn`, `--connect [URL]`, `--record-every N`,
-//! `--record-failures N`) and [`start`], which turns it into a campaign observer — or, in a
-//! build without the `rerun` feature, into a clear error instead of an unknown flag. What is
-//! logged lives behind the feature: `recorder` (the learning view, outcomes, sampling, the
-//! `TrialFrames` trait a simulator implements to offer frames) and `driving` (the bundled
-//! simulator's frames).
+//! `--record-failures N`), [`start`], which turns it into a campaign observer, and
+//! [`record_run`] for `savme simulate` — or, in a build without the `rerun` feature, a clear
+//! error instead of an unknown flag. What is logged lives behind the feature:
+//!
+//! - `recorder`: the campaign observer — one campaign recording, plus one recording per trial
+//!   that gets frames (which trials: see there), all in the same file or viewer;
+//! - `campaign`: what the campaign recording shows (curves per stage, posterior grids);
+//! - `trial`: one trial's recording (HF and LF side by side, the outcome document);
+//! - `driving`: the bundled simulator's frames ([`TrialFrames`] is what a simulator implements
+//!   to offer frames);
+//! - `layout`: the blueprints both recordings open with.
 
+#[cfg(feature = "rerun")]
+mod campaign;
 #[cfg(feature = "rerun")]
 mod driving;
 #[cfg(feature = "rerun")]
+pub mod layout;
+#[cfg(feature = "rerun")]
 mod recorder;
+#[cfg(feature = "rerun")]
+mod trial;
 
+#[cfg(feature = "rerun")]
+pub use campaign::entity_label;
 #[cfg(feature = "rerun")]
 pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
-pub use recorder::{entity_label, RecordError, RecordOptions, Recorder, Sink, TrialFrames};
+pub use recorder::{
+    RecordError, RecordOptions, Recorder, RunSide, RunSummary, Sink, TrialFrames, CAMPAIGN_APP,
+};
+#[cfg(feature = "rerun")]
+pub use trial::{HF_APP, PAIRED_APP};
 
-use crate::campaign::{CampaignError, Observer};
+use crate::campaign::{CampaignError, Observer, Problem, Protocol};
 use savme_kernel::Assignment;
-use savme_sim::sim::DrivingSimulator;
+use savme_sim::sim::{DrivingSimulator, RunResult};
 use std::path::PathBuf;
 
 /// What the user asked to record.
@@ -96,17 +114,29 @@ fn asked_twice() -> CampaignError {
 pub fn start(
     req: &RecordRequest,
     frames: Frames,
-    theta_hf: Assignment,
+    protocol: &Protocol,
+    problem: &Problem,
 ) -> Result<Option<Box<dyn Observer>>, CampaignError> {
     #[cfg(feature = "rerun")]
     {
-        Ok(recorder(req, frames, theta_hf)?.map(|r| Box::new(r) as Box<dyn Observer>))
+        Ok(recorder(req, frames, protocol, problem)?.map(|r| Box::new(r) as Box<dyn Observer>))
     }
     #[cfg(not(feature = "rerun"))]
     {
-        let _ = (frames, theta_hf);
+        let _ = (frames, protocol, problem);
         req.check()?;
         Ok(None)
+    }
+}
+
+#[cfg(feature = "rerun")]
+fn sink(req: &RecordRequest) -> Option<Sink> {
+    match (&req.file, req.spawn, &req.connect) {
+        (Some(f), _, _) => Some(Sink::File(f.clone())),
+        (_, true, _) => Some(Sink::Spawn),
+        (_, _, Some(url)) if url.is_empty() => Some(Sink::Connect(None)),
+        (_, _, Some(url)) => Some(Sink::Connect(Some(url.clone()))),
+        _ => None,
     }
 }
 
@@ -114,17 +144,14 @@ pub fn start(
 fn recorder(
     req: &RecordRequest,
     frames: Frames,
-    theta_hf: Assignment,
+    protocol: &Protocol,
+    problem: &Problem,
 ) -> Result<Option<Recorder>, CampaignError> {
     if !req.check()? {
         return Ok(None);
     }
-    let sink = match (&req.file, req.spawn, &req.connect) {
-        (Some(f), _, _) => Sink::File(f.clone()),
-        (_, true, _) => Sink::Spawn,
-        (_, _, Some(url)) if url.is_empty() => Sink::Connect(None),
-        (_, _, Some(url)) => Sink::Connect(Some(url.clone())),
-        _ => return Ok(None),
+    let Some(sink) = sink(req) else {
+        return Ok(None);
     };
     let opts = RecordOptions {
         sink,
@@ -135,31 +162,66 @@ fn recorder(
         Frames::Driving(sim) => Some(Box::new(DrivingFrames::new(sim))),
         Frames::None => None,
     };
-    Recorder::start(opts, frames, theta_hf)
+    Recorder::start(opts, frames, protocol, problem.clone())
         .map(Some)
         .map_err(|e| CampaignError::Recording(e.to_string()))
 }
 
-/// Records one run of the bundled simulator (`savme simulate --record …`).
+/// Runs one simulation of the bundled simulator once, with recording on, into the recording
+/// asked for (`savme simulate --record …`): the run at `theta` and, when `theta` is not θ_HF,
+/// the HF run beside it (the trial view, HF | LF). Returns the run at `theta`.
 pub fn record_run(
     req: &RecordRequest,
     scenario: &str,
     phi: &Assignment,
     theta: &Assignment,
-) -> Result<(), CampaignError> {
+) -> Result<RunResult, CampaignError> {
     #[cfg(feature = "rerun")]
     {
-        let frames = Frames::Driving(DrivingSimulator::default());
-        if let Some(mut r) = recorder(req, frames, theta.clone())? {
-            let rec = |e: RecordError| CampaignError::Recording(e.to_string());
-            r.record_run(scenario, phi, theta).map_err(rec)?;
-            r.close().map_err(rec)?;
-        }
-        Ok(())
+        let rec = |e: RecordError| CampaignError::Recording(e.to_string());
+        req.check()?;
+        let sink = sink(req).ok_or_else(|| CampaignError::Recording("no sink".into()))?;
+        let theta_hf = savme_sim::fidelity::theta_hf();
+        let paired = *theta != theta_hf;
+        let t = trial::TrialRecording::on(
+            recorder::open(
+                &sink,
+                trial::app(paired),
+                &format!("simulate {scenario}"),
+                layout::trial(paired),
+            )
+            .map_err(rec)?,
+        );
+        let mut frames = DrivingFrames::default();
+        let (hf, lf) = t
+            .record(
+                &mut frames,
+                scenario,
+                phi,
+                &theta_hf,
+                paired.then_some(theta),
+            )
+            .map_err(rec)?
+            .ok_or_else(|| CampaignError::Recording(format!("unknown scenario `{scenario}`")))?;
+        let result = frames
+            .take_last()
+            .ok_or_else(|| CampaignError::Recording("no run".into()))?;
+        t.outcome(&trial::run_markdown(
+            scenario,
+            phi,
+            &hf,
+            lf.as_ref().map(|l| (l, theta, &theta_hf)),
+        ))
+        .map_err(rec)?;
+        recorder::close(t.stream(), &sink).map_err(rec)?;
+        Ok(result)
     }
     #[cfg(not(feature = "rerun"))]
     {
         let _ = (scenario, phi, theta);
-        req.check().map(|_| ())
+        req.check()?;
+        Err(CampaignError::Recording(
+            "no recording was asked for".into(),
+        ))
     }
 }
