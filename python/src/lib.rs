@@ -1,11 +1,11 @@
 //! `savme._savme`: the Rust half of the `savme` Python package (the Python half is
 //! `python/savme/`, which re-exports this module's classes and adds pure-Python helpers).
 //!
-//! One module per concept: [`space`] (spaces and variables), [`trial`] (trials, records,
-//! posteriors), [`kernel`] (the ask/tell kernel, plain or journaled), [`campaign`] (protocol,
-//! problem, the campaign loop on Python callables), [`sim`] (the bundled driving simulator
-//! and FMUs), [`convert`] (values
-//! between Rust and Python) and [`errors`] (Rust errors as Python exceptions).
+//! One module per concept: `space` (spaces and variables), `trial` (trials, records,
+//! posteriors), `kernel` (the ask/tell kernel, plain or journaled), `campaign` (protocol,
+//! problem, the campaign loop on Python callables), `sim` (the bundled driving simulator
+//! and FMUs), `convert` (values
+//! between Rust and Python) and `errors` (Rust errors as Python exceptions).
 
 use pyo3::prelude::*;
 

@@ -10,7 +10,7 @@
 //!   that gets frames (which trials: see there), all in the same file or viewer;
 //! - `campaign`: what the campaign recording shows (curves per stage, posterior grids);
 //! - `trial`: one trial's recording (HF and LF side by side, the outcome document);
-//! - `driving`: the bundled simulator's frames ([`TrialFrames`] is what a simulator implements
+//! - `driving`: the bundled simulator's frames (`TrialFrames` is what a simulator implements
 //!   to offer frames);
 //! - `layout`: the blueprints both recordings open with.
 
