@@ -1,7 +1,7 @@
 //! The figures of a repeated campaign: per curve the median over the seeds and a band from the
 //! smallest to the largest seed, on a common runtime grid.
 
-use super::{bitmap, lines_of, save, scale, tick, FONT, PALETTE};
+use super::{bitmap, legend, lines_of, save, scale, tick, FONT, PALETTE};
 use crate::campaign::log::TrialLine;
 use crate::campaign::protocol::{Cost, Protocol, StageKind};
 use crate::campaign::report::curve;
@@ -101,15 +101,7 @@ fn draw_bands<DB: DrawingBackend>(
                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
             });
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    legend(&mut chart)
 }
 
 /// `breakeven.png` of a repeated campaign: median found failures over runtime during

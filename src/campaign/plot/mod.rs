@@ -151,6 +151,13 @@ fn draw_panel<DB: DrawingBackend>(
     for s in series {
         break_even_mark(&mut chart, s, (k, unit))?;
     }
+    legend(&mut chart)
+}
+
+/// The series' legend, as every figure draws it: upper left, on a light box.
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<(), String> {
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
@@ -158,8 +165,7 @@ fn draw_panel<DB: DrawingBackend>(
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
-        .map_err(e)?;
-    Ok(())
+        .map_err(|e| e.to_string())
 }
 
 /// A PNG of `size` pixels at `path` (text drawn by `GlyphText`).
