@@ -423,6 +423,35 @@ fn bad_campaign_files_name_the_file_line_and_key() {
 }
 
 #[test]
+fn outputs_to_record_that_the_fmu_lacks_are_refused_before_the_first_run() {
+    let dir = temp_dir("bad-record");
+    let check = |record: &str, needles: &[&str]| {
+        let body = TINY.replace(
+            "cost = \"work\"\n\n[failure]",
+            &format!("cost = \"work\"\nrecord = {record}\n\n[failure]"),
+        );
+        assert_refused(&dir, &body, needles)
+    };
+    // An output the FMU does not have: the file, the line, the key and the variable.
+    check(
+        "[\"min_distance\", \"clearence\"]",
+        &["line 7", "key `fmu.record`", "no variable `clearence`"],
+    );
+    // A parameter is no output.
+    check(
+        "[\"ego_speed\"]",
+        &["line 7", "fmu.record", "`ego_speed`", "expected an output"],
+    );
+    // Listed twice.
+    check(
+        "[\"steps\", \"steps\"]",
+        &["line 7", "fmu.record", "`steps` is listed twice"],
+    );
+    // Not a list of names.
+    check("\"steps\"", &["line 7", "invalid type"]);
+}
+
+#[test]
 fn conflicting_bindings_and_scenario_errors_name_their_line() {
     let dir = temp_dir("bad-bindings");
     let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);

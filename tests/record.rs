@@ -608,3 +608,194 @@ fn ctrl_c_still_closes_the_recording() {
         "trial 0's recording was kept"
     );
 }
+
+/// An FMU campaign (the bundled simulator packed by `savme fmu pack`, run in FMU workers) whose
+/// file lists outputs under `[fmu] record`.
+const FMU_CAMPAIGN: &str = r#"
+[fmu]
+hf = "FMU"
+stop_time = 12.0
+step = { rate_of = "simulation_rate_hz" }
+cost = "work"
+isolate = true
+record = ["min_distance", "steps", "collision"]
+
+[failure]
+boolean = "collision"
+
+[campaign]
+budgets = [0.3]
+train_iterations = 8
+eval_iterations = 4
+test_iterations = 4
+baseline_train_iterations = 6
+baseline_test_iterations = 4
+cost = "work"
+
+[fidelity]
+paper = true
+
+[[scenario]]
+name = "lead_vehicle_brakes"
+role = "train"
+fixed = { scenario = 7 }
+[[scenario.phi]]
+name = "ego_speed"
+range = [10.0, 25.0]
+[[scenario.phi]]
+name = "lead_speed"
+range = [5.0, 20.0]
+[[scenario.phi]]
+name = "gap"
+range = [8.0, 28.0]
+[[scenario.phi]]
+name = "lead_decel"
+range = [4.0, 9.0]
+[[scenario.phi]]
+name = "brake_time"
+range = [0.5, 4.0]
+
+[[scenario]]
+name = "on_ramp_merge"
+role = "test"
+fixed = { scenario = 10 }
+[[scenario.phi]]
+name = "ego_speed"
+range = [12.0, 22.0]
+[[scenario.phi]]
+name = "intruder_speed"
+range = [12.0, 26.0]
+[[scenario.phi]]
+name = "time_offset"
+range = [-3.0, 3.0]
+"#;
+
+/// The points of one run's recorded output: its series, and its last `sim_time` in seconds.
+fn run_series<'a>(s: &'a Store, output: &str, run: &str) -> (&'a [f64], f64) {
+    let e = format!("/plots/{output}/{run}");
+    let v = s
+        .scalars
+        .get(&e)
+        .unwrap_or_else(|| panic!("{:?} has no {e}", s.names));
+    (v, s.times[&e]["sim_time"] as f64 * 1e-9)
+}
+
+// Long because it checks each recorded run's series against the trial that the campaign ran.
+#[test]
+fn an_fmu_campaign_records_the_listed_outputs_of_hf_and_lf_per_trial() {
+    let dir = temp_dir("fmu");
+    let fmu = dir.join("savme-sim.fmu");
+    let o = Command::new(EXE)
+        .args(["fmu", "pack", "--out"])
+        .arg(&fmu)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let config = dir.join("campaign.toml");
+    std::fs::write(
+        &config,
+        FMU_CAMPAIGN.replace("FMU", &fmu.display().to_string()),
+    )
+    .unwrap();
+    let (rrd, out) = (dir.join("fmu.rrd"), dir.join("out"));
+    let o = Command::new(EXE)
+        .args([
+            "run",
+            "--quiet",
+            "--record-every",
+            "7",
+            "--record-failures",
+            "3",
+        ])
+        .arg("--config")
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .arg("--record")
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let trials: Vec<serde_json::Value> = std::fs::read_to_string(out.join("trials.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|x| serde_json::from_str(x).unwrap())
+        .collect();
+    let stores = load(&rrd);
+    // The trials chosen by the usual rule, each its own recording with the FMU trial view.
+    let expected = expected_recorded(&trials, 7, 3);
+    let recs = recordings(&stores, savme::viewer::FMU_APP);
+    let mut names: Vec<String> = recs.iter().flat_map(|s| s.names.clone()).collect();
+    names.sort();
+    let mut want: Vec<String> = expected.iter().map(|n| trial_name(&trials[*n])).collect();
+    want.sort();
+    assert_eq!(names, want);
+    let outputs = ["min_distance", "steps", "collision"];
+    let mut views: Vec<String> = outputs
+        .iter()
+        .map(|o| savme::viewer::layout::output_view_name(o))
+        .collect();
+    views.extend([names::OUTCOME.to_string(), names::EVENTS.to_string()]);
+    let views: Vec<&str> = views.iter().map(String::as_str).collect();
+    assert_views(blueprint(&stores, savme::viewer::FMU_APP), &views);
+    let theta_hf = savme_sim::fidelity::theta_hf();
+    let rate_hf = theta_hf.get_f64("simulation_rate_hz").unwrap();
+    let (mut paired, mut failing) = (0, 0);
+    for n in &expected {
+        let t = &trials[*n];
+        let s = *recs
+            .iter()
+            .find(|s| s.names == [trial_name(t)])
+            .unwrap_or_else(|| panic!("no recording of trial {n}"));
+        assert_eq!(s.timelines(), BTreeSet::from(["sim_time".to_string()]));
+        let mut runs = vec![("hf", rate_hf)];
+        if let Some(lf) = t["theta_lf"].as_object() {
+            paired += 1;
+            runs.push(("lf", lf["simulation_rate_hz"].as_f64().unwrap()));
+        } else {
+            assert!(!s.has("/plots/steps/lf"), "an HF-only trial has no LF run");
+        }
+        for (run, rate) in runs {
+            let failed = t[run]["failure"] == true;
+            failing += usize::from(failed);
+            let (collision, end) = run_series(s, "collision", run);
+            // One point per communication point, 0 to the end of the run (12 s, or the
+            // first failure: the runs stop on failure).
+            let points = (end * rate).round() as usize + 1;
+            for o in outputs {
+                assert_eq!(
+                    run_series(s, o, run).0.len(),
+                    points,
+                    "{run} {o} of trial {n}"
+                );
+            }
+            if failed {
+                assert!(end < 12.0, "{run} of trial {n} stops at its failure");
+            } else {
+                assert!((end - 12.0).abs() < 1e-6, "{run} of trial {n} runs to 12 s");
+            }
+            // The failure signal as recorded agrees with the campaign's outcome.
+            assert_eq!(
+                *collision.last().unwrap(),
+                f64::from(u8::from(failed)),
+                "{n}"
+            );
+            assert!(collision[..points - 1].iter().all(|c| *c == 0.0));
+            // The simulator's own step count: 0 after initialisation, then counting (up to
+            // the scenario's own end, which may come before the stop time).
+            let steps = run_series(s, "steps", run).0;
+            assert_eq!(steps[0], 0.0);
+            assert!(steps[1] >= 1.0, "{steps:?}");
+            assert!(steps.windows(2).all(|w| w[1] >= w[0]), "steps: {steps:?}");
+        }
+        let events = s.text("/hf/events");
+        assert!(events.contains("HF: "), "{events}");
+        assert!(s
+            .text("/outcome")
+            .contains(&format!("trial #{}", t["index"])));
+    }
+    assert!(
+        paired >= 2 && failing >= 1,
+        "{paired} paired, {failing} failing runs"
+    );
+}

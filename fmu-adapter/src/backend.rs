@@ -1,7 +1,7 @@
 //! [`FmuBackend`]: a campaign's FMU simulator — in this process, or in worker processes.
 
 use crate::worker::{IsolatedSimulator, WorkerInit};
-use crate::{FmuError, FmuSimulator};
+use crate::{FmuError, FmuSimulator, Trace};
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use std::time::Duration;
 
@@ -50,6 +50,26 @@ impl FmuBackend {
                 }
                 init.simulator().map(FmuBackend::InProcess)
             }
+        }
+    }
+}
+
+impl FmuBackend {
+    /// One run that records the outputs `record` (each [`crate::simulator::recordable`]) at
+    /// every communication point: what the viewer shows of an FMU trial.
+    pub fn run_traced(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+        record: &[String],
+    ) -> Result<(SimResult, Trace), SimError> {
+        match self {
+            FmuBackend::InProcess(s) => s
+                .run_traced(role, scenario, phi, fidelity, record)
+                .map_err(|e| SimError::Failed(e.to_string())),
+            FmuBackend::Isolated(s) => s.run_traced(role, scenario, phi, fidelity, record),
         }
     }
 }

@@ -26,6 +26,7 @@
 //! timeout_s = 60.0               # per run, with isolation
 //! on_error = "abort"             # or "skip"
 //! log = false                    # print every FMU log message (errors always carry the last ones)
+//! record = ["distance"]          # outputs the trial recordings show over time (`--record`)
 //!
 //! [failure]
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
@@ -183,6 +184,9 @@ pub struct CampaignFile {
     pub campaign: CampaignSection,
     /// `fmu:<hf path>|<lf path>`: which simulator ran the trials.
     pub label: String,
+    /// `[fmu] record`: the outputs (of both FMUs) that recorded trials show as time series
+    /// (`savme run --record …`), checked to be outputs of both FMUs.
+    pub record: Vec<String>,
 }
 
 /// Where one `[[scenario]]` table is in its file.
@@ -267,6 +271,7 @@ impl CampaignFile {
             theta_hf: Some(fidelity.theta_hf.clone()),
         };
         let (hf, lf) = bindings::check_fmus(&src, &init, &f.fmu, &origins)?;
+        let record = bindings::check_record(&src, &hf, &lf, fmu.record.as_ref())?;
         // An FMU that can be instantiated only once per process runs in workers only.
         let isolate = fmu.isolate || hf.only_once_per_process() || lf.only_once_per_process();
         if !isolate {
@@ -288,6 +293,7 @@ impl CampaignFile {
             weights: scenarios.weights,
             scenario_lines: scenarios.lines,
             campaign,
+            record,
         })
     }
 }
@@ -333,6 +339,8 @@ mod raw {
         /// Print every FMU log message (also `savme run --fmu-log`).
         #[serde(default)]
         pub log: bool,
+        /// Outputs whose values the recordings of trials show over simulated time.
+        pub record: Option<Spanned<Vec<Spanned<String>>>>,
     }
 
     fn yes() -> bool {

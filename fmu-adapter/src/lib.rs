@@ -32,7 +32,7 @@ pub use description::{ModelDescription, VarCausality, VarInfo, VarType};
 pub use file::{FmuDescription, FmuFile};
 pub use simulator::{
     Binding, CostSource, Crossing, Failure, Fixed, FmuSimulator, RunSpec, ScenarioSpec, StepSize,
-    Tolerance,
+    Tolerance, Trace,
 };
 
 /// Why an FMU could not be used. Every variant names the FMU (its path) and, where there is

@@ -97,6 +97,94 @@ pub enum CostSource {
     Output(String),
 }
 
+/// The outputs a run recorded (`[fmu] record`): their values at every communication point,
+/// from the initialised state at time 0 to the end of the run.
+///
+/// ```
+/// use savme_fmu::simulator::Trace;
+/// let t = Trace {
+///     names: vec!["x".into()],
+///     times: vec![0.0, 0.1],
+///     values: vec![vec![0.0, 0.25]],
+///     failure_time: None,
+/// };
+/// assert_eq!(t.series("x"), Some(&[0.0, 0.25][..]));
+/// ```
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct Trace {
+    /// The recorded variables, in the order asked for.
+    pub names: Vec<String>,
+    /// The communication points, simulated seconds.
+    pub times: Vec<f64>,
+    /// One series per variable (`values[k][i]`: `names[k]` at `times[i]`; a Boolean as 0 or 1,
+    /// an Integer or enumeration as its number).
+    pub values: Vec<Vec<f64>>,
+    /// The first communication point at which the failure signal held, if it did.
+    pub failure_time: Option<f64>,
+}
+
+impl Trace {
+    /// The series of variable `name`.
+    pub fn series(&self, name: &str) -> Option<&[f64]> {
+        let k = self.names.iter().position(|n| n == name)?;
+        self.values.get(k).map(Vec::as_slice)
+    }
+}
+
+/// The recorded variables of a run, resolved, and what they recorded so far.
+struct Tracer {
+    vars: Vec<VarInfo>,
+    trace: Trace,
+}
+
+impl Tracer {
+    fn new(file: &FmuDescription, names: &[String]) -> Result<Tracer, FmuError> {
+        let vars = names
+            .iter()
+            .map(|n| recordable(file, n))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Tracer {
+            trace: Trace {
+                names: names.to_vec(),
+                values: vec![Vec::new(); vars.len()],
+                ..Trace::default()
+            },
+            vars,
+        })
+    }
+
+    /// Reads every recorded variable at time `t` (and the failure, the first time it holds).
+    fn sample(&mut self, inst: &mut Instance, t: f64, failure: bool) -> Result<(), FmuError> {
+        self.trace.times.push(t);
+        for (v, series) in self.vars.iter().zip(&mut self.trace.values) {
+            series.push(match v.kind {
+                VarType::Boolean => f64::from(u8::from(inst.boolean(v.vr)?)),
+                VarType::Integer | VarType::Enumeration => f64::from(inst.integer(v.vr)?),
+                _ => inst.real(v.vr)?,
+            });
+        }
+        if failure && self.trace.failure_time.is_none() {
+            self.trace.failure_time = Some(t);
+        }
+        Ok(())
+    }
+}
+
+/// The variable `name` of `file` as something a run can record (`[fmu] record`): an output of
+/// type Real, Integer, Boolean or enumeration.
+pub fn recordable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
+    output(
+        file,
+        name,
+        &[
+            VarType::Real,
+            VarType::Integer,
+            VarType::Boolean,
+            VarType::Enumeration,
+        ],
+    )
+}
+
 /// A scenario: its φ bindings and fixed values.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ScenarioSpec {
@@ -468,6 +556,33 @@ impl FmuSimulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, FmuError> {
+        self.run_with(role, scenario, phi, fidelity, None)
+    }
+
+    /// [`FmuSimulator::run`], recording the outputs `record` at every communication point
+    /// (each must be [`recordable`]).
+    pub fn run_traced(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+        record: &[String],
+    ) -> Result<(SimResult, Trace), FmuError> {
+        let k = usize::from(role == Role::Learned);
+        let mut tracer = Tracer::new(&self.files[k], record)?;
+        let result = self.run_with(role, scenario, phi, fidelity, Some(&mut tracer))?;
+        Ok((result, tracer.trace))
+    }
+
+    fn run_with(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+        tracer: Option<&mut Tracer>,
+    ) -> Result<SimResult, FmuError> {
         let k = usize::from(role == Role::Learned);
         // The plans are shared (an Arc): no copy of the bindings per evaluation.
         let plans = self.plans.clone();
@@ -488,7 +603,7 @@ impl FmuSimulator {
                 self.spec.fmu_log,
             )?,
         };
-        let result = self.run_on(&mut inst, &plans[k], scenario, phi, fidelity);
+        let result = self.run_on(&mut inst, &plans[k], (scenario, phi, fidelity), tracer);
         if result.is_ok() {
             // Only a healthy instance is reused; a failed one is freed.
             self.instances[k] = Some(inst);
@@ -497,13 +612,13 @@ impl FmuSimulator {
         Ok(SimResult::new(failure, clock.elapsed().as_secs_f64(), work))
     }
 
+    // Long because it is one run from set-up to terminate, in the order FMI prescribes.
     fn run_on(
         &self,
         inst: &mut Instance,
         plan: &Plan,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
+        (scenario, phi, fidelity): (&str, &Assignment, &Assignment),
+        mut tracer: Option<&mut Tracer>,
     ) -> Result<(bool, Option<u64>), FmuError> {
         let spec = &self.spec;
         let (_, phi_bindings, fixed) = plan
@@ -540,6 +655,9 @@ impl FmuSimulator {
         let mut failure = self.failed(inst, plan)?;
         let mut t = 0.0;
         let mut k = 0u64;
+        if let Some(tr) = tracer.as_deref_mut() {
+            tr.sample(inst, t, failure)?;
+        }
         while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
             let dt = h.min(stop - t);
             if let Step::StopRequested { .. } = inst.step(t, dt)? {
@@ -554,6 +672,9 @@ impl FmuSimulator {
                 t + dt
             };
             failure |= self.failed(inst, plan)?;
+            if let Some(tr) = tracer.as_deref_mut() {
+                tr.sample(inst, t, failure)?;
+            }
         }
         let work = match &plan.cost {
             Some(v) => {

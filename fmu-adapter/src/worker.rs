@@ -7,7 +7,7 @@
 //! answer within the timeout gets its worker killed; a worker that dies is restarted for the
 //! next run.
 
-use crate::{FmuError, FmuFile, FmuSimulator, RunSpec};
+use crate::{FmuError, FmuFile, FmuSimulator, RunSpec, Trace};
 use crossbeam_channel::{Receiver, RecvTimeoutError};
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator, Space};
 use serde::{Deserialize, Serialize};
@@ -87,6 +87,9 @@ pub struct WorkerRequest {
     pub phi: Assignment,
     /// θ.
     pub fidelity: Assignment,
+    /// Outputs to record at every communication point (none: no trace in the answer).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub record: Vec<String>,
 }
 
 /// The answer to a request (or to the init line: `Ready`).
@@ -106,6 +109,9 @@ pub enum WorkerResponse {
         wall_seconds: f64,
         /// Work units.
         work: Option<u64>,
+        /// The recorded outputs, when the request asked for some.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        trace: Option<Trace>,
     },
     /// The run (or the set-up) failed.
     Error(String),
@@ -154,11 +160,19 @@ pub fn serve(input: impl BufRead, mut output: impl Write) -> std::io::Result<()>
             Err(e) => WorkerResponse::Error(format!("worker request: {e}")),
             Ok(r) => {
                 let role = if r.learned { Role::Learned } else { Role::High };
-                match sim.run(role, &r.scenario, &r.phi, &r.fidelity) {
-                    Ok(res) => WorkerResponse::Done {
+                let run = if r.record.is_empty() {
+                    sim.run(role, &r.scenario, &r.phi, &r.fidelity)
+                        .map(|res| (res, None))
+                } else {
+                    sim.run_traced(role, &r.scenario, &r.phi, &r.fidelity, &r.record)
+                        .map(|(res, trace)| (res, Some(trace)))
+                };
+                match run {
+                    Ok((res, trace)) => WorkerResponse::Done {
                         failure: res.failure,
                         wall_seconds: res.wall_seconds,
                         work: res.work,
+                        trace,
                     },
                     Err(e) => WorkerResponse::Error(e.to_string()),
                 }
@@ -373,15 +387,46 @@ impl Simulator for IsolatedSimulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        let mut w = match self.worker.take() {
-            Some(w) => w,
-            None => self.start()?,
-        };
-        let request = WorkerRequest {
+        self.request(WorkerRequest {
             learned: role == Role::Learned,
             scenario: scenario.into(),
             phi: phi.clone(),
             fidelity: fidelity.clone(),
+            record: Vec::new(),
+        })
+        .map(|(r, _)| r)
+    }
+}
+
+impl IsolatedSimulator {
+    /// A run in the worker that records the outputs `record` at every communication point
+    /// (see [`FmuSimulator::run_traced`]).
+    pub fn run_traced(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+        record: &[String],
+    ) -> Result<(SimResult, Trace), SimError> {
+        let (r, trace) = self.request(WorkerRequest {
+            learned: role == Role::Learned,
+            scenario: scenario.into(),
+            phi: phi.clone(),
+            fidelity: fidelity.clone(),
+            record: record.to_vec(),
+        })?;
+        let trace = trace.ok_or_else(|| {
+            SimError::Failed(format!("{}: the FMU worker sent no trace", self.fmu))
+        })?;
+        Ok((r, trace))
+    }
+
+    /// Sends one run to the worker (started if need be) and waits for its answer.
+    fn request(&mut self, request: WorkerRequest) -> Result<(SimResult, Option<Trace>), SimError> {
+        let mut w = match self.worker.take() {
+            Some(w) => w,
+            None => self.start()?,
         };
         let line = serde_json::to_string(&request).map_err(|e| SimError::Failed(e.to_string()))?;
         if let Err(e) = writeln!(w.stdin, "{line}").and_then(|()| w.stdin.flush()) {
@@ -396,9 +441,10 @@ impl Simulator for IsolatedSimulator {
                 failure,
                 wall_seconds,
                 work,
+                trace,
             }) => {
                 self.worker = Some(w);
-                Ok(SimResult::new(failure, wall_seconds, work))
+                Ok((SimResult::new(failure, wall_seconds, work), trace))
             }
             Ok(WorkerResponse::Error(e)) => {
                 self.worker = Some(w);

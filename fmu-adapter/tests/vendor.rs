@@ -203,6 +203,7 @@ fn fmu_log_prints_every_message() {
             scenario: "brake".into(),
             phi: Assignment::new().with("v", 10.0),
             fidelity: Assignment::new(),
+            record: Vec::new(),
         };
         let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_savme-fmu-worker"))
             .stdin(std::process::Stdio::piped())

@@ -67,14 +67,17 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(n) = repeat {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
-    run_campaign(
-        c.protocol,
-        c.problem,
-        target,
-        &a.runner,
-        Frames::None,
-        &backend,
-    )
+    // Recorded trials show the outputs `[fmu] record` lists (else the campaign view only).
+    let frames = if c.file.record.is_empty() {
+        Frames::None
+    } else {
+        Frames::Fmu {
+            backend: backend.clone(),
+            record: c.file.record.clone(),
+            failure: c.file.init.spec.failure.clone(),
+        }
+    };
+    run_campaign(c.protocol, c.problem, target, &a.runner, frames, &backend)
 }
 
 /// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the

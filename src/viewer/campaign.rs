@@ -23,6 +23,16 @@ use std::fmt::Write as _;
 
 /// Cell size of the posterior grids (2D view units).
 const CELL: (f32, f32) = (10.0, 3.0);
+/// Width of the column of row names left of a grid, in cells: a box per row that holds its
+/// name (a label is centred on its box, so a name never reaches into the grid, and the view,
+/// which frames the boxes, never crops it).
+const NAME_CELLS: f32 = 3.0;
+
+/// The box of a row's name: `NAME_CELLS` cells wide, left of the grid's first column, at `y`.
+fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
+    let (w, h) = CELL;
+    ((-(NAME_CELLS + 0.1) * w, y), (NAME_CELLS * w, h * 0.9))
+}
 
 #[derive(Debug, Default, Clone)]
 struct StageTally {
@@ -157,10 +167,11 @@ impl CampaignView {
         for (name, space) in &self.scenarios {
             if let Some(p) = kernel.scenario_posterior(name) {
                 let path = format!("posterior/{label}/scenarios/{name}");
+                let (min, size) = name_box(y - CELL.1);
                 rec.log(
                     format!("{path}/title"),
-                    &rerun::Points2D::new([(0.0, y - CELL.1)])
-                        .with_radii([0.01f32])
+                    &rerun::Boxes2D::from_mins_and_sizes([min], [size])
+                        .with_colors([rerun::Color::from_rgb(240, 240, 240)])
                         .with_labels([format!("scenario {name}")])
                         .with_show_labels(true),
                 )
@@ -234,12 +245,13 @@ fn log_grid(
     let map = p.best_arms(Estimator::Map);
     let (mut mins, mut sizes, mut colours, mut labels) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let (mut name_pos, mut names) = (Vec::new(), Vec::new());
+    let (mut name_mins, mut name_sizes, mut names) = (Vec::new(), Vec::new(), Vec::new());
     let (mut hf_mins, mut map_mins) = (Vec::new(), Vec::new());
     for (i, arms) in p.arms().iter().enumerate() {
         let y = y0 + i as f32 * h;
-        // Labels are centred on their point: one and a half cells left of the grid.
-        name_pos.push((-1.5 * w, y + h / 2.0));
+        let (min, size) = name_box(y);
+        name_mins.push(min);
+        name_sizes.push(size);
         names.push(p.names()[i].clone());
         for (a, arm) in arms.iter().enumerate() {
             let x = a as f32 * w;
@@ -266,8 +278,8 @@ fn log_grid(
     .map_err(err)?;
     rec.log(
         format!("{path}/names"),
-        &rerun::Points2D::new(name_pos)
-            .with_radii([0.01f32])
+        &rerun::Boxes2D::from_mins_and_sizes(name_mins, name_sizes)
+            .with_colors([rerun::Color::from_rgb(90, 90, 90)])
             .with_labels(names)
             .with_show_labels(true),
     )

@@ -6,6 +6,7 @@
 //! marker and a warning in `/{run}/events`); and the time series `/plots/clearance/{run}`
 //! (with `/plots/clearance/threshold`), `/plots/speed/{run}`, `/plots/braking/{run}`.
 
+use super::layout::{self, Layout};
 use super::recorder::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::RecordingStream;
 use savme_kernel::Assignment;
@@ -419,6 +420,10 @@ fn log_sensors(
 }
 
 impl TrialFrames for DrivingFrames {
+    fn layout(&self, paired: bool) -> (&'static str, Layout) {
+        (super::trial::app(paired), layout::trial(paired))
+    }
+
     fn record_scene(&mut self, rec: &RecordingStream, scenario: &str) -> Result<bool, RecordError> {
         match scenario::find(scenario) {
             Some(info) => log_scenery(rec, info).map(|()| true),

@@ -1,6 +1,7 @@
 //! The layouts the viewer opens a recording with (rerun blueprints, stored in the recording so
 //! that `rerun FILE.rrd` shows them): the trial view (HF | LF side by side, each a camera above
-//! a 3D view that follows the ego, time series below, the outcome on the right) and the
+//! a 3D view that follows the ego, time series below, the outcome on the right), the FMU trial
+//! view (a plot per recorded output, HF and LF in each, the outcome on the right) and the
 //! campaign view (failures over runtime, fidelity success and cost, posterior grids).
 //!
 //! Built with the SDK's blueprint API. What that API cannot say — where a 3D view's eye sits,
@@ -9,11 +10,11 @@
 //! above the ego, the clearance plot zoomed to the braking threshold.
 
 use super::recorder::{err, RecordError};
-use rerun::blueprint::components::PanelState;
+use rerun::blueprint::components::{PanelState, PlayState};
 use rerun::blueprint::{
-    Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Horizontal, SelectionPanel,
-    Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimePanel, TimeSeriesView,
-    Vertical,
+    Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Grid, Horizontal,
+    SelectionPanel, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimePanel,
+    TimeSeriesView, Vertical,
 };
 use rerun::external::re_log_types::LogMsg;
 use rerun::external::re_sdk_types::blueprint::archetypes::{EyeControls3D, ScalarAxis};
@@ -157,6 +158,44 @@ pub fn trial(paired: bool) -> Layout {
     }
 }
 
+/// The name of the plot of FMU output `output` in the FMU trial view.
+pub fn output_view_name(output: &str) -> String {
+    format!("{output} (HF, LF)")
+}
+
+/// The FMU trial view: one time series per recorded output (`[fmu] record`), HF and LF in
+/// each, in a grid on the left; the outcome and the failure events on the right.
+pub fn fmu_trial(record: &[String]) -> Layout {
+    use names::*;
+    let plots: Vec<ContainerLike> = record
+        .iter()
+        .map(|name| {
+            TimeSeriesView::new(output_view_name(name))
+                .with_origin(super::plot_path(name))
+                .into()
+        })
+        .collect();
+    let side = Vertical::new([
+        TextDocumentView::new(OUTCOME)
+            .with_origin("/outcome")
+            .with_contents(["$origin"])
+            .into(),
+        TextLogView::new(EVENTS)
+            .with_contents(["/hf/events", "/lf/events"])
+            .into(),
+    ])
+    .with_row_shares([0.65, 0.35]);
+    let root =
+        Horizontal::new([Grid::new(plots).into(), side.into()]).with_column_shares([0.72, 0.28]);
+    Layout {
+        blueprint: Blueprint::new(root)
+            .with_time_panel(TimePanel::new().with_timeline("sim_time"))
+            .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
+            .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed)),
+        props: Vec::new(),
+    }
+}
+
 /// The campaign view: `learning` are the entity-path labels of the learning stages (one tab
 /// of posterior grids each).
 pub fn campaign(learning: &[String]) -> Layout {
@@ -200,7 +239,14 @@ pub fn campaign(learning: &[String]) -> Layout {
     let root = Horizontal::new([curves.into(), right.into()]).with_column_shares([0.5, 0.5]);
     Layout {
         blueprint: Blueprint::new(root)
-            .with_time_panel(TimePanel::new().with_timeline("runtime"))
+            // Following the latest data: the posteriors as the campaign left them (the curves
+            // show all of it either way); the time panel folded to give the views the room.
+            .with_time_panel(
+                TimePanel::new()
+                    .with_timeline("runtime")
+                    .with_play_state(PlayState::Following)
+                    .with_state(PanelState::Collapsed),
+            )
             .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
             .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed)),
         props: Vec::new(),

@@ -12,12 +12,16 @@
 //! - `trial`: one trial's recording (HF and LF side by side, the outcome document);
 //! - `driving`: the bundled simulator's frames (`TrialFrames` is what a simulator implements
 //!   to offer frames);
+//! - `fmu`: an FMU campaign's frames: the outputs its file lists under `[fmu] record`, as time
+//!   series per trial;
 //! - `layout`: the blueprints both recordings open with.
 
 #[cfg(feature = "rerun")]
 mod campaign;
 #[cfg(feature = "rerun")]
 mod driving;
+#[cfg(feature = "rerun")]
+mod fmu;
 #[cfg(feature = "rerun")]
 pub mod layout;
 #[cfg(feature = "rerun")]
@@ -30,6 +34,8 @@ pub use campaign::entity_label;
 #[cfg(feature = "rerun")]
 pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
+pub use fmu::{plot_path, FmuFrames, FMU_APP};
+#[cfg(feature = "rerun")]
 pub use recorder::{
     RecordError, RecordOptions, Recorder, RunSide, RunSummary, Sink, TrialFrames, CAMPAIGN_APP,
 };
@@ -37,6 +43,7 @@ pub use recorder::{
 pub use trial::{HF_APP, PAIRED_APP};
 
 use crate::campaign::{CampaignError, Observer, Problem, Protocol};
+use savme_fmu::{Failure, FmuBackend};
 use savme_kernel::Assignment;
 use savme_sim::sim::{DrivingSimulator, RunResult};
 use std::path::PathBuf;
@@ -98,6 +105,16 @@ impl RecordRequest {
 pub enum Frames {
     /// The bundled driving simulator (re-run with recording on).
     Driving(DrivingSimulator),
+    /// An FMU campaign's simulator, re-run reading the outputs `record` (`[fmu] record`) at
+    /// every communication point; `failure` is the campaign's failure signal.
+    Fmu {
+        /// The simulator as the campaign runs it (in this process or in workers).
+        backend: FmuBackend,
+        /// The outputs to show.
+        record: Vec<String>,
+        /// The failure signal.
+        failure: Failure,
+    },
     /// None: the learning view and the outcomes only (e.g. FMUs).
     None,
 }
@@ -160,6 +177,11 @@ fn recorder(
     };
     let frames: Option<Box<dyn TrialFrames>> = match frames {
         Frames::Driving(sim) => Some(Box::new(DrivingFrames::new(sim))),
+        Frames::Fmu {
+            backend,
+            record,
+            failure,
+        } => Some(Box::new(FmuFrames::new(backend, record, failure))),
         Frames::None => None,
     };
     Recorder::start(opts, frames, protocol, problem.clone())

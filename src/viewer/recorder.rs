@@ -69,9 +69,14 @@ pub struct RunSummary {
 
 /// A simulator that can show a run in the viewer: it runs it (deterministically, as the
 /// campaign ran it) with recording on and logs its frames under `/hf` or `/lf` of the trial
-/// recording `rec`. The bundled driving simulator implements it ([`super::DrivingFrames`]); a
-/// simulator without frames (an FMU) gets the campaign view and the outcomes only.
+/// recording `rec`. The bundled driving simulator implements it ([`super::DrivingFrames`]: the
+/// trial view), and an FMU campaign's simulator when its file lists outputs to record
+/// ([`super::FmuFrames`]: one plot per output); without frames a campaign gets its campaign
+/// view only.
 pub trait TrialFrames: Send {
+    /// The application id and layout of its trial recordings (`paired`: with an LF run).
+    fn layout(&self, paired: bool) -> (&'static str, Layout);
+
     /// Logs the static scene of `scenario` (false when this simulator has no frames for it).
     fn record_scene(&mut self, rec: &RecordingStream, scenario: &str) -> Result<bool, RecordError>;
 
@@ -336,7 +341,8 @@ impl Recorder {
             return Ok(());
         };
         let name = trial::name(line);
-        let t = TrialRecording::forwarded(&self.rec, &name, line.theta_lf.is_some())?;
+        let t =
+            TrialRecording::forwarded(&self.rec, &name, frames.layout(line.theta_lf.is_some()))?;
         let runs = t.record(
             frames.as_mut(),
             &line.scenario,

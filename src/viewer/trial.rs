@@ -48,21 +48,25 @@ pub struct TrialRecording {
 }
 
 impl TrialRecording {
-    /// A new recording named `name` whose messages go to `hub`'s sink (one file or viewer
-    /// holds the campaign and its trials).
-    pub fn forwarded(hub: &RecordingStream, name: &str, paired: bool) -> Result<Self, RecordError> {
+    /// A new recording named `name` of application `app`, laid out by `layout`, whose
+    /// messages go to `hub`'s sink (one file or viewer holds the campaign and its trials).
+    pub fn forwarded(
+        hub: &RecordingStream,
+        name: &str,
+        (app, layout): (&'static str, layout::Layout),
+    ) -> Result<Self, RecordError> {
         let hub = hub.clone();
         let sink = rerun::sink::CallbackSink::new(move |msgs| {
             for m in msgs {
                 hub.record_msg(m.clone());
             }
         });
-        let rec = rerun::RecordingStreamBuilder::new(app(paired))
+        let rec = rerun::RecordingStreamBuilder::new(app)
             .recording_name(name)
             .set_sinks(vec![Box::new(sink) as Box<dyn rerun::sink::LogSink>])
             .map_err(err)?;
         super::recorder::quiet_clocks(&rec);
-        layout::trial(paired).send(&rec)?;
+        layout.send(&rec)?;
         Ok(TrialRecording { rec })
     }
 

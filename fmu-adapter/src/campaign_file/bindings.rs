@@ -134,6 +134,31 @@ pub(super) fn check_fmus(
     Ok((hf, lf))
 }
 
+/// The `[fmu] record` list checked against both FMUs: each name an output of both (Real,
+/// Integer, Boolean or enumeration), listed once; an error names the line of the name, the key
+/// and the variable.
+pub(super) fn check_record(
+    src: &Source,
+    hf: &FmuDescription,
+    lf: &FmuDescription,
+    record: Option<&Spanned<Vec<Spanned<String>>>>,
+) -> Result<Vec<String>, ConfigError> {
+    let mut names: Vec<String> = Vec::new();
+    for name in record.map(|r| r.get_ref().as_slice()).unwrap_or_default() {
+        let line = Some(src.line(name.span()));
+        let n = name.get_ref();
+        if names.contains(n) {
+            return Err(src.err(line, Some("fmu.record"), format!("`{n}` is listed twice")));
+        }
+        for d in [hf, lf] {
+            crate::simulator::recordable(d, n)
+                .map_err(|e| src.err(line, Some("fmu.record"), e.to_string()))?;
+        }
+        names.push(n.clone());
+    }
+    Ok(names)
+}
+
 /// Loads both FMUs in this process (for a campaign without isolation): a library that cannot
 /// be loaded, or lacks an FMI function, is named at the line of its FMU.
 pub(super) fn load_fmus(

@@ -1,0 +1,176 @@
+//! An FMU campaign's trial frames ([`FmuFrames`]): no scene, but the outputs the campaign file
+//! lists under `[fmu] record = [...]`, read at every communication point of a re-run of the
+//! trial (in this process or in an FMU worker, as the campaign ran it) and logged as time
+//! series over `sim_time`: `/plots/<output>/hf` and `/plots/<output>/lf` (one plot per output,
+//! HF and LF in it, as the trial view plots the bundled simulator's clearance); for a threshold
+//! failure on a recorded output, the threshold as `/plots/<output>/threshold`; the first
+//! failure (or its absence) in `/{hf,lf}/events`. Laid out by [`super::layout::fmu_trial`].
+
+use super::layout::{self, Layout};
+use super::recorder::{err, RecordError, RunSide, RunSummary, TrialFrames};
+use rerun::{EntityPath, RecordingStream, TimeColumn};
+use savme_fmu::{Crossing, Failure, FmuBackend};
+use savme_kernel::{Assignment, Role};
+
+/// The application id of FMU trial recordings (their own layout: one plot per output).
+pub const FMU_APP: &str = "savme-fmu-trial";
+
+/// Re-runs an FMU campaign's trials recording the outputs `record`.
+#[derive(Debug, Clone)]
+pub struct FmuFrames {
+    backend: FmuBackend,
+    record: Vec<String>,
+    failure: Failure,
+}
+
+/// The entity path of output `name`'s plot (any FMU name, escaped as one path part).
+pub fn plot_path(name: &str) -> EntityPath {
+    EntityPath::new(vec!["plots".into(), name.into()])
+}
+
+fn colour(run: RunSide) -> rerun::Color {
+    match run {
+        RunSide::Hf => rerun::Color::from_rgb(220, 40, 40),
+        RunSide::Lf => rerun::Color::from_rgb(40, 120, 230),
+    }
+}
+
+impl FmuFrames {
+    /// Frames of `backend`'s runs showing the outputs `record` (checked against the FMUs by
+    /// the campaign file); `failure` is the campaign's failure signal (its threshold is drawn).
+    pub fn new(backend: FmuBackend, record: Vec<String>, failure: Failure) -> Self {
+        FmuFrames {
+            backend,
+            record,
+            failure,
+        }
+    }
+
+    /// The first failure, or none, as an event of `run`.
+    fn log_event(
+        &self,
+        rec: &RecordingStream,
+        run: RunSide,
+        failure_time: Option<f64>,
+        end: f64,
+    ) -> Result<(), RecordError> {
+        let signal = match &self.failure {
+            Failure::Boolean { variable } => format!("`{variable}`"),
+            Failure::Threshold {
+                variable,
+                when,
+                value,
+            } => format!(
+                "`{variable}` {} {value}",
+                match when {
+                    Crossing::Above => "≥",
+                    Crossing::Below => "≤",
+                }
+            ),
+        };
+        let (time, log) = match failure_time {
+            Some(t) => (
+                t,
+                rerun::TextLog::new(format!("{}: failure ({signal}) at {t:.2} s", run.label()))
+                    .with_level(rerun::TextLogLevel::WARN),
+            ),
+            None => (
+                end,
+                rerun::TextLog::new(format!(
+                    "{}: no failure ({signal}) until {end:.2} s",
+                    run.label()
+                ))
+                .with_level(rerun::TextLogLevel::INFO),
+            ),
+        };
+        rec.set_duration_secs("sim_time", time);
+        rec.log(format!("{}/events", run.path()), &log).map_err(err)
+    }
+}
+
+impl TrialFrames for FmuFrames {
+    fn layout(&self, _paired: bool) -> (&'static str, Layout) {
+        (FMU_APP, layout::fmu_trial(&self.record))
+    }
+
+    fn record_scene(
+        &mut self,
+        rec: &RecordingStream,
+        _scenario: &str,
+    ) -> Result<bool, RecordError> {
+        if let Failure::Threshold { variable, .. } = &self.failure {
+            if self.record.contains(variable) {
+                rec.log_static(
+                    plot_path(variable).join(&EntityPath::from("threshold")),
+                    &rerun::SeriesLines::new()
+                        .with_names(["failure threshold"])
+                        .with_colors([rerun::Color::from_rgb(200, 200, 200)]),
+                )
+                .map_err(err)?;
+            }
+        }
+        Ok(true)
+    }
+
+    fn record_run(
+        &mut self,
+        rec: &RecordingStream,
+        run: RunSide,
+        scenario: &str,
+        phi: &Assignment,
+        theta: &Assignment,
+    ) -> Result<Option<RunSummary>, RecordError> {
+        let role = match run {
+            RunSide::Hf => Role::High,
+            RunSide::Lf => Role::Learned,
+        };
+        let (result, trace) = self
+            .backend
+            .run_traced(role, scenario, phi, theta, &self.record)
+            .map_err(err)?;
+        let times = || TimeColumn::new_duration_secs("sim_time", trace.times.iter().copied());
+        for (name, values) in trace.names.iter().zip(&trace.values) {
+            let path = plot_path(name).join(&EntityPath::from(run.path()));
+            rec.log_static(
+                path.clone(),
+                &rerun::SeriesLines::new()
+                    .with_names([run.label()])
+                    .with_colors([colour(run)]),
+            )
+            .map_err(err)?;
+            rec.send_columns(
+                path,
+                [times()],
+                rerun::Scalars::new(values.iter().copied())
+                    .columns_of_unit_batches()
+                    .map_err(err)?,
+            )
+            .map_err(err)?;
+        }
+        if let Failure::Threshold {
+            variable, value, ..
+        } = &self.failure
+        {
+            if run == RunSide::Hf && self.record.contains(variable) {
+                rec.send_columns(
+                    plot_path(variable).join(&EntityPath::from("threshold")),
+                    [times()],
+                    rerun::Scalars::new(vec![*value; trace.times.len()])
+                        .columns_of_unit_batches()
+                        .map_err(err)?,
+                )
+                .map_err(err)?;
+            }
+        }
+        let end = trace.times.last().copied().unwrap_or(0.0);
+        self.log_event(rec, run, trace.failure_time, end)?;
+        Ok(Some(RunSummary {
+            failure: result.failure,
+            collision_time: trace.failure_time,
+            min_distance: f64::NAN,
+            steps: trace.times.len().saturating_sub(1) as u64,
+            wall_seconds: result.wall_seconds,
+            work: result.work,
+        }))
+    }
+}
