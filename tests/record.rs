@@ -531,7 +531,7 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
         train.len()
     );
     // The posterior grid: arm names and means, θ_HF and the MAP outlined; φ-bins per scenario.
-    let cells = c.text("/posterior/train_0_3/fidelity/cells");
+    let cells = c.text("/posterior/train_0_3/fidelity/cells/labels");
     assert!(
         cells.contains("high ") && cells.contains("true "),
         "{cells}"

@@ -21,17 +21,38 @@ use savme_kernel::{Estimator, Kernel, Posterior, Space, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-/// Cell size of the posterior grids (2D view units).
-const CELL: (f32, f32) = (10.0, 3.0);
-/// Width of the column of row names left of a grid, in cells: a box per row that holds its
-/// name (a label is centred on its box, so a name never reaches into the grid, and the view,
-/// which frames the boxes, never crops it).
+/// Cell size of the posterior grids (2D view units; tall enough for a label inside).
+const CELL: (f32, f32) = (10.0, 4.0);
+/// Width of the column of row names left of a grid, in cells (a label is centred on its box,
+/// so a name never reaches into the grid, and the view, which frames the boxes, never crops it).
 const NAME_CELLS: f32 = 3.0;
 
 /// The box of a row's name: `NAME_CELLS` cells wide, left of the grid's first column, at `y`.
 fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
     let (w, h) = CELL;
     ((-(NAME_CELLS + 0.1) * w, y), (NAME_CELLS * w, h * 0.9))
+}
+
+/// Labels shown inside boxes `mins` + `sizes`: the viewer draws a 2D box's label just below
+/// the box, so each label hangs from a flat box along the top edge of its box (`path`, in the
+/// box's colour).
+fn log_labels(
+    rec: &RecordingStream,
+    path: String,
+    boxes: (Vec<(f32, f32)>, Vec<(f32, f32)>),
+    colours: Vec<rerun::Color>,
+    labels: Vec<String>,
+) -> Result<(), RecordError> {
+    let flat: Vec<(f32, f32)> = boxes.1.iter().map(|(w, _)| (*w, 0.02)).collect();
+    rec.log(
+        path,
+        &rerun::Boxes2D::from_mins_and_sizes(boxes.0, flat)
+            .with_colors(colours)
+            .with_labels(labels)
+            .with_show_labels(true)
+            .with_draw_order(4.0),
+    )
+    .map_err(err)
 }
 
 #[derive(Debug, Default, Clone)]
@@ -168,14 +189,13 @@ impl CampaignView {
             if let Some(p) = kernel.scenario_posterior(name) {
                 let path = format!("posterior/{label}/scenarios/{name}");
                 let (min, size) = name_box(y - CELL.1);
-                rec.log(
+                log_labels(
+                    rec,
                     format!("{path}/title"),
-                    &rerun::Boxes2D::from_mins_and_sizes([min], [size])
-                        .with_colors([rerun::Color::from_rgb(240, 240, 240)])
-                        .with_labels([format!("scenario {name}")])
-                        .with_show_labels(true),
-                )
-                .map_err(err)?;
+                    (vec![min], vec![size]),
+                    vec![rerun::Color::from_rgb(240, 240, 240)],
+                    vec![format!("scenario {name}")],
+                )?;
                 log_grid(rec, &path, space, p, None, y)?;
                 y += (space.variables().len() as f32 + 2.0) * CELL.1;
             }
@@ -213,13 +233,14 @@ impl CampaignView {
     }
 }
 
-/// A compact name for an arm: the value, or the bin's representative.
+/// A compact name for an arm (it must fit a cell beside the mean): the value, or the bin's
+/// representative to two significant digits or the unit.
 fn arm_name(space: &Space, var: usize, arm: usize) -> String {
     let v = &space.variables()[var];
     match v.representative(arm) {
-        Value::Real(x) if x.abs() >= 100.0 || x == x.round() => format!("{x:.0}"),
-        Value::Real(x) if x.abs() >= 1.0 => format!("{x:.2}"),
-        Value::Real(x) => format!("{x:.3}"),
+        Value::Real(x) if x.abs() >= 10.0 || x == x.round() => format!("{x:.0}"),
+        Value::Real(x) if x.abs() >= 1.0 => format!("{x:.1}"),
+        Value::Real(x) => format!("{x:.2}"),
         other => other.to_string(),
     }
 }
@@ -269,21 +290,26 @@ fn log_grid(
     }
     rec.log(
         format!("{path}/cells"),
-        &rerun::Boxes2D::from_mins_and_sizes(mins, sizes)
-            .with_colors(colours)
-            .with_labels(labels)
-            .with_show_labels(true)
+        &rerun::Boxes2D::from_mins_and_sizes(mins.clone(), sizes.clone())
+            .with_colors(colours.clone())
             .with_draw_order(1.0),
     )
     .map_err(err)?;
-    rec.log(
+    log_labels(
+        rec,
+        format!("{path}/cells/labels"),
+        (mins, sizes),
+        colours,
+        labels,
+    )?;
+    let grey = vec![rerun::Color::from_rgb(150, 150, 150); names.len()];
+    log_labels(
+        rec,
         format!("{path}/names"),
-        &rerun::Boxes2D::from_mins_and_sizes(name_mins, name_sizes)
-            .with_colors([rerun::Color::from_rgb(90, 90, 90)])
-            .with_labels(names)
-            .with_show_labels(true),
-    )
-    .map_err(err)?;
+        (name_mins, name_sizes),
+        grey,
+        names,
+    )?;
     let n_map = map_mins.len();
     rec.log(
         format!("{path}/map"),

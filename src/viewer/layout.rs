@@ -10,7 +10,7 @@
 //! above the ego, the clearance plot zoomed to the braking threshold.
 
 use super::recorder::{err, RecordError};
-use rerun::blueprint::components::{PanelState, PlayState};
+use rerun::blueprint::components::PanelState;
 use rerun::blueprint::{
     Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Grid, Horizontal,
     SelectionPanel, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimePanel,
@@ -239,12 +239,10 @@ pub fn campaign(learning: &[String]) -> Layout {
     let root = Horizontal::new([curves.into(), right.into()]).with_column_shares([0.5, 0.5]);
     Layout {
         blueprint: Blueprint::new(root)
-            // Following the latest data: the posteriors as the campaign left them (the curves
-            // show all of it either way); the time panel folded to give the views the room.
+            // The time panel folded, to give the views the room.
             .with_time_panel(
                 TimePanel::new()
                     .with_timeline("runtime")
-                    .with_play_state(PlayState::Following)
                     .with_state(PanelState::Collapsed),
             )
             .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
