@@ -33,13 +33,16 @@ fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
     ((-(NAME_CELLS + 0.1) * w, y), (NAME_CELLS * w, h * 0.9))
 }
 
+/// Boxes as (mins, sizes).
+type BoxList = (Vec<(f32, f32)>, Vec<(f32, f32)>);
+
 /// Labels shown inside boxes `mins` + `sizes`: the viewer draws a 2D box's label just below
 /// the box, so each label hangs from a flat box along the top edge of its box (`path`, in the
 /// box's colour).
 fn log_labels(
     rec: &RecordingStream,
     path: String,
-    boxes: (Vec<(f32, f32)>, Vec<(f32, f32)>),
+    boxes: BoxList,
     colours: Vec<rerun::Color>,
     labels: Vec<String>,
 ) -> Result<(), RecordError> {
