@@ -73,7 +73,7 @@ pub use instance::{
     reset, set_debug_logging, setup_experiment, terminate, types_platform, version, Instance,
 };
 pub use model::{Causality, Kind, Model, Scalar, Variable};
-pub use pack::{pack, pack_with, platform_folder, PackError};
+pub use pack::{pack, pack_with, platform_folder, platform_tuple, FmiVersion, PackError};
 pub use state::{free_state, get_state, set_state};
 pub use status::{last_successful_time, terminated, unsupported};
 pub use values::{get_set, strings, Access};

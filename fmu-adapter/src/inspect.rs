@@ -204,7 +204,7 @@ fn variable_problem(v: &VarInfo) -> Option<String> {
             return (!["true", "false", "1", "0"].contains(&start.trim()))
                 .then(|| format!("start \"{start}\" is not a Boolean"));
         }
-        VarType::String => return None,
+        VarType::String | VarType::Other => return None,
     };
     let Some(x) = value else {
         return Some(format!("start \"{start}\" is not a {:?}", v.kind));

@@ -128,6 +128,30 @@ pub fn braking_library() -> std::path::PathBuf {
 pub const BRAKING_MODEL_DESCRIPTION: &str =
     include_str!("../../../examples/fmu/braking/modelDescription.xml");
 
+/// The `braking` model against the FMI 3.0 C API (`examples/fmu/braking/braking3.c`), compiled
+/// by this crate's build script.
+pub fn braking3_library() -> std::path::PathBuf {
+    env!("SAVME_BRAKING3_LIB").into()
+}
+
+/// The FMI 3.0 `braking` FMU's `modelDescription.xml`.
+pub const BRAKING3_MODEL_DESCRIPTION: &str =
+    include_str!("../../../examples/fmu/braking/modelDescription3.xml");
+
+/// Packs the FMI 3.0 `braking` FMU into `out` (with its resources unless `with_resources` is
+/// false).
+pub fn pack_braking3(
+    out: &std::path::Path,
+    with_resources: bool,
+) -> Result<(), savme_fmi_export::PackError> {
+    pack_braking_library(
+        out,
+        BRAKING3_MODEL_DESCRIPTION,
+        with_resources,
+        &braking3_library(),
+    )
+}
+
 /// The `braking` FMU's `resources/friction.txt`.
 pub const BRAKING_FRICTION: &str =
     include_str!("../../../examples/fmu/braking/resources/friction.txt");
