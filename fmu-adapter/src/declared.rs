@@ -41,8 +41,11 @@ fn declared(var: &VarInfo) -> String {
             x.to_string()
         }
     };
+    // A bound missing from the declaration comes from the integer type's range.
     let typed = match var.repr.integer_range() {
-        Some(_) if var.kind == VarType::Integer => format!(" of its type {:?}", var.repr),
+        Some(_) if var.kind == VarType::Integer && (var.min.is_none() || var.max.is_none()) => {
+            format!(", and the range of {:?}", var.repr)
+        }
         _ => String::new(),
     };
     format!(

@@ -220,15 +220,16 @@ fn broken_fmus_are_refused_with_an_error_naming_them() {
         &md.replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""),
     );
     expect(&v3, "modelDescription.xml: variable #1: no name");
-    // … and an FMI 3.0 description over a library of FMI 2.0 functions is refused on loading.
-    let v3 = pack_xml(
-        &dir,
-        "fmi3-lib2.fmu",
-        &savme_fmu_testkit::BRAKING3_MODEL_DESCRIPTION.replace(
-            "modelIdentifier=\"braking\"",
-            "modelIdentifier=\"savme_fmu_testkit\"",
-        ),
-    );
+    // … and an FMI 3.0 description over a library of FMI 2.0 functions only (the C braking
+    // FMU) is refused on loading.
+    let v3 = dir.join("fmi3-lib2.fmu");
+    savme_fmu_testkit::pack_braking_library(
+        &v3,
+        savme_fmu_testkit::BRAKING3_MODEL_DESCRIPTION,
+        true,
+        &savme_fmu_testkit::braking_library(),
+    )
+    .unwrap();
     expect(&v3, "does not export fmi3InstantiateCoSimulation");
     let me = md
         .replace("<CoSimulation ", "<ModelExchange ")

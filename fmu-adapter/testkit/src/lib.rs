@@ -111,11 +111,19 @@ impl Model for Trivial {
     }
 }
 
+// The library exports both C APIs; the model description packed with it picks one.
 savme_fmi_export::export_fmi2!(Trivial);
+savme_fmi_export::export_fmi3!(Trivial);
 
-/// The FMU's `modelDescription.xml`.
+/// The FMU's `modelDescription.xml` (FMI 2.0).
 pub fn model_description() -> String {
     savme_fmi_export::model_description::<Trivial>()
+}
+
+/// The FMU's FMI 3.0 `modelDescription.xml` (the same library: it exports the FMI 3.0 API
+/// too).
+pub fn model_description3() -> String {
+    savme_fmi_export::model_description3::<Trivial>()
 }
 
 /// The `braking` test FMU written in C (`examples/fmu/braking`), compiled by this crate's build
