@@ -374,6 +374,59 @@ fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
     }
 }
 
+#[test]
+fn ctrl_c_stops_between_trials_says_how_to_resume_and_the_resume_is_exact() {
+    let full = temp_dir("interrupt-full");
+    assert!(reproduce(&full, &["--jobs", "2"]).0);
+    let expected = without_wall(trials(&full));
+
+    let dir = temp_dir("interrupted");
+    let child = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(&dir)
+        .args(args(&["--jobs", "2"]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = dir.join("trials.jsonl");
+    let start = Instant::now();
+    while std::fs::read_to_string(&log).map_or(0, |s| s.lines().count()) < 20 {
+        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("stopping after the runs in flight"), "{err}");
+    assert!(err.contains("savme: interrupted: stopped in "), "{err}");
+    assert!(
+        err.contains(&format!("continue with --resume {}", dir.display())),
+        "{err}"
+    );
+    let before = trials(&dir).len();
+    assert!(
+        before < TINY_TRIALS,
+        "the run finished before Ctrl-C took effect"
+    );
+    let (ok, out, err) = resume(&dir);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains(&format!("({before} replayed from the trial store")),
+        "{out}"
+    );
+    assert_eq!(without_wall(trials(&dir)), expected);
+    for d in [full, dir] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
 // Long because it is one table of bad inputs, each checked the same way.
 #[test]
 fn bad_input_is_refused_before_any_simulation() {
