@@ -487,6 +487,8 @@ impl PyCampaign {
     /// Give `hf` and `lf` callables `(scenario, phi, theta) -> failure | (failure, work)`, or
     /// one `simulate` callable for both, or `sim=savme.sim.Driving()` /
     /// `sim=savme.fmu.Simulator(...)`; a campaign from `savme.campaign.load` has its FMUs.
+    /// Ctrl-C stops the campaign between trials and raises `KeyboardInterrupt` (the told
+    /// trials are stored: `resume=True` continues).
     #[pyo3(signature = (simulate = None, *, hf = None, lf = None, sim = None))]
     fn run(
         &self,
