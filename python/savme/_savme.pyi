@@ -400,7 +400,9 @@ class Campaign:
     ) -> CampaignResult:
         """Runs (or resumes) the campaign: one `simulate` callable for both runs, or `hf=`
         and `lf=` callables, or a bundled simulator `sim=`. Raises CampaignError (a failed
-        simulation names the trial and the exception), ValueError for a bad protocol."""
+        simulation names the trial and the exception), ValueError for a bad protocol.
+        Ctrl-C stops the campaign between trials (the runs in flight finish) and raises
+        KeyboardInterrupt; the told trials are stored, so resume=True continues."""
     @property
     def protocol(self) -> Protocol:
         """The protocol."""

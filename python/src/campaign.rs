@@ -6,18 +6,25 @@ use crate::convert;
 use crate::errors;
 use crate::sim::{PyDriving, PyFmuSimulator};
 use crate::space::PySpace;
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use crossbeam_channel::RecvTimeoutError;
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use savme::campaign::config::{self, Overrides};
-use savme::campaign::{Campaign, CampaignOutcome, Cost, OnError, Problem, ProgressLines, Protocol};
+use savme::campaign::{
+    Campaign, CampaignOutcome, Cost, OnError, Problem, ProgressLines, Protocol, Stop,
+};
 use savme_fmu::campaign_file::CampaignFile;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
+
+/// How often a running campaign looks for Ctrl-C (Python's signal handlers run only on the
+/// main thread, when it holds the GIL).
+const SIGNAL_CHECK: Duration = Duration::from_millis(50);
 
 /// What the campaign's protocol is: stages, iterations, budgets, seeds, scenarios.
 #[pyclass(name = "Protocol", module = "savme", frozen)]
@@ -382,8 +389,11 @@ impl PyCampaignResult {
 }
 
 impl PyCampaign {
-    /// Runs the Rust campaign loop on `sim` with the GIL released (Python simulators take it
-    /// back around each call).
+    /// Runs the Rust campaign loop on `sim` on a thread of its own, with the GIL released
+    /// (Python simulators take it back around each call). Meanwhile this (main) thread looks
+    /// for signals every [`SIGNAL_CHECK`]: on Ctrl-C it asks the campaign to stop between
+    /// trials, waits for the runs in flight, and raises the `KeyboardInterrupt` — every told
+    /// trial is stored, so `resume=True` continues from there.
     fn run_on<S: Simulator + Clone + Send + 'static>(
         &self,
         py: Python<'_>,
@@ -392,16 +402,41 @@ impl PyCampaign {
         let (protocol, problem) = (self.protocol.clone(), self.problem.clone());
         let (out, resume, jobs, progress) =
             (self.out.clone(), self.resume, self.jobs, self.progress);
-        let outcome = py.detach(move || {
-            let mut c = Campaign::new(protocol, problem).out(out).resume(resume);
-            if let Some(j) = jobs {
-                c = c.jobs(j);
+        let stop = Stop::new();
+        let stop_campaign = stop.clone();
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let campaign = std::thread::Builder::new()
+            .name("savme-campaign".into())
+            .spawn(move || {
+                let mut c = Campaign::new(protocol, problem)
+                    .out(out)
+                    .resume(resume)
+                    .stop_on(stop_campaign);
+                if let Some(j) = jobs {
+                    c = c.jobs(j);
+                }
+                if progress {
+                    c = c.observer(ProgressLines::new(std::io::stderr()));
+                }
+                let _ = tx.send(c.run(&sim));
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot start the campaign: {e}")))?;
+        let outcome = loop {
+            match py.detach(|| rx.recv_timeout(SIGNAL_CHECK)) {
+                Ok(outcome) => break outcome,
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => {
+                    let _ = campaign.join();
+                    return Err(PyRuntimeError::new_err("the campaign thread stopped"));
+                }
             }
-            if progress {
-                c = c.observer(ProgressLines::new(std::io::stderr()));
+            if let Err(interrupt) = py.check_signals() {
+                stop.request();
+                let _ = py.detach(|| campaign.join());
+                return Err(interrupt);
             }
-            c.run(&sim)
-        });
+        };
+        let _ = py.detach(|| campaign.join());
         Ok(PyCampaignResult {
             outcome: outcome.map_err(errors::campaign)?,
         })
@@ -452,6 +487,8 @@ impl PyCampaign {
     /// Give `hf` and `lf` callables `(scenario, phi, theta) -> failure | (failure, work)`, or
     /// one `simulate` callable for both, or `sim=savme.sim.Driving()` /
     /// `sim=savme.fmu.Simulator(...)`; a campaign from `savme.campaign.load` has its FMUs.
+    /// Ctrl-C stops the campaign between trials and raises `KeyboardInterrupt` (the told
+    /// trials are stored: `resume=True` continues).
     #[pyo3(signature = (simulate = None, *, hf = None, lf = None, sim = None))]
     fn run(
         &self,
