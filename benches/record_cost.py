@@ -1,10 +1,15 @@
 #!/usr/bin/env python3
-"""What recording costs a campaign: `savme reproduce --quick` (860 trials) with and without
-`--record FILE.rrd` (the default recording: the campaign view, every 200th trial and up to 10
-informative ones with frames), interleaved in one run so that both see the same machine load.
+"""What recording costs a campaign: `savme reproduce` (by default a 250-trial protocol: one
+budget, 60 meta-training, 10 evaluation, 2 x 30 meta-testing, 80 + 40 baseline trials; `--quick`
+for the 860-trial preset) with and without `--record FILE.rrd` (the default recording: the
+campaign view, every 200th trial and up to 10 informative ones with frames), interleaved in one
+run so that both see the same machine load.
 
     cargo build --release --features rerun --bin savme
     python3 benches/record_cost.py --savme $CARGO_TARGET_DIR/release/savme --pairs 3
+
+The smaller protocol is the harder case: the 10 informative trials are a fixed cost, a larger
+share of a shorter campaign.
 
 Prints, per run, the wall seconds and the CPU seconds (user + system of the savme process and
 its children, from getrusage), then the medians and the ratios recorded / plain (the target:
@@ -41,8 +46,15 @@ def main():
     ap.add_argument("--savme", required=True, help="a savme built with --features rerun")
     ap.add_argument("--pairs", type=int, default=3, help="runs with and without recording each")
     ap.add_argument("--jobs", default="2", help="savme --jobs")
+    ap.add_argument("--quick", action="store_true", help="the 860-trial --quick preset")
     a = ap.parse_args()
-    base = ["reproduce", "--quick", "--quiet", "--seed", "1", "--jobs", a.jobs]
+    base = ["reproduce", "--quiet", "--seed", "1", "--jobs", a.jobs]
+    if a.quick:
+        base.append("--quick")
+    else:
+        base += ["--budgets", "0.3", "--iterations", "60", "--eval-iterations", "10",
+                 "--test-iterations", "30", "--baseline-iterations", "80",
+                 "--baseline-test-iterations", "40"]
     tmp = tempfile.mkdtemp(prefix="savme-record-cost-")
     rrd = os.path.join(tmp, "campaign.rrd")
     print(f"load average before: {os.getloadavg()}")

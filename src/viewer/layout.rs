@@ -17,7 +17,7 @@ use rerun::blueprint::{
     TimeSeriesView, Vertical,
 };
 use rerun::external::re_log_types::LogMsg;
-use rerun::external::re_sdk_types::blueprint::archetypes::{EyeControls3D, ScalarAxis};
+use rerun::external::re_sdk_types::blueprint::archetypes::{EyeControls3D, ScalarAxis, TimeAxis};
 use rerun::external::re_sdk_types::blueprint::components::Eye3DKind;
 use rerun::external::re_sdk_types::{AsComponents, SerializedComponentBatch};
 use rerun::{RecordingStream, RecordingStreamBuilder};
@@ -200,17 +200,20 @@ pub fn fmu_trial(record: &[String]) -> Layout {
 /// of posterior grids each).
 pub fn campaign(learning: &[String]) -> Layout {
     use names::*;
+    let mut props = Vec::new();
+    // Every curve over its whole runtime, wherever the time cursor is (by default a plot
+    // scrolls with a cursor that follows incoming data, hiding the shorter stages).
+    let mut whole = |name: &str, origin: &str| {
+        let (c, path) = child(TimeSeriesView::new(name).with_origin(origin));
+        let axis = TimeAxis::new().with_view_range(rerun::datatypes::TimeRange::EVERYTHING);
+        prop(&mut props, &path, "TimeAxis", &axis);
+        c
+    };
     let curves = Vertical::new([
-        TimeSeriesView::new(FAILURES)
-            .with_origin("/campaign/found_failures")
-            .into(),
+        whole(FAILURES, "/campaign/found_failures"),
         Horizontal::new([
-            TimeSeriesView::new(SUCCESS)
-                .with_origin("/campaign/fidelity_success")
-                .into(),
-            TimeSeriesView::new(COST)
-                .with_origin("/campaign/cost_ratio")
-                .into(),
+            whole(SUCCESS, "/campaign/fidelity_success"),
+            whole(COST, "/campaign/cost_ratio"),
         ])
         .into(),
     ])
@@ -247,7 +250,7 @@ pub fn campaign(learning: &[String]) -> Layout {
             )
             .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))
             .with_selection_panel(SelectionPanel::new().with_state(PanelState::Collapsed)),
-        props: Vec::new(),
+        props,
     }
 }
 
