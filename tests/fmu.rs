@@ -193,62 +193,8 @@ fn campaign_file(dir: &Path, body: &str) -> PathBuf {
     path
 }
 
-const TINY: &str = r#"
-[fmu]
-hf = "FMU"
-stop_time = 12.0
-step = { rate_of = "simulation_rate_hz" }
-cost = "work"
-
-[failure]
-boolean = "collision"
-
-[campaign]
-budgets = [0.3]
-train_iterations = 8
-eval_iterations = 4
-test_iterations = 4
-baseline_train_iterations = 6
-baseline_test_iterations = 4
-cost = "work"
-
-[fidelity]
-paper = true
-
-[[scenario]]
-name = "lead_vehicle_brakes"
-role = "train"
-fixed = { scenario = 7 }
-[[scenario.phi]]
-name = "ego_speed"
-range = [10.0, 25.0]
-[[scenario.phi]]
-name = "lead_speed"
-range = [5.0, 20.0]
-[[scenario.phi]]
-name = "gap"
-range = [8.0, 28.0]
-[[scenario.phi]]
-name = "lead_decel"
-range = [4.0, 9.0]
-[[scenario.phi]]
-name = "brake_time"
-range = [0.5, 4.0]
-
-[[scenario]]
-name = "on_ramp_merge"
-role = "test"
-fixed = { scenario = 10 }
-[[scenario.phi]]
-name = "ego_speed"
-range = [12.0, 22.0]
-[[scenario.phi]]
-name = "intruder_speed"
-range = [12.0, 26.0]
-[[scenario.phi]]
-name = "time_offset"
-range = [-3.0, 3.0]
-"#;
+/// The tiny campaign file (`FMU` is replaced by the packed FMU's path).
+const TINY: &str = include_str!("fixtures/fmu-tiny-campaign.toml");
 
 #[test]
 fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {

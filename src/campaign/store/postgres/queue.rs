@@ -230,6 +230,9 @@ pub fn finish(
             r.work.map(|w| w as i64),
             None,
         ),
+        // Read back as `SimError::Failed(error)`: its own message, not "simulation failed: …"
+        // twice.
+        Err(SimError::Failed(m)) => ("failed", None, None, None, Some(m.clone())),
         Err(e) => ("failed", None, None, None, Some(e.to_string())),
     };
     // One statement (atomic, one round trip): the result, and the coordinator's wake-up.
