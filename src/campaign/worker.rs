@@ -129,9 +129,12 @@ where
                     let me = format!("{} #{k}", application_name("worker"));
                     let mut s = Session::connect(db, "worker")?;
                     s.listen(&queue::tasks_channel(campaign))?;
+                    let mut claimed = None;
                     loop {
-                        let claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
-                        let Some(run) = claimed else {
+                        if claimed.is_none() {
+                            claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
+                        }
+                        let Some(run) = claimed.take() else {
                             if s.run(|c| queue::is_finished(c, campaign))? {
                                 return Ok(());
                             }
@@ -145,8 +148,17 @@ where
                             }
                             Err(message) => Err(SimError::Failed(message.clone())),
                         };
-                        let kept = s.run(|c| queue::finish(c, campaign, run.id, &me, &result))?;
-                        lock(held).remove(&run.id);
+                        // The result, and the next run, in one round trip.
+                        let (kept, next) = s.run(|c| {
+                            queue::finish_and_claim(c, campaign, run.id, &me, &result, lease)
+                        })?;
+                        let mut held = lock(held);
+                        held.remove(&run.id);
+                        if let Some(next) = &next {
+                            held.insert(next.id);
+                        }
+                        drop(held);
+                        claimed = next;
                         let counter = if kept { runs } else { dropped };
                         counter.fetch_add(1, Ordering::Relaxed);
                     }
@@ -215,7 +227,9 @@ fn wait_for_campaign(
             );
             said = true;
         }
-        std::thread::sleep(Duration::from_millis(500));
+        // Often: workers usually start before their coordinator, and every moment waited
+        // here is a moment of the campaign (a cheap indexed read).
+        std::thread::sleep(Duration::from_millis(50));
     }
 }
 

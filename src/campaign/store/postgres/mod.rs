@@ -30,7 +30,7 @@ mod session;
 pub mod tls;
 
 pub use connect::{reconnect_for, Database, RECONNECT_FOR};
-pub use session::Session;
+pub use session::{Conn, Session};
 
 use super::{Loaded, StoreError, StoredLine, TrialStore, FORMAT};
 use postgres::{Client, GenericClient, Statement};
