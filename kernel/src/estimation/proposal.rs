@@ -70,7 +70,7 @@ impl NominalOf {
         match (nominal, &var.domain) {
             (Nominal::Uniform, _) => Ok(NominalOf::Uniform),
             (Nominal::Normal { mean, sd }, Domain::Continuous { lo, hi, .. }) => {
-                if !mean.is_finite() || !(sd.is_finite() && *sd > 0.0) {
+                if !(mean.is_finite() && sd.is_finite() && *sd > 0.0) {
                     return Err(bad(format!(
                         "a normal needs a finite mean and a finite sd > 0, got mean = {mean}, sd = {sd}"
                     )));
