@@ -2,6 +2,7 @@
 //! (one override chain for every campaign command), the runner flags (jobs, quiet, recording),
 //! running a campaign with its observers, and printing.
 
+pub mod estimate;
 pub mod fidelity;
 pub mod fmu;
 pub mod reproduce;
