@@ -18,16 +18,16 @@ pub struct Args {
     #[arg(long)]
     resume: bool,
     /// The budget whose meta-training posterior builds the proposal (default: the first).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     budget: Option<f64>,
     /// The nominal's share ε of the proposal, in (0, 1]; 1 is plain Monte Carlo.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     epsilon: f64,
     /// Seed of the proposal's draws (default: from the campaign's seed).
     #[arg(long)]
     seed: Option<u64>,
     /// Stop when the 95 % interval is within ± this fraction of the estimate (0.1 = ±10 %).
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     target_width: f64,
     /// Run exactly --max-runs (no target width).
     #[arg(long, conflicts_with = "target_width")]

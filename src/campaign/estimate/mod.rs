@@ -104,7 +104,8 @@ impl EstimateRun {
     {
         let protocol = load_protocol(&self.campaign)?;
         let out = self.out_dir(&protocol);
-        let settings = self.prepare(&out)?;
+        super::outputs::usable_dir(&out)?;
+        let settings = self.settings_for(&out)?;
         settings.validate()?;
         let problem = self
             .problem
@@ -120,6 +121,9 @@ impl EstimateRun {
             nominal: settings.nominal.clone(),
         };
         let mut estimation = Estimation::new(&trained.scenarios, &config)?;
+        if !self.resume {
+            create(&out, &settings)?;
+        }
         let mut store = JsonlStore::open(&out.join("trials.jsonl")).map_err(CampaignError::from)?;
         let mut lines = replay(&mut store, &mut estimation)?;
         let replayed = lines.len() as u64;
@@ -154,10 +158,10 @@ impl EstimateRun {
         Ok(outcome)
     }
 
-    /// Creates or checks the output directory; returns the settings to run with.
-    fn prepare(&self, out: &Path) -> Result<EstimateSettings, EstimateError> {
+    /// The settings to run with: the stored ones on resume, else the given ones (refusing a
+    /// directory that already holds an estimate). Creates nothing.
+    fn settings_for(&self, out: &Path) -> Result<EstimateSettings, EstimateError> {
         let path = out.join("estimate.json");
-        let io = |e| EstimateError::Campaign(CampaignError::io(&path, e));
         match (self.resume, path.exists()) {
             (false, true) => Err(EstimateError::Exists {
                 dir: out.to_path_buf(),
@@ -166,7 +170,8 @@ impl EstimateRun {
                 dir: out.to_path_buf(),
             }),
             (true, true) => {
-                let text = std::fs::read_to_string(&path).map_err(io)?;
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| EstimateError::Campaign(CampaignError::io(&path, e)))?;
                 serde_json::from_str(&text).map_err(|e| {
                     EstimateError::Campaign(CampaignError::Log {
                         store: path.display().to_string(),
@@ -175,16 +180,18 @@ impl EstimateRun {
                     })
                 })
             }
-            (false, false) => {
-                self.settings.validate()?;
-                std::fs::create_dir_all(out)
-                    .map_err(|e| EstimateError::Campaign(CampaignError::io(out, e)))?;
-                let json = serde_json::to_string_pretty(&self.settings).unwrap_or_default();
-                std::fs::write(&path, json + "\n").map_err(io)?;
-                Ok(self.settings.clone())
-            }
+            (false, false) => Ok(self.settings.clone()),
         }
     }
+}
+
+/// Creates the output directory of a new estimate with its `estimate.json`.
+fn create(out: &Path, settings: &EstimateSettings) -> Result<(), EstimateError> {
+    let path = out.join("estimate.json");
+    std::fs::create_dir_all(out).map_err(|e| CampaignError::io(out, e))?;
+    let json = serde_json::to_string_pretty(settings).unwrap_or_default();
+    std::fs::write(&path, json + "\n").map_err(|e| CampaignError::io(&path, e))?;
+    Ok(())
 }
 
 /// Replays the stored trials: each must be what the estimation asks again; its failure is

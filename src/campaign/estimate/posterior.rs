@@ -2,7 +2,7 @@
 
 use super::{EstimateError, EstimateSettings};
 use crate::campaign::log::LogLine;
-use crate::campaign::store::{JsonlStore, TrialStore};
+use crate::campaign::store::JsonlStore;
 use crate::campaign::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -134,7 +134,8 @@ pub(crate) fn trained(
     })
 }
 
-/// The campaign's trial lines (the store is locked only while it is read).
+/// The campaign's complete trial lines, read without its lock (a campaign still running is
+/// caught by the check that its training stage is complete).
 fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
     let path = dir.join("trials.jsonl");
     if !path.exists() {
@@ -142,10 +143,8 @@ fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
             path: dir.to_path_buf(),
         });
     }
-    let mut store = JsonlStore::open(&path)?;
     let name = path.display().to_string();
-    store
-        .load()?
+    JsonlStore::read(&path)?
         .lines
         .iter()
         .map(|l| LogLine::from_stored(l, &name))
