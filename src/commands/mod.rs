@@ -185,6 +185,14 @@ pub struct RunnerArgs {
     record: CampaignRecordArgs,
 }
 
+impl RunnerArgs {
+    /// `--jobs`, else one per core.
+    pub fn jobs(&self) -> usize {
+        self.jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    }
+}
+
 /// Where to record (a build with `--features rerun`; without it the flags are hidden from
 /// `--help` and refused before anything runs).
 #[derive(clap::Args, Debug, Clone)]

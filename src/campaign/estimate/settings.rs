@@ -199,3 +199,84 @@ pub enum EstimateError {
     #[error(transparent)]
     Campaign(#[from] CampaignError),
 }
+
+impl EstimateSettings {
+    /// The settings of a campaign file's `[estimate]` section (defaults for the keys not
+    /// given), checked: the error names the file, the line and the key.
+    pub fn from_section(
+        section: &savme_fmu::campaign_file::EstimateSection,
+        file: &std::path::Path,
+    ) -> Result<EstimateSettings, savme_fmu::campaign_file::ConfigError> {
+        let d = EstimateSettings::default();
+        let s = EstimateSettings {
+            budget: section.budget,
+            epsilon: section.epsilon.unwrap_or(d.epsilon),
+            seed: section.seed,
+            target_width: section.target_width.or(d.target_width),
+            max_runs: section.max_runs.unwrap_or(d.max_runs),
+            min_failures: section.min_failures.unwrap_or(d.min_failures),
+            scenarios: section.scenarios.clone().unwrap_or_default(),
+            nominal: section.nominal.clone(),
+        };
+        let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
+            file: file.display().to_string(),
+            line: Some(section.line_of(&key)),
+            key: Some(format!("estimate.{key}")),
+            message,
+        };
+        match s.validate() {
+            Err(EstimateError::Setting { key, message }) => Err(error(key, message)),
+            _ => Ok(s),
+        }
+    }
+
+    /// Checks the nominal and the scenarios against the campaign's problem before it runs
+    /// (the posterior is not known yet: uniform ones stand in). The error names the scenario
+    /// and variable.
+    pub fn check(
+        &self,
+        protocol: &crate::campaign::Protocol,
+        problem: &crate::campaign::Problem,
+    ) -> Result<(), EstimateError> {
+        self.validate()?;
+        let names = if self.scenarios.is_empty() {
+            &protocol.train_scenarios
+        } else {
+            &self.scenarios
+        };
+        let mut scenarios = Vec::new();
+        for name in names {
+            let space =
+                problem
+                    .scenarios
+                    .get(name)
+                    .ok_or_else(|| EstimateError::UnknownScenario {
+                        name: name.clone(),
+                        known: problem
+                            .scenarios
+                            .keys()
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })?;
+            let posterior = savme_kernel::Posterior::new(space, savme_kernel::PriorCounts::UNIFORM)
+                .map_err(|e| EstimationError::Posterior {
+                    scenario: name.clone(),
+                    message: e.to_string(),
+                })?;
+            let scenario = savme_kernel::Scenario {
+                name: name.as_str().into(),
+                space: space.clone(),
+                weight: protocol.weight(name),
+            };
+            scenarios.push((scenario, posterior));
+        }
+        let config = savme_kernel::estimation::EstimationConfig {
+            epsilon: self.epsilon,
+            seed: 0,
+            nominal: self.nominal.clone(),
+        };
+        savme_kernel::estimation::Estimation::new(&scenarios, &config)?;
+        Ok(())
+    }
+}
