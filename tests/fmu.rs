@@ -39,6 +39,19 @@ fn packed() -> &'static Path {
     })
 }
 
+/// The bundled simulator packed once by `savme fmu pack --fmi 3` (FMI 3.0).
+fn packed3() -> &'static Path {
+    static FMU: OnceLock<PathBuf> = OnceLock::new();
+    FMU.get_or_init(|| {
+        let out = temp_dir("packed3").join("savme-sim3.fmu");
+        let (ok, stdout, err) =
+            savme(&["fmu", "pack", "--fmi", "3", "--out", out.to_str().unwrap()]);
+        assert!(ok, "{err}");
+        assert!(stdout.contains("(FMI 3.0"), "{stdout}");
+        out
+    })
+}
+
 /// A φ sample of `space` (the k-th point of a fixed low-discrepancy pattern).
 fn sample(space: &Space, k: usize) -> Assignment {
     let mut a = Assignment::new();
@@ -145,10 +158,17 @@ fn fmpy_python() -> Option<String> {
     }
 }
 
+/// FMPy simulates the packed simulator like savme's in-process simulator — the FMI 2.0 pack
+/// and the FMI 3.0 one (`savme fmu pack --fmi 3`, issue 13 item 7).
 #[test]
 fn fmpy_simulates_the_fmu_like_savme() {
     let Some(python) = fmpy_python() else { return };
-    let fmu = packed();
+    for fmu in [packed(), packed3()] {
+        fmpy_compare(&python, fmu);
+    }
+}
+
+fn fmpy_compare(python: &str, fmu: &Path) {
     let info = find("7").unwrap();
     let sim = DrivingSimulator::default();
     let hf = savme_sim::fidelity::theta_hf();
@@ -167,7 +187,7 @@ fn fmpy_simulates_the_fmu_like_savme() {
              print(bool(r['collision'][-1]), repr(float(r['min_distance'][-1])), repr(float(r['work'][-1])))\n",
             fmu.display()
         );
-        let o = Command::new(&python)
+        let o = Command::new(python)
             .arg("-c")
             .arg(&script)
             .output()
@@ -176,7 +196,12 @@ fn fmpy_simulates_the_fmu_like_savme() {
         let out = String::from_utf8_lossy(&o.stdout);
         let f: Vec<&str> = out.split_whitespace().collect();
         assert_eq!(f.len(), 3, "{out}");
-        assert_eq!(f[0] == "True", local.failure, "{phi}: {out}");
+        assert_eq!(
+            f[0] == "True",
+            local.failure,
+            "{}: {phi}: {out}",
+            fmu.display()
+        );
         assert_eq!(
             f[1].parse::<f64>().unwrap(),
             local.min_distance.min(1e6),
@@ -318,6 +343,26 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
     };
     let trials = |d: &str| strip(dir.join(d).join("trials.jsonl"));
     assert_eq!(trials("in-process"), trials("isolated"));
+    // The FMI 3.0 pack of the same simulator (`savme fmu pack --fmi 3`), isolated: the same
+    // campaign, trial for trial (issue 13 item 7).
+    let body = TINY
+        .replace(
+            "cost = \"work\"\n\n[failure]",
+            "cost = \"work\"\nisolate = true\n\n[failure]",
+        )
+        .replace("FMU", &packed3().display().to_string());
+    let config = dir.join("campaign3.toml");
+    std::fs::write(&config, body).unwrap();
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        dir.join("fmi3").to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "FMI 3.0: {err}");
+    assert_eq!(trials("fmi3"), trials("in-process"));
     // And the same as savme gave before the campaign core moved (tests/fixtures/README.md).
     let fixture =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/run-fmu-tiny-work.trials.jsonl");

@@ -305,41 +305,80 @@ fn resume(dir: &Path) -> (bool, String, String) {
     )
 }
 
+/// Starts the TINY campaign (2 jobs) into `dir` and returns once `lines` trials are stored.
+fn start_and_wait_for_lines(dir: &Path, lines: usize) -> std::process::Child {
+    let mut child = Command::new(EXE)
+        .arg("reproduce")
+        .arg("--out")
+        .arg(dir)
+        .args(args(&["--jobs", "2"]))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = dir.join("trials.jsonl");
+    let start = Instant::now();
+    while std::fs::read_to_string(&log).map_or(0, |s| s.lines().count()) < lines {
+        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
+        assert!(child.try_wait().unwrap().is_none(), "finished too early");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child
+}
+
+/// Ctrl-C (a real SIGINT): the campaign stops between trials, exits 130 saying how to resume,
+/// and the resumed campaign equals the uninterrupted one.
+fn ctrl_c_then_resume(expected: &[Value]) {
+    let dir = temp_dir("interrupted");
+    let child = start_and_wait_for_lines(&dir, 20);
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("stopping after the runs in flight"), "{err}");
+    assert!(err.contains("savme: interrupted: stopped in "), "{err}");
+    let hint = format!("continue with --resume {}", dir.display());
+    assert!(err.contains(&hint), "{err}");
+    let before = trials(&dir).len();
+    assert!(
+        before < TINY_TRIALS,
+        "the run finished before Ctrl-C took effect"
+    );
+    let (ok, out, err) = resume(&dir);
+    assert!(ok, "{err}");
+    let replayed = format!("({before} replayed from the trial store");
+    assert!(out.contains(&replayed), "{out}");
+    assert_eq!(without_wall(trials(&dir)), expected);
+    let _ = std::fs::remove_dir_all(dir);
+}
+
 #[test]
-fn a_killed_campaign_resumes_without_losing_or_repeating_a_trial() {
+fn a_killed_or_interrupted_campaign_resumes_without_losing_or_repeating_a_trial() {
     let full = temp_dir("resume-full");
     assert!(reproduce(&full, &["--jobs", "2"]).0);
     let expected = without_wall(trials(&full));
 
     // kill -9 midway through, then resume.
     let dir = temp_dir("resume-killed");
-    let mut child = Command::new(EXE)
-        .arg("reproduce")
-        .arg("--out")
-        .arg(&dir)
-        .args(args(&["--jobs", "2"]))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let log = dir.join("trials.jsonl");
-    let start = Instant::now();
-    while std::fs::read_to_string(&log).map_or(0, |s| s.lines().count()) < 20 {
-        assert!(start.elapsed() < Duration::from_secs(120), "no progress");
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "finished before the kill"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
+    let mut child = start_and_wait_for_lines(&dir, 20);
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
-    let before = std::fs::read_to_string(&log).unwrap().lines().count();
-    assert!(before < TINY_TRIALS, "the run finished before the kill");
+    // Lines, not parsed trials: the kill may have torn the last one.
+    let log = std::fs::read_to_string(dir.join("trials.jsonl")).unwrap();
+    assert!(
+        log.lines().count() < TINY_TRIALS,
+        "the run finished before the kill"
+    );
     let (ok, out, err) = resume(&dir);
     assert!(ok, "{err}");
     assert!(out.contains("replayed from the trial store"), "{out}");
     assert_eq!(without_wall(trials(&dir)), expected);
+
+    ctrl_c_then_resume(&expected);
 
     // A torn last line (a write cut short) is dropped and its trial run again.
     let torn = temp_dir("resume-torn");

@@ -28,23 +28,56 @@ fn example() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fmu/braking")
 }
 
-/// The braking example's shared library, compiled once from `braking.c` (`$CC`, else `cc`).
+/// Compiles `examples/fmu/braking/<source>` (`$CC`, else `cc`) into `dir`.
+fn compile(source: &str, dir: &str) -> PathBuf {
+    let lib = temp_dir(dir).join(format!("braking.{}", std::env::consts::DLL_EXTENSION));
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let status = Command::new(&cc)
+        .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
+        .arg(&lib)
+        .arg(example().join(source))
+        .arg("-lm")
+        .status()
+        .unwrap_or_else(|e| panic!("the C compiler `{cc}` (set CC): {e}"));
+    assert!(status.success(), "compiling {source} failed");
+    lib
+}
+
+/// The braking example's shared library, compiled once from `braking.c`.
 fn braking_library() -> &'static Path {
     static LIB: OnceLock<PathBuf> = OnceLock::new();
-    LIB.get_or_init(|| {
-        let lib =
-            temp_dir("braking-lib").join(format!("braking.{}", std::env::consts::DLL_EXTENSION));
-        let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-        let status = Command::new(&cc)
-            .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
-            .arg(&lib)
-            .arg(example().join("braking.c"))
-            .arg("-lm")
-            .status()
-            .unwrap_or_else(|e| panic!("the C compiler `{cc}` (set CC): {e}"));
-        assert!(status.success(), "compiling braking.c failed");
-        lib
-    })
+    LIB.get_or_init(|| compile("braking.c", "braking-lib"))
+}
+
+/// The FMI 3.0 braking example's shared library, compiled once from `braking3.c`.
+fn braking3_library() -> &'static Path {
+    static LIB: OnceLock<PathBuf> = OnceLock::new();
+    LIB.get_or_init(|| compile("braking3.c", "braking3-lib"))
+}
+
+/// `braking3.fmu` (FMI 3.0) in `dir`, with its resources.
+fn pack3(dir: &Path) -> PathBuf {
+    let out = dir.join("braking3.fmu");
+    let xml = std::fs::read_to_string(example().join("modelDescription3.xml")).unwrap();
+    let friction = std::fs::read(example().join("resources/friction.txt")).unwrap();
+    savme_fmi_export::pack_with(
+        &xml,
+        "braking",
+        braking3_library(),
+        &[("resources/friction.txt", &friction)],
+        &out,
+    )
+    .unwrap();
+    out
+}
+
+/// The packed FMU of FMI version `fmi` in `dir`.
+fn pack_version(dir: &Path, fmi: u8) -> PathBuf {
+    if fmi == 3 {
+        pack3(dir)
+    } else {
+        pack(dir, &model_description())
+    }
 }
 
 /// `braking.fmu` in `dir` with `xml` as its model description (and its resources).
@@ -79,7 +112,22 @@ fn example_dir(name: &str) -> (PathBuf, PathBuf) {
 /// whole protocol; every trial's θ is a step size of the list.
 #[test]
 fn the_step_size_example_campaign_runs() {
-    let (dir, config) = example_dir("example");
+    for fmi in [2, 3] {
+        step_size_campaign(fmi);
+    }
+}
+
+/// The example campaign on the FMU of FMI version `fmi` (item 7: the same campaign runs the
+/// FMI 3.0 build of the model, its step size still the fidelity).
+fn step_size_campaign(fmi: u8) {
+    let (dir, config) = example_dir(&format!("example{fmi}"));
+    if fmi == 3 {
+        pack3(&dir);
+        let text = std::fs::read_to_string(&config).unwrap();
+        let text = text.replace("hf = \"braking.fmu\"", "hf = \"braking3.fmu\"");
+        assert!(text.contains("braking3.fmu"));
+        std::fs::write(&config, text).unwrap();
+    }
     let out = dir.join("out");
     let (ok, stdout, err) = savme(&[
         "run",
@@ -301,13 +349,21 @@ fn fmpy_python() -> Option<String> {
 
 /// FMPy, the independent FMI client, and savme give the braking FMU the same outcomes: its
 /// resources found the same way, the enumeration and the String parameter set alike.
+/// Item 7: on the FMI 3.0 build too (FMPy allowed to return early, as savme is: the FMU then
+/// stops at the collision inside a step in both).
 #[test]
 fn fmpy_runs_the_braking_fmu_like_savme() {
+    let Some(python) = fmpy_python() else { return };
+    for fmi in [2, 3] {
+        fmpy_compare(&python, fmi);
+    }
+}
+
+fn fmpy_compare(python: &str, fmi: u8) {
     use savme::kernel::{Assignment, Role, Scale, Space, Value, Variable};
     use savme_fmu::{Binding, CostSource, Failure, Fixed, FmuFile, FmuSimulator, RunSpec};
-    let Some(python) = fmpy_python() else { return };
-    let dir = temp_dir("fmpy");
-    let fmu = pack(&dir, &model_description());
+    let dir = temp_dir(&format!("fmpy{fmi}"));
+    let fmu = pack_version(&dir, fmi);
     let file = std::sync::Arc::new(FmuFile::open(&fmu).unwrap());
     let phi = Space::new(vec![Variable::continuous("v", 4.0, 25.0, 4, Scale::Linear)]).unwrap();
     let cases = [
@@ -369,11 +425,12 @@ fn fmpy_runs_the_braking_fmu_like_savme() {
         let script = format!(
             "import fmpy\n\
              r = fmpy.simulate_fmu(r'{}', start_values={{'speed0': {v:?}, 'road': {value}, 'driver': '{driver}'}}, \
-             stop_time=8.0, output_interval=0.125, output=['collision', 'steps'])\n\
+             stop_time=8.0, output_interval=0.125, output=['collision', 'steps'], early_return_allowed={})\n\
              print(bool(r['collision'][-1]), int(r['steps'][-1]))\n",
-            fmu.display()
+            fmu.display(),
+            if fmi == 3 { "True" } else { "False" }
         );
-        let o = Command::new(&python)
+        let o = Command::new(python)
             .arg("-c")
             .arg(&script)
             .output()
@@ -382,7 +439,11 @@ fn fmpy_runs_the_braking_fmu_like_savme() {
         let out = String::from_utf8_lossy(&o.stdout);
         let f: Vec<&str> = out.split_whitespace().collect();
         assert_eq!(f.len(), 2, "{out}");
-        assert_eq!(f[0] == "True", local.failure, "{v} {road} {driver}: {out}");
+        assert_eq!(
+            f[0] == "True",
+            local.failure,
+            "FMI {fmi} {v} {road} {driver}: {out}"
+        );
         assert_eq!(
             f[1].parse::<u64>().ok(),
             local.work,
@@ -393,5 +454,54 @@ fn fmpy_runs_the_braking_fmu_like_savme() {
     assert!(
         failures > 0 && failures < cases.len(),
         "the cases differ in outcome"
+    );
+}
+
+/// Item 7 with item 8: `savme fmu info` and `validate` read an FMI 3.0 FMU — its platform
+/// tuple, its types (UInt32, Enumeration, the independent time) — and validate instantiates it
+/// through `fmi3InstantiateCoSimulation`.
+#[test]
+fn fmu_info_and_validate_read_fmi3() {
+    let dir = temp_dir("info3");
+    let fmu = pack3(&dir);
+    let (ok, text, err) = savme(&["fmu", "info", fmu.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    for needle in [
+        "FMI version      3.0",
+        &format!("Platforms        {}", savme_fmi_export::platform_tuple()),
+        "GUID             {b7a1e000-5a4e-4b1c-9e11-b7a1c0ffee03}",
+    ] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+    let row = |name: &str| {
+        text.lines()
+            .find(|l| l.starts_with(&format!("{name} ")))
+            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+            .unwrap_or_default()
+    };
+    assert_eq!(row("steps"), "steps output UInt32 Euler steps taken");
+    assert_eq!(
+        row("road"),
+        "road parameter Enumeration 1 dry=1 wet=2 ice=3"
+    );
+    assert_eq!(
+        row("driver"),
+        "driver parameter String alert alert or distracted"
+    );
+    let (ok, text, err) = savme(&["fmu", "validate", fmu.to_str().unwrap()]);
+    assert!(ok, "{text} {err}");
+    // A wrong instantiation token is found by instantiating it.
+    let bad = dir.join("bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    let xml = std::fs::read_to_string(example().join("modelDescription3.xml"))
+        .unwrap()
+        .replacen("{b7a1e000", "{00000000", 1);
+    let wrong = bad.join("braking3.fmu");
+    savme_fmi_export::pack(&xml, "braking", braking3_library(), &wrong).unwrap();
+    let (ok, text, _) = savme(&["fmu", "validate", wrong.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(
+        text.contains("fmi3InstantiateCoSimulation failed (returned no instance); the FMU logged: [error] fmi3InstantiateCoSimulation: wrong instantiationToken"),
+        "{text}"
     );
 }

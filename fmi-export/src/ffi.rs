@@ -1,4 +1,4 @@
-//! The C types of the FMI 2.0 API that the exported functions take and return.
+//! The C types of the FMI 2.0 and 3.0 APIs that the exported functions take and return.
 
 use std::ffi::{c_char, c_void};
 
@@ -30,3 +30,7 @@ pub struct CallbackFunctions {
     pub step_finished: Option<unsafe extern "C" fn(*mut c_void, Status)>,
     pub component_environment: *mut c_void,
 }
+
+/// `fmi3LogMessageCallback` (FMI 3.0: not variadic; `fmi3Status` has the numbers of
+/// [`Status`] without `Pending`).
+pub type LogMessage3 = unsafe extern "C" fn(*mut c_void, Status, *const c_char, *const c_char);

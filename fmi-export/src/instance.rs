@@ -1,8 +1,10 @@
-//! An FMU instance and its FMI 2.0 co-simulation state machine (instantiated → initialisation →
-//! stepping → terminated, or failed): the bodies of the life-cycle functions `export_fmi2!`
-//! defines, from `fmi2Instantiate` to `fmi2DoStep`.
+//! An FMU instance and its co-simulation state machine (instantiated → initialisation →
+//! stepping → terminated, or failed): the bodies of the life-cycle functions `export_fmi2!` and
+//! `export_fmi3!` define, from `fmi2Instantiate` / `fmi3InstantiateCoSimulation` to
+//! `fmi2DoStep` / `fmi3DoStep`. One state machine serves both versions; only the logger and
+//! the entry points differ.
 
-use crate::ffi::{CallbackFunctions, Status};
+use crate::ffi::{CallbackFunctions, LogMessage3, Status};
 use crate::model::{Model, Scalar};
 use std::ffi::{c_char, c_void, CStr, CString};
 
@@ -16,10 +18,21 @@ pub(crate) enum Phase {
     Failed,
 }
 
-/// An FMU instance (what `fmi2Component` points to).
+/// Where an instance's log messages go: FMI 2.0's callbacks (a C-variadic logger) or FMI 3.0's
+/// `logMessage` with its instance environment.
+#[derive(Clone, Copy)]
+pub(crate) enum LogTarget {
+    Fmi2(Option<CallbackFunctions>),
+    Fmi3 {
+        env: *mut c_void,
+        log: Option<LogMessage3>,
+    },
+}
+
+/// An FMU instance (what `fmi2Component` / `fmi3Instance` points to).
 pub struct Instance<M: Model> {
     pub(crate) name: CString,
-    pub(crate) callbacks: Option<CallbackFunctions>,
+    pub(crate) target: LogTarget,
     pub(crate) logging: bool,
     pub(crate) values: Vec<Scalar>,
     pub(crate) phase: Phase,
@@ -32,7 +45,7 @@ impl<M: Model> Clone for Instance<M> {
     fn clone(&self) -> Self {
         Instance {
             name: self.name.clone(),
-            callbacks: self.callbacks,
+            target: self.target,
             logging: self.logging,
             values: self.values.clone(),
             phase: self.phase,
@@ -44,10 +57,10 @@ impl<M: Model> Clone for Instance<M> {
 }
 
 impl<M: Model> Instance<M> {
-    pub(crate) fn new(name: CString, callbacks: Option<CallbackFunctions>, logging: bool) -> Self {
+    pub(crate) fn new(name: CString, target: LogTarget, logging: bool) -> Self {
         Instance {
             name,
-            callbacks,
+            target,
             logging,
             values: M::variables().iter().map(|v| v.start).collect(),
             phase: Phase::Instantiated,
@@ -62,28 +75,44 @@ impl<M: Model> Instance<M> {
         if status == Status::Ok && !self.logging {
             return;
         }
-        let Some(logger) = self.callbacks.and_then(|c| c.logger) else {
-            return;
-        };
-        let env = self
-            .callbacks
-            .map_or(std::ptr::null_mut(), |c| c.component_environment);
         let category = CString::new(category).unwrap_or_default();
         let message = CString::new(message.replace('\0', " ")).unwrap_or_default();
-        // SAFETY: the logger is the environment's C function; "%s" with one C string.
-        unsafe {
-            logger(
+        match self.target {
+            LogTarget::Fmi2(Some(CallbackFunctions {
+                logger: Some(logger),
+                component_environment,
+                ..
+            })) => {
+                // SAFETY: the logger is the environment's C function; "%s" with one C string.
+                unsafe {
+                    logger(
+                        component_environment,
+                        self.name.as_ptr(),
+                        status,
+                        category.as_ptr(),
+                        c"%s".as_ptr(),
+                        message.as_ptr(),
+                    )
+                };
+            }
+            LogTarget::Fmi3 {
                 env,
-                self.name.as_ptr(),
-                status,
-                category.as_ptr(),
-                c"%s".as_ptr(),
-                message.as_ptr(),
-            )
-        };
+                log: Some(log),
+            } => {
+                // SAFETY: the environment's C function and its own environment pointer.
+                unsafe { log(env, status, category.as_ptr(), message.as_ptr()) };
+            }
+            _ => {}
+        }
     }
 
+    /// Logs `call`'s error (named as FMI 2.0 names it; `fmi3…` for an FMI 3.0 instance) and
+    /// returns `Error`.
     pub(crate) fn fail(&mut self, call: &str, message: &str) -> Status {
+        let call = match self.target {
+            LogTarget::Fmi3 { .. } => call.replacen("fmi2", "fmi3", 1),
+            LogTarget::Fmi2(_) => call.to_string(),
+        };
         self.log(
             Status::Error,
             "logStatusError",
@@ -136,7 +165,7 @@ pub unsafe fn instantiate<M: Model>(
     // SAFETY: the environment's callbacks struct, copied.
     let callbacks = unsafe { functions.as_ref().copied() };
     let name = text(instance_name).unwrap_or_default();
-    let probe = Instance::<M>::new(name.clone(), callbacks, logging_on != 0);
+    let probe = Instance::<M>::new(name.clone(), LogTarget::Fmi2(callbacks), logging_on != 0);
     if fmu_type != 1 {
         probe.log(
             Status::Error,
@@ -145,13 +174,24 @@ pub unsafe fn instantiate<M: Model>(
         );
         return std::ptr::null_mut();
     }
-    let given = text(guid).map(|g| g.to_string_lossy().into_owned());
+    accept("fmi2Instantiate", "GUID", probe, text(guid))
+}
+
+/// The new instance `probe` if the environment gave this model's GUID (FMI 2.0) or
+/// instantiation token (FMI 3.0: the same string); null, with a log message, otherwise.
+fn accept<M: Model>(
+    call: &str,
+    what: &str,
+    probe: Instance<M>,
+    given: Option<CString>,
+) -> *mut c_void {
+    let given = given.map(|g| g.to_string_lossy().into_owned());
     if given.as_deref() != Some(M::GUID) {
         probe.log(
             Status::Error,
             "logStatusError",
             &format!(
-                "fmi2Instantiate: GUID {:?} does not match this FMU's {}",
+                "{call}: {what} {:?} does not match this FMU's {}",
                 given.unwrap_or_default(),
                 M::GUID
             ),
@@ -159,6 +199,89 @@ pub unsafe fn instantiate<M: Model>(
         return std::ptr::null_mut();
     }
     Box::into_raw(Box::new(probe)) as *mut c_void
+}
+
+/// `fmi3GetVersion`.
+pub fn version3() -> *const c_char {
+    c"3.0".as_ptr()
+}
+
+/// `fmi3InstantiateCoSimulation` (no event mode: an environment asking for it is refused;
+/// early return is never needed, so `earlyReturnAllowed` changes nothing).
+///
+/// # Safety
+/// Pointers as in the FMI 3.0 standard (C strings may be null; `log` null or valid with `env`).
+pub unsafe fn instantiate3<M: Model>(
+    instance_name: *const c_char,
+    token: *const c_char,
+    logging_on: bool,
+    event_mode_used: bool,
+    env: *mut c_void,
+    log: Option<LogMessage3>,
+) -> *mut c_void {
+    // SAFETY: C strings from the environment.
+    let text = |p: *const c_char| unsafe { (!p.is_null()).then(|| CStr::from_ptr(p).to_owned()) };
+    let name = text(instance_name).unwrap_or_default();
+    let probe = Instance::<M>::new(name, LogTarget::Fmi3 { env, log }, logging_on);
+    if event_mode_used {
+        probe.log(
+            Status::Error,
+            "logStatusError",
+            "fmi3InstantiateCoSimulation: this FMU has no event mode (hasEventMode=\"false\")",
+        );
+        return std::ptr::null_mut();
+    }
+    accept(
+        "fmi3InstantiateCoSimulation",
+        "instantiationToken",
+        probe,
+        text(token),
+    )
+}
+
+/// `fmi3EnterInitializationMode`: FMI 2.0's `fmi2SetupExperiment` (the start time) and
+/// `fmi2EnterInitializationMode` in one call.
+///
+/// # Safety
+/// `c` is null or an instance returned by [`instantiate3`](crate::instantiate3) for the same
+/// model and not yet freed.
+pub unsafe fn enter_initialization_mode3<M: Model>(c: *mut c_void, start: f64) -> Status {
+    // SAFETY: see above.
+    match unsafe { setup_experiment::<M>(c, start) } {
+        Status::Ok => unsafe { enter_initialization_mode::<M>(c) },
+        other => other,
+    }
+}
+
+/// `fmi3DoStep`: [`do_step`], then its outputs — never an event, a stop request or an early
+/// return; `lastSuccessfulTime` is the time reached.
+///
+/// # Safety
+/// `c` is null or an instance returned by [`instantiate3`](crate::instantiate3) for the same
+/// model and not yet freed; the four output pointers are null or writable.
+pub unsafe fn do_step3<M: Model>(
+    c: *mut c_void,
+    time: f64,
+    step: f64,
+    event: *mut bool,
+    terminate: *mut bool,
+    early: *mut bool,
+    last: *mut f64,
+) -> Status {
+    // SAFETY: see above.
+    let status = unsafe { do_step::<M>(c, time, step) };
+    // SAFETY: see above (null pointers are skipped).
+    unsafe {
+        for flag in [event, terminate, early] {
+            if let Some(f) = flag.as_mut() {
+                *f = false;
+            }
+        }
+        if let (Some(l), Some(i)) = (last.as_mut(), instance::<M>(c)) {
+            *l = i.time;
+        }
+    }
+    status
 }
 
 /// `fmi2FreeInstance`.

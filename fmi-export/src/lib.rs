@@ -60,20 +60,22 @@ mod description;
 mod ffi;
 mod instance;
 mod macros;
+mod macros3;
 mod model;
 mod pack;
 mod state;
 mod status;
 mod values;
 
-pub use description::model_description;
-pub use ffi::{CallbackFunctions, Logger, Status};
+pub use description::{model_description, model_description3};
+pub use ffi::{CallbackFunctions, LogMessage3, Logger, Status};
 pub use instance::{
-    do_step, enter_initialization_mode, exit_initialization_mode, free_instance, instantiate,
-    reset, set_debug_logging, setup_experiment, terminate, types_platform, version, Instance,
+    do_step, do_step3, enter_initialization_mode, enter_initialization_mode3,
+    exit_initialization_mode, free_instance, instantiate, instantiate3, reset, set_debug_logging,
+    setup_experiment, terminate, types_platform, version, version3, Instance,
 };
 pub use model::{Causality, Kind, Model, Scalar, Variable};
-pub use pack::{pack, pack_with, platform_folder, PackError};
+pub use pack::{pack, pack_with, platform_folder, platform_tuple, FmiVersion, PackError};
 pub use state::{free_state, get_state, set_state};
 pub use status::{last_successful_time, terminated, unsupported};
-pub use values::{get_set, strings, Access};
+pub use values::{get_set, get_set3, no_variables, strings, Access};

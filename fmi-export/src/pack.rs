@@ -18,6 +18,40 @@ pub fn platform_folder() -> String {
     format!("{os}{bits}")
 }
 
+/// The `binaries/` folder of this platform in FMI 3.0: the platform tuple `<arch>-<os>`
+/// (`x86_64-linux`, `aarch64-darwin`, `x86_64-windows`, …; FMI 3.0 §2.5.1.1).
+///
+/// ```
+/// let t = savme_fmi_export::platform_tuple();
+/// assert!(t.ends_with(&format!("-{}", if cfg!(target_os = "macos") { "darwin" } else { std::env::consts::OS })));
+/// ```
+pub fn platform_tuple() -> String {
+    let os = match std::env::consts::OS {
+        "macos" => "darwin",
+        other => other,
+    };
+    format!("{}-{os}", std::env::consts::ARCH)
+}
+
+/// The FMI version an FMU is packed for: where its library goes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FmiVersion {
+    /// FMI 2.0: `binaries/<os><bits>/` ([`platform_folder`]).
+    V2,
+    /// FMI 3.0: `binaries/<arch>-<os>/` ([`platform_tuple`]).
+    V3,
+}
+
+impl FmiVersion {
+    /// The `binaries/` folder of this platform.
+    pub fn platform(self) -> String {
+        match self {
+            FmiVersion::V2 => platform_folder(),
+            FmiVersion::V3 => platform_tuple(),
+        }
+    }
+}
+
 /// Why packing failed.
 #[derive(Debug, thiserror::Error)]
 pub enum PackError {
@@ -40,7 +74,8 @@ pub enum PackError {
 }
 
 /// Writes `out` (an `.fmu`): `modelDescription.xml` (the given text) and `library` as
-/// `binaries/<platform>/<identifier>.<so|dylib|dll>`.
+/// `binaries/<platform>/<identifier>.<so|dylib|dll>` — the FMI version read from the model
+/// description decides the platform folder.
 pub fn pack(
     model_description: &str,
     identifier: &str,
@@ -76,8 +111,13 @@ pub fn pack_with(
         .map_err(zip_err)?;
     z.write_all(model_description.as_bytes()).map_err(io(out))?;
     let ext = std::env::consts::DLL_EXTENSION;
+    let version = if model_description.contains("fmiVersion=\"3.") {
+        FmiVersion::V3
+    } else {
+        FmiVersion::V2
+    };
     z.start_file(
-        format!("binaries/{}/{identifier}.{ext}", platform_folder()),
+        format!("binaries/{}/{identifier}.{ext}", version.platform()),
         opts,
     )
     .map_err(zip_err)?;

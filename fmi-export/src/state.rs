@@ -46,10 +46,10 @@ pub unsafe fn set_state<M: Model>(c: *mut c_void, state: *mut c_void) -> Status 
     let Some(s) = (unsafe { (state as *mut Instance<M>).as_ref() }) else {
         return i.fail("fmi2SetFMUstate", "null state");
     };
-    let (name, callbacks, logging) = (i.name.clone(), i.callbacks, i.logging);
+    let (name, target, logging) = (i.name.clone(), i.target, i.logging);
     *i = s.clone();
     i.name = name;
-    i.callbacks = callbacks;
+    i.target = target;
     i.logging = logging;
     Status::Ok
 }

@@ -52,6 +52,37 @@ pub struct Access {
     pub set: bool,
 }
 
+/// The body of the FMI 3.0 `fmi3Get*` / `fmi3Set*` functions (Float64, Int32, Boolean): FMI
+/// 2.0's [`get_set`] after checking that there is one value per reference (`n_values`).
+///
+/// # Safety
+/// As [`get_set`].
+// The C function's five arguments plus the access and the two conversions of `get_set`.
+#[allow(clippy::too_many_arguments)]
+pub unsafe fn get_set3<M: Model, T: Copy>(
+    c: *mut c_void,
+    vr: *const u32,
+    n: usize,
+    values: *mut T,
+    n_values: usize,
+    access: Access,
+    convert_in: impl Fn(T) -> Scalar,
+    convert_out: impl Fn(Scalar) -> T,
+) -> Status {
+    if n_values != n {
+        // SAFETY: see above.
+        return match unsafe { instance::<M>(c) } {
+            Some(i) => i.fail(
+                "fmi2Get/Set",
+                &format!("{n} value references but {n_values} values (this FMU has no arrays)"),
+            ),
+            None => Status::Error,
+        };
+    }
+    // SAFETY: see above.
+    unsafe { get_set::<M, T>(c, vr, n, values, access, convert_in, convert_out) }
+}
+
 /// Reads or writes `n` values of one kind: the body of the `fmi2Get*` / `fmi2Set*` functions.
 ///
 /// # Safety
@@ -115,6 +146,25 @@ pub unsafe fn get_set<M: Model, T: Copy>(
 /// `c` is null or a component returned by [`instantiate`](crate::instantiate) for the same
 /// model and not yet freed.
 pub unsafe fn strings<M: Model>(c: *mut c_void, n: usize, set: bool) -> Status {
+    no_variables::<M>(
+        c,
+        n,
+        if set {
+            "fmi2SetString"
+        } else {
+            "fmi2GetString"
+        },
+        "string",
+    )
+}
+
+/// A get or set of a type this FMU has no variables of (`kind`: "string", "Float32", …):
+/// nothing to do for no references, an error for any.
+///
+/// # Safety
+/// `c` is null or a component returned by [`instantiate`](crate::instantiate) or
+/// [`instantiate3`](crate::instantiate3) for the same model and not yet freed.
+pub unsafe fn no_variables<M: Model>(c: *mut c_void, n: usize, call: &str, kind: &str) -> Status {
     // SAFETY: see above.
     let Some(i) = (unsafe { instance::<M>(c) }) else {
         return Status::Error;
@@ -122,10 +172,5 @@ pub unsafe fn strings<M: Model>(c: *mut c_void, n: usize, set: bool) -> Status {
     if n == 0 {
         return Status::Ok;
     }
-    let call = if set {
-        "fmi2SetString"
-    } else {
-        "fmi2GetString"
-    };
-    i.fail(call, "this FMU has no string variables")
+    i.fail(call, &format!("this FMU has no {kind} variables"))
 }

@@ -1,10 +1,11 @@
 //! Per-evaluation cost of the adapter on the trivial test-kit FMU: `fmi2Reset` (the instance is
 //! reused) + set-up + initialisation + 100 `fmi2DoStep`s, reading the failure signal after
-//! each step, + reading the cost output.
+//! each step, + reading the cost output — as FMI 2.0 and as FMI 3.0 (the same library exports
+//! both APIs; `fmi3Reset`, `fmi3EnterInitializationMode`, … `fmi3DoStep`).
 //!
 //! `cargo bench -p savme-fmu --bench evaluation`
-//! (FMPy on the same FMU, for scale: `python3 fmu-adapter/benches/fmpy_evaluation.py
-//! target/savme-fmu-testkit.fmu`.)
+//! (FMPy on the same FMUs, for scale: `python3 fmu-adapter/benches/fmpy_evaluation.py
+//! target/savme-fmu-testkit.fmu target/savme-fmu-testkit3.fmu`.)
 use criterion::{criterion_group, criterion_main, Criterion};
 use savme_fmu::{
     Binding, CostSource, Failure, FmuFile, FmuSimulator, RunSpec, ScenarioSpec, StepSize,
@@ -14,7 +15,8 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-fn testkit_fmu() -> PathBuf {
+/// The test kit's library packed as an FMU of FMI version `fmi` (2 or 3).
+fn testkit_fmu(fmi: u8) -> PathBuf {
     let exe = std::env::current_exe().expect("bench executable");
     let deps = exe.parent().expect("deps dir");
     let name = format!(
@@ -26,25 +28,38 @@ fn testkit_fmu() -> PathBuf {
         .into_iter()
         .find(|p| p.exists())
         .expect("the test-kit library next to the bench");
-    // target/savme-fmu-testkit.fmu, kept for the FMPy comparison.
+    // target/savme-fmu-testkit.fmu and …testkit3.fmu, kept for the FMPy comparison.
+    let (name, xml) = if fmi == 3 {
+        (
+            "savme-fmu-testkit3.fmu",
+            savme_fmu_testkit::model_description3(),
+        )
+    } else {
+        (
+            "savme-fmu-testkit.fmu",
+            savme_fmu_testkit::model_description(),
+        )
+    };
     let out = deps
         .parent()
         .and_then(|p| p.parent())
         .unwrap_or(deps)
-        .join("savme-fmu-testkit.fmu");
-    savme_fmi_export::pack(
-        &savme_fmu_testkit::model_description(),
-        "savme_fmu_testkit",
-        &lib,
-        &out,
-    )
-    .expect("pack");
-    println!("trivial FMU: {}", out.display());
+        .join(name);
+    savme_fmi_export::pack(&xml, "savme_fmu_testkit", &lib, &out).expect("pack");
+    println!("trivial FMU (FMI {fmi}.0): {}", out.display());
     out
 }
 
 fn bench(c: &mut Criterion) {
-    let fmu = testkit_fmu();
+    let mut g = c.benchmark_group("fmu");
+    for fmi in [2, 3] {
+        bench_version(&mut g, fmi);
+    }
+    g.finish();
+}
+
+fn bench_version(g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>, fmi: u8) {
+    let fmu = testkit_fmu(fmi);
     let file = Arc::new(FmuFile::open(&fmu).expect("open"));
     let fidelity = Space::new(vec![Variable::continuous(
         "rate",
@@ -113,14 +128,17 @@ fn bench(c: &mut Criterion) {
         .collect();
     times.sort_by(f64::total_cmp);
     println!(
-        "savme-fmu, single evaluations timed like fmpy_evaluation.py: median {:.2} µs (20000 runs)",
+        "savme-fmu, FMI {fmi}.0, single evaluations timed like fmpy_evaluation.py: median {:.2} µs (20000 runs)",
         times[times.len() / 2] * 1e6
     );
-    let mut g = c.benchmark_group("fmu");
-    g.bench_function("evaluation_100_steps", |b| {
+    let name = if fmi == 3 {
+        "evaluation_100_steps_fmi3"
+    } else {
+        "evaluation_100_steps"
+    };
+    g.bench_function(name, |b| {
         b.iter(|| black_box(sim.run(Role::High, "grow", &p, &t).expect("run")))
     });
-    g.finish();
 }
 
 criterion_group!(benches, bench);

@@ -17,20 +17,41 @@ fn error(file: &FmuDescription, var: &VarInfo, message: String) -> FmuError {
     }
 }
 
-/// `[min, max]` as declared (`-∞` / `∞` when absent).
+/// `[min, max]` as declared (`-∞` / `∞` when absent), inside the range of an integer type
+/// (an FMI 3.0 UInt8 takes 0..255 whatever it declares).
 fn bounds(var: &VarInfo) -> (f64, f64) {
+    let (lo, hi) = var
+        .repr
+        .integer_range()
+        .map_or((f64::NEG_INFINITY, f64::INFINITY), |(lo, hi)| {
+            (lo as f64, hi as f64)
+        });
     (
-        var.min.unwrap_or(f64::NEG_INFINITY),
-        var.max.unwrap_or(f64::INFINITY),
+        var.min.map_or(lo, |m| m.max(lo)),
+        var.max.map_or(hi, |m| m.min(hi)),
     )
 }
 
 fn declared(var: &VarInfo) -> String {
-    let show = |x: Option<f64>, inf: &str| x.map_or(inf.to_string(), |x| x.to_string());
+    let (lo, hi) = bounds(var);
+    let show = |x: f64| {
+        if x.is_infinite() {
+            if x < 0.0 { "-inf" } else { "inf" }.to_string()
+        } else {
+            x.to_string()
+        }
+    };
+    // A bound missing from the declaration comes from the integer type's range.
+    let typed = match var.repr.integer_range() {
+        Some(_) if var.kind == VarType::Integer && (var.min.is_none() || var.max.is_none()) => {
+            format!(", and the range of {:?}", var.repr)
+        }
+        _ => String::new(),
+    };
     format!(
-        "is declared in [{}, {}] (min/max)",
-        show(var.min, "-inf"),
-        show(var.max, "inf")
+        "is declared in [{}, {}] (min/max{typed})",
+        show(lo),
+        show(hi)
     )
 }
 
@@ -44,8 +65,8 @@ fn items(var: &VarInfo) -> String {
 
 /// The integer `value` sets on `var` (an Integer or an Enumeration): an enumeration item by
 /// name or value, a label by its position in `labels`, an integral number; `None` if it sets
-/// none.
-pub(crate) fn integer_of(var: &VarInfo, value: &Value, labels: Option<&[String]>) -> Option<i32> {
+/// none or it lies outside the range of the variable's C type.
+pub(crate) fn integer_of(var: &VarInfo, value: &Value, labels: Option<&[String]>) -> Option<i64> {
     let i = match (var.kind, value, labels) {
         (VarType::Enumeration, Value::Label(l), _) => {
             var.items.iter().find(|i| *i.name == **l)?.value
@@ -64,7 +85,8 @@ pub(crate) fn integer_of(var: &VarInfo, value: &Value, labels: Option<&[String]>
     if var.kind == VarType::Enumeration && !var.items.iter().any(|x| x.value == i) {
         return None;
     }
-    i32::try_from(i).ok()
+    let (lo, hi) = var.repr.integer_range()?;
+    (lo..=hi).contains(&i128::from(i)).then_some(i)
 }
 
 /// Checks one value (`what`: e.g. "the fixed value 30") that will be set on `var`.
@@ -86,7 +108,7 @@ pub(crate) fn check_value(
         )),
         VarType::Real | VarType::Integer => {
             let x = match (var.kind, labels) {
-                (VarType::Integer, Some(_)) => integer_of(var, value, labels).map(f64::from),
+                (VarType::Integer, Some(_)) => integer_of(var, value, labels).map(|i| i as f64),
                 _ => value.as_f64(),
             };
             let (lo, hi) = bounds(var);

@@ -1,7 +1,12 @@
-//! `modelDescription.xml` of an FMI 2.0 FMU, read with quick-xml into what savme checks and
-//! shows: the co-simulation capabilities, the default experiment, the type definitions
-//! (bounds, units, enumeration items) and every scalar variable with its causality, type,
-//! start value, `min` / `max`, unit and — for an enumeration — its items.
+//! `modelDescription.xml` of an FMI 2.0 or FMI 3.0 FMU, read with quick-xml into what savme
+//! checks and shows: the co-simulation capabilities, the default experiment, the type
+//! definitions (bounds, units, enumeration items) and every variable with its causality, type,
+//! start value, `min` / `max`, unit and — for an enumeration — its items, and the outputs
+//! `ModelStructure` lists. One parser for both schemas: FMI 2.0 wraps each variable in a
+//! `ScalarVariable` (`<Real>`, `<Integer>`, …), FMI 3.0 names the type in the element
+//! (`<Float64>`, `<Int32>`, `<UInt8>`, …, `<Enumeration>`, `<String>` with `<Start value>`),
+//! and the two end in the same [`VarInfo`] — its [`Repr`] says which C type the FMU's
+//! get/set functions take.
 //!
 //! (fmu-runner's parser, used before, keeps none of the bounds, units or enumeration items.)
 
@@ -9,19 +14,110 @@ use quick_xml::events::{BytesStart, Event};
 use serde::Serialize;
 use std::collections::HashMap;
 
-/// A variable's type.
+/// A variable's type, as savme binds it (the same for FMI 2.0 and 3.0; [`Repr`] has the exact
+/// C type).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum VarType {
-    /// fmi2Real.
+    /// fmi2Real; FMI 3.0 Float64 or Float32.
     Real,
-    /// fmi2Integer.
+    /// fmi2Integer; FMI 3.0 Int8 … Int64, UInt8 … UInt64.
     Integer,
-    /// fmi2Boolean.
+    /// fmi2Boolean / fmi3Boolean.
     Boolean,
-    /// fmi2String (can be fixed, not searched).
+    /// fmi2String / fmi3String (can be fixed, not searched).
     String,
-    /// An enumeration (set through `fmi2SetInteger`, by item value or name).
+    /// An enumeration (set through `fmi2SetInteger` / `fmi3SetInt64`, by item value or name).
     Enumeration,
+    /// An FMI 3.0 type savme does not bind (Binary, Clock): shown, never set.
+    Other,
+}
+
+/// The C type an FMU's get/set functions take for a variable: what `fmi2Get/SetReal` …
+/// or `fmi3Get/SetFloat64` … are called with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Repr {
+    /// `double` (fmi2Real, fmi3Float64).
+    Float64,
+    /// `float` (fmi3Float32).
+    Float32,
+    /// `int8_t`.
+    Int8,
+    /// `int16_t`.
+    Int16,
+    /// `int32_t` (fmi2Integer and fmi2 enumerations, fmi3Int32).
+    Int32,
+    /// `int64_t` (fmi3Int64 and fmi3 enumerations).
+    Int64,
+    /// `uint8_t`.
+    UInt8,
+    /// `uint16_t`.
+    UInt16,
+    /// `uint32_t`.
+    UInt32,
+    /// `uint64_t`.
+    UInt64,
+    /// fmi2Boolean (`int`) or fmi3Boolean (`bool`).
+    Boolean,
+    /// A C string.
+    String,
+    /// Not bound by savme (FMI 3.0 Binary, Clock).
+    Other,
+}
+
+impl Repr {
+    /// The range of an integer type (`None` for the others).
+    ///
+    /// ```
+    /// use savme_fmu::description::Repr;
+    /// assert_eq!(Repr::UInt8.integer_range(), Some((0, 255)));
+    /// assert_eq!(Repr::Float64.integer_range(), None);
+    /// ```
+    pub fn integer_range(self) -> Option<(i128, i128)> {
+        Some(match self {
+            Repr::Int8 => (i8::MIN.into(), i8::MAX.into()),
+            Repr::Int16 => (i16::MIN.into(), i16::MAX.into()),
+            Repr::Int32 => (i32::MIN.into(), i32::MAX.into()),
+            Repr::Int64 => (i64::MIN.into(), i64::MAX.into()),
+            Repr::UInt8 => (0, u8::MAX.into()),
+            Repr::UInt16 => (0, u16::MAX.into()),
+            Repr::UInt32 => (0, u32::MAX.into()),
+            Repr::UInt64 => (0, u64::MAX.into()),
+            _ => return None,
+        })
+    }
+
+    /// The FMI 3.0 element of a type (`Float64`, `Int8`, …; `None` for Binary and Clock).
+    fn fmi3(tag: &str) -> Option<(VarType, Repr)> {
+        Some(match tag {
+            "Float64" => (VarType::Real, Repr::Float64),
+            "Float32" => (VarType::Real, Repr::Float32),
+            "Int8" => (VarType::Integer, Repr::Int8),
+            "Int16" => (VarType::Integer, Repr::Int16),
+            "Int32" => (VarType::Integer, Repr::Int32),
+            "Int64" => (VarType::Integer, Repr::Int64),
+            "UInt8" => (VarType::Integer, Repr::UInt8),
+            "UInt16" => (VarType::Integer, Repr::UInt16),
+            "UInt32" => (VarType::Integer, Repr::UInt32),
+            "UInt64" => (VarType::Integer, Repr::UInt64),
+            "Boolean" => (VarType::Boolean, Repr::Boolean),
+            "String" => (VarType::String, Repr::String),
+            "Enumeration" => (VarType::Enumeration, Repr::Int64),
+            "Binary" | "Clock" => (VarType::Other, Repr::Other),
+            _ => return None,
+        })
+    }
+
+    /// The FMI 2.0 element of a type (`Real`, `Integer`, …).
+    fn fmi2(tag: &str) -> Option<(VarType, Repr)> {
+        Some(match tag {
+            "Real" => (VarType::Real, Repr::Float64),
+            "Integer" => (VarType::Integer, Repr::Int32),
+            "Boolean" => (VarType::Boolean, Repr::Boolean),
+            "String" => (VarType::String, Repr::String),
+            "Enumeration" => (VarType::Enumeration, Repr::Int32),
+            _ => return None,
+        })
+    }
 }
 
 /// A variable's causality.
@@ -40,6 +136,8 @@ pub enum VarCausality {
     Local,
     /// The independent variable (time).
     Independent,
+    /// FMI 3.0 structural parameter (array sizes): not settable by savme.
+    StructuralParameter,
 }
 
 impl VarCausality {
@@ -51,6 +149,7 @@ impl VarCausality {
             "output" => VarCausality::Output,
             "local" => VarCausality::Local,
             "independent" => VarCausality::Independent,
+            "structuralParameter" => VarCausality::StructuralParameter,
             _ => return None,
         })
     }
@@ -74,6 +173,11 @@ pub struct VarInfo {
     pub vr: u32,
     /// Its type.
     pub kind: VarType,
+    /// The C type of its get/set functions (`Float64` for an FMI 2.0 Real, …).
+    pub repr: Repr,
+    /// An FMI 3.0 array (it has `<Dimension>` elements): shown, not bound.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub array: bool,
     /// Its causality.
     pub causality: VarCausality,
     /// Its variability as written (`continuous` when not given).
@@ -122,8 +226,12 @@ pub struct CoSimulation {
     pub can_get_and_set_fmu_state: bool,
     /// `canSerializeFMUstate`.
     pub can_serialize_fmu_state: bool,
-    /// `providesDirectionalDerivative`.
+    /// `providesDirectionalDerivative` (3.0: `providesDirectionalDerivatives`).
     pub provides_directional_derivative: bool,
+    /// FMI 3.0 `canReturnEarlyAfterIntermediateUpdate`.
+    pub can_return_early_after_intermediate_update: bool,
+    /// FMI 3.0 `hasEventMode`.
+    pub has_event_mode: bool,
 }
 
 /// `DefaultExperiment`.
@@ -162,6 +270,16 @@ pub struct ModelDescription {
     pub default_experiment: DefaultExperiment,
     /// The variables in file order.
     pub variables: Vec<VarInfo>,
+    /// The value references of the outputs `ModelStructure` lists (FMI 2.0's `Unknown index`
+    /// turned into the variable's value reference).
+    pub structure_outputs: Vec<u32>,
+}
+
+impl ModelDescription {
+    /// FMI 3.0 (`fmiVersion` 3.x).
+    pub fn is_fmi3(&self) -> bool {
+        self.fmi_version.starts_with("3.")
+    }
 }
 
 /// A type of `TypeDefinitions` (`SimpleType`).
@@ -204,18 +322,28 @@ fn number(a: &HashMap<String, String>, key: &str, what: &str) -> Result<Option<f
 struct Parser {
     md: ModelDescription,
     types: HashMap<String, SimpleType>,
-    /// The `SimpleType` being read.
+    /// The `SimpleType` (2.0) or `…Type` (3.0) being read.
     simple_type: Option<(String, SimpleType)>,
-    /// The `ScalarVariable` being read: its attributes.
+    /// The `ScalarVariable` being read (2.0): its attributes.
     variable: Option<HashMap<String, String>>,
+    /// Inside an FMI 3.0 variable element (its `<Start>` and `<Dimension>` children).
+    in_variable3: bool,
+    /// Inside `ModelVariables`, `TypeDefinitions`, `ModelStructure/Outputs` (2.0).
+    in_variables: bool,
+    in_types: bool,
+    in_outputs: bool,
+    /// `ModelStructure` outputs of FMI 2.0, by 1-based variable index (resolved at the end).
+    output_indices: Vec<usize>,
     seen_root: bool,
 }
 
 impl Parser {
+    // Long because it is the one dispatch over every element of both schemas.
     fn element(&mut self, e: &BytesStart) -> Result<(), String> {
         let name = e.name();
         let name = String::from_utf8_lossy(name.as_ref()).into_owned();
         let a = attributes(e)?;
+        let fmi3 = self.md.is_fmi3();
         match name.as_str() {
             "fmiModelDescription" => self.root(&a),
             "CoSimulation" => self.co_simulation(&a),
@@ -229,9 +357,30 @@ impl Parser {
                 d.tolerance = number(&a, "tolerance", "DefaultExperiment")?;
                 d.step_size = number(&a, "stepSize", "DefaultExperiment")?;
             }
+            "ModelVariables" => self.in_variables = true,
+            "TypeDefinitions" => self.in_types = true,
+            "Outputs" => self.in_outputs = true,
+            "Unknown" if self.in_outputs => {
+                let index = a.get("index").and_then(|i| i.trim().parse::<usize>().ok());
+                self.output_indices.push(index.ok_or_else(|| {
+                    "ModelStructure: an output Unknown without a valid index".to_string()
+                })?);
+            }
+            "Output" if fmi3 => {
+                let vr = a.get("valueReference").and_then(|r| r.trim().parse().ok());
+                self.md.structure_outputs.push(vr.ok_or_else(|| {
+                    "ModelStructure: an Output without a valid valueReference".to_string()
+                })?);
+            }
             "SimpleType" => {
                 let n = a.get("name").cloned().unwrap_or_default();
                 self.simple_type = Some((n, SimpleType::default()));
+            }
+            t if fmi3 && self.in_types && t.ends_with("Type") => {
+                let n = a.get("name").cloned().unwrap_or_default();
+                let st = SimpleType::default();
+                self.simple_type = Some((n, st));
+                self.bounds(&a)?;
             }
             "Item" => {
                 if let Some((t, st)) = self.simple_type.as_mut() {
@@ -246,7 +395,27 @@ impl Parser {
                 }
             }
             "ScalarVariable" => self.variable = Some(a),
-            "Real" | "Integer" | "Boolean" | "String" | "Enumeration" => self.typed(&name, &a)?,
+            "Start" if self.in_variable3 => {
+                if let (Some(v), Some(value)) = (self.md.variables.last_mut(), a.get("value")) {
+                    v.start.get_or_insert_with(|| value.clone());
+                }
+            }
+            "Dimension" if self.in_variable3 => {
+                if let Some(v) = self.md.variables.last_mut() {
+                    v.array = true;
+                }
+            }
+            t if fmi3 && self.in_variables => {
+                if let Some((kind, repr)) = Repr::fmi3(t) {
+                    self.push_variable(&a, &a, kind, repr)?;
+                    self.in_variable3 = true;
+                }
+            }
+            t if !fmi3 => {
+                if let Some((kind, repr)) = Repr::fmi2(t) {
+                    self.typed(kind, repr, &a)?;
+                }
+            }
             _ => {}
         }
         Ok(())
@@ -280,24 +449,56 @@ impl Parser {
                 "canBeInstantiatedOnlyOncePerProcess",
             ),
             can_not_use_memory_management_functions: flag(a, "canNotUseMemoryManagementFunctions"),
-            can_get_and_set_fmu_state: flag(a, "canGetAndSetFMUstate"),
-            can_serialize_fmu_state: flag(a, "canSerializeFMUstate"),
-            provides_directional_derivative: flag(a, "providesDirectionalDerivative"),
+            can_get_and_set_fmu_state: flag(a, "canGetAndSetFMUstate")
+                || flag(a, "canGetAndSetFMUState"),
+            can_serialize_fmu_state: flag(a, "canSerializeFMUstate")
+                || flag(a, "canSerializeFMUState"),
+            provides_directional_derivative: flag(a, "providesDirectionalDerivative")
+                || flag(a, "providesDirectionalDerivatives"),
+            can_return_early_after_intermediate_update: flag(
+                a,
+                "canReturnEarlyAfterIntermediateUpdate",
+            ),
+            has_event_mode: flag(a, "hasEventMode"),
         });
     }
 
-    /// A type element: of a `SimpleType` (bounds, unit) or of a `ScalarVariable`.
-    fn typed(&mut self, tag: &str, a: &HashMap<String, String>) -> Result<(), String> {
+    /// The bounds and unit of the type being defined.
+    fn bounds(&mut self, a: &HashMap<String, String>) -> Result<(), String> {
         if let Some((t, st)) = self.simple_type.as_mut() {
             let what = format!("type `{t}`");
             st.min = number(a, "min", &what)?;
             st.max = number(a, "max", &what)?;
             st.unit = a.get("unit").cloned();
-            return Ok(());
+        }
+        Ok(())
+    }
+
+    /// An FMI 2.0 type element: of a `SimpleType` (bounds, unit) or of a `ScalarVariable`.
+    fn typed(
+        &mut self,
+        kind: VarType,
+        repr: Repr,
+        a: &HashMap<String, String>,
+    ) -> Result<(), String> {
+        if self.simple_type.is_some() {
+            return self.bounds(a);
         }
         let Some(v) = self.variable.take() else {
             return Ok(());
         };
+        self.push_variable(&v, a, kind, repr)
+    }
+
+    /// A variable: `v` holds its name, value reference, causality and variability (the
+    /// `ScalarVariable` in 2.0, the variable element in 3.0), `a` its type's attributes.
+    fn push_variable(
+        &mut self,
+        v: &HashMap<String, String>,
+        a: &HashMap<String, String>,
+        kind: VarType,
+        repr: Repr,
+    ) -> Result<(), String> {
         let name = v
             .get("name")
             .cloned()
@@ -312,13 +513,6 @@ impl Parser {
             Some(c) => VarCausality::parse(c)
                 .ok_or_else(|| format!("{what}: unknown causality \"{c}\""))?,
         };
-        let kind = match tag {
-            "Real" => VarType::Real,
-            "Integer" => VarType::Integer,
-            "Boolean" => VarType::Boolean,
-            "String" => VarType::String,
-            _ => VarType::Enumeration,
-        };
         let declared = a.get("declaredType").and_then(|t| self.types.get(t));
         if kind == VarType::Enumeration && declared.is_none() {
             return Err(format!(
@@ -326,15 +520,22 @@ impl Parser {
             ));
         }
         let inherited = declared.cloned().unwrap_or_default();
+        let default_variability = if kind == VarType::Real || !self.md.is_fmi3() {
+            "continuous"
+        } else {
+            "discrete"
+        };
         self.md.variables.push(VarInfo {
             name,
             vr,
             kind,
+            repr,
+            array: false,
             causality,
             variability: v
                 .get("variability")
                 .cloned()
-                .unwrap_or_else(|| "continuous".into()),
+                .unwrap_or_else(|| default_variability.into()),
             description: v.get("description").cloned(),
             start: a.get("start").cloned(),
             min: number(a, "min", &what)?.or(inherited.min),
@@ -347,11 +548,32 @@ impl Parser {
     }
 
     fn end(&mut self, name: &[u8]) {
-        if name == b"SimpleType" {
+        match name {
+            b"ModelVariables" => self.in_variables = false,
+            b"TypeDefinitions" => self.in_types = false,
+            b"Outputs" => self.in_outputs = false,
+            b"Start" | b"Dimension" => {}
+            _ if self.in_variables && self.md.is_fmi3() => self.in_variable3 = false,
+            _ => {}
+        }
+        let type_end = name == b"SimpleType" || (self.md.is_fmi3() && name.ends_with(b"Type"));
+        if type_end {
             if let Some((n, t)) = self.simple_type.take() {
                 self.types.insert(n, t);
             }
         }
+    }
+
+    /// FMI 2.0's `ModelStructure` outputs, by index, as value references.
+    fn finish(&mut self) -> Result<(), String> {
+        for &i in &self.output_indices {
+            let v = i
+                .checked_sub(1)
+                .and_then(|k| self.md.variables.get(k))
+                .ok_or_else(|| format!("ModelStructure: output index {i} names no variable"))?;
+            self.md.structure_outputs.push(v.vr);
+        }
+        Ok(())
     }
 }
 
@@ -388,6 +610,7 @@ impl ModelDescription {
                 Err(e) => return Err(format!("at byte {}: {e}", reader.buffer_position())),
             }
         }
+        p.finish()?;
         if !p.seen_root || p.md.fmi_version.is_empty() {
             return Err("no fmiModelDescription element with an fmiVersion attribute".into());
         }

@@ -1,12 +1,13 @@
 //! Reading and opening an `.fmu`. [`FmuDescription::read`] makes the checks a user needs named
 //! errors for without loading anything (missing file, not a zip, no `modelDescription.xml`,
-//! not FMI 2.0, no co-simulation, no binary for this platform) and parses the model
+//! not FMI 2.0 or 3.0, no co-simulation, no binary for this platform) and parses the model
 //! description; [`FmuFile::open`] then unpacks the archive into a private directory (its
-//! `resources/` folder is handed to every instance as a `file://` URI) and loads the shared
-//! library once.
+//! `resources/` folder is handed to every instance: as a `file://` URI in FMI 2.0, as a plain
+//! path with a trailing separator in FMI 3.0) and loads the shared library once, bound to the
+//! API of its version ([`Api`]).
 
 use crate::description::{ModelDescription, VarInfo};
-use crate::FmuError;
+use crate::{fmi3, FmuError};
 use libfmi::Fmi2Dll;
 use std::collections::HashMap;
 use std::ffi::CString;
@@ -15,8 +16,8 @@ use std::path::{Path, PathBuf};
 
 pub use crate::description::{VarCausality, VarType};
 
-/// Symbols a co-simulation FMU must export for savme to run it.
-const REQUIRED: [&str; 14] = [
+/// Symbols an FMI 2.0 co-simulation FMU must export for savme to run it.
+const REQUIRED_FMI2: [&str; 14] = [
     "fmi2Instantiate",
     "fmi2FreeInstance",
     "fmi2SetupExperiment",
@@ -47,13 +48,13 @@ pub struct FmuDescription {
 }
 
 impl FmuDescription {
-    /// Reads and checks `path`: a zip archive holding a well-formed FMI 2.0
+    /// Reads and checks `path`: a zip archive holding a well-formed FMI 2.0 or 3.0
     /// `modelDescription.xml` with a `CoSimulation` element, and a binary for this platform.
     pub fn read(path: &Path) -> Result<FmuDescription, FmuError> {
         let d = FmuDescription::inspect(path)?;
         let shown = path.display().to_string();
         let model = &d.model;
-        if model.fmi_version != "2.0" {
+        if model.fmi_version != "2.0" && !model.is_fmi3() {
             return Err(FmuError::UnsupportedVersion {
                 fmu: shown,
                 version: model.fmi_version.clone(),
@@ -62,7 +63,7 @@ impl FmuDescription {
         let Some(cs) = &model.co_simulation else {
             return Err(FmuError::NoCoSimulation { fmu: shown });
         };
-        let binary = binary_path(&cs.model_identifier);
+        let binary = binary_path(&cs.model_identifier, model.is_fmi3());
         if !d.files.contains(&binary) {
             return Err(FmuError::NoBinary {
                 fmu: shown,
@@ -143,14 +144,24 @@ impl FmuDescription {
     }
 }
 
+/// The C API of a loaded library: FMI 2.0 (libfmi's bindings) or FMI 3.0 ([`fmi3`]'s).
+pub enum Api {
+    /// FMI 2.0 co-simulation.
+    Fmi2(Box<Fmi2Dll>),
+    /// FMI 3.0 co-simulation.
+    Fmi3(Box<fmi3::Library>),
+}
+
 /// An opened FMU: its checked description, unpacked to a private directory, its library loaded
 /// once and shared by every instance (one instance per run or worker thread). Dereferences to
 /// its [`FmuDescription`].
 pub struct FmuFile {
     description: FmuDescription,
-    /// The `file://` URI of the unpacked `resources/` directory (`fmuResourceLocation`).
+    /// Where the unpacked `resources/` directory is, as the FMU's version wants it: FMI 2.0's
+    /// `fmuResourceLocation` is its `file://` URI, FMI 3.0's `resourcePath` its absolute path
+    /// with a trailing separator.
     pub resource_uri: CString,
-    pub(crate) dll: Fmi2Dll,
+    pub(crate) api: Api,
     _unpacked: tempfile::TempDir,
 }
 
@@ -242,39 +253,57 @@ fn unpack(path: &Path, shown: &str) -> Result<tempfile::TempDir, FmuError> {
     Ok(dir)
 }
 
-/// `binaries/<platform>/<modelIdentifier>.<dll extension>`.
-fn binary_path(model_identifier: &str) -> String {
+/// `binaries/<platform>/<modelIdentifier>.<dll extension>` (the platform folder of FMI 2.0,
+/// or FMI 3.0's platform tuple).
+fn binary_path(model_identifier: &str, fmi3: bool) -> String {
+    let version = if fmi3 {
+        savme_fmi_export::FmiVersion::V3
+    } else {
+        savme_fmi_export::FmiVersion::V2
+    };
     format!(
         "binaries/{}/{}.{}",
-        savme_platform(),
+        version.platform(),
         model_identifier,
         std::env::consts::DLL_EXTENSION
     )
 }
 
-/// Loads the shared library at `lib_path`, checks that it exports the [`REQUIRED`] functions
-/// and binds them.
-fn load_library(lib_path: &Path, shown: &str) -> Result<Fmi2Dll, FmuError> {
+/// Loads the shared library at `lib_path`, checks that it exports the functions savme calls
+/// for its FMI version and binds them.
+fn load_library(lib_path: &Path, shown: &str, fmi3: bool) -> Result<Api, FmuError> {
     // SAFETY: loading a shared library runs its initialisers; that is what an FMU is for.
     let lib = unsafe { libloading::Library::new(lib_path) }.map_err(|e| FmuError::Load {
         fmu: shown.into(),
         message: e.to_string(),
     })?;
-    for name in REQUIRED {
+    let required: &[&str] = if fmi3 {
+        &fmi3::REQUIRED
+    } else {
+        &REQUIRED_FMI2
+    };
+    for name in required {
         let symbol = format!("{name}\0");
         // SAFETY: only checks that the symbol exists.
         if unsafe { lib.get::<*const ()>(symbol.as_bytes()) }.is_err() {
             return Err(FmuError::MissingFunction {
                 fmu: shown.into(),
-                function: name.into(),
+                function: (*name).into(),
             });
         }
     }
-    // SAFETY: the library exports the FMI 2.0 functions checked above.
-    unsafe { Fmi2Dll::from_library(lib) }.map_err(|e| FmuError::Load {
+    let load = |e: libloading::Error| FmuError::Load {
         fmu: shown.into(),
         message: e.to_string(),
-    })
+    };
+    if fmi3 {
+        // SAFETY: the library declares FMI 3.0 and exports the functions checked above.
+        let api = unsafe { fmi3::Library::bind(lib) }.map_err(load)?;
+        return Ok(Api::Fmi3(Box::new(api)));
+    }
+    // SAFETY: the library exports the FMI 2.0 functions checked above.
+    let dll = unsafe { Fmi2Dll::from_library(lib) }.map_err(load)?;
+    Ok(Api::Fmi2(Box::new(dll)))
 }
 
 /// The `file://` URI of `dir` (RFC 3986: every byte but the unreserved ones and `/`
@@ -304,14 +333,24 @@ impl FmuFile {
         let description = FmuDescription::read(path)?;
         let shown = path.display().to_string();
         let dir = unpack(path, &shown)?;
-        let lib_path = dir.path().join(binary_path(description.model_identifier()));
-        let dll = load_library(&lib_path, &shown)?;
-        let resource_uri = CString::new(file_uri(&dir.path().join("resources")))
+        let fmi3 = description.model.is_fmi3();
+        let lib_path = dir
+            .path()
+            .join(binary_path(description.model_identifier(), fmi3));
+        let api = load_library(&lib_path, &shown, fmi3)?;
+        let resources = dir.path().join("resources");
+        let location = if fmi3 {
+            // FMI 3.0 §2.3.1: an absolute path with a trailing file separator.
+            format!("{}{}", resources.display(), std::path::MAIN_SEPARATOR)
+        } else {
+            file_uri(&resources)
+        };
+        let resource_uri = CString::new(location)
             .map_err(|e| FmuError::Spec(format!("the FMU's resource path: {e}")))?;
         Ok(FmuFile {
             description,
             resource_uri,
-            dll,
+            api,
             _unpacked: dir,
         })
     }
@@ -322,7 +361,7 @@ impl FmuFile {
     }
 }
 
-/// The platform folder under `binaries/` (`linux64`, …).
+/// The FMI 2.0 platform folder under `binaries/` (`linux64`, …).
 pub fn savme_platform() -> String {
     savme_fmi_export::platform_folder()
 }

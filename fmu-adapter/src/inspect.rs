@@ -107,13 +107,14 @@ impl Info {
             );
         }
         let _ = writeln!(s);
-        s.push_str(&variable_table(&m.variables));
+        s.push_str(&variable_table(&m.variables, m.is_fmi3()));
         s
     }
 }
 
-/// The variables as an aligned table: name, causality, type, start, min, max, unit, items.
-fn variable_table(vars: &[VarInfo]) -> String {
+/// The variables as an aligned table: name, causality, type (FMI 3.0's own numeric type
+/// names: Float64, UInt32, …), start, min, max, unit, items.
+fn variable_table(vars: &[VarInfo], fmi3: bool) -> String {
     let cell = |x: &Option<String>| x.clone().unwrap_or_default();
     let num = |x: Option<f64>| x.map(|x| x.to_string()).unwrap_or_default();
     let mut rows = vec![[
@@ -143,7 +144,11 @@ fn variable_table(vars: &[VarInfo]) -> String {
                 .ok()
                 .and_then(|c| c.as_str().map(String::from))
                 .unwrap_or_default(),
-            format!("{:?}", v.kind),
+            if fmi3 && matches!(v.kind, VarType::Real | VarType::Integer) {
+                format!("{:?}", v.repr)
+            } else {
+                format!("{:?}", v.kind)
+            },
             cell(&v.start),
             num(v.min),
             num(v.max),
@@ -204,7 +209,7 @@ fn variable_problem(v: &VarInfo) -> Option<String> {
             return (!["true", "false", "1", "0"].contains(&start.trim()))
                 .then(|| format!("start \"{start}\" is not a Boolean"));
         }
-        VarType::String => return None,
+        VarType::String | VarType::Other => return None,
     };
     let Some(x) = value else {
         return Some(format!("start \"{start}\" is not a {:?}", v.kind));

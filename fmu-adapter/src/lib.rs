@@ -1,6 +1,6 @@
 //! # savme-fmu
 //!
-//! FMI 2.0 co-simulation FMUs as savme's paired simulators. [`FmuFile::open`] checks and loads
+//! FMI 2.0 and FMI 3.0 co-simulation FMUs as savme's paired simulators. [`FmuFile::open`] checks and loads
 //! an `.fmu` once (its library is shared by every instance); [`FmuSimulator`] maps φ and θ to
 //! FMU variables by name (type-checked: Real / Integer / Boolean, parameters or inputs), runs
 //! `fmi2SetupExperiment` → initialisation → `fmi2DoStep` up to the stop time (the step size may
@@ -10,9 +10,10 @@
 //! trial, not the campaign; [`campaign_file`] reads and checks the TOML campaign file of
 //! `savme run --config` against its FMUs.
 //!
-//! The model description is parsed here ([`description`], quick-xml) and the archive unpacked
-//! with the zip crate; the calls on an instance go through libfmi's bindings of the FMI 2.0
-//! C API directly.
+//! The model description is parsed here ([`description`], quick-xml, both schemas) and the
+//! archive unpacked with the zip crate; the calls on an instance go through libfmi's bindings
+//! of the FMI 2.0 C API or this crate's of the FMI 3.0 one ([`fmi3`]), behind one
+//! [`instance::Instance`]: everything above it is the same for both versions.
 
 #![warn(missing_docs)]
 
@@ -21,6 +22,7 @@ pub mod campaign_file;
 mod declared;
 pub mod description;
 pub mod file;
+pub mod fmi3;
 pub mod inspect;
 pub mod instance;
 pub mod log;
@@ -28,7 +30,7 @@ pub mod simulator;
 pub mod worker;
 
 pub use backend::FmuBackend;
-pub use description::{ModelDescription, VarCausality, VarInfo, VarType};
+pub use description::{ModelDescription, Repr, VarCausality, VarInfo, VarType};
 pub use file::{FmuDescription, FmuFile};
 pub use simulator::{
     Binding, CostSource, Crossing, Failure, Fixed, FmuSimulator, RunSpec, ScenarioSpec, StepSize,
@@ -70,8 +72,8 @@ pub enum FmuError {
         /// What is wrong.
         message: String,
     },
-    /// Not FMI 2.0.
-    #[error("{fmu}: fmiVersion is \"{version}\"; savme runs FMI 2.0 co-simulation FMUs only")]
+    /// Neither FMI 2.0 nor FMI 3.0.
+    #[error("{fmu}: fmiVersion is \"{version}\"; savme runs FMI 2.0 and FMI 3.0 co-simulation FMUs only")]
     UnsupportedVersion {
         /// The FMU.
         fmu: String,

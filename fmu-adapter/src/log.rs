@@ -1,5 +1,7 @@
-//! The FMU's log messages: the logger callback every instance gets (a C shim formats the
-//! printf-style message, `csrc/logger.c`) feeds a [`LogSink`] per instance. The sink keeps the
+//! The FMU's log messages: the logger callback every instance gets feeds a [`LogSink`] per
+//! instance — FMI 2.0's logger is C-variadic (a C shim formats the printf-style message,
+//! `csrc/logger.c`), FMI 3.0's `fmi3LogMessageCallback` takes the finished text
+//! ([`savme_fmu_log3`]). The sink keeps the
 //! last few messages of the current run, bounded, for the error of a failed call (and so for
 //! the trial's log line); with `fmu_log` on it also prints every message to standard error.
 
@@ -20,6 +22,8 @@ pub struct LogSink {
     fmu: String,
     /// Print every message to standard error.
     echo: bool,
+    /// The instance's name (FMI 3.0's logger does not pass it).
+    instance: String,
     recent: Mutex<VecDeque<String>>,
 }
 
@@ -29,8 +33,15 @@ impl LogSink {
         LogSink {
             fmu,
             echo,
+            instance: String::new(),
             recent: Mutex::new(VecDeque::new()),
         }
+    }
+
+    /// With the instance's name, shown with each printed message of an FMI 3.0 FMU.
+    pub fn named(mut self, instance: &str) -> LogSink {
+        self.instance = instance.into();
+        self
     }
 
     fn lock(&self) -> std::sync::MutexGuard<'_, VecDeque<String>> {
@@ -128,6 +139,26 @@ pub unsafe extern "C" fn savme_fmu_log(
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         sink.push(&text(instance), status, &text(category), &text(message));
     }));
+}
+
+/// `fmi3LogMessageCallback`: `env` is the instance's [`LogSink`] (FMI 3.0 passes no instance
+/// name; the sink's FMU names it).
+///
+/// # Safety
+/// As [`savme_fmu_log`].
+pub unsafe extern "C" fn savme_fmu_log3(
+    env: *mut c_void,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    // SAFETY: by the caller's contract.
+    let Some(sink) = (unsafe { (env as *const LogSink).as_ref() }) else {
+        return;
+    };
+    let instance = std::ffi::CString::new(sink.instance.clone()).unwrap_or_default();
+    // SAFETY: by the caller's contract; `instance` is NUL-terminated.
+    unsafe { savme_fmu_log(env, instance.as_ptr(), status, category, message) }
 }
 
 #[cfg(test)]

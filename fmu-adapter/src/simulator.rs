@@ -179,8 +179,22 @@ struct Resolved {
     labels: Option<Vec<String>>,
 }
 
-fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
+/// Variable `name` of `file`, refused if it is an FMI 3.0 array (savme binds scalars).
+fn scalar(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     let v = file.variable(name)?.clone();
+    if v.array {
+        return Err(FmuError::WrongType {
+            fmu: file.path.display().to_string(),
+            variable: name.into(),
+            found: "an array (it has Dimension elements)".into(),
+            expected: "a scalar variable".into(),
+        });
+    }
+    Ok(v)
+}
+
+fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
+    let v = scalar(file, name)?;
     if !matches!(v.causality, VarCausality::Parameter | VarCausality::Input) {
         return Err(FmuError::WrongCausality {
             fmu: file.path.display().to_string(),
@@ -273,7 +287,7 @@ struct Plan {
 }
 
 fn output(file: &FmuDescription, name: &str, kinds: &[VarType]) -> Result<VarInfo, FmuError> {
-    let v = file.variable(name)?.clone();
+    let v = scalar(file, name)?;
     if v.causality != VarCausality::Output {
         return Err(FmuError::WrongCausality {
             fmu: file.path.display().to_string(),
@@ -429,11 +443,11 @@ impl FmuSimulator {
             expected: expected.into(),
         };
         match var.kind {
-            VarType::Real => inst.set_real(var.vr, value.as_f64().ok_or_else(|| bad("a number"))?),
+            VarType::Real => inst.set_number(var, value.as_f64().ok_or_else(|| bad("a number"))?),
             VarType::Integer | VarType::Enumeration => {
                 let i = declared::integer_of(var, value, labels)
                     .ok_or_else(|| bad("an integer, a label or an enumeration item"))?;
-                inst.set_integer(var.vr, i)
+                inst.set_int(var, i)
             }
             VarType::Boolean => {
                 inst.set_boolean(var.vr, value.as_bool().ok_or_else(|| bad("a boolean"))?)
@@ -441,6 +455,7 @@ impl FmuSimulator {
             VarType::String => {
                 inst.set_string(var.vr, value.as_label().ok_or_else(|| bad("a string"))?)
             }
+            VarType::Other => Err(bad("a Float, Integer, Boolean, String or Enumeration")),
         }
     }
 
@@ -448,10 +463,7 @@ impl FmuSimulator {
         Ok(match &self.spec.failure {
             Failure::Boolean { .. } => inst.boolean(plan.failure.vr)?,
             Failure::Threshold { when, value, .. } => {
-                let x = match plan.failure.kind {
-                    VarType::Integer => f64::from(inst.integer(plan.failure.vr)?),
-                    _ => inst.real(plan.failure.vr)?,
-                };
+                let x = inst.number(&plan.failure)?;
                 match when {
                     Crossing::Above => x >= *value,
                     Crossing::Below => x <= *value,
@@ -540,29 +552,52 @@ impl FmuSimulator {
         let mut failure = self.failed(inst, plan)?;
         let mut t = 0.0;
         let mut k = 0u64;
+        // The communication point an FMI 3.0 early return left unreached.
+        let mut heading: Option<f64> = None;
         while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
-            let dt = h.min(stop - t);
-            if let Step::StopRequested { .. } = inst.step(t, dt)? {
-                // The FMU ends the simulation: the run ends at the last completed communication
-                // point, judged on the signals seen up to there.
-                break;
+            let (goal, dt) = match heading.take() {
+                Some(goal) => (goal, goal - t),
+                None => {
+                    let dt = h.min(stop - t);
+                    let goal = if (stop - (t + dt)).abs() < 1e-12 {
+                        stop
+                    } else {
+                        t + dt
+                    };
+                    (goal, dt)
+                }
+            };
+            match inst.step(t, dt)? {
+                Step::Completed => t = goal,
+                Step::EarlyReturn { time } if time > t => {
+                    // An event inside the step: judged there, then on to `goal`.
+                    t = time;
+                    heading = Some(goal);
+                }
+                Step::EarlyReturn { time } => {
+                    return Err(FmuError::Spec(format!(
+                        "{}: fmi3DoStep returned early at {time} s, not after the communication point {t} s",
+                        inst.file().path.display()
+                    )))
+                }
+                // The FMU ends the simulation without completing the step: the run ends at the
+                // last completed communication point, judged on the signals seen up to there.
+                Step::StopRequested { reached: None, .. } => break,
+                // FMI 3.0 terminateSimulation after a completed (or early-returned) step: judged
+                // on the signals there too.
+                Step::StopRequested {
+                    reached: Some(_), ..
+                } => {
+                    k += 1;
+                    failure |= self.failed(inst, plan)?;
+                    break;
+                }
             }
             k += 1;
-            t = if (stop - (t + dt)).abs() < 1e-12 {
-                stop
-            } else {
-                t + dt
-            };
             failure |= self.failed(inst, plan)?;
         }
         let work = match &plan.cost {
-            Some(v) => {
-                let x = match v.kind {
-                    VarType::Integer => f64::from(inst.integer(v.vr)?),
-                    _ => inst.real(v.vr)?,
-                };
-                Some(x.max(0.0).round() as u64)
-            }
+            Some(v) => Some(inst.number(v)?.max(0.0).round() as u64),
             None => Some(k),
         };
         inst.terminate()?;

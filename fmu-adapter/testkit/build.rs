@@ -1,8 +1,8 @@
 //! Compiles the test FMUs written in C, as vendors write them: `braking` (the example of
 //! `examples/fmu/braking`: resources, an enumeration, a String parameter, bounds, stop
-//! requests, logger messages), `braking_once` (the same, refusing a second live instance in a
+//! requests, logger messages), `braking3` (the same model against the FMI 3.0 C API), `braking_once` (the same, refusing a second live instance in a
 //! process) and `crash_on_load` (dies while its library is loaded). Their paths reach the crate
-//! as `SAVME_BRAKING_LIB`, `SAVME_BRAKING_ONCE_LIB` and `SAVME_CRASH_ON_LOAD_LIB`.
+//! as `SAVME_BRAKING_LIB`, `SAVME_BRAKING3_LIB`, `SAVME_BRAKING_ONCE_LIB` and `SAVME_CRASH_ON_LOAD_LIB`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -35,6 +35,15 @@ fn main() {
     let braking = manifest.join("../../examples/fmu/braking/braking.c");
     let lib = shared_library(&braking, "braking", &[], &out_dir);
     println!("cargo:rustc-env=SAVME_BRAKING_LIB={}", lib.display());
+    println!(
+        "cargo:rerun-if-changed={}",
+        manifest
+            .join("../../examples/fmu/braking/model.c")
+            .display()
+    );
+    let braking3 = manifest.join("../../examples/fmu/braking/braking3.c");
+    let lib = shared_library(&braking3, "braking3", &[], &out_dir);
+    println!("cargo:rustc-env=SAVME_BRAKING3_LIB={}", lib.display());
     let lib = shared_library(&braking, "braking_once", &["BRAKING_ONLY_ONCE"], &out_dir);
     println!("cargo:rustc-env=SAVME_BRAKING_ONCE_LIB={}", lib.display());
     let crash = manifest.join("c/crash_on_load.c");

@@ -207,12 +207,30 @@ fn broken_fmus_are_refused_with_an_error_naming_them() {
     zip_with(&empty, &[("binaries/readme.txt", b"nothing")]);
     expect(&empty, "no modelDescription.xml");
     let md = savme_fmu_testkit::model_description();
+    let v4 = pack_xml(
+        &dir,
+        "fmi4.fmu",
+        &md.replace("fmiVersion=\"2.0\"", "fmiVersion=\"4.0\""),
+    );
+    expect(&v4, "fmiVersion is \"4.0\"");
+    // FMI 3.0 read with the 3.0 schema: a 2.0 description relabelled is no valid 3.0 one …
     let v3 = pack_xml(
         &dir,
         "fmi3.fmu",
         &md.replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""),
     );
-    expect(&v3, "fmiVersion is \"3.0\"");
+    expect(&v3, "modelDescription.xml: variable #1: no name");
+    // … and an FMI 3.0 description over a library of FMI 2.0 functions only (the C braking
+    // FMU) is refused on loading.
+    let v3 = dir.join("fmi3-lib2.fmu");
+    savme_fmu_testkit::pack_braking_library(
+        &v3,
+        savme_fmu_testkit::BRAKING3_MODEL_DESCRIPTION,
+        true,
+        &savme_fmu_testkit::braking_library(),
+    )
+    .unwrap();
+    expect(&v3, "does not export fmi3InstantiateCoSimulation");
     let me = md
         .replace("<CoSimulation ", "<ModelExchange ")
         .replace("canHandleVariableCommunicationStepSize=\"true\" ", "");

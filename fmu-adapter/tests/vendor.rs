@@ -1,7 +1,9 @@
 //! The adapter on FMUs as vendors ship them: the `braking` FMU written in C against the FMI 2.0
-//! C API (compiled by the test kit's build script from `examples/fmu/braking`), which reads a
-//! resource file during initialisation, asks to end the simulation, logs through the
-//! environment's logger, and declares bounds, an enumeration and a String parameter.
+//! C API and the same model against the FMI 3.0 C API (`braking3`; both compiled by the test
+//! kit's build script from `examples/fmu/braking`), which read a resource file during
+//! initialisation, ask to end the simulation, log through the environment's logger, and
+//! declare bounds, an enumeration and a String parameter. The tests run on both versions
+//! (`for fmi in BOTH`): the campaign features are the same for FMI 2.0 and 3.0.
 mod common;
 use savme_fmu::instance::Instance;
 use savme_fmu::{
@@ -16,15 +18,23 @@ fn temp_dir(name: &str) -> PathBuf {
     common::temp_dir("savme-vendor", name)
 }
 
-/// The `braking` FMU packed into `dir` (with its resources unless `with_resources` is false).
-fn braking(dir: &Path, with_resources: bool) -> PathBuf {
-    let out = dir.join("braking.fmu");
-    savme_fmu_testkit::pack_braking(
-        &out,
-        savme_fmu_testkit::BRAKING_MODEL_DESCRIPTION,
-        with_resources,
-    )
-    .unwrap();
+/// The FMI versions of the braking FMU.
+const BOTH: [u8; 2] = [2, 3];
+
+/// The `braking` FMU of FMI version `fmi` (2 or 3) packed into `dir` (with its resources
+/// unless `with_resources` is false).
+fn braking(dir: &Path, fmi: u8, with_resources: bool) -> PathBuf {
+    let out = dir.join(format!("braking{fmi}.fmu"));
+    if fmi == 3 {
+        savme_fmu_testkit::pack_braking3(&out, with_resources).unwrap();
+    } else {
+        savme_fmu_testkit::pack_braking(
+            &out,
+            savme_fmu_testkit::BRAKING_MODEL_DESCRIPTION,
+            with_resources,
+        )
+        .unwrap();
+    }
     out
 }
 
@@ -81,99 +91,120 @@ fn run(sim: &mut FmuSimulator, v: f64) -> Result<savme_kernel::SimResult, FmuErr
 /// `friction.txt` from it while it initialises.
 #[test]
 fn the_fmu_reads_its_resources_during_initialisation() {
-    let dir = temp_dir("resources");
-    let fmu = braking(&dir, true);
-    let file = Arc::new(FmuFile::open(&fmu).unwrap());
-    let uri = file.resource_uri.to_str().unwrap().to_string();
-    assert!(
-        uri.starts_with("file:///") && uri.ends_with("/resources"),
-        "{uri}"
-    );
-    let friction = file.variable("friction").unwrap().vr;
-    let road = file.variable("road").unwrap().vr;
-    for (surface, mu) in [(1, 0.8), (2, 0.5), (3, 0.15)] {
-        let mut inst = Instance::new(file.clone(), "resources").unwrap();
-        inst.setup(0.0, Some(1.0), None).unwrap();
-        inst.set_integer(road, surface).unwrap();
-        inst.initialize().unwrap();
-        assert_eq!(inst.real(friction).unwrap(), mu, "road {surface}");
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("resources{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        // FMI 2.0: a file:// URI; FMI 3.0: a plain path with a trailing separator.
+        let uri = file.resource_uri.to_str().unwrap().to_string();
+        if fmi == 2 {
+            assert!(
+                uri.starts_with("file:///") && uri.ends_with("/resources"),
+                "{uri}"
+            );
+        } else {
+            assert!(
+                uri.starts_with('/') && uri.ends_with("/resources/"),
+                "{uri}"
+            );
+        }
+        let friction = file.variable("friction").unwrap().vr;
+        let road = file.variable("road").unwrap().clone();
+        for (surface, mu) in [(1, 0.8), (2, 0.5), (3, 0.15)] {
+            let mut inst = Instance::new(file.clone(), "resources").unwrap();
+            inst.setup(0.0, Some(1.0), None).unwrap();
+            inst.set_int(&road, surface).unwrap();
+            inst.initialize().unwrap();
+            assert_eq!(inst.real(friction).unwrap(), mu, "road {surface}");
+        }
+        // And the friction read decides the outcome: 10 m/s stops in time on a dry road, not on ice.
+        let mut dry = simulator(&fmu, spec(Vec::new())).unwrap();
+        assert!(!run(&mut dry, 10.0).unwrap().failure);
+        let ice = Fixed {
+            fmu_variable: "road".into(),
+            value: Value::Int(3),
+        };
+        let mut icy = simulator(&fmu, spec(vec![ice])).unwrap();
+        assert!(run(&mut icy, 10.0).unwrap().failure);
     }
-    // And the friction read decides the outcome: 10 m/s stops in time on a dry road, not on ice.
-    let mut dry = simulator(&fmu, spec(Vec::new())).unwrap();
-    assert!(!run(&mut dry, 10.0).unwrap().failure);
-    let ice = Fixed {
-        fmu_variable: "road".into(),
-        value: Value::Int(3),
-    };
-    let mut icy = simulator(&fmu, spec(vec![ice])).unwrap();
-    assert!(run(&mut icy, 10.0).unwrap().failure);
 }
 
 /// Without its resources the FMU cannot initialise: the error names the FMU and the call.
 #[test]
 fn an_fmu_without_its_resources_fails_to_initialise_naming_the_call() {
-    let dir = temp_dir("no-resources");
-    let fmu = braking(&dir, false);
-    let mut sim = simulator(&fmu, spec(Vec::new())).unwrap();
-    let e = run(&mut sim, 10.0).unwrap_err().to_string();
-    assert!(e.contains(&fmu.display().to_string()), "{e}");
-    assert!(e.contains("fmi2ExitInitializationMode failed"), "{e}");
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("no-resources{fmi}"));
+        let fmu = braking(&dir, fmi, false);
+        let mut sim = simulator(&fmu, spec(Vec::new())).unwrap();
+        let e = run(&mut sim, 10.0).unwrap_err().to_string();
+        assert!(e.contains(&fmu.display().to_string()), "{e}");
+        assert!(
+            e.contains(&format!("fmi{fmi}ExitInitializationMode failed")),
+            "{e}"
+        );
+    }
 }
 
 /// Item 3: `fmi2Discard` with `fmi2Terminated` (the car left the map) ends the run at the last
 /// completed communication point, judged on the signals seen so far — not an error.
 #[test]
 fn a_stop_request_ends_the_run_at_the_last_completed_point() {
-    let dir = temp_dir("stop");
-    let fmu = braking(&dir, true);
-    // 20 m/s towards an obstacle 40 m ahead collides when the map is long enough …
-    let mut full = simulator(&fmu, spec(Vec::new())).unwrap();
-    let r = run(&mut full, 20.0).unwrap();
-    assert!(r.failure);
-    // … but the map ends after 10 m: at 1 m per step of 0.05 s, 10 steps complete, the 11th is
-    // discarded and the run ends there, before any collision. The instance is reused after it.
-    let map = Fixed {
-        fmu_variable: "map_length".into(),
-        value: Value::Real(10.0),
-    };
-    let mut short = simulator(&fmu, spec(vec![map])).unwrap();
-    for _ in 0..3 {
-        let r = run(&mut short, 20.0).unwrap();
-        assert!(!r.failure, "judged on the signals before the stop request");
-        assert_eq!(r.work, Some(10), "ten completed steps");
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("stop{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        // 20 m/s towards an obstacle 40 m ahead collides when the map is long enough …
+        let mut full = simulator(&fmu, spec(Vec::new())).unwrap();
+        let r = run(&mut full, 20.0).unwrap();
+        assert!(r.failure);
+        // … but the map ends after 10 m: at 1 m per step of 0.05 s, 10 steps complete, the 11th is
+        // discarded and the run ends there, before any collision. The instance is reused after it.
+        let map = Fixed {
+            fmu_variable: "map_length".into(),
+            value: Value::Real(10.0),
+        };
+        let mut short = simulator(&fmu, spec(vec![map])).unwrap();
+        for _ in 0..3 {
+            let r = run(&mut short, 20.0).unwrap();
+            assert!(!r.failure, "judged on the signals before the stop request");
+            assert_eq!(r.work, Some(10), "ten completed steps");
+        }
+        // Through the kernel's Simulator interface too (what a campaign calls): a result, no error.
+        let r = savme_kernel::Simulator::simulate(
+            &mut short,
+            "brake",
+            &Assignment::new().with("v", 20.0),
+            &Assignment::new(),
+        )
+        .unwrap();
+        assert!(!r.failure);
     }
-    // Through the kernel's Simulator interface too (what a campaign calls): a result, no error.
-    let r = savme_kernel::Simulator::simulate(
-        &mut short,
-        "brake",
-        &Assignment::new().with("v", 20.0),
-        &Assignment::new(),
-    )
-    .unwrap();
-    assert!(!r.failure);
 }
 
 /// Item 4: the FMU's log messages (printf-style, formatted by savme's logger) come with the
 /// error of the failed call — and so with the trial's log line.
 #[test]
 fn a_failed_call_carries_the_fmus_log_messages() {
-    let dir = temp_dir("log");
-    let fmu = braking(&dir, false);
-    let mut sim = simulator(&fmu, spec(Vec::new())).unwrap();
-    for _ in 0..2 {
-        let e = run(&mut sim, 10.0).unwrap_err().to_string();
-        assert!(
-            e.contains("fmi2ExitInitializationMode failed (fmi2Error)"),
-            "{e}"
-        );
-        // "cannot open %s: %s" with the path and strerror, formatted.
-        assert!(
-            e.contains("; the FMU logged: [error] cannot open /")
-                && e.contains("/resources/friction.txt: No such file or directory"),
-            "{e}"
-        );
-        // Each run starts with an empty log: the message appears once.
-        assert_eq!(e.matches("cannot open").count(), 1, "{e}");
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("log{fmi}"));
+        let fmu = braking(&dir, fmi, false);
+        let mut sim = simulator(&fmu, spec(Vec::new())).unwrap();
+        for _ in 0..2 {
+            let e = run(&mut sim, 10.0).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!(
+                    "fmi{fmi}ExitInitializationMode failed (fmi{fmi}Error)"
+                )),
+                "{e}"
+            );
+            // "cannot open %s: %s" with the path and strerror, formatted.
+            assert!(
+                e.contains("; the FMU logged: [error] cannot open /")
+                    && e.contains("/resources/friction.txt: No such file or directory"),
+                "{e}"
+            );
+            // Each run starts with an empty log: the message appears once.
+            assert_eq!(e.matches("cannot open").count(), 1, "{e}");
+        }
     }
 }
 
@@ -184,49 +215,51 @@ fn a_failed_call_carries_the_fmus_log_messages() {
 #[test]
 fn fmu_log_prints_every_message() {
     use std::io::Write;
-    let dir = temp_dir("log-all");
-    let fmu = braking(&dir, true);
-    for fmu_log in [true, false] {
-        let init = savme_fmu::worker::WorkerInit {
-            hf: fmu.clone(),
-            lf: fmu.clone(),
-            spec: RunSpec {
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("log-all{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        for fmu_log in [true, false] {
+            let init = savme_fmu::worker::WorkerInit {
+                hf: fmu.clone(),
+                lf: fmu.clone(),
+                spec: RunSpec {
+                    fmu_log,
+                    ..spec(Vec::new())
+                },
+                fidelity: None,
+                phi: [("brake".to_string(), phi_space())].into_iter().collect(),
+                theta_hf: None,
+            };
+            let request = savme_fmu::worker::WorkerRequest {
+                learned: false,
+                scenario: "brake".into(),
+                phi: Assignment::new().with("v", 10.0),
+                fidelity: Assignment::new(),
+            };
+            let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_savme-fmu-worker"))
+                .stdin(std::process::Stdio::piped())
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap();
+            let mut stdin = child.stdin.take().unwrap();
+            writeln!(stdin, "{}", serde_json::to_string(&init).unwrap()).unwrap();
+            writeln!(stdin, "{}", serde_json::to_string(&request).unwrap()).unwrap();
+            drop(stdin);
+            let out = child.wait_with_output().unwrap();
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert!(stdout.contains("\"done\""), "{stdout}");
+            let line = format!(
+                "{} [savme-hf] ok logAll: friction 0.80 for the dry road from /",
+                fmu.display()
+            );
+            assert_eq!(
+                stderr.contains(&line),
                 fmu_log,
-                ..spec(Vec::new())
-            },
-            fidelity: None,
-            phi: [("brake".to_string(), phi_space())].into_iter().collect(),
-            theta_hf: None,
-        };
-        let request = savme_fmu::worker::WorkerRequest {
-            learned: false,
-            scenario: "brake".into(),
-            phi: Assignment::new().with("v", 10.0),
-            fidelity: Assignment::new(),
-        };
-        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_savme-fmu-worker"))
-            .stdin(std::process::Stdio::piped())
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        let mut stdin = child.stdin.take().unwrap();
-        writeln!(stdin, "{}", serde_json::to_string(&init).unwrap()).unwrap();
-        writeln!(stdin, "{}", serde_json::to_string(&request).unwrap()).unwrap();
-        drop(stdin);
-        let out = child.wait_with_output().unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(stdout.contains("\"done\""), "{stdout}");
-        let line = format!(
-            "{} [savme-hf] ok logAll: friction 0.80 for the dry road from /",
-            fmu.display()
-        );
-        assert_eq!(
-            stderr.contains(&line),
-            fmu_log,
-            "fmu_log {fmu_log}: {stderr}"
-        );
+                "fmu_log {fmu_log}: {stderr}"
+            );
+        }
     }
 }
 
@@ -235,48 +268,50 @@ fn fmu_log_prints_every_message() {
 /// without a fidelity parameter.
 #[test]
 fn the_step_size_and_the_tolerance_can_be_the_fidelity() {
-    let dir = temp_dir("step-fidelity");
-    let fmu = braking(&dir, true);
-    let theta_space = Space::new(vec![
-        Variable::discrete("h", [0.4, 0.1, 0.02]),
-        Variable::discrete("tol", [1.0, 0.01]),
-    ])
-    .unwrap();
-    let file = Arc::new(FmuFile::open(&fmu).unwrap());
-    let phi = phi_space();
-    let mut sim = FmuSimulator::new(
-        file.clone(),
-        file,
-        RunSpec {
-            step: StepSize::Of("h".into()),
-            tolerance: Some(savme_fmu::Tolerance::Of("tol".into())),
-            ..spec(Vec::new())
-        },
-        Some(&theta_space),
-        &|_| Some(phi.clone()),
-        None,
-    )
-    .unwrap();
-    let mut at = |v: f64, h: f64, tol: f64| {
-        let theta = Assignment::new().with("h", h).with("tol", tol);
-        sim.run(
-            Role::Learned,
-            "brake",
-            &Assignment::new().with("v", v),
-            &theta,
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("step-fidelity{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        let theta_space = Space::new(vec![
+            Variable::discrete("h", [0.4, 0.1, 0.02]),
+            Variable::discrete("tol", [1.0, 0.01]),
+        ])
+        .unwrap();
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        let phi = phi_space();
+        let mut sim = FmuSimulator::new(
+            file.clone(),
+            file,
+            RunSpec {
+                step: StepSize::Of("h".into()),
+                tolerance: Some(savme_fmu::Tolerance::Of("tol".into())),
+                ..spec(Vec::new())
+            },
+            Some(&theta_space),
+            &|_| Some(phi.clone()),
+            None,
         )
-        .unwrap()
-    };
-    // The work is the FMU's Euler steps: one per communication step over 8 s, or sub-steps of
-    // at most `tolerance` seconds when the tolerance is smaller than the step.
-    assert_eq!(at(10.0, 0.1, 1.0).work, Some(80));
-    assert_eq!(at(10.0, 0.4, 1.0).work, Some(20));
-    assert_eq!(at(10.0, 0.1, 0.01).work, Some(800));
-    // And the fidelity changes the verdict: at 19 m/s the car stops about 2 m short of the
-    // obstacle, which explicit Euler at 0.4 s overshoots (by about v·h/2 = 3.8 m).
-    assert!(at(19.0, 0.4, 1.0).failure);
-    assert!(!at(19.0, 0.02, 1.0).failure);
-    assert!(!at(19.0, 0.4, 0.01).failure, "sub-steps of 0.01 s");
+        .unwrap();
+        let mut at = |v: f64, h: f64, tol: f64| {
+            let theta = Assignment::new().with("h", h).with("tol", tol);
+            sim.run(
+                Role::Learned,
+                "brake",
+                &Assignment::new().with("v", v),
+                &theta,
+            )
+            .unwrap()
+        };
+        // The work is the FMU's Euler steps: one per communication step over 8 s, or sub-steps of
+        // at most `tolerance` seconds when the tolerance is smaller than the step.
+        assert_eq!(at(10.0, 0.1, 1.0).work, Some(80));
+        assert_eq!(at(10.0, 0.4, 1.0).work, Some(20));
+        assert_eq!(at(10.0, 0.1, 0.01).work, Some(800));
+        // And the fidelity changes the verdict: at 19 m/s the car stops about 2 m short of the
+        // obstacle, which explicit Euler at 0.4 s overshoots (by about v·h/2 = 3.8 m).
+        assert!(at(19.0, 0.4, 1.0).failure);
+        assert!(!at(19.0, 0.02, 1.0).failure);
+        assert!(!at(19.0, 0.4, 0.01).failure, "sub-steps of 0.01 s");
+    }
 }
 
 fn fixed(name: &str, value: Value) -> Fixed {
@@ -290,117 +325,121 @@ fn fixed(name: &str, value: Value) -> Fixed {
 /// model description declares, before any run, naming the variable and its bounds.
 #[test]
 fn values_outside_the_declared_bounds_are_refused_before_any_run() {
-    let dir = temp_dir("bounds");
-    let fmu = braking(&dir, true);
-    let file = Arc::new(FmuFile::open(&fmu).unwrap());
-    let build = |spec: RunSpec, phi: Space, theta: Option<Space>| {
-        FmuSimulator::new(
-            file.clone(),
-            file.clone(),
-            spec,
-            theta.as_ref(),
-            &|_| Some(phi.clone()),
-            None,
-        )
-        .map(|_| ())
-        .unwrap_err()
-        .to_string()
-    };
-    let wide = Space::new(vec![Variable::continuous(
-        "v",
-        0.0,
-        100.0,
-        4,
-        Scale::Linear,
-    )])
-    .unwrap();
-    let e = build(spec(Vec::new()), wide, None);
-    assert_eq!(
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("bounds{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        let build = |spec: RunSpec, phi: Space, theta: Option<Space>| {
+            FmuSimulator::new(
+                file.clone(),
+                file.clone(),
+                spec,
+                theta.as_ref(),
+                &|_| Some(phi.clone()),
+                None,
+            )
+            .map(|_| ())
+            .unwrap_err()
+            .to_string()
+        };
+        let wide = Space::new(vec![Variable::continuous(
+            "v",
+            0.0,
+            100.0,
+            4,
+            Scale::Linear,
+        )])
+        .unwrap();
+        let e = build(spec(Vec::new()), wide, None);
+        assert_eq!(
         e,
         format!(
             "{}: variable `speed0` is declared in [4, 25] (min/max); φ `v` ranges over [0, 100], outside it",
             fmu.display()
         )
     );
-    let e = build(
-        spec(vec![fixed("gap", Value::Real(500.0))]),
-        phi_space(),
-        None,
-    );
-    assert!(
+        let e = build(
+            spec(vec![fixed("gap", Value::Real(500.0))]),
+            phi_space(),
+            None,
+        );
+        assert!(
         e.ends_with(
             "variable `gap` is declared in [1, 200] (min/max); the fixed value 500 lies outside"
         ),
         "{e}"
     );
-    let theta = Space::new(vec![Variable::discrete("m", [-1.0, 5.0])]).unwrap();
-    let e = build(
-        RunSpec {
-            fidelity: vec![Binding {
-                variable: "m".into(),
-                fmu_variable: "map_length".into(),
-                labels: None,
-            }],
-            ..spec(Vec::new())
-        },
-        phi_space(),
-        Some(theta),
-    );
-    assert!(
+        let theta = Space::new(vec![Variable::discrete("m", [-1.0, 5.0])]).unwrap();
+        let e = build(
+            RunSpec {
+                fidelity: vec![Binding {
+                    variable: "m".into(),
+                    fmu_variable: "map_length".into(),
+                    labels: None,
+                }],
+                ..spec(Vec::new())
+            },
+            phi_space(),
+            Some(theta),
+        );
+        assert!(
         e.ends_with(
             "variable `map_length` is declared in [0, inf] (min/max); θ `m` value -1 lies outside"
         ),
         "{e}"
     );
+    }
 }
 
 /// Item 6: an enumeration is set through `fmi2SetInteger`, by item name or value — fixed or
 /// searched (φ labels are item names); a value that is no item is refused before any run.
 #[test]
 fn enumerations_are_set_by_item_name_or_value() {
-    let dir = temp_dir("enum");
-    let fmu = braking(&dir, true);
-    // 10 m/s on a 40 m gap: stops in time on a dry or wet road, not on ice.
-    let verdict = |road: Value| {
-        let mut sim = simulator(&fmu, spec(vec![fixed("road", road)])).unwrap();
-        run(&mut sim, 10.0).unwrap().failure
-    };
-    assert!(!verdict(Value::from("dry")));
-    assert!(!verdict(Value::from("wet")));
-    assert!(verdict(Value::from("ice")));
-    assert!(verdict(Value::Int(3)));
-    for (bad, shown) in [(Value::from("snow"), "snow"), (Value::Int(4), "4")] {
-        let e = simulator(&fmu, spec(vec![fixed("road", bad)]))
-            .unwrap_err()
-            .to_string();
-        assert!(
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("enum{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        // 10 m/s on a 40 m gap: stops in time on a dry or wet road, not on ice.
+        let verdict = |road: Value| {
+            let mut sim = simulator(&fmu, spec(vec![fixed("road", road)])).unwrap();
+            run(&mut sim, 10.0).unwrap().failure
+        };
+        assert!(!verdict(Value::from("dry")));
+        assert!(!verdict(Value::from("wet")));
+        assert!(verdict(Value::from("ice")));
+        assert!(verdict(Value::Int(3)));
+        for (bad, shown) in [(Value::from("snow"), "snow"), (Value::Int(4), "4")] {
+            let e = simulator(&fmu, spec(vec![fixed("road", bad)]))
+                .unwrap_err()
+                .to_string();
+            assert!(
             e.ends_with(&format!(
                 "variable `road` is an enumeration (dry = 1, wet = 2, ice = 3); the fixed value {shown} is none of its items (give an item's name or value)"
             )),
             "{e}"
         );
-    }
-    // Searched: φ with the item names as labels.
-    let file = Arc::new(FmuFile::open(&fmu).unwrap());
-    let phi = Space::new(vec![
-        Variable::continuous("v", 5.0, 25.0, 4, Scale::Linear),
-        Variable::discrete("surface", ["dry", "ice"]),
-    ])
-    .unwrap();
-    let mut s = spec(Vec::new());
-    s.scenarios[0].phi.push(Binding {
-        variable: "surface".into(),
-        fmu_variable: "road".into(),
-        labels: Some(vec!["dry".into(), "ice".into()]),
-    });
-    let mut sim =
-        FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()), None).unwrap();
-    for (surface, failure) in [("dry", false), ("ice", true)] {
-        let phi = Assignment::new().with("v", 10.0).with("surface", surface);
-        let r = sim
-            .run(Role::High, "brake", &phi, &Assignment::new())
-            .unwrap();
-        assert_eq!(r.failure, failure, "{surface}");
+        }
+        // Searched: φ with the item names as labels.
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        let phi = Space::new(vec![
+            Variable::continuous("v", 5.0, 25.0, 4, Scale::Linear),
+            Variable::discrete("surface", ["dry", "ice"]),
+        ])
+        .unwrap();
+        let mut s = spec(Vec::new());
+        s.scenarios[0].phi.push(Binding {
+            variable: "surface".into(),
+            fmu_variable: "road".into(),
+            labels: Some(vec!["dry".into(), "ice".into()]),
+        });
+        let mut sim =
+            FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()), None).unwrap();
+        for (surface, failure) in [("dry", false), ("ice", true)] {
+            let phi = Assignment::new().with("v", 10.0).with("surface", surface);
+            let r = sim
+                .run(Role::High, "brake", &phi, &Assignment::new())
+                .unwrap();
+            assert_eq!(r.failure, failure, "{surface}");
+        }
     }
 }
 
@@ -408,27 +447,30 @@ fn enumerations_are_set_by_item_name_or_value() {
 /// initialisation with its message.
 #[test]
 fn string_parameters_can_be_fixed() {
-    let dir = temp_dir("string");
-    let fmu = braking(&dir, true);
-    // 16 m/s on 40 m: an alert driver (0.8 s) stops in time, a distracted one (1.6 s) does not.
-    for (driver, failure) in [("alert", false), ("distracted", true)] {
-        let mut sim = simulator(&fmu, spec(vec![fixed("driver", Value::from(driver))])).unwrap();
-        assert_eq!(run(&mut sim, 16.0).unwrap().failure, failure, "{driver}");
+    for fmi in BOTH {
+        let dir = temp_dir(&format!("string{fmi}"));
+        let fmu = braking(&dir, fmi, true);
+        // 16 m/s on 40 m: an alert driver (0.8 s) stops in time, a distracted one (1.6 s) does not.
+        for (driver, failure) in [("alert", false), ("distracted", true)] {
+            let mut sim =
+                simulator(&fmu, spec(vec![fixed("driver", Value::from(driver))])).unwrap();
+            assert_eq!(run(&mut sim, 16.0).unwrap().failure, failure, "{driver}");
+        }
+        let mut sim = simulator(&fmu, spec(vec![fixed("driver", Value::from("sleepy"))])).unwrap();
+        let e = run(&mut sim, 15.0).unwrap_err().to_string();
+        assert!(
+            e.ends_with("unknown driver profile 'sleepy' (expected alert or distracted)"),
+            "{e}"
+        );
+        // A number is not a string.
+        let e = simulator(&fmu, spec(vec![fixed("driver", Value::Int(1))]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("variable `driver` is String, expected a variable that takes the value 1"),
+            "{e}"
+        );
     }
-    let mut sim = simulator(&fmu, spec(vec![fixed("driver", Value::from("sleepy"))])).unwrap();
-    let e = run(&mut sim, 15.0).unwrap_err().to_string();
-    assert!(
-        e.ends_with("unknown driver profile 'sleepy' (expected alert or distracted)"),
-        "{e}"
-    );
-    // A number is not a string.
-    let e = simulator(&fmu, spec(vec![fixed("driver", Value::Int(1))]))
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.ends_with("variable `driver` is String, expected a variable that takes the value 1"),
-        "{e}"
-    );
 }
 
 /// The braking FMU declaring `canBeInstantiatedOnlyOncePerProcess="true"`, built to refuse a
@@ -599,4 +641,131 @@ range = [5.0, 20.0]
             fmu.display()
         )
     );
+}
+
+/// Item 7: FMI 3.0's `fmi3DoStep` outputs. Allowed to return early (savme instantiates with
+/// `earlyReturnAllowed`), `braking3` stops at the instant the car reaches the obstacle:
+/// [`Step::EarlyReturn`] at `lastSuccessfulTime`, signals read there; `terminateSimulation`
+/// after a completed step is a stop request whose signals count.
+#[test]
+fn fmi3_early_return_and_terminate_simulation() {
+    use savme_fmu::instance::Step;
+    let dir = temp_dir("fmi3-step");
+    let fmu = braking(&dir, 3, true);
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let var = |n: &str| file.variable(n).unwrap().clone();
+    let mut inst = Instance::new(file.clone(), "early").unwrap();
+    inst.setup(0.0, Some(8.0), None).unwrap();
+    // 20 m/s, 10 m ahead: reached at 0.5 s, before the driver reacts (0.8 s).
+    inst.set_real(var("speed0").vr, 20.0).unwrap();
+    inst.set_real(var("gap").vr, 10.0).unwrap();
+    inst.initialize().unwrap();
+    assert_eq!(
+        inst.step(0.0, 1.0).unwrap(),
+        Step::EarlyReturn { time: 0.5 }
+    );
+    assert!(inst.boolean(var("collision").vr).unwrap());
+    assert_eq!(inst.real(var("distance").vr).unwrap(), 0.0);
+    assert_eq!(inst.number(&var("steps")).unwrap(), 1.0, "fmi3GetUInt32");
+    assert_eq!(inst.step(0.5, 0.5).unwrap(), Step::Completed);
+    // terminateSimulation: the map ends after 5 m, 2 m per step of 0.1 s.
+    inst.reset().unwrap();
+    inst.setup(0.0, Some(8.0), None).unwrap();
+    inst.set_real(var("speed0").vr, 20.0).unwrap();
+    inst.set_real(var("map_length").vr, 5.0).unwrap();
+    inst.initialize().unwrap();
+    assert_eq!(inst.step(0.0, 0.1).unwrap(), Step::Completed);
+    assert_eq!(inst.step(0.1, 0.1).unwrap(), Step::Completed);
+    let Step::StopRequested {
+        terminated: Some(true),
+        reached: Some(t),
+    } = inst.step(0.2, 0.1).unwrap()
+    else {
+        panic!("no stop request")
+    };
+    assert!((t - 0.3).abs() < 1e-12, "{t}");
+    // Through the simulator: the run with stop_on_failure ends at the early return (one
+    // partial Euler step, on the failure), and the run on the short map after three steps.
+    let mut s = spec(vec![fixed("gap", Value::Real(10.0))]);
+    s.stop_on_failure = true;
+    s.step = StepSize::Fixed(1.0);
+    let mut sim = simulator(&fmu, s).unwrap();
+    let r = run(&mut sim, 20.0).unwrap();
+    assert!(r.failure);
+    assert_eq!(r.work, Some(1));
+    let mut s = spec(vec![fixed("map_length", Value::Real(5.0))]);
+    s.step = StepSize::Fixed(0.1);
+    let mut sim = simulator(&fmu, s).unwrap();
+    let r = run(&mut sim, 20.0).unwrap();
+    assert_eq!((r.failure, r.work), (false, Some(3)));
+}
+
+/// Item 7: the FMI 3.0 model description — its types (Float64, UInt32, Enumeration with
+/// Int64 access, String with a `<Start>` element), the independent variable and
+/// `ModelStructure` — read into the same variables as FMI 2.0's.
+#[test]
+fn the_fmi3_model_description_reads_like_fmi2() {
+    use savme_fmu::{Repr, VarCausality, VarType};
+    let dir = temp_dir("fmi3-md");
+    let two = FmuFile::open(&braking(&dir, 2, true)).unwrap();
+    let three = FmuFile::open(&braking(&dir, 3, true)).unwrap();
+    assert!(three.model.is_fmi3() && !two.model.is_fmi3());
+    for name in [
+        "speed0",
+        "gap",
+        "road",
+        "driver",
+        "map_length",
+        "distance",
+        "collision",
+    ] {
+        let (a, b) = (two.variable(name).unwrap(), three.variable(name).unwrap());
+        assert_eq!(
+            (
+                a.kind,
+                a.causality,
+                &a.start,
+                a.min,
+                a.max,
+                &a.unit,
+                &a.items
+            ),
+            (
+                b.kind,
+                b.causality,
+                &b.start,
+                b.min,
+                b.max,
+                &b.unit,
+                &b.items
+            ),
+            "{name}"
+        );
+    }
+    assert_eq!(
+        three.variable("driver").unwrap().start.as_deref(),
+        Some("alert")
+    );
+    assert_eq!(three.variable("road").unwrap().repr, Repr::Int64);
+    assert_eq!(two.variable("road").unwrap().repr, Repr::Int32);
+    let steps = three.variable("steps").unwrap();
+    assert_eq!((steps.kind, steps.repr), (VarType::Integer, Repr::UInt32));
+    let time = three.variable("time").unwrap();
+    assert_eq!(time.causality, VarCausality::Independent);
+    assert_eq!(two.model.structure_outputs, vec![5, 6, 7, 8]);
+    assert_eq!(three.model.structure_outputs, vec![5, 6, 7, 8]);
+    // A value outside an FMI 3.0 integer type's range is refused before any run.
+    let phi = Space::new(vec![Variable::discrete("surface", [1i64, 300])]).unwrap();
+    let mut s = spec(Vec::new());
+    s.scenarios[0].phi = vec![Binding {
+        variable: "surface".into(),
+        fmu_variable: "road".into(),
+        labels: None,
+    }];
+    let file = Arc::new(three);
+    let e = FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()), None)
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("variable `road` is an enumeration"), "{e}");
 }

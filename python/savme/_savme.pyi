@@ -386,10 +386,16 @@ class Campaign:
         resume: bool = False,
         jobs: Optional[int] = None,
         progress: bool = False,
+        storage: Optional[str] = None,
+        campaign: Optional[str] = None,
     ) -> Campaign:
         """out: the campaign directory (default "savme-results"); resume=True continues the campaign in `out` (protocol=None takes its
         protocol.json); jobs: worker threads (default: one per core); progress: one line per
-        finished stage on stderr."""
+        finished stage on stderr; storage="postgresql://USER@HOST/DB" with campaign=NAME keeps
+        the protocol and trials in that database instead (`savme run --storage`; the password
+        from the URL, PGPASSWORD or ~/.pgpass is never shown), tables and figures still go
+        to `out`. A malformed URL raises ValueError; a database that cannot be reached, or a
+        campaign another process holds, CampaignError."""
     def run(
         self,
         simulate: Optional[_SimulatorFn] = None,
@@ -400,7 +406,9 @@ class Campaign:
     ) -> CampaignResult:
         """Runs (or resumes) the campaign: one `simulate` callable for both runs, or `hf=`
         and `lf=` callables, or a bundled simulator `sim=`. Raises CampaignError (a failed
-        simulation names the trial and the exception), ValueError for a bad protocol."""
+        simulation names the trial and the exception), ValueError for a bad protocol.
+        Ctrl-C stops the campaign between trials (the runs in flight finish) and raises
+        KeyboardInterrupt; the told trials are stored, so resume=True continues."""
     @property
     def protocol(self) -> Protocol:
         """The protocol."""
@@ -415,9 +423,11 @@ def load_campaign(
     resume: bool = False,
     jobs: Optional[int] = None,
     progress: bool = False,
+    storage: Optional[str] = None,
+    campaign: Optional[str] = None,
 ) -> Campaign:
     """A campaign file (TOML, as `savme run --config` reads) as a campaign with its FMUs
-    bound (`savme.campaign.load`)."""
+    bound (`savme.campaign.load`); storage and campaign as for Campaign."""
 
 @final
 class Driving:

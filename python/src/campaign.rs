@@ -6,18 +6,27 @@ use crate::convert;
 use crate::errors;
 use crate::sim::{PyDriving, PyFmuSimulator};
 use crate::space::PySpace;
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use crossbeam_channel::RecvTimeoutError;
+use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use savme::campaign::config::{self, Overrides};
-use savme::campaign::{Campaign, CampaignOutcome, Cost, OnError, Problem, ProgressLines, Protocol};
+use savme::campaign::store::postgres::{check_name, Database, PostgresStore};
+use savme::campaign::store::{StoreError, TrialStore};
+use savme::campaign::{
+    Campaign, CampaignOutcome, Cost, OnError, Problem, ProgressLines, Protocol, Stop,
+};
 use savme_fmu::campaign_file::CampaignFile;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
+
+/// How often a running campaign looks for Ctrl-C (Python's signal handlers run only on the
+/// main thread, when it holds the GIL).
+const SIGNAL_CHECK: Duration = Duration::from_millis(50);
 
 /// What the campaign's protocol is: stages, iterations, budgets, seeds, scenarios.
 #[pyclass(name = "Protocol", module = "savme", frozen)]
@@ -283,6 +292,41 @@ impl Simulator for PySimulator {
     }
 }
 
+/// The database of `storage=` with the campaign's name (both or neither).
+fn storage_of(
+    storage: Option<&str>,
+    campaign: Option<String>,
+) -> PyResult<Option<(Database, String)>> {
+    match (storage, campaign) {
+        (None, None) => Ok(None),
+        (None, Some(_)) => Err(PyValueError::new_err(
+            "campaign= names a campaign in a database: give storage=\"postgresql://…\" too",
+        )),
+        (Some(_), None) => Err(PyValueError::new_err(
+            "storage= needs campaign=NAME (the campaign's name in the database)",
+        )),
+        (Some(url), Some(name)) => {
+            let db = Database::parse(url).map_err(|e| PyValueError::new_err(e.to_string()))?;
+            check_name(&name).map_err(|e| PyValueError::new_err(e.to_string()))?;
+            Ok(Some((db, name)))
+        }
+    }
+}
+
+/// The protocol the database keeps for campaign `name` (resume with protocol=None).
+fn stored_protocol(db: &Database, name: &str) -> PyResult<Protocol> {
+    let store_error = |e: StoreError| errors::campaign(e.into());
+    let mut store = PostgresStore::open(db, name).map_err(store_error)?;
+    let location = store.location();
+    let value = store.load_protocol().map_err(store_error)?.ok_or_else(|| {
+        errors::campaign(savme::campaign::CampaignError::NothingToResumeIn {
+            store: location.clone(),
+        })
+    })?;
+    serde_json::from_value(value)
+        .map_err(|e| errors::campaign_message(format!("{location}, protocol: {e}")))
+}
+
 /// The simulator bound to a campaign loaded from a campaign file.
 enum BoundSim {
     None,
@@ -299,6 +343,8 @@ pub struct PyCampaign {
     resume: bool,
     jobs: Option<usize>,
     progress: bool,
+    /// The PostgreSQL database and the campaign's name in it, instead of the directory's store.
+    storage: Option<(Database, String)>,
     bound: BoundSim,
 }
 
@@ -382,8 +428,11 @@ impl PyCampaignResult {
 }
 
 impl PyCampaign {
-    /// Runs the Rust campaign loop on `sim` with the GIL released (Python simulators take it
-    /// back around each call).
+    /// Runs the Rust campaign loop on `sim` on a thread of its own, with the GIL released
+    /// (Python simulators take it back around each call). Meanwhile this (main) thread looks
+    /// for signals every [`SIGNAL_CHECK`]: on Ctrl-C it asks the campaign to stop between
+    /// trials, waits for the runs in flight, and raises the `KeyboardInterrupt` — every told
+    /// trial is stored, so `resume=True` continues from there.
     fn run_on<S: Simulator + Clone + Send + 'static>(
         &self,
         py: Python<'_>,
@@ -392,16 +441,51 @@ impl PyCampaign {
         let (protocol, problem) = (self.protocol.clone(), self.problem.clone());
         let (out, resume, jobs, progress) =
             (self.out.clone(), self.resume, self.jobs, self.progress);
-        let outcome = py.detach(move || {
-            let mut c = Campaign::new(protocol, problem).out(out).resume(resume);
-            if let Some(j) = jobs {
-                c = c.jobs(j);
+        let storage = self.storage.clone();
+        let stop = Stop::new();
+        let stop_campaign = stop.clone();
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        let campaign = std::thread::Builder::new()
+            .name("savme-campaign".into())
+            .spawn(move || {
+                let mut c = Campaign::new(protocol, problem)
+                    .out(out)
+                    .resume(resume)
+                    .stop_on(stop_campaign);
+                if let Some(j) = jobs {
+                    c = c.jobs(j);
+                }
+                if progress {
+                    c = c.observer(ProgressLines::new(std::io::stderr()));
+                }
+                if let Some((db, name)) = storage {
+                    match PostgresStore::open(&db, &name) {
+                        Ok(store) => c = c.store(Box::new(store)),
+                        Err(e) => {
+                            let _ = tx.send(Err(e.into()));
+                            return;
+                        }
+                    }
+                }
+                let _ = tx.send(c.run(&sim));
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot start the campaign: {e}")))?;
+        let outcome = loop {
+            match py.detach(|| rx.recv_timeout(SIGNAL_CHECK)) {
+                Ok(outcome) => break outcome,
+                Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Disconnected) => {
+                    let _ = campaign.join();
+                    return Err(PyRuntimeError::new_err("the campaign thread stopped"));
+                }
             }
-            if progress {
-                c = c.observer(ProgressLines::new(std::io::stderr()));
+            if let Err(interrupt) = py.check_signals() {
+                stop.request();
+                let _ = py.detach(|| campaign.join());
+                return Err(interrupt);
             }
-            c.run(&sim)
-        });
+        };
+        let _ = py.detach(|| campaign.join());
         Ok(PyCampaignResult {
             outcome: outcome.map_err(errors::campaign)?,
         })
@@ -413,10 +497,14 @@ impl PyCampaign {
     /// A campaign of `protocol` on `problem` into `out`. `resume=True` continues the campaign
     /// in `out` (its `protocol.json` must equal `protocol`; give protocol=None to take it
     /// from there). `jobs`: worker threads (default: one per core); `progress`: one line per
-    /// finished stage on stderr.
+    /// finished stage on stderr. `storage="postgresql://USER@HOST/DB"` with `campaign=NAME`
+    /// keeps the protocol and the trials in that database instead (as `savme run --storage`;
+    /// the password comes from the URL, PGPASSWORD or ~/.pgpass and is never shown); the
+    /// tables and figures are still written into `out`.
     #[new]
     #[pyo3(signature = (protocol, problem, *, out = None, resume = false,
-        jobs = None, progress = false))]
+        jobs = None, progress = false, storage = None, campaign = None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         protocol: Option<PyRef<'_, PyProtocol>>,
         problem: PyRef<'_, PyProblem>,
@@ -424,12 +512,18 @@ impl PyCampaign {
         resume: bool,
         jobs: Option<usize>,
         progress: bool,
+        storage: Option<&str>,
+        campaign: Option<String>,
     ) -> PyResult<Self> {
         let out = out.unwrap_or_else(|| PathBuf::from("savme-results"));
-        let protocol = match protocol {
-            Some(p) => p.protocol.clone(),
-            None if resume => savme::campaign::load_protocol(&out).map_err(errors::campaign)?,
-            None => {
+        let storage = storage_of(storage, campaign)?;
+        let protocol = match (protocol, &storage) {
+            (Some(p), _) => p.protocol.clone(),
+            (None, Some((db, name))) if resume => stored_protocol(db, name)?,
+            (None, None) if resume => {
+                savme::campaign::load_protocol(&out).map_err(errors::campaign)?
+            }
+            (None, _) => {
                 return Err(PyValueError::new_err(
                     "give a protocol (protocol=None only with resume=True)",
                 ))
@@ -442,6 +536,7 @@ impl PyCampaign {
             resume,
             jobs,
             progress,
+            storage,
             bound: BoundSim::None,
         })
     }
@@ -452,6 +547,8 @@ impl PyCampaign {
     /// Give `hf` and `lf` callables `(scenario, phi, theta) -> failure | (failure, work)`, or
     /// one `simulate` callable for both, or `sim=savme.sim.Driving()` /
     /// `sim=savme.fmu.Simulator(...)`; a campaign from `savme.campaign.load` has its FMUs.
+    /// Ctrl-C stops the campaign between trials and raises `KeyboardInterrupt` (the told
+    /// trials are stored: `resume=True` continues).
     #[pyo3(signature = (simulate = None, *, hf = None, lf = None, sim = None))]
     fn run(
         &self,
@@ -543,16 +640,21 @@ impl PyCampaign {
 }
 
 /// `savme.campaign.load(path)`: a campaign file (TOML, as `savme run --config` reads) as a
-/// campaign with its FMU simulator bound; `out` defaults to the file's `campaign.out`.
+/// campaign with its FMU simulator bound; `out` defaults to the file's `campaign.out`;
+/// `storage` and `campaign` as for `Campaign`.
 #[pyfunction]
-#[pyo3(signature = (path, *, out = None, resume = false, jobs = None, progress = false))]
+#[pyo3(signature = (path, *, out = None, resume = false, jobs = None, progress = false,
+    storage = None, campaign = None))]
 pub fn load_campaign(
     path: PathBuf,
     out: Option<PathBuf>,
     resume: bool,
     jobs: Option<usize>,
     progress: bool,
+    storage: Option<&str>,
+    campaign: Option<String>,
 ) -> PyResult<PyCampaign> {
+    let storage = storage_of(storage, campaign)?;
     let c = config::fmu_file(&path, &Overrides::default()).map_err(errors::campaign)?;
     // Open the FMUs now, so that a campaign that cannot run fails here.
     crate::sim::fmu_backend(&c.file)?;
@@ -566,6 +668,7 @@ pub fn load_campaign(
         resume,
         jobs,
         progress,
+        storage,
         bound: BoundSim::Fmu(Box::new(c.file)),
     })
 }

@@ -42,6 +42,11 @@ pub fn campaign(e: savme::campaign::CampaignError) -> PyErr {
     }
 }
 
+/// A campaign failure described by a message (a `savme.CampaignError`).
+pub fn campaign_message(message: String) -> PyErr {
+    CampaignError::new_err(message)
+}
+
 /// A [`SessionError`] as the matching Python exception.
 pub fn session(e: SessionError) -> PyErr {
     match e {

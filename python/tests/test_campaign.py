@@ -104,6 +104,54 @@ def test_a_raising_simulator_stops_the_campaign_naming_the_trial_and_it_resumes(
     assert strip_wall(result.files["trials"]) == strip_wall(full.files["trials"])
 
 
+INTERRUPTED_CHILD = """
+import sys, time
+sys.path.insert(0, sys.argv[2])
+import test_campaign as t
+
+def slow(scenario, phi, theta):
+    time.sleep(0.05)
+    return t.toy(scenario, phi, theta)
+
+import savme
+savme.Campaign(t.protocol(), t.problem(), out=sys.argv[1], jobs=2).run(slow)
+print("the campaign finished")
+"""
+
+
+def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path):
+    """A real SIGINT to a process in Campaign.run(): KeyboardInterrupt is raised while the
+    campaign still runs (not when it ends), the told trials are stored intact, and a resumed
+    campaign ends identical to an uninterrupted one."""
+    import signal
+    import sys
+    import time
+
+    out = tmp_path / "c"
+    trials = out / "trials.jsonl"
+    child = subprocess.Popen(
+        [sys.executable, "-c", INTERRUPTED_CHILD, str(out), str(REPO / "python" / "tests")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and child.poll() is None:
+        if trials.exists() and len(trials.read_text().splitlines()) >= 10:
+            break
+        time.sleep(0.02)
+    assert child.poll() is None, "the campaign ended before it could be interrupted"
+    child.send_signal(signal.SIGINT)
+    stdout, stderr = child.communicate(timeout=60)
+    assert child.returncode != 0
+    assert "KeyboardInterrupt" in stderr, stderr
+    assert "the campaign finished" not in stdout
+    p = protocol()
+    stored = len(trials.read_text().splitlines())
+    assert 10 <= stored < p.total_trials, stored
+    result = savme.Campaign(None, problem(), out=out, resume=True, jobs=1).run(toy)
+    assert result.replayed == stored and result.ran == p.total_trials - stored
+    full = savme.Campaign(p, problem(), out=tmp_path / "full", jobs=1).run(toy)
+    assert strip_wall(result.files["trials"]) == strip_wall(full.files["trials"])
+
+
 def test_bad_simulator_results_and_bad_protocols_are_named(tmp_path):
     with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool\) or \(failure, work_units\), got 0.5"):
         savme.Campaign(protocol(), problem(), out=tmp_path / "x", jobs=1).run(lambda s, phi, th: 0.5)

@@ -6,7 +6,7 @@ use super::kernels::StageKernels;
 use super::log::{self, LogLine, TrialLine};
 use super::outputs::{self, Outputs};
 use super::store::{JsonlStore, Loaded, TrialStore};
-use super::{CampaignError, CampaignOutcome, Observer, Problem, Protocol, Report};
+use super::{CampaignError, CampaignOutcome, Observer, Problem, Protocol, Report, Stop};
 use savme_kernel::Simulator;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -40,6 +40,7 @@ pub struct Campaign<'o> {
     store: Option<Box<dyn TrialStore>>,
     remote: Option<Remote>,
     observers: Vec<Box<dyn Observer + 'o>>,
+    stop: Stop,
 }
 
 impl<'o> Campaign<'o> {
@@ -55,6 +56,7 @@ impl<'o> Campaign<'o> {
             store: None,
             remote: None,
             observers: Vec::new(),
+            stop: Stop::new(),
         }
     }
 
@@ -93,6 +95,13 @@ impl<'o> Campaign<'o> {
     /// Adds an observer; all are told, in the order added.
     pub fn observer(mut self, observer: impl Observer + 'o) -> Self {
         self.observers.push(Box::new(observer));
+        self
+    }
+
+    /// Stops the campaign between trials when `stop` is requested: [`run`](Self::run) then
+    /// returns [`CampaignError::Stopped`] with every told trial stored (see [`Stop`]).
+    pub fn stop_on(mut self, stop: Stop) -> Self {
+        self.stop = stop;
         self
     }
 
@@ -165,6 +174,7 @@ impl<'o> Campaign<'o> {
                     cost: p.cost.measure(),
                     store: store.as_mut(),
                     on_error: p.on_error,
+                    stop: &self.stop,
                     screen: (stage.kind == super::StageKind::Screen).then(|| executor::Audit {
                         seed: p.kernel_seed(&format!("audit:{}", stage.label())),
                         fraction: p.audit_fraction,

@@ -114,6 +114,17 @@ pub enum CampaignError {
         /// The last error.
         last: String,
     },
+    /// The campaign was asked to stop ([`Stop`](super::Stop)) before it finished; the trials
+    /// told so far are stored, and resuming continues from them.
+    #[error("stopped in {stage} after {told} of its {iterations} trials; the told trials are stored, resume to continue")]
+    Stopped {
+        /// Label of the stage that was running.
+        stage: String,
+        /// Trials of that stage told (and stored).
+        told: u64,
+        /// The stage's iterations.
+        iterations: u64,
+    },
     /// Recording to the viewer failed.
     #[error("recording: {0}")]
     Recording(String),

@@ -8,7 +8,8 @@
 //!   told in ask order); `kernels`: the kernel of each stage;
 //! - [`store`]: where trial lines live ([`store::TrialStore`], the locked JSON-lines default);
 //!   [`log`]: what a trial line holds;
-//! - [`observer`]: progress displays and other watchers;
+//! - [`observer`]: progress displays and other watchers; [`Stop`]: asking a running campaign
+//!   to stop between trials (it resumes where it stopped);
 //! - [`report`], [`plot`], [`outputs`]: tables, figures and files computed from the trials.
 //!
 //! ```no_run
@@ -38,6 +39,7 @@ pub mod plot;
 pub mod protocol;
 mod repeat;
 pub mod report;
+mod stop;
 pub mod store;
 pub mod worker;
 
@@ -48,6 +50,7 @@ pub use outputs::{load_protocol, Outputs};
 pub use protocol::{Cost, OnError, Protocol, Stage, StageKind};
 pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;
+pub use stop::Stop;
 
 use savme_kernel::Space;
 use std::collections::BTreeMap;

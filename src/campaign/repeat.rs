@@ -48,6 +48,7 @@ pub struct Repeated<'f> {
     resume: bool,
     jobs: usize,
     observers: Option<ObserverFactory<'f>>,
+    stop: super::Stop,
 }
 
 /// What a finished repeated campaign returns.
@@ -75,6 +76,7 @@ impl<'f> Repeated<'f> {
             resume: false,
             jobs: std::thread::available_parallelism().map_or(1, |n| n.get()),
             observers: None,
+            stop: super::Stop::new(),
         }
     }
 
@@ -100,6 +102,13 @@ impl<'f> Repeated<'f> {
     /// The observers of each seed's campaign (they run on that campaign's thread).
     pub fn observers(mut self, f: ObserverFactory<'f>) -> Self {
         self.observers = Some(f);
+        self
+    }
+
+    /// Stops every seed's campaign between trials when `stop` is requested (see
+    /// [`Campaign::stop_on`]); seeds not yet started are not started.
+    pub fn stop_on(mut self, stop: super::Stop) -> Self {
+        self.stop = stop;
         self
     }
 
@@ -156,7 +165,10 @@ impl<'f> Repeated<'f> {
                     (&next, &stop, &results, &protocols, &self);
                 scope.spawn(move || loop {
                     let i = next.fetch_add(1, Ordering::SeqCst);
-                    if i >= protocols.len() || stop.load(Ordering::SeqCst) {
+                    if i >= protocols.len()
+                        || stop.load(Ordering::SeqCst)
+                        || this.stop.is_requested()
+                    {
                         break;
                     }
                     let r = this.run_seed(&protocols[i], jobs_each, &sim);
@@ -171,15 +183,25 @@ impl<'f> Repeated<'f> {
         });
         let results = results.into_inner().unwrap_or_default();
         let mut runs = Vec::with_capacity(results.len());
+        let mut not_started = None;
         for (r, p) in results.into_iter().zip(&protocols) {
             match r {
                 Some(Ok(o)) => runs.push(o),
                 Some(Err(e)) => return Err(self.in_seed(p.seed, e)),
-                None => {} // not started after another seed failed
+                // Not started: another seed failed, or a stop was requested.
+                None => not_started = not_started.or(Some(p)),
             }
         }
-        if runs.len() < protocols.len() {
-            return Err(CampaignError::WorkersGone);
+        if let Some(p) = not_started {
+            if !self.stop.is_requested() {
+                return Err(CampaignError::WorkersGone);
+            }
+            let stopped = CampaignError::Stopped {
+                stage: "its first stage (not started)".into(),
+                told: 0,
+                iterations: p.stages().first().map_or(0, |s| s.iterations),
+            };
+            return Err(self.in_seed(p.seed, stopped));
         }
         let reports: Vec<_> = runs.iter().map(|r| r.report.clone()).collect();
         let report = RepeatedReport::from_reports(&reports);
@@ -241,7 +263,8 @@ impl<'f> Repeated<'f> {
         let mut c = Campaign::new(p.clone(), self.problem.clone())
             .out(&dir)
             .resume(resume)
-            .jobs(jobs);
+            .jobs(jobs)
+            .stop_on(self.stop.clone());
         if let Some(f) = self.observers {
             for o in f(p.seed) {
                 c = c.boxed_observer(o);

@@ -6,11 +6,15 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Subcommand)]
 pub enum Command {
-    /// Write the bundled driving simulator as an FMI 2.0 co-simulation FMU.
+    /// Write the bundled driving simulator as an FMI 2.0 (or, with `--fmi 3`, FMI 3.0)
+    /// co-simulation FMU.
     Pack {
         /// The .fmu to write.
         #[arg(long, default_value = "savme-sim.fmu")]
         out: PathBuf,
+        /// The FMI version: 2 (FMI 2.0) or 3 (FMI 3.0; binaries/<arch>-<os>/).
+        #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
+        fmi: u8,
         /// The simulator's shared library (default: found next to this binary).
         #[arg(long)]
         library: Option<PathBuf>,
@@ -45,8 +49,8 @@ pub enum Command {
 
 pub fn run(c: Command) -> Result<(), String> {
     match c {
-        Command::Pack { out, library } => {
-            pack(&out, library.as_deref()).and_then(|t| super::print(&t))
+        Command::Pack { out, library, fmi } => {
+            pack(&out, library.as_deref(), fmi).and_then(|t| super::print(&t))
         }
         Command::Info { file, json } => {
             let info = savme_fmu::inspect::Info::read(&file).map_err(|e| e.to_string())?;
@@ -165,18 +169,19 @@ fn find_library(given: Option<&Path>) -> Result<PathBuf, String> {
         })
 }
 
-/// Writes the bundled simulator as an `.fmu`.
-fn pack(out: &Path, library: Option<&Path>) -> Result<String, String> {
+/// Writes the bundled simulator as an `.fmu` of FMI version `fmi` (2 or 3): the same library
+/// (it exports both C APIs) with that version's model description.
+fn pack(out: &Path, library: Option<&Path>, fmi: u8) -> Result<String, String> {
     let lib = find_library(library)?;
-    savme_fmi_export::pack(
-        &savme_sim_fmu::model_description(),
-        savme_sim_fmu::MODEL_IDENTIFIER,
-        &lib,
-        out,
-    )
-    .map_err(|e| e.to_string())?;
+    let description = if fmi == 3 {
+        savme_sim_fmu::model_description3()
+    } else {
+        savme_sim_fmu::model_description()
+    };
+    savme_fmi_export::pack(&description, savme_sim_fmu::MODEL_IDENTIFIER, &lib, out)
+        .map_err(|e| e.to_string())?;
     Ok(format!(
-        "wrote {} (library {})\n",
+        "wrote {} (FMI {fmi}.0, library {})\n",
         out.display(),
         lib.display()
     ))

@@ -17,11 +17,11 @@ use savme::campaign::config::Overrides;
 use savme::campaign::executor::remote::Remote;
 use savme::campaign::store::postgres::{Database, PostgresStore};
 use savme::campaign::store::TrialStore;
-use savme::campaign::CampaignError;
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
     Repeated, RepeatedOutcome,
 };
+use savme::campaign::{CampaignError, Stop};
 use savme::kernel::Simulator;
 use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
@@ -37,6 +37,9 @@ pub enum Failure {
     Usage(String),
     /// Running failed: a file, a simulator, the trial store, the output (exit status 1).
     Runtime(String),
+    /// Ctrl-C stopped a campaign between trials; the message says how to resume (exit status
+    /// 130, as a shell reports a process ended by SIGINT).
+    Interrupted(String),
 }
 
 impl Failure {
@@ -45,13 +48,14 @@ impl Failure {
         match self {
             Failure::Usage(_) => 2,
             Failure::Runtime(_) => 1,
+            Failure::Interrupted(_) => 130,
         }
     }
 
     /// The message.
     pub fn message(&self) -> &str {
         match self {
-            Failure::Usage(m) | Failure::Runtime(m) => m,
+            Failure::Usage(m) | Failure::Runtime(m) | Failure::Interrupted(m) => m,
         }
     }
 }
@@ -80,6 +84,46 @@ pub fn config_failure(e: CampaignError) -> Failure {
         CampaignError::Protocol { .. } | CampaignError::UnknownScenario { .. } => usage(e),
         other => Failure::Runtime(other.to_string()),
     }
+}
+
+/// Ctrl-C during a campaign: the first asks it to stop between trials (the runs in flight
+/// finish, every told trial is stored, the recording is closed); a second quits at once.
+fn stop_on_ctrl_c() -> Stop {
+    let stop = Stop::new();
+    let handler = stop.clone();
+    let installed = ctrlc::set_handler(move || {
+        if handler.is_requested() {
+            std::process::exit(130);
+        }
+        handler.request();
+        eprintln!(
+            "savme: stopping after the runs in flight; Ctrl-C again quits at once (the told trials are kept either way)"
+        );
+    });
+    if let Err(e) = installed {
+        eprintln!(
+            "savme: warning: Ctrl-C will end the campaign at once ({e}); --resume continues it"
+        );
+    }
+    stop
+}
+
+/// A campaign stopped by Ctrl-C as a [`Failure`] that says how to continue; `otherwise` for
+/// every other error.
+fn campaign_failure(
+    e: CampaignError,
+    resume_hint: &str,
+    otherwise: fn(CampaignError) -> Failure,
+) -> Failure {
+    let stopped = match &e {
+        CampaignError::Stopped { .. } => true,
+        CampaignError::Seed { source, .. } => matches!(**source, CampaignError::Stopped { .. }),
+        _ => false,
+    };
+    if stopped {
+        return Failure::Interrupted(format!("interrupted: {e}; {resume_hint}"));
+    }
+    otherwise(e)
 }
 
 /// Protocol values on the command line (they override the preset or the campaign file).
@@ -374,6 +418,10 @@ pub fn run_campaign<S>(
 where
     S: Simulator + Clone + Send,
 {
+    let hint = match &target.store {
+        Some(_) => "continue with the same --storage and --campaign and --resume".to_string(),
+        None => format!("continue with --resume {}", target.out.display()),
+    };
     let mut campaign = Campaign::new(protocol.clone(), problem.clone())
         .out(target.out)
         .resume(target.resume);
@@ -389,10 +437,15 @@ where
         }
         campaign = campaign.jobs(j);
     }
+    // Before the observers: the recording's own Ctrl-C handler then stays out of the way, and
+    // the stopped campaign closes the recording.
+    campaign = campaign.stop_on(stop_on_ctrl_c());
     for o in observers(runner, frames, &protocol, &problem).map_err(usage)? {
         campaign = campaign.boxed_observer(o);
     }
-    let outcome = campaign.run(sim).map_err(|e| e.to_string())?;
+    let outcome = campaign
+        .run(sim)
+        .map_err(|e| campaign_failure(e, &hint, |e| Failure::Runtime(e.to_string())))?;
     Ok(print(&summary_text(&outcome, &problem))?)
 }
 
@@ -430,17 +483,21 @@ where
             &format!("seed {seed}: "),
         ))]
     };
+    let hint = format!("continue with --resume {}", target.out.display());
     let mut repeated = Repeated::new(protocol, problem, repeat)
         .out(target.out)
         .resume(target.resume)
-        .observers(&factory);
+        .observers(&factory)
+        .stop_on(stop_on_ctrl_c());
     if let Some(j) = runner.jobs {
         if j == 0 {
             return Err(usage("protocol: `--jobs`: must be at least 1"));
         }
         repeated = repeated.jobs(j);
     }
-    let outcome = repeated.run(sim).map_err(config_failure)?;
+    let outcome = repeated
+        .run(sim)
+        .map_err(|e| campaign_failure(e, &hint, config_failure))?;
     Ok(print(&repeated_text(&outcome))?)
 }
 

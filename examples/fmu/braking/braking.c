@@ -1,14 +1,7 @@
 /*
  * braking: an FMI 2.0 co-simulation FMU written the way vendors write them, in plain C
- * against the standard's C API (the typedefs below are those of fmi2FunctionTypes.h).
- *
- * A car at `speed0` approaches a stopped obstacle `gap` metres ahead; the driver reacts after a
- * reaction time (String parameter `driver`: "alert" 0.8 s, "distracted" 1.6 s) and brakes with
- * friction * 9.81 m/s^2, the friction of the `road` (Enumeration dry/wet/ice) read from
- * resources/friction.txt during initialisation. The state is integrated with explicit Euler at
- * the communication step — or, when fmi2SetupExperiment gives a tolerance, in sub-steps of at
- * most `tolerance` seconds — so the step size and the tolerance are its fidelity. It has no
- * fidelity parameter of its own.
+ * against the standard's C API (the typedefs below are those of fmi2FunctionTypes.h); the
+ * model itself is model.c, shared with the FMI 3.0 version braking3.c.
  *
  * Outputs: distance (m), speed (m/s), collision (distance reached 0 while moving), steps (Euler
  * steps taken: the work). When `map_length` > 0 and the car has driven that far, fmi2DoStep
@@ -17,14 +10,7 @@
  *
  * Build (Linux): cc -shared -fPIC -O2 -o braking.so braking.c -lm
  */
-#include <ctype.h>
-#include <errno.h>
-#include <math.h>
-#include <stdarg.h>
-#include <stddef.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
+#include "model.c"
 
 typedef void *fmi2Component;
 typedef void *fmi2ComponentEnvironment;
@@ -54,52 +40,19 @@ typedef struct {
     fmi2ComponentEnvironment componentEnvironment;
 } fmi2CallbackFunctions;
 
-#define EXPORT __attribute__((visibility("default")))
 #define GUID "{b7a1e000-5a4e-4b1c-9e11-b7a1c0ffee02}"
 
-enum { VR_SPEED0, VR_GAP, VR_ROAD, VR_DRIVER, VR_MAP_LENGTH, VR_DISTANCE, VR_SPEED,
-       VR_COLLISION, VR_STEPS, VR_FRICTION };
-
+/* The FMI 2.0 importer's callbacks of an instance (the Model is its first member). */
 typedef struct {
-    char *name;
-    char *resources; /* a directory path, decoded from the file:// URI */
+    Model m;
     fmi2CallbackFunctions cb;
-    int logging;
-    /* parameters */
-    double speed0, gap, map_length;
-    int road;
-    char driver[64];
-    /* set up */
-    double tolerance;
-    int tolerance_defined;
-    /* state */
-    int initialised, terminated;
-    double time, x, v, friction, reaction;
-    int collision, steps;
-} Model;
+} Instance2;
 
-static void say(Model *m, fmi2Status status, const char *category, const char *fmt, ...) {
-    char buf[1024];
-    va_list ap;
-    if (status == fmi2OK && !m->logging) return;
-    if (!m->cb.logger) return;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
+static void emit2(Model *m, int status, const char *category, const char *text) {
+    Instance2 *i = (Instance2 *)m;
     /* the logger is printf-like: pass the text as an argument, never as the format */
-    m->cb.logger(m->cb.componentEnvironment, m->name, status, category, "%s", buf);
-}
-
-static void defaults(Model *m) {
-    m->speed0 = 15.0;
-    m->gap = 40.0;
-    m->map_length = 0.0;
-    m->road = 1;
-    strcpy(m->driver, "alert");
-    m->tolerance_defined = 0;
-    m->initialised = m->terminated = 0;
-    m->time = m->x = m->v = m->friction = m->reaction = 0.0;
-    m->collision = m->steps = 0;
+    if (i->cb.logger)
+        i->cb.logger(i->cb.componentEnvironment, m->name, (fmi2Status)status, category, "%s", text);
 }
 
 /* file:///a%20b/resources -> /a b/resources (NULL if not a file URI) */
@@ -137,7 +90,7 @@ static int live_instances = 0;
 EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid,
                                      fmi2String resources, const fmi2CallbackFunctions *cb,
                                      fmi2Boolean visible, fmi2Boolean loggingOn) {
-    Model *m;
+    Instance2 *i;
     (void)visible;
     if (type != fmi2CoSimulation || !guid || strcmp(guid, GUID) != 0 || !cb) return NULL;
 #ifdef BRAKING_ONLY_ONCE
@@ -149,15 +102,16 @@ EXPORT fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String 
     }
     live_instances++;
 #endif
-    m = calloc(1, sizeof *m);
-    if (!m) return NULL;
-    m->name = strdup(name ? name : "braking");
-    m->cb = *cb;
-    m->logging = loggingOn;
-    m->resources = uri_to_path(resources);
-    defaults(m);
-    say(m, fmi2OK, "logAll", "instantiated with resources at %s", resources ? resources : "(null)");
-    return m;
+    i = calloc(1, sizeof *i);
+    if (!i) return NULL;
+    i->cb = *cb;
+    i->m.name = strdup(name ? name : "braking");
+    i->m.resources = uri_to_path(resources);
+    i->m.emit = emit2;
+    i->m.logging = loggingOn;
+    defaults(&i->m);
+    say(&i->m, ST_OK, "logAll", "instantiated with resources at %s", resources ? resources : "(null)");
+    return i;
 }
 
 EXPORT void fmi2FreeInstance(fmi2Component c) {
@@ -168,7 +122,7 @@ EXPORT void fmi2FreeInstance(fmi2Component c) {
 #endif
     free(m->name);
     free(m->resources);
-    free(m);
+    free(c);
 }
 
 EXPORT fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
@@ -185,7 +139,7 @@ EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, f
     (void)stopDefined;
     (void)stop;
     if (tolDefined && !(tol > 0)) {
-        say(m, fmi2Error, "logStatusError", "tolerance %g is not positive", tol);
+        say(m, ST_ERROR, "logStatusError", "tolerance %g is not positive", tol);
         return fmi2Error;
     }
     m->tolerance_defined = tolDefined;
@@ -196,86 +150,23 @@ EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, f
 
 EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
 
-/* The friction of road surface `road` (1 dry, 2 wet, 3 ice) from resources/friction.txt. */
-static fmi2Status read_friction(Model *m) {
-    static const char *names[] = {"dry", "wet", "ice"};
-    char path[4096], line[256], surface[64];
-    double mu;
-    FILE *f;
-    if (m->road < 1 || m->road > 3) {
-        say(m, fmi2Error, "logStatusError", "road = %d is not 1 (dry), 2 (wet) or 3 (ice)", m->road);
-        return fmi2Error;
-    }
-    if (!m->resources) {
-        say(m, fmi2Error, "logStatusError", "no resource location: cannot read friction.txt");
-        return fmi2Error;
-    }
-    snprintf(path, sizeof path, "%s/friction.txt", m->resources);
-    f = fopen(path, "r");
-    if (!f) {
-        say(m, fmi2Error, "logStatusError", "cannot open %s: %s", path, strerror(errno));
-        return fmi2Error;
-    }
-    while (fgets(line, sizeof line, f)) {
-        if (sscanf(line, "%63s %lf", surface, &mu) == 2 && strcmp(surface, names[m->road - 1]) == 0) {
-            fclose(f);
-            m->friction = mu;
-            say(m, fmi2OK, "logAll", "friction %.2f for the %s road from %s", mu, surface, path);
-            return fmi2OK;
-        }
-    }
-    fclose(f);
-    say(m, fmi2Error, "logStatusError", "%s has no line for the %s road", path, names[m->road - 1]);
-    return fmi2Error;
-}
-
 EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
-    Model *m = c;
-    if (strcmp(m->driver, "alert") == 0) m->reaction = 0.8;
-    else if (strcmp(m->driver, "distracted") == 0) m->reaction = 1.6;
-    else {
-        say(m, fmi2Error, "logStatusError", "unknown driver profile '%s' (expected alert or distracted)",
-            m->driver);
-        return fmi2Error;
-    }
-    if (read_friction(m) != fmi2OK) return fmi2Error;
-    m->x = 0.0;
-    m->v = m->speed0;
-    m->initialised = 1;
-    return fmi2OK;
+    return (fmi2Status)model_initialise(c);
 }
 
 EXPORT fmi2Status fmi2Terminate(fmi2Component c) { ((Model *)c)->terminated = 1; return fmi2OK; }
 
 EXPORT fmi2Status fmi2Reset(fmi2Component c) {
-    Model *m = c;
-    defaults(m);
+    defaults(c);
     return fmi2OK;
 }
 
-static double real_of(Model *m, fmi2ValueReference r, int *ok) {
-    *ok = 1;
-    switch (r) {
-    case VR_SPEED0: return m->speed0;
-    case VR_GAP: return m->gap;
-    case VR_MAP_LENGTH: return m->map_length;
-    case VR_DISTANCE: return m->gap - m->x;
-    case VR_SPEED: return m->v;
-    case VR_FRICTION: return m->friction;
-    default: *ok = 0; return 0;
-    }
-}
-
 EXPORT fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
-    Model *m = c;
     size_t i;
     int ok;
     for (i = 0; i < n; i++) {
-        v[i] = real_of(m, vr[i], &ok);
-        if (!ok) {
-            say(m, fmi2Error, "logStatusError", "fmi2GetReal: unknown value reference %u", vr[i]);
-            return fmi2Error;
-        }
+        v[i] = real_of(c, vr[i], &ok);
+        if (!ok || vr[i] == VR_TIME) return (fmi2Status)unknown(c, "fmi2GetReal", vr[i]);
     }
     return fmi2OK;
 }
@@ -286,10 +177,7 @@ EXPORT fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[],
     for (i = 0; i < n; i++) {
         if (vr[i] == VR_ROAD) v[i] = m->road;
         else if (vr[i] == VR_STEPS) v[i] = m->steps;
-        else {
-            say(m, fmi2Error, "logStatusError", "fmi2GetInteger: unknown value reference %u", vr[i]);
-            return fmi2Error;
-        }
+        else return (fmi2Status)unknown(m, "fmi2GetInteger", vr[i]);
     }
     return fmi2OK;
 }
@@ -298,10 +186,7 @@ EXPORT fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[],
     Model *m = c;
     size_t i;
     for (i = 0; i < n; i++) {
-        if (vr[i] != VR_COLLISION) {
-            say(m, fmi2Error, "logStatusError", "fmi2GetBoolean: unknown value reference %u", vr[i]);
-            return fmi2Error;
-        }
+        if (vr[i] != VR_COLLISION) return (fmi2Status)unknown(m, "fmi2GetBoolean", vr[i]);
         v[i] = m->collision;
     }
     return fmi2OK;
@@ -311,89 +196,47 @@ EXPORT fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], 
     Model *m = c;
     size_t i;
     for (i = 0; i < n; i++) {
-        if (vr[i] != VR_DRIVER) {
-            say(m, fmi2Error, "logStatusError", "fmi2GetString: unknown value reference %u", vr[i]);
-            return fmi2Error;
-        }
+        if (vr[i] != VR_DRIVER) return (fmi2Status)unknown(m, "fmi2GetString", vr[i]);
         v[i] = m->driver;
     }
     return fmi2OK;
 }
 
-static fmi2Status not_now(Model *m, const char *call, fmi2ValueReference r) {
-    say(m, fmi2Error, "logStatusError", "%s: value reference %u cannot be set now", call, r);
-    return fmi2Error;
-}
-
 EXPORT fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
-    Model *m = c;
     size_t i;
-    for (i = 0; i < n; i++) {
-        if (m->initialised) return not_now(m, "fmi2SetReal", vr[i]);
-        if (vr[i] == VR_SPEED0) m->speed0 = v[i];
-        else if (vr[i] == VR_GAP) m->gap = v[i];
-        else if (vr[i] == VR_MAP_LENGTH) m->map_length = v[i];
-        else return not_now(m, "fmi2SetReal", vr[i]);
-    }
+    for (i = 0; i < n; i++)
+        if (set_real(c, "fmi2SetReal", vr[i], v[i]) != ST_OK) return fmi2Error;
     return fmi2OK;
 }
 
 EXPORT fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) {
-    Model *m = c;
     size_t i;
-    for (i = 0; i < n; i++) {
-        if (m->initialised || vr[i] != VR_ROAD) return not_now(m, "fmi2SetInteger", vr[i]);
-        m->road = v[i];
-    }
+    for (i = 0; i < n; i++)
+        if (set_road(c, "fmi2SetInteger", vr[i], v[i]) != ST_OK) return fmi2Error;
     return fmi2OK;
 }
 
 EXPORT fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) {
     (void)v;
-    return n ? not_now(c, "fmi2SetBoolean", vr[0]) : fmi2OK;
+    return n ? (fmi2Status)not_now(c, "fmi2SetBoolean", vr[0]) : fmi2OK;
 }
 
 EXPORT fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) {
-    Model *m = c;
     size_t i;
-    for (i = 0; i < n; i++) {
-        if (m->initialised || vr[i] != VR_DRIVER) return not_now(m, "fmi2SetString", vr[i]);
-        snprintf(m->driver, sizeof m->driver, "%s", v[i] ? v[i] : "");
-    }
+    for (i = 0; i < n; i++)
+        if (set_driver(c, "fmi2SetString", vr[i], v[i]) != ST_OK) return fmi2Error;
     return fmi2OK;
 }
 
-/* One explicit Euler step of dt from time t. */
-static void euler(Model *m, double t, double dt) {
-    double a = (t >= m->reaction) ? m->friction * 9.81 : 0.0;
-    if (m->v > 0) {
-        m->x += m->v * dt;
-        m->v = m->v - a * dt > 0 ? m->v - a * dt : 0.0;
-        if (m->gap - m->x <= 0) m->collision = 1; /* reached the obstacle while moving */
-    }
-    m->steps++;
-}
-
+/* When the car has left the map, the next step is refused with fmi2Discard and
+ * fmi2GetBooleanStatus(fmi2Terminated) says true: the FMU asks to end the simulation. */
 EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
     Model *m = c;
-    int k, n = 1;
+    int k, n;
     (void)noSetPrior;
-    if (!m->initialised || m->terminated) {
-        say(m, fmi2Error, "logStatusError", "fmi2DoStep: not initialised, or terminated");
-        return fmi2Error;
-    }
-    if (!(h > 0)) {
-        say(m, fmi2Error, "logStatusError", "fmi2DoStep: step size %g is not positive", h);
-        return fmi2Error;
-    }
-    if (m->map_length > 0 && m->x >= m->map_length) {
-        m->terminated = 1;
-        say(m, fmi2Discard, "logStatusDiscard",
-            "the car left the map (%.1f m driven, map length %.1f m) at t = %g s: simulation ends",
-            m->x, m->map_length, t);
-        return fmi2Discard;
-    }
-    if (m->tolerance_defined && h > m->tolerance) n = (int)ceil(h / m->tolerance);
+    if (!can_step(m, "fmi2DoStep", h)) return fmi2Error;
+    if (left_map(m, t)) return fmi2Discard;
+    n = substeps(m, h);
     for (k = 0; k < n; k++) euler(m, t + k * h / n, h / n);
     m->time = t + h;
     return fmi2OK;

@@ -111,11 +111,19 @@ impl Model for Trivial {
     }
 }
 
+// The library exports both C APIs; the model description packed with it picks one.
 savme_fmi_export::export_fmi2!(Trivial);
+savme_fmi_export::export_fmi3!(Trivial);
 
-/// The FMU's `modelDescription.xml`.
+/// The FMU's `modelDescription.xml` (FMI 2.0).
 pub fn model_description() -> String {
     savme_fmi_export::model_description::<Trivial>()
+}
+
+/// The FMU's FMI 3.0 `modelDescription.xml` (the same library: it exports the FMI 3.0 API
+/// too).
+pub fn model_description3() -> String {
+    savme_fmi_export::model_description3::<Trivial>()
 }
 
 /// The `braking` test FMU written in C (`examples/fmu/braking`), compiled by this crate's build
@@ -127,6 +135,30 @@ pub fn braking_library() -> std::path::PathBuf {
 /// The `braking` FMU's `modelDescription.xml`.
 pub const BRAKING_MODEL_DESCRIPTION: &str =
     include_str!("../../../examples/fmu/braking/modelDescription.xml");
+
+/// The `braking` model against the FMI 3.0 C API (`examples/fmu/braking/braking3.c`), compiled
+/// by this crate's build script.
+pub fn braking3_library() -> std::path::PathBuf {
+    env!("SAVME_BRAKING3_LIB").into()
+}
+
+/// The FMI 3.0 `braking` FMU's `modelDescription.xml`.
+pub const BRAKING3_MODEL_DESCRIPTION: &str =
+    include_str!("../../../examples/fmu/braking/modelDescription3.xml");
+
+/// Packs the FMI 3.0 `braking` FMU into `out` (with its resources unless `with_resources` is
+/// false).
+pub fn pack_braking3(
+    out: &std::path::Path,
+    with_resources: bool,
+) -> Result<(), savme_fmi_export::PackError> {
+    pack_braking_library(
+        out,
+        BRAKING3_MODEL_DESCRIPTION,
+        with_resources,
+        &braking3_library(),
+    )
+}
 
 /// The `braking` FMU's `resources/friction.txt`.
 pub const BRAKING_FRICTION: &str =

@@ -325,11 +325,19 @@ impl Model for DrivingFmu {
     }
 }
 
+// The library exports both C APIs; the model description packed with it picks one.
 savme_fmi_export::export_fmi2!(DrivingFmu);
+savme_fmi_export::export_fmi3!(DrivingFmu);
 
-/// The FMU's `modelDescription.xml`.
+/// The FMU's `modelDescription.xml` (FMI 2.0).
 pub fn model_description() -> String {
     savme_fmi_export::model_description::<DrivingFmu>()
+}
+
+/// The FMU's FMI 3.0 `modelDescription.xml` (the same library: it exports the FMI 3.0 API
+/// too).
+pub fn model_description3() -> String {
+    savme_fmi_export::model_description3::<DrivingFmu>()
 }
 
 /// The model identifier (the library's file stem inside the `.fmu`).

@@ -157,6 +157,8 @@ pub struct StageContext<'a> {
     pub on_error: OnError,
     /// Some for an LF screening stage.
     pub screen: Option<Audit>,
+    /// Checked before each wait for a finished run.
+    pub stop: &'a crate::campaign::Stop,
 }
 
 fn which_name(w: Which) -> &'static str {
@@ -193,6 +195,9 @@ pub fn run_stage(
         run.tell_ready(&mut progress)?;
         if run.queue.is_empty() {
             break;
+        }
+        if run.cx.stop.is_requested() {
+            return Err(run.stopped());
         }
         let done = run.pool.next_done()?;
         run.receive(done)?;
@@ -310,6 +315,20 @@ impl StageRun<'_, '_, '_> {
             self.ask()?;
         }
         Ok(())
+    }
+
+    /// The error of a stage stopped by [`Stop`](crate::campaign::Stop).
+    fn stopped(&self) -> CampaignError {
+        let told = self
+            .lines
+            .iter()
+            .filter(|l| !matches!(l, LogLine::Failed(_)))
+            .count();
+        CampaignError::Stopped {
+            stage: self.label.clone(),
+            told: told as u64,
+            iterations: self.cx.stage.iterations,
+        }
     }
 
     /// Files a finished run with its trial (a failed one per `on_error`).
