@@ -343,3 +343,52 @@ fn estimating_before_training_is_refused_naming_the_stage() {
     assert_eq!(code, Some(1));
     assert!(err.contains("no protocol.json"), "{err}");
 }
+
+#[test]
+fn the_nominal_weighted_tilt_is_stored_with_the_settings() {
+    let out = temp_dir("tilt");
+    let (code, _, err) = estimate(
+        &out,
+        &[
+            "--tilt",
+            "nominal-weighted",
+            "--nominal",
+            "lead_vehicle_brakes.ego_speed=normal:12,2",
+            "--max-runs",
+            "50",
+            "--no-target",
+        ],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let settings: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("estimate.json")).unwrap()).unwrap();
+    assert_eq!(settings["tilt"], "nominal-weighted");
+    // The slow ego speeds the nominal favours get more of the proposal than under `posterior`.
+    let bins = |s: &Value| -> f64 {
+        s["proposal"]["lead_vehicle_brakes"]["ego_speed"]
+            .as_array()
+            .unwrap()[..3]
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .sum()
+    };
+    let plain = temp_dir("tilt-plain");
+    let (code, _, err) = estimate(
+        &plain,
+        &[
+            "--nominal",
+            "lead_vehicle_brakes.ego_speed=normal:12,2",
+            "--max-runs",
+            "50",
+            "--no-target",
+        ],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(bins(&summary(&out)) > 2.0 * bins(&summary(&plain)));
+    let (code, _, err) = estimate(&temp_dir("tilt-bad"), &["--tilt", "sideways"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("invalid value 'sideways' for '--tilt"),
+        "{err}"
+    );
+}

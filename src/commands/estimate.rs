@@ -5,6 +5,7 @@ use super::{usage, Failure};
 use savme::campaign::config;
 use savme::campaign::estimate::{parse_nominal, EstimateError, EstimateRun, EstimateSettings};
 use savme::campaign::{load_protocol, Problem};
+use savme_kernel::estimation::Tilt;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -45,12 +46,22 @@ pub struct Args {
     /// variable's range), =weights:W1,W2,… (discrete) or =uniform (the default). Repeat.
     #[arg(long = "nominal", value_name = "DECL")]
     nominals: Vec<String>,
+    /// How the proposal weighs each variable's bins: by the posterior means (the default), or
+    /// also by the nominal's probability of the bin (for a nominal far from the failures).
+    #[arg(long, value_enum, default_value = "posterior")]
+    tilt: TiltArg,
     /// The campaign file of an FMU campaign (savme run): its problem and HF simulator.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Worker threads (default: one per core). Does not change the result.
     #[arg(long)]
     jobs: Option<usize>,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum TiltArg {
+    Posterior,
+    NominalWeighted,
 }
 
 impl Args {
@@ -64,6 +75,10 @@ impl Args {
             min_failures: self.min_failures,
             scenarios: self.scenarios.clone(),
             nominal: Default::default(),
+            tilt: match self.tilt {
+                TiltArg::Posterior => Tilt::Posterior,
+                TiltArg::NominalWeighted => Tilt::NominalWeighted,
+            },
         };
         for n in &self.nominals {
             let (scenario, variable, nominal) = parse_nominal(n)?;

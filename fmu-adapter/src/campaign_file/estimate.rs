@@ -10,13 +10,14 @@
 //! budget = 0.3           # whose meta-training posterior (default: the first budget)
 //! seed = 7
 //! scenarios = ["cut_in"] # default: every meta-training scenario
+//! tilt = "posterior"     # or "nominal-weighted"
 //! [estimate.nominal.cut_in]
 //! gap = { distribution = "normal", mean = 5.0, sd = 1.0 }
 //! lane = { distribution = "weights", weights = [4, 2, 1] }
 //! ```
 
 use super::Source;
-use savme_kernel::estimation::Nominal;
+use savme_kernel::estimation::{Nominal, Tilt};
 use std::collections::BTreeMap;
 use toml::Spanned;
 
@@ -36,6 +37,7 @@ pub(super) mod raw {
         pub budget: Option<Spanned<f64>>,
         pub seed: Option<Spanned<u64>>,
         pub scenarios: Option<Spanned<Vec<String>>>,
+        pub tilt: Option<Spanned<super::Tilt>>,
         #[serde(default)]
         pub nominal: BTreeMap<String, BTreeMap<String, Spanned<Nominal>>>,
     }
@@ -59,6 +61,8 @@ pub struct EstimateSection {
     pub seed: Option<u64>,
     /// `scenarios`.
     pub scenarios: Option<Vec<String>>,
+    /// `tilt`: `"posterior"` or `"nominal-weighted"`.
+    pub tilt: Option<Tilt>,
     /// `[estimate.nominal.<scenario>] <variable> = { distribution = … }`.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
     /// The 1-based line of the `[estimate]` table.
@@ -99,6 +103,7 @@ pub(super) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> Estimat
         budget: field!(budget),
         seed: field!(seed),
         scenarios: field!(scenarios),
+        tilt: field!(tilt),
         nominal: BTreeMap::new(),
         line,
         lines: BTreeMap::new(),

@@ -51,7 +51,7 @@
 mod proposal;
 mod statistic;
 
-pub use proposal::Nominal;
+pub use proposal::{Nominal, Tilt};
 pub use statistic::{z95, Estimate, Interval, ScenarioEstimate};
 
 use crate::kernel::{Kernel, Scenario};
@@ -78,6 +78,9 @@ pub struct EstimationConfig {
     /// Non-uniform nominals: `nominal[scenario][variable]`.
     #[serde(default)]
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
+    /// How p̂_ψ weighs the bins (default: by the posterior means alone).
+    #[serde(default)]
+    pub tilt: Tilt,
 }
 
 impl EstimationConfig {
@@ -87,6 +90,7 @@ impl EstimationConfig {
             epsilon,
             seed,
             nominal: BTreeMap::new(),
+            tilt: Tilt::Posterior,
         }
     }
 }
@@ -226,7 +230,13 @@ impl Estimation {
                     NominalOf::new(&n.unwrap_or_default(), &s.name, v)
                 })
                 .collect::<Result<Vec<_>, _>>()?;
-            proposals.push(Proposal::new(&s.space, posterior, nominal, eps));
+            proposals.push(Proposal::new(
+                &s.space,
+                posterior,
+                nominal,
+                eps,
+                config.tilt,
+            ));
         }
         let total: f64 = scenarios.iter().map(|(s, _)| s.weight).sum();
         Ok(Estimation {

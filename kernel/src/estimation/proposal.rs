@@ -140,6 +140,18 @@ impl NominalOf {
         }
     }
 
+    /// The nominal's probability of bin (or value) `arm` of `var`.
+    fn bin_mass(&self, var: &Variable, arm: usize) -> f64 {
+        match (self, var.bin(arm)) {
+            (NominalOf::Weights(w), _) => w[arm],
+            (NominalOf::Normal { normal, mass, .. }, Some((a, b))) => {
+                (normal.cdf(b) - normal.cdf(a)) / mass
+            }
+            // Uniform on the variable's scale: every bin (linear or log) or value alike.
+            _ => 1.0 / var.arms() as f64,
+        }
+    }
+
     fn draw<R: Rng + ?Sized>(&self, var: &Variable, rng: &mut R) -> Value {
         match (self, &var.domain) {
             (NominalOf::Weights(w), _) => var.draw_in_arm(categorical(w, rng), rng),
@@ -176,6 +188,26 @@ fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
     p.len() - 1
 }
 
+/// How p̂_ψ weighs the bins of a variable.
+///
+/// ```
+/// use savme_kernel::estimation::Tilt;
+/// assert_eq!(Tilt::default(), Tilt::Posterior);
+/// assert_eq!(serde_json::to_string(&Tilt::NominalWeighted).unwrap(), "\"nominal-weighted\"");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tilt {
+    /// Bin k with probability ∝ its posterior mean (the issue's rule): toward where the
+    /// system fails most often.
+    #[default]
+    Posterior,
+    /// ∝ posterior mean × the nominal's probability of bin k: toward where p(φ)·P(failure)
+    /// is largest. The same as `Posterior` under a uniform nominal; for a nominal concentrated
+    /// away from the failures (a rare event).
+    NominalWeighted,
+}
+
 /// The fixed proposal of one scenario: q = (1 − ε)·p̂_ψ + ε·p, with p̂_ψ the product over the
 /// variables of the bins' posterior means (normalised), uniform or log-uniform inside a bin.
 #[derive(Debug, Clone)]
@@ -202,13 +234,23 @@ impl Proposal {
         posterior: &Posterior,
         nominal: Vec<NominalOf>,
         epsilon: f64,
+        tilt: Tilt,
     ) -> Proposal {
         let bins = posterior
             .arms()
             .iter()
-            .map(|arms| {
-                let total: f64 = arms.iter().map(|a| a.mean()).sum();
-                arms.iter().map(|a| a.mean() / total).collect()
+            .zip(space.variables().iter().zip(&nominal))
+            .map(|(arms, (var, n))| {
+                let score = |k: usize| match tilt {
+                    Tilt::Posterior => arms[k].mean(),
+                    Tilt::NominalWeighted => arms[k].mean() * n.bin_mass(var, k),
+                };
+                let total: f64 = (0..arms.len()).map(score).sum();
+                if total > 0.0 {
+                    (0..arms.len()).map(|k| score(k) / total).collect()
+                } else {
+                    vec![1.0 / arms.len() as f64; arms.len()]
+                }
             })
             .collect();
         Proposal {

@@ -274,3 +274,57 @@ fn a_declared_normal_nominal_is_estimated_without_bias() {
     assert!(est.lo <= truth && truth <= est.hi, "{est:?} vs {truth}");
     assert!(est.relative_half_width() < 0.1, "{est:?}");
 }
+
+/// `nominal-weighted` multiplies each bin's posterior mean by the nominal's bin probability;
+/// under the uniform nominal it is the posterior rule, and q still integrates to 1.
+#[test]
+fn the_nominal_weighted_tilt_weighs_bins_by_the_nominal() {
+    let (s, mut p) = scenario(
+        "s",
+        vec![Variable::continuous("x", 0.0, 1.0, 4, Scale::Linear)],
+        1.0,
+    );
+    for _ in 0..8 {
+        p.update(&[3], true);
+    }
+    let with = |tilt: Tilt, nominal: Option<Nominal>| {
+        let mut c = EstimationConfig::new(0.1, 0);
+        c.tilt = tilt;
+        if let Some(n) = nominal {
+            c.nominal
+                .entry("s".into())
+                .or_default()
+                .insert("x".into(), n);
+        }
+        Estimation::new(&[(s.clone(), p.clone())], &c).unwrap()
+    };
+    let uniform = with(Tilt::Posterior, None);
+    assert_eq!(
+        uniform.bin_probabilities(0),
+        with(Tilt::NominalWeighted, None).bin_probabilities(0)
+    );
+    let normal = Nominal::Normal { mean: 0.2, sd: 0.2 };
+    let e = with(Tilt::NominalWeighted, Some(normal));
+    let n = Normal::new(0.2, 0.2).unwrap();
+    let mass = |a: f64, b: f64| n.cdf(b) - n.cdf(a);
+    let means = [0.5, 0.5, 0.5, 0.9];
+    let scores: Vec<f64> = (0..4)
+        .map(|k| means[k] * mass(k as f64 / 4.0, (k + 1) as f64 / 4.0))
+        .collect();
+    let total: f64 = scores.iter().sum();
+    for (got, want) in e.bin_probabilities(0).unwrap()[0].iter().zip(&scores) {
+        assert!(
+            (got - want / total).abs() < 1e-12,
+            "{got} vs {}",
+            want / total
+        );
+    }
+    let k = 20_000;
+    let integral: f64 = (0..k)
+        .map(|i| {
+            let x = (i as f64 + 0.5) / k as f64;
+            e.densities(0, &Assignment::new().with("x", x)).unwrap().0 / k as f64
+        })
+        .sum();
+    assert!((integral - 1.0).abs() < 1e-3, "{integral}");
+}

@@ -119,6 +119,7 @@ impl EstimateRun {
                 .seed
                 .unwrap_or_else(|| protocol.kernel_seed(&format!("estimate@{budget}"))),
             nominal: settings.nominal.clone(),
+            tilt: settings.tilt,
         };
         let mut estimation = Estimation::new(&trained.scenarios, &config)?;
         if !self.resume {

@@ -1,7 +1,7 @@
 //! What an estimate runs with ([`EstimateSettings`]) and why it may not run ([`EstimateError`]).
 
 use crate::campaign::CampaignError;
-use savme_kernel::estimation::{EstimationError, Nominal};
+use savme_kernel::estimation::{EstimationError, Nominal, Tilt};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -32,6 +32,10 @@ pub struct EstimateSettings {
     /// Non-uniform nominals, by scenario then variable.
     #[serde(default)]
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
+    /// How the proposal weighs the bins: `posterior` (the posterior means; default) or
+    /// `nominal-weighted` (× the nominal's bin probability).
+    #[serde(default)]
+    pub tilt: Tilt,
 }
 
 /// The most HF runs one estimate may make.
@@ -48,6 +52,7 @@ impl Default for EstimateSettings {
             min_failures: 10,
             scenarios: Vec::new(),
             nominal: BTreeMap::new(),
+            tilt: Tilt::Posterior,
         }
     }
 }
@@ -217,6 +222,7 @@ impl EstimateSettings {
             min_failures: section.min_failures.unwrap_or(d.min_failures),
             scenarios: section.scenarios.clone().unwrap_or_default(),
             nominal: section.nominal.clone(),
+            tilt: section.tilt.unwrap_or_default(),
         };
         let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
             file: file.display().to_string(),
@@ -275,6 +281,7 @@ impl EstimateSettings {
             epsilon: self.epsilon,
             seed: 0,
             nominal: self.nominal.clone(),
+            tilt: self.tilt,
         };
         savme_kernel::estimation::Estimation::new(&scenarios, &config)?;
         Ok(())
