@@ -82,27 +82,13 @@ pub(crate) fn trained(
             });
         }
     }
-    let mut scenarios = Vec::with_capacity(names.len());
+    let mut scenarios = untrained(&names, protocol, problem)?;
     let mut scenario_runs = 0;
-    for name in &names {
-        let space = problem
-            .scenarios
-            .get(name)
-            .ok_or_else(|| EstimateError::UnknownScenario {
-                name: name.clone(),
-                known: problem
-                    .scenarios
-                    .keys()
-                    .cloned()
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })?;
-        let mut posterior = Posterior::new(space, PriorCounts::UNIFORM)
-            .map_err(savme_kernel::ConfigError::Prior)
-            .map_err(CampaignError::from)?;
+    for (scenario, posterior) in &mut scenarios {
+        let (name, space) = (&*scenario.name, &scenario.space);
         let stage = &stages[name].0;
         for t in lines.iter().filter_map(LogLine::trial) {
-            if &t.stage != stage || &t.scenario != name {
+            if &t.stage != stage || t.scenario != name {
                 continue;
             }
             scenario_runs += 1;
@@ -116,14 +102,6 @@ pub(crate) fn trained(
                 posterior.update(&arms, ok);
             }
         }
-        scenarios.push((
-            Scenario {
-                name: Arc::from(name.as_str()),
-                space: space.clone(),
-                weight: protocol.weight(name),
-            },
-            posterior,
-        ));
     }
     let used: std::collections::BTreeSet<&String> = stages.values().map(|(s, _)| s).collect();
     Ok(Trained {
@@ -148,5 +126,41 @@ fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
         .lines
         .iter()
         .map(|l| LogLine::from_stored(l, &name))
+        .collect()
+}
+
+/// The scenarios `names` with their weights p(s) and posteriors at the kernels' uniform prior
+/// (what training starts from); an unknown name is refused, listing the known ones.
+pub(crate) fn untrained(
+    names: &[String],
+    protocol: &Protocol,
+    problem: &Problem,
+) -> Result<Vec<(Scenario, Posterior)>, EstimateError> {
+    names
+        .iter()
+        .map(|name| {
+            let space =
+                problem
+                    .scenarios
+                    .get(name)
+                    .ok_or_else(|| EstimateError::UnknownScenario {
+                        name: name.clone(),
+                        known: problem
+                            .scenarios
+                            .keys()
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })?;
+            let posterior = Posterior::new(space, PriorCounts::UNIFORM)
+                .map_err(savme_kernel::ConfigError::Prior)
+                .map_err(CampaignError::from)?;
+            let scenario = Scenario {
+                name: Arc::from(name.as_str()),
+                space: space.clone(),
+                weight: protocol.weight(name),
+            };
+            Ok((scenario, posterior))
+        })
         .collect()
 }

@@ -250,33 +250,7 @@ impl EstimateSettings {
         } else {
             &self.scenarios
         };
-        let mut scenarios = Vec::new();
-        for name in names {
-            let space =
-                problem
-                    .scenarios
-                    .get(name)
-                    .ok_or_else(|| EstimateError::UnknownScenario {
-                        name: name.clone(),
-                        known: problem
-                            .scenarios
-                            .keys()
-                            .cloned()
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    })?;
-            let posterior = savme_kernel::Posterior::new(space, savme_kernel::PriorCounts::UNIFORM)
-                .map_err(|e| EstimationError::Posterior {
-                    scenario: name.clone(),
-                    message: e.to_string(),
-                })?;
-            let scenario = savme_kernel::Scenario {
-                name: name.as_str().into(),
-                space: space.clone(),
-                weight: protocol.weight(name),
-            };
-            scenarios.push((scenario, posterior));
-        }
+        let scenarios = super::posterior::untrained(names, protocol, problem)?;
         let config = savme_kernel::estimation::EstimationConfig {
             epsilon: self.epsilon,
             seed: 0,
