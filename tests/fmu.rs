@@ -554,15 +554,17 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
                    ego_speed = { distribution = \"normal\", mean = 20.0, sd = 3.0 }\n";
     let config = campaign_file(&dir, &(TINY.to_string() + section));
     let out = dir.join("out");
-    let args = [
-        "run",
-        "--config",
-        config.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    let (ok, stdout, err) = savme(&args);
+    let run = |flag: &str| {
+        savme(&[
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            flag,
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+    };
+    let (ok, stdout, err) = run("--out");
     assert!(ok, "{err}");
     assert!(
         stdout.contains("# P(failure) under the nominal distribution"),
@@ -590,15 +592,7 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         20.0
     );
     let before = std::fs::read_to_string(est.join("summary.json")).unwrap();
-    let resume = [
-        "run",
-        "--config",
-        config.to_str().unwrap(),
-        "--resume",
-        out.to_str().unwrap(),
-        "--quiet",
-    ];
-    let (ok, _, err) = savme(&resume);
+    let (ok, _, err) = run("--resume");
     assert!(ok, "{err}");
     let after = std::fs::read_to_string(est.join("summary.json")).unwrap();
     let estimate =
