@@ -200,6 +200,14 @@ fn fmu_log_prints_the_fmus_messages() {
     }
 }
 
+/// The row of variable `name` in `savme fmu info`'s table, its cells joined by one space.
+fn row(text: &str, name: &str) -> String {
+    text.lines()
+        .find(|l| l.starts_with(&format!("{name} ")))
+        .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+        .unwrap_or_default()
+}
+
 /// Item 8: `savme fmu info` shows what `fmpy info` shows — version, kinds, platforms,
 /// capabilities, variables with causality, type, start, min/max, unit (and items) — as text
 /// or JSON.
@@ -219,12 +227,7 @@ fn fmu_info_shows_the_model_and_its_variables() {
     ] {
         assert!(text.contains(needle), "{needle}: {text}");
     }
-    let row = |name: &str| {
-        text.lines()
-            .find(|l| l.starts_with(&format!("{name} ")))
-            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
-            .unwrap_or_default()
-    };
+    let row = |name: &str| row(&text, name);
     assert_eq!(
         row("speed0"),
         "speed0 parameter Real 15.0 4 25 m/s initial speed"
@@ -473,12 +476,7 @@ fn fmu_info_and_validate_read_fmi3() {
     ] {
         assert!(text.contains(needle), "{needle}: {text}");
     }
-    let row = |name: &str| {
-        text.lines()
-            .find(|l| l.starts_with(&format!("{name} ")))
-            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
-            .unwrap_or_default()
-    };
+    let row = |name: &str| row(&text, name);
     assert_eq!(row("steps"), "steps output UInt32 Euler steps taken");
     assert_eq!(
         row("road"),

@@ -11,6 +11,21 @@ fn escape(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// The XML declaration and the opening `fmiModelDescription` tag of FMI `version`, the model's
+/// GUID as `token` (`guid` in 2.0, `instantiationToken` in 3.0), with `extra` attributes.
+fn root<M: Model>(x: &mut String, version: &str, token: &str, extra: &str) {
+    x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
+    x.push_str(&format!(
+        "<fmiModelDescription fmiVersion=\"{version}\" modelName=\"{}\" {token}=\"{}\" \
+         description=\"{}\" generationTool=\"savme-fmi-export {}\" \
+         variableNamingConvention=\"structured\"{extra}>\n",
+        escape(M::MODEL_NAME),
+        escape(M::GUID),
+        escape(M::DESCRIPTION),
+        env!("CARGO_PKG_VERSION"),
+    ));
+}
+
 /// `DefaultExperiment`, the same in both versions.
 fn default_experiment<M: Model>(x: &mut String) {
     let (stop, step) = M::DEFAULT_EXPERIMENT;
@@ -45,16 +60,7 @@ fn default_experiment<M: Model>(x: &mut String) {
 /// ```
 pub fn model_description3<M: Model>() -> String {
     let mut x = String::new();
-    x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    x.push_str(&format!(
-        "<fmiModelDescription fmiVersion=\"3.0\" modelName=\"{}\" instantiationToken=\"{}\" \
-         description=\"{}\" generationTool=\"savme-fmi-export {}\" \
-         variableNamingConvention=\"structured\">\n",
-        escape(M::MODEL_NAME),
-        escape(M::GUID),
-        escape(M::DESCRIPTION),
-        env!("CARGO_PKG_VERSION"),
-    ));
+    root::<M>(&mut x, "3.0", "instantiationToken", "");
     x.push_str(&format!(
         "  <CoSimulation modelIdentifier=\"{}\" canHandleVariableCommunicationStepSize=\"true\" \
          canGetAndSetFMUState=\"true\" canSerializeFMUState=\"false\" \
@@ -171,16 +177,7 @@ pub fn model_description<M: Model>() -> String {
 /// The XML declaration, the opening `fmiModelDescription` tag and the `CoSimulation`
 /// capabilities.
 fn header<M: Model>(x: &mut String) {
-    x.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n");
-    x.push_str(&format!(
-        "<fmiModelDescription fmiVersion=\"2.0\" modelName=\"{}\" guid=\"{}\" description=\"{}\" \
-         generationTool=\"savme-fmi-export {}\" variableNamingConvention=\"structured\" \
-         numberOfEventIndicators=\"0\">\n",
-        escape(M::MODEL_NAME),
-        escape(M::GUID),
-        escape(M::DESCRIPTION),
-        env!("CARGO_PKG_VERSION"),
-    ));
+    root::<M>(x, "2.0", "guid", " numberOfEventIndicators=\"0\"");
     x.push_str(&format!(
         "  <CoSimulation modelIdentifier=\"{}\" canHandleVariableCommunicationStepSize=\"true\" \
          canGetAndSetFMUstate=\"true\" canSerializeFMUstate=\"false\" \

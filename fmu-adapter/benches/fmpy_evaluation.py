@@ -22,7 +22,7 @@ def measure(path):
     fmi3 = md.fmiVersion.startswith("3.")
     vr = {v.name: v.valueReference for v in md.modelVariables}
     if fmi3:
-        fmu = FMU3Slave(instantiationToken=md.instantiationToken, unzipDirectory=unzipdir,
+        fmu = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir,
                         modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench")
     else:
         fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,

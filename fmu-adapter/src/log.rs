@@ -124,6 +124,36 @@ pub unsafe extern "C" fn savme_fmu_log(
     message: *const c_char,
 ) {
     // SAFETY: by the caller's contract.
+    unsafe { deliver(env, Some(instance), status, category, message) }
+}
+
+/// `fmi3LogMessageCallback`: `env` is the instance's [`LogSink`] (FMI 3.0 passes no instance
+/// name: the sink's is shown).
+///
+/// # Safety
+/// As [`savme_fmu_log`].
+pub unsafe extern "C" fn savme_fmu_log3(
+    env: *mut c_void,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    // SAFETY: by the caller's contract.
+    unsafe { deliver(env, None, status, category, message) }
+}
+
+/// One message to the sink `env` (the instance named by `instance`, or the sink's own name).
+///
+/// # Safety
+/// As [`savme_fmu_log`].
+unsafe fn deliver(
+    env: *mut c_void,
+    instance: Option<*const c_char>,
+    status: c_int,
+    category: *const c_char,
+    message: *const c_char,
+) {
+    // SAFETY: by the caller's contract.
     let Some(sink) = (unsafe { (env as *const LogSink).as_ref() }) else {
         return;
     };
@@ -135,30 +165,11 @@ pub unsafe extern "C" fn savme_fmu_log(
             CStr::from_ptr(p).to_string_lossy().into_owned()
         }
     };
+    let instance = instance.map_or_else(|| sink.instance.clone(), text);
     // Never unwind into the FMU's C code.
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        sink.push(&text(instance), status, &text(category), &text(message));
+        sink.push(&instance, status, &text(category), &text(message));
     }));
-}
-
-/// `fmi3LogMessageCallback`: `env` is the instance's [`LogSink`] (FMI 3.0 passes no instance
-/// name; the sink's FMU names it).
-///
-/// # Safety
-/// As [`savme_fmu_log`].
-pub unsafe extern "C" fn savme_fmu_log3(
-    env: *mut c_void,
-    status: c_int,
-    category: *const c_char,
-    message: *const c_char,
-) {
-    // SAFETY: by the caller's contract.
-    let Some(sink) = (unsafe { (env as *const LogSink).as_ref() }) else {
-        return;
-    };
-    let instance = std::ffi::CString::new(sink.instance.clone()).unwrap_or_default();
-    // SAFETY: by the caller's contract; `instance` is NUL-terminated.
-    unsafe { savme_fmu_log(env, instance.as_ptr(), status, category, message) }
 }
 
 #[cfg(test)]
