@@ -36,6 +36,10 @@ enum Command {
     Reproduce(commands::reproduce::Args),
     /// Run the paper's protocol on FMUs named in a campaign file (TOML).
     Run(commands::run::Args),
+    /// Estimate P(failure) under the nominal distribution of φ by importance sampling from a
+    /// finished campaign's learned posterior (defensive mixture; HF runs only). Writes
+    /// summary.json, table.md and trials.jsonl (q, p, weight per run).
+    Estimate(commands::estimate::Args),
     /// FMU tools.
     #[command(subcommand)]
     Fmu(commands::fmu::Command),
@@ -61,6 +65,7 @@ fn main() -> ExitCode {
         Command::Fidelity(a) => commands::fidelity::run(a).map_err(Failure::from),
         Command::Reproduce(a) => commands::reproduce::run(a),
         Command::Run(a) => commands::run::run(a),
+        Command::Estimate(a) => commands::estimate::run(a),
         Command::Fmu(c) => commands::fmu::run(c).map_err(Failure::from),
         Command::FmuWorker => commands::fmu::worker().map_err(Failure::from),
         Command::Simulate(a) => commands::simulate::run(a),

@@ -5,27 +5,14 @@
 //! come.
 mod common;
 
+use common::campaign::{
+    db_trials, file_trials, finish, query_i64, temp_dir, text, wait_until, worker, EXE,
+};
 use common::postgres::Server;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
-use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-dist-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
 
 /// A small toy protocol, work-unit cost.
 const TOY: &[&str] = &[
@@ -75,85 +62,6 @@ fn toy_coordinator(url: &str, name: &str, out: &Path, extra: &[&str]) -> Command
     .args(TOY)
     .args(extra);
     c
-}
-
-fn worker(url: &str, name: &str, extra: &[&str]) -> Child {
-    Command::new(EXE)
-        .args(["worker", "--storage", url, "--campaign", name])
-        .args(extra)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
-}
-
-fn file_trials(dir: &Path) -> Vec<Value> {
-    without_wall(
-        std::fs::read_to_string(dir.join("trials.jsonl"))
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect(),
-    )
-}
-
-fn db_trials(client: &mut postgres::Client, name: &str) -> Vec<Value> {
-    let rows = client
-        .query(
-            "SELECT t.body::text FROM savme.trials t JOIN savme.campaigns c ON c.id = t.campaign_id
-              WHERE c.name = $1 ORDER BY t.line",
-            &[&name],
-        )
-        .unwrap();
-    without_wall(
-        rows.iter()
-            .map(|r| serde_json::from_str(r.get::<_, &str>(0)).unwrap())
-            .collect(),
-    )
-}
-
-fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
-    for v in &mut t {
-        if let Some(o) = v.as_object_mut() {
-            o.remove("v");
-        }
-        for run in ["hf", "lf"] {
-            if let Some(r) = v[run].as_object_mut() {
-                r.remove("wall_seconds");
-            }
-        }
-    }
-    t
-}
-
-/// A count (0 while the coordinator has not created the schema yet).
-fn query_i64(client: &mut postgres::Client, sql: &str) -> i64 {
-    client.query_one(sql, &[]).map_or(0, |r| r.get(0))
-}
-
-fn wait_until(what: &str, limit: Duration, mut ok: impl FnMut() -> bool) {
-    let start = Instant::now();
-    while !ok() {
-        assert!(start.elapsed() < limit, "timed out waiting for {what}");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-}
-
-fn finish(mut child: Child, what: &str) -> String {
-    let start = Instant::now();
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            let o = child.wait_with_output().unwrap();
-            let t = text(&o);
-            assert!(status.success(), "{what}: {t}");
-            return t;
-        }
-        if start.elapsed() > Duration::from_secs(180) {
-            let _ = child.kill();
-            panic!("{what} did not finish");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 #[test]
@@ -450,4 +358,181 @@ fn a_coordinator_without_workers_says_so() {
     );
     assert!(!t.contains(common::postgres::PASSWORD), "{t}");
     let _ = std::fs::remove_dir_all(out);
+}
+
+/// `savme fmu pack`'s FMU in `dir`, and the tiny FMU campaign file on it (`fmu_lines` added to
+/// its `[fmu]` section).
+fn fmu_campaign(dir: &Path, fmu_lines: &str) -> (PathBuf, PathBuf) {
+    std::fs::create_dir_all(dir).unwrap();
+    let fmu = dir.join("savme-sim.fmu");
+    if !fmu.exists() {
+        let o = Command::new(EXE)
+            .args(["fmu", "pack", "--out"])
+            .arg(&fmu)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    let body = include_str!("fixtures/fmu-tiny-campaign.toml").replace(
+        "hf = \"FMU\"",
+        &format!("hf = {:?}\n{fmu_lines}", fmu.display().to_string()),
+    );
+    let config = dir.join(format!("campaign{}.toml", fmu_lines.len()));
+    std::fs::write(&config, body).unwrap();
+    (fmu, config)
+}
+
+/// `savme run --config CONFIG` as the coordinator of campaign `name`, its runs done by
+/// workers.
+fn fmu_coordinator(url: &str, name: &str, config: &Path, out: &Path) -> Child {
+    Command::new(EXE)
+        .args([
+            "run",
+            "--storage",
+            url,
+            "--campaign",
+            name,
+            "--remote",
+            "--quiet",
+        ])
+        .arg("--config")
+        .arg(config)
+        .arg("--out")
+        .arg(out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+#[test]
+fn fmu_campaign_workers_give_the_trials_of_the_local_run() {
+    let Some(server) = Server::start("fmu") else {
+        return;
+    };
+    let url = server.create_db("fmu");
+    let dir = temp_dir("fmu");
+    let (_, config) = fmu_campaign(&dir, "");
+    let local = dir.join("local");
+    let o = Command::new(EXE)
+        .args(["run", "--quiet", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&local)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let expected = file_trials(&local);
+    let cfg = config.to_str().unwrap();
+    let workers = [
+        worker(&url, "f", &["--config", cfg]),
+        worker(&url, "f", &["--config", cfg, "--jobs", "2"]),
+    ];
+    let out = dir.join("remote");
+    finish(fmu_coordinator(&url, "f", &config, &out), "the coordinator");
+    for (k, w) in workers.into_iter().enumerate() {
+        finish(w, &format!("worker {k}"));
+    }
+    let mut client = server.client_of("fmu");
+    assert_eq!(db_trials(&mut client, "f"), expected);
+    assert_eq!(
+        std::fs::read_to_string(out.join("table.md")).unwrap(),
+        std::fs::read_to_string(local.join("table.md")).unwrap()
+    );
+    let ran = query_i64(
+        &mut client,
+        "SELECT count(*) FROM savme.runs WHERE state = 'done' AND attempts = 1",
+    );
+    let runs = expected.len() + expected.iter().filter(|t| !t["lf"].is_null()).count();
+    assert_eq!(ran, runs as i64, "every run ran once, on a worker");
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Waits until the coordinator of campaign `name` has queued runs (so it has loaded its FMUs).
+fn wait_for_campaign(client: &mut postgres::Client, name: &str) {
+    let sql = format!(
+        "SELECT count(*) FROM savme.runs r JOIN savme.campaigns c ON c.id = r.campaign_id
+          WHERE c.name = '{name}'"
+    );
+    wait_until("the campaign's first runs", Duration::from_secs(60), || {
+        query_i64(client, &sql) > 0
+    });
+}
+
+#[test]
+fn a_worker_without_the_fmu_fails_its_runs_and_the_campaigns_on_error_applies() {
+    let Some(server) = Server::start("nofmu") else {
+        return;
+    };
+    let url = server.create_db("nofmu");
+    let mut client = server.client_of("nofmu");
+    let dir = temp_dir("nofmu");
+    let (fmu, abort) = fmu_campaign(&dir, "");
+    let (_, skip) = fmu_campaign(&dir, "on_error = \"skip\"");
+    let away = dir.join("elsewhere.fmu");
+    let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap();
+    let names_the_fmu_and_host = |t: &str| {
+        t.contains(&fmu.display().to_string())
+            && t.contains(&format!("on {}", host.trim()))
+            && t.contains("cannot run this campaign's simulator")
+    };
+
+    // on_error = "abort" (the default): the coordinator stops with the worker's error, naming
+    // the trial, the FMU and the worker's host. The worker's host lacks the FMU: it is moved
+    // away once the coordinator (on the same machine here) has loaded it.
+    let coordinator = fmu_coordinator(&url, "a", &abort, &dir.join("a"));
+    wait_for_campaign(&mut client, "a");
+    std::fs::rename(&fmu, &away).unwrap();
+    let mut broken = worker(&url, "a", &["--config", abort.to_str().unwrap()]);
+    let o = coordinator.wait_with_output().unwrap();
+    let said = text(&o);
+    broken.kill().unwrap();
+    let worker_said = text(&broken.wait_with_output().unwrap());
+    assert!(!o.status.success(), "{said}");
+    assert!(
+        names_the_fmu_and_host(&said),
+        "{said}\nworker: {worker_said}"
+    );
+    assert!(said.contains("trial"), "{said}");
+    assert!(
+        worker_said.contains("WARNING: this host cannot run campaign \"a\"'s simulator"),
+        "{worker_said}"
+    );
+    std::fs::rename(&away, &fmu).unwrap();
+
+    // on_error = "skip": the trials whose runs failed on that worker are withdrawn (stored with
+    // the error) and replaced; once that worker is gone, a healthy one finishes the campaign.
+    let coordinator = fmu_coordinator(&url, "s", &skip, &dir.join("s"));
+    wait_for_campaign(&mut client, "s");
+    std::fs::rename(&fmu, &away).unwrap();
+    let mut broken = worker(
+        &url,
+        "s",
+        &["--config", skip.to_str().unwrap(), "--lease", "1"],
+    );
+    wait_until("a withdrawn trial", Duration::from_secs(60), || {
+        query_i64(
+            &mut client,
+            "SELECT count(*) FROM savme.trials WHERE error IS NOT NULL",
+        ) > 0
+    });
+    broken.kill().unwrap(); // SIGKILL
+    broken.wait().unwrap();
+    std::fs::rename(&away, &fmu).unwrap();
+    let healthy = worker(&url, "s", &["--config", skip.to_str().unwrap()]);
+    finish(coordinator, "the coordinator");
+    finish(healthy, "the healthy worker");
+    let lines = db_trials(&mut client, "s");
+    let (failed, told): (Vec<&Value>, Vec<&Value>) =
+        lines.iter().partition(|l| l.get("error").is_some());
+    assert!(!failed.is_empty());
+    for f in &failed {
+        assert!(names_the_fmu_and_host(f["error"].as_str().unwrap()), "{f}");
+    }
+    assert_eq!(
+        told.len(),
+        6 + 8 + 4 + 4 + 2 * 4,
+        "every stage told its trials"
+    );
+    let _ = std::fs::remove_dir_all(dir);
 }

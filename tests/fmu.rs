@@ -218,62 +218,8 @@ fn campaign_file(dir: &Path, body: &str) -> PathBuf {
     path
 }
 
-const TINY: &str = r#"
-[fmu]
-hf = "FMU"
-stop_time = 12.0
-step = { rate_of = "simulation_rate_hz" }
-cost = "work"
-
-[failure]
-boolean = "collision"
-
-[campaign]
-budgets = [0.3]
-train_iterations = 8
-eval_iterations = 4
-test_iterations = 4
-baseline_train_iterations = 6
-baseline_test_iterations = 4
-cost = "work"
-
-[fidelity]
-paper = true
-
-[[scenario]]
-name = "lead_vehicle_brakes"
-role = "train"
-fixed = { scenario = 7 }
-[[scenario.phi]]
-name = "ego_speed"
-range = [10.0, 25.0]
-[[scenario.phi]]
-name = "lead_speed"
-range = [5.0, 20.0]
-[[scenario.phi]]
-name = "gap"
-range = [8.0, 28.0]
-[[scenario.phi]]
-name = "lead_decel"
-range = [4.0, 9.0]
-[[scenario.phi]]
-name = "brake_time"
-range = [0.5, 4.0]
-
-[[scenario]]
-name = "on_ramp_merge"
-role = "test"
-fixed = { scenario = 10 }
-[[scenario.phi]]
-name = "ego_speed"
-range = [12.0, 22.0]
-[[scenario.phi]]
-name = "intruder_speed"
-range = [12.0, 26.0]
-[[scenario.phi]]
-name = "time_offset"
-range = [-3.0, 3.0]
-"#;
+/// The tiny campaign file (`FMU` is replaced by the packed FMU's path).
+const TINY: &str = include_str!("fixtures/fmu-tiny-campaign.toml");
 
 #[test]
 fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
@@ -570,4 +516,86 @@ fn run_refuses_an_output_directory_that_is_a_file() {
         "{err}"
     );
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine");
+}
+
+/// The campaign file's `[estimate]` stage: `savme run` estimates P(failure) under the declared
+/// nominal after the campaign, on the FMU's HF runs; `--resume` finds it done; bad values are
+/// refused before the campaign starts, naming the line and key (or the variable).
+#[test]
+fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
+    let dir = temp_dir("estimate");
+    let section = "\n[estimate]\nmax_runs = 40\ntarget_width = 0.5\nepsilon = 0.2\n\
+                   [estimate.nominal.lead_vehicle_brakes]\n\
+                   ego_speed = { distribution = \"normal\", mean = 20.0, sd = 3.0 }\n";
+    let config = campaign_file(&dir, &(TINY.to_string() + section));
+    let out = dir.join("out");
+    let run = |flag: &str| {
+        savme(&[
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            flag,
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+    };
+    let (ok, stdout, err) = run("--out");
+    assert!(ok, "{err}");
+    assert!(
+        stdout.contains("# P(failure) under the nominal distribution"),
+        "{stdout}"
+    );
+    let est = out.join("estimate-0.3");
+    let lines: Vec<serde_json::Value> = std::fs::read_to_string(est.join("trials.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert!(!lines.is_empty() && lines.len() <= 40);
+    for l in &lines {
+        let (q, p, w) = (
+            l["q"].as_f64().unwrap(),
+            l["p"].as_f64().unwrap(),
+            l["weight"].as_f64().unwrap(),
+        );
+        assert!((w - p / q).abs() <= 1e-9 * w && w <= 5.0 + 1e-9, "{l}");
+    }
+    let settings: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(est.join("estimate.json")).unwrap()).unwrap();
+    assert_eq!(
+        settings["nominal"]["lead_vehicle_brakes"]["ego_speed"]["mean"],
+        20.0
+    );
+    let before = std::fs::read_to_string(est.join("summary.json")).unwrap();
+    let (ok, _, err) = run("--resume");
+    assert!(ok, "{err}");
+    let after = std::fs::read_to_string(est.join("summary.json")).unwrap();
+    let estimate =
+        |t: &str| serde_json::from_str::<serde_json::Value>(t).unwrap()["estimate"].clone();
+    assert_eq!(estimate(&before), estimate(&after));
+
+    let bad = temp_dir("estimate-bad");
+    // TINY's lines, an empty line, `[estimate]`, then `epsilon`.
+    let line = TINY.lines().count() + 3;
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nepsilon = 0.0\n"),
+        &[&format!("line {line}"), "estimate.epsilon", "(0, 1]"],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\ntarget_width = -1.0\n"),
+        &["estimate.target_width", "must be a finite number > 0"],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string()
+            + "\n[estimate]\n[estimate.nominal.lead_vehicle_brakes]\nego_sped = { distribution = \"uniform\" }\n"),
+        &["[estimate]", "unknown variable `ego_sped` of scenario `lead_vehicle_brakes`"],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nepsilon = 0.1\nepsilom = 0.2\n"),
+        &["unknown field `epsilom`"],
+    );
 }

@@ -4,13 +4,12 @@
 //! in the database, and never show the password.
 mod common;
 
+use common::campaign::{db_trials, file_trials, temp_dir, text, EXE};
 use common::postgres::{Server, PASSWORD};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
 
 /// A tiny protocol on the bundled simulator with idealised perception, work-unit cost.
 const TINY: &[&str] = &[
@@ -36,20 +35,6 @@ const TINY: &[&str] = &[
 ];
 const TINY_TRIALS: usize = 14 + 16 + 6 + 8 + 2 * 8;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-pgtest-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
-
 fn savme(args: &[&str]) -> Output {
     Command::new(EXE).args(args).output().unwrap()
 }
@@ -63,46 +48,6 @@ fn reproduce_in_db(url: &str, name: &str, out: &Path, extra: &[&str]) -> Output 
         .args(extra)
         .output()
         .unwrap()
-}
-
-/// The trial lines of campaign `name`, in order, without their wall-clock seconds.
-fn db_trials(client: &mut postgres::Client, name: &str) -> Vec<Value> {
-    let rows = client
-        .query(
-            "SELECT t.body::text FROM savme.trials t JOIN savme.campaigns c ON c.id = t.campaign_id
-              WHERE c.name = $1 ORDER BY t.line",
-            &[&name],
-        )
-        .unwrap();
-    without_wall(
-        rows.iter()
-            .map(|r| serde_json::from_str(r.get::<_, &str>(0)).unwrap())
-            .collect(),
-    )
-}
-
-fn file_trials(dir: &Path) -> Vec<Value> {
-    without_wall(
-        std::fs::read_to_string(dir.join("trials.jsonl"))
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect(),
-    )
-}
-
-fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
-    for v in &mut t {
-        if let Some(o) = v.as_object_mut() {
-            o.remove("v");
-        }
-        for run in ["hf", "lf"] {
-            if let Some(r) = v[run].as_object_mut() {
-                r.remove("wall_seconds");
-            }
-        }
-    }
-    t
 }
 
 fn count(client: &mut postgres::Client, name: &str) -> i64 {
@@ -673,4 +618,207 @@ fn savme_serve_journals_into_the_database_and_resumes_after_kill() {
         String::from_utf8_lossy(&out.stderr)
     );
     let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Runs `openssl` with `args` in `dir`.
+fn openssl(dir: &Path, args: &[&str]) {
+    let o = Command::new("openssl")
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "openssl {args:?}: {}", text(&o));
+}
+
+/// A test CA (`ca.crt`), a server certificate it signs for `localhost` only (`server.crt`,
+/// `server.key`) and an unrelated CA (`other-ca.crt`), made in `dir` with the openssl CLI;
+/// `None` (after a loud message) without openssl, unless `SAVME_REQUIRE_POSTGRES=1`.
+fn certificates(dir: &Path) -> Option<()> {
+    if Command::new("openssl").arg("version").output().is_err() {
+        let message = "no openssl command to make the test certificates";
+        if std::env::var("SAVME_REQUIRE_POSTGRES").as_deref() == Ok("1") {
+            panic!("{message}, and SAVME_REQUIRE_POSTGRES=1");
+        }
+        eprintln!("\n!!!!!!!!!! SKIPPED the TLS test: {message} (Debian: apt-get install openssl) !!!!!!!!!!\n");
+        return None;
+    }
+    std::fs::create_dir_all(dir).unwrap();
+    let ec = [
+        "-newkey",
+        "ec",
+        "-pkeyopt",
+        "ec_paramgen_curve:prime256v1",
+        "-nodes",
+    ];
+    for ca in ["ca", "other-ca"] {
+        let (key, crt, subj) = (
+            format!("{ca}.key"),
+            format!("{ca}.crt"),
+            format!("/CN=savme test {ca}"),
+        );
+        let mut args = vec!["req", "-x509", "-days", "3", "-subj", &subj];
+        args.extend(ec);
+        args.extend(["-keyout", &key, "-out", &crt]);
+        openssl(dir, &args);
+    }
+    let mut args = vec!["req", "-new", "-subj", "/CN=localhost"];
+    args.extend(ec);
+    args.extend(["-keyout", "server.key", "-out", "server.csr"]);
+    openssl(dir, &args);
+    std::fs::write(
+        dir.join("server.ext"),
+        "subjectAltName=DNS:localhost\nbasicConstraints=CA:FALSE\nextendedKeyUsage=serverAuth\n",
+    )
+    .unwrap();
+    openssl(
+        dir,
+        &[
+            "x509",
+            "-req",
+            "-in",
+            "server.csr",
+            "-CA",
+            "ca.crt",
+            "-CAkey",
+            "ca.key",
+            "-CAcreateserial",
+            "-days",
+            "3",
+            "-extfile",
+            "server.ext",
+            "-out",
+            "server.crt",
+        ],
+    );
+    Some(())
+}
+
+#[test]
+fn sslmode_is_honoured_and_the_server_certificate_checked() {
+    let certs = temp_dir("tls-certs");
+    if certificates(&certs).is_none() {
+        return;
+    }
+    let Some(server) =
+        Server::start_tls("tls", &certs.join("server.crt"), &certs.join("server.key"))
+    else {
+        return;
+    };
+    let url = server.create_db("tls");
+    let root = |ca: &str| certs.join(format!("{ca}.crt")).display().to_string();
+    let at_localhost = url.replace("@127.0.0.1:", "@localhost:");
+    let with = |base: &str, query: &str| format!("{base}?{query}");
+    // This server takes TCP connections over TLS only: without TLS it refuses.
+    let connect = |u: &str| {
+        let db = savme::campaign::store::postgres::Database::parse(u).map_err(|e| e.to_string())?;
+        let mut c = db
+            .connect_for("tls test", Duration::from_secs(5))
+            .map_err(|e| e.to_string())?;
+        let ssl: bool = c
+            .query_one(
+                "SELECT ssl FROM pg_stat_ssl WHERE pid = pg_backend_pid()",
+                &[],
+            )
+            .map_err(|e| e.to_string())?
+            .get(0);
+        Ok::<bool, String>(ssl)
+    };
+    let e = connect(&with(&url, "sslmode=disable")).unwrap_err();
+    assert!(e.contains("no encryption"), "{e}");
+    // prefer (the default) and require encrypt without checking the certificate; verify-ca
+    // checks it is signed by the CA; verify-full also that it names the host (localhost).
+    for ok in [
+        url.clone(),
+        with(&url, "sslmode=require"),
+        with(
+            &url,
+            &format!("sslmode=verify-ca&sslrootcert={}", root("ca")),
+        ),
+        with(
+            &at_localhost,
+            &format!("sslmode=verify-full&sslrootcert={}", root("ca")),
+        ),
+    ] {
+        assert_eq!(connect(&ok), Ok(true), "{ok}");
+    }
+    // A campaign over TLS: the coordinator with sslmode=require, its worker with verify-full.
+    let out = temp_dir("tls-out");
+    let w = common::campaign::worker(
+        &with(
+            &at_localhost,
+            &format!("sslmode=verify-full&sslrootcert={}", root("ca")),
+        ),
+        "t",
+        &[],
+    );
+    let o = reproduce_in_db(&with(&url, "sslmode=require"), "t", &out, &["--remote"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let said = common::campaign::finish(w, "the TLS worker");
+    let mut everything = text(&o) + &said;
+    let mut client = server.client_of("tls");
+    assert_eq!(db_trials(&mut client, "t").len(), TINY_TRIALS);
+    // A certificate that does not verify is a clear error at once (not retried), naming the
+    // mode and the root certificates — and never the password.
+    let refused = |u: &str, needles: &[&str]| {
+        let start = Instant::now();
+        let o = Command::new(EXE)
+            .args(["worker", "--storage", u, "--campaign", "t", "--wait", "1"])
+            .output()
+            .unwrap();
+        assert!(!o.status.success());
+        assert!(start.elapsed() < Duration::from_secs(20), "retried");
+        let t = text(&o);
+        for n in needles {
+            assert!(t.contains(n), "{n:?} not in {t}");
+        }
+        t
+    };
+    everything += &refused(
+        &with(
+            &at_localhost,
+            &format!("sslmode=verify-full&sslrootcert={}", root("other-ca")),
+        ),
+        &[
+            "invalid peer certificate",
+            "UnknownIssuer",
+            "sslmode=verify-full",
+            &root("other-ca"),
+        ],
+    );
+    everything += &refused(
+        &with(
+            &url,
+            &format!("sslmode=verify-full&sslrootcert={}", root("ca")),
+        ),
+        &[
+            "invalid peer certificate",
+            "not valid for name",
+            "sslmode=verify-full",
+        ],
+    );
+    let home = temp_dir("tls-home");
+    std::fs::create_dir_all(&home).unwrap();
+    let o = Command::new(EXE)
+        .args([
+            "worker",
+            "--storage",
+            &with(&url, "sslmode=verify-ca"),
+            "--campaign",
+            "t",
+        ])
+        .env("HOME", &home)
+        .env_remove("PGSSLROOTCERT")
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("sslmode=verify-ca needs the root certificate"),
+        "{}",
+        text(&o)
+    );
+    everything += &text(&o);
+    assert!(!everything.contains(PASSWORD), "{everything}");
+    for d in [certs, out, home] {
+        let _ = std::fs::remove_dir_all(d);
+    }
 }

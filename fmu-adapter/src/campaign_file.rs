@@ -34,6 +34,9 @@
 //! [campaign]                     # optional; every key optional (see CampaignSection)
 //! budgets = [0.3]
 //!
+//! [estimate]                     # optional: P(failure) under the nominal after the campaign
+//! target_width = 0.1             # (see EstimateSection for every key)
+//!
 //! [fidelity]                     # paper = true, or variables:
 //! [[fidelity.variable]]
 //! name = "rate"                  # bound to the FMU variable `rate` unless fmu = "…"
@@ -53,6 +56,9 @@
 //! ```
 
 mod bindings;
+mod estimate;
+
+pub use estimate::EstimateSection;
 
 use crate::worker::WorkerInit;
 use crate::{
@@ -182,6 +188,8 @@ pub struct CampaignFile {
     pub scenario_lines: Vec<ScenarioLines>,
     /// The `[campaign]` section.
     pub campaign: CampaignSection,
+    /// The `[estimate]` section: estimate P(failure) after the campaign (`savme run`).
+    pub estimate: Option<EstimateSection>,
     /// `fmu:<hf path>|<lf path>`: which simulator ran the trials.
     pub label: String,
     /// `[fmu] record`: the outputs (of both FMUs) that recorded trials show as time series
@@ -238,6 +246,7 @@ impl CampaignFile {
         let f = src.parse()?;
         let base = path.parent().unwrap_or(Path::new("."));
         let campaign = campaign_section(&src, f.campaign, base);
+        let estimate = f.estimate.map(|e| estimate::section(&src, e));
         let mut origins = Origins::default();
         let fidelity = fidelity(&src, &f.fidelity, &campaign, paper, &mut origins)?;
         let scenarios = scenarios(&src, &f.scenarios, &mut origins)?;
@@ -294,6 +303,7 @@ impl CampaignFile {
             scenario_lines: scenarios.lines,
             campaign,
             record,
+            estimate,
         })
     }
 }
@@ -314,6 +324,7 @@ mod raw {
         pub failure: Spanned<FailureSection>,
         #[serde(default)]
         pub campaign: CampaignSection,
+        pub estimate: Option<Spanned<super::estimate::raw::EstimateSection>>,
         pub fidelity: Spanned<FidelitySection>,
         #[serde(rename = "scenario")]
         pub scenarios: Spanned<Vec<Spanned<ScenarioSection>>>,

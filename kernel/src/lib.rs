@@ -36,6 +36,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod estimation;
 pub mod journal;
 mod kernel;
 pub mod metrics;

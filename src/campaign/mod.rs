@@ -29,6 +29,7 @@
 mod builder;
 pub mod config;
 mod error;
+pub mod estimate;
 pub mod executor;
 mod kernels;
 pub mod log;

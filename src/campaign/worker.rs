@@ -5,6 +5,11 @@
 //! again. Idle threads wait on `LISTEN savme_tasks_<campaign>` (re-checking every second);
 //! the worker exits once the coordinator marks the campaign finished.
 //!
+//! A worker whose host cannot build the campaign's simulator (its FMUs are missing there) still
+//! works, on an [`Unavailable`] simulator: every run it claims fails with the reason, naming
+//! the host, and the coordinator applies the campaign's `on_error` to it (stops the campaign,
+//! or withdraws the trial).
+//!
 //! ```no_run
 //! use savme::campaign::store::postgres::Database;
 //! use savme::campaign::worker::{work, WorkerOptions};
@@ -18,7 +23,7 @@
 use super::executor::simulate;
 use super::store::postgres::{application_name, find_campaign, queue, Database, Session};
 use super::store::StoreError;
-use savme_kernel::{SimError, Simulator};
+use savme_kernel::{Assignment, SimError, SimResult, Simulator};
 use std::collections::HashSet;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Mutex;
@@ -43,6 +48,49 @@ impl Default for WorkerOptions {
             lease: Duration::from_secs(30),
             wait_for_campaign: Duration::from_secs(600),
         }
+    }
+}
+
+/// The simulator of a worker whose host cannot build the campaign's one: every run fails with
+/// the reason (after a second's pause, so that the healthy workers take most runs while this
+/// one is fixed or stopped).
+///
+/// ```
+/// use savme::campaign::worker::Unavailable;
+/// use savme::kernel::{Assignment, Simulator};
+/// let mut sim = Unavailable::new("cannot open /opt/fmus/car.fmu".into(), std::time::Duration::ZERO);
+/// let e = sim.simulate("s", &Assignment::new(), &Assignment::new()).unwrap_err();
+/// assert!(e.to_string().contains("cannot open /opt/fmus/car.fmu"));
+/// ```
+#[derive(Debug, Clone)]
+pub struct Unavailable {
+    reason: String,
+    pause: Duration,
+}
+
+impl Unavailable {
+    /// A simulator failing every run with `reason` (prefixed with this worker and its host)
+    /// after `pause`.
+    pub fn new(reason: String, pause: Duration) -> Unavailable {
+        Unavailable {
+            reason: format!(
+                "{} cannot run this campaign's simulator: {reason}",
+                application_name("worker")
+            ),
+            pause,
+        }
+    }
+}
+
+impl Simulator for Unavailable {
+    fn simulate(
+        &mut self,
+        _scenario: &str,
+        _phi: &Assignment,
+        _fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        std::thread::sleep(self.pause);
+        Err(SimError::Failed(self.reason.clone()))
     }
 }
 
@@ -81,9 +129,12 @@ where
                     let me = format!("{} #{k}", application_name("worker"));
                     let mut s = Session::connect(db, "worker")?;
                     s.listen(&queue::tasks_channel(campaign))?;
+                    let mut claimed = None;
                     loop {
-                        let claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
-                        let Some(run) = claimed else {
+                        if claimed.is_none() {
+                            claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
+                        }
+                        let Some(run) = claimed.take() else {
                             if s.run(|c| queue::is_finished(c, campaign))? {
                                 return Ok(());
                             }
@@ -97,8 +148,17 @@ where
                             }
                             Err(message) => Err(SimError::Failed(message.clone())),
                         };
-                        let kept = s.run(|c| queue::finish(c, campaign, run.id, &me, &result))?;
-                        lock(held).remove(&run.id);
+                        // The result, and the next run, in one round trip.
+                        let (kept, next) = s.run(|c| {
+                            queue::finish_and_claim(c, campaign, run.id, &me, &result, lease)
+                        })?;
+                        let mut held = lock(held);
+                        held.remove(&run.id);
+                        if let Some(next) = &next {
+                            held.insert(next.id);
+                        }
+                        drop(held);
+                        claimed = next;
                         let counter = if kept { runs } else { dropped };
                         counter.fetch_add(1, Ordering::Relaxed);
                     }
@@ -167,7 +227,9 @@ fn wait_for_campaign(
             );
             said = true;
         }
-        std::thread::sleep(Duration::from_millis(500));
+        // Often: workers usually start before their coordinator, and every moment waited
+        // here is a moment of the campaign (a cheap indexed read).
+        std::thread::sleep(Duration::from_millis(50));
     }
 }
 

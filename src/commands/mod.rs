@@ -2,6 +2,7 @@
 //! (one override chain for every campaign command), the runner flags (jobs, quiet, recording),
 //! running a campaign with its observers, and printing.
 
+pub mod estimate;
 pub mod fidelity;
 pub mod fmu;
 pub mod reproduce;
@@ -226,6 +227,14 @@ pub struct RunnerArgs {
     quiet: bool,
     #[command(flatten)]
     record: CampaignRecordArgs,
+}
+
+impl RunnerArgs {
+    /// `--jobs`, else one per core.
+    pub fn jobs(&self) -> usize {
+        self.jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    }
 }
 
 /// Where to record (a build with `--features rerun`; without it the flags are hidden from

@@ -5,6 +5,7 @@ use super::{
     RunnerArgs, StorageArgs, Target,
 };
 use savme::campaign::config;
+use savme::campaign::estimate::{EstimateRun, EstimateSettings};
 use savme::campaign::store::TrialStore;
 use savme::viewer::Frames;
 use savme_fmu::FmuBackend;
@@ -64,9 +65,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let backend = fmu_backend(&c.file)?;
     let repeat = overrides.repeat.or(c.file.campaign.repeat);
+    let estimate = estimate_stage(&c, &target, repeat)?;
     if let Some(n) = repeat {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
+    let out = target.out.clone();
     // Recorded trials show the outputs `[fmu] record` lists (else the campaign view only).
     let frames = if c.file.record.is_empty() {
         Frames::None
@@ -77,7 +80,70 @@ pub fn run(a: Args) -> Result<(), Failure> {
             failure: c.file.init.spec.failure.clone(),
         }
     };
-    run_campaign(c.protocol, c.problem, target, &a.runner, frames, &backend)
+    run_campaign(
+        c.protocol,
+        c.problem.clone(),
+        target,
+        &a.runner,
+        frames,
+        &backend,
+    )?;
+    if let Some(settings) = estimate {
+        // The `[estimate]` stage: after the campaign, on its directory (a resumed campaign
+        // resumes an estimate already started).
+        let run = EstimateRun::new(&out, settings).problem(c.problem);
+        let resume = run_dir_has_estimate(&run, &out);
+        let outcome = run
+            .resume(resume)
+            .jobs(a.runner.jobs())
+            .run(&backend)
+            .map_err(|e| Failure::Runtime(e.to_string()))?;
+        super::print(&format!(
+            "{}\nestimate written to {}\n",
+            outcome.table_md,
+            outcome.out.display()
+        ))
+        .map_err(Failure::Runtime)?;
+    }
+    Ok(())
+}
+
+/// The settings of the file's `[estimate]` section, checked against the problem before the
+/// campaign runs; refused with `repeat` or a database store (the estimate reads the
+/// campaign's own directory).
+fn estimate_stage(
+    c: &config::FmuCampaign,
+    target: &Target,
+    repeat: Option<u32>,
+) -> Result<Option<EstimateSettings>, Failure> {
+    let Some(section) = &c.file.estimate else {
+        return Ok(None);
+    };
+    let settings = EstimateSettings::from_section(section, &c.file.path)
+        .map_err(|e| Failure::Runtime(e.to_string()))?;
+    let at = |e: String| {
+        Failure::Runtime(format!(
+            "{}, line {}, [estimate]: {e}",
+            c.file.path.display(),
+            section.line
+        ))
+    };
+    if repeat.is_some() || target.store.is_some() {
+        return Err(at(
+            "an estimate runs on one campaign directory: not with `repeat` or --storage (run `savme estimate` on a seed's directory)".into(),
+        ));
+    }
+    settings
+        .check(&c.protocol, &c.problem)
+        .map_err(|e| at(e.to_string()))?;
+    Ok(Some(settings))
+}
+
+/// Whether the estimate's output directory already holds an estimate to resume.
+fn run_dir_has_estimate(run: &EstimateRun, campaign: &std::path::Path) -> bool {
+    savme::campaign::load_protocol(campaign)
+        .map(|p| run.out_dir(&p).join("estimate.json").exists())
+        .unwrap_or(false)
 }
 
 /// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the

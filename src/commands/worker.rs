@@ -2,11 +2,12 @@
 //! campaign whose coordinator was started with `--remote`, on this host, until the campaign
 //! is finished.
 
-use super::{config_failure, usage, Failure};
+use super::{usage, Failure};
 use savme::campaign::config::{self, named_simulator};
 use savme::campaign::store::postgres::{find_campaign, Session};
-use savme::campaign::worker::{work, WorkerOptions};
-use std::path::PathBuf;
+use savme::campaign::worker::{work, Unavailable, WorkerOptions};
+use savme_fmu::FmuBackend;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 #[derive(clap::Args)]
@@ -55,18 +56,17 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let label = simulator_label(&db, &name, options.wait_for_campaign)?;
     let report = match (named_simulator(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
-        (None, Some(file)) => {
-            let c = config::fmu_file(file, &Default::default()).map_err(config_failure)?;
-            if c.protocol.simulator != label {
-                return Err(Failure::Runtime(format!(
-                    "{}: this campaign file describes simulator {:?}, but campaign {name:?} runs {label:?}",
-                    file.display(),
-                    c.protocol.simulator
-                )));
+        (None, Some(file)) => match fmu_simulator(file, &name, &label)? {
+            Ok(backend) => work(&db, &name, &backend, &options),
+            Err(reason) => {
+                eprintln!(
+                    "savme worker: WARNING: this host cannot run campaign {name:?}'s simulator: {reason}\n\
+                     savme worker: every run this worker takes will fail with that error, and the campaign's on_error applies (abort stops it; skip withdraws the trial): fix this host or stop this worker"
+                );
+                let sim = Unavailable::new(reason, Duration::from_secs(1));
+                work(&db, &name, &sim, &options)
             }
-            let backend = super::run::fmu_backend(&c.file)?;
-            work(&db, &name, &backend, &options)
-        }
+        },
         (None, None) => {
             return Err(usage(format!(
                 "campaign {name:?} runs simulator {label:?}, which savme cannot build from its name: give its campaign file with --config FILE (the FMUs are resolved on this host)"
@@ -79,6 +79,31 @@ pub fn run(a: Args) -> Result<(), Failure> {
         report.runs, report.dropped
     );
     Ok(())
+}
+
+/// The FMU simulator of campaign `name` (simulator `label`) from its campaign file on this
+/// host; `Ok(Err(reason))` if this host cannot build it (the file's FMUs are missing or do not
+/// load here), an error if the file is not there or describes another simulator.
+fn fmu_simulator(
+    file: &Path,
+    name: &str,
+    label: &str,
+) -> Result<Result<FmuBackend, String>, Failure> {
+    if let Err(e) = std::fs::metadata(file) {
+        return Err(usage(format!("--config {}: {e}", file.display())));
+    }
+    let c = match config::fmu_file(file, &Default::default()) {
+        Ok(c) => c,
+        Err(e) => return Ok(Err(e.to_string())),
+    };
+    if c.protocol.simulator != label {
+        return Err(Failure::Runtime(format!(
+            "{}: this campaign file describes simulator {:?}, but campaign {name:?} runs {label:?}",
+            file.display(),
+            c.protocol.simulator
+        )));
+    }
+    Ok(super::run::fmu_backend(&c.file))
 }
 
 /// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it.
@@ -123,6 +148,8 @@ fn simulator_label(
             );
             said = true;
         }
-        std::thread::sleep(Duration::from_millis(500));
+        // Often: workers usually start before their coordinator, and every moment waited
+        // here is a moment of the campaign (a cheap indexed read).
+        std::thread::sleep(Duration::from_millis(50));
     }
 }

@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests (each test file takes what it needs).
 #![allow(dead_code)]
 
+pub mod campaign;
 pub mod postgres;
 
 /// The SQL block that follows the marker `<!-- NAME -->` in `docs/DISTRIBUTED.md` (so that the

@@ -8,6 +8,9 @@
 //! The binaries are found in `PATH`, else in `/usr/lib/postgresql/<version>/bin` (Debian). If
 //! there are none, [`Server::start`] prints a loud message and returns `None` (the test
 //! skips) — unless `SAVME_REQUIRE_POSTGRES=1`, when it panics (CI sets it).
+//!
+//! [`Server::start_tls`] starts one that accepts TCP connections only over TLS, with the
+//! certificate and key given. The harness itself connects over the Unix socket (trusted).
 #![allow(dead_code)]
 
 use std::net::TcpListener;
@@ -29,6 +32,7 @@ pub struct Server {
     port: u16,
     child: Option<Child>,
     as_nobody: bool,
+    tls: bool,
 }
 
 /// The directory holding `initdb`, `postgres` and `pg_ctl`, if any.
@@ -69,6 +73,17 @@ impl Server {
     /// Starts a new server, or returns `None` (after a loud message) when PostgreSQL is not
     /// installed and `SAVME_REQUIRE_POSTGRES` is not `1`.
     pub fn start(test: &str) -> Option<Server> {
+        Server::start_with(test, None)
+    }
+
+    /// [`Server::start`], the server accepting TCP connections only over TLS (`hostssl` in
+    /// `pg_hba.conf`, anything else rejected) with the PEM certificate (chain) and key given.
+    pub fn start_tls(test: &str, cert: &Path, key: &Path) -> Option<Server> {
+        Server::start_with(test, Some((cert, key)))
+    }
+
+    // Long because it is one recipe: the directory, initdb, the TLS set-up, the start.
+    fn start_with(test: &str, tls: Option<(&Path, &Path)>) -> Option<Server> {
         let Some(bin) = find_bin() else {
             let message =
                 "no PostgreSQL binaries (initdb, postgres) in PATH or /usr/lib/postgresql/*/bin";
@@ -104,6 +119,7 @@ impl Server {
             port: free_port(),
             child: None,
             as_nobody,
+            tls: tls.is_some(),
         };
         let data = server.dir.join("data");
         let out = server
@@ -120,6 +136,9 @@ impl Server {
             "initdb failed: {}",
             String::from_utf8_lossy(&out.stderr)
         );
+        if let Some((cert, key)) = tls {
+            server.set_up_tls(cert, key);
+        }
         // A free port can be taken by another test's server between our probe and its bind:
         // then try another.
         for _ in 0..5 {
@@ -129,6 +148,34 @@ impl Server {
             server.port = free_port();
         }
         panic!("postgres did not start on 5 ports: {}", server.log());
+    }
+
+    /// Copies the certificate and key into the data directory (the key readable by the server
+    /// only, as it demands) and makes TCP connections TLS-only.
+    fn set_up_tls(&self, cert: &Path, key: &Path) {
+        let data = self.dir.join("data");
+        std::fs::copy(cert, data.join("server.crt")).unwrap();
+        std::fs::copy(key, data.join("server.key")).unwrap();
+        let hba = "local all all trust\nhostssl all all 127.0.0.1/32 scram-sha-256\nhost all all 127.0.0.1/32 reject\n";
+        std::fs::write(data.join("pg_hba.conf"), hba).unwrap();
+        let mut files = vec![data.join("server.crt"), data.join("server.key")];
+        files.push(data.join("pg_hba.conf"));
+        if self.as_nobody {
+            let ok = Command::new("chown")
+                .arg("nobody:nogroup")
+                .args(&files)
+                .status()
+                .unwrap()
+                .success();
+            assert!(ok, "chown of the TLS files failed");
+        }
+        let ok = Command::new("chmod")
+            .arg("600")
+            .arg(data.join("server.key"))
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "chmod of the key failed");
     }
 
     /// A command running `program` of the PostgreSQL binaries, as `nobody` when we are root.
@@ -163,6 +210,7 @@ impl Server {
             // small /dev/shm.
             .args(["-c", "max_connections=60", "-c", "shared_buffers=16MB"])
             .args(["-c", "dynamic_shared_memory_type=mmap"])
+            .args(if self.tls { &["-c", "ssl=on"][..] } else { &[] })
             .stdin(Stdio::null())
             .stdout(log.try_clone().unwrap())
             .stderr(log)
@@ -177,7 +225,7 @@ impl Server {
             }
             // Ours, not another test's server that took the port first.
             let data = self.dir.join("data").display().to_string();
-            let ours = postgres::Client::connect(&self.url(), postgres::NoTls)
+            let ours = postgres::Client::connect(&self.socket_url(), postgres::NoTls)
                 .and_then(|mut c| c.query_one("SHOW data_directory", &[]))
                 .map(|r| r.get::<_, String>(0) == data);
             match ours {
@@ -215,6 +263,16 @@ impl Server {
         )
     }
 
+    /// The superuser on database `postgres` over the Unix socket (trusted: no password, no
+    /// TLS), for the harness's own connections.
+    fn socket_url(&self) -> String {
+        format!(
+            "host={} port={} user={USER} dbname=postgres",
+            self.dir.display(),
+            self.port
+        )
+    }
+
     /// The TCP port.
     pub fn port(&self) -> u16 {
         self.port
@@ -228,9 +286,17 @@ impl Server {
         self.url_for(USER, PASSWORD, name)
     }
 
-    /// A superuser connection.
+    /// A superuser connection (over the Unix socket).
     pub fn client(&self) -> postgres::Client {
-        postgres::Client::connect(&self.url(), postgres::NoTls).unwrap()
+        postgres::Client::connect(&self.socket_url(), postgres::NoTls).unwrap()
+    }
+
+    /// A superuser connection to database `db` (over the Unix socket).
+    pub fn client_of(&self, db: &str) -> postgres::Client {
+        let url = self
+            .socket_url()
+            .replace("dbname=postgres", &format!("dbname={db}"));
+        postgres::Client::connect(&url, postgres::NoTls).unwrap()
     }
 
     /// Stops the server (fast shutdown: sessions are ended) and waits for it.

@@ -20,6 +20,8 @@ pub struct Remote {
     name: String,
     /// Row id → the run, for runs submitted and not yet returned.
     waiting: HashMap<i64, (u64, Which)>,
+    /// Runs asked for since the last wait: inserted together (one statement) before it.
+    pending: Vec<Task>,
     ready: VecDeque<Done>,
     worker_wait: Duration,
     last_progress: Instant,
@@ -42,6 +44,7 @@ impl Remote {
             campaign,
             name: name.into(),
             waiting: HashMap::new(),
+            pending: Vec::new(),
             ready: VecDeque::new(),
             worker_wait,
             last_progress: Instant::now(),
@@ -58,6 +61,33 @@ impl Remote {
         let campaign = self.campaign;
         self.session
             .run(|c| queue::set_finished(c, campaign, true))?;
+        Ok(())
+    }
+
+    /// Inserts the pending runs into the queue (one statement, one notification).
+    fn flush(&mut self) -> Result<(), CampaignError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let campaign = self.campaign;
+        let tasks = std::mem::take(&mut self.pending);
+        let ids = self.session.run(|c| queue::submit(c, campaign, &tasks))?;
+        for (id, task) in ids.into_iter().zip(&tasks) {
+            if id < 0 {
+                return Err(CampaignError::Store(
+                    crate::campaign::store::StoreError::Database {
+                        store: self.session.database().location().into(),
+                        message: format!(
+                            "the queue did not take run {} of trial {} ({})",
+                            task.which.key(),
+                            task.trial,
+                            task.stage
+                        ),
+                    },
+                ));
+            }
+            self.waiting.insert(id, (task.trial, task.which));
+        }
         Ok(())
     }
 
@@ -104,9 +134,8 @@ impl Remote {
 
 impl Runner for Remote {
     fn submit(&mut self, task: Task) -> Result<(), CampaignError> {
-        let campaign = self.campaign;
-        let id = self.session.run(|c| queue::submit(c, campaign, &task))?;
-        self.waiting.insert(id, (task.trial, task.which));
+        // Queued at the next wait: the runs a told trial makes room for go in together.
+        self.pending.push(task);
         Ok(())
     }
 
@@ -117,6 +146,7 @@ impl Runner for Remote {
                 self.last_progress = Instant::now();
                 return Ok(done);
             }
+            self.flush()?;
             if self.waiting.is_empty() {
                 return Err(CampaignError::WorkersGone);
             }

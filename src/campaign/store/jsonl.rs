@@ -61,6 +61,36 @@ impl JsonlStore {
         StoreError::io(self.location(), e)
     }
 
+    /// Reads the complete lines of the store at `path` without taking its lock or changing
+    /// it (several readers of a finished campaign at once, e.g. `savme estimate`). A torn
+    /// last line is reported in [`Loaded::torn`], not cut.
+    pub fn read(path: &Path) -> Result<Loaded, StoreError> {
+        let location = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| StoreError::io(location.clone(), e))?;
+        let end = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        let mut loaded = Loaded::default();
+        let mut line = 0u64;
+        for text in bytes[..end].split(|&b| b == b'\n') {
+            line += 1;
+            if text.iter().all(u8::is_ascii_whitespace) {
+                continue;
+            }
+            let value = decode(text).map_err(|message| StoreError::BadLine {
+                store: location.clone(),
+                line,
+                message,
+            })?;
+            loaded.lines.push(StoredLine { line, value });
+        }
+        if end < bytes.len() {
+            loaded.torn = Some(TornTail {
+                line,
+                bytes: (bytes.len() - end) as u64,
+            });
+        }
+        Ok(loaded)
+    }
+
     /// Cuts a torn tail off, so that the next line starts after the last complete one.
     fn cut_torn_tail(&mut self) -> Result<(), StoreError> {
         if self.torn_bytes > 0 {

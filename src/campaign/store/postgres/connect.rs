@@ -6,9 +6,12 @@
 //! as libpq takes them. They are kept only inside the connection configuration: every message
 //! savme prints names the store by [`Database::location`] (user, host, port, database — no
 //! password), and every error text from the client is passed through [`Database::redact`].
+//!
+//! TLS follows libpq's `sslmode` and `sslrootcert` (see [`super::tls`]).
 
 use super::super::StoreError;
-use postgres::config::{Host, SslMode};
+use super::tls::{take_ssl_options, Tls};
+use postgres::config::Host;
 use postgres::{Client, Config, NoTls};
 use std::path::Path;
 use std::str::FromStr;
@@ -20,6 +23,7 @@ pub struct Database {
     config: Config,
     location: String,
     secrets: Vec<String>,
+    tls: Tls,
 }
 
 impl std::fmt::Debug for Database {
@@ -62,12 +66,16 @@ impl Database {
             store: "--storage".into(),
             message,
         };
-        let mut config = Config::from_str(url).map_err(|e| {
+        // tokio-postgres reads neither `sslrootcert` nor the `verify-*` modes: savme does.
+        let (rest, ssl) = take_ssl_options(url).unwrap_or_else(|| (url.into(), Default::default()));
+        let mut config = Config::from_str(&rest).map_err(|e| {
             bad(format!(
                 "not a PostgreSQL connection URL: {}",
                 redact_in(&e.to_string(), &[url.to_string()])
             ))
         })?;
+        let tls = Tls::new(&ssl).map_err(bad)?;
+        config.ssl_mode(tls.mode.client_mode());
         if config.get_hosts().is_empty() {
             config.host("localhost");
         }
@@ -91,11 +99,20 @@ impl Database {
                 secrets.push(pw);
             }
         }
-        let location = location_of(&config);
+        let mut location = location_of(&config);
+        // The TLS options the URL gave, so that the commands savme suggests keep them.
+        let shown: Vec<String> = [("sslmode", &ssl.mode), ("sslrootcert", &ssl.root_cert)]
+            .iter()
+            .filter_map(|(k, v)| v.as_ref().map(|v| format!("{k}={v}")))
+            .collect();
+        if !shown.is_empty() {
+            location = format!("{location}?{}", shown.join("&"));
+        }
         Ok(Database {
             config,
             location,
             secrets,
+            tls,
         })
     }
 
@@ -155,22 +172,18 @@ impl Database {
     }
 
     /// One connection attempt; the flag says whether the failure is final (the server itself
-    /// refused: a wrong password, a missing database; or TLS was required).
+    /// refused: a wrong password, a missing database; or the TLS handshake failed).
     fn attempt(&self, application_name: &str) -> Result<Client, (StoreError, bool)> {
         let mut config = self.config.clone();
         config.application_name(application_name);
         if config.get_connect_timeout().is_none() {
             config.connect_timeout(Duration::from_secs(10));
         }
-        if config.get_ssl_mode() == SslMode::Require {
-            // Refused rather than connecting in the clear.
-            let e = StoreError::Database {
-                store: self.location.clone(),
-                message: "sslmode=require: this savme connects without TLS; use sslmode=disable or prefer (the default), or a TLS-terminating proxy on the database host".into(),
-            };
-            return Err((e, true));
-        }
-        config.connect(NoTls).map_err(|e| {
+        let connected = match &self.tls.connector {
+            Some(tls) => config.connect(tls.clone()),
+            None => config.connect(NoTls),
+        };
+        connected.map_err(|e| {
             // The server's refusals are final (a wrong password, a missing database), except
             // while it starts or stops (57P03 and the rest of class 57), is out of
             // connections (53300) or reports a connection exception (class 08).
@@ -178,7 +191,14 @@ impl Database {
                 let code = db.code().code();
                 !(code.starts_with("57") || code.starts_with("08") || code == "53300")
             });
-            (self.error(&self.location, &e), permanent)
+            let mut error = self.error(&self.location, &e);
+            // So is a failed TLS handshake (a certificate that does not verify, a server
+            // without TLS under sslmode=require): say what was asked.
+            let tls = e.to_string().contains("TLS handshake");
+            if let (true, StoreError::Database { message, .. }) = (tls, &mut error) {
+                *message = format!("{message} ({})", self.tls.explain());
+            }
+            (error, permanent || tls)
         })
     }
 

@@ -27,9 +27,10 @@ mod connect;
 pub mod queue;
 pub mod schema;
 mod session;
+pub mod tls;
 
 pub use connect::{reconnect_for, Database, RECONNECT_FOR};
-pub use session::Session;
+pub use session::{Conn, Session};
 
 use super::{Loaded, StoreError, StoredLine, TrialStore, FORMAT};
 use postgres::{Client, GenericClient, Statement};
@@ -74,10 +75,14 @@ pub fn check_name(name: &str) -> Result<(), StoreError> {
 
 /// This process as `application_name`: its role, pid and host.
 pub fn application_name(role: &str) -> String {
-    let host = std::fs::read_to_string("/proc/sys/kernel/hostname")
+    format!("savme {role} pid {} on {}", std::process::id(), host_name())
+}
+
+/// This host's name (as in messages that say where something happened).
+pub fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
         .map(|h| h.trim().to_string())
-        .unwrap_or_else(|_| "unknown host".into());
-    format!("savme {role} pid {} on {host}", std::process::id())
+        .unwrap_or_else(|_| "unknown host".into())
 }
 
 /// Whether a failed statement means the connection is gone (the server restarted or the

@@ -1,7 +1,8 @@
 //! The work queue in `savme.runs`: every statement the coordinator and the `savme worker`
 //! processes run on it, in one place.
 //!
-//! - the coordinator **submits** a run (an upsert on `(campaign, stage, trial, role)`: on
+//! - the coordinator **submits** the runs it asked for since it last waited, in one statement
+//!   (an upsert on `(campaign, stage, trial, role)`: on
 //!   `--resume` the same trials are asked again and find their rows — finished ones are used,
 //!   not repeated) and `NOTIFY`s `savme_tasks_<campaign>`;
 //! - a worker **claims** the oldest run that is queued or whose lease has expired (`FOR UPDATE
@@ -9,12 +10,14 @@
 //!   **heartbeat**;
 //! - it **finishes** the run only while it still holds it (a worker whose lease expired and was
 //!   taken over writes nothing), and `NOTIFY`s `savme_done_<campaign>` in the same
-//!   transaction;
+//!   transaction — and claims its next run in that same statement (one round trip per run);
 //! - the coordinator reads the **finished** rows of the runs it waits for.
 
+use super::Conn;
 use crate::campaign::executor::{Task, Which};
 use postgres::{Client, GenericClient};
 use savme_kernel::{Assignment, SimError, SimResult};
+use std::sync::OnceLock;
 use std::time::Duration;
 
 /// The channel workers listen on for new runs of campaign `id`.
@@ -27,36 +30,68 @@ pub fn done_channel(campaign: i32) -> String {
     format!("savme_done_{campaign}")
 }
 
-/// Submits `task` and wakes the workers; returns its row id. A row that failed before is
-/// queued again.
-pub fn submit(client: &mut Client, campaign: i32, task: &Task) -> Result<i64, postgres::Error> {
-    let phi = serde_json::to_string(&task.phi).unwrap_or_default();
-    let fidelity = serde_json::to_string(&task.fidelity).unwrap_or_default();
-    let trial = task.trial as i64;
-    let stage: &str = &task.stage;
-    let scenario: &str = &task.scenario;
-    // One round trip: the upsert, and the notification that wakes idle workers.
-    let row = client.query_one(
-        "WITH run AS (
-            INSERT INTO savme.runs (campaign_id, stage, trial_id, role, scenario, phi, fidelity)
-            VALUES ($1, $2, $3, $4, $5, $6::text::json, $7::text::json)
-            ON CONFLICT (campaign_id, stage, trial_id, role) DO UPDATE
-               SET state = CASE WHEN runs.state = 'failed' THEN 'queued' ELSE runs.state END,
-                   error = CASE WHEN runs.state = 'failed' THEN NULL ELSE runs.error END
-            RETURNING id, state)
-         SELECT id, CASE WHEN state = 'queued' THEN pg_notify($8, '') END IS NULL FROM run",
+/// The upsert of a batch of runs (arrays of their fields), waking idle workers in the same
+/// statement (identical notifications of one transaction are delivered once). A row that failed
+/// before is queued again; a finished one is left as it is (on `--resume` its result is used).
+const SUBMIT: &str = "WITH run AS (
+    INSERT INTO savme.runs (campaign_id, stage, trial_id, role, scenario, phi, fidelity)
+    SELECT $1, u.stage, u.trial, u.role, u.scenario, u.phi::json, u.fidelity::json
+      FROM unnest($2::text[], $3::bigint[], $4::text[], $5::text[], $6::text[], $7::text[])
+           AS u(stage, trial, role, scenario, phi, fidelity)
+    ON CONFLICT (campaign_id, stage, trial_id, role) DO UPDATE
+       SET state = CASE WHEN runs.state = 'failed' THEN 'queued' ELSE runs.state END,
+           error = CASE WHEN runs.state = 'failed' THEN NULL ELSE runs.error END
+    RETURNING id, stage, trial_id, role, state)
+ SELECT id, stage, trial_id, role, CASE WHEN state = 'queued' THEN pg_notify($8, '') END IS NULL
+   FROM run";
+
+/// Submits `tasks` (each a distinct run) in one statement and wakes the workers; returns
+/// each task's row id, in the order of `tasks`.
+pub fn submit(
+    c: &mut Conn<'_>,
+    campaign: i32,
+    tasks: &[Task],
+) -> Result<Vec<i64>, postgres::Error> {
+    if tasks.is_empty() {
+        return Ok(Vec::new());
+    }
+    let json = |a: &Assignment| serde_json::to_string(a).unwrap_or_default();
+    let stages: Vec<&str> = tasks.iter().map(|t| &*t.stage).collect();
+    let trials: Vec<i64> = tasks.iter().map(|t| t.trial as i64).collect();
+    let roles: Vec<&str> = tasks.iter().map(|t| t.which.key()).collect();
+    let scenarios: Vec<&str> = tasks.iter().map(|t| &*t.scenario).collect();
+    let phis: Vec<String> = tasks.iter().map(|t| json(&t.phi)).collect();
+    let fidelities: Vec<String> = tasks.iter().map(|t| json(&t.fidelity)).collect();
+    let statement = c.prepared(SUBMIT)?;
+    let rows = c.query(
+        &statement,
         &[
             &campaign,
-            &stage,
-            &trial,
-            &task.which.key(),
-            &scenario,
-            &phi,
-            &fidelity,
+            &stages,
+            &trials,
+            &roles,
+            &scenarios,
+            &phis,
+            &fidelities,
             &tasks_channel(campaign),
         ],
     )?;
-    Ok(row.get(0))
+    // The rows come back in no promised order: match them to the tasks by their key.
+    let ids: std::collections::HashMap<(String, i64, String), i64> = rows
+        .iter()
+        .map(|r| ((r.get(1), r.get(2), r.get(3)), r.get(0)))
+        .collect();
+    Ok(tasks
+        .iter()
+        .map(|t| {
+            let key = (
+                t.stage.to_string(),
+                t.trial as i64,
+                t.which.key().to_string(),
+            );
+            ids.get(&key).copied().unwrap_or(-1)
+        })
+        .collect())
 }
 
 /// Wakes the workers listening for runs of `campaign`.
@@ -76,12 +111,12 @@ pub struct Finished {
 }
 
 /// The finished runs among `ids`.
-pub fn finished(client: &mut Client, ids: &[i64]) -> Result<Vec<Finished>, postgres::Error> {
-    let rows = client.query(
+pub fn finished(c: &mut Conn<'_>, ids: &[i64]) -> Result<Vec<Finished>, postgres::Error> {
+    let statement = c.prepared(
         "SELECT id, state, failure, wall_seconds, work, error FROM savme.runs
           WHERE id = ANY($1) AND state IN ('done', 'failed')",
-        &[&ids],
     )?;
+    let rows = c.query(&statement, &[&ids])?;
     Ok(rows
         .iter()
         .map(|r| {
@@ -132,13 +167,10 @@ pub fn set_finished(
 }
 
 /// Whether the coordinator marked the campaign finished.
-pub fn is_finished(client: &mut Client, campaign: i32) -> Result<bool, postgres::Error> {
-    Ok(client
-        .query_one(
-            "SELECT finished_at IS NOT NULL FROM savme.campaigns WHERE id = $1",
-            &[&campaign],
-        )?
-        .get(0))
+pub fn is_finished(c: &mut Conn<'_>, campaign: i32) -> Result<bool, postgres::Error> {
+    let statement =
+        c.prepared("SELECT finished_at IS NOT NULL FROM savme.campaigns WHERE id = $1")?;
+    Ok(c.query_one(&statement, &[&campaign])?.get(0))
 }
 
 /// A run a worker claimed.
@@ -152,50 +184,61 @@ pub struct Claimed {
     pub attempts: i32,
 }
 
-/// Claims the oldest run of `campaign` that is queued or whose lease expired, for `worker`,
-/// with a lease of `lease`.
-pub fn claim(
-    client: &mut Client,
-    campaign: i32,
-    worker: &str,
-    lease: Duration,
-) -> Result<Option<Claimed>, postgres::Error> {
-    let row = client.query_opt(
+/// The claim of the oldest run of campaign `$1` that is queued or whose lease expired, for
+/// worker `$2` with a lease of `$3` seconds (`exclude`: a further condition on the row).
+fn claim_sql(exclude: &str) -> String {
+    format!(
         "UPDATE savme.runs SET state = 'running', worker = $2, attempts = attempts + 1,
                 lease_until = clock_timestamp() + make_interval(secs => $3),
                 started_at = clock_timestamp()
           WHERE id = (SELECT id FROM savme.runs
-                       WHERE campaign_id = $1
+                       WHERE campaign_id = $1 {exclude}
                          AND (state = 'queued' OR (state = 'running' AND lease_until < clock_timestamp()))
                        ORDER BY id LIMIT 1 FOR UPDATE SKIP LOCKED)
-          RETURNING id, stage, trial_id, role, scenario, phi::text, fidelity::text, attempts",
-        &[&campaign, &worker, &lease.as_secs_f64()],
-    )?;
-    let Some(r) = row else { return Ok(None) };
-    let id: i64 = r.get(0);
+          RETURNING id, stage, trial_id, role, scenario, phi::text, fidelity::text, attempts"
+    )
+}
+
+/// Claims the oldest run of `campaign` that is queued or whose lease expired, for `worker`,
+/// with a lease of `lease`.
+pub fn claim(
+    c: &mut Conn<'_>,
+    campaign: i32,
+    worker: &str,
+    lease: Duration,
+) -> Result<Option<Claimed>, postgres::Error> {
+    static SQL: OnceLock<String> = OnceLock::new();
+    let statement = c.prepared(SQL.get_or_init(|| claim_sql("")))?;
+    let row = c.query_opt(&statement, &[&campaign, &worker, &lease.as_secs_f64()])?;
+    Ok(row.and_then(|r| claimed(&r, 0)))
+}
+
+/// The run claimed in columns `at..at + 8` of `r` (none if its id is NULL).
+fn claimed(r: &postgres::Row, at: usize) -> Option<Claimed> {
+    let id: i64 = r.get::<_, Option<i64>>(at)?;
     let parse = |column: usize, what: &str| -> Result<Assignment, String> {
-        serde_json::from_str(r.get::<_, &str>(column))
+        serde_json::from_str(r.get::<_, &str>(at + column))
             .map_err(|e| format!("savme.runs row {id}: `{what}` is not an assignment: {e}"))
     };
     let task = (|| {
-        let which = match r.get::<_, &str>(3) {
+        let which = match r.get::<_, &str>(at + 3) {
             "lf" => Which::Lf,
             _ => Which::Hf,
         };
         Ok(Task {
-            stage: r.get::<_, &str>(1).into(),
-            trial: r.get::<_, i64>(2) as u64,
+            stage: r.get::<_, &str>(at + 1).into(),
+            trial: r.get::<_, i64>(at + 2) as u64,
             which,
-            scenario: r.get::<_, &str>(4).into(),
+            scenario: r.get::<_, &str>(at + 4).into(),
             phi: parse(5, "phi")?,
             fidelity: parse(6, "fidelity")?,
         })
     })();
-    Ok(Some(Claimed {
+    Some(Claimed {
         id,
         task,
-        attempts: r.get(7),
-    }))
+        attempts: r.get(at + 7),
+    })
 }
 
 /// Renews the leases of the runs `ids` that a worker whose name starts with `worker` (a
@@ -214,14 +257,16 @@ pub fn heartbeat(
 }
 
 /// Writes the result of run `id` if `worker` still holds it (false: its lease expired and
-/// another worker took it over — the result is dropped), and tells the coordinator.
-pub fn finish(
-    client: &mut Client,
+/// another worker took it over — the result is dropped), tells the coordinator, and claims the
+/// worker's next run (as [`claim`], lease `lease`) — one statement, one round trip per run.
+pub fn finish_and_claim(
+    c: &mut Conn<'_>,
     campaign: i32,
     id: i64,
     worker: &str,
     result: &Result<SimResult, SimError>,
-) -> Result<bool, postgres::Error> {
+    lease: Duration,
+) -> Result<(bool, Option<Claimed>), postgres::Error> {
     let (state, failure, wall, work, error) = match result {
         Ok(r) => (
             "done",
@@ -230,19 +275,35 @@ pub fn finish(
             r.work.map(|w| w as i64),
             None,
         ),
+        // Read back as `SimError::Failed(error)`: its own message, not "simulation failed: …"
+        // twice.
+        Err(SimError::Failed(m)) => ("failed", None, None, None, Some(m.clone())),
         Err(e) => ("failed", None, None, None, Some(e.to_string())),
     };
-    // One statement (atomic, one round trip): the result, and the coordinator's wake-up.
-    let rows = client.query(
-        "WITH run AS (
-            UPDATE savme.runs SET state = $3, failure = $4, wall_seconds = $5, work = $6,
-                   error = $7, finished_at = clock_timestamp(), lease_until = NULL
-             WHERE id = $1 AND worker = $2 AND state = 'running'
-            RETURNING id)
-         SELECT pg_notify($8, id::text) FROM run",
+    // The finished row is still `running` in the statement's snapshot (and excluded), so the
+    // claim takes another. `note` runs only because the final SELECT reads it.
+    static SQL: OnceLock<String> = OnceLock::new();
+    let sql = SQL.get_or_init(|| {
+        format!(
+            "WITH fin AS (
+                UPDATE savme.runs SET state = $5, failure = $6, wall_seconds = $7, work = $8,
+                       error = $9, finished_at = clock_timestamp(), lease_until = NULL
+                 WHERE id = $4 AND worker = $2 AND state = 'running'
+                RETURNING id),
+             note AS (SELECT pg_notify($10, id::text) FROM fin),
+             next AS ({})
+             SELECT (SELECT count(*) FROM note), next.* FROM (SELECT 1) AS one LEFT JOIN next ON true",
+            claim_sql("AND id <> $4")
+        )
+    });
+    let statement = c.prepared(sql)?;
+    let row = c.query_one(
+        &statement,
         &[
-            &id,
+            &campaign,
             &worker,
+            &lease.as_secs_f64(),
+            &id,
             &state,
             &failure,
             &wall,
@@ -251,7 +312,7 @@ pub fn finish(
             &done_channel(campaign),
         ],
     )?;
-    Ok(rows.len() == 1)
+    Ok((row.get::<_, i64>(0) == 1, claimed(&row, 1)))
 }
 
 /// Starts listening on `channel` on this connection.

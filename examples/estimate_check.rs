@@ -1,0 +1,243 @@
+//! The long check of `savme estimate` and its benchmark against plain Monte Carlo, on the
+//! bundled simulator with idealised perception (docs/RESULTS.md and docs/BENCHMARKS.md record
+//! the runs):
+//!
+//! 1. a campaign that meta-trains one scenario (`--train-iterations`, C = 0.3);
+//! 2. the importance-sampling estimate from its posterior, to ± `--target` (or `--max-runs`);
+//! 3. brute-force Monte Carlo under the same nominal with `--mc-runs` HF runs (0: none), drawn here
+//!    independently of the estimation code (its own sampler), in `--jobs` threads;
+//! 4. whether the estimate's 95 % interval covers the Monte Carlo value, and how many HF runs
+//!    plain Monte Carlo would need for the same relative width, z²(1 − p)/(t² p), against the
+//!    estimate's HF runs including the training runs that built the proposal.
+//!
+//! ```text
+//! cargo run --release --example estimate_check -- --out DIR [--scenario NAME]
+//!     [--train-iterations 200] [--mc-runs 20000] [--target 0.1] [--max-runs 200000]
+//!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
+//!     [--jobs 2] [--seed 1]
+//! ```
+use rand::{RngExt, SeedableRng};
+use savme::campaign::estimate::{parse_nominal, EstimateRun, EstimateSettings};
+use savme::campaign::{config, Campaign, Cost, Problem, Protocol};
+use savme_kernel::estimation::{z95, Nominal, Tilt};
+use savme_kernel::{Assignment, Domain, Role, Simulator};
+use savme_sim::sim::DrivingSimulator;
+use statrs::distribution::{ContinuousCDF, Normal};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+struct Options {
+    out: PathBuf,
+    scenario: String,
+    train_iterations: u64,
+    mc_runs: u64,
+    target: f64,
+    max_runs: u64,
+    epsilon: f64,
+    nominal: BTreeMap<String, Nominal>,
+    tilt: Tilt,
+    jobs: usize,
+    seed: u64,
+}
+
+fn options() -> Result<Options, String> {
+    let mut o = Options {
+        out: PathBuf::new(),
+        scenario: "lead_vehicle_brakes".into(),
+        train_iterations: 200,
+        mc_runs: 20_000,
+        target: 0.1,
+        max_runs: 200_000,
+        epsilon: 0.1,
+        nominal: BTreeMap::new(),
+        tilt: Tilt::Posterior,
+        jobs: 2,
+        seed: 1,
+    };
+    let mut args = std::env::args().skip(1);
+    while let Some(flag) = args.next() {
+        let value = args.next().ok_or(format!("{flag} needs a value"))?;
+        let num = |v: &str| v.parse::<f64>().map_err(|e| format!("{flag}: {e}"));
+        match flag.as_str() {
+            "--out" => o.out = value.into(),
+            "--scenario" => o.scenario = value,
+            "--train-iterations" => o.train_iterations = num(&value)? as u64,
+            "--mc-runs" => o.mc_runs = num(&value)? as u64,
+            "--target" => o.target = num(&value)?,
+            "--max-runs" => o.max_runs = num(&value)? as u64,
+            "--epsilon" => o.epsilon = num(&value)?,
+            "--jobs" => o.jobs = num(&value)? as usize,
+            "--tilt" => {
+                o.tilt = serde_json::from_value(serde_json::Value::String(value))
+                    .map_err(|e| format!("--tilt: {e}"))?
+            }
+            "--seed" => o.seed = num(&value)? as u64,
+            "--nominal" => {
+                let (_, variable, n) = parse_nominal(&value).map_err(|e| e.to_string())?;
+                o.nominal.insert(variable, n);
+            }
+            _ => return Err(format!("unknown flag {flag}")),
+        }
+    }
+    if o.out.as_os_str().is_empty() {
+        return Err("give --out DIR".into());
+    }
+    Ok(o)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let o = options()?;
+    let sim = DrivingSimulator::ideal();
+    let (_, test) = savme_sim::scenario::train_test_names();
+    let mut protocol = Protocol::quick(config::IDEAL, vec![o.scenario.clone()], test);
+    protocol.seed = o.seed;
+    protocol.cost = Cost::Work;
+    protocol.train_iterations = o.train_iterations;
+    protocol.eval_iterations = 1;
+    protocol.test_iterations = 1;
+    protocol.baseline_train_iterations = 1;
+    protocol.baseline_test_iterations = 1;
+    let campaign_dir = o.out.join("campaign");
+    let t0 = Instant::now();
+    Campaign::new(protocol.clone(), Problem::driving(protocol.fidelity_bins))
+        .out(&campaign_dir)
+        .jobs(o.jobs)
+        .run(&sim)?;
+    let t_train = t0.elapsed().as_secs_f64();
+    let mut nominal = BTreeMap::new();
+    if !o.nominal.is_empty() {
+        nominal.insert(o.scenario.clone(), o.nominal.clone());
+    }
+    let settings = EstimateSettings {
+        epsilon: o.epsilon,
+        target_width: Some(o.target),
+        max_runs: o.max_runs,
+        nominal,
+        tilt: o.tilt,
+        ..EstimateSettings::default()
+    };
+    let t1 = Instant::now();
+    let est = EstimateRun::new(&campaign_dir, settings)
+        .out(o.out.join("estimate"))
+        .jobs(o.jobs)
+        .run(&sim)?;
+    let t_is = t1.elapsed().as_secs_f64();
+    println!("{}", est.table_md);
+    let total = est.estimate.total;
+    let reached = total.relative_half_width();
+    let z = z95();
+    let mc_needed = |p: f64| z * z * (1.0 - p) / (reached * reached * p);
+    let is_runs = (est.estimate_hf_runs + est.training_hf_runs) as f64;
+    let mut report = serde_json::json!({
+        "scenario": o.scenario,
+        "nominal": o.nominal,
+        "epsilon": o.epsilon,
+        "tilt": o.tilt,
+        "train_iterations": o.train_iterations,
+        "importance_sampling": {
+            "estimate": total.mean, "lo": total.lo, "hi": total.hi,
+            "relative_half_width": reached, "hf_runs": est.estimate_hf_runs,
+            "training_hf_runs": est.training_hf_runs, "stopped": est.stopped,
+            "failures": est.estimate.failures,
+            "ess": est.estimate.scenarios[0].ess,
+            "failure_ess": est.estimate.scenarios[0].failure_ess,
+            "seconds": t_is, "training_seconds": t_train,
+        },
+        "plain_mc_runs_for_same_width": { "at_is_p": mc_needed(total.mean) },
+        "ratio_mc_over_is_incl_training": { "at_is_p": mc_needed(total.mean) / is_runs },
+    });
+    let mut covered = true;
+    if o.mc_runs > 0 {
+        let t2 = Instant::now();
+        let (mc_failures, mc_runs) = monte_carlo(&o)?;
+        let t_mc = t2.elapsed().as_secs_f64();
+        let p_mc = mc_failures as f64 / mc_runs as f64;
+        let (mc_lo, mc_hi) = wilson(mc_failures as f64, mc_runs as f64, z);
+        covered = total.lo <= p_mc && p_mc <= total.hi;
+        report["monte_carlo"] = serde_json::json!({
+            "estimate": p_mc, "wilson_lo": mc_lo, "wilson_hi": mc_hi,
+            "runs": mc_runs, "failures": mc_failures, "seconds": t_mc,
+        });
+        report["is_interval_covers_mc"] = covered.into();
+        report["plain_mc_runs_for_same_width"]["at_mc_p"] = mc_needed(p_mc).into();
+        report["ratio_mc_over_is_incl_training"]["at_mc_p"] = (mc_needed(p_mc) / is_runs).into();
+    }
+    let text = serde_json::to_string_pretty(&report)?;
+    std::fs::write(o.out.join("check.json"), text.clone() + "\n")?;
+    println!("{text}");
+    if !covered {
+        return Err(format!(
+            "the IS interval [{}, {}] does not cover the MC value",
+            total.lo, total.hi
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Wilson's 95 % interval of `k` successes in `n`.
+fn wilson(k: f64, n: f64, z: f64) -> (f64, f64) {
+    let p = k / n;
+    let d = 1.0 + z * z / n;
+    let c = (p + z * z / (2.0 * n)) / d;
+    let h = z * (p * (1.0 - p) / n + z * z / (4.0 * n * n)).sqrt() / d;
+    (c - h, c + h)
+}
+
+/// Plain Monte Carlo under the nominal, in `jobs` threads with their own seeded streams:
+/// uniform variables drawn directly, normal ones by inverting the truncated normal's CDF.
+fn monte_carlo(o: &Options) -> Result<(u64, u64), String> {
+    let space = savme_sim::scenario::spaces()
+        .remove(&o.scenario)
+        .ok_or(format!("unknown scenario {}", o.scenario))?;
+    let theta = savme_sim::fidelity::theta_hf();
+    let per = o.mc_runs.div_ceil(o.jobs as u64);
+    let results: Vec<Result<u64, String>> = std::thread::scope(|s| {
+        let handles: Vec<_> = (0..o.jobs as u64)
+            .map(|j| {
+                let (space, theta) = (&space, &theta);
+                s.spawn(move || {
+                    let mut rng = rand_pcg::Pcg64::seed_from_u64(0xC0FFEE + j);
+                    let mut sim = DrivingSimulator::ideal();
+                    let mut failures = 0;
+                    for _ in 0..per {
+                        let mut phi = Assignment::new();
+                        for v in space.variables() {
+                            let Domain::Continuous { lo, hi, .. } = v.domain else {
+                                return Err(format!("{} is not continuous", v.name));
+                            };
+                            let u: f64 = rng.random();
+                            let x = match o.nominal.get(&*v.name) {
+                                Some(Nominal::Normal { mean, sd }) => {
+                                    let n = Normal::new(*mean, *sd).map_err(|e| e.to_string())?;
+                                    let (a, b) = (n.cdf(lo), n.cdf(hi));
+                                    n.inverse_cdf(a + u * (b - a)).clamp(lo, hi)
+                                }
+                                _ => lo + u * (hi - lo),
+                            };
+                            phi.set(&v.name, x);
+                        }
+                        let r = sim
+                            .simulate_as(Role::High, &o.scenario, &phi, theta)
+                            .map_err(|e| e.to_string())?;
+                        failures += u64::from(r.failure);
+                    }
+                    Ok(failures)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| Err("a Monte Carlo thread panicked".into()))
+            })
+            .collect()
+    });
+    let mut failures = 0;
+    for r in results {
+        failures += r?;
+    }
+    Ok((failures, per * o.jobs as u64))
+}

@@ -1,0 +1,346 @@
+//! Estimation: the probability of failure under the nominal (field) distribution of φ, by
+//! importance sampling with a defensive mixture proposal.
+//!
+//! After training, the posterior p_ψ(φ | s) says where the system fails. An [`Estimation`]
+//! freezes it into a **fixed** proposal per scenario,
+//!
+//! > q(φ) = (1 − ε)·p̂_ψ(φ) + ε·p(φ),
+//!
+//! where p̂_ψ picks each variable's bin with probability proportional to the bin's posterior
+//! mean (independently per variable) and draws uniformly — log-uniformly on a log scale —
+//! inside the bin, and p is the nominal distribution ([`Nominal`], uniform by default). Both
+//! densities are known in closed form, so every trial carries q(φ), p(φ) and the weight
+//! w = p(φ)/q(φ). Every trial runs the high-fidelity simulator; its failure f is told back.
+//! The estimate of P(failure | s) is the importance-weighted mean (1/n) Σ w_i f_i, unbiased
+//! whenever q > 0 wherever p > 0 — which the defensive component guarantees, together with the
+//! bound w ≤ 1/ε (Hesterberg 1995). Its 95 % interval is the normal approximation
+//! mean ± 1.96·se; the p(s)-weighted total combines the scenarios' estimates ([`Estimate`]).
+//! Trials are shared out over the scenarios in proportion to p(s), deterministically (the
+//! scenario whose share is furthest behind goes next), so the asks do not depend on outcomes.
+//!
+//! Estimation is a phase of its own type rather than a [`crate::Phase`]: it needs ε and the
+//! nominal, must never change the posterior it was built from, and its trials carry densities.
+//!
+//! ```
+//! use savme_kernel::estimation::{EstimationConfig, Estimation};
+//! use savme_kernel::{Assignment, Kernel, Observation, Run, Scale, Space, Variable};
+//! let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
+//! let fidelity = Space::new(vec![Variable::discrete("rate", [10])])?;
+//! let mut kernel = Kernel::builder(fidelity, Assignment::new().with("rate", 10))
+//!     .scenario("s", phi, 1.0)
+//!     .seed(3)
+//!     .build()?;
+//! let fails = |t: &savme_kernel::Trial| t.phi.get_f64("gap").unwrap() > 0.95;
+//! for _ in 0..300 {                                    // training
+//!     let t = kernel.ask();
+//!     let f = fails(&t);
+//!     kernel.tell(t.id, Observation::Paired { hf: Run::new(f, 1.0), lf: Run::new(f, 0.1) })?;
+//! }
+//! let mut est = kernel.estimation(&EstimationConfig::new(0.1, 7))?;
+//! for _ in 0..2000 {
+//!     let t = est.ask();
+//!     assert!(t.weight <= 1.0 / 0.1 + 1e-9);           // the defensive bound
+//!     let f = t.phi.get_f64("gap").unwrap() > 0.95;
+//!     est.tell(t.id, f)?;
+//! }
+//! let e = est.estimate();
+//! assert!(e.total.lo <= 0.05 && 0.05 <= e.total.hi);  // the true value is 0.05
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod proposal;
+mod statistic;
+
+pub use proposal::{Nominal, Tilt};
+pub use statistic::{z95, Estimate, Interval, ScenarioEstimate};
+
+use crate::kernel::{Kernel, Scenario};
+use crate::posterior::Posterior;
+use crate::value::Assignment;
+use proposal::{NominalOf, Proposal};
+use rand::SeedableRng;
+use rand_pcg::Pcg64 as Rng64;
+use serde::{Deserialize, Serialize};
+use statistic::Sums;
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// How an estimation is set up: ε, the seed of its draws, and the nominal distribution of
+/// any variable that is not uniform (by scenario, then variable).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimationConfig {
+    /// The defensive share ε of the nominal in the proposal, in (0, 1]; ε = 1 is plain Monte
+    /// Carlo under the nominal.
+    pub epsilon: f64,
+    /// Seed of the proposal's draws.
+    pub seed: u64,
+    /// Non-uniform nominals: `nominal[scenario][variable]`.
+    #[serde(default)]
+    pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
+    /// How p̂_ψ weighs the bins (default: by the posterior means alone).
+    #[serde(default)]
+    pub tilt: Tilt,
+}
+
+impl EstimationConfig {
+    /// ε and a seed, every variable's nominal uniform.
+    pub fn new(epsilon: f64, seed: u64) -> Self {
+        EstimationConfig {
+            epsilon,
+            seed,
+            nominal: BTreeMap::new(),
+            tilt: Tilt::Posterior,
+        }
+    }
+}
+
+/// Why an estimation cannot be built or a tell was refused. Nothing changes on an error.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EstimationError {
+    /// ε outside (0, 1].
+    #[error("epsilon (the nominal's share of the proposal) must lie in (0, 1], got {0}")]
+    BadEpsilon(f64),
+    /// No scenario to estimate.
+    #[error("no scenarios to estimate")]
+    NoScenarios,
+    /// A nominal declared for a scenario the estimation does not have.
+    #[error("nominal declared for unknown scenario `{scenario}` (known: {known})")]
+    UnknownScenario {
+        /// The name given.
+        scenario: String,
+        /// The scenarios there are.
+        known: String,
+    },
+    /// A nominal declared for a variable the scenario does not have.
+    #[error("nominal declared for unknown variable `{variable}` of scenario `{scenario}` (its variables: {known})")]
+    UnknownVariable {
+        /// The scenario.
+        scenario: String,
+        /// The name given.
+        variable: String,
+        /// The variables there are.
+        known: String,
+    },
+    /// A nominal that does not fit its variable (or has bad parameters).
+    #[error("nominal of variable `{variable}` of scenario `{scenario}`: {message}")]
+    BadNominal {
+        /// The scenario.
+        scenario: String,
+        /// The variable.
+        variable: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A posterior that does not fit its scenario's space.
+    #[error("scenario `{scenario}`: the posterior does not fit its space: {message}")]
+    Posterior {
+        /// The scenario.
+        scenario: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A tell for a trial that was never asked, or was told already.
+    #[error("estimation trial {0} is not pending (never asked, or told already)")]
+    NotPending(u64),
+}
+
+/// One trial of an estimation: run the HF simulator on `scenario` with `phi`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EstimationTrial {
+    /// Counts up from 0 in ask order.
+    pub id: u64,
+    /// The scenario.
+    pub scenario: Arc<str>,
+    /// Its index in the estimation.
+    pub scenario_index: usize,
+    /// The parameters, drawn from q.
+    pub phi: Assignment,
+    /// q(φ), the proposal's density.
+    pub q: f64,
+    /// p(φ), the nominal's density.
+    pub p: f64,
+    /// p(φ) / q(φ), at most 1/ε.
+    pub weight: f64,
+}
+
+/// The importance-sampling estimation of P(failure) under the nominal: asks φ from the fixed
+/// proposal, takes HF failures, and keeps the running estimate. Pure and deterministic: the
+/// same scenarios, posteriors, configuration and calls give the same trials.
+#[derive(Debug, Clone)]
+pub struct Estimation {
+    names: Vec<Arc<str>>,
+    probabilities: Vec<f64>,
+    proposals: Vec<Proposal>,
+    rng: Rng64,
+    next_id: u64,
+    asked: Vec<u64>,
+    pending: BTreeMap<u64, (usize, f64)>,
+    sums: Vec<Sums>,
+}
+
+impl Estimation {
+    /// Freezes a proposal for each scenario from its posterior p_ψ(φ | s). Errors name the
+    /// bad ε, scenario or variable.
+    pub fn new(
+        scenarios: &[(Scenario, Posterior)],
+        config: &EstimationConfig,
+    ) -> Result<Estimation, EstimationError> {
+        let eps = config.epsilon;
+        if !(eps > 0.0 && eps <= 1.0) {
+            return Err(EstimationError::BadEpsilon(eps));
+        }
+        if scenarios.is_empty() {
+            return Err(EstimationError::NoScenarios);
+        }
+        let names: Vec<Arc<str>> = scenarios.iter().map(|(s, _)| s.name.clone()).collect();
+        for (scenario, vars) in &config.nominal {
+            let Some((s, _)) = scenarios.iter().find(|(s, _)| &*s.name == scenario) else {
+                return Err(EstimationError::UnknownScenario {
+                    scenario: scenario.clone(),
+                    known: names.join(", "),
+                });
+            };
+            for variable in vars.keys() {
+                if s.space.variable(variable).is_none() {
+                    let known: Vec<&str> = s.space.variables().iter().map(|v| &*v.name).collect();
+                    return Err(EstimationError::UnknownVariable {
+                        scenario: scenario.clone(),
+                        variable: variable.clone(),
+                        known: known.join(", "),
+                    });
+                }
+            }
+        }
+        let mut proposals = Vec::with_capacity(scenarios.len());
+        for (s, posterior) in scenarios {
+            posterior
+                .check_fits(&s.space)
+                .map_err(|e| EstimationError::Posterior {
+                    scenario: s.name.to_string(),
+                    message: e.to_string(),
+                })?;
+            let declared = config.nominal.get(&*s.name);
+            let nominal = s
+                .space
+                .variables()
+                .iter()
+                .map(|v| {
+                    let n = declared.and_then(|d| d.get(&*v.name)).cloned();
+                    NominalOf::new(&n.unwrap_or_default(), &s.name, v)
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            proposals.push(Proposal::new(
+                &s.space,
+                posterior,
+                nominal,
+                eps,
+                config.tilt,
+            ));
+        }
+        let total: f64 = scenarios.iter().map(|(s, _)| s.weight).sum();
+        Ok(Estimation {
+            probabilities: scenarios.iter().map(|(s, _)| s.weight / total).collect(),
+            names,
+            proposals,
+            rng: Rng64::seed_from_u64(config.seed),
+            next_id: 0,
+            asked: vec![0; scenarios.len()],
+            pending: BTreeMap::new(),
+            sums: vec![Sums::default(); scenarios.len()],
+        })
+    }
+
+    /// The scenario names, in order.
+    pub fn scenarios(&self) -> &[Arc<str>] {
+        &self.names
+    }
+
+    /// The normalised p(s), in scenario order.
+    pub fn probabilities(&self) -> &[f64] {
+        &self.probabilities
+    }
+
+    /// The learned part p̂_ψ of scenario `index`'s proposal: per variable, each bin's
+    /// probability (the posterior means, normalised).
+    pub fn bin_probabilities(&self, index: usize) -> Option<&[Vec<f64>]> {
+        self.proposals.get(index).map(Proposal::bins)
+    }
+
+    /// q(φ) and p(φ) of `phi` for scenario `index` (None for an unknown index).
+    pub fn densities(&self, index: usize, phi: &Assignment) -> Option<(f64, f64)> {
+        let d = self.proposals.get(index)?.densities(phi);
+        Some((d.q, d.p))
+    }
+
+    /// The next trial: the scenario furthest behind its share p(s) (ties: the first), φ ~ q.
+    pub fn ask(&mut self) -> EstimationTrial {
+        let s = (0..self.names.len())
+            .min_by(|&a, &b| {
+                let behind = |i: usize| (self.asked[i] + 1) as f64 / self.probabilities[i];
+                behind(a).total_cmp(&behind(b))
+            })
+            .unwrap_or(0);
+        let phi = self.proposals[s].draw(&mut self.rng);
+        let d = self.proposals[s].densities(&phi);
+        let weight = d.p / d.q;
+        let trial = EstimationTrial {
+            id: self.next_id,
+            scenario: self.names[s].clone(),
+            scenario_index: s,
+            phi,
+            q: d.q,
+            p: d.p,
+            weight,
+        };
+        self.next_id += 1;
+        self.asked[s] += 1;
+        self.pending.insert(trial.id, (s, weight));
+        trial
+    }
+
+    /// Takes the HF outcome of trial `id`.
+    pub fn tell(&mut self, id: u64, failure: bool) -> Result<(), EstimationError> {
+        let (s, weight) = self
+            .pending
+            .remove(&id)
+            .ok_or(EstimationError::NotPending(id))?;
+        self.sums[s].add(weight, failure);
+        Ok(())
+    }
+
+    /// The estimate from the trials told so far.
+    pub fn estimate(&self) -> Estimate {
+        Estimate::from_scenarios(
+            self.names
+                .iter()
+                .zip(&self.probabilities)
+                .zip(&self.sums)
+                .map(|((n, &p), s)| ScenarioEstimate::new(n, p, s))
+                .collect(),
+        )
+    }
+}
+
+impl Kernel {
+    /// An [`Estimation`] from this kernel's current φ posteriors and p(s) (typically after
+    /// meta-training). The kernel itself is not changed.
+    pub fn estimation(&self, config: &EstimationConfig) -> Result<Estimation, EstimationError> {
+        let scenarios: Vec<(Scenario, Posterior)> = self
+            .config()
+            .scenarios
+            .iter()
+            .map(|s| {
+                let posterior = self
+                    .scenario_posterior(&s.name)
+                    .cloned()
+                    .ok_or(EstimationError::NoScenarios)?;
+                Ok((s.clone(), posterior))
+            })
+            .collect::<Result<_, EstimationError>>()?;
+        Estimation::new(&scenarios, config)
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,331 @@
+//! The nominal distribution of φ and the defensive mixture proposal built from a posterior.
+//!
+//! Densities are products over the variables of a probability (discrete variables) or a
+//! density (continuous variables). Both the nominal p and the proposal q use that same base
+//! measure, so the weight p(φ)/q(φ) is well defined for any mix of variable kinds.
+
+use super::EstimationError;
+use crate::posterior::Posterior;
+use crate::space::{Domain, Scale, Space, Variable};
+use crate::value::{Assignment, Value};
+use rand::{Rng, RngExt};
+use serde::{Deserialize, Serialize};
+use statrs::distribution::{Continuous, ContinuousCDF, Normal};
+
+/// The nominal (field) distribution of one φ variable.
+///
+/// ```
+/// use savme_kernel::estimation::Nominal;
+/// let n: Nominal = serde_json::from_str(r#"{"distribution":"normal","mean":12.0,"sd":2.0}"#)?;
+/// assert_eq!(n, Nominal::Normal { mean: 12.0, sd: 2.0 });
+/// # Ok::<(), serde_json::Error>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "distribution", rename_all = "lowercase", deny_unknown_fields)]
+pub enum Nominal {
+    /// Uniform over the variable on its own scale: uniform on `[lo, hi]` for a linear variable,
+    /// log-uniform for a log-scaled one, every value equally likely for a discrete one. This is
+    /// also what the baseline stage draws.
+    #[default]
+    Uniform,
+    /// A normal distribution truncated to `[lo, hi]` (continuous variables only).
+    Normal {
+        /// Mean before truncation.
+        mean: f64,
+        /// Standard deviation before truncation, finite and > 0.
+        sd: f64,
+    },
+    /// Probabilities of a discrete variable's values, in value order (normalised; finite,
+    /// ≥ 0, not all 0).
+    Weights {
+        /// One weight per value.
+        weights: Vec<f64>,
+    },
+}
+
+/// A [`Nominal`] checked against its variable, with what its density needs precomputed.
+#[derive(Debug, Clone)]
+pub(crate) enum NominalOf {
+    Uniform,
+    Normal {
+        normal: Normal,
+        cdf_lo: f64,
+        mass: f64,
+    },
+    Weights(Vec<f64>),
+}
+
+impl NominalOf {
+    /// Checks `nominal` against `var` of `scenario`.
+    pub(crate) fn new(
+        nominal: &Nominal,
+        scenario: &str,
+        var: &Variable,
+    ) -> Result<NominalOf, EstimationError> {
+        let bad = |message: String| EstimationError::BadNominal {
+            scenario: scenario.to_string(),
+            variable: var.name.to_string(),
+            message,
+        };
+        match (nominal, &var.domain) {
+            (Nominal::Uniform, _) => Ok(NominalOf::Uniform),
+            (Nominal::Normal { mean, sd }, Domain::Continuous { lo, hi, .. }) => {
+                if !(mean.is_finite() && sd.is_finite() && *sd > 0.0) {
+                    return Err(bad(format!(
+                        "a normal needs a finite mean and a finite sd > 0, got mean = {mean}, sd = {sd}"
+                    )));
+                }
+                let normal = Normal::new(*mean, *sd).map_err(|e| bad(e.to_string()))?;
+                let cdf_lo = normal.cdf(*lo);
+                let mass = normal.cdf(*hi) - cdf_lo;
+                if mass < 1e-9 {
+                    return Err(bad(format!(
+                        "normal({mean}, {sd}) puts {mass:e} of its mass inside [{lo}, {hi}]; it must put at least 1e-9 there"
+                    )));
+                }
+                Ok(NominalOf::Normal {
+                    normal,
+                    cdf_lo,
+                    mass,
+                })
+            }
+            (Nominal::Normal { .. }, Domain::Discrete { .. }) => Err(bad(
+                "a normal needs a continuous variable; give `weights` for a discrete one".into(),
+            )),
+            (Nominal::Weights { weights }, Domain::Discrete { values }) => {
+                if weights.len() != values.len() {
+                    return Err(bad(format!(
+                        "{} weights for {} values",
+                        weights.len(),
+                        values.len()
+                    )));
+                }
+                let total: f64 = weights.iter().sum();
+                if weights.iter().any(|w| !(w.is_finite() && *w >= 0.0))
+                    || !(total.is_finite() && total > 0.0)
+                {
+                    return Err(bad(format!(
+                        "weights must be finite, ≥ 0 and not all 0, got {weights:?}"
+                    )));
+                }
+                Ok(NominalOf::Weights(
+                    weights.iter().map(|w| w / total).collect(),
+                ))
+            }
+            (Nominal::Weights { .. }, Domain::Continuous { .. }) => Err(bad(
+                "weights need a discrete variable; give a normal (or uniform) for a continuous one"
+                    .into(),
+            )),
+        }
+    }
+
+    /// The density (continuous) or probability (discrete) of `x`; 0 outside the variable.
+    fn density(&self, var: &Variable, x: &Value) -> f64 {
+        let Some(arm) = var.arm_of(x) else {
+            return 0.0;
+        };
+        match (self, &var.domain) {
+            (NominalOf::Weights(w), _) => w[arm],
+            (NominalOf::Uniform, Domain::Discrete { values }) => 1.0 / values.len() as f64,
+            (NominalOf::Uniform, Domain::Continuous { lo, hi, scale, .. }) => {
+                let v = x.as_f64().unwrap_or(f64::NAN);
+                match scale {
+                    Scale::Linear => 1.0 / (hi - lo),
+                    Scale::Log => 1.0 / (v * (hi / lo).ln()),
+                }
+            }
+            (NominalOf::Normal { normal, mass, .. }, _) => {
+                normal.pdf(x.as_f64().unwrap_or(f64::NAN)) / mass
+            }
+        }
+    }
+
+    /// The nominal's probability of bin (or value) `arm` of `var`.
+    fn bin_mass(&self, var: &Variable, arm: usize) -> f64 {
+        match (self, var.bin(arm)) {
+            (NominalOf::Weights(w), _) => w[arm],
+            (NominalOf::Normal { normal, mass, .. }, Some((a, b))) => {
+                (normal.cdf(b) - normal.cdf(a)) / mass
+            }
+            // Uniform on the variable's scale: every bin (linear or log) or value alike.
+            _ => 1.0 / var.arms() as f64,
+        }
+    }
+
+    fn draw<R: Rng + ?Sized>(&self, var: &Variable, rng: &mut R) -> Value {
+        match (self, &var.domain) {
+            (NominalOf::Weights(w), _) => var.draw_in_arm(categorical(w, rng), rng),
+            (NominalOf::Uniform, _) => {
+                let arm = rng.random_range(0..var.arms());
+                var.draw_in_arm(arm, rng)
+            }
+            (
+                NominalOf::Normal {
+                    normal,
+                    cdf_lo,
+                    mass,
+                },
+                Domain::Continuous { lo, hi, .. },
+            ) => {
+                let u: f64 = rng.random();
+                Value::Real(normal.inverse_cdf(cdf_lo + u * mass).clamp(*lo, *hi))
+            }
+            (NominalOf::Normal { .. }, Domain::Discrete { values }) => values[0].clone(),
+        }
+    }
+}
+
+/// Index drawn from normalised probabilities `p` (the last index takes rounding leftovers).
+fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
+    let u: f64 = rng.random();
+    let mut acc = 0.0;
+    for (i, w) in p.iter().enumerate() {
+        acc += w;
+        if u < acc {
+            return i;
+        }
+    }
+    p.len() - 1
+}
+
+/// How p̂_ψ weighs the bins of a variable.
+///
+/// ```
+/// use savme_kernel::estimation::Tilt;
+/// assert_eq!(Tilt::default(), Tilt::Posterior);
+/// assert_eq!(serde_json::to_string(&Tilt::NominalWeighted).unwrap(), "\"nominal-weighted\"");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Tilt {
+    /// Bin k with probability ∝ its posterior mean (the issue's rule): toward where the
+    /// system fails most often.
+    #[default]
+    Posterior,
+    /// ∝ posterior mean × the nominal's probability of bin k: toward where p(φ)·P(failure)
+    /// is largest. The same as `Posterior` under a uniform nominal; for a nominal concentrated
+    /// away from the failures (a rare event).
+    NominalWeighted,
+}
+
+/// The fixed proposal of one scenario: q = (1 − ε)·p̂_ψ + ε·p, with p̂_ψ the product over the
+/// variables of the bins' posterior means (normalised), uniform or log-uniform inside a bin.
+#[derive(Debug, Clone)]
+pub(crate) struct Proposal {
+    space: Space,
+    /// Per variable, the probability of each arm under p̂_ψ.
+    bins: Vec<Vec<f64>>,
+    nominal: Vec<NominalOf>,
+    epsilon: f64,
+}
+
+/// The densities of one φ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Densities {
+    /// Under the proposal q.
+    pub q: f64,
+    /// Under the nominal p.
+    pub p: f64,
+}
+
+impl Proposal {
+    pub(crate) fn new(
+        space: &Space,
+        posterior: &Posterior,
+        nominal: Vec<NominalOf>,
+        epsilon: f64,
+        tilt: Tilt,
+    ) -> Proposal {
+        let bins = posterior
+            .arms()
+            .iter()
+            .zip(space.variables().iter().zip(&nominal))
+            .map(|(arms, (var, n))| {
+                let score = |k: usize| match tilt {
+                    Tilt::Posterior => arms[k].mean(),
+                    Tilt::NominalWeighted => arms[k].mean() * n.bin_mass(var, k),
+                };
+                let total: f64 = (0..arms.len()).map(score).sum();
+                if total > 0.0 {
+                    (0..arms.len()).map(|k| score(k) / total).collect()
+                } else {
+                    vec![1.0 / arms.len() as f64; arms.len()]
+                }
+            })
+            .collect();
+        Proposal {
+            space: space.clone(),
+            bins,
+            nominal,
+            epsilon,
+        }
+    }
+
+    /// The per-variable bin probabilities of p̂_ψ.
+    pub(crate) fn bins(&self) -> &[Vec<f64>] {
+        &self.bins
+    }
+
+    /// The density of `phi` under the learned part p̂_ψ.
+    fn learned(&self, phi: &Assignment) -> f64 {
+        let mut d = 1.0;
+        for (var, bins) in self.space.variables().iter().zip(&self.bins) {
+            let Some(x) = phi.get(&var.name) else {
+                return 0.0;
+            };
+            let Some(arm) = var.arm_of(x) else {
+                return 0.0;
+            };
+            d *= bins[arm] * in_bin_density(var, arm, x);
+        }
+        d
+    }
+
+    /// The density of `phi` under the nominal p.
+    fn nominal(&self, phi: &Assignment) -> f64 {
+        let mut d = 1.0;
+        for (var, n) in self.space.variables().iter().zip(&self.nominal) {
+            match phi.get(&var.name) {
+                Some(x) => d *= n.density(var, x),
+                None => return 0.0,
+            }
+        }
+        d
+    }
+
+    /// q(φ) and p(φ).
+    pub(crate) fn densities(&self, phi: &Assignment) -> Densities {
+        let p = self.nominal(phi);
+        Densities {
+            q: (1.0 - self.epsilon) * self.learned(phi) + self.epsilon * p,
+            p,
+        }
+    }
+
+    /// Draws φ from q: the nominal with probability ε, else p̂_ψ.
+    pub(crate) fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Assignment {
+        let u: f64 = rng.random();
+        let mut phi = Assignment::new();
+        for (i, var) in self.space.variables().iter().enumerate() {
+            let x = if u < self.epsilon {
+                self.nominal[i].draw(var, rng)
+            } else {
+                var.draw_in_arm(categorical(&self.bins[i], rng), rng)
+            };
+            phi.set(&var.name, x);
+        }
+        phi
+    }
+}
+
+/// The density of `x` inside bin `arm` of `var`: 1 for a discrete value, uniform (linear) or
+/// log-uniform (log) over the bin.
+fn in_bin_density(var: &Variable, arm: usize, x: &Value) -> f64 {
+    match (&var.domain, var.bin(arm)) {
+        (Domain::Continuous { scale, .. }, Some((a, b))) => match scale {
+            Scale::Linear => 1.0 / (b - a),
+            Scale::Log => 1.0 / (x.as_f64().unwrap_or(f64::NAN) * (b / a).ln()),
+        },
+        _ => 1.0,
+    }
+}

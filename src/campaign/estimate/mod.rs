@@ -1,0 +1,375 @@
+//! `savme estimate`: the probability of failure under the nominal distribution of φ, by
+//! importance sampling from a proposal frozen from a finished campaign's meta-training
+//! posterior ([`savme_kernel::estimation`] holds the maths).
+//!
+//! [`EstimateRun`] reads the campaign directory (its `protocol.json` and `trials.jsonl`),
+//! rebuilds each scenario's posterior p_ψ(φ | s) from the meta-training trials at the chosen
+//! budget (exactly what the kernel learned: the logged scenario credits), and runs HF
+//! simulations of φ ~ q until the total's 95 % interval is within ± `target_width` (with at
+//! least `min_failures` failures) or `max_runs` runs are made. Trials run in parallel and are
+//! told in ask order, and the stopping rule is checked after each tell, so the result does not
+//! depend on `jobs`. Output directory (default `CAMPAIGN/estimate-<budget>/`):
+//! `estimate.json` (the settings), `trials.jsonl` (one line per HF run with q(φ), p(φ) and the
+//! weight; resume replays it), `summary.json`, `table.md`.
+//!
+//! ```no_run
+//! use savme::campaign::estimate::{EstimateRun, EstimateSettings};
+//! use savme_sim::sim::DrivingSimulator;
+//! let settings = EstimateSettings { target_width: Some(0.1), ..EstimateSettings::default() };
+//! let outcome = EstimateRun::new("results", settings).jobs(2).run(&DrivingSimulator::ideal())?;
+//! println!("{}", outcome.table_md);
+//! # Ok::<(), savme::campaign::estimate::EstimateError>(())
+//! ```
+
+mod output;
+mod posterior;
+mod settings;
+
+pub use output::{EstimateLine, EstimateOutcome, StopReason};
+pub use settings::{EstimateError, EstimateSettings, MAX_RUNS};
+
+use super::executor::{with_pool, Runner, Task, Which};
+use super::outputs::load_protocol;
+use super::store::{JsonlStore, TrialStore};
+use super::{CampaignError, Problem, Protocol};
+use crate::campaign::log::RunLine;
+use savme_kernel::estimation::{Estimation, EstimationConfig, EstimationTrial, Nominal};
+use savme_kernel::Simulator;
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// An estimate to run on a finished campaign.
+pub struct EstimateRun {
+    campaign: PathBuf,
+    settings: EstimateSettings,
+    out: Option<PathBuf>,
+    problem: Option<Problem>,
+    jobs: usize,
+    resume: bool,
+}
+
+impl EstimateRun {
+    /// An estimate of the campaign in `campaign` with `settings` (one worker; the bundled
+    /// simulator's problem unless [`EstimateRun::problem`] is given).
+    pub fn new(campaign: impl Into<PathBuf>, settings: EstimateSettings) -> Self {
+        EstimateRun {
+            campaign: campaign.into(),
+            settings,
+            out: None,
+            problem: None,
+            jobs: 1,
+            resume: false,
+        }
+    }
+
+    /// The output directory (default `CAMPAIGN/estimate-<budget>`).
+    pub fn out(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.out = Some(dir.into());
+        self
+    }
+
+    /// The campaign's problem (needed when it is not the bundled simulator's).
+    pub fn problem(mut self, problem: Problem) -> Self {
+        self.problem = Some(problem);
+        self
+    }
+
+    /// Worker threads (the result does not depend on it).
+    pub fn jobs(mut self, jobs: usize) -> Self {
+        self.jobs = jobs.max(1);
+        self
+    }
+
+    /// Continue the estimate in the output directory with its stored settings (the given
+    /// settings are ignored).
+    pub fn resume(mut self, resume: bool) -> Self {
+        self.resume = resume;
+        self
+    }
+
+    /// The output directory these settings write to.
+    pub fn out_dir(&self, protocol: &Protocol) -> PathBuf {
+        self.out.clone().unwrap_or_else(|| {
+            let b = self.settings.budget.unwrap_or(protocol.budgets[0]);
+            self.campaign.join(format!("estimate-{b}"))
+        })
+    }
+
+    /// Runs (or resumes) the estimate on `sim` (its HF role) and writes the outputs. Every
+    /// setting, the campaign and the stored trials are checked before any simulation runs.
+    pub fn run<S>(self, sim: &S) -> Result<EstimateOutcome, EstimateError>
+    where
+        S: Simulator + Clone + Send,
+    {
+        let protocol = load_protocol(&self.campaign)?;
+        let out = self.out_dir(&protocol);
+        super::outputs::usable_dir(&out)?;
+        let settings = self.settings_for(&out)?;
+        settings.validate()?;
+        let problem = self
+            .problem
+            .clone()
+            .unwrap_or_else(|| Problem::driving(protocol.fidelity_bins));
+        let budget = settings.budget.unwrap_or(protocol.budgets[0]);
+        let trained = posterior::trained(&self.campaign, &protocol, &problem, budget, &settings)?;
+        let config = EstimationConfig {
+            epsilon: settings.epsilon,
+            seed: settings
+                .seed
+                .unwrap_or_else(|| protocol.kernel_seed(&format!("estimate@{budget}"))),
+            nominal: settings.nominal.clone(),
+            tilt: settings.tilt,
+        };
+        let mut estimation = Estimation::new(&trained.scenarios, &config)?;
+        if !self.resume {
+            create(&out, &settings)?;
+        }
+        let mut store = JsonlStore::open(&out.join("trials.jsonl")).map_err(CampaignError::from)?;
+        let mut lines = replay(&mut store, &mut estimation)?;
+        let replayed = lines.len() as u64;
+        let started = std::time::Instant::now();
+        let reason = stop_reason(&estimation, &settings);
+        let reason = match reason {
+            Some(r) => r,
+            None => {
+                let mut run = Running {
+                    estimation: &mut estimation,
+                    settings: &settings,
+                    store: &mut store,
+                    lines: &mut lines,
+                    cost: protocol.cost.measure(),
+                    theta_hf: &problem.theta_hf,
+                };
+                with_pool(sim, self.jobs, |pool| run.run(pool, 2 * self.jobs))?
+            }
+        };
+        drop(store);
+        let outcome = output::EstimateOutcome::new(
+            &estimation,
+            &settings,
+            &trained,
+            lines,
+            reason,
+            replayed,
+            started.elapsed().as_secs_f64(),
+            out,
+        );
+        outcome.write()?;
+        Ok(outcome)
+    }
+
+    /// The settings to run with: the stored ones on resume, else the given ones (refusing a
+    /// directory that already holds an estimate). Creates nothing.
+    fn settings_for(&self, out: &Path) -> Result<EstimateSettings, EstimateError> {
+        let path = out.join("estimate.json");
+        match (self.resume, path.exists()) {
+            (false, true) => Err(EstimateError::Exists {
+                dir: out.to_path_buf(),
+            }),
+            (true, false) => Err(EstimateError::NothingToResume {
+                dir: out.to_path_buf(),
+            }),
+            (true, true) => {
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| EstimateError::Campaign(CampaignError::io(&path, e)))?;
+                serde_json::from_str(&text).map_err(|e| {
+                    EstimateError::Campaign(CampaignError::Log {
+                        store: path.display().to_string(),
+                        line: e.line(),
+                        message: e.to_string(),
+                    })
+                })
+            }
+            (false, false) => Ok(self.settings.clone()),
+        }
+    }
+}
+
+/// Creates the output directory of a new estimate with its `estimate.json`.
+fn create(out: &Path, settings: &EstimateSettings) -> Result<(), EstimateError> {
+    let path = out.join("estimate.json");
+    std::fs::create_dir_all(out).map_err(|e| CampaignError::io(out, e))?;
+    let json = serde_json::to_string_pretty(settings).unwrap_or_default();
+    std::fs::write(&path, json + "\n").map_err(|e| CampaignError::io(&path, e))?;
+    Ok(())
+}
+
+/// Replays the stored trials: each must be what the estimation asks again; its failure is
+/// told. A torn last line (a killed process) was cut by the store.
+fn replay(
+    store: &mut JsonlStore,
+    estimation: &mut Estimation,
+) -> Result<Vec<EstimateLine>, EstimateError> {
+    let name = store.path().display().to_string();
+    let loaded = store.load().map_err(CampaignError::from)?;
+    let mut lines = Vec::with_capacity(loaded.lines.len());
+    for stored in loaded.lines {
+        let diverged = |message: String| EstimateError::Diverged {
+            store: name.clone(),
+            line: stored.line,
+            message,
+        };
+        let line: EstimateLine =
+            serde_json::from_value(stored.value.clone()).map_err(|e| diverged(e.to_string()))?;
+        let asked = estimation.ask();
+        line.check(&asked).map_err(diverged)?;
+        estimation.tell(asked.id, line.hf.failure)?;
+        lines.push(line);
+    }
+    Ok(lines)
+}
+
+/// Why the estimate is done, if it is.
+fn stop_reason(e: &Estimation, s: &EstimateSettings) -> Option<StopReason> {
+    let est = e.estimate();
+    let reached = s
+        .target_width
+        .is_some_and(|w| est.failures >= s.min_failures && est.total.relative_half_width() <= w);
+    if reached {
+        Some(StopReason::TargetWidth)
+    } else if est.runs >= s.max_runs {
+        Some(StopReason::MaxRuns)
+    } else {
+        None
+    }
+}
+
+/// The run loop's state.
+struct Running<'a> {
+    estimation: &'a mut Estimation,
+    settings: &'a EstimateSettings,
+    store: &'a mut JsonlStore,
+    lines: &'a mut Vec<EstimateLine>,
+    cost: savme_kernel::CostMeasure,
+    theta_hf: &'a savme_kernel::Assignment,
+}
+
+impl Running<'_> {
+    /// Keeps up to `window` HF runs in flight, tells them in ask order, stores each line,
+    /// and stops at the first tell after which the stopping rule holds (runs still in flight
+    /// then are dropped: they are not part of the estimate, whatever `jobs` is).
+    fn run(&mut self, pool: &mut impl Runner, window: usize) -> Result<StopReason, EstimateError> {
+        let stage: Arc<str> = Arc::from("estimate");
+        let mut flight: VecDeque<(EstimationTrial, Option<savme_kernel::SimResult>)> =
+            VecDeque::new();
+        let mut asked = self.lines.len() as u64;
+        loop {
+            while flight.len() < window && asked < self.settings.max_runs {
+                let t = self.estimation.ask();
+                pool.submit(Task {
+                    stage: stage.clone(),
+                    trial: t.id,
+                    which: Which::Hf,
+                    scenario: t.scenario.clone(),
+                    phi: t.phi.clone(),
+                    fidelity: self.theta_hf.clone(),
+                })?;
+                flight.push_back((t, None));
+                asked += 1;
+            }
+            while flight.front().is_some_and(|(_, r)| r.is_some()) {
+                let Some((t, Some(r))) = flight.pop_front() else {
+                    break;
+                };
+                self.tell(&t, &r)?;
+                if let Some(reason) = stop_reason(self.estimation, self.settings) {
+                    return Ok(reason);
+                }
+            }
+            if flight.is_empty() {
+                // Everything asked was told and the rule did not stop: ask more.
+                continue;
+            }
+            let done = pool.next_done()?;
+            let slot = flight.iter_mut().find(|(t, _)| t.id == done.trial);
+            if let Some((t, slot)) = slot {
+                match done.result {
+                    Ok(r) => *slot = Some(r),
+                    Err(e) => {
+                        return Err(EstimateError::Simulation {
+                            trial: t.id,
+                            scenario: t.scenario.to_string(),
+                            phi: t.phi.to_string(),
+                            message: e.to_string(),
+                        })
+                    }
+                }
+            }
+        }
+    }
+
+    fn tell(
+        &mut self,
+        t: &EstimationTrial,
+        r: &savme_kernel::SimResult,
+    ) -> Result<(), EstimateError> {
+        let simulation = |message: String| EstimateError::Simulation {
+            trial: t.id,
+            scenario: t.scenario.to_string(),
+            phi: t.phi.to_string(),
+            message,
+        };
+        let run = r.run(self.cost).map_err(|e| simulation(e.to_string()))?;
+        let line = EstimateLine::new(t, RunLine::new(r, run.runtime));
+        let json = serde_json::to_string(&line).map_err(|e| simulation(e.to_string()))?;
+        self.store
+            .append_json(&[json])
+            .map_err(CampaignError::from)?;
+        self.estimation.tell(t.id, r.failure)?;
+        self.lines.push(line);
+        Ok(())
+    }
+}
+
+/// Parses a `--nominal` declaration `SCENARIO.VARIABLE=uniform`, `=normal:MEAN,SD` or
+/// `=weights:W1,W2,…`.
+///
+/// ```
+/// use savme::campaign::estimate::parse_nominal;
+/// use savme_kernel::estimation::Nominal;
+/// let (s, v, n) = parse_nominal("lead_vehicle_brakes.ego_speed=normal:12,2")?;
+/// assert_eq!((s.as_str(), v.as_str()), ("lead_vehicle_brakes", "ego_speed"));
+/// assert_eq!(n, Nominal::Normal { mean: 12.0, sd: 2.0 });
+/// assert!(parse_nominal("ego_speed=normal:12").is_err());
+/// # Ok::<(), savme::campaign::estimate::EstimateError>(())
+/// ```
+pub fn parse_nominal(given: &str) -> Result<(String, String, Nominal), EstimateError> {
+    let bad = |message: &str| EstimateError::NominalSyntax {
+        given: given.to_string(),
+        message: message.to_string(),
+    };
+    let (name, dist) = given
+        .split_once('=')
+        .ok_or_else(|| bad("expected SCENARIO.VARIABLE=DISTRIBUTION"))?;
+    let (scenario, variable) = name
+        .split_once('.')
+        .filter(|(s, v)| !s.is_empty() && !v.is_empty())
+        .ok_or_else(|| bad("expected SCENARIO.VARIABLE before `=`"))?;
+    let (kind, args) = dist.split_once(':').unwrap_or((dist, ""));
+    let numbers = || {
+        args.split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|_| bad("the parameters must be numbers separated by commas"))
+    };
+    let nominal = match kind {
+        "uniform" if args.is_empty() => Nominal::Uniform,
+        "normal" => match numbers()?.as_slice() {
+            [mean, sd] => Nominal::Normal {
+                mean: *mean,
+                sd: *sd,
+            },
+            _ => return Err(bad("normal takes two numbers: normal:MEAN,SD")),
+        },
+        "weights" => Nominal::Weights {
+            weights: numbers()?,
+        },
+        _ => {
+            return Err(bad(
+                "the distribution is uniform, normal:MEAN,SD or weights:W1,W2,…",
+            ))
+        }
+    };
+    Ok((scenario.to_string(), variable.to_string(), nominal))
+}

@@ -1,0 +1,263 @@
+//! What an estimate runs with ([`EstimateSettings`]) and why it may not run ([`EstimateError`]).
+
+use crate::campaign::CampaignError;
+use savme_kernel::estimation::{EstimationError, Nominal, Tilt};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// How `savme estimate` runs: which trained posterior, ε, the nominal, when to stop.
+/// Stored as `estimate.json` in the output directory; a resumed estimate keeps it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimateSettings {
+    /// The budget whose meta-training posterior builds the proposal (None: the protocol's
+    /// first budget).
+    pub budget: Option<f64>,
+    /// The nominal's share ε of the proposal, in (0, 1]; 1 is plain Monte Carlo.
+    pub epsilon: f64,
+    /// Seed of the proposal's draws (None: derived from the campaign's seed and the budget).
+    pub seed: Option<u64>,
+    /// Stop once the total's 95 % interval is within ± this fraction of the estimate (and
+    /// `min_failures` failures were seen); None: run `max_runs`.
+    pub target_width: Option<f64>,
+    /// The most HF runs to make.
+    pub max_runs: u64,
+    /// Failures needed before the target width may stop the estimate (a normal interval on
+    /// a handful of failures is not trustworthy).
+    pub min_failures: u64,
+    /// The scenarios to estimate (empty: every meta-training scenario).
+    #[serde(default)]
+    pub scenarios: Vec<String>,
+    /// Non-uniform nominals, by scenario then variable.
+    #[serde(default)]
+    pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
+    /// How the proposal weighs the bins: `posterior` (the posterior means; default) or
+    /// `nominal-weighted` (× the nominal's bin probability).
+    #[serde(default)]
+    pub tilt: Tilt,
+}
+
+/// The most HF runs one estimate may make.
+pub const MAX_RUNS: u64 = 100_000_000;
+
+impl Default for EstimateSettings {
+    fn default() -> Self {
+        EstimateSettings {
+            budget: None,
+            epsilon: 0.1,
+            seed: None,
+            target_width: Some(0.1),
+            max_runs: 10_000,
+            min_failures: 10,
+            scenarios: Vec::new(),
+            nominal: BTreeMap::new(),
+            tilt: Tilt::Posterior,
+        }
+    }
+}
+
+impl EstimateSettings {
+    /// Checks every value; the error names the key.
+    ///
+    /// ```
+    /// use savme::campaign::estimate::EstimateSettings;
+    /// let mut s = EstimateSettings::default();
+    /// assert!(s.validate().is_ok());
+    /// s.target_width = Some(0.0);
+    /// assert_eq!(
+    ///     s.validate().unwrap_err().to_string(),
+    ///     "estimate: `target_width`: must be a finite number > 0 (0.1 is ±10 %), got 0"
+    /// );
+    /// ```
+    pub fn validate(&self) -> Result<(), EstimateError> {
+        let bad = |key: &str, message: String| {
+            Err(EstimateError::Setting {
+                key: key.into(),
+                message,
+            })
+        };
+        if !(self.epsilon > 0.0 && self.epsilon <= 1.0) {
+            return bad(
+                "epsilon",
+                format!(
+                    "must lie in (0, 1] (1 is plain Monte Carlo), got {}",
+                    self.epsilon
+                ),
+            );
+        }
+        if let Some(w) = self.target_width {
+            if !(w.is_finite() && w > 0.0) {
+                return bad(
+                    "target_width",
+                    format!("must be a finite number > 0 (0.1 is ±10 %), got {w}"),
+                );
+            }
+        }
+        if self.max_runs == 0 || self.max_runs > MAX_RUNS {
+            return bad(
+                "max_runs",
+                format!("must lie in 1..={MAX_RUNS}, got {}", self.max_runs),
+            );
+        }
+        if let Some(b) = self.budget {
+            if !(b > 0.0 && b <= 1.0) {
+                return bad("budget", format!("must lie in (0, 1], got {b}"));
+            }
+        }
+        for (i, s) in self.scenarios.iter().enumerate() {
+            if self.scenarios[..i].contains(s) {
+                return bad("scenarios", format!("`{s}` is listed twice"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why an estimate could not run. Every variant names its culprit.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EstimateError {
+    /// A setting is invalid.
+    #[error("estimate: `{key}`: {message}")]
+    Setting {
+        /// The key (as in `estimate.json`; the flag is the key with dashes).
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A `--nominal` declaration that cannot be read.
+    #[error("estimate: --nominal `{given}`: {message}")]
+    NominalSyntax {
+        /// What was given.
+        given: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The campaign has not (yet) trained the posterior the estimate needs.
+    #[error("{}: stage `{stage}` has {told} of its {needed} trials; finish the campaign (savme reproduce/run --resume) before estimating", dir.display())]
+    NotTrained {
+        /// The campaign directory.
+        dir: PathBuf,
+        /// The training stage.
+        stage: String,
+        /// Its told trials.
+        told: u64,
+        /// The protocol's iterations.
+        needed: u64,
+    },
+    /// A budget the campaign did not train.
+    #[error("estimate: `budget`: the campaign trained budgets {known}, not {budget}")]
+    UnknownBudget {
+        /// The budget given.
+        budget: f64,
+        /// The campaign's budgets.
+        known: String,
+    },
+    /// A scenario the campaign did not learn.
+    #[error("estimate: scenario `{name}` was not learned by this campaign (learned: {known})")]
+    UnknownScenario {
+        /// The name given.
+        name: String,
+        /// The learned scenarios.
+        known: String,
+    },
+    /// The output directory already holds an estimate (and no resume was asked).
+    #[error("{} already holds an estimate; continue it with --resume, or give another --out", dir.display())]
+    Exists {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A resume of a directory without an estimate.
+    #[error("{}: no estimate to resume (no estimate.json)", dir.display())]
+    NothingToResume {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A stored estimate trial that is not what the settings give (edited, or another run).
+    #[error("{store}, line {line}: {message}")]
+    Diverged {
+        /// The trial store.
+        store: String,
+        /// 1-based line.
+        line: u64,
+        /// What differs.
+        message: String,
+    },
+    /// An HF run failed; the estimate stops rather than drop the trial (dropping would bias
+    /// it). Resume runs the trial again.
+    #[error("estimate trial {trial} (scenario `{scenario}`, φ = {phi}): {message}")]
+    Simulation {
+        /// The trial id.
+        trial: u64,
+        /// Its scenario.
+        scenario: String,
+        /// Its parameters.
+        phi: String,
+        /// What failed.
+        message: String,
+    },
+    /// The estimation could not be set up (ε, a nominal, a posterior).
+    #[error("estimate: {0}")]
+    Estimation(#[from] EstimationError),
+    /// The campaign (protocol, store, files) could not be read, or outputs written.
+    #[error(transparent)]
+    Campaign(#[from] CampaignError),
+}
+
+impl EstimateSettings {
+    /// The settings of a campaign file's `[estimate]` section (defaults for the keys not
+    /// given), checked: the error names the file, the line and the key.
+    pub fn from_section(
+        section: &savme_fmu::campaign_file::EstimateSection,
+        file: &std::path::Path,
+    ) -> Result<EstimateSettings, savme_fmu::campaign_file::ConfigError> {
+        let d = EstimateSettings::default();
+        let s = EstimateSettings {
+            budget: section.budget,
+            epsilon: section.epsilon.unwrap_or(d.epsilon),
+            seed: section.seed,
+            target_width: section.target_width.or(d.target_width),
+            max_runs: section.max_runs.unwrap_or(d.max_runs),
+            min_failures: section.min_failures.unwrap_or(d.min_failures),
+            scenarios: section.scenarios.clone().unwrap_or_default(),
+            nominal: section.nominal.clone(),
+            tilt: section.tilt.unwrap_or_default(),
+        };
+        let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
+            file: file.display().to_string(),
+            line: Some(section.line_of(&key)),
+            key: Some(format!("estimate.{key}")),
+            message,
+        };
+        match s.validate() {
+            Err(EstimateError::Setting { key, message }) => Err(error(key, message)),
+            _ => Ok(s),
+        }
+    }
+
+    /// Checks the nominal and the scenarios against the campaign's problem before it runs
+    /// (the posterior is not known yet: uniform ones stand in). The error names the scenario
+    /// and variable.
+    pub fn check(
+        &self,
+        protocol: &crate::campaign::Protocol,
+        problem: &crate::campaign::Problem,
+    ) -> Result<(), EstimateError> {
+        self.validate()?;
+        let names = if self.scenarios.is_empty() {
+            &protocol.train_scenarios
+        } else {
+            &self.scenarios
+        };
+        let scenarios = super::posterior::untrained(names, protocol, problem)?;
+        let config = savme_kernel::estimation::EstimationConfig {
+            epsilon: self.epsilon,
+            seed: 0,
+            nominal: self.nominal.clone(),
+            tilt: self.tilt,
+        };
+        savme_kernel::estimation::Estimation::new(&scenarios, &config)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,144 @@
+//! `savme estimate CAMPAIGN`: P(failure) under the nominal distribution by importance sampling
+//! from the campaign's trained posterior (see `savme::campaign::estimate`).
+
+use super::{usage, Failure};
+use savme::campaign::config;
+use savme::campaign::estimate::{parse_nominal, EstimateError, EstimateRun, EstimateSettings};
+use savme::campaign::{load_protocol, Problem};
+use savme_kernel::estimation::Tilt;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The directory of a finished campaign (savme reproduce / run).
+    campaign: PathBuf,
+    /// Output directory (default CAMPAIGN/estimate-<budget>).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the estimate in the output directory with its stored settings.
+    #[arg(long)]
+    resume: bool,
+    /// The budget whose meta-training posterior builds the proposal (default: the first).
+    #[arg(long, allow_negative_numbers = true)]
+    budget: Option<f64>,
+    /// The nominal's share ε of the proposal, in (0, 1]; 1 is plain Monte Carlo.
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+    epsilon: f64,
+    /// Seed of the proposal's draws (default: from the campaign's seed).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Stop when the 95 % interval is within ± this fraction of the estimate (0.1 = ±10 %).
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+    target_width: f64,
+    /// Run exactly --max-runs (no target width).
+    #[arg(long, conflicts_with = "target_width")]
+    no_target: bool,
+    /// The most HF runs to make.
+    #[arg(long, default_value_t = 10_000)]
+    max_runs: u64,
+    /// Failures needed before the target width may stop the estimate.
+    #[arg(long, default_value_t = 10)]
+    min_failures: u64,
+    /// A scenario to estimate (repeat; default: every meta-training scenario).
+    #[arg(long = "scenario", value_name = "NAME")]
+    scenarios: Vec<String>,
+    /// A variable's nominal distribution: SCENARIO.VARIABLE=normal:MEAN,SD (truncated to the
+    /// variable's range), =weights:W1,W2,… (discrete) or =uniform (the default). Repeat.
+    #[arg(long = "nominal", value_name = "DECL")]
+    nominals: Vec<String>,
+    /// How the proposal weighs each variable's bins: by the posterior means (the default), or
+    /// also by the nominal's probability of the bin (for a nominal far from the failures).
+    #[arg(long, value_enum, default_value = "posterior")]
+    tilt: TiltArg,
+    /// The campaign file of an FMU campaign (savme run): its problem and HF simulator.
+    #[arg(long, value_name = "FILE")]
+    config: Option<PathBuf>,
+    /// Worker threads (default: one per core). Does not change the result.
+    #[arg(long)]
+    jobs: Option<usize>,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum TiltArg {
+    Posterior,
+    NominalWeighted,
+}
+
+impl Args {
+    fn settings(&self) -> Result<EstimateSettings, EstimateError> {
+        let mut s = EstimateSettings {
+            budget: self.budget,
+            epsilon: self.epsilon,
+            seed: self.seed,
+            target_width: (!self.no_target).then_some(self.target_width),
+            max_runs: self.max_runs,
+            min_failures: self.min_failures,
+            scenarios: self.scenarios.clone(),
+            nominal: Default::default(),
+            tilt: match self.tilt {
+                TiltArg::Posterior => Tilt::Posterior,
+                TiltArg::NominalWeighted => Tilt::NominalWeighted,
+            },
+        };
+        for n in &self.nominals {
+            let (scenario, variable, nominal) = parse_nominal(n)?;
+            s.nominal
+                .entry(scenario)
+                .or_default()
+                .insert(variable, nominal);
+        }
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+/// A usage error (exit 2) for what the flags said wrong, a runtime error otherwise.
+fn failure(e: EstimateError) -> Failure {
+    match e {
+        EstimateError::Setting { .. }
+        | EstimateError::NominalSyntax { .. }
+        | EstimateError::UnknownBudget { .. }
+        | EstimateError::UnknownScenario { .. }
+        | EstimateError::Estimation(_) => usage(e),
+        other => Failure::Runtime(other.to_string()),
+    }
+}
+
+pub fn run(a: Args) -> Result<(), Failure> {
+    let settings = a.settings().map_err(failure)?;
+    let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
+    let mut run = EstimateRun::new(&a.campaign, settings)
+        .resume(a.resume)
+        .jobs(
+            a.jobs
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+        );
+    if let Some(out) = &a.out {
+        run = run.out(out);
+    }
+    let outcome = match &a.config {
+        Some(file) => {
+            let c = config::fmu_file(file, &Default::default())
+                .map_err(|e| Failure::Runtime(e.to_string()))?;
+            let backend = super::run::fmu_backend(&c.file)?;
+            run.problem(c.problem).run(&backend)
+        }
+        None => {
+            let sim = config::bundled_simulator(&protocol).map_err(|_| {
+                usage(format!(
+                    "the campaign ran on `{}`, not the bundled simulator: give --config FILE (its campaign file)",
+                    protocol.simulator
+                ))
+            })?;
+            run.problem(Problem::driving(protocol.fidelity_bins))
+                .run(&sim)
+        }
+    }
+    .map_err(failure)?;
+    super::print(&format!(
+        "{}\nwritten to {}\n",
+        outcome.table_md,
+        outcome.out.display()
+    ))
+    .map_err(Failure::Runtime)
+}

@@ -1,0 +1,394 @@
+//! `savme estimate` end to end on the bundled simulator (idealised perception, for speed):
+//! the importance-sampling interval covers a brute-force Monte Carlo value computed here
+//! independently (fixed seeds); the summary agrees with the trial lines; the result does not
+//! depend on `--jobs` and survives kill -9 + `--resume`; bad input is refused, naming the key,
+//! variable, stage or line. The long check (≥ 20,000 Monte Carlo runs, a rare nominal) is the
+//! example `estimate_check`, recorded in docs/RESULTS.md.
+use rand::{RngExt, SeedableRng};
+use savme_kernel::{Assignment, Role, Simulator};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+const EXE: &str = env!("CARGO_BIN_EXE_savme");
+const SCENARIO: &str = "lead_vehicle_brakes";
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("savme-estimate-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn run(args: &[&str]) -> (Option<i32>, String, String) {
+    let o = Command::new(EXE).args(args).output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// A finished campaign that trained only `lead_vehicle_brakes` (200 iterations at C = 0.3;
+/// every other stage one trial), made once for all tests.
+fn campaign() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = temp_dir("campaign");
+        let out = dir.display().to_string();
+        let (code, _, err) = run(&[
+            "reproduce",
+            "--out",
+            &out,
+            "--perception",
+            "ideal",
+            "--budgets",
+            "0.3",
+            "--train-scenarios",
+            SCENARIO,
+            "--iterations",
+            "200",
+            "--eval-iterations",
+            "1",
+            "--test-iterations",
+            "1",
+            "--baseline-iterations",
+            "1",
+            "--baseline-test-iterations",
+            "1",
+            "--cost",
+            "work",
+            "--seed",
+            "5",
+            "--quiet",
+            "--jobs",
+            "2",
+        ]);
+        assert_eq!(code, Some(0), "{err}");
+        dir
+    })
+}
+
+fn estimate(out: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
+    let c = campaign().display().to_string();
+    let o = out.display().to_string();
+    let mut a = vec!["estimate", &c, "--out", &o];
+    a.extend(extra);
+    run(&a)
+}
+
+fn lines(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("trials.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn summary(dir: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// Brute-force Monte Carlo of P(failure) under the uniform nominal, independent of the
+/// estimation code: φ uniform per variable, the HF simulator with idealised perception.
+fn monte_carlo(runs: u32, seed: u64) -> f64 {
+    let space = &savme_sim::scenario::spaces()[SCENARIO];
+    let theta = savme_sim::fidelity::theta_hf();
+    let mut sim = savme_sim::sim::DrivingSimulator::ideal();
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+    let mut failures = 0;
+    for _ in 0..runs {
+        let mut phi = Assignment::new();
+        for v in space.variables() {
+            let (lo, hi) = (v.bin(0).unwrap().0, v.bin(v.arms() - 1).unwrap().1);
+            phi.set(&v.name, lo + (hi - lo) * rng.random::<f64>());
+        }
+        let r = sim.simulate_as(Role::High, SCENARIO, &phi, &theta).unwrap();
+        failures += u32::from(r.failure);
+    }
+    f64::from(failures) / f64::from(runs)
+}
+
+#[test]
+fn the_interval_covers_brute_force_monte_carlo_and_agrees_with_the_trial_lines() {
+    let out = temp_dir("cover");
+    let (code, stdout, err) = estimate(&out, &["--no-target", "--max-runs", "3000", "--jobs", "2"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        stdout.contains("| lead_vehicle_brakes | 1.000 | 3000 |"),
+        "{stdout}"
+    );
+    let s = summary(&out);
+    let total = &s["estimate"]["total"];
+    let (lo, hi, mean) = (
+        total["lo"].as_f64().unwrap(),
+        total["hi"].as_f64().unwrap(),
+        total["mean"].as_f64().unwrap(),
+    );
+    let mc = monte_carlo(6000, 11);
+    assert!(
+        lo <= mc && mc <= hi,
+        "IS [{lo}, {hi}] does not cover MC {mc}"
+    );
+    assert!(
+        hi - lo < 0.3 * mean,
+        "interval too wide to mean anything: [{lo}, {hi}]"
+    );
+    assert_eq!(s["stopped"], "max_runs");
+    assert_eq!(s["training_hf_runs"], 200);
+    // The trial lines: weight = p / q ≤ 1/ε, p = the uniform density 1/volume, and the
+    // summary's estimate is their weighted mean.
+    let space = &savme_sim::scenario::spaces()[SCENARIO];
+    let volume: f64 = space
+        .variables()
+        .iter()
+        .map(|v| v.bin(v.arms() - 1).unwrap().1 - v.bin(0).unwrap().0)
+        .product();
+    let ls = lines(&out);
+    assert_eq!(ls.len(), 3000);
+    let mut sum = 0.0;
+    for l in &ls {
+        let (q, p, w) = (
+            l["q"].as_f64().unwrap(),
+            l["p"].as_f64().unwrap(),
+            l["weight"].as_f64().unwrap(),
+        );
+        assert!((w - p / q).abs() < 1e-9 * w && w <= 10.0 + 1e-9, "{l}");
+        assert!((p * volume - 1.0).abs() < 1e-9, "{l}");
+        if l["hf"]["failure"].as_bool().unwrap() {
+            sum += w;
+        }
+    }
+    assert!((sum / 3000.0 - mean).abs() < 1e-12);
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(table.contains("**total (weighted by p(s))**"), "{table}");
+}
+
+#[test]
+fn jobs_do_not_change_the_trials_and_a_killed_estimate_resumes_identically() {
+    let one = temp_dir("jobs1");
+    let args = ["--max-runs", "1500", "--no-target"];
+    let (code, _, err) = estimate(&one, &[&args[..], &["--jobs", "1"]].concat());
+    assert_eq!(code, Some(0), "{err}");
+    let killed = temp_dir("killed");
+    let c = campaign().display().to_string();
+    let o = killed.display().to_string();
+    let mut child = Command::new(EXE)
+        .args(["estimate", &c, "--out", &o, "--jobs", "2"])
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let trials = killed.join("trials.jsonl");
+    let t0 = std::time::Instant::now();
+    while std::fs::read_to_string(&trials).map_or(0, |t| t.lines().count()) < 200 {
+        assert!(t0.elapsed().as_secs() < 120, "the estimate did not start");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let before = lines(&killed).len();
+    assert!(before < 1500, "killed too late: {before}");
+    let (code, _, err) = estimate(&killed, &["--resume", "--jobs", "2"]);
+    assert_eq!(code, Some(0), "{err}");
+    let strip = |v: Vec<Value>| -> Vec<Value> {
+        v.into_iter()
+            .map(|mut l| {
+                // Measured wall time differs between runs; everything else must be equal.
+                l["hf"]["wall_seconds"] = Value::Null;
+                l
+            })
+            .collect()
+    };
+    assert_eq!(strip(lines(&killed)), strip(lines(&one)));
+    assert_eq!(summary(&killed)["estimate"], summary(&one)["estimate"]);
+    assert_eq!(summary(&killed)["replayed"], before as u64);
+}
+
+#[test]
+fn a_target_width_stops_the_estimate_once_reached() {
+    let out = temp_dir("target");
+    let (code, _, err) = estimate(&out, &["--target-width", "0.15", "--max-runs", "5000"]);
+    assert_eq!(code, Some(0), "{err}");
+    let s = summary(&out);
+    assert_eq!(s["stopped"], "target_width");
+    let total = &s["estimate"]["total"];
+    let rel = total["half_width"].as_f64().unwrap() / total["mean"].as_f64().unwrap();
+    assert!(rel <= 0.15, "{rel}");
+    // It stopped at the first run after which the rule held: one run fewer was not enough.
+    let ls = lines(&out);
+    let n = ls.len();
+    assert!(n < 5000);
+    let y: Vec<f64> = ls
+        .iter()
+        .map(|l| {
+            if l["hf"]["failure"].as_bool().unwrap() {
+                l["weight"].as_f64().unwrap()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let rel_at = |k: usize| {
+        let m = y[..k].iter().sum::<f64>() / k as f64;
+        let v = y[..k].iter().map(|x| (x - m).powi(2)).sum::<f64>() / (k as f64 - 1.0);
+        1.959_963_984_540_054 * (v / k as f64).sqrt() / m
+    };
+    assert!((rel_at(n) - rel).abs() < 1e-9 && rel_at(n - 1) > 0.15);
+}
+
+#[test]
+fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
+    let out = temp_dir("bad");
+    let o = out.display().to_string();
+    let cases: &[(&[&str], &str)] = &[
+        (&["--epsilon", "0"], "`epsilon`: must lie in (0, 1]"),
+        (&["--epsilon", "1.5"], "`epsilon`: must lie in (0, 1]"),
+        (
+            &["--target-width", "0"],
+            "`target_width`: must be a finite number > 0",
+        ),
+        (
+            &["--target-width", "-0.1"],
+            "`target_width`: must be a finite number > 0",
+        ),
+        (&["--max-runs", "0"], "`max_runs`: must lie in 1..="),
+        (
+            &["--budget", "0.5"],
+            "the campaign trained budgets 0.3, not 0.5",
+        ),
+        (
+            &["--scenario", "nowhere"],
+            "scenario `nowhere` was not learned",
+        ),
+        (
+            &["--nominal", "lead_vehicle_brakes.ego_sped=normal:12,2"],
+            "unknown variable `ego_sped` of scenario `lead_vehicle_brakes`",
+        ),
+        (
+            &["--nominal", "nowhere.ego_speed=normal:12,2"],
+            "nominal declared for unknown scenario `nowhere`",
+        ),
+        (
+            &["--nominal", "lead_vehicle_brakes.ego_speed=normal:12,0"],
+            "nominal of variable `ego_speed` of scenario `lead_vehicle_brakes`: a normal needs",
+        ),
+        (
+            &["--nominal", "ego_speed=normal:12,2"],
+            "expected SCENARIO.VARIABLE before `=`",
+        ),
+        (
+            &["--nominal", "lead_vehicle_brakes.ego_speed=normal:12"],
+            "normal takes two numbers",
+        ),
+        (
+            &["--nominal", "lead_vehicle_brakes.ego_speed=gamma:1"],
+            "the distribution is uniform",
+        ),
+    ];
+    for (args, message) in cases {
+        let (code, _, err) = estimate(&out, args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(err.contains(message), "{args:?}: {err}");
+        assert!(!out.join("trials.jsonl").exists(), "{args:?} ran trials");
+    }
+    // --resume without an estimate; then a finished one without --resume.
+    let (code, _, err) = estimate(&out, &["--resume"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("no estimate to resume"), "{err}");
+    let (code, _, err) = estimate(&out, &["--max-runs", "30", "--no-target"]);
+    assert_eq!(code, Some(0), "{err}");
+    let (code, _, err) = estimate(&out, &["--max-runs", "30"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("already holds an estimate; continue it with --resume"),
+        "{err}"
+    );
+    // An edited stored trial is refused on resume, naming the line and the field.
+    let path = out.join("trials.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut ls: Vec<String> = text.lines().map(String::from).collect();
+    let mut l: Value = serde_json::from_str(&ls[4]).unwrap();
+    l["weight"] = Value::from(l["weight"].as_f64().unwrap() * 2.0);
+    ls[4] = l.to_string();
+    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    let (code, _, err) = estimate(&out, &["--resume"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("trials.jsonl, line 5: `weight` is"), "{err}");
+    let _ = o;
+}
+
+#[test]
+fn estimating_before_training_is_refused_naming_the_stage() {
+    // The campaign cut inside its training stage (as if it were stopped there).
+    let dir = temp_dir("untrained");
+    std::fs::create_dir_all(&dir).unwrap();
+    let c = campaign();
+    std::fs::copy(c.join("protocol.json"), dir.join("protocol.json")).unwrap();
+    let text = std::fs::read_to_string(c.join("trials.jsonl")).unwrap();
+    let cut: Vec<&str> = text.lines().take(51).collect(); // baseline-train + 50 of train@0.3
+    std::fs::write(dir.join("trials.jsonl"), cut.join("\n") + "\n").unwrap();
+    let d = dir.display().to_string();
+    let (code, _, err) = run(&["estimate", &d]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("stage `train@0.3` has 50 of its 200 trials; finish the campaign"),
+        "{err}"
+    );
+    assert!(!dir.join("estimate-0.3").join("trials.jsonl").exists());
+    // No campaign at all.
+    let empty = temp_dir("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, _, err) = run(&["estimate", &empty.display().to_string()]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("no protocol.json"), "{err}");
+}
+
+#[test]
+fn the_nominal_weighted_tilt_is_stored_with_the_settings() {
+    let out = temp_dir("tilt");
+    let (code, _, err) = estimate(
+        &out,
+        &[
+            "--tilt",
+            "nominal-weighted",
+            "--nominal",
+            "lead_vehicle_brakes.ego_speed=normal:12,2",
+            "--max-runs",
+            "50",
+            "--no-target",
+        ],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let settings: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("estimate.json")).unwrap()).unwrap();
+    assert_eq!(settings["tilt"], "nominal-weighted");
+    // The slow ego speeds the nominal favours get more of the proposal than under `posterior`.
+    let bins = |s: &Value| -> f64 {
+        s["proposal"]["lead_vehicle_brakes"]["ego_speed"]
+            .as_array()
+            .unwrap()[..3]
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .sum()
+    };
+    let plain = temp_dir("tilt-plain");
+    let (code, _, err) = estimate(
+        &plain,
+        &[
+            "--nominal",
+            "lead_vehicle_brakes.ego_speed=normal:12,2",
+            "--max-runs",
+            "50",
+            "--no-target",
+        ],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    assert!(bins(&summary(&out)) > 2.0 * bins(&summary(&plain)));
+    let (code, _, err) = estimate(&temp_dir("tilt-bad"), &["--tilt", "sideways"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("invalid value 'sideways' for '--tilt"),
+        "{err}"
+    );
+}
