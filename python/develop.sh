@@ -5,6 +5,9 @@
 #
 #   python/develop.sh            # debug build into $CARGO_TARGET_DIR/py-venv (or target/py-venv)
 #   python/develop.sh --release  # optimised (benchmarks)
+#   python/develop.sh --wheel    # build the wheel (debug) and pip-install it, as a user would
+#                                # install a wheel: what scripts/test does, so that the tests
+#                                # also check what the wheel contains
 #
 # SAVME_PY_VENV chooses another virtual environment. Needs python3 with venv and pip.
 set -euo pipefail
@@ -15,5 +18,14 @@ if ! [ -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
 "$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" "mypy>=1.18"
-VIRTUAL_ENV="$venv" "$venv/bin/maturin" develop -q --manifest-path python/Cargo.toml "$@"
+if [ "${1:-}" = "--wheel" ]; then
+  shift
+  wheels="$target/wheels/test"
+  rm -rf "$wheels"
+  "$venv/bin/maturin" build -q --profile dev --manifest-path python/Cargo.toml \
+    --interpreter "$venv/bin/python" -o "$wheels" "$@"
+  "$venv/bin/pip" install -q --disable-pip-version-check --force-reinstall --no-deps "$wheels"/savme-*.whl
+else
+  VIRTUAL_ENV="$venv" "$venv/bin/maturin" develop -q --manifest-path python/Cargo.toml "$@"
+fi
 echo "savme $("$venv/bin/python" -c 'import savme; print(savme.__version__)') installed in $venv"

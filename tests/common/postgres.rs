@@ -94,8 +94,20 @@ impl Server {
             return None;
         };
         static COUNT: AtomicU32 = AtomicU32::new(0);
+        // The directory holds the Unix socket the harness connects through: keep its name to
+        // characters a connection string takes as they are.
+        let name: String = test
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || c == '_' {
+                    c
+                } else {
+                    '-'
+                }
+            })
+            .collect();
         let dir = std::env::temp_dir().join(format!(
-            "savme-pg-{}-{}-{test}",
+            "savme-pg-{}-{}-{name}",
             std::process::id(),
             COUNT.fetch_add(1, Ordering::Relaxed)
         ));
