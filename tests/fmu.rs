@@ -1,5 +1,8 @@
 //! The bundled simulator as an FMU (`savme fmu pack`) against the in-process simulator, FMPy
 //! against savme on the same FMU, and `savme run --config` with good and bad campaign files.
+mod common;
+
+use common::fmpy_python;
 use savme::kernel::{Assignment, Space};
 use savme_fmu::instance::Instance;
 use savme_fmu::FmuFile;
@@ -141,21 +144,6 @@ fn the_fmu_gives_the_in_process_outcomes() {
         "{collisions} collisions of 24"
     );
     assert!(find("7").is_some());
-}
-
-/// FMPy (PyPI `fmpy`), if the environment provides it: `.ci/run` installs it into a virtual
-/// environment and sets SAVME_FMPY_PYTHON (and SAVME_REQUIRE_FMPY=1, so that CI cannot skip).
-fn fmpy_python() -> Option<String> {
-    let python = std::env::var("SAVME_FMPY_PYTHON").ok();
-    let required = std::env::var("SAVME_REQUIRE_FMPY").is_ok_and(|v| v == "1");
-    match python {
-        Some(p) => Some(p),
-        None if required => panic!("SAVME_REQUIRE_FMPY=1 but SAVME_FMPY_PYTHON is not set"),
-        None => {
-            eprintln!("FMPy cross-check skipped: set SAVME_FMPY_PYTHON to a python with fmpy");
-            None
-        }
-    }
 }
 
 /// FMPy simulates the packed simulator like savme's in-process simulator — the FMI 2.0 pack

@@ -2,6 +2,9 @@
 //! against the FMI 2.0 C API), compiled here with the system C compiler and packed with its
 //! resources — its example campaign (the step size as the only fidelity), `--fmu-log`, and
 //! `savme fmu info` / `validate`.
+mod common;
+
+use common::fmpy_python;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -333,21 +336,6 @@ fn fmu_validate_lists_every_problem() {
         ),
         "{text}"
     );
-}
-
-/// FMPy (PyPI `fmpy`) when the environment provides it: `.ci/run` installs it and sets
-/// SAVME_FMPY_PYTHON and SAVME_REQUIRE_FMPY=1 (then a missing FMPy fails instead of skipping).
-fn fmpy_python() -> Option<String> {
-    let python = std::env::var("SAVME_FMPY_PYTHON").ok();
-    let required = std::env::var("SAVME_REQUIRE_FMPY").is_ok_and(|v| v == "1");
-    match python {
-        Some(p) => Some(p),
-        None if required => panic!("SAVME_REQUIRE_FMPY=1 but SAVME_FMPY_PYTHON is not set"),
-        None => {
-            eprintln!("FMPy cross-check skipped: set SAVME_FMPY_PYTHON to a python with fmpy");
-            None
-        }
-    }
 }
 
 /// FMPy, the independent FMI client, and savme give the braking FMU the same outcomes: its
