@@ -14,7 +14,7 @@
 //! cargo run --release --example estimate_check -- --out DIR [--scenario NAME]
 //!     [--train-iterations 200] [--mc-runs 20000] [--target 0.1] [--max-runs 200000]
 //!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
-//!     [--jobs 2] [--seed 1]
+//!     [--refine-rounds 0 --refine-runs 0] [--jobs 2] [--seed 1]
 //! ```
 use rand::{RngExt, SeedableRng};
 use savme::campaign::estimate::{parse_nominal, EstimateRun, EstimateSettings};
@@ -37,6 +37,8 @@ struct Options {
     epsilon: f64,
     nominal: BTreeMap<String, Nominal>,
     tilt: Tilt,
+    refine_rounds: u32,
+    refine_runs: u64,
     jobs: usize,
     seed: u64,
 }
@@ -52,6 +54,8 @@ fn options() -> Result<Options, String> {
         epsilon: 0.1,
         nominal: BTreeMap::new(),
         tilt: Tilt::Posterior,
+        refine_rounds: 0,
+        refine_runs: 0,
         jobs: 2,
         seed: 1,
     };
@@ -68,6 +72,8 @@ fn options() -> Result<Options, String> {
             "--max-runs" => o.max_runs = num(&value)? as u64,
             "--epsilon" => o.epsilon = num(&value)?,
             "--jobs" => o.jobs = num(&value)? as usize,
+            "--refine-rounds" => o.refine_rounds = num(&value)? as u32,
+            "--refine-runs" => o.refine_runs = num(&value)? as u64,
             "--tilt" => {
                 o.tilt = serde_json::from_value(serde_json::Value::String(value))
                     .map_err(|e| format!("--tilt: {e}"))?
@@ -115,6 +121,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         max_runs: o.max_runs,
         nominal,
         tilt: o.tilt,
+        refine_rounds: o.refine_rounds,
+        refine_runs: o.refine_runs,
         ..EstimateSettings::default()
     };
     let t1 = Instant::now();
@@ -128,17 +136,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reached = total.relative_half_width();
     let z = z95();
     let mc_needed = |p: f64| z * z * (1.0 - p) / (reached * reached * p);
-    let is_runs = (est.estimate_hf_runs + est.training_hf_runs) as f64;
+    let is_runs = (est.estimate_hf_runs + est.pilot_hf_runs + est.training_hf_runs) as f64;
     let mut report = serde_json::json!({
         "scenario": o.scenario,
         "nominal": o.nominal,
         "epsilon": o.epsilon,
         "tilt": o.tilt,
+        "refine_rounds": o.refine_rounds,
+        "refine_runs": o.refine_runs,
         "train_iterations": o.train_iterations,
         "importance_sampling": {
             "estimate": total.mean, "lo": total.lo, "hi": total.hi,
             "relative_half_width": reached, "hf_runs": est.estimate_hf_runs,
             "training_hf_runs": est.training_hf_runs, "stopped": est.stopped,
+            "pilot_hf_runs": est.pilot_hf_runs, "pilot_failures": est.pilot_failures,
             "failures": est.estimate.failures,
             "ess": est.estimate.scenarios[0].ess,
             "failure_ess": est.estimate.scenarios[0].failure_ess,

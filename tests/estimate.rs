@@ -166,11 +166,88 @@ fn the_interval_covers_brute_force_monte_carlo_and_agrees_with_the_trial_lines()
 
 #[test]
 fn jobs_do_not_change_the_trials_and_a_killed_estimate_resumes_identically() {
-    let one = temp_dir("jobs1");
-    let args = ["--max-runs", "1500", "--no-target"];
-    let (code, _, err) = estimate(&one, &[&args[..], &["--jobs", "1"]].concat());
+    let (one, killed) = one_job_and_killed("plain", &["--max-runs", "1500", "--no-target"]);
+    assert!(lines(&one).iter().all(|l| l.get("round").is_none()));
+    assert_eq!(summary(&killed)["pilot_hf_runs"], 0);
+}
+
+/// With cross-entropy refinement (3 rounds of 400 runs, killed inside the first), the pilot
+/// waits for each round: `--jobs 1` and a killed-and-resumed `--jobs 2` give the same lines,
+/// pilot lines carry their round, and the estimate counts only the runs after the pilot.
+#[test]
+fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
+    let args = [
+        "--max-runs",
+        "1800",
+        "--no-target",
+        "--refine-rounds",
+        "3",
+        "--refine-runs",
+        "400",
+        "--nominal",
+        "lead_vehicle_brakes.ego_speed=normal:12,2",
+    ];
+    let (one, killed) = one_job_and_killed("refined", &args);
+    let ls = lines(&one);
+    for (i, l) in ls.iter().enumerate() {
+        let round = (i < 1200).then_some(i as u64 / 400);
+        assert_eq!(l["round"].as_u64(), round, "line {}", i + 1);
+    }
+    let s = summary(&killed);
+    assert_eq!(s["pilot_hf_runs"], 1200);
+    assert_eq!(s["estimate_hf_runs"], 600);
+    assert_eq!(s["estimate"]["runs"], 600);
+    let failures = ls[..1200]
+        .iter()
+        .filter(|l| l["hf"]["failure"].as_bool().unwrap())
+        .count();
+    assert_eq!(s["pilot_failures"], failures as u64);
+    let table = std::fs::read_to_string(killed.join("table.md")).unwrap();
+    assert!(
+        table.contains("3 rounds of 400 HF runs (1200 runs made"),
+        "{table}"
+    );
+    // The refit moved the proposal off the posterior's: its first ego-speed bins (where the
+    // nominal's failures are) weigh more than the posterior gives them.
+    let plain = temp_dir("refined-plain");
+    let (code, _, err) = estimate(&plain, &[&args[..3], &args[7..]].concat());
     assert_eq!(code, Some(0), "{err}");
-    let killed = temp_dir("killed");
+    let ego = |s: &Value| -> Vec<f64> {
+        s["proposal"]["lead_vehicle_brakes"]["ego_speed"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    let (refined, posterior) = (ego(&s), ego(&summary(&plain)));
+    assert!(
+        refined[2..5].iter().sum::<f64>() > 2.0 * posterior[2..5].iter().sum::<f64>(),
+        "{refined:?} vs {posterior:?}"
+    );
+    // An edited round is refused on resume, naming the line and the field.
+    let path = killed.join("trials.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut ls: Vec<String> = text.lines().map(String::from).collect();
+    let mut l: Value = serde_json::from_str(&ls[2]).unwrap();
+    l["round"] = Value::from(1);
+    ls[2] = l.to_string();
+    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    let (code, _, err) = estimate(&killed, &["--resume"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("trials.jsonl, line 3: `round` is 1 but the estimate asks 0"),
+        "{err}"
+    );
+}
+
+/// Runs the estimate with `args` once with `--jobs 1`, and once with `--jobs 2` killed
+/// (SIGKILL) after ≥ 200 stored lines and resumed; asserts the two agree line by line.
+fn one_job_and_killed(name: &str, args: &[&str]) -> (PathBuf, PathBuf) {
+    let one = temp_dir(&format!("{name}-jobs1"));
+    let (code, _, err) = estimate(&one, &[args, &["--jobs", "1"]].concat());
+    assert_eq!(code, Some(0), "{err}");
+    let killed = temp_dir(&format!("{name}-killed"));
     let c = campaign().display().to_string();
     let o = killed.display().to_string();
     let mut child = Command::new(EXE)
@@ -188,7 +265,7 @@ fn jobs_do_not_change_the_trials_and_a_killed_estimate_resumes_identically() {
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
     let before = lines(&killed).len();
-    assert!(before < 1500, "killed too late: {before}");
+    assert!(before < 1200, "killed too late: {before}");
     let (code, _, err) = estimate(&killed, &["--resume", "--jobs", "2"]);
     assert_eq!(code, Some(0), "{err}");
     let strip = |v: Vec<Value>| -> Vec<Value> {
@@ -203,6 +280,7 @@ fn jobs_do_not_change_the_trials_and_a_killed_estimate_resumes_identically() {
     assert_eq!(strip(lines(&killed)), strip(lines(&one)));
     assert_eq!(summary(&killed)["estimate"], summary(&one)["estimate"]);
     assert_eq!(summary(&killed)["replayed"], before as u64);
+    (one, killed)
 }
 
 #[test]
@@ -284,6 +362,18 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
         (
             &["--nominal", "lead_vehicle_brakes.ego_speed=gamma:1"],
             "the distribution is uniform",
+        ),
+        (
+            &["--refine-runs", "100"],
+            "`refine_runs`: 100 runs per round but no `refine_rounds`",
+        ),
+        (
+            &["--refine-rounds", "2"],
+            "`refine_runs`: 2 refinement rounds need `refine_runs` ≥ 1",
+        ),
+        (
+            &["--refine-rounds", "2", "--refine-runs", "5000"],
+            "2 rounds of 5000 runs leave none of `max_runs` = 10000",
         ),
     ];
     for (args, message) in cases {

@@ -513,6 +513,7 @@ fn run_refuses_an_output_directory_that_is_a_file() {
 fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
     let dir = temp_dir("estimate");
     let section = "\n[estimate]\nmax_runs = 40\ntarget_width = 0.5\nepsilon = 0.2\n\
+                   refine_rounds = 1\nrefine_runs = 10\n\
                    [estimate.nominal.lead_vehicle_brakes]\n\
                    ego_speed = { distribution = \"normal\", mean = 20.0, sd = 3.0 }\n";
     let config = campaign_file(&dir, &(TINY.to_string() + section));
@@ -539,7 +540,10 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         .lines()
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
-    assert!(!lines.is_empty() && lines.len() <= 40);
+    assert!(lines.len() > 10 && lines.len() <= 40);
+    for (i, l) in lines.iter().enumerate() {
+        assert_eq!(l["round"].as_u64(), (i < 10).then_some(0), "{l}");
+    }
     for l in &lines {
         let (q, p, w) = (
             l["q"].as_f64().unwrap(),
@@ -561,6 +565,44 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
     let estimate =
         |t: &str| serde_json::from_str::<serde_json::Value>(t).unwrap()["estimate"].clone();
     assert_eq!(estimate(&before), estimate(&after));
+    // `savme estimate --config FILE` takes the file's [estimate] section: the same settings
+    // and trials as the stage; a flag given overrides its key only.
+    let again = |dir: &str, extra: &[&str]| {
+        let target = out.join(dir);
+        let mut args = vec![
+            "estimate",
+            out.to_str().unwrap(),
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            target.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let (ok, _, err) = savme(&args);
+        assert!(ok, "{err}");
+        let text = |f: &str| std::fs::read_to_string(target.join(f)).unwrap();
+        let json = serde_json::from_str::<serde_json::Value>(&text("estimate.json")).unwrap();
+        (json, text("trials.jsonl"))
+    };
+    let strip = |t: &str| -> Vec<serde_json::Value> {
+        t.lines()
+            .map(|l| {
+                let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+                v["hf"]["wall_seconds"] = serde_json::Value::Null;
+                v
+            })
+            .collect()
+    };
+    let (same, same_lines) = again("by-file", &[]);
+    assert_eq!(same, settings);
+    let stage_lines = std::fs::read_to_string(est.join("trials.jsonl")).unwrap();
+    assert_eq!(strip(&same_lines), strip(&stage_lines));
+    let (over, _) = again("by-file-and-flag", &["--epsilon", "0.3"]);
+    assert_eq!(
+        (over["epsilon"].as_f64(), over["max_runs"].as_u64()),
+        (Some(0.3), Some(40))
+    );
+    assert_eq!(over["refine_runs"], 10);
 
     let bad = temp_dir("estimate-bad");
     // TINY's lines, an empty line, `[estimate]`, then `epsilon`.
@@ -585,5 +627,13 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &bad,
         &(TINY.to_string() + "\n[estimate]\nepsilon = 0.1\nepsilom = 0.2\n"),
         &["unknown field `epsilom`"],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nrefine_rounds = 2\n"),
+        &[
+            "estimate.refine_runs",
+            "2 refinement rounds need `refine_runs` ≥ 1",
+        ],
     );
 }

@@ -21,24 +21,25 @@ pub struct Args {
     /// The budget whose meta-training posterior builds the proposal (default: the first).
     #[arg(long, allow_negative_numbers = true)]
     budget: Option<f64>,
-    /// The nominal's share ε of the proposal, in (0, 1]; 1 is plain Monte Carlo.
-    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
-    epsilon: f64,
+    /// The nominal's share ε of the proposal, in (0, 1]; 1 is plain Monte Carlo [default: 0.1].
+    #[arg(long, allow_negative_numbers = true)]
+    epsilon: Option<f64>,
     /// Seed of the proposal's draws (default: from the campaign's seed).
     #[arg(long)]
     seed: Option<u64>,
-    /// Stop when the 95 % interval is within ± this fraction of the estimate (0.1 = ±10 %).
-    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
-    target_width: f64,
+    /// Stop when the 95 % interval is within ± this fraction of the estimate (0.1 = ±10 %)
+    /// [default: 0.1].
+    #[arg(long, allow_negative_numbers = true)]
+    target_width: Option<f64>,
     /// Run exactly --max-runs (no target width).
     #[arg(long, conflicts_with = "target_width")]
     no_target: bool,
-    /// The most HF runs to make.
-    #[arg(long, default_value_t = 10_000)]
-    max_runs: u64,
-    /// Failures needed before the target width may stop the estimate.
-    #[arg(long, default_value_t = 10)]
-    min_failures: u64,
+    /// The most HF runs to make [default: 10000].
+    #[arg(long)]
+    max_runs: Option<u64>,
+    /// Failures needed before the target width may stop the estimate [default: 10].
+    #[arg(long)]
+    min_failures: Option<u64>,
     /// A scenario to estimate (repeat; default: every meta-training scenario).
     #[arg(long = "scenario", value_name = "NAME")]
     scenarios: Vec<String>,
@@ -46,11 +47,21 @@ pub struct Args {
     /// variable's range), =weights:W1,W2,… (discrete) or =uniform (the default). Repeat.
     #[arg(long = "nominal", value_name = "DECL")]
     nominals: Vec<String>,
-    /// How the proposal weighs each variable's bins: by the posterior means (the default), or
-    /// also by the nominal's probability of the bin (for a nominal far from the failures).
-    #[arg(long, value_enum, default_value = "posterior")]
-    tilt: TiltArg,
-    /// The campaign file of an FMU campaign (savme run): its problem and HF simulator.
+    /// How the proposal weighs each variable's bins: by the posterior means, or also by the
+    /// nominal's probability of the bin (for a nominal far from the failures) [default:
+    /// posterior].
+    #[arg(long, value_enum)]
+    tilt: Option<TiltArg>,
+    /// Cross-entropy pilot rounds that refit the proposal toward where p(φ)·P(failure) is
+    /// large before the estimate (0: none) [default: 0]. Pilot runs count in --max-runs, not
+    /// in the estimate.
+    #[arg(long)]
+    refine_rounds: Option<u32>,
+    /// HF runs per pilot round (with --refine-rounds) [default: 0].
+    #[arg(long)]
+    refine_runs: Option<u64>,
+    /// The campaign file of an FMU campaign (savme run): its problem and HF simulator. Its
+    /// `[estimate]` section, if any, gives the settings; flags given here override its keys.
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Worker threads (default: one per core). Does not change the result.
@@ -65,21 +76,31 @@ enum TiltArg {
 }
 
 impl Args {
-    fn settings(&self) -> Result<EstimateSettings, EstimateError> {
-        let mut s = EstimateSettings {
-            budget: self.budget,
-            epsilon: self.epsilon,
-            seed: self.seed,
-            target_width: (!self.no_target).then_some(self.target_width),
-            max_runs: self.max_runs,
-            min_failures: self.min_failures,
-            scenarios: self.scenarios.clone(),
-            nominal: Default::default(),
-            tilt: match self.tilt {
+    /// The settings: `base` (the defaults, or a campaign file's `[estimate]` section) with
+    /// every flag given on the command line put over it.
+    fn settings(&self, base: EstimateSettings) -> Result<EstimateSettings, EstimateError> {
+        let mut s = base;
+        s.budget = self.budget.or(s.budget);
+        s.epsilon = self.epsilon.unwrap_or(s.epsilon);
+        s.seed = self.seed.or(s.seed);
+        if self.no_target {
+            s.target_width = None;
+        } else if self.target_width.is_some() {
+            s.target_width = self.target_width;
+        }
+        s.max_runs = self.max_runs.unwrap_or(s.max_runs);
+        s.min_failures = self.min_failures.unwrap_or(s.min_failures);
+        if !self.scenarios.is_empty() {
+            s.scenarios = self.scenarios.clone();
+        }
+        if let Some(t) = self.tilt {
+            s.tilt = match t {
                 TiltArg::Posterior => Tilt::Posterior,
                 TiltArg::NominalWeighted => Tilt::NominalWeighted,
-            },
-        };
+            };
+        }
+        s.refine_rounds = self.refine_rounds.unwrap_or(s.refine_rounds);
+        s.refine_runs = self.refine_runs.unwrap_or(s.refine_runs);
         for n in &self.nominals {
             let (scenario, variable, nominal) = parse_nominal(n)?;
             s.nominal
@@ -105,7 +126,22 @@ fn failure(e: EstimateError) -> Failure {
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {
-    let settings = a.settings().map_err(failure)?;
+    let file = match &a.config {
+        Some(path) => Some(
+            config::fmu_file(path, &Default::default())
+                .map_err(|e| Failure::Runtime(e.to_string()))?,
+        ),
+        None => None,
+    };
+    let base = match file
+        .as_ref()
+        .and_then(|c| c.file.estimate.as_ref().map(|e| (c, e)))
+    {
+        Some((c, section)) => EstimateSettings::from_section(section, &c.file.path)
+            .map_err(|e| Failure::Runtime(e.to_string()))?,
+        None => EstimateSettings::default(),
+    };
+    let settings = a.settings(base).map_err(failure)?;
     let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
     let mut run = EstimateRun::new(&a.campaign, settings)
         .resume(a.resume)
@@ -116,10 +152,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(out) = &a.out {
         run = run.out(out);
     }
-    let outcome = match &a.config {
-        Some(file) => {
-            let c = config::fmu_file(file, &Default::default())
-                .map_err(|e| Failure::Runtime(e.to_string()))?;
+    let outcome = match file {
+        Some(c) => {
             let backend = super::run::fmu_backend(&c.file)?;
             run.problem(c.problem).run(&backend)
         }

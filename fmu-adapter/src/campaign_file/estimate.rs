@@ -38,6 +38,8 @@ pub(super) mod raw {
         pub seed: Option<Spanned<u64>>,
         pub scenarios: Option<Spanned<Vec<String>>>,
         pub tilt: Option<Spanned<super::Tilt>>,
+        pub refine_rounds: Option<Spanned<u32>>,
+        pub refine_runs: Option<Spanned<u64>>,
         #[serde(default)]
         pub nominal: BTreeMap<String, BTreeMap<String, Spanned<Nominal>>>,
     }
@@ -63,6 +65,10 @@ pub struct EstimateSection {
     pub scenarios: Option<Vec<String>>,
     /// `tilt`: `"posterior"` or `"nominal-weighted"`.
     pub tilt: Option<Tilt>,
+    /// `refine_rounds`: cross-entropy pilot rounds before the estimate.
+    pub refine_rounds: Option<u32>,
+    /// `refine_runs`: HF runs per pilot round.
+    pub refine_runs: Option<u64>,
     /// `[estimate.nominal.<scenario>] <variable> = { distribution = … }`.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
     /// The 1-based line of the `[estimate]` table.
@@ -104,6 +110,8 @@ pub(super) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> Estimat
         seed: field!(seed),
         scenarios: field!(scenarios),
         tilt: field!(tilt),
+        refine_rounds: field!(refine_rounds),
+        refine_runs: field!(refine_runs),
         nominal: BTreeMap::new(),
         line,
         lines: BTreeMap::new(),

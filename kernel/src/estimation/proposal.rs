@@ -152,6 +152,30 @@ impl NominalOf {
         }
     }
 
+    /// Draws from the nominal restricted to bin (or value) `arm` of `var`: uniform or
+    /// log-uniform inside the bin for a uniform nominal, the truncated normal for a normal.
+    fn draw_in_bin<R: Rng + ?Sized>(&self, var: &Variable, arm: usize, rng: &mut R) -> Value {
+        match (self, var.bin(arm)) {
+            (NominalOf::Normal { normal, .. }, Some((a, b))) => {
+                let (ca, cb) = (normal.cdf(a), normal.cdf(b));
+                let u: f64 = rng.random();
+                Value::Real(normal.inverse_cdf(ca + u * (cb - ca)).clamp(a, b))
+            }
+            _ => var.draw_in_arm(arm, rng),
+        }
+    }
+
+    /// The density of `x` under the nominal restricted to its bin `arm` (0 for a bin the
+    /// nominal gives no mass).
+    fn density_in_bin(&self, var: &Variable, arm: usize, x: &Value) -> f64 {
+        let mass = self.bin_mass(var, arm);
+        if mass > 0.0 {
+            self.density(var, x) / mass
+        } else {
+            0.0
+        }
+    }
+
     fn draw<R: Rng + ?Sized>(&self, var: &Variable, rng: &mut R) -> Value {
         match (self, &var.domain) {
             (NominalOf::Weights(w), _) => var.draw_in_arm(categorical(w, rng), rng),
@@ -175,7 +199,8 @@ impl NominalOf {
     }
 }
 
-/// Index drawn from normalised probabilities `p` (the last index takes rounding leftovers).
+/// Index drawn from normalised probabilities `p` (the last index of positive probability
+/// takes rounding leftovers, so an index of probability 0 is never drawn).
 fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
     let u: f64 = rng.random();
     let mut acc = 0.0;
@@ -185,7 +210,7 @@ fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
             return i;
         }
     }
-    p.len() - 1
+    p.iter().rposition(|w| *w > 0.0).unwrap_or(p.len() - 1)
 }
 
 /// How p̂_ψ weighs the bins of a variable.
@@ -210,6 +235,8 @@ pub enum Tilt {
 
 /// The fixed proposal of one scenario: q = (1 − ε)·p̂_ψ + ε·p, with p̂_ψ the product over the
 /// variables of the bins' posterior means (normalised), uniform or log-uniform inside a bin.
+/// A cross-entropy refit ([`Proposal::refit`]) replaces the bins' probabilities and draws
+/// inside a bin from the nominal restricted to the bin.
 #[derive(Debug, Clone)]
 pub(crate) struct Proposal {
     space: Space,
@@ -217,7 +244,24 @@ pub(crate) struct Proposal {
     bins: Vec<Vec<f64>>,
     nominal: Vec<NominalOf>,
     epsilon: f64,
+    /// What φ looks like inside a bin.
+    shape: InBin,
 }
+
+/// The density of p̂_ψ inside a bin.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum InBin {
+    /// Uniform (linear) or log-uniform (log): the rule for the posterior's proposal.
+    Scale,
+    /// The nominal restricted to the bin (the same as `Scale` for a uniform nominal): a
+    /// refitted proposal's, so that the weight is constant inside a bin along that variable.
+    Nominal,
+}
+
+/// Bins whose nominal probability is below this get no share of a refitted p̂_ψ: a truncated
+/// normal cannot be drawn accurately there, and p(φ) is negligible (the defensive component
+/// still covers them).
+const MIN_BIN_MASS: f64 = 1e-12;
 
 /// The densities of one φ.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -258,7 +302,43 @@ impl Proposal {
             bins,
             nominal,
             epsilon,
+            shape: InBin::Scale,
         }
+    }
+
+    /// One cross-entropy step: each variable's bin probabilities become
+    /// `smoothing · m_k / Σm + (1 − smoothing) · old_k`, where `mass[i][k]` is the summed
+    /// weight w·f of the failing pilot trials whose variable i fell in bin k (the weighted
+    /// failures estimate the marginals of the zero-variance density ∝ p(φ)·1{failure}).
+    /// Returns false, changing nothing, when `mass` holds no failure.
+    pub(crate) fn refit(&mut self, mass: &[Vec<f64>], smoothing: f64) -> bool {
+        if mass
+            .iter()
+            .any(|m| m.iter().sum::<f64>().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater))
+        {
+            return false;
+        }
+        for ((bins, m), (var, n)) in self
+            .bins
+            .iter_mut()
+            .zip(mass)
+            .zip(self.space.variables().iter().zip(&self.nominal))
+        {
+            let total: f64 = m.iter().sum();
+            for (k, b) in bins.iter_mut().enumerate() {
+                *b = if n.bin_mass(var, k) < MIN_BIN_MASS {
+                    0.0
+                } else {
+                    smoothing * m[k] / total + (1.0 - smoothing) * *b
+                };
+            }
+            let sum: f64 = bins.iter().sum();
+            if sum > 0.0 {
+                bins.iter_mut().for_each(|b| *b /= sum);
+            }
+        }
+        self.shape = InBin::Nominal;
+        true
     }
 
     /// The per-variable bin probabilities of p̂_ψ.
@@ -269,16 +349,35 @@ impl Proposal {
     /// The density of `phi` under the learned part p̂_ψ.
     fn learned(&self, phi: &Assignment) -> f64 {
         let mut d = 1.0;
-        for (var, bins) in self.space.variables().iter().zip(&self.bins) {
+        for ((var, bins), n) in self
+            .space
+            .variables()
+            .iter()
+            .zip(&self.bins)
+            .zip(&self.nominal)
+        {
             let Some(x) = phi.get(&var.name) else {
                 return 0.0;
             };
             let Some(arm) = var.arm_of(x) else {
                 return 0.0;
             };
-            d *= bins[arm] * in_bin_density(var, arm, x);
+            d *= bins[arm]
+                * match self.shape {
+                    InBin::Scale => in_bin_density(var, arm, x),
+                    InBin::Nominal => n.density_in_bin(var, arm, x),
+                };
         }
         d
+    }
+
+    /// The bin (arm) of each variable that `phi` falls in (None for a value outside).
+    pub(crate) fn arms_of(&self, phi: &Assignment) -> Option<Vec<usize>> {
+        self.space
+            .variables()
+            .iter()
+            .map(|var| phi.get(&var.name).and_then(|x| var.arm_of(x)))
+            .collect()
     }
 
     /// The density of `phi` under the nominal p.
@@ -310,7 +409,11 @@ impl Proposal {
             let x = if u < self.epsilon {
                 self.nominal[i].draw(var, rng)
             } else {
-                var.draw_in_arm(categorical(&self.bins[i], rng), rng)
+                let arm = categorical(&self.bins[i], rng);
+                match self.shape {
+                    InBin::Scale => var.draw_in_arm(arm, rng),
+                    InBin::Nominal => self.nominal[i].draw_in_bin(var, arm, rng),
+                }
             };
             phi.set(&var.name, x);
         }

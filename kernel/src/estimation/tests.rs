@@ -102,13 +102,13 @@ fn nominals_of_unknown_names_or_bad_shapes_are_refused_naming_them() {
 fn weights_are_bounded_by_one_over_epsilon_and_equal_one_for_plain_monte_carlo() {
     let mut e = trained(0.2, 1);
     for _ in 0..2000 {
-        let t = e.ask();
+        let t = e.ask().expect("no refinement");
         assert!(t.weight <= 5.0 + 1e-9 && t.weight > 0.0, "{t:?}");
         assert!((t.weight - t.p / t.q).abs() < 1e-12);
     }
     let mut mc = trained(1.0, 1);
     for _ in 0..200 {
-        let t = mc.ask();
+        let t = mc.ask().expect("no refinement");
         assert!((t.weight - 1.0).abs() < 1e-12 && (t.p - 1.0).abs() < 1e-12);
     }
 }
@@ -205,7 +205,7 @@ fn trials_are_shared_out_in_proportion_to_p_s() {
     let mut e = Estimation::new(&s, &EstimationConfig::new(0.5, 0)).unwrap();
     let mut n = [0; 2];
     for _ in 0..400 {
-        n[e.ask().scenario_index] += 1;
+        n[e.ask().expect("no refinement").scenario_index] += 1;
     }
     assert_eq!(n, [100, 300]);
     assert_eq!(e.probabilities(), &[0.25, 0.75]);
@@ -225,7 +225,7 @@ fn intervals_cover_the_true_probability_at_their_nominal_rate() {
     for seed in 0..seeds {
         let mut e = trained(0.1, seed);
         for _ in 0..1000 {
-            let t = e.ask();
+            let t = e.ask().expect("no refinement");
             let x = t.phi.get_f64("x").unwrap();
             e.tell(t.id, x > 1.0 - truth).unwrap();
         }
@@ -267,7 +267,7 @@ fn a_declared_normal_nominal_is_estimated_without_bias() {
     }
     let mut e = Estimation::new(&[(s, p)], &c).unwrap();
     for _ in 0..4000 {
-        let t = e.ask();
+        let t = e.ask().expect("no refinement");
         e.tell(t.id, t.phi.get_f64("x").unwrap() > 0.9).unwrap();
     }
     let est = e.estimate().total;
@@ -327,4 +327,157 @@ fn the_nominal_weighted_tilt_weighs_bins_by_the_nominal() {
         })
         .sum();
     assert!((integral - 1.0).abs() < 1e-3, "{integral}");
+}
+
+/// x on [0, 1] (10 bins) with a normal(0.3, 0.15) nominal and y uniform (irrelevant); the
+/// posterior believes bins 7–9 of x fail. Failure iff x > 0.7: P = the normal's tail.
+fn rare(seed: u64, refine: Option<Refine>) -> (Estimation, f64) {
+    let n = Normal::new(0.3, 0.15).unwrap();
+    let truth = (n.cdf(1.0) - n.cdf(0.7)) / (n.cdf(1.0) - n.cdf(0.0));
+    let (s, mut p) = scenario(
+        "s",
+        vec![
+            Variable::continuous("x", 0.0, 1.0, 10, Scale::Linear),
+            Variable::continuous("y", 0.0, 1.0, 5, Scale::Linear),
+        ],
+        1.0,
+    );
+    for k in 7..10 {
+        for _ in 0..10 {
+            p.update(&[k, 0], true);
+            p.update(&[0, 0], false);
+        }
+    }
+    let mut c = EstimationConfig::new(0.1, seed);
+    c.nominal.entry("s".into()).or_default().insert(
+        "x".into(),
+        Nominal::Normal {
+            mean: 0.3,
+            sd: 0.15,
+        },
+    );
+    c.refine = refine;
+    (Estimation::new(&[(s, p)], &c).unwrap(), truth)
+}
+
+fn fails(t: &EstimationTrial) -> bool {
+    t.phi.get_f64("x").unwrap() > 0.7
+}
+
+#[test]
+fn a_refinement_with_no_rounds_or_runs_is_refused() {
+    for (rounds, runs) in [(0, 10), (3, 0)] {
+        let refine = Some(Refine { rounds, runs });
+        let (s, _) = scenario("s", vec![Variable::boolean("b")], 1.0);
+        let p = Posterior::new(&s.space, PriorCounts::UNIFORM).unwrap();
+        let mut c = EstimationConfig::new(0.1, 0);
+        c.refine = refine;
+        assert_eq!(
+            err(&[(s, p)], &c),
+            format!("refine needs at least 1 round of at least 1 run, got {rounds} rounds of {runs} runs")
+        );
+    }
+}
+
+/// A round asks its runs, then waits (None) until all are told; the refit does not depend on
+/// the order of the tells; pilot trials carry their round and stay out of the estimate.
+#[test]
+fn a_round_waits_for_its_outcomes_and_the_tell_order_does_not_matter() {
+    let refine = Some(Refine {
+        rounds: 2,
+        runs: 50,
+    });
+    let (mut a, _) = rare(5, refine);
+    let (mut b, _) = rare(5, refine);
+    for round in 0..2 {
+        assert_eq!(a.round(), Some(round));
+        let ta: Vec<_> = (0..50).map(|_| a.ask().expect("round open")).collect();
+        let tb: Vec<_> = (0..50).map(|_| b.ask().expect("round open")).collect();
+        assert_eq!(ta, tb);
+        assert!(ta.iter().all(|t| t.round == Some(round)));
+        assert_eq!(a.ask(), None, "the round's runs are all out");
+        for t in &ta {
+            a.tell(t.id, fails(t)).unwrap();
+        }
+        for t in tb.iter().rev() {
+            b.tell(t.id, fails(t)).unwrap();
+        }
+        assert_eq!(a.bin_probabilities(0), b.bin_probabilities(0));
+    }
+    assert_eq!(a.round(), None);
+    let t = a.ask().expect("the estimate never waits");
+    assert_eq!((t.round, Some(t.clone())), (None, b.ask()));
+    assert_eq!((a.estimate().runs, a.told()), (0, 100));
+    let pilot: u64 = a.pilot_runs().iter().map(|p| p.0).sum();
+    assert_eq!(pilot, 100);
+}
+
+/// The refit moves x's bins toward where p(x)·P(failure | x) is largest (bin 7, just past the
+/// threshold) instead of the posterior's far bins, draws x inside a bin from the truncated
+/// normal, and keeps the estimate unbiased: over 60 seeds its interval covers the true tail
+/// probability at about the nominal rate, and with the same 2,000 estimate runs its
+/// relative width is far below the unrefined proposal's.
+#[test]
+fn refinement_aims_at_the_nominal_failure_mass_and_stays_unbiased() {
+    let refine = Some(Refine {
+        rounds: 3,
+        runs: 400,
+    });
+    let run = |seed: u64, refine: Option<Refine>| {
+        let (mut e, truth) = rare(seed, refine);
+        while e.told() < 3 * 400 * u64::from(refine.is_some()) {
+            let t = e.ask().expect("told one by one");
+            e.tell(t.id, fails(&t)).unwrap();
+        }
+        let bins = e.bin_probabilities(0).unwrap()[0].clone();
+        for _ in 0..2000 {
+            let t = e.ask().expect("no waiting after the pilot");
+            e.tell(t.id, fails(&t)).unwrap();
+        }
+        (e.estimate().total, truth, bins)
+    };
+    let (_, _, unrefined_bins) = run(0, None);
+    // The refitted q, with the truncated normal inside x's bins, still integrates to 1.
+    let (mut e, _) = rare(
+        0,
+        Some(Refine {
+            rounds: 1,
+            runs: 300,
+        }),
+    );
+    for _ in 0..300 {
+        let t = e.ask().expect("one round");
+        e.tell(t.id, fails(&t)).unwrap();
+    }
+    let k = 400;
+    let integral: f64 = (0..k * k)
+        .map(|i| {
+            let (x, y) = ((i % k) as f64 + 0.5, (i / k) as f64 + 0.5);
+            let phi = Assignment::new()
+                .with("x", x / k as f64)
+                .with("y", y / k as f64);
+            e.densities(0, &phi).unwrap().0 / (k * k) as f64
+        })
+        .sum();
+    assert!((integral - 1.0).abs() < 1e-3, "{integral}");
+    let (_, _, bins) = run(0, refine);
+    assert!(
+        bins[7] > 0.5 && bins[7] > 2.0 * unrefined_bins[7],
+        "{bins:?}"
+    );
+    assert!(
+        bins[9] < unrefined_bins[9],
+        "{bins:?} vs {unrefined_bins:?}"
+    );
+    let (mut covered, mut width, mut width_before) = (0, 0.0, 0.0);
+    let seeds = 60;
+    for seed in 0..seeds {
+        let (est, truth, _) = run(seed, refine);
+        covered += u32::from(est.lo <= truth && truth <= est.hi);
+        width += est.relative_half_width() / seeds as f64;
+        width_before += run(seed, None).0.relative_half_width() / seeds as f64;
+    }
+    assert!((53..=60).contains(&covered), "covered {covered} of {seeds}");
+    // Measured: 0.031 against 0.110.
+    assert!(width < 0.4 * width_before, "{width} vs {width_before}");
 }

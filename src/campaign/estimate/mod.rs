@@ -33,7 +33,7 @@ use super::outputs::load_protocol;
 use super::store::{JsonlStore, TrialStore};
 use super::{CampaignError, Problem, Protocol};
 use crate::campaign::log::RunLine;
-use savme_kernel::estimation::{Estimation, EstimationConfig, EstimationTrial, Nominal};
+use savme_kernel::estimation::{Estimation, EstimationTrial, Nominal};
 use savme_kernel::Simulator;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
@@ -113,14 +113,11 @@ impl EstimateRun {
             .unwrap_or_else(|| Problem::driving(protocol.fidelity_bins));
         let budget = settings.budget.unwrap_or(protocol.budgets[0]);
         let trained = posterior::trained(&self.campaign, &protocol, &problem, budget, &settings)?;
-        let config = EstimationConfig {
-            epsilon: settings.epsilon,
-            seed: settings
+        let config = settings.config(
+            settings
                 .seed
                 .unwrap_or_else(|| protocol.kernel_seed(&format!("estimate@{budget}"))),
-            nominal: settings.nominal.clone(),
-            tilt: settings.tilt,
-        };
+        );
         let mut estimation = Estimation::new(&trained.scenarios, &config)?;
         if !self.resume {
             create(&out, &settings)?;
@@ -212,7 +209,9 @@ fn replay(
         };
         let line: EstimateLine =
             serde_json::from_value(stored.value.clone()).map_err(|e| diverged(e.to_string()))?;
-        let asked = estimation.ask();
+        let asked = estimation
+            .ask()
+            .ok_or_else(|| diverged("the refinement round waits for outcomes here".into()))?;
         line.check(&asked).map_err(diverged)?;
         estimation.tell(asked.id, line.hf.failure)?;
         lines.push(line);
@@ -228,7 +227,7 @@ fn stop_reason(e: &Estimation, s: &EstimateSettings) -> Option<StopReason> {
         .is_some_and(|w| est.failures >= s.min_failures && est.total.relative_half_width() <= w);
     if reached {
         Some(StopReason::TargetWidth)
-    } else if est.runs >= s.max_runs {
+    } else if e.told() >= s.max_runs {
         Some(StopReason::MaxRuns)
     } else {
         None
@@ -256,7 +255,10 @@ impl Running<'_> {
         let mut asked = self.lines.len() as u64;
         loop {
             while flight.len() < window && asked < self.settings.max_runs {
-                let t = self.estimation.ask();
+                // None: a refinement round waits for its outcomes before the refit.
+                let Some(t) = self.estimation.ask() else {
+                    break;
+                };
                 pool.submit(Task {
                     stage: stage.clone(),
                     trial: t.id,

@@ -28,6 +28,9 @@ pub struct EstimateLine {
     pub p: f64,
     /// p(φ) / q(φ).
     pub weight: f64,
+    /// The cross-entropy pilot round of a refinement trial (not part of the estimate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub round: Option<u32>,
     /// The HF run.
     pub hf: RunLine,
 }
@@ -41,6 +44,7 @@ impl EstimateLine {
             q: t.q,
             p: t.p,
             weight: t.weight,
+            round: t.round,
             hf,
         }
     }
@@ -62,6 +66,10 @@ impl EstimateLine {
                 self.scenario.clone(),
                 asked.scenario.to_string(),
             );
+        }
+        if self.round != asked.round {
+            let show = |r: Option<u32>| r.map_or("none".to_string(), |r| r.to_string());
+            return differs("round", show(self.round), show(asked.round));
         }
         if self.phi != asked.phi {
             return differs("phi", self.phi.to_string(), asked.phi.to_string());
@@ -110,6 +118,13 @@ pub struct EstimateOutcome {
     pub estimate_hf_runs: u64,
     /// The summed HF cost of the estimate's runs (the campaign's cost measure).
     pub estimate_hf_cost: f64,
+    /// HF runs of the cross-entropy pilot rounds (not part of the estimate; 0 without
+    /// refinement).
+    pub pilot_hf_runs: u64,
+    /// Of which failed.
+    pub pilot_failures: u64,
+    /// Their summed HF cost.
+    pub pilot_hf_cost: f64,
     /// Runs replayed from `trials.jsonl` (resume).
     pub replayed: u64,
     /// Seconds this process spent running.
@@ -150,6 +165,14 @@ impl EstimateOutcome {
             })
             .collect();
         let estimate = estimation.estimate();
+        let cost = |pilot: bool| -> f64 {
+            lines
+                .iter()
+                .filter(|l| l.round.is_some() == pilot)
+                .map(|l| l.hf.runtime)
+                .sum()
+        };
+        let pilot = estimation.pilot_runs();
         let mut o = EstimateOutcome {
             settings: settings.clone(),
             stopped,
@@ -158,7 +181,10 @@ impl EstimateOutcome {
             training_hf_runs: trained.stage_runs,
             training_hf_runs_of_scenarios: trained.scenario_runs,
             estimate_hf_runs: estimate.runs,
-            estimate_hf_cost: lines.iter().map(|l| l.hf.runtime).sum(),
+            estimate_hf_cost: cost(false),
+            pilot_hf_runs: pilot.iter().map(|p| p.0).sum(),
+            pilot_failures: pilot.iter().map(|p| p.1).sum(),
+            pilot_hf_cost: cost(true),
             estimate,
             replayed,
             elapsed_seconds,
@@ -232,6 +258,13 @@ impl EstimateOutcome {
             self.training_hf_runs,
             self.training_hf_runs_of_scenarios
         );
+        if let Some(r) = self.settings.refine() {
+            let _ = writeln!(
+                t,
+                "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); they refit the proposal and are not part of the estimate.",
+                r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
+            );
+        }
         t
     }
 

@@ -1,7 +1,7 @@
 //! What an estimate runs with ([`EstimateSettings`]) and why it may not run ([`EstimateError`]).
 
 use crate::campaign::CampaignError;
-use savme_kernel::estimation::{EstimationError, Nominal, Tilt};
+use savme_kernel::estimation::{EstimationError, Nominal, Refine, Tilt};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -36,6 +36,12 @@ pub struct EstimateSettings {
     /// `nominal-weighted` (× the nominal's bin probability).
     #[serde(default)]
     pub tilt: Tilt,
+    /// Cross-entropy pilot rounds that refit the proposal before the estimate (0: none).
+    #[serde(default)]
+    pub refine_rounds: u32,
+    /// HF runs per pilot round (counted in `max_runs`; not part of the estimate).
+    #[serde(default)]
+    pub refine_runs: u64,
 }
 
 /// The most HF runs one estimate may make.
@@ -53,11 +59,32 @@ impl Default for EstimateSettings {
             scenarios: Vec::new(),
             nominal: BTreeMap::new(),
             tilt: Tilt::Posterior,
+            refine_rounds: 0,
+            refine_runs: 0,
         }
     }
 }
 
 impl EstimateSettings {
+    /// The cross-entropy refinement these settings ask for, if any.
+    pub fn refine(&self) -> Option<Refine> {
+        (self.refine_rounds > 0).then_some(Refine {
+            rounds: self.refine_rounds,
+            runs: self.refine_runs,
+        })
+    }
+
+    /// The kernel's configuration of these settings with the seed `seed`.
+    pub fn config(&self, seed: u64) -> savme_kernel::estimation::EstimationConfig {
+        savme_kernel::estimation::EstimationConfig {
+            epsilon: self.epsilon,
+            seed,
+            nominal: self.nominal.clone(),
+            tilt: self.tilt,
+            refine: self.refine(),
+        }
+    }
+
     /// Checks every value; the error names the key.
     ///
     /// ```
@@ -105,12 +132,43 @@ impl EstimateSettings {
                 return bad("budget", format!("must lie in (0, 1], got {b}"));
             }
         }
+        self.validate_refine()?;
         for (i, s) in self.scenarios.iter().enumerate() {
             if self.scenarios[..i].contains(s) {
                 return bad("scenarios", format!("`{s}` is listed twice"));
             }
         }
         Ok(())
+    }
+}
+
+impl EstimateSettings {
+    fn validate_refine(&self) -> Result<(), EstimateError> {
+        let bad = |key: &str, message: String| {
+            Err(EstimateError::Setting {
+                key: key.into(),
+                message,
+            })
+        };
+        match (self.refine_rounds, self.refine_runs) {
+            (0, 0) => Ok(()),
+            (0, runs) => bad(
+                "refine_runs",
+                format!("{runs} runs per round but no `refine_rounds`: give both, or neither"),
+            ),
+            (rounds, 0) => bad(
+                "refine_runs",
+                format!("{rounds} refinement rounds need `refine_runs` ≥ 1 runs per round"),
+            ),
+            (rounds, runs) if u64::from(rounds).saturating_mul(runs) >= self.max_runs => bad(
+                "refine_runs",
+                format!(
+                    "{rounds} rounds of {runs} runs leave none of `max_runs` = {} for the estimate",
+                    self.max_runs
+                ),
+            ),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -223,6 +281,8 @@ impl EstimateSettings {
             scenarios: section.scenarios.clone().unwrap_or_default(),
             nominal: section.nominal.clone(),
             tilt: section.tilt.unwrap_or_default(),
+            refine_rounds: section.refine_rounds.unwrap_or(0),
+            refine_runs: section.refine_runs.unwrap_or(0),
         };
         let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
             file: file.display().to_string(),
@@ -251,13 +311,7 @@ impl EstimateSettings {
             &self.scenarios
         };
         let scenarios = super::posterior::untrained(names, protocol, problem)?;
-        let config = savme_kernel::estimation::EstimationConfig {
-            epsilon: self.epsilon,
-            seed: 0,
-            nominal: self.nominal.clone(),
-            tilt: self.tilt,
-        };
-        savme_kernel::estimation::Estimation::new(&scenarios, &config)?;
+        savme_kernel::estimation::Estimation::new(&scenarios, &self.config(0))?;
         Ok(())
     }
 }
