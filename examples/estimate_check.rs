@@ -171,6 +171,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "runs": mc_runs, "failures": mc_failures, "seconds": t_mc,
         });
         report["is_interval_covers_mc"] = covered.into();
+        // The two estimates' difference in combined standard errors (the MC value has its
+        // own noise, which "covers" ignores).
+        let se_mc = (p_mc * (1.0 - p_mc) / mc_runs as f64).sqrt();
+        report["difference_in_combined_se"] =
+            ((total.mean - p_mc) / (total.std_error.powi(2) + se_mc * se_mc).sqrt()).into();
         report["plain_mc_runs_for_same_width"]["at_mc_p"] = mc_needed(p_mc).into();
         report["ratio_mc_over_is_incl_training"]["at_mc_p"] = (mc_needed(p_mc) / is_runs).into();
     }
