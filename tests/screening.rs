@@ -166,8 +166,16 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
     )
     .unwrap();
     let resume = |d: &Path| run(&["reproduce", "--quiet", "--resume", &d.display().to_string()]);
-    let (ok, _, err) = resume(&cut);
+    // Without --quiet, progress lines go to the (piped) standard error: the screening stage's
+    // trials, replayed and run, count as done, their HF failures (confirmed failures and
+    // audit misses) as failures.
+    let (ok, _, err) = run(&["reproduce", "--resume", &cut.display().to_string()]);
     assert!(ok, "{err}");
+    let done = format!(
+        "screen@0.3 done: 150/150 trials, {} failures (HF)",
+        confirmed + misses
+    );
+    assert!(err.contains(&done), "{done} not in {err}");
     assert_eq!(without_wall(lines(&cut)), without_wall(all.clone()));
 
     // A screening line edited to skip its HF run is refused, naming the line and field.

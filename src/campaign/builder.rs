@@ -162,8 +162,12 @@ impl<'o> Campaign<'o> {
             for (stage, logged) in stages.iter().zip(&by_stage) {
                 let logged_lines = &numbers[first..first + logged.len()];
                 first += logged.len();
+                let replayed = logged.iter().filter(|l| l.is_told()).count() as u64;
                 for o in observers.iter_mut() {
                     o.stage(stage);
+                    if replayed > 0 {
+                        o.replaying(stage, replayed);
+                    }
                 }
                 let kernel = kernels.for_stage(stage)?;
                 let cx = StageContext {
@@ -182,7 +186,11 @@ impl<'o> Campaign<'o> {
                 };
                 let lines = executor::run_stage(runner, kernel, cx, |line, kernel| {
                     for o in observers.iter_mut() {
-                        o.trial(stage, line, kernel);
+                        match line {
+                            LogLine::Trial(t) => o.trial(stage, t, kernel),
+                            LogLine::Screen(s) => o.screened(stage, s, kernel),
+                            LogLine::Failed(_) => {}
+                        }
                     }
                 })?;
                 all_lines.extend(lines);

@@ -2,7 +2,7 @@
 //! [`ProgressBars`] for a terminal and [`ProgressLines`], plain lines per stage and about every
 //! 10 s, for pipes, logs and CI. The rerun recording is another observer (`savme::viewer`).
 
-use super::log::TrialLine;
+use super::log::{ScreenLine, TrialLine};
 use super::protocol::{Protocol, Stage};
 use super::CampaignError;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -35,8 +35,21 @@ pub trait Observer {
         let _ = stage;
     }
 
+    /// On resume: the stage's first `trials` told trials are replayed from the store (the
+    /// next `trial` / `screened` calls of the stage), with no simulation. Called after
+    /// [`Observer::stage`], only when there are some. Progress displays use it to keep
+    /// replayed trials out of their rate.
+    fn replaying(&mut self, stage: &Stage, trials: u64) {
+        let _ = (stage, trials);
+    }
+
     /// A trial was told to `kernel` (which has learnt from it).
     fn trial(&mut self, stage: &Stage, line: &TrialLine, kernel: &Kernel) {
+        let _ = (stage, line, kernel);
+    }
+
+    /// A trial of an LF screening stage was told (it credits nothing: `kernel` is unchanged).
+    fn screened(&mut self, stage: &Stage, line: &ScreenLine, kernel: &Kernel) {
         let _ = (stage, line, kernel);
     }
 
@@ -66,6 +79,8 @@ pub struct ProgressBars {
     total: Option<ProgressBar>,
     bar: Option<ProgressBar>,
     failures: u64,
+    /// Replayed trials still to come (resume).
+    replay_left: u64,
 }
 
 impl ProgressBars {
@@ -81,6 +96,26 @@ impl ProgressBars {
             total: None,
             bar: None,
             failures: 0,
+            replay_left: 0,
+        }
+    }
+
+    /// One more told trial; an HF failure if `failure`. After the last replayed trial the
+    /// bars' rates (and so their ETAs) restart, so that they count only trials run now.
+    fn count(&mut self, failure: bool) {
+        self.failures += u64::from(failure);
+        let bars = self.bar.iter().chain(&self.total);
+        for b in bars.clone() {
+            b.inc(1);
+        }
+        if let Some(b) = &self.bar {
+            b.set_message(plural(self.failures, "failure"));
+        }
+        if self.replay_left > 0 {
+            self.replay_left -= 1;
+            if self.replay_left == 0 {
+                bars.for_each(ProgressBar::reset_eta);
+            }
         }
     }
 }
@@ -114,15 +149,16 @@ impl Observer for ProgressBars {
         self.bar = Some(bar);
     }
 
+    fn replaying(&mut self, _: &Stage, trials: u64) {
+        self.replay_left += trials;
+    }
+
     fn trial(&mut self, _: &Stage, line: &TrialLine, _: &Kernel) {
-        self.failures += u64::from(line.hf.failure);
-        if let Some(b) = &self.bar {
-            b.inc(1);
-            b.set_message(plural(self.failures, "failure"));
-        }
-        if let Some(t) = &self.total {
-            t.inc(1);
-        }
+        self.count(line.hf.failure);
+    }
+
+    fn screened(&mut self, _: &Stage, line: &ScreenLine, _: &Kernel) {
+        self.count(line.hf.as_ref().is_some_and(|h| h.failure));
     }
 
     fn finish(&mut self) -> Result<(), CampaignError> {
@@ -166,6 +202,10 @@ struct Counts {
     failures: u64,
     since: Instant,
     printed: Instant,
+    /// Replayed trials still to come (resume), and where the rate is measured from: the
+    /// time and count after the last replayed trial.
+    replay_left: u64,
+    rate_from: (Instant, u64),
 }
 
 impl Counts {
@@ -177,15 +217,32 @@ impl Counts {
             failures: 0,
             since: now,
             printed: now,
+            replay_left: 0,
+            rate_from: (now, 0),
         }
     }
 
-    /// The time left at the rate so far ("?" before the first trial).
+    /// One more told trial.
+    fn count(&mut self, failure: bool) {
+        self.done += 1;
+        self.failures += u64::from(failure);
+        if self.replay_left > 0 {
+            self.replay_left -= 1;
+            if self.replay_left == 0 {
+                self.rate_from = (Instant::now(), self.done);
+            }
+        }
+    }
+
+    /// The time left at the rate of the trials run so far, replayed ones not counted ("?"
+    /// before the first trial run).
     fn eta(&self) -> String {
-        if self.done == 0 {
+        let (from, base) = self.rate_from;
+        let run = self.done.saturating_sub(base);
+        if run == 0 || self.replay_left > 0 {
             return "?".into();
         }
-        let per_trial = self.since.elapsed().as_secs_f64() / self.done as f64;
+        let per_trial = from.elapsed().as_secs_f64() / run as f64;
         human_seconds(per_trial * self.total.saturating_sub(self.done) as f64)
     }
 }
@@ -270,6 +327,19 @@ impl<W: Write> ProgressLines<W> {
         );
     }
 
+    /// One more told trial (an HF failure if `failure`); a line if one is due.
+    fn count(&mut self, failure: bool) {
+        self.campaign.count(failure);
+        let every = self.every;
+        let due = self.stage.as_mut().is_some_and(|(_, c)| {
+            c.count(failure);
+            c.printed.elapsed() >= every && c.done < c.total
+        });
+        if due {
+            self.line("running");
+        }
+    }
+
     fn end_stage(&mut self) {
         self.line("done");
         self.stage = None;
@@ -287,18 +357,19 @@ impl<W: Write> Observer for ProgressLines<W> {
         self.line("started");
     }
 
-    fn trial(&mut self, _: &Stage, line: &TrialLine, _: &Kernel) {
-        self.campaign.done += 1;
-        self.campaign.failures += u64::from(line.hf.failure);
-        let every = self.every;
-        let due = self.stage.as_mut().is_some_and(|(_, c)| {
-            c.done += 1;
-            c.failures += u64::from(line.hf.failure);
-            c.printed.elapsed() >= every && c.done < c.total
-        });
-        if due {
-            self.line("running");
+    fn replaying(&mut self, _: &Stage, trials: u64) {
+        self.campaign.replay_left += trials;
+        if let Some((_, c)) = &mut self.stage {
+            c.replay_left += trials;
         }
+    }
+
+    fn trial(&mut self, _: &Stage, line: &TrialLine, _: &Kernel) {
+        self.count(line.hf.failure);
+    }
+
+    fn screened(&mut self, _: &Stage, line: &ScreenLine, _: &Kernel) {
+        self.count(line.hf.as_ref().is_some_and(|h| h.failure));
     }
 
     fn finish(&mut self) -> Result<(), CampaignError> {
@@ -405,6 +476,69 @@ mod tests {
         }
         let text = String::from_utf8(p.into_inner()).unwrap();
         assert_eq!(text.lines().count(), 1, "{text}");
+    }
+
+    fn screen_line(hf_failure: Option<bool>) -> ScreenLine {
+        let run = |failure| RunLine {
+            failure,
+            runtime: 1.0,
+            wall_seconds: 0.1,
+            work: None,
+        };
+        ScreenLine {
+            stage: "screen@0.3".into(),
+            index: 0,
+            id: 0,
+            budget: Some(0.3),
+            scenario: "s".into(),
+            phi: Assignment::new(),
+            theta_lf: None,
+            screen: savme_kernel::screening::Screen::Confirm,
+            lf: run(true),
+            hf: hf_failure.map(run),
+            outcome: None,
+        }
+    }
+
+    /// On resume the replayed trials are counted as done but not in the rate: the ETA is "?"
+    /// until a trial runs, then it is the live trials' rate (here ≥ 20 ms a trial, so the
+    /// campaign's > 3,000 trials left take minutes — counting the 3 instant replays in the
+    /// rate would give about a quarter of that). Screened trials count too, their confirmed
+    /// HF failures as failures.
+    #[test]
+    fn replayed_trials_stay_out_of_the_eta_and_screened_trials_count() {
+        let (train, test) = savme_sim::scenario::train_test_names();
+        let protocol = Protocol::paper("test", train, test);
+        let stage = &protocol.stages()[0];
+        let kernel = crate::toy::kernel_builder().build().unwrap();
+        let mut p = ProgressLines::new(Vec::new()).every(Duration::ZERO);
+        p.start(&protocol);
+        p.stage(stage);
+        p.replaying(stage, 3);
+        for _ in 0..3 {
+            p.trial(stage, &line(false), &kernel);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+        p.trial(stage, &line(true), &kernel);
+        p.screened(stage, &screen_line(Some(true)), &kernel);
+        p.screened(stage, &screen_line(None), &kernel);
+        let text = String::from_utf8(p.into_inner()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(protocol.total_trials() > 3000);
+        for l in &lines[1..4] {
+            assert!(l.ends_with("trials, ETA ?)"), "{text}");
+        }
+        let live = lines[4];
+        assert!(
+            live.contains("4/") && live.contains("1 failure (HF)"),
+            "{text}"
+        );
+        let campaign_eta = live.rsplit("ETA ").next().unwrap();
+        assert!(campaign_eta.contains("min"), "{text}");
+        assert!(
+            lines[6].contains("6/") && lines[6].contains("2 failures (HF)"),
+            "{text}"
+        );
     }
 
     #[test]

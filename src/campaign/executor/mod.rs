@@ -169,13 +169,13 @@ fn which_name(w: Which) -> &'static str {
 }
 
 /// Runs (or replays) one stage on `kernel` until it has told `stage.iterations` trials; calls
-/// `progress` after each told trial (with the kernel that learnt from it) and returns the
-/// stage's lines (withdrawn trials included).
+/// `progress` after each told or screened trial (with the kernel that learnt from it) and
+/// returns the stage's lines (withdrawn trials included).
 pub fn run_stage(
     pool: &mut dyn Runner,
     kernel: &mut Kernel,
     cx: StageContext<'_>,
-    mut progress: impl FnMut(&TrialLine, &Kernel),
+    mut progress: impl FnMut(&LogLine, &Kernel),
 ) -> Result<Vec<LogLine>, CampaignError> {
     kernel.set_phase(cx.stage.phase());
     let mut run = StageRun {
@@ -283,7 +283,7 @@ impl StageRun<'_, '_, '_> {
     /// new trial after each.
     fn tell_ready(
         &mut self,
-        progress: &mut impl FnMut(&TrialLine, &Kernel),
+        progress: &mut impl FnMut(&LogLine, &Kernel),
     ) -> Result<(), CampaignError> {
         while self.queue.front().is_some_and(Slot::ready) {
             let Some(slot) = self.queue.pop_front() else {
@@ -298,8 +298,7 @@ impl StageRun<'_, '_, '_> {
                 self.cx.store,
             )?;
             match &line {
-                LogLine::Trial(t) => progress(t, self.kernel),
-                LogLine::Screen(_) => {}
+                LogLine::Trial(_) | LogLine::Screen(_) => progress(&line, self.kernel),
                 LogLine::Failed(f) => {
                     self.failed += 1;
                     if self.failed > self.cx.stage.iterations {
