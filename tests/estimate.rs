@@ -225,6 +225,26 @@ fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
         refined[2..5].iter().sum::<f64>() > 2.0 * posterior[2..5].iter().sum::<f64>(),
         "{refined:?} vs {posterior:?}"
     );
+    // Progress on standard error: a line when it starts (then about every 10 s); none with
+    // --quiet.
+    let talk = temp_dir("refined-progress");
+    let small = [
+        "--refine-rounds",
+        "3",
+        "--refine-runs",
+        "10",
+        "--max-runs",
+        "40",
+    ];
+    let (code, _, err) = estimate(&talk, &small);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        err.starts_with("estimate: 0 of at most 40 HF runs; cross-entropy pilot round 1 of 3; "),
+        "{err}"
+    );
+    let quiet = temp_dir("refined-quiet");
+    let (code, _, err) = estimate(&quiet, &[&small[..], &["--quiet"]].concat());
+    assert_eq!((code, err.as_str()), (Some(0), ""));
     // An edited round is refused on resume, naming the line and the field.
     let path = killed.join("trials.jsonl");
     let text = std::fs::read_to_string(&path).unwrap();

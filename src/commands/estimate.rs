@@ -3,9 +3,12 @@
 
 use super::{usage, Failure};
 use savme::campaign::config;
-use savme::campaign::estimate::{parse_nominal, EstimateError, EstimateRun, EstimateSettings};
+use savme::campaign::estimate::{
+    parse_nominal, EstimateError, EstimateProgress, EstimateRun, EstimateSettings,
+};
 use savme::campaign::{load_protocol, Problem};
 use savme_kernel::estimation::Tilt;
+use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -67,6 +70,9 @@ pub struct Args {
     /// Worker threads (default: one per core). Does not change the result.
     #[arg(long)]
     jobs: Option<usize>,
+    /// No progress lines on standard error.
+    #[arg(long)]
+    quiet: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -113,6 +119,20 @@ impl Args {
     }
 }
 
+/// Writes an estimate's progress line to standard error when it starts, then about every
+/// 10 s (nothing if `quiet`).
+pub fn progress_lines(quiet: bool) -> impl FnMut(&EstimateProgress<'_>) {
+    let mut last: Option<std::time::Instant> = None;
+    move |p: &EstimateProgress<'_>| {
+        if quiet || last.is_some_and(|t| t.elapsed() < std::time::Duration::from_secs(10)) {
+            return;
+        }
+        last = Some(std::time::Instant::now());
+        // Progress is best effort: a closed pipe must not stop the estimate.
+        let _ = writeln!(std::io::stderr(), "{}", p.line());
+    }
+}
+
 /// A usage error (exit 2) for what the flags said wrong, a runtime error otherwise.
 fn failure(e: EstimateError) -> Failure {
     match e {
@@ -144,6 +164,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let settings = a.settings(base).map_err(failure)?;
     let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
     let mut run = EstimateRun::new(&a.campaign, settings)
+        .progress(progress_lines(a.quiet))
         .resume(a.resume)
         .jobs(
             a.jobs

@@ -235,6 +235,11 @@ impl RunnerArgs {
         self.jobs
             .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
     }
+
+    /// `--quiet`.
+    pub fn quiet(&self) -> bool {
+        self.quiet
+    }
 }
 
 /// Where to record (a build with `--features rerun`; without it the flags are hidden from

@@ -91,7 +91,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(settings) = estimate {
         // The `[estimate]` stage: after the campaign, on its directory (a resumed campaign
         // resumes an estimate already started).
-        let run = EstimateRun::new(&out, settings).problem(c.problem);
+        let run = EstimateRun::new(&out, settings)
+            .problem(c.problem)
+            .progress(super::estimate::progress_lines(a.runner.quiet()));
         let resume = run_dir_has_estimate(&run, &out);
         let outcome = run
             .resume(resume)

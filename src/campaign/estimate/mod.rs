@@ -40,16 +40,79 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// An estimate to run on a finished campaign.
-pub struct EstimateRun {
+pub struct EstimateRun<'p> {
     campaign: PathBuf,
     settings: EstimateSettings,
     out: Option<PathBuf>,
     problem: Option<Problem>,
     jobs: usize,
     resume: bool,
+    progress: Option<ProgressFn<'p>>,
 }
 
-impl EstimateRun {
+/// A progress callback ([`EstimateRun::progress`]).
+type ProgressFn<'p> = Box<dyn FnMut(&EstimateProgress<'_>) + 'p>;
+
+/// Where a running estimate stands: once after the stored runs were replayed, then after
+/// each HF run told.
+#[derive(Debug)]
+pub struct EstimateProgress<'a> {
+    /// HF runs told, pilot and estimate together (replayed ones included).
+    pub told: u64,
+    /// Of which replayed from `trials.jsonl`.
+    pub replayed: u64,
+    /// The most HF runs the estimate may make.
+    pub max_runs: u64,
+    /// The refinement round under way, and how many there are (None: the estimate itself).
+    pub round: Option<(u32, u32)>,
+    /// The estimate from the runs after the pilot.
+    pub estimate: &'a savme_kernel::estimation::Estimate,
+    /// Seconds since this process started the estimate.
+    pub elapsed_seconds: f64,
+}
+
+impl EstimateProgress<'_> {
+    /// One line: runs, the pilot round or the estimate with its ± and failures, elapsed time.
+    ///
+    /// ```
+    /// use savme::campaign::estimate::EstimateProgress;
+    /// use savme_kernel::estimation::{Estimate, Interval};
+    /// let estimate = Estimate {
+    ///     scenarios: vec![],
+    ///     total: Interval::from_mean_and_error(0.002, 0.0001),
+    ///     runs: 5000,
+    ///     failures: 400,
+    /// };
+    /// let p = EstimateProgress {
+    ///     told: 17000, replayed: 0, max_runs: 200000, round: None, estimate: &estimate,
+    ///     elapsed_seconds: 12.5,
+    /// };
+    /// assert_eq!(
+    ///     p.line(),
+    ///     "estimate: 17000 of at most 200000 HF runs; P(failure) = 2.000e-3 ± 9.8 % from 5000 runs (400 failures); 12 s elapsed"
+    /// );
+    /// ```
+    pub fn line(&self) -> String {
+        let e = self.estimate;
+        let stand = match self.round {
+            Some((r, rounds)) => format!("cross-entropy pilot round {} of {rounds}", r + 1),
+            None if e.failures == 0 => format!("no failure yet in {} runs", e.runs),
+            None => format!(
+                "P(failure) = {:.3e} ± {:.1} % from {} runs ({} failures)",
+                e.total.mean,
+                100.0 * e.total.relative_half_width(),
+                e.runs,
+                e.failures
+            ),
+        };
+        format!(
+            "estimate: {} of at most {} HF runs; {stand}; {:.0} s elapsed",
+            self.told, self.max_runs, self.elapsed_seconds
+        )
+    }
+}
+
+impl<'p> EstimateRun<'p> {
     /// An estimate of the campaign in `campaign` with `settings` (one worker; the bundled
     /// simulator's problem unless [`EstimateRun::problem`] is given).
     pub fn new(campaign: impl Into<PathBuf>, settings: EstimateSettings) -> Self {
@@ -60,7 +123,15 @@ impl EstimateRun {
             problem: None,
             jobs: 1,
             resume: false,
+            progress: None,
         }
+    }
+
+    /// Calls `progress` once after the stored runs were replayed (resume), then after each HF
+    /// run told.
+    pub fn progress(mut self, progress: impl FnMut(&EstimateProgress<'_>) + 'p) -> Self {
+        self.progress = Some(Box::new(progress));
+        self
     }
 
     /// The output directory (default `CAMPAIGN/estimate-<budget>`).
@@ -98,7 +169,7 @@ impl EstimateRun {
 
     /// Runs (or resumes) the estimate on `sim` (its HF role) and writes the outputs. Every
     /// setting, the campaign and the stored trials are checked before any simulation runs.
-    pub fn run<S>(self, sim: &S) -> Result<EstimateOutcome, EstimateError>
+    pub fn run<S>(mut self, sim: &S) -> Result<EstimateOutcome, EstimateError>
     where
         S: Simulator + Clone + Send,
     {
@@ -123,9 +194,17 @@ impl EstimateRun {
             create(&out, &settings)?;
         }
         let mut store = JsonlStore::open(&out.join("trials.jsonl")).map_err(CampaignError::from)?;
+        let started = std::time::Instant::now();
         let mut lines = replay(&mut store, &mut estimation)?;
         let replayed = lines.len() as u64;
-        let started = std::time::Instant::now();
+        let mut report = Reporter {
+            callback: self.progress.take(),
+            started,
+            replayed,
+            max_runs: settings.max_runs,
+            rounds: settings.refine_rounds,
+        };
+        report.call(&estimation);
         let reason = stop_reason(&estimation, &settings);
         let reason = match reason {
             Some(r) => r,
@@ -137,6 +216,7 @@ impl EstimateRun {
                     lines: &mut lines,
                     cost: protocol.cost.measure(),
                     theta_hf: &problem.theta_hf,
+                    report: &mut report,
                 };
                 with_pool(sim, self.jobs, |pool| run.run(pool, 2 * self.jobs))?
             }
@@ -234,17 +314,44 @@ fn stop_reason(e: &Estimation, s: &EstimateSettings) -> Option<StopReason> {
     }
 }
 
+/// Calls the progress callback, if any.
+struct Reporter<'p> {
+    callback: Option<ProgressFn<'p>>,
+    started: std::time::Instant,
+    replayed: u64,
+    max_runs: u64,
+    rounds: u32,
+}
+
+impl Reporter<'_> {
+    fn call(&mut self, e: &Estimation) {
+        let Some(callback) = &mut self.callback else {
+            return;
+        };
+        let estimate = e.estimate();
+        callback(&EstimateProgress {
+            told: e.told(),
+            replayed: self.replayed,
+            max_runs: self.max_runs,
+            round: e.round().map(|r| (r, self.rounds)),
+            estimate: &estimate,
+            elapsed_seconds: self.started.elapsed().as_secs_f64(),
+        });
+    }
+}
+
 /// The run loop's state.
-struct Running<'a> {
+struct Running<'a, 'p> {
     estimation: &'a mut Estimation,
     settings: &'a EstimateSettings,
     store: &'a mut JsonlStore,
     lines: &'a mut Vec<EstimateLine>,
     cost: savme_kernel::CostMeasure,
     theta_hf: &'a savme_kernel::Assignment,
+    report: &'a mut Reporter<'p>,
 }
 
-impl Running<'_> {
+impl Running<'_, '_> {
     /// Keeps up to `window` HF runs in flight, tells them in ask order, stores each line,
     /// and stops at the first tell after which the stopping rule holds (runs still in flight
     /// then are dropped: they are not part of the estimate, whatever `jobs` is).
@@ -320,6 +427,7 @@ impl Running<'_> {
             .map_err(CampaignError::from)?;
         self.estimation.tell(t.id, r.failure)?;
         self.lines.push(line);
+        self.report.call(self.estimation);
         Ok(())
     }
 }
