@@ -384,13 +384,16 @@ mod tests {
     use crate::campaign::log::RunLine;
     use savme_kernel::{Assignment, Credit, Phase};
 
-    fn line(failure: bool) -> TrialLine {
-        let run = RunLine {
+    fn run(failure: bool) -> RunLine {
+        RunLine {
             failure,
             runtime: 1.0,
             wall_seconds: 0.1,
             work: None,
-        };
+        }
+    }
+
+    fn line(failure: bool) -> TrialLine {
         TrialLine {
             stage: "baseline".into(),
             index: 0,
@@ -400,7 +403,7 @@ mod tests {
             scenario: "s".into(),
             phi: Assignment::new(),
             theta_lf: None,
-            hf: run,
+            hf: run(failure),
             lf: None,
             cost_ratio: None,
             outcome: None,
@@ -479,12 +482,6 @@ mod tests {
     }
 
     fn screen_line(hf_failure: Option<bool>) -> ScreenLine {
-        let run = |failure| RunLine {
-            failure,
-            runtime: 1.0,
-            wall_seconds: 0.1,
-            work: None,
-        };
         ScreenLine {
             stage: "screen@0.3".into(),
             index: 0,
