@@ -341,7 +341,10 @@ fn ctrl_c_then_resume(expected: &[Value]) {
     assert_eq!(o.status.code(), Some(130), "{err}");
     assert!(err.contains("stopping after the runs in flight"), "{err}");
     assert!(err.contains("savme: interrupted: stopped in "), "{err}");
-    let hint = format!("continue with --resume {}", dir.display());
+    let hint = format!(
+        "trials (every told trial is stored); continue with --resume {}",
+        dir.display()
+    );
     assert!(err.contains(&hint), "{err}");
     let before = trials(&dir).len();
     assert!(

@@ -116,7 +116,9 @@ pub enum CampaignError {
     },
     /// The campaign was asked to stop ([`Stop`](super::Stop)) before it finished; the trials
     /// told so far are stored, and resuming continues from them.
-    #[error("stopped in {stage} after {told} of its {iterations} trials; the told trials are stored, resume to continue")]
+    #[error(
+        "stopped in {stage} after {told} of its {iterations} trials (every told trial is stored)"
+    )]
     Stopped {
         /// Label of the stage that was running.
         stage: String,
