@@ -14,7 +14,7 @@ _RunResult = Tuple[bool, float]
 __version__: str
 __all__ = [
     "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
-    "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Protocol", "Problem",
+    "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Estimation", "Protocol", "Problem",
     "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator",
 ]
 
@@ -255,6 +255,22 @@ class Kernel:
     def estimate(self, estimator: Optional[_EstimatorName] = None) -> Dict[str, _Value]:
         """θ_LF*: the greedy fidelity settings (default: the kernel's estimator), continuous
         settings at their bin's expected value."""
+    def estimation(
+        self,
+        *,
+        epsilon: float = 0.1,
+        seed: int = 0,
+        nominal: Optional[Mapping[str, Mapping[str, Mapping[str, Any]]]] = None,
+        tilt: Literal["posterior", "nominal-weighted"] = "posterior",
+        refine: Optional[Tuple[int, int]] = None,
+    ) -> Estimation:
+        """An importance-sampling estimation of P(failure) under the nominal distribution
+        from the current φ posteriors (docs/ESTIMATION.md): `epsilon` is the nominal's share
+        of the proposal; `nominal` maps scenario → variable → {"distribution": "normal",
+        "mean": M, "sd": S} (or "uniform", or "weights" with "weights": [...]) for variables
+        that are not uniform; `refine=(rounds, runs)` adds cross-entropy pilot rounds.
+        ValueError names ε, the refinement, the scenario or the variable. The kernel is not
+        changed."""
     def fidelity_posterior(self) -> Posterior:
         """p_ω(θ_LF); pass it as `fidelity_prior=` to a meta-testing kernel."""
     def scenario_posterior(self, name: str) -> Posterior:
@@ -285,6 +301,28 @@ class Kernel:
         raise ValueError."""
     def __enter__(self) -> Kernel: ...
     def __exit__(self, *exc: object) -> bool: ...
+
+@final
+class Estimation:
+    """P(failure) under the nominal distribution by importance sampling from a fixed
+    proposal (made by Kernel.estimation): ask a trial, run the HF simulator on its φ, tell
+    the failure, read the estimate."""
+
+    def ask(self) -> Optional[Dict[str, Any]]:
+        """The next trial: {"id", "scenario", "scenario_index", "phi", "q", "p", "weight",
+        "round"} ("round": the refinement round, None for a trial of the estimate); None
+        while a refinement round waits for the outcomes of the trials it asked."""
+    def tell(self, id: int, failure: bool) -> None:
+        """The HF outcome of trial `id` (savme.TellError if it is not pending)."""
+    def estimate(self) -> Dict[str, Any]:
+        """{"total": {"mean", "std_error", "half_width", "lo", "hi"}, "runs", "failures",
+        "scenarios": [...]} from the trials after the refinement."""
+    @property
+    def told(self) -> int:
+        """Trials told, refinement and estimate together."""
+    @property
+    def round(self) -> Optional[int]:
+        """The refinement round under way (None: none, or it is over)."""
 
 _SimulatorFn = Callable[[str, Dict[str, _Value], Dict[str, _Value]], Union[bool, Tuple[bool, int]]]
 """A Python simulator: (scenario, phi, theta) -> failure, or (failure, work_units)."""

@@ -3,6 +3,7 @@
 
 use crate::convert;
 use crate::errors;
+use crate::estimation::{self, PyEstimation};
 use crate::space::PySpace;
 use crate::trial::{PyPosterior, PyRecord, PyTrial};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -313,6 +314,26 @@ impl PyKernel {
             Ok(k.fidelity_estimate(est.unwrap_or(k.config().estimator)))
         })?;
         convert::dict(py, &theta)
+    }
+
+    /// An importance-sampling estimation of P(failure) under the nominal distribution from
+    /// the current φ posteriors (typically after meta-training): `epsilon` is the nominal's
+    /// share of the proposal, `nominal` maps scenario → variable → `{"distribution":
+    /// "normal", "mean": M, "sd": S}` (or `"uniform"`, or `"weights"` with `"weights": [...]`)
+    /// for the variables that are not uniform, `tilt` is "posterior" or "nominal-weighted",
+    /// `refine=(rounds, runs)` adds cross-entropy pilot rounds. The kernel is not changed.
+    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None))]
+    fn estimation(
+        &self,
+        py: Python<'_>,
+        epsilon: f64,
+        seed: u64,
+        nominal: Option<&Bound<'_, PyAny>>,
+        tilt: &str,
+        refine: Option<(u32, u64)>,
+    ) -> PyResult<PyEstimation> {
+        let config = estimation::config(py, epsilon, seed, nominal, tilt, refine)?;
+        self.with(|s| PyEstimation::of(s.kernel(), &config))
     }
 
     /// The fidelity posterior p_ω(θ_LF).

@@ -2,7 +2,8 @@
 //! `python/savme/`, which re-exports this module's classes and adds pure-Python helpers).
 //!
 //! One module per concept: `space` (spaces and variables), `trial` (trials, records,
-//! posteriors), `kernel` (the ask/tell kernel, plain or journaled), `campaign` (protocol,
+//! posteriors), `kernel` (the ask/tell kernel, plain or journaled), `estimation` (P(failure)
+//! by importance sampling from a kernel's posteriors), `campaign` (protocol,
 //! problem, the campaign loop on Python callables), `sim` (the bundled driving simulator
 //! and FMUs), `convert` (values
 //! between Rust and Python) and `errors` (Rust errors as Python exceptions).
@@ -12,6 +13,7 @@ use pyo3::prelude::*;
 mod campaign;
 mod convert;
 mod errors;
+mod estimation;
 mod kernel;
 mod sim;
 mod space;
@@ -33,6 +35,7 @@ fn _savme(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<trial::PyRecord>()?;
     m.add_class::<trial::PyPosterior>()?;
     m.add_class::<kernel::PyKernel>()?;
+    m.add_class::<estimation::PyEstimation>()?;
     m.add("CampaignError", py.get_type::<errors::CampaignError>())?;
     m.add_class::<campaign::PyProtocol>()?;
     m.add_class::<campaign::PyProblem>()?;

@@ -300,3 +300,63 @@ def test_a_closed_kernel_refuses_calls():
         k.ask()
     with pytest.raises(ValueError, match="the kernel is closed"):
         k.ask()
+
+
+def trained_kernel():
+    """300 training trials of the stand-in simulator (failure below a gap of 15 m)."""
+    k = kernel()
+    for _ in range(300):
+        t = k.ask()
+        hf, lf = runs(t)
+        k.tell(t, hf=hf, lf=lf)
+    return k
+
+
+def test_an_estimation_from_the_posteriors_covers_the_true_failure_probability():
+    # Under the uniform nominal, P(gap < 15 m) = (15 − 5) / (50 − 5) = 2/9.
+    k = trained_kernel()
+    before = k.to_json()
+    est = k.estimation(epsilon=0.2, seed=3)
+    assert k.to_json() == before, "estimating changes nothing in the kernel"
+    for _ in range(3000):
+        t = est.ask()
+        assert t["round"] is None and t["weight"] <= 5.0 + 1e-9
+        assert abs(t["weight"] - t["p"] / t["q"]) < 1e-12
+        est.tell(t["id"], t["phi"]["gap_m"] < 15.0)
+    e = est.estimate()
+    assert e["runs"] == 3000 and est.told == 3000
+    assert e["total"]["lo"] <= 2 / 9 <= e["total"]["hi"], e["total"]
+    with pytest.raises(savme.TellError, match="trial 0 is not pending"):
+        est.tell(0, True)
+
+
+def test_a_refined_estimation_waits_for_each_round_and_a_normal_nominal_is_used():
+    k = trained_kernel()
+    nominal = {"lead_brakes": {"gap_m": {"distribution": "normal", "mean": 30.0, "sd": 6.0}}}
+    est = k.estimation(epsilon=0.1, seed=1, nominal=nominal, refine=(2, 50))
+    for r in range(2):
+        assert est.round == r
+        asked = [est.ask() for _ in range(50)]
+        assert all(t["round"] == r for t in asked)
+        assert est.ask() is None, "the round waits for its outcomes"
+        for t in asked:
+            est.tell(t["id"], t["phi"]["gap_m"] < 15.0)
+    assert est.round is None and est.ask()["round"] is None
+    assert est.estimate()["runs"] == 0 and est.told == 100
+    assert "Estimation(scenarios=['lead_brakes'], told=100)" == repr(est)
+
+
+def test_bad_estimation_arguments_name_what_is_wrong():
+    k = trained_kernel()
+    with pytest.raises(ValueError, match=r"epsilon .* must lie in \(0, 1\], got 0"):
+        k.estimation(epsilon=0.0)
+    with pytest.raises(ValueError, match="refine needs at least 1 round"):
+        k.estimation(refine=(0, 10))
+    with pytest.raises(ValueError, match="unknown variable `gap` of scenario `lead_brakes`"):
+        k.estimation(nominal={"lead_brakes": {"gap": {"distribution": "uniform"}}})
+    with pytest.raises(ValueError, match="nominal: unknown variant `gamma`"):
+        k.estimation(nominal={"lead_brakes": {"gap_m": {"distribution": "gamma"}}})
+    with pytest.raises(TypeError, match="nominal: expected"):
+        k.estimation(nominal=[1, 2])
+    with pytest.raises(ValueError, match='tilt: unknown tilt "sideways"'):
+        k.estimation(tilt="sideways")

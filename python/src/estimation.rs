@@ -1,0 +1,136 @@
+//! `savme.Estimation`: P(failure) under the nominal distribution by importance sampling from
+//! a kernel's learned posteriors (`Kernel.estimation(...)`; the maths is
+//! `savme_kernel::estimation`, the method docs/ESTIMATION.md).
+
+use crate::convert;
+use crate::errors;
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use savme_kernel::estimation::{Estimation, EstimationConfig, Nominal, Refine, Tilt};
+use savme_kernel::Kernel;
+use std::collections::BTreeMap;
+use std::sync::Mutex;
+
+/// An importance-sampling estimation: `ask()` a trial (φ drawn from the fixed proposal, or
+/// None while a refinement round waits for its outcomes), run the HF simulator on it,
+/// `tell(id, failure)`, and read `estimate()`.
+#[pyclass(name = "Estimation", module = "savme", frozen)]
+pub struct PyEstimation {
+    estimation: Mutex<Estimation>,
+}
+
+/// The kernel's `estimation(...)` arguments as a configuration; errors name the argument.
+pub fn config(
+    py: Python<'_>,
+    epsilon: f64,
+    seed: u64,
+    nominal: Option<&Bound<'_, PyAny>>,
+    tilt: &str,
+    refine: Option<(u32, u64)>,
+) -> PyResult<EstimationConfig> {
+    let tilt = match tilt {
+        "posterior" => Tilt::Posterior,
+        "nominal-weighted" => Tilt::NominalWeighted,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "tilt: unknown tilt {other:?}: expected \"posterior\" or \"nominal-weighted\""
+            )))
+        }
+    };
+    let nominal = match nominal {
+        None => BTreeMap::new(),
+        Some(n) => {
+            if !n.is_instance_of::<PyDict>() {
+                return Err(PyTypeError::new_err(format!(
+                    "nominal: expected {{scenario: {{variable: {{\"distribution\": ...}}}}}}, got {}",
+                    n.get_type().name()?
+                )));
+            }
+            let text: String = py.import("json")?.call_method1("dumps", (n,))?.extract()?;
+            serde_json::from_str::<BTreeMap<String, BTreeMap<String, Nominal>>>(&text).map_err(
+                |e| {
+                    PyValueError::new_err(format!(
+                        "nominal: {e} (a variable's nominal is {{\"distribution\": \"uniform\"}}, {{\"distribution\": \"normal\", \"mean\": M, \"sd\": S}} or {{\"distribution\": \"weights\", \"weights\": [...]}})"
+                    ))
+                },
+            )?
+        }
+    };
+    Ok(EstimationConfig {
+        epsilon,
+        seed,
+        nominal,
+        tilt,
+        refine: refine.map(|(rounds, runs)| Refine { rounds, runs }),
+    })
+}
+
+impl PyEstimation {
+    /// The estimation of `kernel`'s current posteriors with `config` (`ValueError` naming ε,
+    /// the refinement, the scenario or the variable).
+    pub fn of(kernel: &Kernel, config: &EstimationConfig) -> PyResult<Self> {
+        let estimation = kernel.estimation(config).map_err(errors::value)?;
+        Ok(PyEstimation {
+            estimation: Mutex::new(estimation),
+        })
+    }
+
+    fn with<T>(&self, f: impl FnOnce(&mut Estimation) -> PyResult<T>) -> PyResult<T> {
+        let mut guard = self
+            .estimation
+            .lock()
+            .map_err(|_| PyValueError::new_err("the estimation is poisoned by an earlier panic"))?;
+        f(&mut guard)
+    }
+}
+
+#[pymethods]
+impl PyEstimation {
+    /// The next trial as a dict — `id`, `scenario`, `phi`, `q`, `p`, `weight` and `round`
+    /// (the refinement round, None for a trial of the estimate) — or None while a refinement
+    /// round has asked all its trials and waits for their outcomes.
+    fn ask<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let trial = self.with(|e| Ok(e.ask()))?;
+        trial.map(|t| convert::json_to_py(py, &t)).transpose()
+    }
+
+    /// Takes the HF outcome of trial `id` (`savme.TellError` for a trial not pending).
+    fn tell(&self, id: u64, failure: bool) -> PyResult<()> {
+        self.with(|e| {
+            e.tell(id, failure)
+                .map_err(|e| errors::TellError::new_err(e.to_string()))
+        })
+    }
+
+    /// The estimate so far as a dict: `total` (`mean`, `std_error`, `half_width`, `lo`, `hi`),
+    /// `runs`, `failures` and per scenario the same with the effective sample sizes. Only the
+    /// trials after the refinement count.
+    fn estimate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let estimate = self.with(|e| Ok(e.estimate()))?;
+        convert::json_to_py(py, &estimate)
+    }
+
+    /// Trials told so far, refinement and estimate together.
+    #[getter]
+    fn told(&self) -> PyResult<u64> {
+        self.with(|e| Ok(e.told()))
+    }
+
+    /// The refinement round under way (None: no refinement, or it is over).
+    #[getter]
+    fn round(&self) -> PyResult<Option<u32>> {
+        self.with(|e| Ok(e.round()))
+    }
+
+    fn __repr__(&self) -> PyResult<String> {
+        self.with(|e| {
+            let names: Vec<String> = e.scenarios().iter().map(|s| format!("'{s}'")).collect();
+            Ok(format!(
+                "Estimation(scenarios=[{}], told={})",
+                names.join(", "),
+                e.told()
+            ))
+        })
+    }
+}
