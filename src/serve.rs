@@ -14,15 +14,23 @@
 //! | `{"op":"posterior"}` | `{"ok":true,"fidelity":{…},"scenarios":{…}}` |
 //! | `{"op":"stats"}` | `{"ok":true,"stats":{…},"pending":[ids]}` |
 //! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
+//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
+//! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}`, or `"trial":null` while a refinement round waits for its outcomes |
+//! | `{"op":"estimation_tell","id":0,"failure":true}` | `{"ok":true}` |
+//! | `{"op":"estimation_result"}` | `{"ok":true,"estimate":{"total":{"mean","lo","hi",…},…},"told":n,"round":r}` |
 //!
 //! A bad request — not UTF-8, not JSON, an unknown key, a refused tell — gets
 //! `{"ok":false,"error":"request line N: …"}` and changes nothing; the server goes on. An ask of
 //! `n` trials is all or nothing. With a journal every change is logged before it is applied,
 //! and a restarted server resumes from it. `estimate` says how much evidence stands behind it:
-//! before any (`"learned":false`) it is only the prior's choice.
+//! before any (`"learned":false`) it is only the prior's choice. An estimation lives in the
+//! server's memory only (it is not journaled, and it never changes the kernel); its trials
+//! depend only on its request and the outcomes told, so a client that restarts it with the
+//! same request and tells the same outcomes in order gets the same trials again.
 
 use crate::campaign::store::journal::JournalSink;
 use crate::campaign::store::StoreError;
+use savme_kernel::estimation::{Estimation, EstimationConfig};
 use savme_kernel::journal::{Journaled, JournaledTellError};
 use savme_kernel::{Estimator, Kernel, Observation, Phase, TellError, Trial, TrialRecord};
 use serde::Deserialize;
@@ -54,6 +62,13 @@ enum Request {
     Posterior {},
     Stats {},
     Pending {},
+    Estimation(EstimationConfig),
+    EstimationAsk {},
+    EstimationTell {
+        id: u64,
+        failure: bool,
+    },
+    EstimationResult {},
 }
 
 fn one() -> usize {
@@ -84,6 +99,17 @@ pub enum SessionError {
     /// An ask of no trials, or of more than [`MAX_BATCH`].
     #[error("n must be between 1 and {MAX_BATCH}, got {0}")]
     BadBatch(usize),
+    /// An estimation that cannot start, or a refused estimation tell.
+    #[error("estimation: {0}")]
+    Estimation(#[from] savme_kernel::estimation::EstimationError),
+    /// An estimation request before any `estimation` started one.
+    #[error("no estimation is running: start one with {{\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":0}}")]
+    NoEstimation,
+}
+
+/// The running estimation, or the error saying none is.
+fn running(e: &mut Option<Estimation>) -> Result<&mut Estimation, SessionError> {
+    e.as_mut().ok_or(SessionError::NoEstimation)
 }
 
 impl From<JournaledTellError<StoreError>> for SessionError {
@@ -141,15 +167,28 @@ impl Session {
         Ok(())
     }
 
-    /// Handles one request line; returns the response object.
+    /// Handles one request line; returns the response object. Estimation requests need the
+    /// server's state: use [`Session::handle_with`] (as [`Session::serve`] does).
     pub fn handle(&mut self, line: &str) -> Value {
+        self.handle_with(line, &mut None)
+    }
+
+    /// Handles one request line with `estimation`, the estimation the server is running (the
+    /// `estimation…` requests start, ask, tell and read it); returns the response object.
+    pub fn handle_with(&mut self, line: &str, estimation: &mut Option<Estimation>) -> Value {
         match serde_json::from_str::<Request>(line) {
             Err(e) => error(not_a_request(line, &e)),
-            Ok(r) => self.apply(r).unwrap_or_else(|e| error(e.to_string())),
+            Ok(r) => self
+                .apply(r, estimation)
+                .unwrap_or_else(|e| error(e.to_string())),
         }
     }
 
-    fn apply(&mut self, request: Request) -> Result<Value, SessionError> {
+    fn apply(
+        &mut self,
+        request: Request,
+        estimation: &mut Option<Estimation>,
+    ) -> Result<Value, SessionError> {
         match request {
             Request::Ask { n } => Ok(json!({"ok": true, "trials": self.ask(n)?})),
             Request::Tell { id, observation } => {
@@ -165,6 +204,38 @@ impl Session {
             Request::Pending {} => {
                 let trials: Vec<_> = self.kernel().pending().cloned().collect();
                 Ok(json!({"ok": true, "trials": trials}))
+            }
+            Request::Estimation(config) => {
+                let e = self
+                    .kernel()
+                    .estimation(&config)
+                    .map_err(SessionError::Estimation)?;
+                let answer = json!({
+                    "ok": true,
+                    "scenarios": e.scenarios(),
+                    "probabilities": e.probabilities(),
+                });
+                *estimation = Some(e);
+                Ok(answer)
+            }
+            Request::EstimationAsk {} => {
+                let trial = running(estimation)?.ask();
+                Ok(json!({"ok": true, "trial": trial}))
+            }
+            Request::EstimationTell { id, failure } => {
+                running(estimation)?
+                    .tell(id, failure)
+                    .map_err(SessionError::Estimation)?;
+                Ok(json!({"ok": true}))
+            }
+            Request::EstimationResult {} => {
+                let e = running(estimation)?;
+                Ok(json!({
+                    "ok": true,
+                    "estimate": e.estimate(),
+                    "told": e.told(),
+                    "round": e.round(),
+                }))
             }
             Request::Stats {} => {
                 let k = self.kernel();
@@ -189,6 +260,7 @@ impl Session {
     ) -> std::io::Result<()> {
         let mut buf = Vec::new();
         let mut number = 0usize;
+        let mut estimation = None;
         loop {
             buf.clear();
             if input.read_until(b'\n', &mut buf)? == 0 {
@@ -197,7 +269,7 @@ impl Session {
             number += 1;
             let mut response = match std::str::from_utf8(&buf) {
                 Ok(line) if line.trim().is_empty() => continue,
-                Ok(line) => self.handle(line),
+                Ok(line) => self.handle_with(line, &mut estimation),
                 Err(e) => error(format!(
                     "not UTF-8 text (byte {} of the line)",
                     e.valid_up_to() + 1
@@ -320,6 +392,107 @@ mod tests {
         assert_eq!(r[2]["ok"], true);
         assert!(r[3]["theta_lf"]["rate_hz"].is_number());
         assert!(r[4]["scenarios"]["braking_lead"].is_object());
+    }
+
+    /// Trains the toy session on 60 paired trials (the failure rule: trial id divisible by 3).
+    fn trained() -> Session {
+        let mut s = session();
+        for _ in 0..60 {
+            let t = s.ask(1).unwrap().remove(0);
+            let run = savme_kernel::Run::new(t.id % 3 == 0, 1.0);
+            let observation = Observation::Paired { hf: run, lf: run };
+            s.tell(t.id, observation).unwrap();
+        }
+        s
+    }
+
+    /// An estimation over the protocol: started from the posteriors (the kernel unchanged),
+    /// asked and told (here failing every fourth trial), its result read; with refinement,
+    /// `estimation_ask` answers `null` while the round waits. Trials are those of the kernel's
+    /// own `Estimation` with the same configuration.
+    #[test]
+    fn an_estimation_runs_over_the_protocol() {
+        let mut s = trained();
+        let before = s.kernel().to_json();
+        let mut input = String::from("{\"op\":\"estimation\",\"epsilon\":0.2,\"seed\":5,\"refine\":{\"rounds\":1,\"runs\":4}}\n");
+        // The round's 4 asks, a fifth that must wait, then the round's outcomes.
+        input += &"{\"op\":\"estimation_ask\"}\n".repeat(5);
+        for id in 0..4 {
+            input += &format!(
+                "{{\"op\":\"estimation_tell\",\"id\":{id},\"failure\":{}}}\n",
+                id % 2 == 0
+            );
+        }
+        for id in 4..40 {
+            input += &format!("{{\"op\":\"estimation_ask\"}}\n{{\"op\":\"estimation_tell\",\"id\":{id},\"failure\":{}}}\n", id % 4 == 0);
+        }
+        input += "{\"op\":\"estimation_result\"}\n";
+        let r = run(&mut s, &input);
+        assert_eq!(
+            r[0]["scenarios"],
+            json!(["stopped_obstacle", "braking_lead"])
+        );
+        assert_eq!(r[0]["probabilities"], json!([0.5, 0.5]));
+        assert_eq!(r[1]["trial"]["round"], 0);
+        assert_eq!(
+            r[5]["trial"],
+            Value::Null,
+            "the round waits for its outcomes"
+        );
+        assert!(r[6..10].iter().all(|x| x["ok"] == true));
+        assert_eq!(r[10]["trial"]["round"], Value::Null);
+        let last = r.last().unwrap();
+        assert_eq!(
+            (last["told"].as_u64(), last["estimate"]["runs"].as_u64()),
+            (Some(40), Some(36))
+        );
+        assert_eq!(last["estimate"]["failures"], 9);
+        assert_eq!(s.kernel().to_json(), before);
+        // The same trials as the kernel's own estimation with that configuration.
+        let config = EstimationConfig {
+            refine: Some(savme_kernel::estimation::Refine { rounds: 1, runs: 4 }),
+            ..EstimationConfig::new(0.2, 5)
+        };
+        let mut e = s.kernel().estimation(&config).unwrap();
+        let first = e.ask().unwrap();
+        assert_eq!(json!(first), r[1]["trial"]);
+    }
+
+    #[test]
+    fn estimation_requests_are_refused_naming_what_is_wrong() {
+        let mut s = trained();
+        let input = "{\"op\":\"estimation_ask\"}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0,\"seed\":1}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1,\"nominal\":{\"braking_lead\":{\"nope\":{\"distribution\":\"uniform\"}}}}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1,\"bogus\":2}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1}\n\
+                     {\"op\":\"estimation_tell\",\"id\":3,\"failure\":true}\n";
+        let r = run(&mut s, input);
+        let err = |i: usize| r[i]["error"].as_str().unwrap().to_string();
+        assert!(
+            err(0).starts_with("request line 1: no estimation is running"),
+            "{}",
+            err(0)
+        );
+        assert!(
+            err(1).contains(
+                "epsilon (the nominal's share of the proposal) must lie in (0, 1], got 0"
+            ),
+            "{}",
+            err(1)
+        );
+        assert!(
+            err(2).contains("unknown variable `nope` of scenario `braking_lead`"),
+            "{}",
+            err(2)
+        );
+        assert!(err(3).contains("bogus"), "{}", err(3));
+        assert_eq!(r[4]["ok"], true);
+        assert!(
+            err(5).contains("estimation trial 3 is not pending"),
+            "{}",
+            err(5)
+        );
     }
 
     #[test]

@@ -52,7 +52,9 @@ pub fn session(e: SessionError) -> PyErr {
     match e {
         SessionError::Refused(e) => TellError::new_err(e.to_string()),
         SessionError::Journal(e) => store(e),
-        SessionError::BadBatch(_) => PyValueError::new_err(e.to_string()),
+        SessionError::BadBatch(_) | SessionError::Estimation(_) | SessionError::NoEstimation => {
+            PyValueError::new_err(e.to_string())
+        }
     }
 }
 
