@@ -399,7 +399,7 @@ mod tests {
         let mut s = session();
         for _ in 0..60 {
             let t = s.ask(1).unwrap().remove(0);
-            let run = savme_kernel::Run::new(t.id % 3 == 0, 1.0);
+            let run = savme_kernel::Run::new(t.id.is_multiple_of(3), 1.0);
             let observation = Observation::Paired { hf: run, lf: run };
             s.tell(t.id, observation).unwrap();
         }
