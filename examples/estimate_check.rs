@@ -14,8 +14,13 @@
 //! cargo run --release --example estimate_check -- --out DIR [--scenario NAME]
 //!     [--train-iterations 200] [--mc-runs 20000] [--target 0.1] [--max-runs 200000]
 //!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
-//!     [--refine-rounds 0 --refine-runs 0] [--jobs 2] [--seed 1]
+//!     [--refine-rounds 0 --refine-runs 0] [--noise-sd 0.1] [--jobs 2] [--seed 1]
+//!     [--mc-seed 12648430]
 //! ```
+//!
+//! `--noise-sd` is the idealised perception's position noise in metres (0.1, the bundled
+//! `--perception ideal`, by default; 0 makes the failure a deterministic function of φ
+//! without the noise seeded by φ's hash).
 use rand::{RngExt, SeedableRng};
 use savme::campaign::estimate::{parse_nominal, EstimateRun, EstimateSettings};
 use savme::campaign::{config, Campaign, Cost, Problem, Protocol};
@@ -39,6 +44,8 @@ struct Options {
     tilt: Tilt,
     refine_rounds: u32,
     refine_runs: u64,
+    noise_sd: f64,
+    mc_seed: u64,
     jobs: usize,
     seed: u64,
 }
@@ -56,6 +63,8 @@ fn options() -> Result<Options, String> {
         tilt: Tilt::Posterior,
         refine_rounds: 0,
         refine_runs: 0,
+        noise_sd: 0.1,
+        mc_seed: 0xC0FFEE,
         jobs: 2,
         seed: 1,
     };
@@ -74,6 +83,8 @@ fn options() -> Result<Options, String> {
             "--jobs" => o.jobs = num(&value)? as usize,
             "--refine-rounds" => o.refine_rounds = num(&value)? as u32,
             "--refine-runs" => o.refine_runs = num(&value)? as u64,
+            "--noise-sd" => o.noise_sd = num(&value)?,
+            "--mc-seed" => o.mc_seed = value.parse().map_err(|e| format!("--mc-seed: {e}"))?,
             "--tilt" => {
                 o.tilt = serde_json::from_value(serde_json::Value::String(value))
                     .map_err(|e| format!("--tilt: {e}"))?
@@ -94,7 +105,7 @@ fn options() -> Result<Options, String> {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let o = options()?;
-    let sim = DrivingSimulator::ideal();
+    let sim = simulator(o.noise_sd);
     let (_, test) = savme_sim::scenario::train_test_names();
     let mut protocol = Protocol::quick(config::IDEAL, vec![o.scenario.clone()], test);
     protocol.seed = o.seed;
@@ -144,6 +155,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "tilt": o.tilt,
         "refine_rounds": o.refine_rounds,
         "refine_runs": o.refine_runs,
+        "noise_sd": o.noise_sd,
         "train_iterations": o.train_iterations,
         "importance_sampling": {
             "estimate": total.mean, "lo": total.lo, "hi": total.hi,
@@ -168,7 +180,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         covered = total.lo <= p_mc && p_mc <= total.hi;
         report["monte_carlo"] = serde_json::json!({
             "estimate": p_mc, "wilson_lo": mc_lo, "wilson_hi": mc_hi,
-            "runs": mc_runs, "failures": mc_failures, "seconds": t_mc,
+            "runs": mc_runs, "failures": mc_failures, "seconds": t_mc, "seed": o.mc_seed,
         });
         report["is_interval_covers_mc"] = covered.into();
         // The two estimates' difference in combined standard errors (the MC value has its
@@ -190,6 +202,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .into());
     }
     Ok(())
+}
+
+/// The bundled simulator with idealised perception of this position noise.
+fn simulator(noise_sd: f64) -> DrivingSimulator {
+    DrivingSimulator {
+        perception: savme_sim::sim::PerceptionMode::Ideal { noise_sd },
+    }
 }
 
 /// Wilson's 95 % interval of `k` successes in `n`.
@@ -214,8 +233,8 @@ fn monte_carlo(o: &Options) -> Result<(u64, u64), String> {
             .map(|j| {
                 let (space, theta) = (&space, &theta);
                 s.spawn(move || {
-                    let mut rng = rand_pcg::Pcg64::seed_from_u64(0xC0FFEE + j);
-                    let mut sim = DrivingSimulator::ideal();
+                    let mut rng = rand_pcg::Pcg64::seed_from_u64(o.mc_seed + j);
+                    let mut sim = simulator(o.noise_sd);
                     let mut failures = 0;
                     for _ in 0..per {
                         let mut phi = Assignment::new();
