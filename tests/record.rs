@@ -361,11 +361,15 @@ fn simulate_refuses_a_viewer_address_where_none_listens_before_running() {
 }
 
 /// The trials that get frames, recomputed from trials.jsonl: every `every`-th, then up to
-/// `cap` of the others — FN and FP alternately, then TP, then baseline HF failures.
+/// `cap` of the others — FN and FP alternately, then TP, then baseline HF failures. Screening
+/// trials count in the told index but get no frames.
 fn expected_recorded(trials: &[serde_json::Value], every: usize, cap: usize) -> BTreeSet<usize> {
     let mut by_class: [Vec<usize>; 4] = Default::default();
     let mut out = BTreeSet::new();
     for (n, t) in trials.iter().enumerate() {
+        if t.get("screen").is_some() {
+            continue;
+        }
         if n % every == 0 {
             out.insert(n);
             continue;
@@ -424,6 +428,8 @@ fn campaign(dir: &Path, every: &str, failures: &str) -> (PathBuf, Vec<serde_json
             "--baseline-iterations",
             "10",
             "--baseline-test-iterations",
+            "6",
+            "--screen-iterations",
             "6",
             "--cost",
             "work",
@@ -511,6 +517,15 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
         .sum();
     let logged = c.times["/campaign/found_failures/train_0_3"]["runtime"] as f64 * 1e-9;
     assert!((logged - runtime).abs() < 1e-6, "{logged} vs {runtime}");
+    // The screening stage's HF failures (confirmations and audit misses) on the same plot.
+    let screen: Vec<&serde_json::Value> = trials
+        .iter()
+        .filter(|t| t["stage"] == "screen@0.3")
+        .collect();
+    assert_eq!(screen.len(), 6);
+    let found = screen.iter().filter(|t| t["hf"]["failure"] == true).count();
+    let curve = &c.scalars["/campaign/found_failures/screen_0_3"];
+    assert_eq!((curve.len(), *curve.last().unwrap()), (6, found as f64));
     for stage in [
         "baseline-train",
         "baseline-test",

@@ -3,7 +3,8 @@
 //! simulation the trial's stage has spent so far, HF and LF runs — every stage starts at 0,
 //! so stages compare on one plot as in the paper's figures).
 //!
-//! - `/campaign/found_failures/<stage>`: HF failures found so far;
+//! - `/campaign/found_failures/<stage>`: HF failures found so far (for an LF screening stage:
+//!   the HF failures its confirmations and audits found, on the LF + HF runtime);
 //! - `/campaign/fidelity_success/<stage>`: the share of paired trials so far whose θ_LF was a
 //!   fidelity success (Table II: TP or TN at a cost ratio within the budget);
 //! - `/campaign/cost_ratio/<stage>`: each paired trial's t_LF / t_HF;
@@ -13,7 +14,7 @@
 //! - `/campaign/summary`: what was recorded, and why.
 
 use super::recorder::{err, RecordError, RecordOptions};
-use crate::campaign::log::TrialLine;
+use crate::campaign::log::{ScreenLine, TrialLine};
 use crate::campaign::Stage;
 use crate::campaign::{Problem, Protocol};
 use rerun::RecordingStream;
@@ -114,26 +115,8 @@ impl CampaignView {
         line: &TrialLine,
         kernel: &Kernel,
     ) -> Result<(), RecordError> {
-        let label = entity_label(&stage.label());
-        let t = self.stages.entry(label.clone()).or_default();
-        t.trials += 1;
-        t.runtime += line.hf.wall_seconds + line.lf.map_or(0.0, |l| l.wall_seconds);
-        t.found += u64::from(line.hf.failure);
-        let tally = t.clone();
-        rec.set_time_sequence("trial", n as i64);
-        rec.set_duration_secs("runtime", tally.runtime);
-        if tally.trials == 1 {
-            rec.log_static(
-                format!("campaign/found_failures/{label}"),
-                &rerun::SeriesLines::new().with_names([stage.label()]),
-            )
-            .map_err(err)?;
-        }
-        rec.log(
-            format!("campaign/found_failures/{label}"),
-            &rerun::Scalars::single(tally.found as f64),
-        )
-        .map_err(err)?;
+        let runtime = line.hf.wall_seconds + line.lf.map_or(0.0, |l| l.wall_seconds);
+        let label = self.found(rec, n, stage, runtime, line.hf.failure)?;
         if let (Some(outcome), Some(ratio), Some(budget)) =
             (line.outcome, line.cost_ratio, stage.budget)
         {
@@ -171,6 +154,53 @@ impl CampaignView {
             self.log_posteriors(rec, &label, kernel)?;
         }
         Ok(())
+    }
+
+    /// Records screening trial number `n` of the campaign: its HF failure (a confirmed LF
+    /// failure, or an audit's miss) on the found-failures plot, at the LF + HF runtime.
+    pub fn screened(
+        &mut self,
+        rec: &RecordingStream,
+        n: u64,
+        stage: &Stage,
+        line: &ScreenLine,
+    ) -> Result<(), RecordError> {
+        let runtime = line.lf.wall_seconds + line.hf.map_or(0.0, |h| h.wall_seconds);
+        let failure = line.hf.is_some_and(|h| h.failure);
+        self.found(rec, n, stage, runtime, failure).map(|_| ())
+    }
+
+    /// Counts one more trial of `stage` (its runtime, and an HF failure if `failure`), sets
+    /// the timelines and logs the stage's found-failures curve; returns the stage's label.
+    fn found(
+        &mut self,
+        rec: &RecordingStream,
+        n: u64,
+        stage: &Stage,
+        runtime: f64,
+        failure: bool,
+    ) -> Result<String, RecordError> {
+        let label = entity_label(&stage.label());
+        let t = self.stages.entry(label.clone()).or_default();
+        t.trials += 1;
+        t.runtime += runtime;
+        t.found += u64::from(failure);
+        let tally = t.clone();
+        rec.set_time_sequence("trial", n as i64);
+        rec.set_duration_secs("runtime", tally.runtime);
+        if tally.trials == 1 {
+            rec.log_static(
+                format!("campaign/found_failures/{label}"),
+                &rerun::SeriesLines::new().with_names([stage.label()]),
+            )
+            .map_err(err)?;
+        }
+        rec.log(
+            format!("campaign/found_failures/{label}"),
+            &rerun::Scalars::single(tally.found as f64),
+        )
+        .map_err(err)?;
+        Ok(label)
     }
 
     fn log_posteriors(

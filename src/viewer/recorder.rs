@@ -13,7 +13,7 @@
 use super::campaign::CampaignView;
 use super::layout::{self, Layout};
 use super::trial::{self, TrialRecording};
-use crate::campaign::log::TrialLine;
+use crate::campaign::log::{ScreenLine, TrialLine};
 use crate::campaign::{CampaignError, Observer, Problem, Protocol, Stage};
 use rerun::RecordingStream;
 use savme_kernel::{Assignment, Kernel, Outcome};
@@ -385,6 +385,15 @@ impl Recorder {
 impl Observer for Recorder {
     fn finish(&mut self) -> Result<(), CampaignError> {
         self.observer_finish()
+    }
+
+    fn screened(&mut self, stage: &Stage, line: &ScreenLine, _: &Kernel) {
+        // On the campaign's curves only: a screening trial is not a paired trial to replay.
+        let n = self.told;
+        self.told += 1;
+        if let Err(e) = self.view.screened(&self.rec, n, stage, line) {
+            eprintln!("savme: recording: {e}");
+        }
     }
 
     fn trial(&mut self, stage: &Stage, line: &TrialLine, kernel: &Kernel) {
