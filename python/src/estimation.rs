@@ -29,15 +29,13 @@ pub fn config(
     tilt: &str,
     refine: Option<(u32, u64)>,
 ) -> PyResult<EstimationConfig> {
-    let tilt = match tilt {
-        "posterior" => Tilt::Posterior,
-        "nominal-weighted" => Tilt::NominalWeighted,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "tilt: unknown tilt {other:?}: expected \"posterior\" or \"nominal-weighted\""
-            )))
-        }
-    };
+    // The kernel's own names for the tilts (its serde form), so there is one list of them.
+    let tilt: Tilt =
+        serde_json::from_value(serde_json::Value::String(tilt.into())).map_err(|_| {
+            PyValueError::new_err(format!(
+                "tilt: unknown tilt {tilt:?}: expected \"posterior\" or \"nominal-weighted\""
+            ))
+        })?;
     let nominal = match nominal {
         None => BTreeMap::new(),
         Some(n) => {

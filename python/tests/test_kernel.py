@@ -38,6 +38,16 @@ def runs(trial):
     return hf, (lf_fails, trial.theta_lf["rate_hz"] / 10.0)
 
 
+def trained_kernel():
+    """300 training trials of the stand-in simulator (failure below a gap of 15 m)."""
+    k = kernel()
+    for _ in range(300):
+        t = k.ask()
+        hf, lf = runs(t)
+        k.tell(t, hf=hf, lf=lf)
+    return k
+
+
 def test_trials_carry_phase_scenario_and_dicts_in_space_order():
     k = kernel()
     t = k.ask()
@@ -72,11 +82,7 @@ def test_tell_returns_the_record_and_credits_by_table_ii():
 
 
 def test_learning_moves_the_fidelity_estimate_to_the_cheap_agreeing_setting():
-    k = kernel()
-    for _ in range(300):
-        t = k.ask()
-        hf, lf = runs(t)
-        k.tell(t, hf=hf, lf=lf)
+    k = trained_kernel()
     # Only 2 Hz runs within the budget (cost ratio 0.2; 5 Hz 0.5, 10 Hz 1.0): it is credited
     # whenever it agrees (it misses failures, but most trials do not fail).
     post = k.fidelity_posterior()
@@ -300,16 +306,6 @@ def test_a_closed_kernel_refuses_calls():
         k.ask()
     with pytest.raises(ValueError, match="the kernel is closed"):
         k.ask()
-
-
-def trained_kernel():
-    """300 training trials of the stand-in simulator (failure below a gap of 15 m)."""
-    k = kernel()
-    for _ in range(300):
-        t = k.ask()
-        hf, lf = runs(t)
-        k.tell(t, hf=hf, lf=lf)
-    return k
 
 
 def test_an_estimation_from_the_posteriors_covers_the_true_failure_probability():

@@ -312,10 +312,7 @@ impl Proposal {
     /// failures estimate the marginals of the zero-variance density ∝ p(φ)·1{failure}).
     /// Returns false, changing nothing, when `mass` holds no failure.
     pub(crate) fn refit(&mut self, mass: &[Vec<f64>], smoothing: f64) -> bool {
-        if mass
-            .iter()
-            .any(|m| m.iter().sum::<f64>().partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater))
-        {
+        if !mass.iter().all(|m| m.iter().sum::<f64>() > 0.0) {
             return false;
         }
         for ((bins, m), (var, n)) in self
