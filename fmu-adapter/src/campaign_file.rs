@@ -215,7 +215,7 @@ pub struct ScenarioLines {
 impl CampaignFile {
     /// Reads and checks `path`: the TOML, then the FMUs (opened, every binding and signal
     /// type-checked against both). `paper(bins)` gives the fidelity space and θ_HF of
-    /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, at least 1), each
+    /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, between 1 and [`savme_kernel::MAX_ARMS`]), each
     /// setting bound to the FMU variable of its name. Bindings that would set one FMU variable
     /// twice in a run (a scenario's φ and fixed parameters, the fidelity settings) are refused.
     ///
@@ -586,11 +586,19 @@ fn fidelity(
         ));
     }
     let bins = campaign.fidelity_bins.unwrap_or(10);
-    if bins == 0 {
+    if bins == 0 || bins as usize > savme_kernel::MAX_ARMS {
+        let message = if bins == 0 {
+            "must be at least 1".to_string()
+        } else {
+            format!(
+                "{bins} bins: at most {} are supported",
+                savme_kernel::MAX_ARMS
+            )
+        };
         return Err(src.err(
             campaign.lines.get("fidelity_bins").copied(),
             Some("campaign.fidelity_bins"),
-            "must be at least 1",
+            message,
         ));
     }
     let (space, theta_hf) = paper(bins);
@@ -1699,6 +1707,20 @@ range = [0.0, 1.0]
         );
         assert_eq!(at(&e), (Some(11), Some("campaign.fidelity_bins")));
         assert_eq!(e.message, "must be at least 1");
+        // So are more bins than an arm index holds (the paper's space would panic).
+        let e = error(
+            "paper-huge",
+            &[
+                ("budgets = [0.5]", "fidelity_bins = 4294967295"),
+                (
+                    "[[fidelity.variable]]\nname = \"rate\"\nvalues = [1.0, 2.0]\nhf = 2.0",
+                    "",
+                ),
+                ("[fidelity]", "[fidelity]\npaper = true"),
+            ],
+        );
+        assert_eq!(at(&e), (Some(11), Some("campaign.fidelity_bins")));
+        assert_eq!(e.message, "4294967295 bins: at most 65535 are supported");
     }
 
     #[test]
