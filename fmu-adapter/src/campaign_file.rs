@@ -1141,6 +1141,17 @@ fn failure(
             })
         }
         (None, Some(t), Some(value), None) | (None, Some(t), None, Some(value)) => {
+            if !value.get_ref().is_finite() {
+                let side = if f.above.is_some() { "above" } else { "below" };
+                return Err(src.err(
+                    Some(src.line(value.span())),
+                    Some(&format!("failure.{side}")),
+                    format!(
+                        "{} is not a finite number: no run (or every run) would fail",
+                        value.get_ref()
+                    ),
+                ));
+            }
             let line = src.line(t.span());
             origins.read(t.get_ref(), line, "failure.threshold", Use::Failure);
             Ok(Failure::Threshold {
@@ -1422,6 +1433,19 @@ range = [0.0, 1.0]
                     SIDES,
                 ),
                 (&[(b, "")], 7, "failure", SIDES),
+                // A threshold no value crosses (NaN), or every value does, is refused.
+                (
+                    &[(b, "threshold = \"x\"\nbelow = nan")],
+                    9,
+                    "failure.below",
+                    "NaN is not a finite number",
+                ),
+                (
+                    &[(b, "threshold = \"x\"\nabove = -inf")],
+                    9,
+                    "failure.above",
+                    "-inf is not a finite number",
+                ),
             ],
         );
     }
