@@ -419,7 +419,8 @@ mod raw {
         pub name: Spanned<String>,
         pub fmu: Option<Spanned<String>>,
         pub values: Option<Spanned<Vec<toml::Value>>>,
-        pub range: Option<Spanned<[f64; 2]>>,
+        /// `[lo, hi]`; a list, not `[f64; 2]`: serde's arrays ignore a third number.
+        pub range: Option<Spanned<Vec<f64>>>,
         /// Default 10.
         pub bins: Option<Spanned<u32>>,
         /// Default linear.
@@ -976,7 +977,15 @@ fn variable(v: &VarSection) -> Result<Variable, (Part, String)> {
             }
             Variable::discrete(name, values)
         }
-        (None, Some(range)) => continuous(v, *range.get_ref())?,
+        (None, Some(range)) => match range.get_ref()[..] {
+            [lo, hi] => continuous(v, [lo, hi])?,
+            ref other => {
+                return Err((
+                    Part::Range,
+                    format!("`range` must be [lo, hi], got {} numbers", other.len()),
+                ))
+            }
+        },
         _ => {
             return Err((
                 Part::Table,
@@ -1494,6 +1503,19 @@ range = [0.0, 1.0]
                     17,
                     &format!("{k}.range"),
                     "non-finite",
+                ),
+                // A third number is not dropped silently; one number names the key too.
+                (
+                    &[(values, "range = [1.0, 2.0, 3.0]")],
+                    17,
+                    &format!("{k}.range"),
+                    "`range` must be [lo, hi], got 3 numbers",
+                ),
+                (
+                    &[(values, "range = [1.0]")],
+                    17,
+                    &format!("{k}.range"),
+                    "`range` must be [lo, hi], got 1 numbers",
                 ),
                 (
                     &[("hf = 2.0", "hf = 3.0")],
