@@ -792,6 +792,13 @@ fn scenarios(
         let key = format!("scenario[{k}]");
         let s = table.get_ref();
         let name = s.name.get_ref();
+        if name.trim().is_empty() {
+            return Err(src.err(
+                Some(src.line(s.name.span())),
+                Some(&format!("{key}.name")),
+                "a scenario has an empty name",
+            ));
+        }
         if parts.spaces.contains_key(name) {
             return Err(src.err(
                 Some(src.line(s.name.span())),
@@ -1559,6 +1566,13 @@ range = [0.0, 1.0]
                     29,
                     "scenario[1].phi",
                     "no variables",
+                ),
+                // Named here, not later by the kernel without the file and line.
+                (
+                    &[("name = \"other\"", "name = \" \"")],
+                    30,
+                    "scenario[1].name",
+                    "a scenario has an empty name",
                 ),
                 (
                     &[("stop_time = 1.0", "stop_time = 0.0")],
