@@ -68,7 +68,7 @@ pub(crate) fn trained(
     let told_in = |stage: &str| {
         lines
             .iter()
-            .filter(|l| l.stage() == stage && l.is_told())
+            .filter(|(_, l)| l.stage() == stage && l.is_told())
             .count() as u64
     };
     for (stage, needed) in stages.values() {
@@ -87,7 +87,7 @@ pub(crate) fn trained(
     for (scenario, posterior) in &mut scenarios {
         let (name, space) = (&*scenario.name, &scenario.space);
         let stage = &stages[name].0;
-        for t in lines.iter().filter_map(LogLine::trial) {
+        for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
             if &t.stage != stage || t.scenario != name {
                 continue;
             }
@@ -95,8 +95,12 @@ pub(crate) fn trained(
             if let Some(ok) = t.credit.scenario {
                 let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
                     store: dir.join("trials.jsonl").display().to_string(),
-                    line: 0,
-                    message: format!("{stage} trial {}: φ outside the scenario: {e}", t.index),
+                    line: line as usize,
+                    message: format!(
+                        "{stage} trial {}: φ outside the scenario (a campaign file other than \
+                         the campaign's?): {e}",
+                        t.index
+                    ),
                 })?;
                 let arms: Vec<u16> = arms.iter().map(|&a| a as u16).collect();
                 posterior.update(&arms, ok);
@@ -112,9 +116,9 @@ pub(crate) fn trained(
     })
 }
 
-/// The campaign's complete trial lines, read without its lock (a campaign still running is
-/// caught by the check that its training stage is complete).
-fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
+/// The campaign's complete trial lines with their line numbers, read without its lock (a
+/// campaign still running is caught by the check that its training stage is complete).
+fn load_lines(dir: &Path) -> Result<Vec<(u64, LogLine)>, CampaignError> {
     let path = dir.join("trials.jsonl");
     if !path.exists() {
         return Err(CampaignError::NothingToResume {
@@ -125,7 +129,7 @@ fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
     JsonlStore::read(&path)?
         .lines
         .iter()
-        .map(|l| LogLine::from_stored(l, &name))
+        .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
         .collect()
 }
 
