@@ -80,3 +80,36 @@ fn main() -> ExitCode {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::Parser;
+
+    fn parse(args: &str) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("savme").chain(args.split_whitespace()))
+    }
+
+    #[test]
+    fn coordinator_flags_are_refused_where_they_would_be_ignored() {
+        let db = "--storage postgresql://u@h/d --campaign c";
+        // The coordinators take them ...
+        for command in ["reproduce", "toy", "run --config c.toml"] {
+            let args = format!("{command} {db} --remote --worker-wait 5");
+            assert!(parse(&args).is_ok(), "{args}");
+        }
+        // ... a worker or a server has nothing to do with them: an unknown flag (exit 2),
+        // not silently dropped.
+        for command in ["worker", "serve"] {
+            for flag in ["--remote", "--worker-wait 5"] {
+                let args = format!("{command} {db} {flag}");
+                let e = parse(&args)
+                    .err()
+                    .unwrap_or_else(|| panic!("{args} was accepted"));
+                assert_eq!(e.kind(), clap::error::ErrorKind::UnknownArgument, "{args}");
+                assert_eq!(e.exit_code(), 2, "{args}");
+            }
+            assert!(parse(&format!("{command} {db}")).is_ok(), "{command}");
+        }
+    }
+}

@@ -1,8 +1,8 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
 use super::{
-    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage, Failure,
-    ProtocolArgs, RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
+    CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config::{self, Preset};
 use savme::campaign::store::TrialStore;
@@ -30,7 +30,7 @@ pub struct Args {
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
-    storage: StorageArgs,
+    storage: CampaignStorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }

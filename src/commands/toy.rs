@@ -4,8 +4,8 @@
 //! CPU; `--null` runs nothing at all.
 
 use super::{
-    config_failure, resume_dir, run_campaign, stored_protocol, usage, Failure, ProtocolArgs,
-    RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, stored_protocol, usage, CampaignStorageArgs, Failure,
+    ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config::{self, named_simulator, toy_label, NULL};
 use savme::campaign::load_protocol;
@@ -30,7 +30,7 @@ pub struct Args {
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
-    storage: StorageArgs,
+    storage: CampaignStorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }
