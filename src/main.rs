@@ -33,6 +33,7 @@ enum Command {
     /// Reproduce the paper's protocol on the bundled simulator: baseline, meta-training per
     /// budget, evaluation, meta-testing. Writes table.md, fidelity.md, summary.json,
     /// trials.jsonl, breakeven.png and meta_testing.png.
+    #[command(after_help = commands::reproduce::defaults_help())]
     Reproduce(commands::reproduce::Args),
     /// Run the paper's protocol on FMUs named in a campaign file (TOML).
     Run(commands::run::Args),
@@ -88,6 +89,28 @@ mod tests {
 
     fn parse(args: &str) -> Result<Cli, clap::Error> {
         Cli::try_parse_from(std::iter::once("savme").chain(args.split_whitespace()))
+    }
+
+    #[test]
+    fn reproduce_help_states_the_protocol_it_runs_without_flags() {
+        use clap::CommandFactory;
+        let mut cli = Cli::command();
+        let help = cli
+            .find_subcommand_mut("reproduce")
+            .expect("reproduce")
+            .render_long_help()
+            .to_string();
+        // The paper's protocol (docs/RESULTS.md: 4,000 trials) and --quick's (README: 860).
+        for text in [
+            "seed 1, cost wall, 8 meta-training and 2 meta-testing scenarios",
+            "budgets 0.2,0.3,0.4; per budget 500 meta-training iterations",
+            "baselines of 700 and 300 trials (4000 trials in all)",
+            "--quick: budgets 0.3; per budget 200 meta-training iterations",
+            "(860 trials in all)",
+            "default savme-results",
+        ] {
+            assert!(help.contains(text), "{text:?} not in:\n{help}");
+        }
     }
 
     #[test]
