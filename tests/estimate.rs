@@ -4,6 +4,9 @@
 //! depend on `--jobs` and survives kill -9 + `--resume`; bad input is refused, naming the key,
 //! variable, stage or line. The long check (≥ 20,000 Monte Carlo runs, a rare nominal) is the
 //! example `estimate_check`, recorded in docs/RESULTS.md.
+mod common;
+
+use common::{run, temp_dir, EXE};
 use rand::{RngExt, SeedableRng};
 use savme_kernel::{Assignment, Role, Simulator};
 use serde_json::Value;
@@ -11,23 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
 const SCENARIO: &str = "lead_vehicle_brakes";
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-estimate-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-fn run(args: &[&str]) -> (Option<i32>, String, String) {
-    let o = Command::new(EXE).args(args).output().unwrap();
-    (
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 /// A finished campaign that trained only `lead_vehicle_brakes` (200 iterations at C = 0.3;
 /// every other stage one trial), made once for all tests.
