@@ -60,7 +60,7 @@ enum Command {
 fn main() -> ExitCode {
     // Each command fails with a message (a runtime failure) or a `Failure` that says which.
     let result = match Cli::parse().command {
-        Command::Serve(a) => commands::serve::run(a).map_err(Failure::from),
+        Command::Serve(a) => commands::serve::run(a),
         Command::ExampleConfig => commands::serve::example_config().map_err(Failure::from),
         Command::Scenarios(a) => commands::scenarios::run(a).map_err(Failure::from),
         Command::Fidelity(a) => commands::fidelity::run(a).map_err(Failure::from),
@@ -111,6 +111,24 @@ mod tests {
         ] {
             assert!(help.contains(text), "{text:?} not in:\n{help}");
         }
+    }
+
+    #[test]
+    fn serve_without_a_configuration_or_journal_is_a_usage_error() {
+        let Ok(Cli {
+            command: super::Command::Serve(args),
+        }) = parse("serve")
+        else {
+            panic!("savme serve did not parse");
+        };
+        // Refused before reading standard input, with exit status 2 (the command line is wrong).
+        let e = crate::commands::serve::run(args).expect_err("serve ran without --config");
+        assert_eq!(e.code(), 2, "{}", e.message());
+        assert!(
+            e.message().contains("give --config FILE"),
+            "{}",
+            e.message()
+        );
     }
 
     #[test]

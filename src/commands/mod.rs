@@ -338,6 +338,11 @@ pub struct CampaignStorageArgs {
 }
 
 impl StorageArgs {
+    /// Whether a database was named (--storage or --storage-file).
+    pub fn given(&self) -> bool {
+        self.storage.is_some() || self.storage_file.is_some()
+    }
+
     /// The database given, if any (checked: a campaign name goes with it).
     pub fn database(&self) -> Result<Option<(Database, String)>, Failure> {
         let db = match (&self.storage, &self.storage_file) {
@@ -371,7 +376,7 @@ impl StorageArgs {
 impl CampaignStorageArgs {
     /// Opens (and locks) the campaign in the database given, if any; `--remote` needs one.
     pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
-        if self.remote && self.store.storage.is_none() && self.store.storage_file.is_none() {
+        if self.remote && !self.store.given() {
             return Err(usage("--remote runs trials through a database's work queue: give --storage URL --campaign NAME too"));
         }
         self.store.open()
