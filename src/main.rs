@@ -132,6 +132,38 @@ mod tests {
     }
 
     #[test]
+    fn toy_null_counts_work_units_and_refuses_wall_clock_cost() {
+        let run = |args: &str| match parse(args) {
+            Ok(Cli {
+                command: super::Command::Toy(a),
+            }) => crate::commands::toy::run(a),
+            _ => panic!("{args} did not parse"),
+        };
+        let out = std::env::temp_dir().join(format!("savme-toy-null-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        // Its runs take no time: wall-clock cost is refused before anything is created ...
+        let e = run(&format!(
+            "toy --null --cost wall --quiet --out {}",
+            out.display()
+        ))
+        .expect_err("--null --cost wall ran");
+        assert_eq!(e.code(), 2, "{}", e.message());
+        assert!(e.message().contains("--cost work"), "{}", e.message());
+        assert!(!out.exists());
+        // ... and without --cost the campaign runs with work units.
+        let done = run(&format!(
+            "toy --null --quiet --jobs 1 --out {}",
+            out.display()
+        ));
+        let protocol = std::fs::read_to_string(out.join("protocol.json"));
+        let _ = std::fs::remove_dir_all(&out);
+        if let Err(e) = done {
+            panic!("toy --null failed: {}", e.message());
+        }
+        assert!(protocol.is_ok_and(|p| p.contains(r#""cost": "work""#)));
+    }
+
+    #[test]
     fn coordinator_flags_are_refused_where_they_would_be_ignored() {
         let db = "--storage postgresql://u@h/d --campaign c";
         // The coordinators take them ...
