@@ -450,7 +450,11 @@ mod tests {
         assert_eq!(s.kernel().to_json(), before);
         // The same trials as the kernel's own estimation with that configuration.
         let config = EstimationConfig {
-            refine: Some(savme_kernel::estimation::Refine { rounds: 1, runs: 4 }),
+            refine: Some(savme_kernel::estimation::Refine {
+                rounds: 1,
+                runs: 4,
+                reuse: 0,
+            }),
             ..EstimationConfig::new(0.2, 5)
         };
         let mut e = s.kernel().estimation(&config).unwrap();

@@ -618,4 +618,17 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
             "2 refinement rounds need `refine_runs` ≥ 1",
         ],
     );
+    let reuse = "\n[estimate]\nrefine_rounds = 1\nrefine_runs = 10\nrefine_reuse = 2\n";
+    let line = format!(
+        "line {}, key `estimate.refine_reuse`",
+        TINY.lines().count() + 5
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + reuse),
+        &[
+            &line,
+            "2 pilot rounds to reuse in the estimate, but `refine_rounds` is 1",
+        ],
+    );
 }
