@@ -141,6 +141,10 @@ fn the_interval_covers_brute_force_monte_carlo_and_agrees_with_the_trial_lines()
     assert!((sum / 3000.0 - mean).abs() < 1e-12);
     let table = std::fs::read_to_string(out.join("table.md")).unwrap();
     assert!(table.contains("**total (weighted by p(s))**"), "{table}");
+    assert!(
+        table.contains("failure ESS: the same over its failures"),
+        "{table}"
+    );
 }
 
 /// `--refine-reuse 1`: the last pilot round's runs join the estimate with their own weights —

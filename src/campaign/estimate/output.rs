@@ -138,6 +138,13 @@ pub struct EstimateOutcome {
     pub table_md: String,
 }
 
+/// What the estimate table's columns mean, written under it (`table.md`, printed).
+pub(crate) const ESTIMATE_LEGEND: &str = "±: the 95 % interval's half-width relative to the \
+estimate (what --target-width bounds). ESS: Kish's effective sample size (Σw)²/Σw² of the \
+scenario's runs; failure ESS: the same over its failures' weights (how many equally weighted \
+failures the estimate rests on). Mean weight: the mean of w = p(φ)/q(φ), 1 in expectation (far \
+from 1: the proposal misses part of the nominal). docs/ESTIMATION.md explains the estimator.";
+
 impl EstimateOutcome {
     #[allow(clippy::too_many_arguments)] // the parts of one outcome, assembled in one place
     pub(crate) fn new(
@@ -205,7 +212,7 @@ impl EstimateOutcome {
     }
 
     /// The table of `table.md`: per scenario and in total, the estimate with its 95 %
-    /// interval, relative half-width and effective sample sizes.
+    /// interval, relative half-width and effective sample sizes, then [`ESTIMATE_LEGEND`].
     fn table(&self) -> String {
         use std::fmt::Write;
         let e = &self.estimate;
@@ -281,6 +288,7 @@ impl EstimateOutcome {
                 r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
             );
         }
+        let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
         t
     }
 
