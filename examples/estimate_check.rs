@@ -14,7 +14,7 @@
 //! cargo run --release --example estimate_check -- --out DIR [--scenario NAME]
 //!     [--train-iterations 200] [--mc-runs 20000] [--target 0.1] [--max-runs 200000]
 //!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
-//!     [--refine-rounds 0 --refine-runs 0] [--noise-sd 0.1] [--jobs 2] [--seed 1]
+//!     [--refine-rounds 0 --refine-runs 0 --refine-reuse 0] [--noise-sd 0.1] [--jobs 2] [--seed 1]
 //!     [--mc-seed 12648430]
 //! ```
 //!
@@ -44,6 +44,7 @@ struct Options {
     tilt: Tilt,
     refine_rounds: u32,
     refine_runs: u64,
+    refine_reuse: u32,
     noise_sd: f64,
     mc_seed: u64,
     jobs: usize,
@@ -63,6 +64,7 @@ fn options() -> Result<Options, String> {
         tilt: Tilt::Posterior,
         refine_rounds: 0,
         refine_runs: 0,
+        refine_reuse: 0,
         noise_sd: 0.1,
         mc_seed: 0xC0FFEE,
         jobs: 2,
@@ -83,6 +85,7 @@ fn options() -> Result<Options, String> {
             "--jobs" => o.jobs = num(&value)? as usize,
             "--refine-rounds" => o.refine_rounds = num(&value)? as u32,
             "--refine-runs" => o.refine_runs = num(&value)? as u64,
+            "--refine-reuse" => o.refine_reuse = num(&value)? as u32,
             "--noise-sd" => o.noise_sd = num(&value)?,
             "--mc-seed" => o.mc_seed = value.parse().map_err(|e| format!("--mc-seed: {e}"))?,
             "--tilt" => {
@@ -134,6 +137,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         tilt: o.tilt,
         refine_rounds: o.refine_rounds,
         refine_runs: o.refine_runs,
+        refine_reuse: o.refine_reuse,
         ..EstimateSettings::default()
     };
     let t1 = Instant::now();
@@ -147,7 +151,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reached = total.relative_half_width();
     let z = z95();
     let mc_needed = |p: f64| z * z * (1.0 - p) / (reached * reached * p);
-    let is_runs = (est.estimate_hf_runs + est.pilot_hf_runs + est.training_hf_runs) as f64;
+    let is_runs = (est.estimate_hf_runs + est.pilot_hf_runs - est.pilot_hf_runs_reused
+        + est.training_hf_runs) as f64;
     let mut report = serde_json::json!({
         "scenario": o.scenario,
         "nominal": o.nominal,
@@ -155,6 +160,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "tilt": o.tilt,
         "refine_rounds": o.refine_rounds,
         "refine_runs": o.refine_runs,
+        "refine_reuse": o.refine_reuse,
         "noise_sd": o.noise_sd,
         "train_iterations": o.train_iterations,
         "importance_sampling": {
@@ -162,6 +168,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "relative_half_width": reached, "hf_runs": est.estimate_hf_runs,
             "training_hf_runs": est.training_hf_runs, "stopped": est.stopped,
             "pilot_hf_runs": est.pilot_hf_runs, "pilot_failures": est.pilot_failures,
+            "pilot_hf_runs_reused": est.pilot_hf_runs_reused,
             "failures": est.estimate.failures,
             "ess": est.estimate.scenarios[0].ess,
             "failure_ess": est.estimate.scenarios[0].failure_ess,

@@ -33,6 +33,7 @@ enum Command {
     /// Reproduce the paper's protocol on the bundled simulator: baseline, meta-training per
     /// budget, evaluation, meta-testing. Writes table.md, fidelity.md, summary.json,
     /// trials.jsonl, breakeven.png and meta_testing.png.
+    #[command(after_help = commands::reproduce::defaults_help())]
     Reproduce(commands::reproduce::Args),
     /// Run the paper's protocol on FMUs named in a campaign file (TOML).
     Run(commands::run::Args),
@@ -59,7 +60,7 @@ enum Command {
 fn main() -> ExitCode {
     // Each command fails with a message (a runtime failure) or a `Failure` that says which.
     let result = match Cli::parse().command {
-        Command::Serve(a) => commands::serve::run(a).map_err(Failure::from),
+        Command::Serve(a) => commands::serve::run(a),
         Command::ExampleConfig => commands::serve::example_config().map_err(Failure::from),
         Command::Scenarios(a) => commands::scenarios::run(a).map_err(Failure::from),
         Command::Fidelity(a) => commands::fidelity::run(a).map_err(Failure::from),
@@ -77,6 +78,111 @@ fn main() -> ExitCode {
         Err(e) => {
             eprintln!("savme: {}", e.message());
             ExitCode::from(e.code())
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Cli;
+    use clap::Parser;
+
+    fn parse(args: &str) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("savme").chain(args.split_whitespace()))
+    }
+
+    #[test]
+    fn reproduce_help_states_the_protocol_it_runs_without_flags() {
+        use clap::CommandFactory;
+        let mut cli = Cli::command();
+        let help = cli
+            .find_subcommand_mut("reproduce")
+            .expect("reproduce")
+            .render_long_help()
+            .to_string();
+        // The paper's protocol (docs/RESULTS.md: 4,000 trials) and --quick's (README: 860).
+        for text in [
+            "seed 1, cost wall, 8 meta-training and 2 meta-testing scenarios",
+            "budgets 0.2,0.3,0.4; per budget 500 meta-training iterations",
+            "baselines of 700 and 300 trials (4000 trials in all)",
+            "--quick: budgets 0.3; per budget 200 meta-training iterations",
+            "(860 trials in all)",
+            "default savme-results",
+        ] {
+            assert!(help.contains(text), "{text:?} not in:\n{help}");
+        }
+    }
+
+    #[test]
+    fn serve_without_a_configuration_or_journal_is_a_usage_error() {
+        let Ok(Cli {
+            command: super::Command::Serve(args),
+        }) = parse("serve")
+        else {
+            panic!("savme serve did not parse");
+        };
+        // Refused before reading standard input, with exit status 2 (the command line is wrong).
+        let e = crate::commands::serve::run(args).expect_err("serve ran without --config");
+        assert_eq!(e.code(), 2, "{}", e.message());
+        assert!(
+            e.message().contains("give --config FILE"),
+            "{}",
+            e.message()
+        );
+    }
+
+    #[test]
+    fn toy_null_counts_work_units_and_refuses_wall_clock_cost() {
+        let run = |args: &str| match parse(args) {
+            Ok(Cli {
+                command: super::Command::Toy(a),
+            }) => crate::commands::toy::run(a),
+            _ => panic!("{args} did not parse"),
+        };
+        let out = std::env::temp_dir().join(format!("savme-toy-null-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        // Its runs take no time: wall-clock cost is refused before anything is created ...
+        let e = run(&format!(
+            "toy --null --cost wall --quiet --out {}",
+            out.display()
+        ))
+        .expect_err("--null --cost wall ran");
+        assert_eq!(e.code(), 2, "{}", e.message());
+        assert!(e.message().contains("--cost work"), "{}", e.message());
+        assert!(!out.exists());
+        // ... and without --cost the campaign runs with work units.
+        let done = run(&format!(
+            "toy --null --quiet --jobs 1 --out {}",
+            out.display()
+        ));
+        let protocol = std::fs::read_to_string(out.join("protocol.json"));
+        let _ = std::fs::remove_dir_all(&out);
+        if let Err(e) = done {
+            panic!("toy --null failed: {}", e.message());
+        }
+        assert!(protocol.is_ok_and(|p| p.contains(r#""cost": "work""#)));
+    }
+
+    #[test]
+    fn coordinator_flags_are_refused_where_they_would_be_ignored() {
+        let db = "--storage postgresql://u@h/d --campaign c";
+        // The coordinators take them ...
+        for command in ["reproduce", "toy", "run --config c.toml"] {
+            let args = format!("{command} {db} --remote --worker-wait 5");
+            assert!(parse(&args).is_ok(), "{args}");
+        }
+        // ... a worker or a server has nothing to do with them: an unknown flag (exit 2),
+        // not silently dropped.
+        for command in ["worker", "serve"] {
+            for flag in ["--remote", "--worker-wait 5"] {
+                let args = format!("{command} {db} {flag}");
+                let e = parse(&args)
+                    .err()
+                    .unwrap_or_else(|| panic!("{args} was accepted"));
+                assert_eq!(e.kind(), clap::error::ErrorKind::UnknownArgument, "{args}");
+                assert_eq!(e.exit_code(), 2, "{args}");
+            }
+            assert!(parse(&format!("{command} {db}")).is_ok(), "{command}");
         }
     }
 }

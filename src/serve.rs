@@ -14,7 +14,7 @@
 //! | `{"op":"posterior"}` | `{"ok":true,"fidelity":{…},"scenarios":{…}}` |
 //! | `{"op":"stats"}` | `{"ok":true,"stats":{…},"pending":[ids]}` |
 //! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
-//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
+//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine` = `{"rounds","runs","reuse"}`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
 //! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}`, or `"trial":null` while a refinement round waits for its outcomes |
 //! | `{"op":"estimation_tell","id":0,"failure":true}` | `{"ok":true}` |
 //! | `{"op":"estimation_result"}` | `{"ok":true,"estimate":{"total":{"mean","lo","hi",…},…},"told":n,"round":r}` |
@@ -450,7 +450,11 @@ mod tests {
         assert_eq!(s.kernel().to_json(), before);
         // The same trials as the kernel's own estimation with that configuration.
         let config = EstimationConfig {
-            refine: Some(savme_kernel::estimation::Refine { rounds: 1, runs: 4 }),
+            refine: Some(savme_kernel::estimation::Refine {
+                rounds: 1,
+                runs: 4,
+                reuse: 0,
+            }),
             ..EstimationConfig::new(0.2, 5)
         };
         let mut e = s.kernel().estimation(&config).unwrap();

@@ -5,10 +5,9 @@
 //! come.
 mod common;
 
-use common::campaign::{
-    db_trials, file_trials, finish, query_i64, temp_dir, text, wait_until, worker, EXE,
-};
+use common::campaign::{db_trials, file_trials, finish, query_i64, text, wait_until, worker};
 use common::postgres::Server;
+use common::{temp_dir, EXE};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

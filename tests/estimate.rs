@@ -4,6 +4,9 @@
 //! depend on `--jobs` and survives kill -9 + `--resume`; bad input is refused, naming the key,
 //! variable, stage or line. The long check (≥ 20,000 Monte Carlo runs, a rare nominal) is the
 //! example `estimate_check`, recorded in docs/RESULTS.md.
+mod common;
+
+use common::{run, temp_dir, trial_lines, EXE};
 use rand::{RngExt, SeedableRng};
 use savme_kernel::{Assignment, Role, Simulator};
 use serde_json::Value;
@@ -11,23 +14,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
 const SCENARIO: &str = "lead_vehicle_brakes";
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-estimate-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-fn run(args: &[&str]) -> (Option<i32>, String, String) {
-    let o = Command::new(EXE).args(args).output().unwrap();
-    (
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 /// A finished campaign that trained only `lead_vehicle_brakes` (200 iterations at C = 0.3;
 /// every other stage one trial), made once for all tests.
@@ -75,14 +62,6 @@ fn estimate(out: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
     let mut a = vec!["estimate", &c, "--out", &o];
     a.extend(extra);
     run(&a)
-}
-
-fn lines(dir: &Path) -> Vec<Value> {
-    std::fs::read_to_string(dir.join("trials.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
 }
 
 fn summary(dir: &Path) -> Value {
@@ -144,7 +123,7 @@ fn the_interval_covers_brute_force_monte_carlo_and_agrees_with_the_trial_lines()
         .iter()
         .map(|v| v.bin(v.arms() - 1).unwrap().1 - v.bin(0).unwrap().0)
         .product();
-    let ls = lines(&out);
+    let ls = trial_lines(&out);
     assert_eq!(ls.len(), 3000);
     let mut sum = 0.0;
     for l in &ls {
@@ -162,12 +141,77 @@ fn the_interval_covers_brute_force_monte_carlo_and_agrees_with_the_trial_lines()
     assert!((sum / 3000.0 - mean).abs() < 1e-12);
     let table = std::fs::read_to_string(out.join("table.md")).unwrap();
     assert!(table.contains("**total (weighted by p(s))**"), "{table}");
+    assert!(
+        table.contains("failure ESS: the same over its failures"),
+        "{table}"
+    );
+}
+
+/// `--refine-reuse 1`: the last pilot round's runs join the estimate with their own weights —
+/// the estimate is the pooled mean Σ w·f / N over them and the runs after the pilot, as the
+/// trial lines give it — and the summary counts every run once.
+#[test]
+fn a_reused_pilot_round_counts_in_the_estimate_with_its_own_weights() {
+    let out = temp_dir("reuse");
+    let args = [
+        "--max-runs",
+        "1600",
+        "--no-target",
+        "--refine-rounds",
+        "3",
+        "--refine-runs",
+        "400",
+        "--refine-reuse",
+        "1",
+        "--nominal",
+        "lead_vehicle_brakes.ego_speed=normal:12,2",
+    ];
+    let (code, _, err) = estimate(&out, &args);
+    assert_eq!(code, Some(0), "{err}");
+    let ls = trial_lines(&out);
+    assert_eq!(ls.len(), 1600);
+    let term = |l: &Value| {
+        let w = l["weight"].as_f64().unwrap();
+        if l["hf"]["failure"].as_bool().unwrap() {
+            w
+        } else {
+            0.0
+        }
+    };
+    assert!(ls[800..1200].iter().all(|l| l["round"] == 2));
+    let pooled = ls[800..].iter().map(term).sum::<f64>() / 800.0;
+    let s = summary(&out);
+    let mean = s["estimate"]["total"]["mean"].as_f64().unwrap();
+    assert!(
+        (mean - pooled).abs() <= 1e-12 * pooled.max(1e-300),
+        "{mean} vs {pooled}"
+    );
+    assert!(mean > 0.0, "the pooled runs hold failures");
+    assert_eq!(
+        (&s["pilot_hf_runs"], &s["pilot_hf_runs_reused"]),
+        (&Value::from(1200), &Value::from(400))
+    );
+    assert_eq!(s["estimate_hf_runs"], 800);
+    assert_eq!(s["estimate"]["runs"], 800);
+    let cost: f64 = ls[800..]
+        .iter()
+        .map(|l| l["hf"]["runtime"].as_f64().unwrap())
+        .sum();
+    assert!((s["estimate_hf_cost"].as_f64().unwrap() - cost).abs() < 1e-9 * cost);
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        table.contains("the last 1 (these 400 runs) are part of the estimate too"),
+        "{table}"
+    );
+    let settings: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("estimate.json")).unwrap()).unwrap();
+    assert_eq!(settings["refine_reuse"], 1);
 }
 
 #[test]
 fn jobs_do_not_change_the_trials_and_a_killed_estimate_resumes_identically() {
     let (one, killed) = one_job_and_killed("plain", &["--max-runs", "1500", "--no-target"]);
-    assert!(lines(&one).iter().all(|l| l.get("round").is_none()));
+    assert!(trial_lines(&one).iter().all(|l| l.get("round").is_none()));
     assert_eq!(summary(&killed)["pilot_hf_runs"], 0);
 }
 
@@ -188,7 +232,7 @@ fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
         "lead_vehicle_brakes.ego_speed=normal:12,2",
     ];
     let (one, killed) = one_job_and_killed("refined", &args);
-    let ls = lines(&one);
+    let ls = trial_lines(&one);
     for (i, l) in ls.iter().enumerate() {
         let round = (i < 1200).then_some(i as u64 / 400);
         assert_eq!(l["round"].as_u64(), round, "line {}", i + 1);
@@ -284,7 +328,7 @@ fn one_job_and_killed(name: &str, args: &[&str]) -> (PathBuf, PathBuf) {
     }
     child.kill().unwrap(); // SIGKILL
     child.wait().unwrap();
-    let before = lines(&killed).len();
+    let before = trial_lines(&killed).len();
     assert!(before < 1200, "killed too late: {before}");
     let (code, _, err) = estimate(&killed, &["--resume", "--jobs", "2"]);
     assert_eq!(code, Some(0), "{err}");
@@ -297,7 +341,7 @@ fn one_job_and_killed(name: &str, args: &[&str]) -> (PathBuf, PathBuf) {
             })
             .collect()
     };
-    assert_eq!(strip(lines(&killed)), strip(lines(&one)));
+    assert_eq!(strip(trial_lines(&killed)), strip(trial_lines(&one)));
     assert_eq!(summary(&killed)["estimate"], summary(&one)["estimate"]);
     assert_eq!(summary(&killed)["replayed"], before as u64);
     (one, killed)
@@ -314,7 +358,7 @@ fn a_target_width_stops_the_estimate_once_reached() {
     let rel = total["half_width"].as_f64().unwrap() / total["mean"].as_f64().unwrap();
     assert!(rel <= 0.15, "{rel}");
     // It stopped at the first run after which the rule held: one run fewer was not enough.
-    let ls = lines(&out);
+    let ls = trial_lines(&out);
     let n = ls.len();
     assert!(n < 5000);
     let y: Vec<f64> = ls
@@ -403,6 +447,17 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
         (
             &["--refine-rounds", "2", "--refine-runs", "5000"],
             "2 rounds of 5000 runs leave none of `max_runs` = 10000",
+        ),
+        (
+            &[
+                "--refine-rounds",
+                "2",
+                "--refine-runs",
+                "5",
+                "--refine-reuse",
+                "3",
+            ],
+            "`refine_reuse`: 3 pilot rounds to reuse in the estimate, but `refine_rounds` is 2",
         ),
     ];
     for (args, message) in cases {

@@ -2,7 +2,7 @@
 //! against savme on the same FMU, and `savme run --config` with good and bad campaign files.
 mod common;
 
-use common::fmpy_python;
+use common::{fmpy_python, made_dir, savme};
 use savme::kernel::{Assignment, Space};
 use savme_fmu::instance::Instance;
 use savme_fmu::FmuFile;
@@ -12,29 +12,11 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::{Arc, OnceLock};
 
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("savme-fmu-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn savme(args: &[&str]) -> (bool, String, String) {
-    let o = Command::new(EXE).args(args).output().unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
 /// The bundled simulator packed once by `savme fmu pack`.
 fn packed() -> &'static Path {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
     FMU.get_or_init(|| {
-        let out = temp_dir("packed").join("savme-sim.fmu");
+        let out = made_dir("packed").join("savme-sim.fmu");
         let (ok, stdout, err) = savme(&["fmu", "pack", "--out", out.to_str().unwrap()]);
         assert!(ok, "{err}");
         assert!(stdout.contains("wrote"), "{stdout}");
@@ -46,7 +28,7 @@ fn packed() -> &'static Path {
 fn packed3() -> &'static Path {
     static FMU: OnceLock<PathBuf> = OnceLock::new();
     FMU.get_or_init(|| {
-        let out = temp_dir("packed3").join("savme-sim3.fmu");
+        let out = made_dir("packed3").join("savme-sim3.fmu");
         let (ok, stdout, err) =
             savme(&["fmu", "pack", "--fmi", "3", "--out", out.to_str().unwrap()]);
         assert!(ok, "{err}");
@@ -211,7 +193,7 @@ const TINY: &str = include_str!("fixtures/fmu-tiny-campaign.toml");
 
 #[test]
 fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
-    let dir = temp_dir("run");
+    let dir = made_dir("run");
     // Scenario 10's φ must be its real one; check against `savme scenarios`.
     let ten: Vec<String> = phi_space(find("10").unwrap())
         .variables()
@@ -329,7 +311,7 @@ fn assert_refused(dir: &Path, body: &str, needles: &[&str]) {
 
 #[test]
 fn bad_campaign_files_name_the_file_line_and_key() {
-    let dir = temp_dir("bad-config");
+    let dir = made_dir("bad-config");
     let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
     // TOML-level: an unknown key, a wrong type.
     check(
@@ -403,7 +385,7 @@ fn bad_campaign_files_name_the_file_line_and_key() {
 
 #[test]
 fn outputs_to_record_that_the_fmu_lacks_are_refused_before_the_first_run() {
-    let dir = temp_dir("bad-record");
+    let dir = made_dir("bad-record");
     let check = |record: &str, needles: &[&str]| {
         let body = TINY.replace(
             "cost = \"work\"\n\n[failure]",
@@ -432,7 +414,7 @@ fn outputs_to_record_that_the_fmu_lacks_are_refused_before_the_first_run() {
 
 #[test]
 fn conflicting_bindings_and_scenario_errors_name_their_line() {
-    let dir = temp_dir("bad-bindings");
+    let dir = made_dir("bad-bindings");
     let check = |body: &str, needles: &[&str]| assert_refused(&dir, body, needles);
     // The failure signal as the cost: the cost is blamed, not the failure signal.
     check(
@@ -486,7 +468,7 @@ fn conflicting_bindings_and_scenario_errors_name_their_line() {
 
 #[test]
 fn run_refuses_an_output_directory_that_is_a_file() {
-    let dir = temp_dir("out-file");
+    let dir = made_dir("out-file");
     let config = campaign_file(&dir, TINY);
     let file = dir.join("afile");
     std::fs::write(&file, "mine").unwrap();
@@ -511,7 +493,7 @@ fn run_refuses_an_output_directory_that_is_a_file() {
 /// refused before the campaign starts, naming the line and key (or the variable).
 #[test]
 fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
-    let dir = temp_dir("estimate");
+    let dir = made_dir("estimate");
     let section = "\n[estimate]\nmax_runs = 40\ntarget_width = 0.5\nepsilon = 0.2\n\
                    refine_rounds = 1\nrefine_runs = 10\n\
                    [estimate.nominal.lead_vehicle_brakes]\n\
@@ -607,7 +589,7 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
     // A campaign file whose φ-space is not the campaign's: the trial line that does not fit
     // is named (it was "line 0").
     let other = campaign_file(
-        &temp_dir("estimate-other"),
+        &made_dir("estimate-other"),
         &TINY.replacen("range = [10.0, 25.0]", "range = [24.9, 25.0]", 1),
     );
     let stored = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
@@ -635,7 +617,7 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
             && err.contains("φ outside the scenario"),
         "line {line}: {err}"
     );
-    let bad = temp_dir("estimate-bad");
+    let bad = made_dir("estimate-bad");
     // TINY's lines, an empty line, `[estimate]`, then `epsilon`.
     let line = TINY.lines().count() + 3;
     assert_refused(
@@ -674,6 +656,19 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &[
             "estimate.refine_runs",
             "2 refinement rounds need `refine_runs` ≥ 1",
+        ],
+    );
+    let reuse = "\n[estimate]\nrefine_rounds = 1\nrefine_runs = 10\nrefine_reuse = 2\n";
+    let line = format!(
+        "line {}, key `estimate.refine_reuse`",
+        TINY.lines().count() + 5
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + reuse),
+        &[
+            &line,
+            "2 pilot rounds to reuse in the estimate, but `refine_rounds` is 1",
         ],
     );
 }

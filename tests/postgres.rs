@@ -4,8 +4,9 @@
 //! in the database, and never show the password.
 mod common;
 
-use common::campaign::{db_trials, file_trials, temp_dir, text, EXE};
+use common::campaign::{db_trials, file_trials, text};
 use common::postgres::{Server, PASSWORD};
+use common::{temp_dir, EXE};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};

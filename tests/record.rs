@@ -2,7 +2,9 @@
 //! of `savme simulate --record`, a campaign's recordings (one per recorded trial, chosen by the
 //! informative-first rule), their blueprints, Ctrl-C, and `--connect` to nowhere.
 #![cfg(feature = "rerun")]
+mod common;
 
+use common::{made_dir, EXE};
 use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
 use rerun::{ChunkStore, ChunkStoreConfig};
 use savme::viewer::layout::names;
@@ -10,15 +12,6 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("savme-record-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// One store (a recording or a blueprint) of an .rrd file.
 #[derive(Default, Debug)]
@@ -184,7 +177,7 @@ fn simulate(rrd: &Path, fidelity: &str) -> String {
 // Long because it checks every part of the trial view against the in-process runs.
 #[test]
 fn simulate_records_hf_and_lf_side_by_side_with_the_trial_view() {
-    let dir = temp_dir("simulate");
+    let dir = made_dir("simulate");
     let rrd = dir.join("run.rrd");
     let stdout = simulate(&rrd, "simulation_rate_hz=4");
     let stores = load(&rrd);
@@ -307,7 +300,7 @@ fn simulate_records_hf_and_lf_side_by_side_with_the_trial_view() {
 
 #[test]
 fn simulate_at_hf_records_the_hf_run_alone() {
-    let dir = temp_dir("simulate-hf");
+    let dir = made_dir("simulate-hf");
     let rrd = dir.join("run.rrd");
     simulate(&rrd, "hf");
     let stores = load(&rrd);
@@ -456,7 +449,7 @@ fn campaign(dir: &Path, every: &str, failures: &str) -> (PathBuf, Vec<serde_json
 // Long because it checks every part of one recorded campaign, which is slow to produce.
 #[test]
 fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() {
-    let dir = temp_dir("campaign");
+    let dir = made_dir("campaign");
     let (rrd, trials) = campaign(&dir, "17", "4");
     let stores = load(&rrd);
     // Each recorded trial is its own recording, named by stage, trial, scenario and outcome.
@@ -580,7 +573,7 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
 
 #[test]
 fn ctrl_c_still_closes_the_recording() {
-    let dir = temp_dir("sigint");
+    let dir = made_dir("sigint");
     let rrd = dir.join("interrupted.rrd");
     let mut child = Command::new(EXE)
         .args([
@@ -698,7 +691,7 @@ fn run_series<'a>(s: &'a Store, output: &str, run: &str) -> (&'a [f64], f64) {
 // Long because it checks each recorded run's series against the trial that the campaign ran.
 #[test]
 fn an_fmu_campaign_records_the_listed_outputs_of_hf_and_lf_per_trial() {
-    let dir = temp_dir("fmu");
+    let dir = made_dir("fmu");
     let fmu = dir.join("savme-sim.fmu");
     let o = Command::new(EXE)
         .args(["fmu", "pack", "--out"])

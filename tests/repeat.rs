@@ -1,18 +1,14 @@
 //! `savme reproduce --repeat N` end to end: each seed's campaign is the single campaign of that
 //! seed, the results over the seeds agree with the seeds' own summaries, a killed repeated run
 //! resumes to the same trials, and bad input is refused before any simulation.
+mod common;
+
+use common::campaign::file_trials;
+use common::{resume, savme, temp_dir, EXE};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-repeat-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
 
 /// A tiny protocol on the idealised-perception simulator (fast), work-unit cost.
 const TINY: &[&str] = &[
@@ -45,35 +41,13 @@ fn args(extra: &[&str]) -> Vec<String> {
 }
 
 fn reproduce(out: &Path, extra: &[&str]) -> (bool, String, String) {
-    let o = Command::new(EXE)
-        .arg("reproduce")
-        .arg("--out")
-        .arg(out)
-        .args(args(extra))
-        .output()
-        .unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
-/// The trial lines of a campaign without the measured wall-clock times.
-fn trials(dir: &Path) -> Vec<Value> {
-    std::fs::read_to_string(dir.join("trials.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| {
-            let mut v: Value = serde_json::from_str(l).unwrap();
-            for run in ["hf", "lf"] {
-                if let Some(r) = v[run].as_object_mut() {
-                    r.remove("wall_seconds");
-                }
-            }
-            v
-        })
-        .collect()
+    let mut a = vec![
+        "reproduce".to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    a.extend(args(extra));
+    savme(&a)
 }
 
 fn json(path: &Path) -> Value {
@@ -94,7 +68,7 @@ fn a_repeated_reproduction_aggregates_its_seeds_and_each_seed_is_the_single_camp
     // Seed 8's directory holds exactly the campaign `--seed 8` gives alone.
     let single = temp_dir("agg-single");
     assert!(reproduce(&single, &[&["--seed", "8"], &strengths[..]].concat()).0);
-    assert_eq!(trials(&dir.join("seed-8")), trials(&single));
+    assert_eq!(file_trials(&dir.join("seed-8")), file_trials(&single));
 
     let summary = json(&dir.join("summary.json"));
     let rep = &summary["repeated"];
@@ -149,7 +123,7 @@ fn a_repeated_reproduction_aggregates_its_seeds_and_each_seed_is_the_single_camp
             None => assert_eq!(found.as_f64(), Some(0.0)),
         }
     }
-    let s8 = trials(&dir.join("seed-8"));
+    let s8 = file_trials(&dir.join("seed-8"));
     let stage = |label: &str| s8.iter().filter(|t| t["stage"] == label).count();
     assert_eq!(stage("test-learned-s0.3@0.3"), 14);
     assert_eq!(stage("test-learned-s1@0.3"), 0);
@@ -164,19 +138,6 @@ fn a_repeated_reproduction_aggregates_its_seeds_and_each_seed_is_the_single_camp
     for d in [dir, single] {
         let _ = std::fs::remove_dir_all(d);
     }
-}
-
-fn resume(dir: &Path) -> (bool, String, String) {
-    let o = Command::new(EXE)
-        .args(["reproduce", "--quiet", "--resume"])
-        .arg(dir)
-        .output()
-        .unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
 }
 
 #[test]
@@ -211,7 +172,11 @@ fn a_killed_repeated_campaign_resumes_to_the_same_trials() {
     assert!(ok, "{err}");
     assert!(out.contains("replayed"), "{out}");
     for seed in ["seed-7", "seed-8"] {
-        assert_eq!(trials(&dir.join(seed)), trials(&full.join(seed)), "{seed}");
+        assert_eq!(
+            file_trials(&dir.join(seed)),
+            file_trials(&full.join(seed)),
+            "{seed}"
+        );
     }
     let table = |d: &Path| std::fs::read_to_string(d.join("table.md")).unwrap();
     assert_eq!(table(&dir), table(&full));
@@ -281,12 +246,12 @@ fn the_toy_runs_repeat_seeds_too_and_resumes_them() {
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(json(&dir.join("repeat.json"))["repeat"], 2);
     let seeds = [dir.join("seed-1"), dir.join("seed-2")];
-    let before: Vec<Vec<Value>> = seeds.iter().map(|s| trials(s)).collect();
+    let before: Vec<Vec<Value>> = seeds.iter().map(|s| file_trials(s)).collect();
     assert!(before.iter().all(|t| !t.is_empty()) && before[0] != before[1]);
     // A resume keeps the count and replays every seed's trials.
     let (code, err) = toy(&["--resume", d, "--quiet"]);
     assert_eq!(code, Some(0), "{err}");
-    let after: Vec<Vec<Value>> = seeds.iter().map(|s| trials(s)).collect();
+    let after: Vec<Vec<Value>> = seeds.iter().map(|s| file_trials(s)).collect();
     assert_eq!(before, after);
     let _ = std::fs::remove_dir_all(dir);
 }

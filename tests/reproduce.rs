@@ -1,18 +1,13 @@
 //! `savme reproduce` end to end: outputs agree with trials.jsonl, runs are reproducible and
 //! independent of the number of jobs, a killed run resumes without losing or repeating a trial,
 //! and bad input is refused before any simulation.
+mod common;
+
+use common::{resume, run, temp_dir, trial_lines, without_wall, EXE};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-reproduce-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
 
 /// A tiny protocol on the camera + lidar simulator, work-unit cost.
 const TINY: &[&str] = &[
@@ -60,43 +55,13 @@ fn reproduce(out: &Path, extra: &[&str]) -> (bool, String, String) {
 
 /// `reproduce` with its exit status.
 fn reproduce_status(out: &Path, extra: &[&str]) -> (Option<i32>, String, String) {
-    let o = Command::new(EXE)
-        .arg("reproduce")
-        .arg("--out")
-        .arg(out)
-        .args(args(extra))
-        .output()
-        .unwrap();
-    (
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
-fn trials(dir: &Path) -> Vec<Value> {
-    std::fs::read_to_string(dir.join("trials.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
-
-/// The trials without their measured wall-clock times (the only field that varies between
-/// runs with work-unit cost).
-fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
-    for v in &mut t {
-        // The store's format version (absent from lines written before it existed).
-        if let Some(o) = v.as_object_mut() {
-            o.remove("v");
-        }
-        for run in ["hf", "lf"] {
-            if let Some(r) = v[run].as_object_mut() {
-                r.remove("wall_seconds");
-            }
-        }
-    }
-    t
+    let mut a = vec![
+        "reproduce".to_string(),
+        "--out".into(),
+        out.display().to_string(),
+    ];
+    a.extend(args(extra));
+    run(&a)
 }
 
 fn png_size(path: &Path) -> (u32, u32) {
@@ -132,7 +97,7 @@ fn a_tiny_reproduction_writes_outputs_that_agree_with_its_trials() {
     let dir = temp_dir("e2e");
     let (ok, out, err) = reproduce(&dir, &["--jobs", "2"]);
     assert!(ok, "{err}");
-    let t = trials(&dir);
+    let t = trial_lines(&dir);
     assert_eq!(t.len(), TINY_TRIALS);
     // Every stage, in the protocol's order, with consecutive indices.
     let stages: Vec<&str> = t.iter().map(|v| v["stage"].as_str().unwrap()).collect();
@@ -282,27 +247,14 @@ fn same_seed_and_work_cost_give_the_same_campaign_whatever_the_jobs() {
     let read = |d: &Path, f: &str| std::fs::read_to_string(d.join(f)).unwrap();
     assert_eq!(read(&a, "table.md"), read(&b, "table.md"));
     assert_eq!(read(&a, "fidelity.md"), read(&b, "fidelity.md"));
-    assert_eq!(without_wall(trials(&a)), without_wall(trials(&b)));
+    assert_eq!(without_wall(trial_lines(&a)), without_wall(trial_lines(&b)));
     // Another seed gives another campaign.
     let c = temp_dir("same-c");
     assert!(reproduce(&c, &["--jobs", "2", "--seed", "8"]).0);
-    assert_ne!(without_wall(trials(&a)), without_wall(trials(&c)));
+    assert_ne!(without_wall(trial_lines(&a)), without_wall(trial_lines(&c)));
     for d in [a, b, c] {
         let _ = std::fs::remove_dir_all(d);
     }
-}
-
-fn resume(dir: &Path) -> (bool, String, String) {
-    let o = Command::new(EXE)
-        .args(["reproduce", "--quiet", "--resume"])
-        .arg(dir)
-        .output()
-        .unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
 }
 
 /// Starts the TINY campaign (2 jobs) into `dir` and returns once `lines` trials are stored.
@@ -346,7 +298,7 @@ fn ctrl_c_then_resume(expected: &[Value]) {
         dir.display()
     );
     assert!(err.contains(&hint), "{err}");
-    let before = trials(&dir).len();
+    let before = trial_lines(&dir).len();
     assert!(
         before < TINY_TRIALS,
         "the run finished before Ctrl-C took effect"
@@ -355,7 +307,7 @@ fn ctrl_c_then_resume(expected: &[Value]) {
     assert!(ok, "{err}");
     let replayed = format!("({before} replayed from the trial store");
     assert!(out.contains(&replayed), "{out}");
-    assert_eq!(without_wall(trials(&dir)), expected);
+    assert_eq!(without_wall(trial_lines(&dir)), expected);
     let _ = std::fs::remove_dir_all(dir);
 }
 
@@ -363,7 +315,7 @@ fn ctrl_c_then_resume(expected: &[Value]) {
 fn a_killed_or_interrupted_campaign_resumes_without_losing_or_repeating_a_trial() {
     let full = temp_dir("resume-full");
     assert!(reproduce(&full, &["--jobs", "2"]).0);
-    let expected = without_wall(trials(&full));
+    let expected = without_wall(trial_lines(&full));
 
     // kill -9 midway through, then resume.
     let dir = temp_dir("resume-killed");
@@ -379,7 +331,7 @@ fn a_killed_or_interrupted_campaign_resumes_without_losing_or_repeating_a_trial(
     let (ok, out, err) = resume(&dir);
     assert!(ok, "{err}");
     assert!(out.contains("replayed from the trial store"), "{out}");
-    assert_eq!(without_wall(trials(&dir)), expected);
+    assert_eq!(without_wall(trial_lines(&dir)), expected);
 
     ctrl_c_then_resume(&expected);
 
@@ -395,7 +347,7 @@ fn a_killed_or_interrupted_campaign_resumes_without_losing_or_repeating_a_trial(
     std::fs::write(torn.join("trials.jsonl"), &text[..cut]).unwrap();
     let (ok, _, err) = resume(&torn);
     assert!(ok, "{err}");
-    assert_eq!(without_wall(trials(&torn)), expected);
+    assert_eq!(without_wall(trial_lines(&torn)), expected);
 
     // Resuming a finished campaign runs nothing and rewrites the same outputs.
     let table = std::fs::read_to_string(full.join("table.md")).unwrap();
@@ -546,7 +498,7 @@ fn the_same_seed_gives_the_trials_savme_gave_before_the_campaign_core_moved() {
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
     assert_eq!(before.len(), TINY_TRIALS);
-    assert_eq!(without_wall(trials(&dir)), without_wall(before));
+    assert_eq!(without_wall(trial_lines(&dir)), without_wall(before));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -1,17 +1,11 @@
 //! LF screening with HF confirmation end to end (`savme reproduce --screen-iterations`): HF runs
 //! exactly for LF failures and the audit sample, the report agrees with the trial lines, the
 //! stage is independent of the jobs and resumes, and an edited screening line is refused.
+mod common;
+
+use common::{resume, savme, temp_dir, trial_lines, without_wall};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-screen-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+use std::path::Path;
 
 const ARGS: &[&str] = &[
     "--perception",
@@ -39,39 +33,11 @@ const ARGS: &[&str] = &[
     "--quiet",
 ];
 
-fn run(args: &[&str]) -> (bool, String, String) {
-    let o = Command::new(EXE).args(args).output().unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
-
 fn reproduce(out: &Path, jobs: &str) -> (bool, String, String) {
     let out = out.display().to_string();
     let mut a = vec!["reproduce", "--out", &out, "--jobs", jobs];
     a.extend(ARGS);
-    run(&a)
-}
-
-fn lines(dir: &Path) -> Vec<Value> {
-    std::fs::read_to_string(dir.join("trials.jsonl"))
-        .unwrap()
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect()
-}
-
-fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
-    for v in &mut t {
-        for run in ["hf", "lf"] {
-            if let Some(r) = v[run].as_object_mut() {
-                r.remove("wall_seconds");
-            }
-        }
-    }
-    t
+    savme(&a)
 }
 
 // Long because it recomputes the screening report from the trial lines: one run, many checks.
@@ -80,7 +46,7 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
     let dir = temp_dir("e2e");
     let (ok, out, err) = reproduce(&dir, "2");
     assert!(ok, "{err}");
-    let all = lines(&dir);
+    let all = trial_lines(&dir);
     let screen: Vec<&Value> = all.iter().filter(|v| v["stage"] == "screen@0.3").collect();
     assert_eq!(screen.len(), 150);
     // θ_LF is the evaluation's θ*.
@@ -150,7 +116,7 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
     // The same campaign with one job, and a resumed one cut inside the screening stage.
     let one = temp_dir("one");
     assert!(reproduce(&one, "1").0);
-    assert_eq!(without_wall(lines(&one)), without_wall(all.clone()));
+    assert_eq!(without_wall(trial_lines(&one)), without_wall(all.clone()));
     let cut = temp_dir("cut");
     std::fs::create_dir_all(&cut).unwrap();
     std::fs::copy(dir.join("protocol.json"), cut.join("protocol.json")).unwrap();
@@ -165,18 +131,17 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
         text[..first + 40].join("\n") + "\n",
     )
     .unwrap();
-    let resume = |d: &Path| run(&["reproduce", "--quiet", "--resume", &d.display().to_string()]);
     // Without --quiet, progress lines go to the (piped) standard error: the screening stage's
     // trials, replayed and run, count as done, their HF failures (confirmed failures and
     // audit misses) as failures.
-    let (ok, _, err) = run(&["reproduce", "--resume", &cut.display().to_string()]);
+    let (ok, _, err) = savme(&["reproduce", "--resume", &cut.display().to_string()]);
     assert!(ok, "{err}");
     let done = format!(
         "screen@0.3 done: 150/150 trials, {} failures (HF)",
         confirmed + misses
     );
     assert!(err.contains(&done), "{done} not in {err}");
-    assert_eq!(without_wall(lines(&cut)), without_wall(all.clone()));
+    assert_eq!(without_wall(trial_lines(&cut)), without_wall(all.clone()));
 
     // A screening line edited to skip its HF run is refused, naming the line and field.
     let edited = temp_dir("edited");
@@ -217,7 +182,7 @@ fn bad_screening_values_are_refused_naming_the_flag() {
         ("--screen-iterations", "200000000", "`screen_iterations`"),
     ] {
         let d = dir.display().to_string();
-        let (ok, _, err) = run(&["reproduce", "--out", &d, "--quiet", flag, value]);
+        let (ok, _, err) = savme(&["reproduce", "--out", &d, "--quiet", flag, value]);
         assert!(!ok, "{flag} {value} accepted");
         assert!(err.contains(message), "{flag} {value}: {err}");
         assert!(!dir.exists());

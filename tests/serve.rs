@@ -1,17 +1,11 @@
 //! `savme serve` as a harness in another language sees it: a child process speaking JSON lines.
+mod common;
+
+use common::{made_dir, EXE};
 use serde_json::{json, Value};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-serve-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn write_config(dir: &Path) -> PathBuf {
     let out = Command::new(EXE).arg("example-config").output().unwrap();
@@ -76,7 +70,7 @@ fn drive(s: &mut Server, n: usize) -> Vec<Value> {
 
 #[test]
 fn a_killed_server_resumes_from_its_journal_without_loss_or_repeats() {
-    let dir = temp_dir("resume");
+    let dir = made_dir("resume");
     let config = write_config(&dir);
     let config = config.to_str().unwrap();
 
@@ -129,7 +123,7 @@ fn a_killed_server_resumes_from_its_journal_without_loss_or_repeats() {
 
 #[test]
 fn bad_configurations_and_journals_are_named() {
-    let dir = temp_dir("bad");
+    let dir = made_dir("bad");
     let config = write_config(&dir);
     let text = std::fs::read_to_string(&config).unwrap();
     let bad = dir.join("bad.json");
@@ -183,7 +177,7 @@ fn bad_configurations_and_journals_are_named() {
 
 #[test]
 fn a_second_server_on_a_journal_is_refused_naming_the_holder_and_changes_nothing() {
-    let dir = temp_dir("second");
+    let dir = made_dir("second");
     let config = write_config(&dir);
     let journal = dir.join("j.jsonl");
     let j = journal.to_str().unwrap();
@@ -223,7 +217,7 @@ fn a_second_server_on_a_journal_is_refused_naming_the_holder_and_changes_nothing
 fn a_journal_written_before_the_store_format_still_resumes() {
     // Written by savme b27244b (lines without the store's format version): ask 6, tell 5,
     // phase evaluate, ask 2 (tests/fixtures/README.md).
-    let dir = temp_dir("fixture");
+    let dir = made_dir("fixture");
     let journal = dir.join("old.jsonl");
     std::fs::copy(
         concat!(
@@ -261,7 +255,7 @@ fn a_journal_written_before_the_store_format_still_resumes() {
 
 #[test]
 fn a_tell_whose_runtime_ratio_overflows_is_refused_and_the_journal_replays() {
-    let dir = temp_dir("ratio");
+    let dir = made_dir("ratio");
     let config = write_config(&dir);
     let journal = dir.join("j.jsonl");
     let j = journal.to_str().unwrap();
@@ -289,7 +283,7 @@ struct SmallDisk(PathBuf);
 
 impl SmallDisk {
     fn mount(name: &str) -> Option<SmallDisk> {
-        let dir = temp_dir(name);
+        let dir = made_dir(name);
         let ok = Command::new("mount")
             .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
             .arg(&dir)
@@ -319,7 +313,7 @@ fn a_full_disk_leaves_no_partial_line_and_the_server_goes_on_when_space_returns(
         );
         return;
     };
-    let config = write_config(&temp_dir("full-disk-config"));
+    let config = write_config(&made_dir("full-disk-config"));
     let journal = disk.0.join("j.jsonl");
     let j = journal.to_str().unwrap();
     // Leave 16 KiB: room for the start line and some twenty trials.

@@ -4,28 +4,10 @@
 //! `savme fmu info` / `validate`.
 mod common;
 
-use common::fmpy_python;
+use common::{fmpy_python, made_dir, savme};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("savme-vendor-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn savme(args: &[&str]) -> (bool, String, String) {
-    let o = Command::new(EXE).args(args).output().unwrap();
-    (
-        o.status.success(),
-        String::from_utf8_lossy(&o.stdout).into_owned(),
-        String::from_utf8_lossy(&o.stderr).into_owned(),
-    )
-}
 
 fn example() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fmu/braking")
@@ -33,7 +15,7 @@ fn example() -> PathBuf {
 
 /// Compiles `examples/fmu/braking/<source>` (`$CC`, else `cc`) into `dir`.
 fn compile(source: &str, dir: &str) -> PathBuf {
-    let lib = temp_dir(dir).join(format!("braking.{}", std::env::consts::DLL_EXTENSION));
+    let lib = made_dir(dir).join(format!("braking.{}", std::env::consts::DLL_EXTENSION));
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let status = Command::new(&cc)
         .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
@@ -104,7 +86,7 @@ fn model_description() -> String {
 
 /// `dir` with the packed FMU and the example campaign file.
 fn example_dir(name: &str) -> (PathBuf, PathBuf) {
-    let dir = temp_dir(name);
+    let dir = made_dir(name);
     pack(&dir, &model_description());
     let config = dir.join("campaign.toml");
     std::fs::copy(example().join("campaign.toml"), &config).unwrap();
@@ -216,7 +198,7 @@ fn row(text: &str, name: &str) -> String {
 /// or JSON.
 #[test]
 fn fmu_info_shows_the_model_and_its_variables() {
-    let dir = temp_dir("info");
+    let dir = made_dir("info");
     let fmu = pack(&dir, &model_description());
     let (ok, text, err) = savme(&["fmu", "info", fmu.to_str().unwrap()]);
     assert!(ok, "{err}");
@@ -267,7 +249,7 @@ fn fmu_info_shows_the_model_and_its_variables() {
 /// in a child process): exit status 0, or 1 with the list of problems — as text or JSON.
 #[test]
 fn fmu_validate_lists_every_problem() {
-    let dir = temp_dir("validate");
+    let dir = made_dir("validate");
     let good = pack(&dir, &model_description());
     let (ok, text, err) = savme(&["fmu", "validate", good.to_str().unwrap()]);
     assert!(ok, "{err}");
@@ -353,7 +335,7 @@ fn fmpy_runs_the_braking_fmu_like_savme() {
 fn fmpy_compare(python: &str, fmi: u8) {
     use savme::kernel::{Assignment, Role, Scale, Space, Value, Variable};
     use savme_fmu::{Binding, CostSource, Failure, Fixed, FmuFile, FmuSimulator, RunSpec};
-    let dir = temp_dir(&format!("fmpy{fmi}"));
+    let dir = made_dir(&format!("fmpy{fmi}"));
     let fmu = pack_version(&dir, fmi);
     let file = std::sync::Arc::new(FmuFile::open(&fmu).unwrap());
     let phi = Space::new(vec![Variable::continuous("v", 4.0, 25.0, 4, Scale::Linear)]).unwrap();
@@ -453,7 +435,7 @@ fn fmpy_compare(python: &str, fmi: u8) {
 /// through `fmi3InstantiateCoSimulation`.
 #[test]
 fn fmu_info_and_validate_read_fmi3() {
-    let dir = temp_dir("info3");
+    let dir = made_dir("info3");
     let fmu = pack3(&dir);
     let (ok, text, err) = savme(&["fmu", "info", fmu.to_str().unwrap()]);
     assert!(ok, "{err}");

@@ -263,12 +263,14 @@ class Kernel:
         nominal: Optional[Mapping[str, Mapping[str, Mapping[str, Any]]]] = None,
         tilt: Literal["posterior", "nominal-weighted"] = "posterior",
         refine: Optional[Tuple[int, int]] = None,
+        refine_reuse: int = 0,
     ) -> Estimation:
         """An importance-sampling estimation of P(failure) under the nominal distribution
         from the current φ posteriors (docs/ESTIMATION.md): `epsilon` is the nominal's share
         of the proposal; `nominal` maps scenario → variable → {"distribution": "normal",
         "mean": M, "sd": S} (or "uniform", or "weights" with "weights": [...]) for variables
-        that are not uniform; `refine=(rounds, runs)` adds cross-entropy pilot rounds.
+        that are not uniform; `refine=(rounds, runs)` adds cross-entropy pilot rounds, and
+        `refine_reuse=k` counts the last k of them in the estimate too.
         ValueError names ε, the refinement, the scenario or the variable. The kernel is not
         changed."""
     def fidelity_posterior(self) -> Posterior:

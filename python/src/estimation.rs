@@ -28,7 +28,13 @@ pub fn config(
     nominal: Option<&Bound<'_, PyAny>>,
     tilt: &str,
     refine: Option<(u32, u64)>,
+    refine_reuse: u32,
 ) -> PyResult<EstimationConfig> {
+    if refine.is_none() && refine_reuse > 0 {
+        return Err(PyValueError::new_err(format!(
+            "refine_reuse: {refine_reuse} pilot rounds to reuse, but no refine=(rounds, runs)"
+        )));
+    }
     // The kernel's own names for the tilts (its serde form), so there is one list of them.
     let tilt: Tilt =
         serde_json::from_value(serde_json::Value::String(tilt.into())).map_err(|_| {
@@ -60,7 +66,11 @@ pub fn config(
         seed,
         nominal,
         tilt,
-        refine: refine.map(|(rounds, runs)| Refine { rounds, runs }),
+        refine: refine.map(|(rounds, runs)| Refine {
+            rounds,
+            runs,
+            reuse: refine_reuse,
+        }),
     })
 }
 

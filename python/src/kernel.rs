@@ -321,8 +321,11 @@ impl PyKernel {
     /// share of the proposal, `nominal` maps scenario → variable → `{"distribution":
     /// "normal", "mean": M, "sd": S}` (or `"uniform"`, or `"weights"` with `"weights": [...]`)
     /// for the variables that are not uniform, `tilt` is "posterior" or "nominal-weighted",
-    /// `refine=(rounds, runs)` adds cross-entropy pilot rounds. The kernel is not changed.
-    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None))]
+    /// `refine=(rounds, runs)` adds cross-entropy pilot rounds, and `refine_reuse=k` counts
+    /// the last k of them in the estimate too. The kernel is not changed.
+    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0))]
+    // Python keyword arguments, one parameter each.
+    #[allow(clippy::too_many_arguments)]
     fn estimation(
         &self,
         py: Python<'_>,
@@ -331,8 +334,9 @@ impl PyKernel {
         nominal: Option<&Bound<'_, PyAny>>,
         tilt: &str,
         refine: Option<(u32, u64)>,
+        refine_reuse: u32,
     ) -> PyResult<PyEstimation> {
-        let config = estimation::config(py, epsilon, seed, nominal, tilt, refine)?;
+        let config = estimation::config(py, epsilon, seed, nominal, tilt, refine, refine_reuse)?;
         self.with(|s| PyEstimation::of(s.kernel(), &config))
     }
 

@@ -342,12 +342,31 @@ def test_a_refined_estimation_waits_for_each_round_and_a_normal_nominal_is_used(
     assert "Estimation(scenarios=['lead_brakes'], told=100)" == repr(est)
 
 
+def test_reused_refinement_rounds_count_in_the_estimate():
+    k = trained_kernel()
+    est = k.estimation(epsilon=0.1, seed=1, refine=(2, 50), refine_reuse=1)
+    terms = []
+    while est.told < 150:
+        t = est.ask()
+        failure = t["phi"]["gap_m"] < 15.0
+        est.tell(t["id"], failure)
+        if t["round"] != 0:  # the last round and the runs after the pilot
+            terms.append(t["weight"] if failure else 0.0)
+    e = est.estimate()
+    assert e["runs"] == 100 and est.told == 150
+    assert abs(e["total"]["mean"] - sum(terms) / len(terms)) < 1e-12
+
+
 def test_bad_estimation_arguments_name_what_is_wrong():
     k = trained_kernel()
     with pytest.raises(ValueError, match=r"epsilon .* must lie in \(0, 1\], got 0"):
         k.estimation(epsilon=0.0)
     with pytest.raises(ValueError, match="refine needs at least 1 round"):
         k.estimation(refine=(0, 10))
+    with pytest.raises(ValueError, match="refine reuse: 3 rounds to reuse .* only 2 pilot rounds"):
+        k.estimation(refine=(2, 10), refine_reuse=3)
+    with pytest.raises(ValueError, match=r"refine_reuse: 1 pilot rounds to reuse, but no refine"):
+        k.estimation(refine_reuse=1)
     with pytest.raises(ValueError, match="unknown variable `gap` of scenario `lead_brakes`"):
         k.estimation(nominal={"lead_brakes": {"gap": {"distribution": "uniform"}}})
     with pytest.raises(ValueError, match="nominal: unknown variant `gamma`"):

@@ -48,6 +48,19 @@ pub enum CampaignError {
         /// What is wrong.
         message: String,
     },
+    /// A simulator's result (just run, not replayed) that the kernel refuses, e.g. a runtime of
+    /// 0 under wall-clock cost.
+    #[error(
+        "{stage} trial {index}: the simulator's result cannot be told to the kernel: {message}"
+    )]
+    Untellable {
+        /// Stage label.
+        stage: String,
+        /// Trial position in the stage.
+        index: u64,
+        /// The kernel's reason.
+        message: String,
+    },
     /// The trials file does not match the protocol (a different run, or edited).
     #[error("trials.jsonl does not match the protocol at {stage} trial {index}: {message}")]
     Diverged {

@@ -344,7 +344,8 @@ impl Report {
         }
     }
 
-    /// Table III: baseline and each budget's TP-rate, mean LF cost and speedup (Markdown).
+    /// Table III: baseline and each budget's TP-rate, mean LF cost and speedup (Markdown),
+    /// followed by [`TABLE_III_LEGEND`].
     pub fn table_md(&self) -> String {
         let p = &self.protocol;
         let mut s = String::new();
@@ -352,11 +353,11 @@ impl Report {
         let _ = writeln!(
             s,
             "Evaluation: {} trials per budget with θ_LF = MAP of p_ω and φ ~ p_ψ, after {} \
-             meta-training iterations on {} scenarios. Baseline: {} trials with φ uniform, \
+             meta-training iterations on {}. Baseline: {} trials with φ uniform, \
              high fidelity only. Cost: {}. Seed {}.\n",
             p.eval_iterations,
             p.train_iterations,
-            p.train_scenarios.len(),
+            scenarios(p.train_scenarios.len()),
             p.baseline_train_iterations,
             cost_name(p.cost),
             p.seed
@@ -405,6 +406,7 @@ impl Report {
                 }
             }
         }
+        let _ = writeln!(s, "\n{TABLE_III_LEGEND}");
         s
     }
 
@@ -539,6 +541,19 @@ impl Report {
     }
 }
 
+/// What Table III's columns mean, written under it (`table.md`, the printed table) so that
+/// its numbers can be read without the paper or the code.
+pub const TABLE_III_LEGEND: &str = "TP-rate: the share of evaluation trials whose HF and LF \
+runs both fail (for the baseline: its HF failure rate). Mean LF cost: the LF run's cost over \
+its HF run's, averaged over the evaluation trials. Speedup = (TP-rate / mean LF cost) / \
+baseline failure rate (the paper's definition): how many times more failures per unit of \
+runtime the learned fidelity alone finds than the HF-only baseline.";
+
+/// "1 scenario", "8 scenarios".
+fn scenarios(n: usize) -> String {
+    format!("{n} scenario{}", if n == 1 { "" } else { "s" })
+}
+
 fn cost_name(c: Cost) -> &'static str {
     match c {
         Cost::Wall => "measured wall-clock time",
@@ -597,4 +612,30 @@ fn sig(x: f64) -> String {
     }
     let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
     format!("{x:.digits$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Protocol, Report, TABLE_III_LEGEND};
+
+    #[test]
+    fn table_iii_says_what_its_columns_mean() {
+        let p = Protocol::quick("toy", vec!["a".into()], vec!["b".into()]);
+        let table = Report::from_trials(&p, &[]).table_md();
+        let header = table
+            .lines()
+            .position(|l| l.starts_with("| C_budget | TP-rate | mean LF cost | speedup |"));
+        let legend = table.lines().position(|l| l == TABLE_III_LEGEND);
+        assert!(
+            matches!((header, legend), (Some(h), Some(l)) if h < l),
+            "{table}"
+        );
+        for column in [
+            "TP-rate:",
+            "Mean LF cost:",
+            "Speedup = (TP-rate / mean LF cost)",
+        ] {
+            assert!(TABLE_III_LEGEND.contains(column), "{column}");
+        }
+    }
 }

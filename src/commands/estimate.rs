@@ -63,6 +63,11 @@ pub struct Args {
     /// HF runs per pilot round (with --refine-rounds) [default: 0].
     #[arg(long)]
     refine_runs: Option<u64>,
+    /// How many of the last pilot rounds also count toward the estimate, each run weighted
+    /// by its own round's proposal (unbiased; fewer runs for the same width when the last
+    /// rounds' proposals are close to the final one) [default: 0].
+    #[arg(long)]
+    refine_reuse: Option<u32>,
     /// The campaign file of an FMU campaign (savme run): its problem and HF simulator. Its
     /// `[estimate]` section, if any, gives the settings; flags given here override its keys.
     #[arg(long, value_name = "FILE")]
@@ -107,6 +112,7 @@ impl Args {
         }
         s.refine_rounds = self.refine_rounds.unwrap_or(s.refine_rounds);
         s.refine_runs = self.refine_runs.unwrap_or(s.refine_runs);
+        s.refine_reuse = self.refine_reuse.unwrap_or(s.refine_reuse);
         // A flag overrides the file's declaration of its variable; a second flag for the
         // same variable is refused rather than silently winning.
         let mut given = std::collections::BTreeSet::new();

@@ -29,9 +29,10 @@ pub enum Command {
         json: bool,
     },
     /// Make every check savme makes on an FMU before a campaign: archive, model description,
-    /// FMI 2.0 co-simulation, a binary for this platform, every variable's declaration, and the
-    /// library (loaded, its FMI functions, instantiated with its GUID and resources — in a
-    /// child process). Exit status 0, or 1 with the list of problems.
+    /// FMI 2.0 or 3.0 co-simulation, a binary for this platform, every variable's declaration,
+    /// and the library (loaded, its FMI functions, instantiated with its GUID or instantiation
+    /// token and resources — in a child process). Exit status 0, or 1 with the list of
+    /// problems.
     Validate {
         /// The .fmu.
         file: PathBuf,

@@ -324,13 +324,22 @@ pub struct StorageArgs {
     /// URL, PGPASSWORD or ~/.pgpass, and is never printed.
     #[arg(long, value_name = "URL", conflicts_with = "storage_file")]
     storage: Option<String>,
-    /// Read the --storage URL from the first line of FILE (keeps the password off the
-    /// command line and out of `ps`).
+    /// Read the --storage URL from the first line of FILE that is neither empty nor a `#`
+    /// comment (keeps the password off the command line and out of `ps`).
     #[arg(long, value_name = "FILE")]
     storage_file: Option<PathBuf>,
     /// The campaign's name in the database (with --storage).
     #[arg(long, value_name = "NAME")]
     campaign: Option<String>,
+}
+
+/// A campaign's coordinator (`reproduce`, `run`, `toy`): where the campaign is kept, and
+/// whether `savme worker` processes run its simulations. `serve` and `worker` take only
+/// [`StorageArgs`], so that they refuse these flags instead of ignoring them.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct CampaignStorageArgs {
+    #[command(flatten)]
+    store: StorageArgs,
     /// Run the HF and LF runs by `savme worker` processes (on any hosts) through the
     /// database's work queue instead of local threads (with --storage). The trials are the
     /// same.
@@ -343,6 +352,11 @@ pub struct StorageArgs {
 }
 
 impl StorageArgs {
+    /// Whether a database was named (--storage or --storage-file).
+    pub fn given(&self) -> bool {
+        self.storage.is_some() || self.storage_file.is_some()
+    }
+
     /// The database given, if any (checked: a campaign name goes with it).
     pub fn database(&self) -> Result<Option<(Database, String)>, Failure> {
         let db = match (&self.storage, &self.storage_file) {
@@ -364,15 +378,22 @@ impl StorageArgs {
 
     /// Opens (and locks) the campaign in the database given, if any.
     pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
-        if self.remote && self.storage.is_none() && self.storage_file.is_none() {
-            return Err(usage("--remote runs trials through a database's work queue: give --storage URL --campaign NAME too"));
-        }
         match self.database()? {
             Some((db, name)) => PostgresStore::open(&db, &name)
                 .map(Some)
                 .map_err(|e| Failure::Runtime(e.to_string())),
             None => Ok(None),
         }
+    }
+}
+
+impl CampaignStorageArgs {
+    /// Opens (and locks) the campaign in the database given, if any; `--remote` needs one.
+    pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
+        if self.remote && !self.store.given() {
+            return Err(usage("--remote runs trials through a database's work queue: give --storage URL --campaign NAME too"));
+        }
+        self.store.open()
     }
 
     /// The work queue of `store`'s campaign, with --remote.

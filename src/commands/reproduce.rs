@@ -1,19 +1,19 @@
 //! `savme reproduce`: the paper's protocol on the bundled driving simulator.
 
 use super::{
-    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage, Failure,
-    ProtocolArgs, RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
+    CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config::{self, Preset};
 use savme::campaign::store::TrialStore;
-use savme::campaign::{load_protocol, load_repeat, Problem};
+use savme::campaign::{load_protocol, load_repeat, Cost, Problem, Protocol};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Output directory (created if missing; must not hold a campaign already, unless the
-    /// campaign is kept in a database).
+    /// Output directory (default savme-results; created if missing; must not hold a campaign
+    /// already, unless the campaign is kept in a database).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Continue the campaign in DIR after an interruption (even `kill -9`); with --storage,
@@ -30,7 +30,7 @@ pub struct Args {
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
-    storage: StorageArgs,
+    storage: CampaignStorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }
@@ -39,6 +39,44 @@ pub struct Args {
 enum Perception {
     Sensors,
     Ideal,
+}
+
+/// The end of `savme reproduce --help`: the protocol run without protocol flags, and with
+/// `--quick`, read from the presets themselves (so that the help cannot drift from them).
+pub fn defaults_help() -> String {
+    let (train, test) = savme_sim::scenario::train_test_names();
+    let paper = Protocol::paper(config::SENSORS, train.clone(), test.clone());
+    let quick = Protocol::quick(config::SENSORS, train, test);
+    let stages = |p: &Protocol| {
+        let budgets: Vec<String> = p.budgets.iter().map(f64::to_string).collect();
+        format!(
+            "budgets {}; per budget {} meta-training iterations, {} evaluation trials and {} \
+             meta-testing iterations per prior (learned, uniform); baselines of {} and {} trials \
+             ({} trials in all)",
+            budgets.join(","),
+            p.train_iterations,
+            p.eval_iterations,
+            p.test_iterations,
+            p.baseline_train_iterations,
+            p.baseline_test_iterations,
+            p.total_trials()
+        )
+    };
+    format!(
+        "Without protocol flags: the paper's protocol — seed {}, cost {}, {} meta-training and {} \
+         meta-testing scenarios (`savme scenarios`), {}.\n--quick: {}.\nEach protocol flag \
+         overrides one of these values; the protocol a campaign ran is written to \
+         OUT/protocol.json.",
+        paper.seed,
+        match paper.cost {
+            Cost::Wall => "wall",
+            Cost::Work => "work",
+        },
+        paper.train_scenarios.len(),
+        paper.test_scenarios.len(),
+        stages(&paper),
+        stages(&quick)
+    )
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {

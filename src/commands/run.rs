@@ -1,8 +1,8 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
 use super::{
-    config_failure, resume_dir, run_campaign, run_repeated, usage, Failure, ProtocolArgs,
-    RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, usage, CampaignStorageArgs, Failure,
+    ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config;
 use savme::campaign::estimate::{EstimateError, EstimateRun, EstimateSettings};
@@ -30,7 +30,7 @@ pub struct Args {
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
-    storage: StorageArgs,
+    storage: CampaignStorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }

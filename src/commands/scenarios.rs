@@ -34,7 +34,7 @@ fn scenarios_text() -> String {
     for info in &SCENARIOS {
         let _ = writeln!(
             out,
-            "{:>2}  {}  ({}, {} s)",
+            "{:>2}  {}  ({}, {} s of simulated driving)",
             info.id,
             info.name,
             role(info),

@@ -1,6 +1,7 @@
 //! `savme serve` (the kernel behind JSON lines on stdin/stdout, optionally journaled to a trial
 //! store) and `savme example-config`.
 
+use super::{usage, Failure};
 use savme::campaign::store::{journal, JsonlStore, TrialStore};
 use savme::kernel::{Kernel, KernelConfig};
 use savme::serve::Session;
@@ -23,14 +24,21 @@ pub struct Args {
     storage: super::StorageArgs,
 }
 
-pub fn run(a: Args) -> Result<(), String> {
-    let database = a.storage.open().map_err(|e| e.message().to_string())?;
+pub fn run(a: Args) -> Result<(), Failure> {
+    if a.config.is_none() && a.journal.is_none() && !a.storage.given() {
+        return Err(usage(
+            "give --config FILE (a kernel configuration, e.g. from `savme example-config`), or --journal FILE to resume",
+        ));
+    }
+    let database = a.storage.open()?;
     let store: Option<Box<dyn TrialStore>> = match (a.journal.as_deref(), database) {
-        (Some(path), _) => Some(Box::new(JsonlStore::open(path).map_err(|e| e.to_string())?)),
+        (Some(path), _) => Some(Box::new(
+            JsonlStore::open(path).map_err(|e| Failure::from(e.to_string()))?,
+        )),
         (None, Some(db)) => Some(Box::new(db)),
         (None, None) => None,
     };
-    serve(a.config.as_deref(), store)
+    serve(a.config.as_deref(), store).map_err(Failure::from)
 }
 
 pub fn example_config() -> Result<(), String> {

@@ -4,12 +4,12 @@
 //! CPU; `--null` runs nothing at all.
 
 use super::{
-    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage, Failure,
-    ProtocolArgs, RunnerArgs, StorageArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
+    CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config::{self, named_simulator, toy_label, NULL};
 use savme::campaign::store::TrialStore;
-use savme::campaign::{load_protocol, load_repeat};
+use savme::campaign::{load_protocol, load_repeat, Cost};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
@@ -24,24 +24,35 @@ pub struct Args {
     /// Every run sleeps this many milliseconds first.
     #[arg(long, value_name = "MS", default_value_t = 0, conflicts_with = "null")]
     sleep_ms: u64,
-    /// The null simulator: every run passes at once (measures savme's own cost).
+    /// The null simulator: every run passes at once (measures savme's own cost). Its runs
+    /// take no time, so its cost is work units (--cost work, the default with --null).
     #[arg(long)]
     null: bool,
     #[command(flatten)]
     protocol: ProtocolArgs,
     #[command(flatten)]
-    storage: StorageArgs,
+    storage: CampaignStorageArgs,
     #[command(flatten)]
     runner: RunnerArgs,
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {
-    let overrides = a.protocol.overrides();
+    let mut overrides = a.protocol.overrides();
     let store = a.storage.open()?;
     let remote = a.storage.remote(store.as_ref())?;
     let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
     if resume.is_some() && overrides.any() {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
+    }
+    if a.null && resume.is_none() {
+        // A null run takes no measurable time: the kernel refuses a wall-clock cost of 0.
+        match overrides.cost {
+            Some(Cost::Wall) => {
+                return Err(usage("--null: its runs take no time, so they have no wall-clock cost: give --cost work (the default with --null)"));
+            }
+            Some(Cost::Work) => {}
+            None => overrides.cost = Some(Cost::Work),
+        }
     }
     let label = if a.null {
         NULL.to_string()

@@ -1,23 +1,15 @@
 //! Campaign helpers of the PostgreSQL tests (`tests/postgres.rs`, `tests/distributed.rs`):
-//! temporary directories, process output, trial lines from a directory or the database
+//! process output, trial lines from a directory or the database
 //! (without the measured wall-clock seconds, which differ run to run), `savme worker`
 //! processes.
 #![allow(dead_code)]
 
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// The savme binary under test.
-pub const EXE: &str = env!("CARGO_BIN_EXE_savme");
-
-/// A fresh (absent) temporary directory for `name`, unique to this test process.
-pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("savme-pgtest-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
+use super::{trial_lines, without_wall, EXE};
 
 /// stdout then stderr.
 pub fn text(o: &Output) -> String {
@@ -28,15 +20,9 @@ pub fn text(o: &Output) -> String {
     )
 }
 
-/// The lines of `dir/trials.jsonl`.
+/// The lines of `dir/trials.jsonl` without their store version and wall-clock seconds.
 pub fn file_trials(dir: &Path) -> Vec<Value> {
-    without_wall(
-        std::fs::read_to_string(dir.join("trials.jsonl"))
-            .unwrap()
-            .lines()
-            .map(|l| serde_json::from_str(l).unwrap())
-            .collect(),
-    )
+    without_wall(trial_lines(dir))
 }
 
 /// The trial lines of campaign `name`, in order.
@@ -53,21 +39,6 @@ pub fn db_trials(client: &mut postgres::Client, name: &str) -> Vec<Value> {
             .map(|r| serde_json::from_str(r.get::<_, &str>(0)).unwrap())
             .collect(),
     )
-}
-
-/// Trial lines without their store version and wall-clock seconds.
-pub fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
-    for v in &mut t {
-        if let Some(o) = v.as_object_mut() {
-            o.remove("v");
-        }
-        for run in ["hf", "lf"] {
-            if let Some(r) = v[run].as_object_mut() {
-                r.remove("wall_seconds");
-            }
-        }
-    }
-    t
 }
 
 /// A `savme worker` process on campaign `name` (stderr kept for [`finish`]).

@@ -4,6 +4,87 @@
 pub mod campaign;
 pub mod postgres;
 
+use serde_json::Value;
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The savme binary under test.
+pub const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+/// A fresh (absent) temporary directory for `name`, unique to this test file and process:
+/// `$TMPDIR/savme-<test file>-<pid>-<name>`.
+pub fn temp_dir(name: &str) -> PathBuf {
+    // A test binary is named `<test file>-<hash>`.
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let stem = exe.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let file = stem
+        .as_deref()
+        .and_then(|s| s.rsplit_once('-'))
+        .map_or("test", |(f, _)| f);
+    let dir = std::env::temp_dir().join(format!("savme-{file}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// `savme ARGS` run to its end: whether it succeeded, stdout, stderr.
+pub fn savme<S: AsRef<OsStr>>(args: &[S]) -> (bool, String, String) {
+    let (code, out, err) = run(args);
+    (code == Some(0), out, err)
+}
+
+/// `savme reproduce --quiet --resume DIR` run to its end (see [`savme`]).
+pub fn resume(dir: &Path) -> (bool, String, String) {
+    savme(&[
+        OsStr::new("reproduce"),
+        "--quiet".as_ref(),
+        "--resume".as_ref(),
+        dir.as_os_str(),
+    ])
+}
+
+/// The lines of `dir/trials.jsonl`, as stored.
+pub fn trial_lines(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("trials.jsonl"))
+        .expect("trials.jsonl")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON trial line"))
+        .collect()
+}
+
+/// Trial lines without their store version and wall-clock seconds (the only fields that
+/// differ between runs of a work-cost campaign).
+pub fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
+    for v in &mut t {
+        if let Some(o) = v.as_object_mut() {
+            o.remove("v");
+        }
+        for run in ["hf", "lf"] {
+            if let Some(r) = v[run].as_object_mut() {
+                r.remove("wall_seconds");
+            }
+        }
+    }
+    t
+}
+
+/// [`temp_dir`], created (empty).
+pub fn made_dir(name: &str) -> PathBuf {
+    let dir = temp_dir(name);
+    std::fs::create_dir_all(&dir).expect("a temporary directory");
+    dir
+}
+
+/// `savme ARGS` run to its end: the exit code (`None` if a signal ended it), stdout, stderr.
+pub fn run<S: AsRef<OsStr>>(args: &[S]) -> (Option<i32>, String, String) {
+    let o = Command::new(EXE).args(args).output().expect("savme runs");
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
 /// The SQL block that follows the marker `<!-- NAME -->` in `docs/DISTRIBUTED.md` (so that the
 /// tests run exactly what the docs show).
 pub fn doc_sql(marker: &str) -> String {

@@ -40,6 +40,7 @@ pub(super) mod raw {
         pub tilt: Option<Spanned<super::Tilt>>,
         pub refine_rounds: Option<Spanned<u32>>,
         pub refine_runs: Option<Spanned<u64>>,
+        pub refine_reuse: Option<Spanned<u32>>,
         #[serde(default)]
         pub nominal: BTreeMap<String, BTreeMap<String, Spanned<Nominal>>>,
     }
@@ -69,6 +70,8 @@ pub struct EstimateSection {
     pub refine_rounds: Option<u32>,
     /// `refine_runs`: HF runs per pilot round.
     pub refine_runs: Option<u64>,
+    /// `refine_reuse`: how many of the last pilot rounds also count toward the estimate.
+    pub refine_reuse: Option<u32>,
     /// `[estimate.nominal.<scenario>] <variable> = { distribution = … }`.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
     /// The 1-based line of the `[estimate]` table.
@@ -112,6 +115,7 @@ pub(super) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> Estimat
         tilt: field!(tilt),
         refine_rounds: field!(refine_rounds),
         refine_runs: field!(refine_runs),
+        refine_reuse: field!(refine_reuse),
         nominal: BTreeMap::new(),
         line,
         lines: BTreeMap::new(),

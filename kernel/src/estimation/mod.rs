@@ -26,8 +26,15 @@
 //! from the nominal restricted to it.
 //! This aims q at where p(φ)·P(failure | φ) is large, not merely where failures are frequent,
 //! which matters when the nominal is concentrated away from the failures (a rare event).
-//! Pilot trials are logged (`round`) but are **not** part of the estimate: the estimate uses
-//! only trials drawn from the final, fixed proposal, so it stays unbiased. While a round's
+//! Pilot trials are logged (`round`) and by default are **not** part of the estimate: it uses
+//! only trials drawn from the final, fixed proposal. [`Refine::reuse`] = k adds the last k
+//! pilot rounds' trials, each with the weight p/q_r of the proposal q_r it was drawn from.
+//! q_r was fixed before round r's draws, so each such term has mean P(failure) given the
+//! rounds before it, and the pooled mean (1/N) Σ w·f over a set of rounds chosen in advance
+//! stays unbiased (a martingale argument; no trial is re-weighted with a proposal fitted on
+//! it). Its interval treats the pooled terms as one sample: the rounds' terms have the same
+//! mean and different spreads, so the pooled sample variance estimates their average spread —
+//! the variance of the pooled mean. While a round's
 //! trials are out, [`Estimation::ask`] returns None until they are told, so the proposal —
 //! and every trial — does not depend on the order in which parallel runs finish.
 //!
@@ -105,7 +112,9 @@ pub struct EstimationConfig {
 /// ```
 /// use savme_kernel::estimation::Refine;
 /// let r: Refine = serde_json::from_str(r#"{"rounds":3,"runs":1000}"#)?;
-/// assert_eq!(r, Refine { rounds: 3, runs: 1000 });
+/// assert_eq!(r, Refine { rounds: 3, runs: 1000, reuse: 0 });
+/// let r: Refine = serde_json::from_str(r#"{"rounds":3,"runs":1000,"reuse":1}"#)?;
+/// assert_eq!(r.reuse, 1);
 /// # Ok::<(), serde_json::Error>(())
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -115,6 +124,16 @@ pub struct Refine {
     pub rounds: u32,
     /// HF runs per round over all scenarios (shared by p(s)), ≥ 1.
     pub runs: u64,
+    /// How many of the last pilot rounds also count toward the estimate, 0 ..= `rounds`
+    /// (0: none, the estimate uses only the final proposal's trials). A reused trial keeps
+    /// the weight p/q of the proposal it was drawn from — fixed before its round began — so
+    /// the estimate stays unbiased; see the module docs for its interval.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub reuse: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// How far a refit moves the bin probabilities toward the pilot's weighted failures. Larger
@@ -149,6 +168,16 @@ pub enum EstimationError {
         rounds: u32,
         /// Runs per round given.
         runs: u64,
+    },
+    /// More pilot rounds to reuse in the estimate than there are.
+    #[error(
+        "refine reuse: {reuse} rounds to reuse in the estimate, but only {rounds} pilot rounds"
+    )]
+    BadReuse {
+        /// Rounds to reuse given.
+        reuse: u32,
+        /// Pilot rounds given.
+        rounds: u32,
     },
     /// No scenario to estimate.
     #[error("no scenarios to estimate")]
@@ -227,6 +256,7 @@ pub struct Estimation {
     rng: Rng64,
     next_id: u64,
     asked: Vec<u64>,
+    told: u64,
     pending: BTreeMap<u64, Pending>,
     sums: Vec<Sums>,
     pilot: Option<Pilot>,
@@ -269,9 +299,17 @@ impl Estimation {
         if !(eps > 0.0 && eps <= 1.0) {
             return Err(EstimationError::BadEpsilon(eps));
         }
-        if let Some(Refine { rounds, runs }) = config.refine {
+        if let Some(Refine {
+            rounds,
+            runs,
+            reuse,
+        }) = config.refine
+        {
             if rounds == 0 || runs == 0 {
                 return Err(EstimationError::BadRefine { rounds, runs });
+            }
+            if reuse > rounds {
+                return Err(EstimationError::BadReuse { reuse, rounds });
             }
         }
         if scenarios.is_empty() {
@@ -338,6 +376,7 @@ impl Estimation {
             rng: Rng64::seed_from_u64(config.seed),
             next_id: 0,
             asked: vec![0; scenarios.len()],
+            told: 0,
             pending: BTreeMap::new(),
             sums: vec![Sums::default(); scenarios.len()],
             pilot,
@@ -422,12 +461,16 @@ impl Estimation {
             .pending
             .remove(&id)
             .ok_or(EstimationError::NotPending(id))?;
+        self.told += 1;
         let s = t.scenario;
-        let (Some((_, arms)), Some(pilot)) = (t.pilot, self.pilot.as_mut()) else {
+        let (Some((round, arms)), Some(pilot)) = (t.pilot, self.pilot.as_mut()) else {
             self.sums[s].add(t.weight, failure);
             return Ok(());
         };
         self.pilot_sums[s].add(t.weight, failure);
+        if round + pilot.refine.reuse >= pilot.refine.rounds {
+            self.sums[s].add(t.weight, failure);
+        }
         if failure {
             pilot.failed.insert(id, (s, t.weight, arms));
         }
@@ -467,11 +510,7 @@ impl Estimation {
 
     /// Trials told so far, pilot and estimate together.
     pub fn told(&self) -> u64 {
-        self.sums
-            .iter()
-            .chain(&self.pilot_sums)
-            .map(|s| s.runs)
-            .sum()
+        self.told
     }
 
     /// Per scenario, the pilot's trials told and how many of them failed.
@@ -482,7 +521,8 @@ impl Estimation {
             .collect()
     }
 
-    /// The estimate from the trials told so far.
+    /// The estimate from the trials told so far: those of the final proposal and of the
+    /// pilot rounds it reuses ([`Refine::reuse`]).
     pub fn estimate(&self) -> Estimate {
         Estimate::from_scenarios(
             self.names

@@ -367,7 +367,11 @@ fn fails(t: &EstimationTrial) -> bool {
 #[test]
 fn a_refinement_with_no_rounds_or_runs_is_refused() {
     for (rounds, runs) in [(0, 10), (3, 0)] {
-        let refine = Some(Refine { rounds, runs });
+        let refine = Some(Refine {
+            rounds,
+            runs,
+            reuse: 0,
+        });
         let (s, _) = scenario("s", vec![Variable::boolean("b")], 1.0);
         let p = Posterior::new(&s.space, PriorCounts::UNIFORM).unwrap();
         let mut c = EstimationConfig::new(0.1, 0);
@@ -386,6 +390,7 @@ fn a_round_waits_for_its_outcomes_and_the_tell_order_does_not_matter() {
     let refine = Some(Refine {
         rounds: 2,
         runs: 50,
+        reuse: 0,
     });
     let (mut a, _) = rare(5, refine);
     let (mut b, _) = rare(5, refine);
@@ -422,6 +427,7 @@ fn refinement_aims_at_the_nominal_failure_mass_and_stays_unbiased() {
     let refine = Some(Refine {
         rounds: 3,
         runs: 400,
+        reuse: 0,
     });
     let run = |seed: u64, refine: Option<Refine>| {
         let (mut e, truth) = rare(seed, refine);
@@ -443,6 +449,7 @@ fn refinement_aims_at_the_nominal_failure_mass_and_stays_unbiased() {
         Some(Refine {
             rounds: 1,
             runs: 300,
+            reuse: 0,
         }),
     );
     for _ in 0..300 {
@@ -480,4 +487,78 @@ fn refinement_aims_at_the_nominal_failure_mass_and_stays_unbiased() {
     assert!((53..=60).contains(&covered), "covered {covered} of {seeds}");
     // Measured: 0.031 against 0.110.
     assert!(width < 0.4 * width_before, "{width} vs {width_before}");
+}
+
+#[test]
+fn reusing_more_rounds_than_there_are_is_refused() {
+    let (s, _) = scenario("s", vec![Variable::boolean("b")], 1.0);
+    let p = Posterior::new(&s.space, PriorCounts::UNIFORM).unwrap();
+    let mut c = EstimationConfig::new(0.1, 0);
+    c.refine = Some(Refine {
+        rounds: 2,
+        runs: 10,
+        reuse: 3,
+    });
+    assert_eq!(
+        err(&[(s, p)], &c),
+        "refine reuse: 3 rounds to reuse in the estimate, but only 2 pilot rounds"
+    );
+}
+
+/// Reusing the last pilot rounds changes no trial (the same draws), counts those rounds'
+/// trials in the estimate with their own round's weights, and keeps it unbiased: over 60
+/// seeds the interval covers the true tail probability at about the nominal rate, the mean
+/// error is small against the spread, and the interval is narrower than without reuse.
+#[test]
+fn reused_pilot_rounds_join_the_estimate_and_keep_it_unbiased() {
+    let refine = |reuse| {
+        Some(Refine {
+            rounds: 3,
+            runs: 400,
+            reuse,
+        })
+    };
+    let run = |seed: u64, reuse: u32| {
+        let (mut e, truth) = rare(seed, refine(reuse));
+        let mut trials = Vec::new();
+        while e.told() < 1200 {
+            let t = e.ask().expect("told one by one");
+            e.tell(t.id, fails(&t)).unwrap();
+            trials.push(t);
+        }
+        let after_pilot = e.estimate().runs;
+        for _ in 0..1000 {
+            let t = e.ask().expect("no waiting after the pilot");
+            e.tell(t.id, fails(&t)).unwrap();
+            trials.push(t);
+        }
+        (e.estimate(), truth, trials, after_pilot)
+    };
+    let (with, _, trials_with, after_pilot) = run(3, 2);
+    let (without, _, trials_without, _) = run(3, 0);
+    assert_eq!(trials_with, trials_without, "reuse changes no draw");
+    assert_eq!((after_pilot, with.runs, without.runs), (800, 1800, 1000));
+    // The reused rounds' trials, with their own weights, make up the difference.
+    let reused: Vec<&EstimationTrial> = trials_with
+        .iter()
+        .filter(|t| matches!(t.round, Some(1 | 2)))
+        .collect();
+    assert_eq!(reused.len(), 800);
+    let failures = |ts: &[&EstimationTrial]| ts.iter().filter(|t| fails(t)).count() as u64;
+    assert_eq!(with.failures, without.failures + failures(&reused));
+    let seeds = 60;
+    let (mut covered, mut error) = (0, 0.0);
+    let (mut width_one, mut width_none) = (0.0, 0.0);
+    for seed in 0..seeds {
+        let (est, truth, _, _) = run(seed, 2);
+        covered += u32::from(est.total.lo <= truth && truth <= est.total.hi);
+        error += (est.total.mean - truth) / truth / seeds as f64;
+        width_one += run(seed, 1).0.total.relative_half_width() / seeds as f64;
+        width_none += run(seed, 0).0.total.relative_half_width() / seeds as f64;
+    }
+    assert!((53..=60).contains(&covered), "covered {covered} of {seeds}");
+    assert!(error.abs() < 0.02, "mean relative error {error}");
+    // Measured: ±3.94 % reusing the last round, ±4.34 % without (and ±4.02 % reusing two:
+    // the earlier round's proposal is further from the final one, its terms spread more).
+    assert!(width_one < 0.95 * width_none, "{width_one} vs {width_none}");
 }

@@ -65,7 +65,7 @@ pub struct EstimateProgress<'a> {
     pub max_runs: u64,
     /// The refinement round under way, and how many there are (None: the estimate itself).
     pub round: Option<(u32, u32)>,
-    /// The estimate from the runs after the pilot.
+    /// The estimate from the runs after the pilot (and the pilot rounds it reuses).
     pub estimate: &'a savme_kernel::estimation::Estimate,
     /// Seconds since this process started the estimate.
     pub elapsed_seconds: f64,

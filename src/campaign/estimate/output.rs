@@ -114,13 +114,15 @@ pub struct EstimateOutcome {
     pub training_hf_runs: u64,
     /// Of which in the estimated scenarios.
     pub training_hf_runs_of_scenarios: u64,
-    /// HF runs of the estimate (= `estimate.runs`).
+    /// HF runs of the estimate (= `estimate.runs`), reused pilot runs included.
     pub estimate_hf_runs: u64,
     /// The summed HF cost of the estimate's runs (the campaign's cost measure).
     pub estimate_hf_cost: f64,
-    /// HF runs of the cross-entropy pilot rounds (not part of the estimate; 0 without
-    /// refinement).
+    /// HF runs of the cross-entropy pilot rounds (0 without refinement). Every HF run made:
+    /// `estimate_hf_runs + pilot_hf_runs − pilot_hf_runs_reused`.
     pub pilot_hf_runs: u64,
+    /// Of which in the estimate too (the last `refine_reuse` rounds).
+    pub pilot_hf_runs_reused: u64,
     /// Of which failed.
     pub pilot_failures: u64,
     /// Their summed HF cost.
@@ -135,6 +137,13 @@ pub struct EstimateOutcome {
     #[serde(skip)]
     pub table_md: String,
 }
+
+/// What the estimate table's columns mean, written under it (`table.md`, printed).
+pub(crate) const ESTIMATE_LEGEND: &str = "±: the 95 % interval's half-width relative to the \
+estimate (what --target-width bounds). ESS: Kish's effective sample size (Σw)²/Σw² of the \
+scenario's runs; failure ESS: the same over its failures' weights (how many equally weighted \
+failures the estimate rests on). Mean weight: the mean of w = p(φ)/q(φ), 1 in expectation (far \
+from 1: the proposal misses part of the nominal). docs/ESTIMATION.md explains the estimator.";
 
 impl EstimateOutcome {
     #[allow(clippy::too_many_arguments)] // the parts of one outcome, assembled in one place
@@ -165,12 +174,15 @@ impl EstimateOutcome {
             })
             .collect();
         let estimate = estimation.estimate();
-        let cost = |pilot: bool| -> f64 {
-            lines
-                .iter()
-                .filter(|l| l.round.is_some() == pilot)
-                .map(|l| l.hf.runtime)
-                .sum()
+        let refine = settings.refine();
+        // Whether a line's run counts in the estimate: after the pilot, or a reused round.
+        let in_estimate = |l: &EstimateLine| match (l.round, refine) {
+            (None, _) => true,
+            (Some(r), Some(refine)) => r + refine.reuse >= refine.rounds,
+            (Some(_), None) => false,
+        };
+        let cost = |lines: &mut dyn Iterator<Item = &EstimateLine>| -> f64 {
+            lines.map(|l| l.hf.runtime).sum()
         };
         let pilot = estimation.pilot_runs();
         let mut o = EstimateOutcome {
@@ -181,10 +193,14 @@ impl EstimateOutcome {
             training_hf_runs: trained.stage_runs,
             training_hf_runs_of_scenarios: trained.scenario_runs,
             estimate_hf_runs: estimate.runs,
-            estimate_hf_cost: cost(false),
+            estimate_hf_cost: cost(&mut lines.iter().filter(|l| in_estimate(l))),
             pilot_hf_runs: pilot.iter().map(|p| p.0).sum(),
             pilot_failures: pilot.iter().map(|p| p.1).sum(),
-            pilot_hf_cost: cost(true),
+            pilot_hf_runs_reused: lines
+                .iter()
+                .filter(|l| l.round.is_some() && in_estimate(l))
+                .count() as u64,
+            pilot_hf_cost: cost(&mut lines.iter().filter(|l| l.round.is_some())),
             estimate,
             replayed,
             elapsed_seconds,
@@ -196,7 +212,7 @@ impl EstimateOutcome {
     }
 
     /// The table of `table.md`: per scenario and in total, the estimate with its 95 %
-    /// interval, relative half-width and effective sample sizes.
+    /// interval, relative half-width and effective sample sizes, then [`ESTIMATE_LEGEND`].
     fn table(&self) -> String {
         use std::fmt::Write;
         let e = &self.estimate;
@@ -259,12 +275,20 @@ impl EstimateOutcome {
             self.training_hf_runs_of_scenarios
         );
         if let Some(r) = self.settings.refine() {
+            let used = match r.reuse {
+                0 => "they refit the proposal and are not part of the estimate".to_string(),
+                k => format!(
+                    "they refit the proposal; the last {k} (these {} runs) are part of the estimate too, each run weighted by its own round's proposal",
+                    self.pilot_hf_runs_reused
+                ),
+            };
             let _ = writeln!(
                 t,
-                "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); they refit the proposal and are not part of the estimate.",
+                "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); {used}.",
                 r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
             );
         }
+        let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
         t
     }
 

@@ -39,9 +39,18 @@ pub struct EstimateSettings {
     /// Cross-entropy pilot rounds that refit the proposal before the estimate (0: none).
     #[serde(default)]
     pub refine_rounds: u32,
-    /// HF runs per pilot round (counted in `max_runs`; not part of the estimate).
+    /// HF runs per pilot round (counted in `max_runs`; not part of the estimate unless
+    /// reused).
     #[serde(default)]
     pub refine_runs: u64,
+    /// How many of the last pilot rounds also count toward the estimate, each trial with its
+    /// own round's weight (0: none; at most `refine_rounds`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub refine_reuse: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 /// The most HF runs one estimate may make.
@@ -61,6 +70,7 @@ impl Default for EstimateSettings {
             tilt: Tilt::Posterior,
             refine_rounds: 0,
             refine_runs: 0,
+            refine_reuse: 0,
         }
     }
 }
@@ -71,6 +81,7 @@ impl EstimateSettings {
         (self.refine_rounds > 0).then_some(Refine {
             rounds: self.refine_rounds,
             runs: self.refine_runs,
+            reuse: self.refine_reuse,
         })
     }
 
@@ -150,6 +161,15 @@ impl EstimateSettings {
                 message,
             })
         };
+        if self.refine_reuse > self.refine_rounds {
+            return bad(
+                "refine_reuse",
+                format!(
+                    "{} pilot rounds to reuse in the estimate, but `refine_rounds` is {}",
+                    self.refine_reuse, self.refine_rounds
+                ),
+            );
+        }
         match (self.refine_rounds, self.refine_runs) {
             (0, 0) => Ok(()),
             (0, runs) => bad(
@@ -283,6 +303,7 @@ impl EstimateSettings {
             tilt: section.tilt.unwrap_or_default(),
             refine_rounds: section.refine_rounds.unwrap_or(0),
             refine_runs: section.refine_runs.unwrap_or(0),
+            refine_reuse: section.refine_reuse.unwrap_or(0),
         };
         let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
             file: file.display().to_string(),

@@ -424,6 +424,11 @@ fn tell(
         index: slot.index,
         message,
     };
+    let untellable = |e: savme_kernel::TellError| CampaignError::Untellable {
+        stage: label.into(),
+        index: slot.index,
+        message: e.to_string(),
+    };
     let withdraw = |kernel: &mut Kernel| {
         kernel
             .cancel(slot.trial.id)
@@ -499,8 +504,7 @@ fn tell(
     if let Some(audit) = slot.audit {
         let line = LogLine::Screen(screen_line(&slot, audit, label, stage, cost)?);
         if let LogLine::Screen(l) = &line {
-            tell_screened(kernel, slot.trial.id, &l.lf, l.hf.as_ref())
-                .map_err(|e| diverged(format!("the outcome cannot be told: {e}")))?;
+            tell_screened(kernel, slot.trial.id, &l.lf, l.hf.as_ref()).map_err(untellable)?;
         }
         store.append_json(&[line.to_json()])?;
         return Ok(line);
@@ -508,7 +512,7 @@ fn tell(
     let mut line = trial_line(&slot, label, stage, cost)?;
     let record = kernel
         .tell(slot.trial.id, line.observation())
-        .map_err(|e| diverged(format!("the outcome cannot be told: {e}")))?;
+        .map_err(untellable)?;
     line.cost_ratio = record.cost_ratio;
     line.outcome = record.outcome;
     line.credit = record.credit;
@@ -634,4 +638,39 @@ fn trial_line(
         outcome: None,
         credit: Default::default(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::campaign::config::{self, Overrides, NULL};
+    use crate::campaign::{Campaign, CampaignError, Cost};
+    use crate::toy::NullSimulator;
+
+    #[test]
+    fn a_result_the_kernel_refuses_is_named_as_the_simulators_not_as_a_diverged_store() {
+        // The null simulator's runs take no time: under wall-clock cost the kernel refuses
+        // their runtime of 0. The trial store is new, so it cannot be what is wrong.
+        let over = Overrides {
+            cost: Some(Cost::Wall),
+            ..Overrides::default()
+        };
+        let (protocol, problem) = config::toy(NULL, &over).expect("toy protocol");
+        let out = std::env::temp_dir().join(format!("savme-untellable-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&out);
+        let e = Campaign::new(protocol, problem)
+            .out(&out)
+            .jobs(1)
+            .run(&NullSimulator)
+            .expect_err("a runtime of 0 was told");
+        let _ = std::fs::remove_dir_all(&out);
+        assert!(
+            matches!(&e, CampaignError::Untellable { stage, index: 0, .. } if stage == "baseline-train"),
+            "{e:?}"
+        );
+        let text = e.to_string();
+        assert!(
+            text.contains("the simulator's result cannot be told") && text.contains("runtime"),
+            "{text}"
+        );
+    }
 }

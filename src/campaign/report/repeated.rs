@@ -3,7 +3,7 @@
 //! beside it, and binomial (Wilson) intervals on the TP-rate and the baseline failure rate.
 
 use super::intervals::Interval;
-use super::{cost_name, Report};
+use super::{cost_name, scenarios, Report};
 use crate::campaign::protocol::Protocol;
 use serde::Serialize;
 use std::fmt::Write as _;
@@ -205,13 +205,13 @@ impl RepeatedReport {
         let _ = writeln!(
             s,
             "Seeds {}. Per seed: {} evaluation trials per budget after {} meta-training \
-             iterations on {} scenarios; baseline {} trials. Cost: {}. Each cell: mean over the \
+             iterations on {}; baseline {} trials. Cost: {}. Each cell: mean over the \
              seeds [Student-t 95 % interval]; rates also pooled over all seeds' trials [Wilson \
              95 % interval].\n",
             seed_list(&self.seeds),
             p.eval_iterations,
             p.train_iterations,
-            p.train_scenarios.len(),
+            scenarios(p.train_scenarios.len()),
             p.baseline_train_iterations,
             cost_name(p.cost),
         );
@@ -239,6 +239,7 @@ impl RepeatedReport {
                 b.break_even.defined(),
             );
         }
+        let _ = writeln!(s, "\n{}", super::TABLE_III_LEGEND);
         let _ = writeln!(
             s,
             "\n## Meta-testing (scenarios {}), failures found by the common runtime\n",
