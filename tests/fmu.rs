@@ -625,6 +625,14 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &(TINY.to_string() + "\n[estimate]\nepsilon = 0.0\n"),
         &[&format!("line {line}"), "estimate.epsilon", "(0, 1]"],
     );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nscenarios = []\n"),
+        &[
+            &format!("line {line}, key `estimate.scenarios`"),
+            "the list is empty: name scenarios, or leave the key out",
+        ],
+    );
     // A budget the campaign does not train: refused before it runs (it ran, then failed).
     assert_refused(
         &bad,
