@@ -547,6 +547,30 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
     let estimate =
         |t: &str| serde_json::from_str::<serde_json::Value>(t).unwrap()["estimate"].clone();
     assert_eq!(estimate(&before), estimate(&after));
+    // A resume with another protocol (here the seed) is refused naming the field, and
+    // changes nothing.
+    let trials_before = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+    let reseeded = campaign_file(
+        &made_dir("estimate-reseeded"),
+        &(TINY.replacen("budgets = [0.3]", "seed = 2\nbudgets = [0.3]", 1) + section),
+    );
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        reseeded.to_str().unwrap(),
+        "--resume",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains("differs from the protocol given to resume: `seed` is 1 there, 2 here"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("trials.jsonl")).unwrap(),
+        trials_before
+    );
     // `savme estimate --config FILE` takes the file's [estimate] section: the same settings
     // and trials as the stage; a flag given overrides its key only.
     let again = |dir: &str, extra: &[&str]| {

@@ -303,7 +303,10 @@ impl<'o> Campaign<'o> {
             if saved != self.protocol {
                 return Err(CampaignError::Protocol {
                     field: "protocol.json".into(),
-                    message: "differs from the protocol given to resume".into(),
+                    message: format!(
+                        "differs from the protocol given to resume: {}",
+                        protocol_differences(&saved, &self.protocol)
+                    ),
                 });
             }
         } else {
@@ -343,4 +346,24 @@ fn numbered(loaded: &Loaded, location: &str) -> Result<NumberedLines, CampaignEr
         .iter()
         .map(|l| LogLine::from_stored(l, location).map(|x| (l.line, x)))
         .collect()
+}
+
+/// The top-level fields in which `saved` and `given` differ, each with both values
+/// (`` `seed` is 1 there, 2 here ``).
+fn protocol_differences(saved: &Protocol, given: &Protocol) -> String {
+    let (Ok(serde_json::Value::Object(a)), Ok(serde_json::Value::Object(b))) =
+        (serde_json::to_value(saved), serde_json::to_value(given))
+    else {
+        return "(its fields could not be compared)".into();
+    };
+    let null = serde_json::Value::Null;
+    let keys: std::collections::BTreeSet<&String> = a.keys().chain(b.keys()).collect();
+    let diffs: Vec<String> = keys
+        .into_iter()
+        .filter_map(|k| {
+            let (x, y) = (a.get(k).unwrap_or(&null), b.get(k).unwrap_or(&null));
+            (x != y).then(|| format!("`{k}` is {x} there, {y} here"))
+        })
+        .collect();
+    diffs.join("; ")
 }
