@@ -245,6 +245,19 @@ impl CampaignFile {
         let src = Source { file, text: &text };
         let f = src.parse()?;
         let base = path.parent().unwrap_or(Path::new("."));
+        if let Some(out) = f
+            .campaign
+            .out
+            .as_ref()
+            .filter(|o| o.get_ref().trim().is_empty())
+        {
+            // "" would resolve to the file's own directory: the campaign beside its FMUs.
+            return Err(src.err(
+                Some(src.line(out.span())),
+                Some("campaign.out"),
+                "is empty: name the output directory, or leave the key out",
+            ));
+        }
         let campaign = campaign_section(&src, f.campaign, base);
         let estimate = f.estimate.map(|e| estimate::section(&src, e));
         let mut origins = Origins::default();
@@ -1781,6 +1794,14 @@ range = [0.0, 1.0]
         );
         assert_eq!(at(&e), (Some(11), Some("campaign.fidelity_bins")));
         assert_eq!(e.message, "4294967295 bins: at most 65535 are supported");
+    }
+
+    #[test]
+    fn an_empty_out_is_refused() {
+        // "" resolved to the file's own directory: the campaign was written beside its FMUs.
+        let e = error("out-empty", &[("out = \"results\"", "out = \"\"")]);
+        assert_eq!(at(&e), (Some(12), Some("campaign.out")));
+        assert!(e.message.starts_with("is empty"), "{e}");
     }
 
     #[test]
