@@ -3,6 +3,7 @@
 //! running a campaign with its observers, and printing.
 
 pub mod estimate;
+pub mod failures;
 pub mod fidelity;
 pub mod fmu;
 pub mod reproduce;

@@ -2,7 +2,6 @@
 
 use super::{EstimateError, EstimateSettings};
 use crate::campaign::log::LogLine;
-use crate::campaign::store::JsonlStore;
 use crate::campaign::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -64,7 +63,7 @@ pub(crate) fn trained(
         })?;
         stages.insert(name.clone(), stage);
     }
-    let lines = load_lines(dir)?;
+    let lines = crate::campaign::log::read_dir_lines(dir)?;
     let told_in = |stage: &str| {
         lines
             .iter()
@@ -110,23 +109,6 @@ pub(crate) fn trained(
         stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
         scenarios,
     })
-}
-
-/// The campaign's complete trial lines, read without its lock (a campaign still running is
-/// caught by the check that its training stage is complete).
-fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
-    let path = dir.join("trials.jsonl");
-    if !path.exists() {
-        return Err(CampaignError::NothingToResume {
-            path: dir.to_path_buf(),
-        });
-    }
-    let name = path.display().to_string();
-    JsonlStore::read(&path)?
-        .lines
-        .iter()
-        .map(|l| LogLine::from_stored(l, &name))
-        .collect()
 }
 
 /// The scenarios `names` with their weights p(s) and posteriors at the kernels' uniform prior
