@@ -261,10 +261,9 @@ pub fn split_by_stage<'a>(
     Ok(out)
 }
 
-/// The trial lines of the campaign directory `dir` (its `trials.jsonl`), read without its
-/// lock: a campaign still running may be read (its last line may be one a later tell
-/// completes).
-pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<LogLine>, CampaignError> {
+/// The trial lines of the campaign directory `dir` (its `trials.jsonl`), each with its
+/// 1-based line number, read without its lock: a campaign still running may be read.
+pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<(u64, LogLine)>, CampaignError> {
     let path = dir.join("trials.jsonl");
     if !path.exists() {
         return Err(CampaignError::NothingToResume {
@@ -275,7 +274,7 @@ pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<LogLine>, CampaignErr
     JsonlStore::read(&path)?
         .lines
         .iter()
-        .map(|l| LogLine::from_stored(l, &name))
+        .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
         .collect()
 }
 

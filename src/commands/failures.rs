@@ -49,7 +49,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
             )));
         }
     }
-    let lines = read_dir_lines(&a.campaign).map_err(runtime)?;
+    let lines: Vec<_> = read_dir_lines(&a.campaign)
+        .map_err(runtime)?
+        .into_iter()
+        .map(|(_, l)| l)
+        .collect();
     let hf_runs = hf_runs(&lines);
     let filter = Filter {
         stages: a.stages,

@@ -1,7 +1,6 @@
 //! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
 
 use super::{EstimateError, EstimateSettings};
-use crate::campaign::log::LogLine;
 use crate::campaign::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -67,7 +66,7 @@ pub(crate) fn trained(
     let told_in = |stage: &str| {
         lines
             .iter()
-            .filter(|l| l.stage() == stage && l.is_told())
+            .filter(|(_, l)| l.stage() == stage && l.is_told())
             .count() as u64
     };
     for (stage, needed) in stages.values() {
@@ -86,7 +85,7 @@ pub(crate) fn trained(
     for (scenario, posterior) in &mut scenarios {
         let (name, space) = (&*scenario.name, &scenario.space);
         let stage = &stages[name].0;
-        for t in lines.iter().filter_map(LogLine::trial) {
+        for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
             if &t.stage != stage || t.scenario != name {
                 continue;
             }
@@ -94,8 +93,12 @@ pub(crate) fn trained(
             if let Some(ok) = t.credit.scenario {
                 let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
                     store: dir.join("trials.jsonl").display().to_string(),
-                    line: 0,
-                    message: format!("{stage} trial {}: φ outside the scenario: {e}", t.index),
+                    line: line as usize,
+                    message: format!(
+                        "{stage} trial {}: φ outside the scenario (a campaign file other than \
+                         the campaign's?): {e}",
+                        t.index
+                    ),
                 })?;
                 let arms: Vec<u16> = arms.iter().map(|&a| a as u16).collect();
                 posterior.update(&arms, ok);
