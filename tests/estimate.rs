@@ -428,6 +428,15 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
             "the distribution is uniform",
         ),
         (
+            &[
+                "--nominal",
+                "lead_vehicle_brakes.ego_speed=normal:12,2",
+                "--nominal",
+                "lead_vehicle_brakes.ego_speed=normal:20,2",
+            ],
+            "--nominal `lead_vehicle_brakes.ego_speed=normal:20,2`: `lead_vehicle_brakes.ego_speed` is declared by an earlier --nominal",
+        ),
+        (
             &["--refine-runs", "100"],
             "`refine_runs`: 100 runs per round but no `refine_rounds`",
         ),

@@ -594,6 +594,15 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &(TINY.to_string() + "\n[estimate]\nepsilon = 0.0\n"),
         &[&format!("line {line}"), "estimate.epsilon", "(0, 1]"],
     );
+    // A budget the campaign does not train: refused before it runs (it ran, then failed).
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nbudget = 0.7\n"),
+        &[
+            &format!("line {line}, key `estimate.budget`"),
+            "the campaign trained budgets 0.3, not 0.7",
+        ],
+    );
     assert_refused(
         &bad,
         &(TINY.to_string() + "\n[estimate]\ntarget_width = -1.0\n"),

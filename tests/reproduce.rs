@@ -650,3 +650,41 @@ fn without_a_terminal_progress_comes_as_plain_lines_per_stage() {
     assert!(!err.contains('\r') && !err.contains("\u{1b}["), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn an_edited_protocol_json_is_checked_naming_its_line_and_field_not_a_panic() {
+    // A protocol.json edited to a size savme refuses for a new campaign (0 or 100,000 bins of
+    // the paper's fidelity space) is refused on --resume the same way, not a panic.
+    for bins in [0, 100_000] {
+        let dir = temp_dir(&format!("edited-protocol-{bins}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut p = savme::campaign::Protocol::quick(
+            savme::campaign::config::SENSORS,
+            vec!["lead_vehicle_brakes".into()],
+            vec!["on_ramp_merge".into()],
+        );
+        p.fidelity_bins = bins;
+        let text = serde_json::to_string_pretty(&p).unwrap();
+        let line = 1 + text
+            .lines()
+            .position(|l| l.contains("\"fidelity_bins\""))
+            .unwrap();
+        std::fs::write(dir.join("protocol.json"), text).unwrap();
+        std::fs::write(dir.join("trials.jsonl"), "").unwrap();
+        let o = Command::new(EXE)
+            .args(["reproduce", "--quiet", "--resume"])
+            .arg(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{bins}: {err}");
+        assert!(!err.contains("panicked"), "{bins}: {err}");
+        let at = format!("protocol.json, line {line}: `fidelity_bins`: {bins} is not between 1");
+        assert!(err.contains(&at), "{bins}: expected `{at}` in: {err}");
+        assert_eq!(
+            std::fs::read_to_string(dir.join("trials.jsonl")).unwrap(),
+            ""
+        );
+        let _ = std::fs::remove_dir_all(dir);
+    }
+}

@@ -215,7 +215,7 @@ pub struct ScenarioLines {
 impl CampaignFile {
     /// Reads and checks `path`: the TOML, then the FMUs (opened, every binding and signal
     /// type-checked against both). `paper(bins)` gives the fidelity space and θ_HF of
-    /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, at least 1), each
+    /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, between 1 and [`savme_kernel::MAX_ARMS`]), each
     /// setting bound to the FMU variable of its name. Bindings that would set one FMU variable
     /// twice in a run (a scenario's φ and fixed parameters, the fidelity settings) are refused.
     ///
@@ -419,7 +419,8 @@ mod raw {
         pub name: Spanned<String>,
         pub fmu: Option<Spanned<String>>,
         pub values: Option<Spanned<Vec<toml::Value>>>,
-        pub range: Option<Spanned<[f64; 2]>>,
+        /// `[lo, hi]`; a list, not `[f64; 2]`: serde's arrays ignore a third number.
+        pub range: Option<Spanned<Vec<f64>>>,
         /// Default 10.
         pub bins: Option<Spanned<u32>>,
         /// Default linear.
@@ -586,11 +587,19 @@ fn fidelity(
         ));
     }
     let bins = campaign.fidelity_bins.unwrap_or(10);
-    if bins == 0 {
+    if bins == 0 || bins as usize > savme_kernel::MAX_ARMS {
+        let message = if bins == 0 {
+            "must be at least 1".to_string()
+        } else {
+            format!(
+                "{bins} bins: at most {} are supported",
+                savme_kernel::MAX_ARMS
+            )
+        };
         return Err(src.err(
             campaign.lines.get("fidelity_bins").copied(),
             Some("campaign.fidelity_bins"),
-            "must be at least 1",
+            message,
         ));
     }
     let (space, theta_hf) = paper(bins);
@@ -783,6 +792,13 @@ fn scenarios(
         let key = format!("scenario[{k}]");
         let s = table.get_ref();
         let name = s.name.get_ref();
+        if name.trim().is_empty() {
+            return Err(src.err(
+                Some(src.line(s.name.span())),
+                Some(&format!("{key}.name")),
+                "a scenario has an empty name",
+            ));
+        }
         if parts.spaces.contains_key(name) {
             return Err(src.err(
                 Some(src.line(s.name.span())),
@@ -968,7 +984,15 @@ fn variable(v: &VarSection) -> Result<Variable, (Part, String)> {
             }
             Variable::discrete(name, values)
         }
-        (None, Some(range)) => continuous(v, *range.get_ref())?,
+        (None, Some(range)) => match range.get_ref()[..] {
+            [lo, hi] => continuous(v, [lo, hi])?,
+            ref other => {
+                return Err((
+                    Part::Range,
+                    format!("`range` must be [lo, hi], got {} numbers", other.len()),
+                ))
+            }
+        },
         _ => {
             return Err((
                 Part::Table,
@@ -1133,6 +1157,17 @@ fn failure(
             })
         }
         (None, Some(t), Some(value), None) | (None, Some(t), None, Some(value)) => {
+            if !value.get_ref().is_finite() {
+                let side = if f.above.is_some() { "above" } else { "below" };
+                return Err(src.err(
+                    Some(src.line(value.span())),
+                    Some(&format!("failure.{side}")),
+                    format!(
+                        "{} is not a finite number: no run (or every run) would fail",
+                        value.get_ref()
+                    ),
+                ));
+            }
             let line = src.line(t.span());
             origins.read(t.get_ref(), line, "failure.threshold", Use::Failure);
             Ok(Failure::Threshold {
@@ -1414,6 +1449,19 @@ range = [0.0, 1.0]
                     SIDES,
                 ),
                 (&[(b, "")], 7, "failure", SIDES),
+                // A threshold no value crosses (NaN), or every value does, is refused.
+                (
+                    &[(b, "threshold = \"x\"\nbelow = nan")],
+                    9,
+                    "failure.below",
+                    "NaN is not a finite number",
+                ),
+                (
+                    &[(b, "threshold = \"x\"\nabove = -inf")],
+                    9,
+                    "failure.above",
+                    "-inf is not a finite number",
+                ),
             ],
         );
     }
@@ -1463,6 +1511,19 @@ range = [0.0, 1.0]
                     &format!("{k}.range"),
                     "non-finite",
                 ),
+                // A third number is not dropped silently; one number names the key too.
+                (
+                    &[(values, "range = [1.0, 2.0, 3.0]")],
+                    17,
+                    &format!("{k}.range"),
+                    "`range` must be [lo, hi], got 3 numbers",
+                ),
+                (
+                    &[(values, "range = [1.0]")],
+                    17,
+                    &format!("{k}.range"),
+                    "`range` must be [lo, hi], got 1 numbers",
+                ),
                 (
                     &[("hf = 2.0", "hf = 3.0")],
                     18,
@@ -1505,6 +1566,13 @@ range = [0.0, 1.0]
                     29,
                     "scenario[1].phi",
                     "no variables",
+                ),
+                // Named here, not later by the kernel without the file and line.
+                (
+                    &[("name = \"other\"", "name = \" \"")],
+                    30,
+                    "scenario[1].name",
+                    "a scenario has an empty name",
                 ),
                 (
                     &[("stop_time = 1.0", "stop_time = 0.0")],
@@ -1699,6 +1767,20 @@ range = [0.0, 1.0]
         );
         assert_eq!(at(&e), (Some(11), Some("campaign.fidelity_bins")));
         assert_eq!(e.message, "must be at least 1");
+        // So are more bins than an arm index holds (the paper's space would panic).
+        let e = error(
+            "paper-huge",
+            &[
+                ("budgets = [0.5]", "fidelity_bins = 4294967295"),
+                (
+                    "[[fidelity.variable]]\nname = \"rate\"\nvalues = [1.0, 2.0]\nhf = 2.0",
+                    "",
+                ),
+                ("[fidelity]", "[fidelity]\npaper = true"),
+            ],
+        );
+        assert_eq!(at(&e), (Some(11), Some("campaign.fidelity_bins")));
+        assert_eq!(e.message, "4294967295 bins: at most 65535 are supported");
     }
 
     #[test]

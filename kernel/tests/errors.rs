@@ -336,3 +336,36 @@ fn a_configuration_with_an_unknown_or_misplaced_key_is_refused_naming_it() {
         assert!(e.to_string().contains(needle), "{needle}: {e}");
     }
 }
+
+#[test]
+fn a_nominal_with_an_unknown_key_is_refused_naming_it() {
+    use savme_kernel::estimation::Nominal;
+    // Every form, the uniform one included (serde lets a unit variant of a tagged enum
+    // ignore extra keys: its `sd` was dropped silently).
+    for (text, key) in [
+        (r#"{"distribution":"uniform","sd":2.0}"#, "sd"),
+        (
+            r#"{"distribution":"normal","mean":1.0,"sd":2.0,"sdd":1}"#,
+            "sdd",
+        ),
+        (r#"{"distribution":"weights","weights":[1.0],"w":1}"#, "w"),
+    ] {
+        let e = serde_json::from_str::<Nominal>(text).unwrap_err();
+        assert!(
+            e.to_string().contains(&format!("unknown field `{key}`")),
+            "{text}: {e}"
+        );
+    }
+    for n in [
+        Nominal::Uniform,
+        Nominal::Normal { mean: 1.0, sd: 2.0 },
+        Nominal::Weights {
+            weights: vec![1.0, 3.0],
+        },
+    ] {
+        let text = serde_json::to_string(&n).unwrap();
+        assert_eq!(serde_json::from_str::<Nominal>(&text).unwrap(), n, "{text}");
+    }
+    let n: Nominal = serde_json::from_str(r#"{"distribution":"uniform"}"#).unwrap();
+    assert_eq!(n, Nominal::Uniform);
+}

@@ -73,7 +73,24 @@ pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
             ),
         });
     }
-    Ok(p)
+    // An edited file is checked as a new protocol is (a size savme refuses would panic or
+    // allocate later), naming the field's line.
+    match p.validate() {
+        Ok(()) => Ok(p),
+        Err(CampaignError::Protocol { field, message }) => {
+            let key = format!("\"{field}\"");
+            let line = text
+                .lines()
+                .position(|l| l.trim_start().starts_with(&key))
+                .map_or(1, |i| i + 1);
+            Err(CampaignError::Log {
+                store: path.display().to_string(),
+                line,
+                message: format!("`{field}`: {message}"),
+            })
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// Refuses an output directory that is a file, or lies below one (instead of the I/O error

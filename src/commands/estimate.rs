@@ -113,8 +113,17 @@ impl Args {
         s.refine_rounds = self.refine_rounds.unwrap_or(s.refine_rounds);
         s.refine_runs = self.refine_runs.unwrap_or(s.refine_runs);
         s.refine_reuse = self.refine_reuse.unwrap_or(s.refine_reuse);
+        // A flag overrides the file's declaration of its variable; a second flag for the
+        // same variable is refused rather than silently winning.
+        let mut given = std::collections::BTreeSet::new();
         for n in &self.nominals {
             let (scenario, variable, nominal) = parse_nominal(n)?;
+            if !given.insert((scenario.clone(), variable.clone())) {
+                return Err(EstimateError::NominalSyntax {
+                    given: n.clone(),
+                    message: format!("`{scenario}.{variable}` is declared by an earlier --nominal"),
+                });
+            }
             s.nominal
                 .entry(scenario)
                 .or_default()

@@ -5,7 +5,7 @@ use super::{
     ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config;
-use savme::campaign::estimate::{EstimateRun, EstimateSettings};
+use savme::campaign::estimate::{EstimateError, EstimateRun, EstimateSettings};
 use savme::campaign::store::TrialStore;
 use savme::viewer::Frames;
 use savme_fmu::FmuBackend;
@@ -137,7 +137,15 @@ fn estimate_stage(
     }
     settings
         .check(&c.protocol, &c.problem)
-        .map_err(|e| at(e.to_string()))?;
+        .map_err(|e| match e {
+            // A budget the campaign will not train: at the key's line, before the campaign runs.
+            EstimateError::UnknownBudget { .. } => Failure::Runtime(format!(
+                "{}, line {}, key `estimate.budget`: {e}",
+                c.file.path.display(),
+                section.line_of("budget")
+            )),
+            e => at(e.to_string()),
+        })?;
     Ok(Some(settings))
 }
 

@@ -21,7 +21,12 @@ use statrs::distribution::{Continuous, ContinuousCDF, Normal};
 /// # Ok::<(), serde_json::Error>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-#[serde(tag = "distribution", rename_all = "lowercase", deny_unknown_fields)]
+#[serde(
+    tag = "distribution",
+    rename_all = "lowercase",
+    deny_unknown_fields,
+    from = "NominalForm"
+)]
 pub enum Nominal {
     /// Uniform over the variable on its own scale: uniform on `[lo, hi]` for a linear variable,
     /// log-uniform for a log-scaled one, every value equally likely for a discrete one. This is
@@ -41,6 +46,27 @@ pub enum Nominal {
         /// One weight per value.
         weights: Vec<f64>,
     },
+}
+
+/// [`Nominal`] as read: serde ignores `deny_unknown_fields` on a unit variant of an
+/// internally tagged enum, so `{"distribution":"uniform","sd":2}` would lose its `sd`
+/// silently; an empty struct variant refuses it.
+#[derive(Deserialize)]
+#[serde(tag = "distribution", rename_all = "lowercase", deny_unknown_fields)]
+enum NominalForm {
+    Uniform {},
+    Normal { mean: f64, sd: f64 },
+    Weights { weights: Vec<f64> },
+}
+
+impl From<NominalForm> for Nominal {
+    fn from(f: NominalForm) -> Nominal {
+        match f {
+            NominalForm::Uniform {} => Nominal::Uniform,
+            NominalForm::Normal { mean, sd } => Nominal::Normal { mean, sd },
+            NominalForm::Weights { weights } => Nominal::Weights { weights },
+        }
+    }
 }
 
 /// A [`Nominal`] checked against its variable, with what its density needs precomputed.

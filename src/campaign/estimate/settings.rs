@@ -317,15 +317,22 @@ impl EstimateSettings {
         }
     }
 
-    /// Checks the nominal and the scenarios against the campaign's problem before it runs
-    /// (the posterior is not known yet: uniform ones stand in). The error names the scenario
-    /// and variable.
+    /// Checks the budget against the protocol, and the nominal and the scenarios against the
+    /// campaign's problem, before it runs (the posterior is not known yet: uniform ones stand
+    /// in). The error names the budget, or the scenario and variable.
     pub fn check(
         &self,
         protocol: &crate::campaign::Protocol,
         problem: &crate::campaign::Problem,
     ) -> Result<(), EstimateError> {
         self.validate()?;
+        if let Some(budget) = self.budget.filter(|b| !protocol.budgets.contains(b)) {
+            let known: Vec<String> = protocol.budgets.iter().map(f64::to_string).collect();
+            return Err(EstimateError::UnknownBudget {
+                budget,
+                known: known.join(", "),
+            });
+        }
         let names = if self.scenarios.is_empty() {
             &protocol.train_scenarios
         } else {
