@@ -166,6 +166,17 @@ mod tests {
             panic!("toy --null failed: {}", e.message());
         }
         assert!(protocol.is_ok_and(|p| p.contains(r#""cost": "work""#)));
+        // A resumed campaign keeps its simulator: asking for another one is refused, not ignored.
+        for flag in ["--null", "--sleep-ms 5"] {
+            let e = run(&format!("toy --resume {} {flag}", out.display()))
+                .expect_err("a simulator flag was accepted with --resume");
+            assert_eq!(e.code(), 2, "{flag}: {}", e.message());
+            assert!(
+                e.message().contains("keeps its simulator"),
+                "{}",
+                e.message()
+            );
+        }
     }
 
     #[test]
