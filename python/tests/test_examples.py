@@ -19,8 +19,12 @@ def test_the_harness_runs_and_resumes_its_journal(tmp_path):
     first = run(EXAMPLES / "harness.py", "--journal", journal, "--iterations", 60, cwd=tmp_path)
     assert "meta-training: {'asked': 60, 'told': 60" in first and "meta-testing:" in first
     again = run(EXAMPLES / "harness.py", "--journal", journal, "--iterations", 200, cwd=tmp_path)
-    # The journal held 60 training + 50 evaluation trials: the rerun continues to 200 told.
+    # The journal holds the 60 training trials only (the evaluation ran on a copy): the rerun
+    # continues training to 200 told, and a third run trains no more.
     assert "meta-training: {'asked': 200, 'told': 200" in again
+    third = run(EXAMPLES / "harness.py", "--journal", journal, "--iterations", 200, cwd=tmp_path)
+    assert "meta-training: {'asked': 200, 'told': 200" in third
+    assert third.splitlines()[1:] == again.splitlines()[1:], "the same evaluation and meta-testing"
 
 
 def test_the_campaign_example_writes_the_outputs_and_resumes(tmp_path):

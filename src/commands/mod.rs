@@ -3,6 +3,7 @@
 //! running a campaign with its observers, and printing.
 
 pub mod estimate;
+pub mod failures;
 pub mod fidelity;
 pub mod fmu;
 pub mod reproduce;
@@ -379,12 +380,41 @@ impl StorageArgs {
     /// Opens (and locks) the campaign in the database given, if any.
     pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
         match self.database()? {
-            Some((db, name)) => PostgresStore::open(&db, &name)
+            Some((db, name)) => connecting(&db, || PostgresStore::open(&db, &name))
                 .map(Some)
                 .map_err(|e| Failure::Runtime(e.to_string())),
             None => Ok(None),
         }
     }
+}
+
+/// Runs `connect` (which retries an unreachable server for up to
+/// [`savme::campaign::store::postgres::reconnect_for`]), saying on standard error when it has
+/// not connected after a few seconds — a wrong host or port would otherwise mean a silent wait.
+pub fn connecting<T>(db: &Database, connect: impl FnOnce() -> T) -> T {
+    let patience = savme::campaign::store::postgres::reconnect_for();
+    let message = format!(
+        "savme: no connection to {} yet; retrying for up to {} s (SAVME_RECONNECT_SECONDS changes that; Ctrl-C stops)",
+        db.location(),
+        patience.as_secs()
+    );
+    say_if_slow(Duration::from_secs(3), || eprintln!("{message}"), connect)
+}
+
+/// Runs `work`; if it has not returned after `after`, calls `say` (once, from another thread)
+/// while it goes on. Returns as soon as `work` does.
+fn say_if_slow<T>(after: Duration, say: impl FnOnce() + Send, work: impl FnOnce() -> T) -> T {
+    let (done, finished) = std::sync::mpsc::channel::<()>();
+    std::thread::scope(|s| {
+        s.spawn(move || {
+            if finished.recv_timeout(after) == Err(std::sync::mpsc::RecvTimeoutError::Timeout) {
+                say();
+            }
+        });
+        let result = work();
+        drop(done); // wakes the timer at once
+        result
+    })
 }
 
 impl CampaignStorageArgs {
@@ -623,5 +653,45 @@ pub fn resume_dir(
         (Some(None), false) => Err(usage("--resume needs the campaign's directory (--resume DIR), or --storage URL --campaign NAME")),
         (Some(Some(_)), true) => Err(usage("with --storage, give --resume without a directory: the campaign is in the database")),
         (Some(None), true) => Ok(Some(PathBuf::new())),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::say_if_slow;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::time::{Duration, Instant};
+
+    #[test]
+    fn a_slow_step_is_announced_and_a_quick_one_neither_announced_nor_delayed() {
+        // A step that outlasts the 20 ms (it waits, up to 30 s, for the announcement).
+        let said = AtomicBool::new(false);
+        let v = say_if_slow(
+            Duration::from_millis(20),
+            || said.store(true, Ordering::SeqCst),
+            || {
+                let start = Instant::now();
+                while !said.load(Ordering::SeqCst) && start.elapsed() < Duration::from_secs(30) {
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                7
+            },
+        );
+        assert_eq!(v, 7);
+        assert!(said.load(Ordering::SeqCst), "a slow step was not announced");
+
+        let said = AtomicBool::new(false);
+        let start = Instant::now();
+        let v = say_if_slow(
+            Duration::from_secs(30),
+            || said.store(true, Ordering::SeqCst),
+            || 8,
+        );
+        assert_eq!(v, 8);
+        assert!(!said.load(Ordering::SeqCst));
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "waited for the timer"
+        );
     }
 }

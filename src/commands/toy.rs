@@ -21,9 +21,9 @@ pub struct Args {
     /// Continue the campaign in DIR; with --storage, the database's campaign (no DIR).
     #[arg(long, value_name = "DIR", num_args = 0..=1)]
     resume: Option<Option<PathBuf>>,
-    /// Every run sleeps this many milliseconds first.
-    #[arg(long, value_name = "MS", default_value_t = 0, conflicts_with = "null")]
-    sleep_ms: u64,
+    /// Every run sleeps this many milliseconds first (default 0).
+    #[arg(long, value_name = "MS", conflicts_with = "null")]
+    sleep_ms: Option<u64>,
     /// The null simulator: every run passes at once (measures savme's own cost). Its runs
     /// take no time, so its cost is work units (--cost work, the default with --null).
     #[arg(long)]
@@ -44,6 +44,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if resume.is_some() && overrides.any() {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
+    if resume.is_some() && (a.null || a.sleep_ms.is_some()) {
+        return Err(usage(
+            "--resume: a resumed campaign keeps its simulator; give neither --null nor --sleep-ms",
+        ));
+    }
     if a.null && resume.is_none() {
         // A null run takes no measurable time: the kernel refuses a wall-clock cost of 0.
         match overrides.cost {
@@ -57,7 +62,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let label = if a.null {
         NULL.to_string()
     } else {
-        toy_label(a.sleep_ms)
+        toy_label(a.sleep_ms.unwrap_or(0))
     };
     // `--repeat N` runs N seeds as `reproduce` and `run` do (it was ignored here); a resumed
     // repeated campaign keeps its count.

@@ -112,7 +112,8 @@ fn simulator_label(
     name: &str,
     patience: Duration,
 ) -> Result<String, String> {
-    let mut s = Session::connect(db, "worker").map_err(|e| e.to_string())?;
+    let mut s =
+        super::connecting(db, || Session::connect(db, "worker")).map_err(|e| e.to_string())?;
     let start = std::time::Instant::now();
     let mut said = false;
     loop {

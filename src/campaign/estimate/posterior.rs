@@ -1,8 +1,6 @@
 //! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
 
 use super::{EstimateError, EstimateSettings};
-use crate::campaign::log::LogLine;
-use crate::campaign::store::JsonlStore;
 use crate::campaign::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -64,7 +62,7 @@ pub(crate) fn trained(
         })?;
         stages.insert(name.clone(), stage);
     }
-    let lines = load_lines(dir)?;
+    let lines = crate::campaign::log::read_dir_lines(dir)?;
     let told_in = |stage: &str| {
         lines
             .iter()
@@ -114,23 +112,6 @@ pub(crate) fn trained(
         stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
         scenarios,
     })
-}
-
-/// The campaign's complete trial lines with their line numbers, read without its lock (a
-/// campaign still running is caught by the check that its training stage is complete).
-fn load_lines(dir: &Path) -> Result<Vec<(u64, LogLine)>, CampaignError> {
-    let path = dir.join("trials.jsonl");
-    if !path.exists() {
-        return Err(CampaignError::NothingToResume {
-            path: dir.to_path_buf(),
-        });
-    }
-    let name = path.display().to_string();
-    JsonlStore::read(&path)?
-        .lines
-        .iter()
-        .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
-        .collect()
 }
 
 /// The scenarios `names` with their weights p(s) and posteriors at the kernels' uniform prior
