@@ -41,6 +41,10 @@ enum Command {
     /// finished campaign's learned posterior (defensive mixture; HF runs only). Writes
     /// summary.json, table.md and trials.jsonl (q, p, weight per run).
     Estimate(commands::estimate::Args),
+    /// List every HF failure a campaign found (stage, trial, scenario, φ, what the LF run
+    /// said), with the `savme simulate` command that replays it; `--json` for one object per
+    /// line.
+    Failures(commands::failures::Args),
     /// FMU tools.
     #[command(subcommand)]
     Fmu(commands::fmu::Command),
@@ -67,6 +71,7 @@ fn main() -> ExitCode {
         Command::Reproduce(a) => commands::reproduce::run(a),
         Command::Run(a) => commands::run::run(a),
         Command::Estimate(a) => commands::estimate::run(a),
+        Command::Failures(a) => commands::failures::run(a),
         Command::Fmu(c) => commands::fmu::run(c).map_err(Failure::from),
         Command::FmuWorker => commands::fmu::worker().map_err(Failure::from),
         Command::Simulate(a) => commands::simulate::run(a),

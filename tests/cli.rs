@@ -222,3 +222,26 @@ fn simulate_has_no_campaign_recording_flags() {
         assert!(err.contains(flag), "{flag}: {err}");
     }
 }
+
+#[test]
+fn more_jobs_than_savme_starts_are_a_usage_error_not_an_abort() {
+    // 100,000 threads could not be started: savme aborted (exit 134) after the output
+    // directory was created.
+    let out = std::env::temp_dir().join(format!("savme-cli-{}-jobs", std::process::id()));
+    let o = out.to_str().unwrap();
+    for args in [
+        &["toy", "--out", o, "--jobs", "100000"][..],
+        &["reproduce", "--out", o, "--jobs", "100000"][..],
+        &["estimate", o, "--jobs", "100000"][..],
+        &["worker", "--jobs", "100000"][..],
+    ] {
+        let r = Command::new(EXE).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("--jobs") && err.contains("at most 1024 worker threads"),
+            "{args:?}: {err}"
+        );
+        assert!(!out.exists(), "{args:?} created {o}");
+    }
+}

@@ -586,6 +586,37 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
     );
     assert_eq!(over["refine_runs"], 10);
 
+    // A campaign file whose φ-space is not the campaign's: the trial line that does not fit
+    // is named (it was "line 0").
+    let other = campaign_file(
+        &made_dir("estimate-other"),
+        &TINY.replacen("range = [10.0, 25.0]", "range = [24.9, 25.0]", 1),
+    );
+    let stored = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+    let line = 1 + stored
+        .lines()
+        .position(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).unwrap();
+            v["stage"] == "train@0.3"
+                && v["scenario"] == "lead_vehicle_brakes"
+                && !v["credit"]["scenario"].is_null()
+                && v["phi"]["ego_speed"].as_f64().unwrap() < 24.9
+        })
+        .unwrap();
+    let (ok, _, err) = savme(&[
+        "estimate",
+        out.to_str().unwrap(),
+        "--config",
+        other.to_str().unwrap(),
+        "--out",
+        out.join("other").to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("trials.jsonl, line {line}: train@0.3 trial "))
+            && err.contains("φ outside the scenario"),
+        "line {line}: {err}"
+    );
     let bad = made_dir("estimate-bad");
     // TINY's lines, an empty line, `[estimate]`, then `epsilon`.
     let line = TINY.lines().count() + 3;
@@ -593,6 +624,14 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &bad,
         &(TINY.to_string() + "\n[estimate]\nepsilon = 0.0\n"),
         &[&format!("line {line}"), "estimate.epsilon", "(0, 1]"],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nscenarios = []\n"),
+        &[
+            &format!("line {line}, key `estimate.scenarios`"),
+            "the list is empty: name scenarios, or leave the key out",
+        ],
     );
     // A budget the campaign does not train: refused before it runs (it ran, then failed).
     assert_refused(

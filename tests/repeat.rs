@@ -225,3 +225,33 @@ fn bad_repeat_input_is_refused_before_any_simulation() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("keeps its protocol"));
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn the_toy_runs_repeat_seeds_too_and_resumes_them() {
+    // `savme toy --repeat N` ran one campaign and ignored N (even 0).
+    let dir = temp_dir("toy");
+    let d = dir.to_str().unwrap();
+    let toy = |args: &[&str]| {
+        let o = Command::new(EXE).arg("toy").args(args).output().unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (code, err) = toy(&["--out", d, "--repeat", "0", "--quiet"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("`repeat`: 0 is not between 1 and"), "{err}");
+    assert!(!dir.exists());
+    let (code, err) = toy(&["--out", d, "--repeat", "2", "--iterations", "20", "--quiet"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(json(&dir.join("repeat.json"))["repeat"], 2);
+    let seeds = [dir.join("seed-1"), dir.join("seed-2")];
+    let before: Vec<Vec<Value>> = seeds.iter().map(|s| file_trials(s)).collect();
+    assert!(before.iter().all(|t| !t.is_empty()) && before[0] != before[1]);
+    // A resume keeps the count and replays every seed's trials.
+    let (code, err) = toy(&["--resume", d, "--quiet"]);
+    assert_eq!(code, Some(0), "{err}");
+    let after: Vec<Vec<Value>> = seeds.iter().map(|s| file_trials(s)).collect();
+    assert_eq!(before, after);
+    let _ = std::fs::remove_dir_all(dir);
+}

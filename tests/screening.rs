@@ -112,6 +112,25 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
         "{out}"
     );
     assert!(out.contains("LF screening, HF confirms (TP)"), "{out}");
+    // `savme failures` lists the stage's HF failures: confirmed ones and audit misses.
+    let d = dir.display().to_string();
+    let (ok, listed, err) = savme(&["failures", &d, "--stage", "screen@0.3", "--json"]);
+    assert!(ok, "{err}");
+    let listed: Vec<Value> = listed
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(listed.len() as u64, confirmed + misses);
+    let hf_failed: Vec<&&Value> = screen
+        .iter()
+        .filter(|v| v["hf"]["failure"] == true)
+        .collect();
+    for (f, v) in listed.iter().zip(hf_failed) {
+        assert_eq!((&f["index"], &f["phi"]), (&v["index"], &v["phi"]));
+        assert_eq!(f["lf_failure"], v["lf"]["failure"]);
+        // Idealised perception: `savme simulate` (camera + lidar) would not replay it.
+        assert!(f["replay"].is_null(), "{f}");
+    }
 
     // The same campaign with one job, and a resumed one cut inside the screening stage.
     let one = temp_dir("one");

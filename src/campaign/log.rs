@@ -4,6 +4,7 @@
 //! process dies before storing is asked and run again on resume. It is the campaign's journal:
 //! `--resume` replays it.
 
+use super::store::JsonlStore;
 use super::store::StoredLine;
 use super::{CampaignError, Protocol};
 use savme_kernel::{Assignment, Credit, Outcome, Phase, SimResult};
@@ -258,6 +259,23 @@ pub fn split_by_stage<'a>(
         ));
     }
     Ok(out)
+}
+
+/// The trial lines of the campaign directory `dir` (its `trials.jsonl`), each with its
+/// 1-based line number, read without its lock: a campaign still running may be read.
+pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<(u64, LogLine)>, CampaignError> {
+    let path = dir.join("trials.jsonl");
+    if !path.exists() {
+        return Err(CampaignError::NothingToResume {
+            path: dir.to_path_buf(),
+        });
+    }
+    let name = path.display().to_string();
+    JsonlStore::read(&path)?
+        .lines
+        .iter()
+        .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
+        .collect()
 }
 
 #[cfg(test)]

@@ -10,6 +10,7 @@ use serde::Serialize;
 use std::fmt::Write as _;
 
 pub mod ablation;
+pub mod failures;
 pub mod intervals;
 pub mod repeated;
 pub mod screening;

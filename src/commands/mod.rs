@@ -3,6 +3,7 @@
 //! running a campaign with its observers, and printing.
 
 pub mod estimate;
+pub mod failures;
 pub mod fidelity;
 pub mod fmu;
 pub mod reproduce;
@@ -216,11 +217,25 @@ impl ProtocolArgs {
     }
 }
 
+/// The most worker threads `--jobs` starts: each thread holds a simulator, and a count far
+/// beyond the cores only fails to start (100,000 aborted savme in `failed to spawn thread`).
+pub const MAX_JOBS: usize = 1024;
+
+/// Parses `--jobs`, refusing more than [`MAX_JOBS`] (0 is refused where it is used, naming
+/// the flag).
+pub fn parse_jobs(s: &str) -> Result<usize, String> {
+    let n: usize = s.parse().map_err(|e| format!("{e}"))?;
+    if n > MAX_JOBS {
+        return Err(format!("at most {MAX_JOBS} worker threads"));
+    }
+    Ok(n)
+}
+
 /// How a campaign runs (nothing here changes its trials).
 #[derive(clap::Args, Debug, Clone)]
 pub struct RunnerArgs {
     /// Worker threads (default: one per core). Does not change the results.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_jobs)]
     jobs: Option<usize>,
     /// No progress output.
     #[arg(long, short)]

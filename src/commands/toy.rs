@@ -4,12 +4,12 @@
 //! CPU; `--null` runs nothing at all.
 
 use super::{
-    config_failure, resume_dir, run_campaign, stored_protocol, usage, CampaignStorageArgs, Failure,
-    ProtocolArgs, RunnerArgs, Target,
+    config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
+    CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
 use savme::campaign::config::{self, named_simulator, toy_label, NULL};
 use savme::campaign::store::TrialStore;
-use savme::campaign::{load_protocol, Cost};
+use savme::campaign::{load_protocol, load_repeat, Cost};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
@@ -64,9 +64,18 @@ pub fn run(a: Args) -> Result<(), Failure> {
     } else {
         toy_label(a.sleep_ms.unwrap_or(0))
     };
+    // `--repeat N` runs N seeds as `reproduce` and `run` do (it was ignored here); a resumed
+    // repeated campaign keeps its count.
+    let mut repeat = config::check_repeat(overrides.repeat).map_err(config_failure)?;
     let mut store = store;
     let protocol = match (&resume, store.as_mut()) {
-        (Some(dir), None) => Some(load_protocol(dir).map_err(|e| e.to_string())?),
+        (Some(dir), None) => Some(match load_repeat(dir).map_err(|e| e.to_string())? {
+            Some(file) => {
+                repeat = Some(file.repeat);
+                file.protocol
+            }
+            None => load_protocol(dir).map_err(|e| e.to_string())?,
+        }),
         (Some(_), Some(s)) => Some(stored_protocol(s)?),
         (None, _) => None,
     };
@@ -85,5 +94,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
         store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
         remote,
     };
+    if let Some(n) = repeat {
+        return run_repeated(protocol, problem, n, target, &a.runner, &sim);
+    }
     run_campaign(protocol, problem, target, &a.runner, Frames::None, &sim)
 }

@@ -1,8 +1,6 @@
 //! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
 
 use super::{EstimateError, EstimateSettings};
-use crate::campaign::log::LogLine;
-use crate::campaign::store::JsonlStore;
 use crate::campaign::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -64,11 +62,11 @@ pub(crate) fn trained(
         })?;
         stages.insert(name.clone(), stage);
     }
-    let lines = load_lines(dir)?;
+    let lines = crate::campaign::log::read_dir_lines(dir)?;
     let told_in = |stage: &str| {
         lines
             .iter()
-            .filter(|l| l.stage() == stage && l.is_told())
+            .filter(|(_, l)| l.stage() == stage && l.is_told())
             .count() as u64
     };
     for (stage, needed) in stages.values() {
@@ -87,7 +85,7 @@ pub(crate) fn trained(
     for (scenario, posterior) in &mut scenarios {
         let (name, space) = (&*scenario.name, &scenario.space);
         let stage = &stages[name].0;
-        for t in lines.iter().filter_map(LogLine::trial) {
+        for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
             if &t.stage != stage || t.scenario != name {
                 continue;
             }
@@ -95,8 +93,12 @@ pub(crate) fn trained(
             if let Some(ok) = t.credit.scenario {
                 let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
                     store: dir.join("trials.jsonl").display().to_string(),
-                    line: 0,
-                    message: format!("{stage} trial {}: φ outside the scenario: {e}", t.index),
+                    line: line as usize,
+                    message: format!(
+                        "{stage} trial {}: φ outside the scenario (a campaign file other than \
+                         the campaign's?): {e}",
+                        t.index
+                    ),
                 })?;
                 let arms: Vec<u16> = arms.iter().map(|&a| a as u16).collect();
                 posterior.update(&arms, ok);
@@ -110,23 +112,6 @@ pub(crate) fn trained(
         stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
         scenarios,
     })
-}
-
-/// The campaign's complete trial lines, read without its lock (a campaign still running is
-/// caught by the check that its training stage is complete).
-fn load_lines(dir: &Path) -> Result<Vec<LogLine>, CampaignError> {
-    let path = dir.join("trials.jsonl");
-    if !path.exists() {
-        return Err(CampaignError::NothingToResume {
-            path: dir.to_path_buf(),
-        });
-    }
-    let name = path.display().to_string();
-    JsonlStore::read(&path)?
-        .lines
-        .iter()
-        .map(|l| LogLine::from_stored(l, &name))
-        .collect()
 }
 
 /// The scenarios `names` with their weights p(s) and posteriors at the kernels' uniform prior

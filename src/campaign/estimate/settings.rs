@@ -311,6 +311,16 @@ impl EstimateSettings {
             key: Some(format!("estimate.{key}")),
             message,
         };
+        // An empty list would estimate every meta-training scenario, as no list does: say so
+        // rather than run what the file seems not to ask for.
+        if section.scenarios.as_ref().is_some_and(Vec::is_empty) {
+            return Err(error(
+                "scenarios".into(),
+                "the list is empty: name scenarios, or leave the key out to estimate every \
+                 meta-training scenario"
+                    .into(),
+            ));
+        }
         match s.validate() {
             Err(EstimateError::Setting { key, message }) => Err(error(key, message)),
             _ => Ok(s),
