@@ -4,35 +4,14 @@
 //! directory.
 mod common;
 
-use common::{run, temp_dir, trial_lines};
+use common::{run, temp_dir, trial_lines, TINY_PROTOCOL};
 use serde_json::Value;
 use std::path::Path;
 
 /// A tiny protocol on the camera + lidar simulator (what `savme simulate` runs), work cost.
 fn campaign(dir: &Path) {
     let out = dir.display().to_string();
-    let (code, _, err) = run(&[
-        "reproduce",
-        "--out",
-        &out,
-        "--budgets",
-        "0.3",
-        "--iterations",
-        "16",
-        "--eval-iterations",
-        "6",
-        "--test-iterations",
-        "8",
-        "--baseline-iterations",
-        "14",
-        "--baseline-test-iterations",
-        "8",
-        "--cost",
-        "work",
-        "--seed",
-        "7",
-        "--quiet",
-    ]);
+    let (code, _, err) = run(&[&["reproduce", "--out", &out][..], TINY_PROTOCOL].concat());
     assert_eq!(code, Some(0), "{err}");
 }
 

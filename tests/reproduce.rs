@@ -3,32 +3,14 @@
 //! and bad input is refused before any simulation.
 mod common;
 
-use common::{resume, run, temp_dir, trial_lines, without_wall, EXE};
+use common::{resume, run, temp_dir, trial_lines, without_wall, EXE, TINY_PROTOCOL};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// A tiny protocol on the camera + lidar simulator, work-unit cost.
-const TINY: &[&str] = &[
-    "--budgets",
-    "0.3",
-    "--iterations",
-    "16",
-    "--eval-iterations",
-    "6",
-    "--test-iterations",
-    "8",
-    "--baseline-iterations",
-    "14",
-    "--baseline-test-iterations",
-    "8",
-    "--cost",
-    "work",
-    "--seed",
-    "7",
-    "--quiet",
-];
+const TINY: &[&str] = TINY_PROTOCOL;
 const TINY_TRIALS: usize = 14 + 16 + 6 + 8 + 2 * 8;
 
 /// TINY with the flags of `extra` added or replaced.

@@ -12,6 +12,28 @@ use std::process::Command;
 /// The savme binary under test.
 pub const EXE: &str = env!("CARGO_BIN_EXE_savme");
 
+/// A tiny protocol on the bundled camera + lidar simulator (60 trials: one budget, few
+/// iterations), work-unit cost, seed 7, quiet.
+pub const TINY_PROTOCOL: &[&str] = &[
+    "--budgets",
+    "0.3",
+    "--iterations",
+    "16",
+    "--eval-iterations",
+    "6",
+    "--test-iterations",
+    "8",
+    "--baseline-iterations",
+    "14",
+    "--baseline-test-iterations",
+    "8",
+    "--cost",
+    "work",
+    "--seed",
+    "7",
+    "--quiet",
+];
+
 /// A fresh (absent) temporary directory for `name`, unique to this test file and process:
 /// `$TMPDIR/savme-<test file>-<pid>-<name>`.
 pub fn temp_dir(name: &str) -> PathBuf {
