@@ -229,6 +229,74 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
     ]);
     assert!(!o.status.success());
     assert!(text(&o).contains("no campaign to resume"), "{}", text(&o));
+    // `savme failures` lists the same failures from the database as from the directory, and
+    // reads without the coordinator's lock (held here by this test's session).
+    let id: i32 = client
+        .query_one("SELECT id FROM savme.campaigns WHERE name = 'tiny'", &[])
+        .unwrap()
+        .get(0);
+    let lock = savme::campaign::store::postgres::schema::LOCK_CLASS;
+    client
+        .execute("SELECT pg_advisory_lock($1, $2)", &[&lock, &id])
+        .unwrap();
+    let list = |args: &[&str]| {
+        let o = savme(args);
+        assert!(o.status.success(), "{args:?}: {}", text(&o));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let from_db = list(&[
+        "failures",
+        "--storage",
+        &url,
+        "--campaign",
+        "tiny",
+        "--json",
+    ]);
+    let from_dir = list(&["failures", dir.to_str().unwrap(), "--json"]);
+    assert_eq!(from_db, from_dir);
+    let hf_failures = file_trials(&dir)
+        .iter()
+        .filter(|t| t["hf"]["failure"] == true)
+        .count();
+    assert!(hf_failures > 0, "the tiny campaign found no failure");
+    assert_eq!(from_db.lines().count(), hf_failures);
+    let o = savme(&["failures", "--storage", &url, "--campaign", "never"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("campaign \"never\": no such campaign in this database"),
+        "{}",
+        text(&o)
+    );
+    let table = list(&["failures", "--storage", &url, "--campaign", "tiny"]);
+    for shown in [&table, &from_db, &text(&o)] {
+        assert!(
+            !shown.contains(PASSWORD),
+            "the password was printed: {shown}"
+        );
+    }
+    // A database savme never used: no such campaign, and listing creates nothing there.
+    let empty = server.create_db("empty");
+    let o = savme(&["failures", "--storage", &empty, "--campaign", "tiny"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("no such campaign in this database"),
+        "{}",
+        text(&o)
+    );
+    let mut e = postgres::Client::connect(&empty, postgres::NoTls).unwrap();
+    let untouched: bool = e
+        .query_one("SELECT to_regclass('savme.campaigns') IS NULL", &[])
+        .unwrap()
+        .get(0);
+    assert!(untouched, "savme failures created savme's schema");
+    // (The refused resume above left campaign `nope` a row without a protocol.)
+    let o = savme(&["failures", "--storage", &url, "--campaign", "nope"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("campaign \"nope\": no protocol stored yet"),
+        "{}",
+        text(&o)
+    );
     for d in [dir, out] {
         let _ = std::fs::remove_dir_all(d);
     }

@@ -1,20 +1,26 @@
 //! `savme failures DIR`: every HF failure a campaign found — stage, trial, scenario, φ, what
 //! the LF run said — as a table or (`--json`) one JSON object per line, each with the
 //! `savme simulate` command that replays it when the campaign ran the bundled camera/lidar
-//! simulator.
+//! simulator. The campaign is a directory or (`--storage URL --campaign NAME`) a database's.
 
 use super::Failure;
 use savme::campaign::config::SENSORS;
-use savme::campaign::load_protocol;
 use savme::campaign::log::read_dir_lines;
+use savme::campaign::log::LogLine;
 use savme::campaign::report::failures::{as_flag, found_failures, hf_runs, Filter, FoundFailure};
+use savme::campaign::store::postgres::read_campaign;
+use savme::campaign::{load_protocol, Protocol};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The campaign directory (the `--out` of savme reproduce or savme run).
-    campaign: PathBuf,
+    /// The campaign directory (the `--out` of savme reproduce or savme run); or give
+    /// --storage URL --campaign NAME for a campaign kept in PostgreSQL.
+    #[arg(value_name = "DIR")]
+    dir: Option<PathBuf>,
+    #[command(flatten)]
+    store: super::StorageArgs,
     /// Only the failures of this stage (e.g. baseline-train, train@0.3, screen@0.3);
     /// repeatable.
     #[arg(long = "stage", value_name = "STAGE")]
@@ -28,9 +34,46 @@ pub struct Args {
     json: bool,
 }
 
+/// The campaign's protocol and lines, from its directory or its database (read without the
+/// coordinator's lock: a running campaign can be listed), and how to name it.
+fn campaign(a: &Args) -> Result<(Protocol, Vec<LogLine>, String), Failure> {
+    let runtime = |e: String| Failure::Runtime(e);
+    match (&a.dir, a.store.database()?) {
+        (Some(_), Some(_)) => Err(Failure::Usage(
+            "give the campaign directory or --storage, not both".into(),
+        )),
+        (None, None) => Err(Failure::Usage(
+            "give the campaign directory (or --storage URL --campaign NAME)".into(),
+        )),
+        (Some(dir), None) => {
+            let protocol = load_protocol(dir).map_err(|e| runtime(e.to_string()))?;
+            let lines = read_dir_lines(dir).map_err(|e| runtime(e.to_string()))?;
+            let lines = lines.into_iter().map(|(_, l)| l).collect();
+            Ok((protocol, lines, dir.display().to_string()))
+        }
+        (None, Some((db, name))) => {
+            let place = format!("{}, campaign {name:?}", db.location());
+            let (saved, loaded) = super::connecting(&db, || read_campaign(&db, &name))
+                .map_err(|e| runtime(e.to_string()))?;
+            let saved = saved.ok_or_else(|| runtime(format!("{place}: no protocol stored yet")))?;
+            let protocol: Protocol = serde_json::from_value(saved)
+                .map_err(|e| runtime(format!("{place}, protocol: {e}")))?;
+            protocol
+                .validate()
+                .map_err(|e| runtime(format!("{place}, protocol: {e}")))?;
+            let lines = loaded
+                .lines
+                .iter()
+                .map(|l| LogLine::from_stored(l, &place))
+                .collect::<Result<_, _>>()
+                .map_err(|e| runtime(e.to_string()))?;
+            Ok((protocol, lines, place))
+        }
+    }
+}
+
 pub fn run(a: Args) -> Result<(), Failure> {
-    let runtime = |e: savme::campaign::CampaignError| Failure::Runtime(e.to_string());
-    let protocol = load_protocol(&a.campaign).map_err(runtime)?;
+    let (protocol, lines, place) = campaign(&a)?;
     let labels: Vec<String> = protocol.stages().iter().map(|s| s.label()).collect();
     let scenarios = [&protocol.train_scenarios[..], &protocol.test_scenarios[..]].concat();
     for s in &a.stages {
@@ -49,11 +92,6 @@ pub fn run(a: Args) -> Result<(), Failure> {
             )));
         }
     }
-    let lines: Vec<_> = read_dir_lines(&a.campaign)
-        .map_err(runtime)?
-        .into_iter()
-        .map(|(_, l)| l)
-        .collect();
     let hf_runs = hf_runs(&lines);
     let filter = Filter {
         stages: a.stages,
@@ -73,7 +111,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let text = if a.json {
         json_lines(&found, replay)?
     } else {
-        table(&found, hf_runs, &a.campaign, replay)
+        table(&found, hf_runs, &place, replay)
     };
     super::print(&text).map_err(Failure::Runtime)
 }
@@ -94,13 +132,13 @@ fn json_lines(
 fn table(
     found: &[FoundFailure],
     hf_runs: usize,
-    dir: &std::path::Path,
+    place: &str,
     replay: impl Fn(&FoundFailure) -> Option<String>,
 ) -> String {
     let mut out = format!(
         "{} HF failures in {} (of {hf_runs} HF runs in all its stages)\n",
         found.len(),
-        dir.display()
+        place
     );
     for f in found {
         let lf = match f.lf_failure {

@@ -245,6 +245,84 @@ impl PostgresStore {
     }
 }
 
+const SELECT_LINES: &str =
+    "SELECT line, v, body::text FROM savme.trials WHERE campaign_id = $1 ORDER BY line";
+const SELECT_PROTOCOL: &str = "SELECT protocol::text FROM savme.campaigns WHERE id = $1";
+
+/// The rows of [`SELECT_LINES`] as stored lines; a line of another format version, or not a
+/// JSON object, is an error naming it.
+fn lines_of(location: &str, rows: &[postgres::Row]) -> Result<Loaded, StoreError> {
+    let mut loaded = Loaded::default();
+    for row in rows {
+        let line: i64 = row.get(0);
+        let v: i32 = row.get(1);
+        let body: String = row.get(2);
+        let bad = |message: String| StoreError::BadLine {
+            store: location.to_string(),
+            line: line as u64,
+            message,
+        };
+        if v as u64 != FORMAT {
+            return Err(bad(format!(
+                "store format version {v} is not supported (this savme reads version {FORMAT})"
+            )));
+        }
+        let value: Value =
+            serde_json::from_str(&body).map_err(|e| bad(format!("not JSON: {e}")))?;
+        if !value.is_object() {
+            return Err(bad("not a JSON object".into()));
+        }
+        loaded.lines.push(StoredLine {
+            line: line as u64,
+            value,
+        });
+    }
+    Ok(loaded)
+}
+
+/// The stored protocol's text as JSON (None: not saved yet).
+fn protocol_of(location: &str, text: Option<String>) -> Result<Option<Value>, StoreError> {
+    text.map(|t| {
+        serde_json::from_str(&t).map_err(|e| StoreError::BadLine {
+            store: format!("{location} protocol"),
+            line: e.line() as u64,
+            message: e.to_string(),
+        })
+    })
+    .transpose()
+}
+
+/// Campaign `name`'s protocol (None: not saved yet) and trial lines, read **without** its
+/// coordinator lock and without changing the database (no schema, no campaign row is
+/// created): a campaign still running can be read. A database without savme's schema, or
+/// without the campaign, is an error naming it.
+pub fn read_campaign(db: &Database, name: &str) -> Result<(Option<Value>, Loaded), StoreError> {
+    check_name(name)?;
+    let location = format!("{}, campaign {name:?}", db.location());
+    let mut client = db.connect(&application_name("reader"))?;
+    let err = |e: postgres::Error| db.error(&location, &e);
+    let has_schema: bool = client
+        .query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])
+        .map_err(err)?
+        .get(0);
+    let id = match has_schema {
+        true => find_campaign(&mut client, name).map_err(err)?,
+        false => None,
+    };
+    let Some(id) = id else {
+        return Err(StoreError::Database {
+            store: location,
+            message: "no such campaign in this database (none was started under this name)".into(),
+        });
+    };
+    let text: Option<String> = client
+        .query_one(SELECT_PROTOCOL, &[&id])
+        .map_err(err)?
+        .get(0);
+    let rows = client.query(SELECT_LINES, &[&id]).map_err(err)?;
+    Ok((protocol_of(&location, text)?, lines_of(&location, &rows)?))
+}
+
 /// A line's fields as the typed columns of `savme.trials`.
 struct Columns {
     stage: Option<String>,
@@ -394,38 +472,8 @@ impl TrialStore for PostgresStore {
     }
 
     fn load(&mut self) -> Result<Loaded, StoreError> {
-        let rows = self.retrying(|c, id| {
-            c.query(
-                "SELECT line, v, body::text FROM savme.trials WHERE campaign_id = $1 ORDER BY line",
-                &[&id],
-            )
-        })?;
-        let mut loaded = Loaded::default();
-        for row in rows {
-            let line: i64 = row.get(0);
-            let v: i32 = row.get(1);
-            let body: String = row.get(2);
-            let bad = |message: String| StoreError::BadLine {
-                store: self.location.clone(),
-                line: line as u64,
-                message,
-            };
-            if v as u64 != FORMAT {
-                return Err(bad(format!(
-                    "store format version {v} is not supported (this savme reads version {FORMAT})"
-                )));
-            }
-            let value: Value =
-                serde_json::from_str(&body).map_err(|e| bad(format!("not JSON: {e}")))?;
-            if !value.is_object() {
-                return Err(bad("not a JSON object".into()));
-            }
-            loaded.lines.push(StoredLine {
-                line: line as u64,
-                value,
-            });
-        }
-        Ok(loaded)
+        let rows = self.retrying(|c, id| c.query(SELECT_LINES, &[&id]))?;
+        lines_of(&self.location, &rows)
     }
 
     fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
@@ -484,21 +532,9 @@ impl TrialStore for PostgresStore {
     }
 
     fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
-        let text: Option<String> = self.retrying(|c, id| {
-            Ok(c.query_one(
-                "SELECT protocol::text FROM savme.campaigns WHERE id = $1",
-                &[&id],
-            )?
-            .get(0))
-        })?;
-        text.map(|t| {
-            serde_json::from_str(&t).map_err(|e| StoreError::BadLine {
-                store: format!("{} protocol", self.location),
-                line: e.line() as u64,
-                message: e.to_string(),
-            })
-        })
-        .transpose()
+        let text: Option<String> =
+            self.retrying(|c, id| Ok(c.query_one(SELECT_PROTOCOL, &[&id])?.get(0)))?;
+        protocol_of(&self.location, text)
     }
 
     fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
