@@ -6,46 +6,27 @@ mod common;
 
 use common::campaign::{db_trials, file_trials, text};
 use common::postgres::{Server, PASSWORD};
-use common::{temp_dir, EXE};
+use common::{temp_dir, EXE, TINY_PROTOCOL};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// A tiny protocol on the bundled simulator with idealised perception, work-unit cost.
-const TINY: &[&str] = &[
-    "--budgets",
-    "0.3",
-    "--iterations",
-    "16",
-    "--eval-iterations",
-    "6",
-    "--test-iterations",
-    "8",
-    "--baseline-iterations",
-    "14",
-    "--baseline-test-iterations",
-    "8",
-    "--cost",
-    "work",
-    "--seed",
-    "7",
-    "--perception",
-    "ideal",
-    "--quiet",
-];
+/// The tiny protocol of the CLI tests, on the bundled simulator with idealised perception.
+const IDEAL: &[&str] = &["--perception", "ideal"];
 const TINY_TRIALS: usize = 14 + 16 + 6 + 8 + 2 * 8;
 
 fn savme(args: &[&str]) -> Output {
     Command::new(EXE).args(args).output().unwrap()
 }
 
-/// `savme reproduce` TINY (plus `extra`) into campaign `name` of `url`, results in `out`.
+/// `savme reproduce` TINY_PROTOCOL + IDEAL (plus `extra`) into campaign `name` of `url`, results in `out`.
 fn reproduce_in_db(url: &str, name: &str, out: &Path, extra: &[&str]) -> Output {
     Command::new(EXE)
         .args(["reproduce", "--storage", url, "--campaign", name, "--out"])
         .arg(out)
-        .args(TINY)
+        .args(TINY_PROTOCOL)
+        .args(IDEAL)
         .args(extra)
         .output()
         .unwrap()
@@ -71,7 +52,8 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
     let o = Command::new(EXE)
         .args(["reproduce", "--out"])
         .arg(&dir)
-        .args(TINY)
+        .args(TINY_PROTOCOL)
+        .args(IDEAL)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", text(&o));
