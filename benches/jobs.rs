@@ -22,7 +22,7 @@ fn protocol() -> Protocol {
         baseline_train_iterations: 60,
         baseline_test_iterations: 30,
         cost: Cost::Work,
-        ..Protocol::paper(campaign::config::SENSORS, train, test)
+        ..Protocol::paper(savme::compose::SENSORS, train, test)
     }
 }
 
@@ -38,7 +38,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .find_map(|a| a.parse().ok())
         .unwrap_or(5);
     let p = protocol();
-    let problem = campaign::Problem::driving(10);
+    let problem = campaign::Problem::from(savme_sim::problem(10));
     let sim = DrivingSimulator::default();
     let dir = std::env::temp_dir().join(format!("savme-bench-jobs-{}", std::process::id()));
     let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];

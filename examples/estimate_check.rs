@@ -23,7 +23,8 @@
 //! without the noise seeded by φ's hash).
 use rand::{RngExt, SeedableRng};
 use savme::campaign::estimate::{parse_nominal, EstimateRun, EstimateSettings};
-use savme::campaign::{config, Campaign, Cost, Problem, Protocol};
+use savme::campaign::{Campaign, Cost, Problem, Protocol};
+use savme::compose;
 use savme_kernel::estimation::{z95, Nominal, Tilt};
 use savme_kernel::{Assignment, Domain, Role, Simulator};
 use savme_sim::sim::DrivingSimulator;
@@ -110,7 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let o = options()?;
     let sim = simulator(o.noise_sd);
     let (_, test) = savme_sim::scenario::train_test_names();
-    let mut protocol = Protocol::quick(config::IDEAL, vec![o.scenario.clone()], test);
+    let mut protocol = Protocol::quick(compose::IDEAL, vec![o.scenario.clone()], test);
     protocol.seed = o.seed;
     protocol.cost = Cost::Work;
     protocol.train_iterations = o.train_iterations;
@@ -120,10 +121,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     protocol.baseline_test_iterations = 1;
     let campaign_dir = o.out.join("campaign");
     let t0 = Instant::now();
-    Campaign::new(protocol.clone(), Problem::driving(protocol.fidelity_bins))
-        .out(&campaign_dir)
-        .jobs(o.jobs)
-        .run(&sim)?;
+    Campaign::new(
+        protocol.clone(),
+        Problem::from(savme_sim::problem(protocol.fidelity_bins)),
+    )
+    .out(&campaign_dir)
+    .jobs(o.jobs)
+    .run(&sim)?;
     let t_train = t0.elapsed().as_secs_f64();
     let mut nominal = BTreeMap::new();
     if !o.nominal.is_empty() {
@@ -141,10 +145,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ..EstimateSettings::default()
     };
     let t1 = Instant::now();
-    let est = EstimateRun::new(&campaign_dir, settings)
-        .out(o.out.join("estimate"))
-        .jobs(o.jobs)
-        .run(&sim)?;
+    let est = EstimateRun::new(
+        &campaign_dir,
+        Problem::from(savme_sim::problem(protocol.fidelity_bins)),
+        settings,
+    )
+    .out(o.out.join("estimate"))
+    .jobs(o.jobs)
+    .run(&sim)?;
     let t_is = t1.elapsed().as_secs_f64();
     println!("{}", est.table_md);
     let total = est.estimate.total;

@@ -4,7 +4,9 @@
 //! library and the `savme` command line over it:
 //! - [`kernel`]: the ask/tell kernel (crate `savme-kernel`);
 //! - [`campaign`]: the one campaign loop ([`campaign::Campaign`]), its protocol and problem,
-//!   the trial store ([`campaign::store`]), reports and figures;
+//!   reports and figures (crate `savme-campaign`); [`store`]: the trial store seam;
+//!   [`compose`]: the composition layer the CLI and Python share;
+//!   `postgres`: campaigns in PostgreSQL (feature `postgres`);
 //! - [`viewer`]: recording to the rerun viewer (feature `rerun`);
 //! - [`serve`]: the kernel behind a JSON-lines protocol, for harnesses in any language;
 //! - [`toy`]: a small paired simulator to try things on.
@@ -34,11 +36,19 @@
 //! A whole campaign (the paper's protocol, outputs, resume) is [`campaign::Campaign`].
 #![warn(missing_docs)]
 
+/// The campaign layer (crate `savme-campaign`).
+pub use savme_campaign as campaign;
+pub use savme_campaign::toy;
 pub use savme_kernel as kernel;
-pub mod campaign;
+/// Campaigns in PostgreSQL (crate `savme-postgres`, feature `postgres`).
+#[cfg(feature = "postgres")]
+pub use savme_postgres as postgres;
+/// The trial store seam and the JSON-lines store (crate `savme-store`).
+pub use savme_store as store;
+/// Recording to the rerun viewer (crate `savme-viewer`; the recorder needs feature `rerun`).
+pub use savme_viewer as viewer;
+pub mod compose;
 pub mod serve;
-pub mod toy;
-pub mod viewer;
 
 /// The README's code, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]

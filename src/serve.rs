@@ -28,11 +28,11 @@
 //! depend only on its request and the outcomes told, so a client that restarts it with the
 //! same request and tells the same outcomes in order gets the same trials again.
 
-use crate::campaign::store::journal::JournalSink;
-use crate::campaign::store::StoreError;
 use savme_kernel::estimation::{Estimation, EstimationConfig};
 use savme_kernel::journal::{Journaled, JournaledTellError};
 use savme_kernel::{Estimator, Kernel, Observation, Phase, TellError, Trial, TrialRecord};
+use savme_store::journal::JournalSink;
+use savme_store::StoreError;
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::{BufRead, Write};
@@ -360,7 +360,12 @@ mod tests {
     use super::*;
 
     fn session() -> Session {
-        Session::Plain(crate::toy::kernel_builder().seed(3).build().unwrap())
+        Session::Plain(
+            savme_campaign::toy::kernel_builder()
+                .seed(3)
+                .build()
+                .unwrap(),
+        )
     }
 
     fn run(s: &mut Session, input: &str) -> Vec<Value> {
@@ -589,11 +594,11 @@ mod tests {
         room: usize,
     }
 
-    impl crate::campaign::store::TrialStore for Full {
+    impl savme_store::TrialStore for Full {
         fn location(&self) -> String {
             "full".into()
         }
-        fn load(&mut self) -> Result<crate::campaign::store::Loaded, StoreError> {
+        fn load(&mut self) -> Result<savme_store::Loaded, StoreError> {
             Ok(Default::default())
         }
         fn append_json(&mut self, lines: &[String]) -> Result<(), StoreError> {
@@ -610,7 +615,7 @@ mod tests {
 
     #[test]
     fn a_batch_ask_that_cannot_be_journaled_asks_nothing() {
-        let config = crate::toy::kernel_builder()
+        let config = savme_campaign::toy::kernel_builder()
             .seed(3)
             .build()
             .unwrap()
@@ -620,7 +625,7 @@ mod tests {
             lines: Vec::new(),
             room: 11,
         };
-        let opened = crate::campaign::store::journal::open(Box::new(store), Some(config)).unwrap();
+        let opened = savme_store::journal::open(Box::new(store), Some(config)).unwrap();
         let mut s = Session::Journaled(opened.kernel);
         let r = run(
             &mut s,

@@ -111,8 +111,8 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
         let out = temp_dir(&name);
         let worker_url = if workers == 1 {
             // savme creates its schema when a store is first opened.
-            let db = savme::campaign::store::postgres::Database::parse(&url).unwrap();
-            drop(savme::campaign::store::postgres::PostgresStore::open(&db, "setup").unwrap());
+            let db = savme::postgres::Database::parse(&url).unwrap();
+            drop(savme::postgres::PostgresStore::open(&db, "setup").unwrap());
             let mut c = postgres::Client::connect(&url, postgres::NoTls).unwrap();
             c.batch_execute(&role_sql).unwrap();
             server.url_for("savme_worker", "worker-pw", "workers")

@@ -217,7 +217,7 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
         .query_one("SELECT id FROM savme.campaigns WHERE name = 'tiny'", &[])
         .unwrap()
         .get(0);
-    let lock = savme::campaign::store::postgres::schema::LOCK_CLASS;
+    let lock = savme::postgres::schema::LOCK_CLASS;
     client
         .execute("SELECT pg_advisory_lock($1, $2)", &[&lock, &id])
         .unwrap();
@@ -761,7 +761,7 @@ fn sslmode_is_honoured_and_the_server_certificate_checked() {
     let with = |base: &str, query: &str| format!("{base}?{query}");
     // This server takes TCP connections over TLS only: without TLS it refuses.
     let connect = |u: &str| {
-        let db = savme::campaign::store::postgres::Database::parse(u).map_err(|e| e.to_string())?;
+        let db = savme::postgres::Database::parse(u).map_err(|e| e.to_string())?;
         let mut c = db
             .connect_for("tls test", Duration::from_secs(5))
             .map_err(|e| e.to_string())?;

@@ -641,7 +641,7 @@ fn an_edited_protocol_json_is_checked_naming_its_line_and_field_not_a_panic() {
         let dir = temp_dir(&format!("edited-protocol-{bins}"));
         std::fs::create_dir_all(&dir).unwrap();
         let mut p = savme::campaign::Protocol::quick(
-            savme::campaign::config::SENSORS,
+            savme::compose::SENSORS,
             vec!["lead_vehicle_brakes".into()],
             vec!["on_ramp_merge".into()],
         );

@@ -10,12 +10,13 @@ use crossbeam_channel::RecvTimeoutError;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use savme::campaign::config::{self, Overrides};
-use savme::campaign::store::postgres::{check_name, Database, PostgresStore};
+use savme::campaign::config::Overrides;
 use savme::campaign::store::{StoreError, TrialStore};
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, OnError, Problem, ProgressLines, Protocol, Stop,
 };
+use savme::compose;
+use savme::postgres::{check_name, Database, PostgresStore};
 use savme_fmu::campaign_file::CampaignFile;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
@@ -207,7 +208,7 @@ impl PyProblem {
     #[pyo3(signature = (bins = 10))]
     fn driving(bins: u32) -> Self {
         PyProblem {
-            problem: Problem::driving(bins),
+            problem: Problem::from(savme_sim::problem(bins)),
         }
     }
 
@@ -655,7 +656,7 @@ pub fn load_campaign(
     campaign: Option<String>,
 ) -> PyResult<PyCampaign> {
     let storage = storage_of(storage, campaign)?;
-    let c = config::fmu_file(&path, &Overrides::default()).map_err(errors::campaign)?;
+    let c = compose::fmu_file(&path, &Overrides::default()).map_err(errors::campaign)?;
     // Open the FMUs now, so that a campaign that cannot run fails here.
     crate::sim::fmu_backend(&c.file)?;
     let out = out

@@ -188,8 +188,7 @@ impl PyFmuSimulator {
     /// Reads and checks the campaign file at `path` (errors name its file, line and key).
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        let c = savme::campaign::config::fmu_file(&path, &Default::default())
-            .map_err(errors::campaign)?;
+        let c = savme::compose::fmu_file(&path, &Default::default()).map_err(errors::campaign)?;
         Ok(PyFmuSimulator { path, file: c.file })
     }
 

@@ -39,3 +39,20 @@ pub mod sim;
 pub mod sut;
 pub mod vehicle;
 pub mod world;
+
+/// The search problem of the bundled simulator: the paper's fidelity space (Table II, `bins`
+/// per continuous setting), θ_HF, and the ten scenarios' parameter spaces by name — what a
+/// campaign searches (`savme_campaign::Problem::from(savme_sim::problem(10))`).
+pub fn problem(
+    bins: u32,
+) -> (
+    savme_kernel::Space,
+    savme_kernel::Assignment,
+    std::collections::BTreeMap<String, savme_kernel::Space>,
+) {
+    (
+        fidelity::space(bins),
+        fidelity::theta_hf(),
+        scenario::spaces(),
+    )
+}

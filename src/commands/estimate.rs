@@ -2,11 +2,11 @@
 //! from the campaign's trained posterior (see `savme::campaign::estimate`).
 
 use super::{usage, Failure};
-use savme::campaign::config;
 use savme::campaign::estimate::{
     parse_nominal, EstimateError, EstimateProgress, EstimateRun, EstimateSettings,
 };
 use savme::campaign::{load_protocol, Problem};
+use savme::compose;
 use savme_kernel::estimation::Tilt;
 use std::io::Write;
 use std::path::PathBuf;
@@ -163,7 +163,7 @@ fn failure(e: EstimateError) -> Failure {
 pub fn run(a: Args) -> Result<(), Failure> {
     let file = match &a.config {
         Some(path) => Some(
-            config::fmu_file(path, &Default::default())
+            compose::fmu_file(path, &Default::default())
                 .map_err(|e| Failure::Runtime(e.to_string()))?,
         ),
         None => None,
@@ -178,30 +178,29 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let settings = a.settings(base).map_err(failure)?;
     let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
-    let mut run = EstimateRun::new(&a.campaign, settings)
-        .progress(progress_lines(a.quiet))
-        .resume(a.resume)
-        .jobs(
-            a.jobs
-                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
-        );
-    if let Some(out) = &a.out {
-        run = run.out(out);
-    }
-    let outcome = match file {
-        Some(c) => {
-            let backend = super::run::fmu_backend(&c.file)?;
-            run.problem(c.problem).run(&backend)
+    let configured = |problem: Problem| {
+        let run = EstimateRun::new(&a.campaign, problem, settings.clone())
+            .progress(progress_lines(a.quiet))
+            .resume(a.resume)
+            .jobs(
+                a.jobs
+                    .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+            );
+        match &a.out {
+            Some(out) => run.out(out),
+            None => run,
         }
+    };
+    let outcome = match file {
+        Some(c) => configured(c.problem).run(&super::run::fmu_backend(&c.file)?),
         None => {
-            let sim = config::bundled_simulator(&protocol).map_err(|_| {
+            let sim = compose::bundled_simulator(&protocol).map_err(|_| {
                 usage(format!(
                     "the campaign ran on `{}`, not the bundled simulator: give --config FILE (its campaign file)",
                     protocol.simulator
                 ))
             })?;
-            run.problem(Problem::driving(protocol.fidelity_bins))
-                .run(&sim)
+            configured(Problem::from(savme_sim::problem(protocol.fidelity_bins))).run(&sim)
         }
     }
     .map_err(failure)?;

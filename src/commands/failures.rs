@@ -4,12 +4,12 @@
 //! simulator. The campaign is a directory or (`--storage URL --campaign NAME`) a database's.
 
 use super::Failure;
-use savme::campaign::config::SENSORS;
 use savme::campaign::log::read_dir_lines;
 use savme::campaign::log::LogLine;
 use savme::campaign::report::failures::{as_flag, found_failures, hf_runs, Filter, FoundFailure};
-use savme::campaign::store::postgres::read_campaign;
 use savme::campaign::{load_protocol, Protocol};
+use savme::compose::SENSORS;
+use savme::postgres::read_campaign;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 

@@ -15,8 +15,6 @@ pub mod toy;
 pub mod worker;
 
 use savme::campaign::config::Overrides;
-use savme::campaign::executor::remote::Remote;
-use savme::campaign::store::postgres::{Database, PostgresStore};
 use savme::campaign::store::TrialStore;
 use savme::campaign::{
     Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
@@ -24,6 +22,8 @@ use savme::campaign::{
 };
 use savme::campaign::{CampaignError, Stop};
 use savme::kernel::Simulator;
+use savme::postgres::Remote;
+use savme::postgres::{Database, PostgresStore};
 use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Write};
@@ -389,10 +389,10 @@ impl StorageArgs {
 }
 
 /// Runs `connect` (which retries an unreachable server for up to
-/// [`savme::campaign::store::postgres::reconnect_for`]), saying on standard error when it has
+/// [`savme::postgres::reconnect_for`]), saying on standard error when it has
 /// not connected after a few seconds — a wrong host or port would otherwise mean a silent wait.
 pub fn connecting<T>(db: &Database, connect: impl FnOnce() -> T) -> T {
-    let patience = savme::campaign::store::postgres::reconnect_for();
+    let patience = savme::postgres::reconnect_for();
     let message = format!(
         "savme: no connection to {} yet; retrying for up to {} s (SAVME_RECONNECT_SECONDS changes that; Ctrl-C stops)",
         db.location(),

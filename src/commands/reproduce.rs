@@ -4,9 +4,9 @@ use super::{
     config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
     CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
-use savme::campaign::config::{self, Preset};
 use savme::campaign::store::TrialStore;
 use savme::campaign::{load_protocol, load_repeat, Cost, Problem, Protocol};
+use savme::compose::{self, Preset};
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
@@ -45,8 +45,8 @@ enum Perception {
 /// `--quick`, read from the presets themselves (so that the help cannot drift from them).
 pub fn defaults_help() -> String {
     let (train, test) = savme_sim::scenario::train_test_names();
-    let paper = Protocol::paper(config::SENSORS, train.clone(), test.clone());
-    let quick = Protocol::quick(config::SENSORS, train, test);
+    let paper = Protocol::paper(compose::SENSORS, train.clone(), test.clone());
+    let quick = Protocol::quick(compose::SENSORS, train, test);
     let stages = |p: &Protocol| {
         let budgets: Vec<String> = p.budgets.iter().map(f64::to_string).collect();
         format!(
@@ -92,7 +92,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
     let out = a.out.unwrap_or_else(|| PathBuf::from(DEFAULT_OUT));
-    let mut repeat = config::check_repeat(overrides.repeat).map_err(config_failure)?;
+    let mut repeat =
+        savme::campaign::config::check_repeat(overrides.repeat).map_err(config_failure)?;
     let (protocol, target) = match (resume, store) {
         (Some(dir), None) => (
             match load_repeat(&dir).map_err(|e| e.to_string())? {
@@ -119,7 +120,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
             },
         ),
         (None, store) => (
-            config::bundled(preset, &overrides)
+            compose::bundled(preset, &overrides)
                 .map_err(config_failure)?
                 .0,
             Target {
@@ -130,8 +131,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
             },
         ),
     };
-    let problem = Problem::driving(protocol.fidelity_bins);
-    let sim = config::bundled_simulator(&protocol).map_err(|e| e.to_string())?;
+    let problem = Problem::from(savme_sim::problem(protocol.fidelity_bins));
+    let sim = compose::bundled_simulator(&protocol).map_err(|e| e.to_string())?;
     if let Some(n) = repeat {
         return run_repeated(protocol, problem, n, target, &a.runner, &sim);
     }

@@ -4,9 +4,9 @@ use super::{
     config_failure, resume_dir, run_campaign, run_repeated, usage, CampaignStorageArgs, Failure,
     ProtocolArgs, RunnerArgs, Target,
 };
-use savme::campaign::config;
 use savme::campaign::estimate::{EstimateError, EstimateRun, EstimateSettings};
 use savme::campaign::store::TrialStore;
+use savme::compose;
 use savme::viewer::Frames;
 use savme_fmu::FmuBackend;
 use std::path::PathBuf;
@@ -48,7 +48,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if resume.is_some() && overrides.any() {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
-    let mut c = config::fmu_file(&config, &overrides).map_err(config_failure)?;
+    let mut c = compose::fmu_file(&config, &overrides).map_err(config_failure)?;
     c.file.init.spec.fmu_log |= a.fmu_log;
     let out = a
         .out
@@ -91,8 +91,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(settings) = estimate {
         // The `[estimate]` stage: after the campaign, on its directory (a resumed campaign
         // resumes an estimate already started).
-        let run = EstimateRun::new(&out, settings)
-            .problem(c.problem)
+        let run = EstimateRun::new(&out, c.problem, settings)
             .progress(super::estimate::progress_lines(a.runner.quiet()));
         let resume = run_dir_has_estimate(&run, &out);
         let outcome = run
@@ -114,7 +113,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
 /// campaign runs; refused with `repeat` or a database store (the estimate reads the
 /// campaign's own directory).
 fn estimate_stage(
-    c: &config::FmuCampaign,
+    c: &compose::FmuCampaign,
     target: &Target,
     repeat: Option<u32>,
 ) -> Result<Option<EstimateSettings>, Failure> {

@@ -7,9 +7,10 @@ use super::{
     config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
     CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
-use savme::campaign::config::{self, named_simulator, toy_label, NULL};
+use savme::campaign::config::{self, toy_label, NULL};
 use savme::campaign::store::TrialStore;
 use savme::campaign::{load_protocol, load_repeat, Cost};
+use savme::compose::named_simulator;
 use savme::viewer::Frames;
 use std::path::PathBuf;
 

@@ -3,9 +3,9 @@
 //! is finished.
 
 use super::{usage, Failure};
-use savme::campaign::config::{self, named_simulator};
-use savme::campaign::store::postgres::{find_campaign, Session};
-use savme::campaign::worker::{work, Unavailable, WorkerOptions};
+use savme::compose::{self, named_simulator};
+use savme::postgres::worker::{work, Unavailable, WorkerOptions};
+use savme::postgres::{find_campaign, Session};
 use savme_fmu::FmuBackend;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -92,7 +92,7 @@ fn fmu_simulator(
     if let Err(e) = std::fs::metadata(file) {
         return Err(usage(format!("--config {}: {e}", file.display())));
     }
-    let c = match config::fmu_file(file, &Default::default()) {
+    let c = match compose::fmu_file(file, &Default::default()) {
         Ok(c) => c,
         Err(e) => return Ok(Err(e.to_string())),
     };
@@ -108,7 +108,7 @@ fn fmu_simulator(
 
 /// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it.
 fn simulator_label(
-    db: &savme::campaign::store::postgres::Database,
+    db: &savme::postgres::Database,
     name: &str,
     patience: Duration,
 ) -> Result<String, String> {

@@ -1,0 +1,480 @@
+//! `savme estimate`: the probability of failure under the nominal distribution of φ, by
+//! importance sampling from a proposal frozen from a finished campaign's meta-training
+//! posterior ([`savme_kernel::estimation`] holds the maths).
+//!
+//! [`EstimateRun`] reads the campaign directory (its `protocol.json` and `trials.jsonl`),
+//! rebuilds each scenario's posterior p_ψ(φ | s) from the meta-training trials at the chosen
+//! budget (exactly what the kernel learned: the logged scenario credits), and runs HF
+//! simulations of φ ~ q until the total's 95 % interval is within ± `target_width` (with at
+//! least `min_failures` failures) or `max_runs` runs are made. Trials run in parallel and are
+//! told in ask order, and the stopping rule is checked after each tell, so the result does not
+//! depend on `jobs`. Output directory (default `CAMPAIGN/estimate-<budget>/`):
+//! `estimate.json` (the settings), `trials.jsonl` (one line per HF run with q(φ), p(φ) and the
+//! weight; resume replays it), `summary.json`, `table.md`.
+//!
+//! ```no_run
+//! use savme_campaign::estimate::{EstimateRun, EstimateSettings};
+//! use savme_campaign::Problem;
+//! use savme_sim::sim::DrivingSimulator;
+//! let settings = EstimateSettings { target_width: Some(0.1), ..EstimateSettings::default() };
+//! let problem = Problem::from(savme_sim::problem(10));
+//! let outcome = EstimateRun::new("results", problem, settings)
+//!     .jobs(2)
+//!     .run(&DrivingSimulator::ideal())?;
+//! println!("{}", outcome.table_md);
+//! # Ok::<(), savme_campaign::estimate::EstimateError>(())
+//! ```
+
+mod output;
+mod posterior;
+mod settings;
+
+pub use output::{EstimateLine, EstimateOutcome, StopReason};
+pub use settings::{EstimateError, EstimateSettings, MAX_RUNS};
+
+use super::executor::{with_pool, Runner, Task, Which};
+use super::outputs::load_protocol;
+use super::store::{JsonlStore, TrialStore};
+use super::{CampaignError, Problem, Protocol};
+use crate::log::RunLine;
+use savme_kernel::estimation::{Estimation, EstimationTrial, Nominal};
+use savme_kernel::Simulator;
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// An estimate to run on a finished campaign.
+pub struct EstimateRun<'p> {
+    campaign: PathBuf,
+    settings: EstimateSettings,
+    out: Option<PathBuf>,
+    problem: Problem,
+    jobs: usize,
+    resume: bool,
+    progress: Option<ProgressFn<'p>>,
+}
+
+/// A progress callback ([`EstimateRun::progress`]).
+type ProgressFn<'p> = Box<dyn FnMut(&EstimateProgress<'_>) + 'p>;
+
+/// Where a running estimate stands: once after the stored runs were replayed, then after
+/// each HF run told.
+#[derive(Debug)]
+pub struct EstimateProgress<'a> {
+    /// HF runs told, pilot and estimate together (replayed ones included).
+    pub told: u64,
+    /// Of which replayed from `trials.jsonl`.
+    pub replayed: u64,
+    /// The most HF runs the estimate may make.
+    pub max_runs: u64,
+    /// The refinement round under way, and how many there are (None: the estimate itself).
+    pub round: Option<(u32, u32)>,
+    /// The estimate from the runs after the pilot (and the pilot rounds it reuses).
+    pub estimate: &'a savme_kernel::estimation::Estimate,
+    /// Seconds since this process started the estimate.
+    pub elapsed_seconds: f64,
+}
+
+impl EstimateProgress<'_> {
+    /// One line: runs, the pilot round or the estimate with its ± and failures, elapsed time.
+    ///
+    /// ```
+    /// use savme_campaign::estimate::EstimateProgress;
+    /// use savme_kernel::estimation::{Estimate, Interval};
+    /// let estimate = Estimate {
+    ///     scenarios: vec![],
+    ///     total: Interval::from_mean_and_error(0.002, 0.0001),
+    ///     runs: 5000,
+    ///     failures: 400,
+    /// };
+    /// let p = EstimateProgress {
+    ///     told: 17000, replayed: 0, max_runs: 200000, round: None, estimate: &estimate,
+    ///     elapsed_seconds: 12.5,
+    /// };
+    /// assert_eq!(
+    ///     p.line(),
+    ///     "estimate: 17000 of at most 200000 HF runs; P(failure) = 2.000e-3 ± 9.8 % from 5000 runs (400 failures); 12 s elapsed"
+    /// );
+    /// ```
+    pub fn line(&self) -> String {
+        let e = self.estimate;
+        let stand = match self.round {
+            Some((r, rounds)) => format!("cross-entropy pilot round {} of {rounds}", r + 1),
+            None if e.failures == 0 => format!("no failure yet in {} runs", e.runs),
+            None => format!(
+                "P(failure) = {:.3e} ± {:.1} % from {} runs ({} failures)",
+                e.total.mean,
+                100.0 * e.total.relative_half_width(),
+                e.runs,
+                e.failures
+            ),
+        };
+        format!(
+            "estimate: {} of at most {} HF runs; {stand}; {:.0} s elapsed",
+            self.told, self.max_runs, self.elapsed_seconds
+        )
+    }
+}
+
+impl<'p> EstimateRun<'p> {
+    /// An estimate of the campaign in `campaign`, whose problem is `problem`, with `settings`
+    /// (one worker).
+    pub fn new(campaign: impl Into<PathBuf>, problem: Problem, settings: EstimateSettings) -> Self {
+        EstimateRun {
+            campaign: campaign.into(),
+            settings,
+            out: None,
+            problem,
+            jobs: 1,
+            resume: false,
+            progress: None,
+        }
+    }
+
+    /// Calls `progress` once after the stored runs were replayed (resume), then after each HF
+    /// run told.
+    pub fn progress(mut self, progress: impl FnMut(&EstimateProgress<'_>) + 'p) -> Self {
+        self.progress = Some(Box::new(progress));
+        self
+    }
+
+    /// The output directory (default `CAMPAIGN/estimate-<budget>`).
+    pub fn out(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.out = Some(dir.into());
+        self
+    }
+
+    /// Worker threads (the result does not depend on it).
+    pub fn jobs(mut self, jobs: usize) -> Self {
+        self.jobs = jobs.max(1);
+        self
+    }
+
+    /// Continue the estimate in the output directory with its stored settings (the given
+    /// settings are ignored).
+    pub fn resume(mut self, resume: bool) -> Self {
+        self.resume = resume;
+        self
+    }
+
+    /// The output directory these settings write to.
+    pub fn out_dir(&self, protocol: &Protocol) -> PathBuf {
+        self.out.clone().unwrap_or_else(|| {
+            let b = self.settings.budget.unwrap_or(protocol.budgets[0]);
+            self.campaign.join(format!("estimate-{b}"))
+        })
+    }
+
+    /// Runs (or resumes) the estimate on `sim` (its HF role) and writes the outputs. Every
+    /// setting, the campaign and the stored trials are checked before any simulation runs.
+    pub fn run<S>(mut self, sim: &S) -> Result<EstimateOutcome, EstimateError>
+    where
+        S: Simulator + Clone + Send,
+    {
+        let protocol = load_protocol(&self.campaign)?;
+        let out = self.out_dir(&protocol);
+        super::outputs::usable_dir(&out)?;
+        let settings = self.settings_for(&out)?;
+        settings.validate()?;
+        let problem = self.problem.clone();
+        let budget = settings.budget.unwrap_or(protocol.budgets[0]);
+        let trained = posterior::trained(&self.campaign, &protocol, &problem, budget, &settings)?;
+        let config = settings.config(
+            settings
+                .seed
+                .unwrap_or_else(|| protocol.kernel_seed(&format!("estimate@{budget}"))),
+        );
+        let mut estimation = Estimation::new(&trained.scenarios, &config)?;
+        if !self.resume {
+            create(&out, &settings)?;
+        }
+        let mut store = JsonlStore::open(&out.join("trials.jsonl")).map_err(CampaignError::from)?;
+        let started = std::time::Instant::now();
+        let mut lines = replay(&mut store, &mut estimation)?;
+        let replayed = lines.len() as u64;
+        let mut report = Reporter {
+            callback: self.progress.take(),
+            started,
+            replayed,
+            max_runs: settings.max_runs,
+            rounds: settings.refine_rounds,
+        };
+        report.call(&estimation);
+        let reason = stop_reason(&estimation, &settings);
+        let reason = match reason {
+            Some(r) => r,
+            None => {
+                let mut run = Running {
+                    estimation: &mut estimation,
+                    settings: &settings,
+                    store: &mut store,
+                    lines: &mut lines,
+                    cost: protocol.cost.measure(),
+                    theta_hf: &problem.theta_hf,
+                    report: &mut report,
+                };
+                with_pool(sim, self.jobs, |pool| run.run(pool, 2 * self.jobs))?
+            }
+        };
+        drop(store);
+        let outcome = output::EstimateOutcome::new(
+            &estimation,
+            &settings,
+            &trained,
+            lines,
+            reason,
+            replayed,
+            started.elapsed().as_secs_f64(),
+            out,
+        );
+        outcome.write()?;
+        Ok(outcome)
+    }
+
+    /// The settings to run with: the stored ones on resume, else the given ones (refusing a
+    /// directory that already holds an estimate). Creates nothing.
+    fn settings_for(&self, out: &Path) -> Result<EstimateSettings, EstimateError> {
+        let path = out.join("estimate.json");
+        match (self.resume, path.exists()) {
+            (false, true) => Err(EstimateError::Exists {
+                dir: out.to_path_buf(),
+            }),
+            (true, false) => Err(EstimateError::NothingToResume {
+                dir: out.to_path_buf(),
+            }),
+            (true, true) => {
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| EstimateError::Campaign(CampaignError::io(&path, e)))?;
+                serde_json::from_str(&text).map_err(|e| {
+                    EstimateError::Campaign(CampaignError::Log {
+                        store: path.display().to_string(),
+                        line: e.line(),
+                        message: e.to_string(),
+                    })
+                })
+            }
+            (false, false) => Ok(self.settings.clone()),
+        }
+    }
+}
+
+/// Creates the output directory of a new estimate with its `estimate.json`.
+fn create(out: &Path, settings: &EstimateSettings) -> Result<(), EstimateError> {
+    let path = out.join("estimate.json");
+    std::fs::create_dir_all(out).map_err(|e| CampaignError::io(out, e))?;
+    let json = serde_json::to_string_pretty(settings).unwrap_or_default();
+    std::fs::write(&path, json + "\n").map_err(|e| CampaignError::io(&path, e))?;
+    Ok(())
+}
+
+/// Replays the stored trials: each must be what the estimation asks again; its failure is
+/// told. A torn last line (a killed process) was cut by the store.
+fn replay(
+    store: &mut JsonlStore,
+    estimation: &mut Estimation,
+) -> Result<Vec<EstimateLine>, EstimateError> {
+    let name = store.path().display().to_string();
+    let loaded = store.load().map_err(CampaignError::from)?;
+    let mut lines = Vec::with_capacity(loaded.lines.len());
+    for stored in loaded.lines {
+        let diverged = |message: String| EstimateError::Diverged {
+            store: name.clone(),
+            line: stored.line,
+            message,
+        };
+        let line: EstimateLine =
+            serde_json::from_value(stored.value.clone()).map_err(|e| diverged(e.to_string()))?;
+        let asked = estimation
+            .ask()
+            .ok_or_else(|| diverged("the refinement round waits for outcomes here".into()))?;
+        line.check(&asked).map_err(diverged)?;
+        estimation.tell(asked.id, line.hf.failure)?;
+        lines.push(line);
+    }
+    Ok(lines)
+}
+
+/// Why the estimate is done, if it is.
+fn stop_reason(e: &Estimation, s: &EstimateSettings) -> Option<StopReason> {
+    let est = e.estimate();
+    let reached = s
+        .target_width
+        .is_some_and(|w| est.failures >= s.min_failures && est.total.relative_half_width() <= w);
+    if reached {
+        Some(StopReason::TargetWidth)
+    } else if e.told() >= s.max_runs {
+        Some(StopReason::MaxRuns)
+    } else {
+        None
+    }
+}
+
+/// Calls the progress callback, if any.
+struct Reporter<'p> {
+    callback: Option<ProgressFn<'p>>,
+    started: std::time::Instant,
+    replayed: u64,
+    max_runs: u64,
+    rounds: u32,
+}
+
+impl Reporter<'_> {
+    fn call(&mut self, e: &Estimation) {
+        let Some(callback) = &mut self.callback else {
+            return;
+        };
+        let estimate = e.estimate();
+        callback(&EstimateProgress {
+            told: e.told(),
+            replayed: self.replayed,
+            max_runs: self.max_runs,
+            round: e.round().map(|r| (r, self.rounds)),
+            estimate: &estimate,
+            elapsed_seconds: self.started.elapsed().as_secs_f64(),
+        });
+    }
+}
+
+/// The run loop's state.
+struct Running<'a, 'p> {
+    estimation: &'a mut Estimation,
+    settings: &'a EstimateSettings,
+    store: &'a mut JsonlStore,
+    lines: &'a mut Vec<EstimateLine>,
+    cost: savme_kernel::CostMeasure,
+    theta_hf: &'a savme_kernel::Assignment,
+    report: &'a mut Reporter<'p>,
+}
+
+impl Running<'_, '_> {
+    /// Keeps up to `window` HF runs in flight, tells them in ask order, stores each line,
+    /// and stops at the first tell after which the stopping rule holds (runs still in flight
+    /// then are dropped: they are not part of the estimate, whatever `jobs` is).
+    fn run(&mut self, pool: &mut impl Runner, window: usize) -> Result<StopReason, EstimateError> {
+        let stage: Arc<str> = Arc::from("estimate");
+        let mut flight: VecDeque<(EstimationTrial, Option<savme_kernel::SimResult>)> =
+            VecDeque::new();
+        let mut asked = self.lines.len() as u64;
+        loop {
+            while flight.len() < window && asked < self.settings.max_runs {
+                // None: a refinement round waits for its outcomes before the refit.
+                let Some(t) = self.estimation.ask() else {
+                    break;
+                };
+                pool.submit(Task {
+                    stage: stage.clone(),
+                    trial: t.id,
+                    which: Which::Hf,
+                    scenario: t.scenario.clone(),
+                    phi: t.phi.clone(),
+                    fidelity: self.theta_hf.clone(),
+                })?;
+                flight.push_back((t, None));
+                asked += 1;
+            }
+            while flight.front().is_some_and(|(_, r)| r.is_some()) {
+                let Some((t, Some(r))) = flight.pop_front() else {
+                    break;
+                };
+                self.tell(&t, &r)?;
+                if let Some(reason) = stop_reason(self.estimation, self.settings) {
+                    return Ok(reason);
+                }
+            }
+            if flight.is_empty() {
+                // Everything asked was told and the rule did not stop: ask more.
+                continue;
+            }
+            let done = pool.next_done()?;
+            let slot = flight.iter_mut().find(|(t, _)| t.id == done.trial);
+            if let Some((t, slot)) = slot {
+                match done.result {
+                    Ok(r) => *slot = Some(r),
+                    Err(e) => {
+                        return Err(EstimateError::Simulation {
+                            trial: t.id,
+                            scenario: t.scenario.to_string(),
+                            phi: t.phi.to_string(),
+                            message: e.to_string(),
+                        })
+                    }
+                }
+            }
+        }
+    }
+
+    fn tell(
+        &mut self,
+        t: &EstimationTrial,
+        r: &savme_kernel::SimResult,
+    ) -> Result<(), EstimateError> {
+        let simulation = |message: String| EstimateError::Simulation {
+            trial: t.id,
+            scenario: t.scenario.to_string(),
+            phi: t.phi.to_string(),
+            message,
+        };
+        let run = r.run(self.cost).map_err(|e| simulation(e.to_string()))?;
+        let line = EstimateLine::new(t, RunLine::new(r, run.runtime));
+        let json = serde_json::to_string(&line).map_err(|e| simulation(e.to_string()))?;
+        self.store
+            .append_json(&[json])
+            .map_err(CampaignError::from)?;
+        self.estimation.tell(t.id, r.failure)?;
+        self.lines.push(line);
+        self.report.call(self.estimation);
+        Ok(())
+    }
+}
+
+/// Parses a `--nominal` declaration `SCENARIO.VARIABLE=uniform`, `=normal:MEAN,SD` or
+/// `=weights:W1,W2,…`.
+///
+/// ```
+/// use savme_campaign::estimate::parse_nominal;
+/// use savme_kernel::estimation::Nominal;
+/// let (s, v, n) = parse_nominal("lead_vehicle_brakes.ego_speed=normal:12,2")?;
+/// assert_eq!((s.as_str(), v.as_str()), ("lead_vehicle_brakes", "ego_speed"));
+/// assert_eq!(n, Nominal::Normal { mean: 12.0, sd: 2.0 });
+/// assert!(parse_nominal("ego_speed=normal:12").is_err());
+/// # Ok::<(), savme_campaign::estimate::EstimateError>(())
+/// ```
+pub fn parse_nominal(given: &str) -> Result<(String, String, Nominal), EstimateError> {
+    let bad = |message: &str| EstimateError::NominalSyntax {
+        given: given.to_string(),
+        message: message.to_string(),
+    };
+    let (name, dist) = given
+        .split_once('=')
+        .ok_or_else(|| bad("expected SCENARIO.VARIABLE=DISTRIBUTION"))?;
+    let (scenario, variable) = name
+        .split_once('.')
+        .filter(|(s, v)| !s.is_empty() && !v.is_empty())
+        .ok_or_else(|| bad("expected SCENARIO.VARIABLE before `=`"))?;
+    let (kind, args) = dist.split_once(':').unwrap_or((dist, ""));
+    let numbers = || {
+        args.split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|_| bad("the parameters must be numbers separated by commas"))
+    };
+    let nominal = match kind {
+        "uniform" if args.is_empty() => Nominal::Uniform,
+        "normal" => match numbers()?.as_slice() {
+            [mean, sd] => Nominal::Normal {
+                mean: *mean,
+                sd: *sd,
+            },
+            _ => return Err(bad("normal takes two numbers: normal:MEAN,SD")),
+        },
+        "weights" => Nominal::Weights {
+            weights: numbers()?,
+        },
+        _ => {
+            return Err(bad(
+                "the distribution is uniform, normal:MEAN,SD or weights:W1,W2,…",
+            ))
+        }
+    };
+    Ok((scenario.to_string(), variable.to_string(), nominal))
+}

@@ -1,0 +1,318 @@
+//! What an estimate stores per trial ([`EstimateLine`]) and writes at the end
+//! ([`EstimateOutcome`]: `summary.json`, `table.md`).
+
+use super::posterior::Trained;
+use super::{EstimateError, EstimateSettings};
+use crate::log::RunLine;
+use crate::outputs::FORMAT_VERSION;
+use crate::CampaignError;
+use savme_kernel::estimation::{Estimate, Estimation, EstimationTrial};
+use savme_kernel::Assignment;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// One HF run of an estimate, as stored in its `trials.jsonl`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimateLine {
+    /// The estimation's trial id (0, 1, … in ask order).
+    pub id: u64,
+    /// The scenario.
+    pub scenario: String,
+    /// φ, drawn from the proposal.
+    pub phi: Assignment,
+    /// q(φ): the proposal's density.
+    pub q: f64,
+    /// p(φ): the nominal's density.
+    pub p: f64,
+    /// p(φ) / q(φ).
+    pub weight: f64,
+    /// The cross-entropy pilot round of a refinement trial (not part of the estimate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub round: Option<u32>,
+    /// The HF run.
+    pub hf: RunLine,
+}
+
+impl EstimateLine {
+    pub(crate) fn new(t: &EstimationTrial, hf: RunLine) -> Self {
+        EstimateLine {
+            id: t.id,
+            scenario: t.scenario.to_string(),
+            phi: t.phi.clone(),
+            q: t.q,
+            p: t.p,
+            weight: t.weight,
+            round: t.round,
+            hf,
+        }
+    }
+
+    /// Checks that the stored line is the trial asked again (same id, scenario, φ and
+    /// densities); the message names the first field that differs.
+    pub(crate) fn check(&self, asked: &EstimationTrial) -> Result<(), String> {
+        let differs = |field: &str, stored: String, now: String| {
+            Err(format!(
+                "`{field}` is {stored} but the estimate asks {now} here (an edited line, or other settings)"
+            ))
+        };
+        if self.id != asked.id {
+            return differs("id", self.id.to_string(), asked.id.to_string());
+        }
+        if self.scenario != *asked.scenario {
+            return differs(
+                "scenario",
+                self.scenario.clone(),
+                asked.scenario.to_string(),
+            );
+        }
+        if self.round != asked.round {
+            let show = |r: Option<u32>| r.map_or("none".to_string(), |r| r.to_string());
+            return differs("round", show(self.round), show(asked.round));
+        }
+        if self.phi != asked.phi {
+            return differs("phi", self.phi.to_string(), asked.phi.to_string());
+        }
+        for (field, stored, now) in [
+            ("q", self.q, asked.q),
+            ("p", self.p, asked.p),
+            ("weight", self.weight, asked.weight),
+        ] {
+            if stored.to_bits() != now.to_bits() {
+                return differs(field, stored.to_string(), now.to_string());
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why an estimate stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The total's interval reached ± `target_width` (with `min_failures` failures).
+    TargetWidth,
+    /// `max_runs` HF runs were made first.
+    MaxRuns,
+}
+
+/// A finished estimate.
+#[derive(Debug, Clone, Serialize)]
+pub struct EstimateOutcome {
+    /// The settings it ran with.
+    pub settings: EstimateSettings,
+    /// The estimate per scenario and in total.
+    pub estimate: Estimate,
+    /// Why it stopped.
+    pub stopped: StopReason,
+    /// The proposal's learned part: per scenario, per variable, each bin's probability.
+    pub proposal: BTreeMap<String, BTreeMap<String, Vec<f64>>>,
+    /// The campaign stage each scenario's posterior was learned in.
+    pub learned_in: BTreeMap<String, String>,
+    /// Told trials of those stages (one HF run each, plus an LF run), all their scenarios.
+    pub training_hf_runs: u64,
+    /// Of which in the estimated scenarios.
+    pub training_hf_runs_of_scenarios: u64,
+    /// HF runs of the estimate (= `estimate.runs`), reused pilot runs included.
+    pub estimate_hf_runs: u64,
+    /// The summed HF cost of the estimate's runs (the campaign's cost measure).
+    pub estimate_hf_cost: f64,
+    /// HF runs of the cross-entropy pilot rounds (0 without refinement). Every HF run made:
+    /// `estimate_hf_runs + pilot_hf_runs − pilot_hf_runs_reused`.
+    pub pilot_hf_runs: u64,
+    /// Of which in the estimate too (the last `refine_reuse` rounds).
+    pub pilot_hf_runs_reused: u64,
+    /// Of which failed.
+    pub pilot_failures: u64,
+    /// Their summed HF cost.
+    pub pilot_hf_cost: f64,
+    /// Runs replayed from `trials.jsonl` (resume).
+    pub replayed: u64,
+    /// Seconds this process spent running.
+    pub elapsed_seconds: f64,
+    /// Where the outputs are.
+    pub out: PathBuf,
+    /// `table.md`'s text.
+    #[serde(skip)]
+    pub table_md: String,
+}
+
+/// What the estimate table's columns mean, written under it (`table.md`, printed).
+pub(crate) const ESTIMATE_LEGEND: &str = "±: the 95 % interval's half-width relative to the \
+estimate (what --target-width bounds). ESS: Kish's effective sample size (Σw)²/Σw² of the \
+scenario's runs; failure ESS: the same over its failures' weights (how many equally weighted \
+failures the estimate rests on). Mean weight: the mean of w = p(φ)/q(φ), 1 in expectation (far \
+from 1: the proposal misses part of the nominal). docs/ESTIMATION.md explains the estimator.";
+
+impl EstimateOutcome {
+    #[allow(clippy::too_many_arguments)] // the parts of one outcome, assembled in one place
+    pub(crate) fn new(
+        estimation: &Estimation,
+        settings: &EstimateSettings,
+        trained: &Trained,
+        lines: Vec<EstimateLine>,
+        stopped: StopReason,
+        replayed: u64,
+        elapsed_seconds: f64,
+        out: PathBuf,
+    ) -> Self {
+        let proposal = trained
+            .scenarios
+            .iter()
+            .enumerate()
+            .map(|(i, (s, _))| {
+                let bins = estimation.bin_probabilities(i).unwrap_or(&[]);
+                let vars = s
+                    .space
+                    .variables()
+                    .iter()
+                    .zip(bins)
+                    .map(|(v, b)| (v.name.to_string(), b.clone()))
+                    .collect();
+                (s.name.to_string(), vars)
+            })
+            .collect();
+        let estimate = estimation.estimate();
+        let refine = settings.refine();
+        // Whether a line's run counts in the estimate: after the pilot, or a reused round.
+        let in_estimate = |l: &EstimateLine| match (l.round, refine) {
+            (None, _) => true,
+            (Some(r), Some(refine)) => r + refine.reuse >= refine.rounds,
+            (Some(_), None) => false,
+        };
+        let cost = |lines: &mut dyn Iterator<Item = &EstimateLine>| -> f64 {
+            lines.map(|l| l.hf.runtime).sum()
+        };
+        let pilot = estimation.pilot_runs();
+        let mut o = EstimateOutcome {
+            settings: settings.clone(),
+            stopped,
+            proposal,
+            learned_in: trained.stages.clone(),
+            training_hf_runs: trained.stage_runs,
+            training_hf_runs_of_scenarios: trained.scenario_runs,
+            estimate_hf_runs: estimate.runs,
+            estimate_hf_cost: cost(&mut lines.iter().filter(|l| in_estimate(l))),
+            pilot_hf_runs: pilot.iter().map(|p| p.0).sum(),
+            pilot_failures: pilot.iter().map(|p| p.1).sum(),
+            pilot_hf_runs_reused: lines
+                .iter()
+                .filter(|l| l.round.is_some() && in_estimate(l))
+                .count() as u64,
+            pilot_hf_cost: cost(&mut lines.iter().filter(|l| l.round.is_some())),
+            estimate,
+            replayed,
+            elapsed_seconds,
+            out,
+            table_md: String::new(),
+        };
+        o.table_md = o.table();
+        o
+    }
+
+    /// The table of `table.md`: per scenario and in total, the estimate with its 95 %
+    /// interval, relative half-width and effective sample sizes, then [`ESTIMATE_LEGEND`].
+    fn table(&self) -> String {
+        use std::fmt::Write;
+        let e = &self.estimate;
+        let mut t = format!(
+            "# P(failure) under the nominal distribution\n\nImportance sampling, defensive mixture q = (1 − ε)·p̂_ψ + ε·nominal, ε = {}; stopped: {}.\n\n",
+            self.settings.epsilon,
+            match self.stopped {
+                StopReason::TargetWidth => "target width reached",
+                StopReason::MaxRuns => "run budget reached",
+            }
+        );
+        t += "| scenario | p(s) | HF runs | failures | P(failure) | 95 % interval | ± | ESS | failure ESS | mean weight |\n|---|---|---|---|---|---|---|---|---|---|\n";
+        let pct = |r: f64| {
+            if r.is_finite() {
+                format!("{:.1} %", 100.0 * r)
+            } else {
+                "—".into()
+            }
+        };
+        for s in &e.scenarios {
+            let i = &s.estimate;
+            let _ = writeln!(
+                t,
+                "| {} | {:.3} | {} | {} | {:.3e} | [{:.3e}, {:.3e}] | {} | {:.0} | {:.1} | {:.3} |",
+                s.scenario,
+                s.probability,
+                s.runs,
+                s.failures,
+                i.mean,
+                i.lo,
+                i.hi,
+                pct(i.relative_half_width()),
+                s.ess,
+                s.failure_ess,
+                s.mean_weight
+            );
+        }
+        let i = &e.total;
+        let _ = writeln!(
+            t,
+            "| **total (weighted by p(s))** | 1 | {} | {} | {:.3e} | [{:.3e}, {:.3e}] | {} | | | |",
+            e.runs,
+            e.failures,
+            i.mean,
+            i.lo,
+            i.hi,
+            pct(i.relative_half_width())
+        );
+        let _ = write!(
+            t,
+            "\nThe proposal was learned in {} ({} trials, {} of them in these scenarios).\n",
+            self.learned_in
+                .values()
+                .cloned()
+                .collect::<std::collections::BTreeSet<_>>()
+                .into_iter()
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.training_hf_runs,
+            self.training_hf_runs_of_scenarios
+        );
+        if let Some(r) = self.settings.refine() {
+            let used = match r.reuse {
+                0 => "they refit the proposal and are not part of the estimate".to_string(),
+                k => format!(
+                    "they refit the proposal; the last {k} (these {} runs) are part of the estimate too, each run weighted by its own round's proposal",
+                    self.pilot_hf_runs_reused
+                ),
+            };
+            let _ = writeln!(
+                t,
+                "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); {used}.",
+                r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
+            );
+        }
+        let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
+        t
+    }
+
+    /// Writes `summary.json` and `table.md` into the output directory.
+    pub(crate) fn write(&self) -> Result<(), EstimateError> {
+        let write = |name: &str, text: String| {
+            let path = self.out.join(name);
+            std::fs::write(&path, text).map_err(|e| CampaignError::io(&path, e))
+        };
+        let mut summary = serde_json::to_value(self).unwrap_or_default();
+        if let Some(o) = summary.as_object_mut() {
+            o.insert("format_version".into(), FORMAT_VERSION.into());
+        }
+        write(
+            "summary.json",
+            serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
+        )?;
+        write(
+            "table.md",
+            format!(
+                "{}\n<!-- savme format_version {FORMAT_VERSION} -->\n",
+                self.table_md
+            ),
+        )?;
+        Ok(())
+    }
+}

@@ -1,0 +1,151 @@
+//! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
+
+use super::{EstimateError, EstimateSettings};
+use crate::{CampaignError, Problem, Protocol};
+use savme_kernel::{Posterior, PriorCounts, Scenario};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// What the estimate's proposal is built from.
+pub(crate) struct Trained {
+    /// Each estimated scenario with its weight p(s) and its learned posterior.
+    pub scenarios: Vec<(Scenario, Posterior)>,
+    /// The stage whose trials taught each scenario (`train@b`, or `test-learned@b` for a
+    /// meta-testing scenario).
+    pub stages: BTreeMap<String, String>,
+    /// Told trials (one HF run each) of the stages used, all their scenarios.
+    pub stage_runs: u64,
+    /// Told trials of the estimated scenarios in those stages.
+    pub scenario_runs: u64,
+}
+
+/// Rebuilds the posteriors at `budget` from the campaign's `trials.jsonl`: every learning
+/// trial's logged scenario credit, on the kernels' uniform prior (exactly the kernel's update).
+pub(crate) fn trained(
+    dir: &Path,
+    protocol: &Protocol,
+    problem: &Problem,
+    budget: f64,
+    settings: &EstimateSettings,
+) -> Result<Trained, EstimateError> {
+    if !protocol.budgets.contains(&budget) {
+        let known: Vec<String> = protocol.budgets.iter().map(f64::to_string).collect();
+        return Err(EstimateError::UnknownBudget {
+            budget,
+            known: known.join(", "),
+        });
+    }
+    let train = format!("train@{budget}");
+    let test = format!("test-learned@{budget}");
+    let learned_in = |name: &str| {
+        if protocol.train_scenarios.iter().any(|s| s == name) {
+            Some((train.clone(), protocol.train_iterations))
+        } else if protocol.test_scenarios.iter().any(|s| s == name) {
+            Some((test.clone(), protocol.test_iterations))
+        } else {
+            None
+        }
+    };
+    let names = if settings.scenarios.is_empty() {
+        protocol.train_scenarios.clone()
+    } else {
+        settings.scenarios.clone()
+    };
+    let mut stages = BTreeMap::new();
+    for name in &names {
+        let stage = learned_in(name).ok_or_else(|| EstimateError::UnknownScenario {
+            name: name.clone(),
+            known: [&protocol.train_scenarios[..], &protocol.test_scenarios[..]]
+                .concat()
+                .join(", "),
+        })?;
+        stages.insert(name.clone(), stage);
+    }
+    let lines = crate::log::read_dir_lines(dir)?;
+    let told_in = |stage: &str| {
+        lines
+            .iter()
+            .filter(|(_, l)| l.stage() == stage && l.is_told())
+            .count() as u64
+    };
+    for (stage, needed) in stages.values() {
+        let told = told_in(stage);
+        if told < *needed {
+            return Err(EstimateError::NotTrained {
+                dir: dir.to_path_buf(),
+                stage: stage.clone(),
+                told,
+                needed: *needed,
+            });
+        }
+    }
+    let mut scenarios = untrained(&names, protocol, problem)?;
+    let mut scenario_runs = 0;
+    for (scenario, posterior) in &mut scenarios {
+        let (name, space) = (&*scenario.name, &scenario.space);
+        let stage = &stages[name].0;
+        for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
+            if &t.stage != stage || t.scenario != name {
+                continue;
+            }
+            scenario_runs += 1;
+            if let Some(ok) = t.credit.scenario {
+                let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
+                    store: dir.join("trials.jsonl").display().to_string(),
+                    line: line as usize,
+                    message: format!(
+                        "{stage} trial {}: φ outside the scenario (a campaign file other than \
+                         the campaign's?): {e}",
+                        t.index
+                    ),
+                })?;
+                let arms: Vec<u16> = arms.iter().map(|&a| a as u16).collect();
+                posterior.update(&arms, ok);
+            }
+        }
+    }
+    let used: std::collections::BTreeSet<&String> = stages.values().map(|(s, _)| s).collect();
+    Ok(Trained {
+        stage_runs: used.iter().map(|s| told_in(s)).sum(),
+        scenario_runs,
+        stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
+        scenarios,
+    })
+}
+
+/// The scenarios `names` with their weights p(s) and posteriors at the kernels' uniform prior
+/// (what training starts from); an unknown name is refused, listing the known ones.
+pub(crate) fn untrained(
+    names: &[String],
+    protocol: &Protocol,
+    problem: &Problem,
+) -> Result<Vec<(Scenario, Posterior)>, EstimateError> {
+    names
+        .iter()
+        .map(|name| {
+            let space =
+                problem
+                    .scenarios
+                    .get(name)
+                    .ok_or_else(|| EstimateError::UnknownScenario {
+                        name: name.clone(),
+                        known: problem
+                            .scenarios
+                            .keys()
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })?;
+            let posterior = Posterior::new(space, PriorCounts::UNIFORM)
+                .map_err(savme_kernel::ConfigError::Prior)
+                .map_err(CampaignError::from)?;
+            let scenario = Scenario {
+                name: Arc::from(name.as_str()),
+                space: space.clone(),
+                weight: protocol.weight(name),
+            };
+            Ok((scenario, posterior))
+        })
+        .collect()
+}

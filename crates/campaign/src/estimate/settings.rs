@@ -1,0 +1,355 @@
+//! What an estimate runs with ([`EstimateSettings`]) and why it may not run ([`EstimateError`]).
+
+use crate::CampaignError;
+use savme_kernel::estimation::{EstimationError, Nominal, Refine, Tilt};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+/// How `savme estimate` runs: which trained posterior, ε, the nominal, when to stop.
+/// Stored as `estimate.json` in the output directory; a resumed estimate keeps it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimateSettings {
+    /// The budget whose meta-training posterior builds the proposal (None: the protocol's
+    /// first budget).
+    pub budget: Option<f64>,
+    /// The nominal's share ε of the proposal, in (0, 1]; 1 is plain Monte Carlo.
+    pub epsilon: f64,
+    /// Seed of the proposal's draws (None: derived from the campaign's seed and the budget).
+    pub seed: Option<u64>,
+    /// Stop once the total's 95 % interval is within ± this fraction of the estimate (and
+    /// `min_failures` failures were seen); None: run `max_runs`.
+    pub target_width: Option<f64>,
+    /// The most HF runs to make.
+    pub max_runs: u64,
+    /// Failures needed before the target width may stop the estimate (a normal interval on
+    /// a handful of failures is not trustworthy).
+    pub min_failures: u64,
+    /// The scenarios to estimate (empty: every meta-training scenario).
+    #[serde(default)]
+    pub scenarios: Vec<String>,
+    /// Non-uniform nominals, by scenario then variable.
+    #[serde(default)]
+    pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
+    /// How the proposal weighs the bins: `posterior` (the posterior means; default) or
+    /// `nominal-weighted` (× the nominal's bin probability).
+    #[serde(default)]
+    pub tilt: Tilt,
+    /// Cross-entropy pilot rounds that refit the proposal before the estimate (0: none).
+    #[serde(default)]
+    pub refine_rounds: u32,
+    /// HF runs per pilot round (counted in `max_runs`; not part of the estimate unless
+    /// reused).
+    #[serde(default)]
+    pub refine_runs: u64,
+    /// How many of the last pilot rounds also count toward the estimate, each trial with its
+    /// own round's weight (0: none; at most `refine_rounds`).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub refine_reuse: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+/// The most HF runs one estimate may make.
+pub const MAX_RUNS: u64 = 100_000_000;
+
+impl Default for EstimateSettings {
+    fn default() -> Self {
+        EstimateSettings {
+            budget: None,
+            epsilon: 0.1,
+            seed: None,
+            target_width: Some(0.1),
+            max_runs: 10_000,
+            min_failures: 10,
+            scenarios: Vec::new(),
+            nominal: BTreeMap::new(),
+            tilt: Tilt::Posterior,
+            refine_rounds: 0,
+            refine_runs: 0,
+            refine_reuse: 0,
+        }
+    }
+}
+
+impl EstimateSettings {
+    /// The cross-entropy refinement these settings ask for, if any.
+    pub fn refine(&self) -> Option<Refine> {
+        (self.refine_rounds > 0).then_some(Refine {
+            rounds: self.refine_rounds,
+            runs: self.refine_runs,
+            reuse: self.refine_reuse,
+        })
+    }
+
+    /// The kernel's configuration of these settings with the seed `seed`.
+    pub fn config(&self, seed: u64) -> savme_kernel::estimation::EstimationConfig {
+        savme_kernel::estimation::EstimationConfig {
+            epsilon: self.epsilon,
+            seed,
+            nominal: self.nominal.clone(),
+            tilt: self.tilt,
+            refine: self.refine(),
+        }
+    }
+
+    /// Checks every value; the error names the key.
+    ///
+    /// ```
+    /// use savme_campaign::estimate::EstimateSettings;
+    /// let mut s = EstimateSettings::default();
+    /// assert!(s.validate().is_ok());
+    /// s.target_width = Some(0.0);
+    /// assert_eq!(
+    ///     s.validate().unwrap_err().to_string(),
+    ///     "estimate: `target_width`: must be a finite number > 0 (0.1 is ±10 %), got 0"
+    /// );
+    /// ```
+    pub fn validate(&self) -> Result<(), EstimateError> {
+        let bad = |key: &str, message: String| {
+            Err(EstimateError::Setting {
+                key: key.into(),
+                message,
+            })
+        };
+        if !(self.epsilon > 0.0 && self.epsilon <= 1.0) {
+            return bad(
+                "epsilon",
+                format!(
+                    "must lie in (0, 1] (1 is plain Monte Carlo), got {}",
+                    self.epsilon
+                ),
+            );
+        }
+        if let Some(w) = self.target_width {
+            if !(w.is_finite() && w > 0.0) {
+                return bad(
+                    "target_width",
+                    format!("must be a finite number > 0 (0.1 is ±10 %), got {w}"),
+                );
+            }
+        }
+        if self.max_runs == 0 || self.max_runs > MAX_RUNS {
+            return bad(
+                "max_runs",
+                format!("must lie in 1..={MAX_RUNS}, got {}", self.max_runs),
+            );
+        }
+        if let Some(b) = self.budget {
+            if !(b > 0.0 && b <= 1.0) {
+                return bad("budget", format!("must lie in (0, 1], got {b}"));
+            }
+        }
+        self.validate_refine()?;
+        for (i, s) in self.scenarios.iter().enumerate() {
+            if self.scenarios[..i].contains(s) {
+                return bad("scenarios", format!("`{s}` is listed twice"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl EstimateSettings {
+    fn validate_refine(&self) -> Result<(), EstimateError> {
+        let bad = |key: &str, message: String| {
+            Err(EstimateError::Setting {
+                key: key.into(),
+                message,
+            })
+        };
+        if self.refine_reuse > self.refine_rounds {
+            return bad(
+                "refine_reuse",
+                format!(
+                    "{} pilot rounds to reuse in the estimate, but `refine_rounds` is {}",
+                    self.refine_reuse, self.refine_rounds
+                ),
+            );
+        }
+        match (self.refine_rounds, self.refine_runs) {
+            (0, 0) => Ok(()),
+            (0, runs) => bad(
+                "refine_runs",
+                format!("{runs} runs per round but no `refine_rounds`: give both, or neither"),
+            ),
+            (rounds, 0) => bad(
+                "refine_runs",
+                format!("{rounds} refinement rounds need `refine_runs` ≥ 1 runs per round"),
+            ),
+            (rounds, runs) if u64::from(rounds).saturating_mul(runs) >= self.max_runs => bad(
+                "refine_runs",
+                format!(
+                    "{rounds} rounds of {runs} runs leave none of `max_runs` = {} for the estimate",
+                    self.max_runs
+                ),
+            ),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Why an estimate could not run. Every variant names its culprit.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EstimateError {
+    /// A setting is invalid.
+    #[error("estimate: `{key}`: {message}")]
+    Setting {
+        /// The key (as in `estimate.json`; the flag is the key with dashes).
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A `--nominal` declaration that cannot be read.
+    #[error("estimate: --nominal `{given}`: {message}")]
+    NominalSyntax {
+        /// What was given.
+        given: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The campaign has not (yet) trained the posterior the estimate needs.
+    #[error("{}: stage `{stage}` has {told} of its {needed} trials; finish the campaign (savme reproduce/run --resume) before estimating", dir.display())]
+    NotTrained {
+        /// The campaign directory.
+        dir: PathBuf,
+        /// The training stage.
+        stage: String,
+        /// Its told trials.
+        told: u64,
+        /// The protocol's iterations.
+        needed: u64,
+    },
+    /// A budget the campaign did not train.
+    #[error("estimate: `budget`: the campaign trained budgets {known}, not {budget}")]
+    UnknownBudget {
+        /// The budget given.
+        budget: f64,
+        /// The campaign's budgets.
+        known: String,
+    },
+    /// A scenario the campaign did not learn.
+    #[error("estimate: scenario `{name}` was not learned by this campaign (learned: {known})")]
+    UnknownScenario {
+        /// The name given.
+        name: String,
+        /// The learned scenarios.
+        known: String,
+    },
+    /// The output directory already holds an estimate (and no resume was asked).
+    #[error("{} already holds an estimate; continue it with --resume, or give another --out", dir.display())]
+    Exists {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A resume of a directory without an estimate.
+    #[error("{}: no estimate to resume (no estimate.json)", dir.display())]
+    NothingToResume {
+        /// The directory.
+        dir: PathBuf,
+    },
+    /// A stored estimate trial that is not what the settings give (edited, or another run).
+    #[error("{store}, line {line}: {message}")]
+    Diverged {
+        /// The trial store.
+        store: String,
+        /// 1-based line.
+        line: u64,
+        /// What differs.
+        message: String,
+    },
+    /// An HF run failed; the estimate stops rather than drop the trial (dropping would bias
+    /// it). Resume runs the trial again.
+    #[error("estimate trial {trial} (scenario `{scenario}`, φ = {phi}): {message}")]
+    Simulation {
+        /// The trial id.
+        trial: u64,
+        /// Its scenario.
+        scenario: String,
+        /// Its parameters.
+        phi: String,
+        /// What failed.
+        message: String,
+    },
+    /// The estimation could not be set up (ε, a nominal, a posterior).
+    #[error("estimate: {0}")]
+    Estimation(#[from] EstimationError),
+    /// The campaign (protocol, store, files) could not be read, or outputs written.
+    #[error(transparent)]
+    Campaign(#[from] CampaignError),
+}
+
+impl EstimateSettings {
+    /// The settings of a campaign file's `[estimate]` section (defaults for the keys not
+    /// given), checked: the error names the file, the line and the key.
+    pub fn from_section(
+        section: &savme_fmu::campaign_file::EstimateSection,
+        file: &std::path::Path,
+    ) -> Result<EstimateSettings, savme_fmu::campaign_file::ConfigError> {
+        let d = EstimateSettings::default();
+        let s = EstimateSettings {
+            budget: section.budget,
+            epsilon: section.epsilon.unwrap_or(d.epsilon),
+            seed: section.seed,
+            target_width: section.target_width.or(d.target_width),
+            max_runs: section.max_runs.unwrap_or(d.max_runs),
+            min_failures: section.min_failures.unwrap_or(d.min_failures),
+            scenarios: section.scenarios.clone().unwrap_or_default(),
+            nominal: section.nominal.clone(),
+            tilt: section.tilt.unwrap_or_default(),
+            refine_rounds: section.refine_rounds.unwrap_or(0),
+            refine_runs: section.refine_runs.unwrap_or(0),
+            refine_reuse: section.refine_reuse.unwrap_or(0),
+        };
+        let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
+            file: file.display().to_string(),
+            line: Some(section.line_of(&key)),
+            key: Some(format!("estimate.{key}")),
+            message,
+        };
+        // An empty list would estimate every meta-training scenario, as no list does: say so
+        // rather than run what the file seems not to ask for.
+        if section.scenarios.as_ref().is_some_and(Vec::is_empty) {
+            return Err(error(
+                "scenarios".into(),
+                "the list is empty: name scenarios, or leave the key out to estimate every \
+                 meta-training scenario"
+                    .into(),
+            ));
+        }
+        match s.validate() {
+            Err(EstimateError::Setting { key, message }) => Err(error(key, message)),
+            _ => Ok(s),
+        }
+    }
+
+    /// Checks the budget against the protocol, and the nominal and the scenarios against the
+    /// campaign's problem, before it runs (the posterior is not known yet: uniform ones stand
+    /// in). The error names the budget, or the scenario and variable.
+    pub fn check(
+        &self,
+        protocol: &crate::Protocol,
+        problem: &crate::Problem,
+    ) -> Result<(), EstimateError> {
+        self.validate()?;
+        if let Some(budget) = self.budget.filter(|b| !protocol.budgets.contains(b)) {
+            let known: Vec<String> = protocol.budgets.iter().map(f64::to_string).collect();
+            return Err(EstimateError::UnknownBudget {
+                budget,
+                known: known.join(", "),
+            });
+        }
+        let names = if self.scenarios.is_empty() {
+            &protocol.train_scenarios
+        } else {
+            &self.scenarios
+        };
+        let scenarios = super::posterior::untrained(names, protocol, problem)?;
+        savme_kernel::estimation::Estimation::new(&scenarios, &self.config(0))?;
+        Ok(())
+    }
+}

@@ -1,0 +1,543 @@
+//! [`PostgresStore`]: a campaign's trial lines, its protocol and (for `savme worker`) its work
+//! queue in a PostgreSQL database shared by any number of hosts — `--storage postgresql://…`.
+//!
+//! - **Schema**: created and migrated by savme in the schema `savme` ([`schema`]): `campaigns`
+//!   (name, protocol), `trials` (every line, with each field of a trial line as a column for
+//!   SQL), `runs` (the work queue), `schema_version`.
+//! - **One coordinator**: opening takes the session-level advisory lock
+//!   `pg_try_advisory_lock(schema::LOCK_CLASS, campaign id)`; a second opener is refused at
+//!   once, naming the holder's `application_name` (savme puts its pid and host there). The
+//!   server releases the lock when the holder's session ends, even after `kill -9`.
+//! - **One connection**: the lock belongs to a session, so the store keeps exactly one
+//!   connection for its life rather than a pool (a pooled connection could be another
+//!   session). If it breaks (the server restarts), the store reconnects with backoff, takes
+//!   the lock again, and finishes the write it was doing exactly once (line numbers are the
+//!   primary key, and it checks what reached the table).
+//!
+//! ```no_run
+//! use savme_postgres::{Database, PostgresStore};
+//! use savme_store::TrialStore;
+//! let db = Database::parse("postgresql://savme@db.example/safety")?;
+//! let mut store = PostgresStore::open(&db, "night-run-1")?;
+//! store.append(&serde_json::json!({"stage": "train@0.3", "index": 0}))?;
+//! assert_eq!(store.load()?.lines.len(), 1);
+//! # Ok::<(), savme_store::StoreError>(())
+//! ```
+
+use crate::{schema, Database};
+use postgres::{Client, GenericClient, Statement};
+use savme_store::{Loaded, StoreError, StoredLine, TrialStore, FORMAT};
+use serde_json::Value;
+
+/// The longest campaign name.
+pub const MAX_NAME: usize = 200;
+
+/// A campaign in a PostgreSQL database, held exclusively (see the module docs).
+pub struct PostgresStore {
+    db: Database,
+    name: String,
+    campaign: i32,
+    client: Client,
+    /// Lines stored so far (the last line number).
+    lines: i64,
+    location: String,
+    /// The prepared insert of a line, on the current connection.
+    insert: Option<Statement>,
+}
+
+impl std::fmt::Debug for PostgresStore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PostgresStore")
+            .field("location", &self.location)
+            .finish_non_exhaustive()
+    }
+}
+
+/// A campaign name must be 1 to [`MAX_NAME`] characters, none of them a control character.
+pub fn check_name(name: &str) -> Result<(), StoreError> {
+    if name.is_empty() || name.chars().count() > MAX_NAME || name.chars().any(char::is_control) {
+        return Err(StoreError::Database {
+            store: "--campaign".into(),
+            message: format!(
+                "{name:?} is not a campaign name (1 to {MAX_NAME} characters, no control characters)"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// This process as `application_name`: its role, pid and host.
+pub fn application_name(role: &str) -> String {
+    format!("savme {role} pid {} on {}", std::process::id(), host_name())
+}
+
+/// This host's name (as in messages that say where something happened).
+pub fn host_name() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_else(|_| "unknown host".into())
+}
+
+/// Whether a failed statement means the connection is gone (the server restarted or the
+/// network broke), so that reconnecting may help.
+pub fn connection_lost(client: &Client, e: &postgres::Error) -> bool {
+    if client.is_closed() || e.is_closed() {
+        return true;
+    }
+    match e.as_db_error() {
+        // Class 08: connection exception; 57: operator intervention (shutdown, terminate).
+        Some(db) => {
+            let code = db.code().code();
+            code.starts_with("08") || code.starts_with("57")
+        }
+        None => std::error::Error::source(e).is_some_and(|s| s.is::<std::io::Error>()),
+    }
+}
+
+/// The id of campaign `name`, creating its row if missing.
+pub fn campaign_id(client: &mut Client, name: &str) -> Result<i32, postgres::Error> {
+    client.execute(
+        "INSERT INTO savme.campaigns (name) VALUES ($1) ON CONFLICT (name) DO NOTHING",
+        &[&name],
+    )?;
+    Ok(client
+        .query_one("SELECT id FROM savme.campaigns WHERE name = $1", &[&name])?
+        .get(0))
+}
+
+/// The id of an existing campaign `name`, if any (for workers, which never create one).
+pub fn find_campaign(client: &mut Client, name: &str) -> Result<Option<i32>, postgres::Error> {
+    Ok(client
+        .query_opt("SELECT id FROM savme.campaigns WHERE name = $1", &[&name])?
+        .map(|r| r.get(0)))
+}
+
+impl PostgresStore {
+    /// Connects to `db` (with backoff), creates or migrates savme's schema, creates campaign
+    /// `name` if it is new, and takes its coordinator lock — or fails with
+    /// [`StoreError::Held`] naming the process that holds it.
+    pub fn open(db: &Database, name: &str) -> Result<PostgresStore, StoreError> {
+        check_name(name)?;
+        let location = format!("{}, campaign {name:?}", db.location());
+        let client = db.connect(&application_name("coordinator"))?;
+        let mut store = PostgresStore {
+            db: db.clone(),
+            name: name.into(),
+            campaign: 0,
+            client,
+            lines: 0,
+            location,
+            insert: None,
+        };
+        store.attach()?;
+        Ok(store)
+    }
+
+    /// On a (new) connection: the schema, the campaign row, the lock, the line count.
+    fn attach(&mut self) -> Result<(), StoreError> {
+        let err = |s: &Self, e: postgres::Error| s.db.error(&s.location, &e);
+        match schema::migrate(&mut self.client) {
+            Ok(()) => {}
+            Err(schema::SchemaError::Db(e)) => return Err(err(self, e)),
+            Err(schema::SchemaError::TooNew(v)) => {
+                return Err(StoreError::Database {
+                    store: self.location.clone(),
+                    message: format!(
+                        "the database's savme schema is version {v}, newer than this savme's ({}); use a newer savme",
+                        schema::VERSION
+                    ),
+                })
+            }
+        }
+        self.campaign = campaign_id(&mut self.client, &self.name).map_err(|e| err(self, e))?;
+        let locked: bool = self
+            .client
+            .query_one(
+                "SELECT pg_try_advisory_lock($1, $2)",
+                &[&schema::LOCK_CLASS, &self.campaign],
+            )
+            .map_err(|e| err(self, e))?
+            .get(0);
+        if !locked {
+            return Err(StoreError::Held {
+                store: self.location.clone(),
+                holder: self.holder(),
+            });
+        }
+        let row = self
+            .client
+            .query_one(
+                "SELECT coalesce(max(line), 0) FROM savme.trials WHERE campaign_id = $1",
+                &[&self.campaign],
+            )
+            .map_err(|e| err(self, e))?;
+        self.lines = row.get(0);
+        Ok(())
+    }
+
+    /// Who holds the campaign's lock, as far as the server shows it.
+    fn holder(&mut self) -> String {
+        let row = self.client.query_opt(
+            "SELECT a.application_name, coalesce(host(a.client_addr), 'local socket')
+               FROM pg_locks l JOIN pg_stat_activity a ON a.pid = l.pid
+              WHERE l.locktype = 'advisory' AND l.granted AND l.objsubid = 2
+                AND l.classid = ($1::int)::oid AND l.objid = ($2::int)::oid",
+            &[&schema::LOCK_CLASS, &self.campaign],
+        );
+        match row {
+            Ok(Some(r)) => {
+                let app: Option<String> = r.get(0);
+                let addr: Option<String> = r.get(1);
+                match app.filter(|a| !a.is_empty()) {
+                    Some(app) => format!("{app}, connected from {}", addr.unwrap_or_default()),
+                    None => "a session not started by savme".into(),
+                }
+            }
+            _ => "a process this role may not see".into(),
+        }
+    }
+
+    /// The campaign's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The campaign's id in `savme.campaigns`.
+    pub fn campaign_id(&self) -> i32 {
+        self.campaign
+    }
+
+    /// The database.
+    pub fn database(&self) -> &Database {
+        &self.db
+    }
+
+    /// Runs `op` on the connection; when the connection is lost, reconnects (with backoff,
+    /// taking the lock again) and runs it once more, up to five times.
+    fn retrying<T>(
+        &mut self,
+        mut op: impl FnMut(&mut Client, i32) -> Result<T, postgres::Error>,
+    ) -> Result<T, StoreError> {
+        let mut tries = 0;
+        loop {
+            match op(&mut self.client, self.campaign) {
+                Ok(v) => return Ok(v),
+                Err(e) if tries < 5 && connection_lost(&self.client, &e) => {
+                    tries += 1;
+                    eprintln!(
+                        "savme: {}: connection lost ({}); reconnecting",
+                        self.location,
+                        self.db.redact(&e.to_string())
+                    );
+                    self.client = self.db.connect(&application_name("coordinator"))?;
+                    self.attach()?;
+                }
+                Err(e) => return Err(self.db.error(&self.location, &e)),
+            }
+        }
+    }
+}
+
+const SELECT_LINES: &str =
+    "SELECT line, v, body::text FROM savme.trials WHERE campaign_id = $1 ORDER BY line";
+const SELECT_PROTOCOL: &str = "SELECT protocol::text FROM savme.campaigns WHERE id = $1";
+
+/// The rows of [`SELECT_LINES`] as stored lines; a line of another format version, or not a
+/// JSON object, is an error naming it.
+fn lines_of(location: &str, rows: &[postgres::Row]) -> Result<Loaded, StoreError> {
+    let mut loaded = Loaded::default();
+    for row in rows {
+        let line: i64 = row.get(0);
+        let v: i32 = row.get(1);
+        let body: String = row.get(2);
+        let bad = |message: String| StoreError::BadLine {
+            store: location.to_string(),
+            line: line as u64,
+            message,
+        };
+        if v as u64 != FORMAT {
+            return Err(bad(format!(
+                "store format version {v} is not supported (this savme reads version {FORMAT})"
+            )));
+        }
+        let value: Value =
+            serde_json::from_str(&body).map_err(|e| bad(format!("not JSON: {e}")))?;
+        if !value.is_object() {
+            return Err(bad("not a JSON object".into()));
+        }
+        loaded.lines.push(StoredLine {
+            line: line as u64,
+            value,
+        });
+    }
+    Ok(loaded)
+}
+
+/// The stored protocol's text as JSON (None: not saved yet).
+fn protocol_of(location: &str, text: Option<String>) -> Result<Option<Value>, StoreError> {
+    text.map(|t| {
+        serde_json::from_str(&t).map_err(|e| StoreError::BadLine {
+            store: format!("{location} protocol"),
+            line: e.line() as u64,
+            message: e.to_string(),
+        })
+    })
+    .transpose()
+}
+
+/// Campaign `name`'s protocol (None: not saved yet) and trial lines, read **without** its
+/// coordinator lock and without changing the database (no schema, no campaign row is
+/// created): a campaign still running can be read. A database without savme's schema, or
+/// without the campaign, is an error naming it.
+pub fn read_campaign(db: &Database, name: &str) -> Result<(Option<Value>, Loaded), StoreError> {
+    check_name(name)?;
+    let location = format!("{}, campaign {name:?}", db.location());
+    let mut client = db.connect(&application_name("reader"))?;
+    let err = |e: postgres::Error| db.error(&location, &e);
+    let has_schema: bool = client
+        .query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])
+        .map_err(err)?
+        .get(0);
+    let id = match has_schema {
+        true => find_campaign(&mut client, name).map_err(err)?,
+        false => None,
+    };
+    let Some(id) = id else {
+        return Err(StoreError::Database {
+            store: location,
+            message: "no such campaign in this database (none was started under this name)".into(),
+        });
+    };
+    let text: Option<String> = client
+        .query_one(SELECT_PROTOCOL, &[&id])
+        .map_err(err)?
+        .get(0);
+    let rows = client.query(SELECT_LINES, &[&id]).map_err(err)?;
+    Ok((protocol_of(&location, text)?, lines_of(&location, &rows)?))
+}
+
+/// A line's fields as the typed columns of `savme.trials`.
+struct Columns {
+    stage: Option<String>,
+    idx: Option<i64>,
+    trial_id: Option<i64>,
+    phase: Option<String>,
+    budget: Option<f64>,
+    scenario: Option<String>,
+    phi: Option<String>,
+    theta_lf: Option<String>,
+    hf: RunColumns,
+    lf: RunColumns,
+    cost_ratio: Option<f64>,
+    outcome: Option<String>,
+    credit_fidelity: Option<bool>,
+    credit_scenario: Option<bool>,
+    error: Option<String>,
+}
+
+#[derive(Default)]
+struct RunColumns {
+    failure: Option<bool>,
+    runtime: Option<f64>,
+    wall_seconds: Option<f64>,
+    work: Option<i64>,
+}
+
+impl Columns {
+    fn of(v: &Value) -> Columns {
+        let s = |k: &str| v.get(k).and_then(Value::as_str).map(str::to_string);
+        let i = |k: &str| v.get(k).and_then(Value::as_i64);
+        let object = |k: &str| v.get(k).filter(|x| x.is_object()).map(Value::to_string);
+        let run = |k: &str| {
+            v.get(k).map_or_else(RunColumns::default, |r| RunColumns {
+                failure: r.get("failure").and_then(Value::as_bool),
+                runtime: r.get("runtime").and_then(Value::as_f64),
+                wall_seconds: r.get("wall_seconds").and_then(Value::as_f64),
+                work: r.get("work").and_then(Value::as_i64),
+            })
+        };
+        let credit = |k: &str| {
+            v.get("credit")
+                .and_then(|c| c.get(k))
+                .and_then(Value::as_bool)
+        };
+        Columns {
+            stage: s("stage"),
+            idx: i("index"),
+            trial_id: i("id"),
+            phase: s("phase"),
+            budget: v.get("budget").and_then(Value::as_f64),
+            scenario: s("scenario"),
+            phi: object("phi"),
+            theta_lf: object("theta_lf"),
+            hf: run("hf"),
+            lf: run("lf"),
+            cost_ratio: v.get("cost_ratio").and_then(Value::as_f64),
+            outcome: s("outcome"),
+            credit_fidelity: credit("fidelity"),
+            credit_scenario: credit("scenario"),
+            error: s("error"),
+        }
+    }
+}
+
+const INSERT: &str =
+    "INSERT INTO savme.trials (campaign_id, line, v, body, stage, idx, trial_id, phase,
+    budget, scenario, phi, theta_lf, hf_failure, hf_runtime, hf_wall_seconds, hf_work,
+    lf_failure, lf_runtime, lf_wall_seconds, lf_work, cost_ratio, outcome, credit_fidelity,
+    credit_scenario, error)
+  VALUES ($1, $2, $3, $4::text::json, $5, $6, $7, $8, $9, $10, $11::text::jsonb,
+    $12::text::jsonb, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22, $23, $24, $25)";
+
+/// Inserts `rows` (text, fields) as lines `first..` with the prepared `statement`: one
+/// statement for one row (atomic by itself), else one transaction.
+fn insert(
+    client: &mut Client,
+    statement: &Statement,
+    campaign: i32,
+    first: i64,
+    rows: &[(String, Columns)],
+) -> Result<(), postgres::Error> {
+    if let [(text, columns)] = rows {
+        return insert_one(client, statement, campaign, first, text, columns);
+    }
+    let mut tx = client.transaction()?;
+    for (k, (text, columns)) in rows.iter().enumerate() {
+        insert_one(
+            &mut tx,
+            statement,
+            campaign,
+            first + k as i64,
+            text,
+            columns,
+        )?;
+    }
+    tx.commit()
+}
+
+/// Inserts one line.
+fn insert_one(
+    client: &mut impl GenericClient,
+    statement: &Statement,
+    campaign: i32,
+    line: i64,
+    text: &String,
+    c: &Columns,
+) -> Result<(), postgres::Error> {
+    let v = FORMAT as i32;
+    client
+        .execute(
+            statement,
+            &[
+                &campaign,
+                &line,
+                &v,
+                text,
+                &c.stage,
+                &c.idx,
+                &c.trial_id,
+                &c.phase,
+                &c.budget,
+                &c.scenario,
+                &c.phi,
+                &c.theta_lf,
+                &c.hf.failure,
+                &c.hf.runtime,
+                &c.hf.wall_seconds,
+                &c.hf.work,
+                &c.lf.failure,
+                &c.lf.runtime,
+                &c.lf.wall_seconds,
+                &c.lf.work,
+                &c.cost_ratio,
+                &c.outcome,
+                &c.credit_fidelity,
+                &c.credit_scenario,
+                &c.error,
+            ],
+        )
+        .map(|_| ())
+}
+
+impl TrialStore for PostgresStore {
+    fn location(&self) -> String {
+        self.location.clone()
+    }
+
+    fn load(&mut self) -> Result<Loaded, StoreError> {
+        let rows = self.retrying(|c, id| c.query(SELECT_LINES, &[&id]))?;
+        lines_of(&self.location, &rows)
+    }
+
+    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
+        let mut rows = Vec::with_capacity(objects.len());
+        for text in objects {
+            let value: Value = serde_json::from_str(text).map_err(|e| StoreError::BadLine {
+                store: self.location.clone(),
+                line: 0,
+                message: format!("not JSON: {e}"),
+            })?;
+            if value.as_object().is_none_or(|m| m.contains_key("v")) {
+                return Err(StoreError::BadLine {
+                    store: self.location.clone(),
+                    line: 0,
+                    message: "a store line must be a JSON object without a `v` key".into(),
+                });
+            }
+            let columns = Columns::of(&value);
+            rows.push((text.trim().to_string(), columns));
+        }
+        let first = self.lines + 1;
+        let last = self.lines + rows.len() as i64;
+        // After a reconnect the insert may have committed before the connection broke: the
+        // line count says (this store is the only writer). The prepared statement is kept
+        // between appends, and prepared again on a new connection.
+        let mut statement = self.insert.take();
+        let mut retry = false;
+        self.retrying(|c, id| {
+            if retry {
+                statement = None;
+                let stored: i64 = c
+                    .query_one(
+                        "SELECT coalesce(max(line), 0) FROM savme.trials WHERE campaign_id = $1",
+                        &[&id],
+                    )?
+                    .get(0);
+                if stored >= last {
+                    return Ok(());
+                }
+            }
+            retry = true;
+            let prepared = match &statement {
+                Some(s) => s.clone(),
+                None => c.prepare(INSERT)?,
+            };
+            statement = Some(prepared.clone());
+            insert(c, &prepared, id, first, &rows)
+        })?;
+        self.insert = statement;
+        self.lines = last;
+        Ok(())
+    }
+
+    fn keeps_protocol(&self) -> bool {
+        true
+    }
+
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
+        let text: Option<String> =
+            self.retrying(|c, id| Ok(c.query_one(SELECT_PROTOCOL, &[&id])?.get(0)))?;
+        protocol_of(&self.location, text)
+    }
+
+    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
+        let text = protocol.to_string();
+        self.retrying(|c, id| {
+            c.execute(
+                "UPDATE savme.campaigns SET protocol = $2::text::json WHERE id = $1",
+                &[&id, &text],
+            )
+            .map(|_| ())
+        })
+    }
+}

@@ -1,0 +1,296 @@
+//! # savme-store
+//!
+//! Where a campaign's trial lines (and `savme serve`'s journal events) live: the
+//! [`TrialStore`] trait, and [`JsonlStore`], the embedded default — a JSON-lines file with an
+//! exclusive advisory lock.
+//!
+//! A store is an append-only sequence of JSON objects ("lines"). It promises:
+//! - **one writer**: opening a store takes an exclusive lock for as long as the store lives; a
+//!   second process opening the same store is refused at once, naming the store and the
+//!   holder's process id, and changes nothing;
+//! - **crash safety**: [`TrialStore::append`] returns only once the line is handed to the
+//!   operating system whole; a process killed mid-write leaves at most one incomplete last line,
+//!   which [`TrialStore::load`] reports ([`Loaded::torn`]) and drops, and later appends go after
+//!   the last complete line;
+//! - **versioned lines**: every line carries the store format version (`"v"`), checked on load.
+//!
+//! ```
+//! use savme_store::{JsonlStore, TrialStore};
+//! let dir = std::env::temp_dir().join(format!("savme-store-doc-{}", std::process::id()));
+//! std::fs::create_dir_all(&dir)?;
+//! let path = dir.join("trials.jsonl");
+//! # let _ = std::fs::remove_file(&path);
+//! let mut store = JsonlStore::open(&path)?;
+//! store.append(&serde_json::json!({"stage": "train@0.3", "index": 0}))?;
+//! // A second opener (here in the same process; normally another one) is refused.
+//! assert!(JsonlStore::open(&path).is_err());
+//! let loaded = store.load()?;
+//! assert_eq!(loaded.lines[0].value["stage"], "train@0.3");
+//! # drop(store); std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod journal;
+mod jsonl;
+mod lock;
+
+pub use jsonl::JsonlStore;
+pub use lock::StoreLock;
+
+use serde_json::Value;
+
+/// The store format version every line carries (key `"v"`). Lines written before versions
+/// existed (no `"v"`) are read as version 1, the format they have.
+pub const FORMAT: u64 = 1;
+
+/// One complete line read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredLine {
+    /// Its 1-based position in the store (the file's line number).
+    pub line: u64,
+    /// The object, without the `"v"` key.
+    pub value: Value,
+}
+
+/// An incomplete last line left by a process killed mid-write; dropped by [`TrialStore::load`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TornTail {
+    /// Its 1-based line number.
+    pub line: u64,
+    /// Its length in bytes.
+    pub bytes: u64,
+}
+
+/// What [`TrialStore::load`] found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Loaded {
+    /// The complete lines, in order.
+    pub lines: Vec<StoredLine>,
+    /// The incomplete last line that was dropped, if any.
+    pub torn: Option<TornTail>,
+}
+
+/// Why a store could not be opened, read or written. Every variant names the store.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StoreError {
+    /// Reading or writing failed.
+    #[error("{store}: {source}")]
+    Io {
+        /// The store.
+        store: String,
+        /// The error.
+        source: std::io::Error,
+    },
+    /// Another process holds the store.
+    #[error("{store} is in use by another savme process ({}); it was left unchanged — wait for that process, or stop it", holder.map_or_else(|| "pid unknown".to_string(), |p| format!("pid {p}")))]
+    Locked {
+        /// The store.
+        store: String,
+        /// The holder's process id, when it could be read.
+        holder: Option<u32>,
+    },
+    /// Another process holds the campaign in a shared database.
+    #[error("{store} is in use by another savme coordinator ({holder}); it was left unchanged — wait for that process, or stop it")]
+    Held {
+        /// The store.
+        store: String,
+        /// Who holds it, as the database shows it.
+        holder: String,
+    },
+    /// The database refused a connection or a statement (the text never holds a password).
+    #[error("{store}: {message}")]
+    Database {
+        /// The store (or the flag that named it).
+        store: String,
+        /// What the database said.
+        message: String,
+    },
+    /// A complete line that is not a JSON object of a supported format.
+    #[error("{store}, line {line}: {message}")]
+    BadLine {
+        /// The store.
+        store: String,
+        /// 1-based line.
+        line: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// A write failed and the store could not be cut back to its last complete line: it
+    /// needs attention before it is used again.
+    #[error("{store}: writing failed ({write}) and the partial line could not be removed ({repair}); remove the bytes after the last newline before resuming")]
+    Damaged {
+        /// The store.
+        store: String,
+        /// The write error.
+        write: std::io::Error,
+        /// The repair error.
+        repair: std::io::Error,
+    },
+}
+
+impl StoreError {
+    /// The I/O error of `store`.
+    pub fn io(store: impl Into<String>, source: std::io::Error) -> Self {
+        StoreError::Io {
+            store: store.into(),
+            source,
+        }
+    }
+}
+
+/// An append-only, exclusively held sequence of JSON objects: a campaign's trials or a served
+/// kernel's journal. Implementations take their exclusive lock when opened and release it when
+/// dropped (see the module docs for what every store promises).
+pub trait TrialStore: Send {
+    /// Where the store is, for messages (a path; never a credential).
+    fn location(&self) -> String;
+
+    /// Reads every complete line back, in order. An incomplete last line is dropped (and
+    /// reported); later appends go after the last complete line.
+    fn load(&mut self) -> Result<Loaded, StoreError>;
+
+    /// Appends serialised JSON objects (each the text of one object, without a top-level `v`
+    /// key, which the store adds) as lines, all or none, durably (handed whole to the
+    /// operating system) before returning. On an error nothing was appended.
+    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError>;
+
+    /// Appends JSON objects as lines, all or none ([`TrialStore::append_json`]).
+    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
+        let texts = lines
+            .iter()
+            .map(|v| match v {
+                Value::Object(m) if !m.contains_key("v") => Ok(v.to_string()),
+                _ => Err(StoreError::BadLine {
+                    store: self.location(),
+                    line: 0,
+                    message: "a store line must be a JSON object without a `v` key".into(),
+                }),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        self.append_json(&texts)
+    }
+
+    /// Appends one JSON object as a line ([`TrialStore::append_all`] of one).
+    fn append(&mut self, line: &Value) -> Result<(), StoreError> {
+        self.append_all(std::slice::from_ref(line))
+    }
+
+    /// Whether the store keeps the campaign's protocol itself (a database does). A store that
+    /// does not (a JSON-lines file) leaves it to the campaign's `protocol.json`.
+    fn keeps_protocol(&self) -> bool {
+        false
+    }
+
+    /// The protocol the store keeps, if it keeps one and has been given one.
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
+        Ok(None)
+    }
+
+    /// Keeps `protocol` (a store that [`keeps_protocol`](TrialStore::keeps_protocol); the
+    /// others ignore it).
+    fn save_protocol(&mut self, _protocol: &Value) -> Result<(), StoreError> {
+        Ok(())
+    }
+}
+
+impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
+    fn location(&self) -> String {
+        (**self).location()
+    }
+
+    fn load(&mut self) -> Result<Loaded, StoreError> {
+        (**self).load()
+    }
+
+    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
+        (**self).append_json(objects)
+    }
+
+    fn keeps_protocol(&self) -> bool {
+        (**self).keeps_protocol()
+    }
+
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
+        (**self).load_protocol()
+    }
+
+    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
+        (**self).save_protocol(protocol)
+    }
+}
+
+/// A serialised object as a line: `{"v":FORMAT,` followed by the object's own keys, appended
+/// to `out`.
+pub(crate) fn encode(object: &str, out: &mut Vec<u8>) -> Result<(), String> {
+    let body = object.trim();
+    let inner = body
+        .strip_prefix('{')
+        .and_then(|b| b.strip_suffix('}'))
+        .ok_or("a store line must be a JSON object")?;
+    if inner.contains('\n') {
+        return Err("a store line must be one line of JSON".into());
+    }
+    out.extend_from_slice(format!("{{\"v\":{FORMAT}").as_bytes());
+    if !inner.trim().is_empty() {
+        out.push(b',');
+    }
+    out.extend_from_slice(inner.as_bytes());
+    out.extend_from_slice(b"}\n");
+    Ok(())
+}
+
+/// A complete line (without its newline) back to its object; the error says what is wrong.
+pub(crate) fn decode(bytes: &[u8]) -> Result<Value, String> {
+    let text = std::str::from_utf8(bytes)
+        .map_err(|e| format!("not UTF-8 text (byte {})", e.valid_up_to() + 1))?;
+    let mut value: Value = serde_json::from_str(text).map_err(|e| format!("not JSON: {e}"))?;
+    let Value::Object(map) = &mut value else {
+        return Err("not a JSON object".into());
+    };
+    match map.remove("v") {
+        None => {}
+        Some(Value::Number(n)) if n.as_u64() == Some(FORMAT) => {}
+        Some(other) => {
+            return Err(format!(
+                "store format version {other} is not supported (this savme reads version {FORMAT})"
+            ))
+        }
+    }
+    Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn lines_carry_the_format_version_first_and_round_trip() {
+        let v = json!({"stage": "train@0.3", "x": [1.5, null]});
+        let mut line = Vec::new();
+        encode(&v.to_string(), &mut line).unwrap();
+        assert!(line.starts_with(b"{\"v\":1,\"stage\""));
+        assert_eq!(decode(&line[..line.len() - 1]).unwrap(), v);
+        let mut empty = Vec::new();
+        encode("{}", &mut empty).unwrap();
+        assert_eq!(empty, b"{\"v\":1}\n");
+        assert_eq!(decode(b"{\"a\":1}").unwrap(), json!({"a": 1}));
+    }
+
+    #[test]
+    fn bad_lines_say_what_is_wrong() {
+        assert!(encode("[1]", &mut Vec::new()).is_err());
+        assert!(encode("{\"a\":\n1}", &mut Vec::new()).is_err());
+        let cases: [(&[u8], &str); 4] = [
+            (b"{\"v\":2,\"a\":1}", "version 2 is not supported"),
+            (b"[1,2]", "not a JSON object"),
+            (b"{\"a\":", "not JSON"),
+            (b"{\"a\":\"\xff\"}", "not UTF-8 text (byte 7)"),
+        ];
+        for (bytes, message) in cases {
+            let e = decode(bytes).unwrap_err();
+            assert!(e.contains(message), "{e}");
+        }
+    }
+}

@@ -1,0 +1,69 @@
+//! The exclusive advisory lock a store holds for its lifetime: `flock` on a `.lock` file next to
+//! the store (released by the operating system when the holder exits, even after `kill -9`),
+//! holding the holder's process id so that a refused second process can name it.
+
+use super::StoreError;
+use std::fs::{File, OpenOptions, TryLockError};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+/// An exclusive lock, held until dropped.
+#[derive(Debug)]
+pub struct StoreLock {
+    _file: File,
+    path: PathBuf,
+}
+
+impl StoreLock {
+    /// Takes the lock file at `path` for `store` (named in errors), or fails at once with
+    /// [`StoreError::Locked`] naming the holder's pid.
+    ///
+    /// ```
+    /// use savme_store::StoreLock;
+    /// let path = std::env::temp_dir().join(format!("savme-lock-doc-{}.lock", std::process::id()));
+    /// let held = StoreLock::acquire(&path, "demo")?;
+    /// let refused = StoreLock::acquire(&path, "demo").unwrap_err();
+    /// assert!(refused.to_string().contains(&format!("pid {}", std::process::id())));
+    /// drop(held);
+    /// assert!(StoreLock::acquire(&path, "demo").is_ok());
+    /// # std::fs::remove_file(&path)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn acquire(path: &Path, store: &str) -> Result<StoreLock, StoreError> {
+        let io = |e| StoreError::io(path.display().to_string(), e);
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(path)
+            .map_err(io)?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(TryLockError::WouldBlock) => {
+                let mut text = String::new();
+                let holder = file
+                    .read_to_string(&mut text)
+                    .ok()
+                    .and_then(|_| text.trim().parse().ok());
+                return Err(StoreError::Locked {
+                    store: store.to_string(),
+                    holder,
+                });
+            }
+            Err(TryLockError::Error(e)) => return Err(io(e)),
+        }
+        file.set_len(0).map_err(io)?;
+        file.write_all(format!("{}\n", std::process::id()).as_bytes())
+            .map_err(io)?;
+        Ok(StoreLock {
+            _file: file,
+            path: path.to_path_buf(),
+        })
+    }
+
+    /// The lock file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}

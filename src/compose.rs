@@ -1,0 +1,253 @@
+//! The composition layer: what the CLI and the Python package both assemble from a campaign's
+//! description — the bundled simulator's presets, the simulator a protocol's label names, and
+//! an FMU campaign from its campaign file. Front ends call these; they never assemble the
+//! parts themselves.
+
+use savme_campaign::config::{check_repeat, Overrides, NULL, TOY};
+use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
+use savme_campaign::{CampaignError, OnError, Problem, Protocol};
+use savme_fmu::campaign_file::{CampaignFile, ConfigError};
+use savme_kernel::{Assignment, SimError, SimResult, Simulator};
+use savme_sim::sim::DrivingSimulator;
+use std::path::Path;
+
+/// The simulator label of the bundled simulator with camera + lidar perception.
+pub const SENSORS: &str = "savme-sim/sensors";
+/// The simulator label of the bundled simulator with idealised perception.
+pub const IDEAL: &str = "savme-sim/ideal";
+
+/// Which preset of the bundled simulator's protocol.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Preset {
+    /// The short preset (one budget, fewer iterations) instead of the paper's protocol.
+    pub quick: bool,
+    /// Idealised perception instead of camera + lidar.
+    pub ideal: bool,
+}
+
+/// The protocol and problem of a campaign on the bundled driving simulator, validated.
+///
+/// ```
+/// use savme_campaign::config::{bundled, Overrides, Preset};
+/// let o = Overrides { seed: Some(3), train_scenarios: Some(vec!["7".into()]), ..Default::default() };
+/// let (p, problem) = bundled(Preset { quick: true, ideal: false }, &o)?;
+/// assert_eq!((p.seed, p.budgets.clone()), (3, vec![0.3]));
+/// assert_eq!(p.train_scenarios, ["lead_vehicle_brakes"]);
+/// assert!(problem.scenarios.contains_key("on_ramp_merge"));
+/// assert!(bundled(Preset::default(), &Overrides { budgets: Some(vec![2.0]), ..Default::default() }).is_err());
+/// # Ok::<(), savme_campaign::CampaignError>(())
+/// ```
+pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), CampaignError> {
+    let (train, test) = savme_sim::scenario::train_test_names();
+    let simulator = if preset.ideal { IDEAL } else { SENSORS };
+    let mut p = if preset.quick {
+        Protocol::quick(simulator, train, test)
+    } else {
+        Protocol::paper(simulator, train, test)
+    };
+    let lookup = |k: &str| savme_sim::scenario::find(k).map(|s| s.name.to_string());
+    o.apply(
+        &mut p,
+        &lookup,
+        "1–10 or their names (see `savme scenarios`)",
+    )?;
+    p.validate()?;
+    let problem = Problem::from(savme_sim::problem(p.fidelity_bins));
+    Ok((p, problem))
+}
+
+/// The simulators a protocol can name by its label alone (what a `savme worker` runs without
+/// a campaign file): the bundled driving simulator, the toy (optionally sleeping before each
+/// run: `savme-toy/sleep=20ms`) and the null simulator.
+#[derive(Debug, Clone)]
+pub enum NamedSimulator {
+    /// The bundled driving simulator.
+    Driving(DrivingSimulator),
+    /// The toy simulator, sleeping first.
+    Toy(Sleeping<ToySimulator>),
+    /// The null simulator.
+    Null(NullSimulator),
+}
+
+impl Simulator for NamedSimulator {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        match self {
+            NamedSimulator::Driving(s) => s.simulate(scenario, phi, fidelity),
+            NamedSimulator::Toy(s) => s.simulate(scenario, phi, fidelity),
+            NamedSimulator::Null(s) => s.simulate(scenario, phi, fidelity),
+        }
+    }
+}
+
+/// The simulator a protocol's label names, if savme can build it from the label alone (an
+/// FMU campaign's label needs its campaign file: None).
+///
+/// ```
+/// use savme_campaign::config::{named_simulator, toy_label, NamedSimulator};
+/// assert!(matches!(named_simulator("savme-sim/ideal"), Some(NamedSimulator::Driving(_))));
+/// assert!(matches!(named_simulator(&toy_label(20)), Some(NamedSimulator::Toy(_))));
+/// assert!(named_simulator("my-fmu-campaign").is_none());
+/// ```
+pub fn named_simulator(label: &str) -> Option<NamedSimulator> {
+    let sleeping = |ms: u64| {
+        NamedSimulator::Toy(Sleeping {
+            inner: ToySimulator,
+            sleep: std::time::Duration::from_millis(ms),
+        })
+    };
+    match label {
+        SENSORS => Some(NamedSimulator::Driving(DrivingSimulator::default())),
+        IDEAL => Some(NamedSimulator::Driving(DrivingSimulator::ideal())),
+        TOY => Some(sleeping(0)),
+        NULL => Some(NamedSimulator::Null(NullSimulator)),
+        other => other
+            .strip_prefix("savme-toy/sleep=")
+            .and_then(|ms| ms.strip_suffix("ms"))
+            .and_then(|ms| ms.parse().ok())
+            .map(sleeping),
+    }
+}
+
+/// The bundled simulator a protocol names (for `--resume`).
+pub fn bundled_simulator(p: &Protocol) -> Result<DrivingSimulator, CampaignError> {
+    match p.simulator.as_str() {
+        SENSORS => Ok(DrivingSimulator::default()),
+        IDEAL => Ok(DrivingSimulator::ideal()),
+        other => Err(CampaignError::Protocol {
+            field: "simulator".into(),
+            message: format!("`{other}` is not the bundled simulator ({SENSORS} or {IDEAL})"),
+        }),
+    }
+}
+
+/// A campaign on FMUs: its protocol and problem, and the checked campaign file (FMU paths,
+/// bindings, isolation, output directory).
+#[derive(Debug)]
+pub struct FmuCampaign {
+    /// The protocol: the paper's, the file's `[campaign]` section, then the flags.
+    pub protocol: Protocol,
+    /// The fidelity space with θ_HF and the scenario spaces of the file.
+    pub problem: Problem,
+    /// The file as read and checked against its FMUs.
+    pub file: CampaignFile,
+}
+
+/// Reads and checks the campaign file at `path` (with the bundled simulator's fidelity table
+/// for `[fidelity] paper = true`), then builds its protocol: the paper's, the file's
+/// `[campaign]` section, then `flags`, validated. An error in a value the file gave names the
+/// file, line and key; one in a flag names the protocol field.
+pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignError> {
+    let paper = |bins| {
+        (
+            savme_sim::fidelity::space(bins),
+            savme_sim::fidelity::theta_hf(),
+        )
+    };
+    let file = CampaignFile::load(path, &paper)?;
+    let mut p = Protocol::paper(&file.label, file.train.clone(), file.test.clone());
+    p.weights = file.weights.clone();
+    p.on_error = if file.skip_failed_runs {
+        OnError::Skip
+    } else {
+        OnError::Abort
+    };
+    let known = file
+        .scenarios
+        .keys()
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    let lookup = |k: &str| file.scenarios.contains_key(k).then(|| k.to_string());
+    let overrides = Overrides::from(&file.campaign).then(flags);
+    overrides.apply(&mut p, &lookup, &known)?;
+    p.validate().map_err(|e| in_file(e, &file, flags))?;
+    check_repeat(overrides.repeat).map_err(|e| in_file(e, &file, flags))?;
+    let problem = Problem {
+        fidelity: file.fidelity.clone(),
+        theta_hf: file.theta_hf.clone(),
+        scenarios: file.scenarios.clone(),
+    };
+    Ok(FmuCampaign {
+        protocol: p,
+        problem,
+        file,
+    })
+}
+
+/// A protocol error of a value the campaign file gave, as an error naming its key and line.
+fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> CampaignError {
+    let CampaignError::Protocol { field, message } = e else {
+        return e;
+    };
+    let from_flags = Overrides::default().then(flags);
+    let given_as_flag = match field.as_str() {
+        "train_iterations" => from_flags.train_iterations.is_some(),
+        "eval_iterations" => from_flags.eval_iterations.is_some(),
+        "test_iterations" => from_flags.test_iterations.is_some(),
+        "baseline_train_iterations" => from_flags.baseline_train_iterations.is_some(),
+        "baseline_test_iterations" => from_flags.baseline_test_iterations.is_some(),
+        "budgets" => from_flags.budgets.is_some(),
+        "window" => from_flags.window.is_some(),
+        "seed" => from_flags.seed.is_some(),
+        "train_scenarios" => from_flags.train_scenarios.is_some(),
+        "test_scenarios" => from_flags.test_scenarios.is_some(),
+        "prior_strengths" => from_flags.prior_strengths.is_some(),
+        "prior_strength" => from_flags.prior_strength.is_some(),
+        "repeat" => from_flags.repeat.is_some(),
+        "screen_iterations" => from_flags.screen_iterations.is_some(),
+        "audit_fraction" => from_flags.audit_fraction.is_some(),
+        _ => false,
+    };
+    if given_as_flag {
+        return CampaignError::Protocol { field, message };
+    }
+    let (key, line, message) = match field.as_str() {
+        "train_scenarios" => missing_role(file, "train", message),
+        "test_scenarios" => missing_role(file, "test", message),
+        "weights" => bad_weight(file, message),
+        other => (
+            format!("campaign.{other}"),
+            file.campaign.lines.get(other).copied(),
+            message,
+        ),
+    };
+    CampaignError::File(ConfigError {
+        file: file.path.display().to_string(),
+        line,
+        key: Some(key),
+        message,
+    })
+}
+
+/// The key, line and message of a file without a scenario of `role`: at the role of its first
+/// scenario (they all have the other role).
+fn missing_role(
+    file: &CampaignFile,
+    role: &str,
+    message: String,
+) -> (String, Option<usize>, String) {
+    let message = format!("no scenario has role \"{role}\": {message}");
+    match file.scenario_lines.first() {
+        Some(s) => (format!("scenario[{}].role", s.index), Some(s.role), message),
+        None => ("scenario".into(), None, message),
+    }
+}
+
+/// The key, line and message of a weight the protocol refused: the weight of the first
+/// scenario (by name, as [`Protocol::validate`] checks them) that is not positive and finite.
+fn bad_weight(file: &CampaignFile, message: String) -> (String, Option<usize>, String) {
+    let bad = file
+        .weights
+        .iter()
+        .find(|(_, w)| !(**w > 0.0 && w.is_finite()))
+        .and_then(|(name, _)| file.scenario_lines.iter().find(|s| &s.name == name));
+    match bad {
+        Some(s) => (format!("scenario[{}].weight", s.index), s.weight, message),
+        None => ("scenario.weight".into(), None, message),
+    }
+}
