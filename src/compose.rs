@@ -4,11 +4,15 @@
 //! parts themselves.
 
 use savme_campaign::config::{check_repeat, Overrides, NULL, TOY};
+use savme_campaign::estimate::{
+    EstimateError, EstimateOutcome, EstimateProgress, EstimateRun, EstimateSettings,
+};
 use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
 use savme_campaign::{CampaignError, OnError, Problem, Protocol};
 use savme_fmu::campaign_file::{CampaignFile, ConfigError};
 use savme_kernel::{Assignment, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
+use std::io::Write;
 use std::path::Path;
 
 /// The simulator label of the bundled simulator with camera + lidar perception.
@@ -135,6 +139,8 @@ pub struct FmuCampaign {
     pub problem: Problem,
     /// The file as read and checked against its FMUs.
     pub file: CampaignFile,
+    /// The number of seeds (`repeat`: the file's, then the flags'; None: one campaign).
+    pub repeat: Option<u32>,
 }
 
 /// Reads and checks the campaign file at `path` (with the bundled simulator's fidelity table
@@ -148,6 +154,12 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
             savme_sim::fidelity::theta_hf(),
         )
     };
+    if flags.fidelity_bins.is_some() {
+        return Err(CampaignError::Protocol {
+            field: "fidelity_bins".into(),
+            message: "an FMU campaign's fidelity space comes from its file: set `[campaign] fidelity_bins` there".into(),
+        });
+    }
     let file = CampaignFile::load(path, &paper)?;
     let mut p = Protocol::paper(&file.label, file.train.clone(), file.test.clone());
     p.weights = file.weights.clone();
@@ -163,7 +175,8 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
         .collect::<Vec<_>>()
         .join(", ");
     let lookup = |k: &str| file.scenarios.contains_key(k).then(|| k.to_string());
-    let overrides = Overrides::from(&file.campaign).then(flags);
+    let overrides =
+        Overrides::from_section(&file.campaign, &file.path.display().to_string())?.then(flags);
     overrides.apply(&mut p, &lookup, &known)?;
     p.validate().map_err(|e| in_file(e, &file, flags))?;
     check_repeat(overrides.repeat).map_err(|e| in_file(e, &file, flags))?;
@@ -175,6 +188,7 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
     Ok(FmuCampaign {
         protocol: p,
         problem,
+        repeat: overrides.repeat,
         file,
     })
 }
@@ -184,29 +198,16 @@ fn in_file(e: CampaignError, file: &CampaignFile, flags: &Overrides) -> Campaign
     let CampaignError::Protocol { field, message } = e else {
         return e;
     };
-    let from_flags = Overrides::default().then(flags);
-    let given_as_flag = match field.as_str() {
-        "train_iterations" => from_flags.train_iterations.is_some(),
-        "eval_iterations" => from_flags.eval_iterations.is_some(),
-        "test_iterations" => from_flags.test_iterations.is_some(),
-        "baseline_train_iterations" => from_flags.baseline_train_iterations.is_some(),
-        "baseline_test_iterations" => from_flags.baseline_test_iterations.is_some(),
-        "budgets" => from_flags.budgets.is_some(),
-        "window" => from_flags.window.is_some(),
-        "seed" => from_flags.seed.is_some(),
-        "train_scenarios" => from_flags.train_scenarios.is_some(),
-        "test_scenarios" => from_flags.test_scenarios.is_some(),
-        "prior_strengths" => from_flags.prior_strengths.is_some(),
-        "prior_strength" => from_flags.prior_strength.is_some(),
-        "repeat" => from_flags.repeat.is_some(),
-        "screen_iterations" => from_flags.screen_iterations.is_some(),
-        "audit_fraction" => from_flags.audit_fraction.is_some(),
-        _ => false,
-    };
+    let given_as_flag = flags.is_given(&field);
     if given_as_flag {
         return CampaignError::Protocol { field, message };
     }
     let (key, line, message) = match field.as_str() {
+        given if file.campaign.lines.contains_key(given) => (
+            format!("campaign.{given}"),
+            file.campaign.lines.get(given).copied(),
+            message,
+        ),
         "train_scenarios" => missing_role(file, "train", message),
         "test_scenarios" => missing_role(file, "test", message),
         "weights" => bad_weight(file, message),
@@ -249,5 +250,72 @@ fn bad_weight(file: &CampaignFile, message: String) -> (String, Option<usize>, S
     match bad {
         Some(s) => (format!("scenario[{}].weight", s.index), s.weight, message),
         None => ("scenario.weight".into(), None, message),
+    }
+}
+
+impl FmuCampaign {
+    /// The settings of the file's `[estimate]` section (None: the file has none), checked
+    /// against the campaign before it runs; refused with `repeat` or a database store
+    /// (`with_store`: the estimate reads the campaign's own directory). Errors name the
+    /// file, line and key.
+    pub fn estimate_settings(&self, with_store: bool) -> Result<Option<EstimateSettings>, String> {
+        let Some(section) = &self.file.estimate else {
+            return Ok(None);
+        };
+        let settings =
+            EstimateSettings::from_section(section, &self.file.path).map_err(|e| e.to_string())?;
+        let file = self.file.path.display();
+        let at = |e: String| format!("{file}, line {}, [estimate]: {e}", section.line);
+        if self.repeat.is_some() || with_store {
+            return Err(at(
+                "an estimate runs on one campaign directory: not with `repeat` or --storage (run `savme estimate` on a seed's directory)".into(),
+            ));
+        }
+        settings
+            .check(&self.protocol, &self.problem)
+            .map_err(|e| match e {
+                // A budget the campaign will not train: at the key's line, before it runs.
+                EstimateError::UnknownBudget { .. } => format!(
+                    "{file}, line {}, key `estimate.budget`: {e}",
+                    section.line_of("budget")
+                ),
+                e => at(e.to_string()),
+            })?;
+        Ok(Some(settings))
+    }
+}
+
+/// The `[estimate]` stage of a campaign file: after the campaign, on its directory `out`
+/// (a resumed campaign resumes an estimate already started there). `savme run --config` and
+/// `savme.campaign.load(...).run()` both run it through here.
+pub fn estimate_stage<S>(
+    out: &Path,
+    problem: Problem,
+    settings: EstimateSettings,
+    jobs: usize,
+    progress: impl FnMut(&EstimateProgress<'_>) + 'static,
+    sim: &S,
+) -> Result<EstimateOutcome, EstimateError>
+where
+    S: Simulator + Clone + Send,
+{
+    let run = EstimateRun::new(out, problem, settings).progress(progress);
+    let resume = savme_campaign::load_protocol(out)
+        .map(|p| run.out_dir(&p).join("estimate.json").exists())
+        .unwrap_or(false);
+    run.resume(resume).jobs(jobs).run(sim)
+}
+
+/// Writes an estimate's progress line to standard error when it starts, then about every
+/// 10 s (nothing if `quiet`).
+pub fn estimate_progress_lines(quiet: bool) -> impl FnMut(&EstimateProgress<'_>) {
+    let mut last: Option<std::time::Instant> = None;
+    move |p: &EstimateProgress<'_>| {
+        if quiet || last.is_some_and(|t| t.elapsed() < std::time::Duration::from_secs(10)) {
+            return;
+        }
+        last = Some(std::time::Instant::now());
+        // Progress is best effort: a closed pipe must not stop the estimate.
+        let _ = writeln!(std::io::stderr(), "{}", p.line());
     }
 }

@@ -67,7 +67,6 @@ use crate::{
 use bindings::{Origins, Use};
 use raw::{Drives, ScaleSection, StepSection, VarSection};
 use savme_kernel::{Assignment, Scale, Space, SpaceError, Value, Variable};
-use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -103,56 +102,28 @@ pub struct ConfigError {
     pub message: String,
 }
 
-/// The cost measure `[campaign] cost` names.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Cost {
-    /// `"wall"`: measured wall-clock seconds.
-    #[default]
-    Wall,
-    /// `"work"`: work units (the output `[fmu] cost` names, or the step count).
-    Work,
-}
-
-/// The `[campaign]` section as written: the protocol's settings, every one optional (the caller
-/// supplies the defaults and validates the values).
+/// The `[campaign]` section as written: the protocol's values by key, each optional (the
+/// campaign layer reads them by name — `savme_campaign::values` declares every one — supplies
+/// the defaults and validates), and the output directory.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CampaignSection {
-    /// `seed`.
-    pub seed: Option<u64>,
-    /// `budgets`.
-    pub budgets: Option<Vec<f64>>,
-    /// `train_iterations`.
-    pub train_iterations: Option<u64>,
-    /// `eval_iterations`.
-    pub eval_iterations: Option<u64>,
-    /// `test_iterations`.
-    pub test_iterations: Option<u64>,
-    /// `baseline_train_iterations`.
-    pub baseline_train_iterations: Option<u64>,
-    /// `baseline_test_iterations`.
-    pub baseline_test_iterations: Option<u64>,
-    /// `fidelity_bins` (for `[fidelity] paper = true` the parser has used it, default 10).
-    pub fidelity_bins: Option<u32>,
-    /// `cost`.
-    pub cost: Option<Cost>,
-    /// `window`.
-    pub window: Option<usize>,
-    /// `prior_strength`.
-    pub prior_strength: Option<f64>,
-    /// `prior_strengths`: the meta-testing prior-strength ablation.
-    pub prior_strengths: Option<Vec<f64>>,
-    /// `repeat`: run the protocol with this many seeds.
-    pub repeat: Option<u32>,
-    /// `screen_iterations`: LF screening trials per budget.
-    pub screen_iterations: Option<u64>,
-    /// `audit_fraction`: the screening's audit fraction α.
-    pub audit_fraction: Option<f64>,
+    /// The protocol values given, by key (`out` not among them).
+    pub values: BTreeMap<String, toml::Value>,
     /// `out`, resolved relative to the campaign file.
     pub out: Option<PathBuf>,
     /// The 1-based line of each key given (`"budgets"` → 12), to name the line of an error
     /// found in a value later.
     pub lines: BTreeMap<String, usize>,
+}
+
+impl CampaignSection {
+    /// `fidelity_bins` as given, if it is a number of bins (the paper's fidelity space needs
+    /// it while the file is read; a value of another type is refused by the campaign layer).
+    pub fn fidelity_bins(&self) -> Option<i64> {
+        self.values
+            .get("fidelity_bins")
+            .and_then(toml::Value::as_integer)
+    }
 }
 
 /// A campaign file, read and checked against its FMUs.
@@ -245,20 +216,7 @@ impl CampaignFile {
         let src = Source { file, text: &text };
         let f = src.parse()?;
         let base = path.parent().unwrap_or(Path::new("."));
-        if let Some(out) = f
-            .campaign
-            .out
-            .as_ref()
-            .filter(|o| o.get_ref().trim().is_empty())
-        {
-            // "" would resolve to the file's own directory: the campaign beside its FMUs.
-            return Err(src.err(
-                Some(src.line(out.span())),
-                Some("campaign.out"),
-                "is empty: name the output directory, or leave the key out",
-            ));
-        }
-        let campaign = campaign_section(&src, f.campaign, base);
+        let campaign = campaign_section(&src, f.campaign, base)?;
         let estimate = f.estimate.map(|e| estimate::section(&src, e));
         let mut origins = Origins::default();
         let fidelity = fidelity(&src, &f.fidelity, &campaign, paper, &mut origins)?;
@@ -325,7 +283,6 @@ impl CampaignFile {
 /// (e.g. "untagged enum StepSection"). Values an error may be about later are spanned, to name
 /// their line.
 mod raw {
-    use super::Cost;
     use serde::Deserialize;
     use std::collections::BTreeMap;
     use toml::Spanned;
@@ -395,26 +352,8 @@ mod raw {
         pub below: Option<Spanned<f64>>,
     }
 
-    #[derive(Debug, Default, Deserialize)]
-    #[serde(deny_unknown_fields)]
-    pub struct CampaignSection {
-        pub seed: Option<Spanned<u64>>,
-        pub budgets: Option<Spanned<Vec<f64>>>,
-        pub train_iterations: Option<Spanned<u64>>,
-        pub eval_iterations: Option<Spanned<u64>>,
-        pub test_iterations: Option<Spanned<u64>>,
-        pub baseline_train_iterations: Option<Spanned<u64>>,
-        pub baseline_test_iterations: Option<Spanned<u64>>,
-        pub fidelity_bins: Option<Spanned<u32>>,
-        pub cost: Option<Spanned<Cost>>,
-        pub window: Option<Spanned<usize>>,
-        pub prior_strength: Option<Spanned<f64>>,
-        pub prior_strengths: Option<Spanned<Vec<f64>>>,
-        pub repeat: Option<Spanned<u32>>,
-        pub screen_iterations: Option<Spanned<u64>>,
-        pub audit_fraction: Option<Spanned<f64>>,
-        pub out: Option<Spanned<String>>,
-    }
+    /// `[campaign]`: every key with its span (the protocol values are read by name later).
+    pub type CampaignSection = BTreeMap<String, Spanned<toml::Value>>;
 
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
@@ -522,40 +461,44 @@ fn resolve(base: &Path, p: &str) -> PathBuf {
     }
 }
 
-/// The `[campaign]` section without its spans, `out` resolved.
-fn campaign_section(src: &Source, c: raw::CampaignSection, base: &Path) -> CampaignSection {
-    let mut lines = BTreeMap::new();
-    let mut take = |key: &str, span: Option<Range<usize>>| {
-        if let Some(span) = span {
-            lines.insert(key.to_string(), src.line(span));
+/// The `[campaign]` section without its spans, `out` checked and resolved.
+fn campaign_section(
+    src: &Source,
+    c: raw::CampaignSection,
+    base: &Path,
+) -> Result<CampaignSection, ConfigError> {
+    let mut section = CampaignSection::default();
+    for (key, value) in c {
+        let line = src.line(value.span());
+        if key == "out" {
+            let out = match value.get_ref() {
+                toml::Value::String(o) if !o.trim().is_empty() => o.clone(),
+                // "" would resolve to the file's own directory: the campaign beside its FMUs.
+                toml::Value::String(_) => {
+                    return Err(src.err(
+                        Some(line),
+                        Some("campaign.out"),
+                        "is empty: name the output directory, or leave the key out",
+                    ))
+                }
+                other => {
+                    return Err(src.err(
+                        Some(line),
+                        Some("campaign.out"),
+                        format!(
+                            "must be a directory name (a string), not {}",
+                            other.type_str()
+                        ),
+                    ))
+                }
+            };
+            section.out = Some(resolve(base, &out));
+        } else {
+            section.values.insert(key.clone(), value.into_inner());
         }
-    };
-    macro_rules! field {
-        ($name:ident) => {{
-            take(stringify!($name), c.$name.as_ref().map(Spanned::span));
-            c.$name.map(Spanned::into_inner)
-        }};
+        section.lines.insert(key, line);
     }
-    let out = field!(out);
-    CampaignSection {
-        seed: field!(seed),
-        budgets: field!(budgets),
-        train_iterations: field!(train_iterations),
-        eval_iterations: field!(eval_iterations),
-        test_iterations: field!(test_iterations),
-        baseline_train_iterations: field!(baseline_train_iterations),
-        baseline_test_iterations: field!(baseline_test_iterations),
-        fidelity_bins: field!(fidelity_bins),
-        cost: field!(cost),
-        window: field!(window),
-        prior_strength: field!(prior_strength),
-        prior_strengths: field!(prior_strengths),
-        repeat: field!(repeat),
-        screen_iterations: field!(screen_iterations),
-        audit_fraction: field!(audit_fraction),
-        out: out.map(|o| resolve(base, &o)),
-        lines,
-    }
+    Ok(section)
 }
 
 /// The fidelity space, θ_HF and the fidelity bindings.
@@ -599,9 +542,9 @@ fn fidelity(
             "give either `paper = true` or variables, not both",
         ));
     }
-    let bins = campaign.fidelity_bins.unwrap_or(10);
-    if bins == 0 || bins as usize > savme_kernel::MAX_ARMS {
-        let message = if bins == 0 {
+    let bins = campaign.fidelity_bins().unwrap_or(10);
+    if bins < 1 || bins > savme_kernel::MAX_ARMS as i64 {
+        let message = if bins < 1 {
             "must be at least 1".to_string()
         } else {
             format!(
@@ -615,7 +558,7 @@ fn fidelity(
             message,
         ));
     }
-    let (space, theta_hf) = paper(bins);
+    let (space, theta_hf) = paper(bins as u32);
     let mut bindings = Vec::new();
     for v in space.variables() {
         origins.set(src, &v.name, paper_line, "fidelity.paper", Use::Fidelity)?;
@@ -1873,15 +1816,15 @@ range = [0.0, 1.0]
             text: &text,
         };
         let f = src.parse().unwrap();
-        let c = campaign_section(&src, f.campaign, Path::new("/runs"));
-        assert_eq!(c.budgets, Some(vec![0.5]));
-        assert_eq!(c.seed, Some(7));
-        assert_eq!(c.cost, Some(Cost::Work));
-        assert_eq!(c.prior_strength, Some(0.5));
-        assert_eq!(c.repeat, Some(3));
-        assert_eq!(c.prior_strengths, Some(vec![0.0, 0.5]));
-        assert_eq!(c.train_iterations, None);
-        assert_eq!(c.fidelity_bins, None);
+        let c = campaign_section(&src, f.campaign, Path::new("/runs")).unwrap();
+        let value = |k: &str| c.values.get(k).cloned();
+        assert_eq!(value("budgets"), Some(toml::Value::Array(vec![0.5.into()])));
+        assert_eq!(value("seed"), Some(toml::Value::Integer(7)));
+        assert_eq!(value("cost"), Some(toml::Value::String("work".into())));
+        assert_eq!(value("prior_strength"), Some(toml::Value::Float(0.5)));
+        assert_eq!(value("repeat"), Some(toml::Value::Integer(3)));
+        assert_eq!(value("train_iterations"), None);
+        assert_eq!(c.fidelity_bins(), None);
         assert_eq!(c.out, Some(PathBuf::from("/runs/results")));
         let lines: Vec<(&str, usize)> = c.lines.iter().map(|(k, l)| (k.as_str(), *l)).collect();
         assert_eq!(
@@ -1902,18 +1845,14 @@ range = [0.0, 1.0]
             file: "campaign.toml".into(),
             text: &text,
         };
-        let c = campaign_section(&src, src.parse().unwrap().campaign, Path::new("."));
+        let c = campaign_section(&src, src.parse().unwrap().campaign, Path::new(".")).unwrap();
         assert_eq!(c, CampaignSection::default());
     }
 
     #[test]
-    fn a_wrong_cost_or_on_error_names_its_line() {
-        let e = error("cost", &[("budgets = [0.5]", "cost = \"cpu\"")]);
-        assert_eq!(at(&e), (Some(11), None));
-        assert_eq!(
-            e.message,
-            "unknown variant `cpu`, expected `wall` or `work`"
-        );
+    fn a_wrong_on_error_names_its_line() {
+        // (A wrong `[campaign] cost` is refused by the campaign layer, which reads the
+        // protocol's values: savme_campaign::config's tests.)
         let e = error(
             "on-error",
             &[("stop_time = 1.0", "stop_time = 1.0\non_error = \"ignore\"")],

@@ -330,10 +330,14 @@ _SimulatorFn = Callable[[str, Dict[str, _Value], Dict[str, _Value]], Union[bool,
 """A Python simulator: (scenario, phi, theta) -> failure, or (failure, work_units)."""
 
 @final
+PROTOCOL_VALUES: List[Dict[str, Any]]
+"""Every protocol value as declared once in savme: name (the keyword of Protocol, the
+`[campaign]` key of a campaign file), flag (`savme run`'s), help, the stages it changes."""
+
 class Protocol:
     """What a campaign runs: the paper's protocol (or the quick preset) for the given
-    meta-training and meta-testing scenarios, any field overridden; validated (ValueError
-    names the field)."""
+    meta-training and meta-testing scenarios, any protocol value overridden by its name (see
+    PROTOCOL_VALUES); validated (ValueError names the value)."""
 
     def __new__(
         cls,
@@ -353,6 +357,9 @@ class Protocol:
         fidelity_bins: Optional[int] = None,
         prior_strength: Optional[float] = None,
         window: Optional[int] = None,
+        prior_strengths: Optional[Sequence[float]] = None,
+        screen_iterations: Optional[int] = None,
+        audit_fraction: Optional[float] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:
@@ -409,6 +416,12 @@ class CampaignResult:
     @property
     def elapsed_seconds(self) -> float:
         """Wall-clock seconds this call took."""
+    @property
+    def runs(self) -> List[CampaignResult]:
+        """Each seed's result in seed order (with repeat; else this one)."""
+    @property
+    def estimate(self) -> Optional[Dict[str, Any]]:
+        """The [estimate] stage's summary (a campaign file with one), else None."""
 
 @final
 class Campaign:
@@ -428,8 +441,11 @@ class Campaign:
         progress: bool = False,
         storage: Optional[str] = None,
         campaign: Optional[str] = None,
+        repeat: Optional[int] = None,
     ) -> Campaign:
-        """out: the campaign directory (default "savme-results"); resume=True continues the campaign in `out` (protocol=None takes its
+        """repeat=N runs the protocol with seeds seed … seed+N−1, each in out/seed-<s>/, and
+        writes the results over the seeds into `out` (as `savme run --repeat`).
+        out: the campaign directory (default "savme-results"); resume=True continues the campaign in `out` (protocol=None takes its
         protocol.json); jobs: worker threads (default: one per core); progress: one line per
         finished stage on stderr; storage="postgresql://USER@HOST/DB" with campaign=NAME keeps
         the protocol and trials in that database instead (`savme run --storage`; the password
@@ -455,6 +471,9 @@ class Campaign:
     @property
     def out(self) -> PathLike[str]:
         """The output directory."""
+    @property
+    def repeat(self) -> Optional[int]:
+        """The number of seeds (None: one campaign)."""
 
 def load_campaign(
     path: Union[str, PathLike[str]],
@@ -467,7 +486,8 @@ def load_campaign(
     campaign: Optional[str] = None,
 ) -> Campaign:
     """A campaign file (TOML, as `savme run --config` reads) as a campaign with its FMUs
-    bound (`savme.campaign.load`); storage and campaign as for Campaign."""
+    bound (`savme.campaign.load`): its protocol, `repeat` and `[estimate]` stage are those
+    `savme run --config` runs; storage and campaign as for Campaign."""
 
 @final
 class Driving:

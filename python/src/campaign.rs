@@ -10,10 +10,12 @@ use crossbeam_channel::RecvTimeoutError;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
-use savme::campaign::config::Overrides;
+use savme::campaign::config::{check_repeat, Overrides};
+use savme::campaign::estimate::{EstimateOutcome, EstimateSettings};
 use savme::campaign::store::{StoreError, TrialStore};
 use savme::campaign::{
-    Campaign, CampaignOutcome, Cost, OnError, Problem, ProgressLines, Protocol, Stop,
+    Campaign, CampaignOutcome, OnError, Problem, ProgressLines, Protocol, Repeated,
+    RepeatedOutcome, Stop,
 };
 use savme::compose;
 use savme::postgres::{check_name, Database, PostgresStore};
@@ -36,14 +38,51 @@ pub struct PyProtocol {
     pub protocol: Protocol,
 }
 
-fn cost(name: &str) -> PyResult<Cost> {
-    match name {
-        "wall" => Ok(Cost::Wall),
-        "work" => Ok(Cost::Work),
-        other => Err(PyValueError::new_err(format!(
-            "cost must be \"wall\" or \"work\", got {other:?}"
-        ))),
+/// `savme.PROTOCOL_VALUES`: every protocol value as declared once (name — the keyword of
+/// `Protocol`, the `[campaign]` key —, the `savme` flag, help text, the stages it changes).
+pub fn protocol_values(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
+    let values: Vec<serde_json::Value> = savme::campaign::values::VALUES
+        .iter()
+        .map(|v| {
+            serde_json::json!({
+                "name": v.name,
+                "flag": format!("--{}", v.flag),
+                "help": v.help.trim(),
+                "stages": v.stages,
+                "in_protocol": v.in_protocol,
+            })
+        })
+        .collect();
+    convert::json_to_py(py, &values)
+}
+
+/// Protocol values given as keyword arguments, read by the names every front end shares
+/// ([`savme::campaign::values`]); `None` means "not given".
+pub fn overrides(values: Option<&Bound<'_, PyDict>>) -> PyResult<Overrides> {
+    let Some(values) = values else {
+        return Ok(Overrides::default());
+    };
+    let json = values.py().import("json")?;
+    let mut entries = Vec::new();
+    for (k, v) in values.iter() {
+        if v.is_none() {
+            continue;
+        }
+        let key: String = k.extract()?;
+        let text: String = json
+            .call_method1("dumps", (&v,))
+            .and_then(|t| t.extract())
+            .map_err(|e| PyTypeError::new_err(format!("{key}: {e}")))?;
+        let value: serde_json::Value = serde_json::from_str(&text).map_err(errors::value)?;
+        entries.push((key, value));
     }
+    Overrides::from_entries(entries).map_err(|e| {
+        if e.message.starts_with("not a protocol value") {
+            PyTypeError::new_err(format!("unexpected keyword argument {e}"))
+        } else {
+            PyValueError::new_err(e.to_string())
+        }
+    })
 }
 
 fn on_error(name: &str) -> PyResult<OnError> {
@@ -58,33 +97,21 @@ fn on_error(name: &str) -> PyResult<OnError> {
 
 #[pymethods]
 impl PyProtocol {
-    /// The paper's protocol (or the quick preset) for the given scenarios, with any field
-    /// overridden; validated (a ValueError names the field).
+    /// The paper's protocol (or the quick preset) for the given scenarios, with any protocol
+    /// value given by its name (`seed`, `budgets`, `train_iterations`, …: the names of
+    /// `savme.PROTOCOL_VALUES`, the same as `savme run`'s flags and a campaign file's
+    /// `[campaign]` keys); validated (a ValueError names the value).
     #[new]
     #[pyo3(signature = (train_scenarios, test_scenarios, *, preset = "paper", simulator = "python",
-        seed = None, budgets = None, train_iterations = None, eval_iterations = None,
-        test_iterations = None, baseline_train_iterations = None, baseline_test_iterations = None,
-        cost = None, fidelity_bins = None, prior_strength = None, window = None, weights = None,
-        on_error = None))]
-    #[allow(clippy::too_many_arguments)]
+        weights = None, on_error = None, **values))]
     fn new(
         train_scenarios: Vec<String>,
         test_scenarios: Vec<String>,
         preset: &str,
         simulator: &str,
-        seed: Option<u64>,
-        budgets: Option<Vec<f64>>,
-        train_iterations: Option<u64>,
-        eval_iterations: Option<u64>,
-        test_iterations: Option<u64>,
-        baseline_train_iterations: Option<u64>,
-        baseline_test_iterations: Option<u64>,
-        cost: Option<&str>,
-        fidelity_bins: Option<u32>,
-        prior_strength: Option<f64>,
-        window: Option<usize>,
         weights: Option<BTreeMap<String, f64>>,
         on_error: Option<&str>,
+        values: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
         let mut p = match preset {
             "paper" => Protocol::paper(simulator, train_scenarios, test_scenarios),
@@ -95,22 +122,12 @@ impl PyProtocol {
                 )))
             }
         };
-        let o = Overrides {
-            seed,
-            cost: cost.map(self::cost).transpose()?,
-            budgets,
-            train_iterations,
-            eval_iterations,
-            test_iterations,
-            baseline_train_iterations,
-            baseline_test_iterations,
-            fidelity_bins,
-            prior_strength,
-            window,
-            train_scenarios: None,
-            test_scenarios: None,
-            ..Overrides::default()
-        };
+        let o = overrides(values)?;
+        if o.repeat.is_some() {
+            return Err(PyValueError::new_err(
+                "repeat: not part of a protocol; give it to Campaign(..., repeat=N)",
+            ));
+        }
         let lookup = |k: &str| Some(k.to_string());
         o.apply(&mut p, &lookup, "").map_err(errors::value)?;
         if let Some(w) = weights {
@@ -346,13 +363,34 @@ pub struct PyCampaign {
     progress: bool,
     /// The PostgreSQL database and the campaign's name in it, instead of the directory's store.
     storage: Option<(Database, String)>,
+    /// Seeds to run the protocol with (None: one campaign).
+    repeat: Option<u32>,
+    /// A campaign file's `[estimate]` stage, run after the campaign.
+    estimate: Option<EstimateSettings>,
     bound: BoundSim,
+}
+
+/// What the campaign thread finished: one campaign, or one per seed.
+enum Finished {
+    One(CampaignOutcome),
+    Seeds(RepeatedOutcome),
 }
 
 /// What a finished campaign returns.
 #[pyclass(name = "CampaignResult", module = "savme", frozen)]
 pub struct PyCampaignResult {
-    outcome: CampaignOutcome,
+    finished: Finished,
+    estimate: Option<EstimateOutcome>,
+}
+
+impl PyCampaignResult {
+    /// Each seed's campaign (one without `repeat`).
+    fn outcomes(&self) -> Vec<&CampaignOutcome> {
+        match &self.finished {
+            Finished::One(o) => vec![o],
+            Finished::Seeds(r) => r.runs.iter().collect(),
+        }
+    }
 }
 
 #[pymethods]
@@ -360,31 +398,74 @@ impl PyCampaignResult {
     /// The campaign directory.
     #[getter]
     fn out(&self) -> PathBuf {
-        self.outcome
-            .outputs
-            .protocol
-            .parent()
-            .map(PathBuf::from)
-            .unwrap_or_default()
+        match &self.finished {
+            Finished::One(o) => o
+                .outputs
+                .protocol
+                .parent()
+                .map(PathBuf::from)
+                .unwrap_or_default(),
+            Finished::Seeds(r) => r.out.clone(),
+        }
     }
 
     /// The report as a dict (what `summary.json` holds under "report").
     #[getter]
     fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        convert::json_to_py(py, &self.outcome.report)
+        match &self.finished {
+            Finished::One(o) => convert::json_to_py(py, &o.report),
+            Finished::Seeds(r) => convert::json_to_py(py, &r.report),
+        }
     }
 
-    /// Table III as Markdown (`table.md`).
+    /// Table III as Markdown (`table.md`; over the seeds with `repeat`).
     #[getter]
     fn table_md(&self) -> String {
-        self.outcome.report.table_md()
+        match &self.finished {
+            Finished::One(o) => o.report.table_md(),
+            Finished::Seeds(r) => r.report.table_md(),
+        }
+    }
+
+    /// Each seed's result, in seed order (`repeat`; one result without it).
+    #[getter]
+    fn runs(&self) -> Vec<PyCampaignResult> {
+        self.outcomes()
+            .into_iter()
+            .map(|o| PyCampaignResult {
+                finished: Finished::One(o.clone()),
+                estimate: None,
+            })
+            .collect()
+    }
+
+    /// The `[estimate]` stage's result (a campaign file with one): its summary as a dict
+    /// (`summary.json`), None otherwise.
+    #[getter]
+    fn estimate<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.estimate
+            .as_ref()
+            .map(|e| convert::json_to_py(py, e))
+            .transpose()
     }
 
     /// The files written: protocol, trials, table, fidelity, summary, breakeven, meta_testing.
     #[getter]
     fn files<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let o = &self.outcome.outputs;
         let d = PyDict::new(py);
+        let Finished::One(one) = &self.finished else {
+            let out = self.out();
+            for (k, f) in [
+                ("table", "table.md"),
+                ("summary", "summary.json"),
+                ("breakeven", "breakeven.png"),
+                ("meta_testing", "meta_testing.png"),
+            ] {
+                d.set_item(k, out.join(f))?;
+            }
+            return Ok(d);
+        };
+        let o = &one.outputs;
         for (k, v) in [
             ("protocol", &o.protocol),
             ("trials", &o.trials),
@@ -402,28 +483,31 @@ impl PyCampaignResult {
     /// Trials replayed from `trials.jsonl` (a resumed campaign).
     #[getter]
     fn replayed(&self) -> u64 {
-        self.outcome.replayed
+        self.outcomes().iter().map(|o| o.replayed).sum()
     }
 
     /// Trials run by this call.
     #[getter]
     fn ran(&self) -> u64 {
-        self.outcome.ran
+        self.outcomes().iter().map(|o| o.ran).sum()
     }
 
     /// Wall-clock seconds this call took.
     #[getter]
     fn elapsed_seconds(&self) -> f64 {
-        self.outcome.elapsed_seconds
+        match &self.finished {
+            Finished::One(o) => o.elapsed_seconds,
+            Finished::Seeds(r) => r.elapsed_seconds,
+        }
     }
 
     fn __repr__(&self) -> String {
         format!(
             "CampaignResult(out={:?}, ran={}, replayed={}, elapsed_seconds={:.1})",
             self.out().display().to_string(),
-            self.outcome.ran,
-            self.outcome.replayed,
-            self.outcome.elapsed_seconds
+            self.ran(),
+            self.replayed(),
+            self.elapsed_seconds()
         )
     }
 }
@@ -439,36 +523,24 @@ impl PyCampaign {
         py: Python<'_>,
         sim: S,
     ) -> PyResult<PyCampaignResult> {
-        let (protocol, problem) = (self.protocol.clone(), self.problem.clone());
-        let (out, resume, jobs, progress) =
-            (self.out.clone(), self.resume, self.jobs, self.progress);
-        let storage = self.storage.clone();
+        let plan = Plan {
+            protocol: self.protocol.clone(),
+            problem: self.problem.clone(),
+            out: self.out.clone(),
+            resume: self.resume,
+            jobs: self.jobs,
+            progress: self.progress,
+            storage: self.storage.clone(),
+            repeat: self.repeat,
+            estimate: self.estimate.clone(),
+        };
         let stop = Stop::new();
         let stop_campaign = stop.clone();
         let (tx, rx) = crossbeam_channel::bounded(1);
         let campaign = std::thread::Builder::new()
             .name("savme-campaign".into())
             .spawn(move || {
-                let mut c = Campaign::new(protocol, problem)
-                    .out(out)
-                    .resume(resume)
-                    .stop_on(stop_campaign);
-                if let Some(j) = jobs {
-                    c = c.jobs(j);
-                }
-                if progress {
-                    c = c.observer(ProgressLines::new(std::io::stderr()));
-                }
-                if let Some((db, name)) = storage {
-                    match PostgresStore::open(&db, &name) {
-                        Ok(store) => c = c.store(Box::new(store)),
-                        Err(e) => {
-                            let _ = tx.send(Err(e.into()));
-                            return;
-                        }
-                    }
-                }
-                let _ = tx.send(c.run(&sim));
+                let _ = tx.send(plan.run(&sim, stop_campaign));
             })
             .map_err(|e| PyRuntimeError::new_err(format!("cannot start the campaign: {e}")))?;
         let outcome = loop {
@@ -487,9 +559,66 @@ impl PyCampaign {
             }
         };
         let _ = py.detach(|| campaign.join());
-        Ok(PyCampaignResult {
-            outcome: outcome.map_err(errors::campaign)?,
-        })
+        outcome
+    }
+}
+
+/// What a campaign runs, on the campaign thread: the campaign (or one per seed), then the
+/// `[estimate]` stage — the plan `savme run --config` runs (through the same parts).
+struct Plan {
+    protocol: Protocol,
+    problem: Problem,
+    out: PathBuf,
+    resume: bool,
+    jobs: Option<usize>,
+    progress: bool,
+    storage: Option<(Database, String)>,
+    repeat: Option<u32>,
+    estimate: Option<EstimateSettings>,
+}
+
+impl Plan {
+    fn run<S: Simulator + Clone + Send>(self, sim: &S, stop: Stop) -> PyResult<PyCampaignResult> {
+        let jobs = self
+            .jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+        let finished = match self.repeat {
+            Some(n) => Finished::Seeds(
+                Repeated::new(self.protocol, self.problem.clone(), n)
+                    .out(&self.out)
+                    .resume(self.resume)
+                    .jobs(jobs)
+                    .stop_on(stop)
+                    .run(sim)
+                    .map_err(errors::campaign)?,
+            ),
+            None => {
+                let mut c = Campaign::new(self.protocol, self.problem.clone())
+                    .out(&self.out)
+                    .resume(self.resume)
+                    .stop_on(stop)
+                    .jobs(jobs);
+                if self.progress {
+                    c = c.observer(ProgressLines::new(std::io::stderr()));
+                }
+                if let Some((db, name)) = &self.storage {
+                    let store = PostgresStore::open(db, name).map_err(errors::store)?;
+                    c = c.store(Box::new(store));
+                }
+                Finished::One(c.run(sim).map_err(errors::campaign)?)
+            }
+        };
+        let estimate = match self.estimate {
+            Some(settings) => {
+                let progress = compose::estimate_progress_lines(!self.progress);
+                Some(
+                    compose::estimate_stage(&self.out, self.problem, settings, jobs, progress, sim)
+                        .map_err(|e| errors::campaign_message(e.to_string()))?,
+                )
+            }
+            None => None,
+        };
+        Ok(PyCampaignResult { finished, estimate })
     }
 }
 
@@ -504,7 +633,7 @@ impl PyCampaign {
     /// tables and figures are still written into `out`.
     #[new]
     #[pyo3(signature = (protocol, problem, *, out = None, resume = false,
-        jobs = None, progress = false, storage = None, campaign = None))]
+        jobs = None, progress = false, storage = None, campaign = None, repeat = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         protocol: Option<PyRef<'_, PyProtocol>>,
@@ -515,9 +644,16 @@ impl PyCampaign {
         progress: bool,
         storage: Option<&str>,
         campaign: Option<String>,
+        repeat: Option<u32>,
     ) -> PyResult<Self> {
         let out = out.unwrap_or_else(|| PathBuf::from("savme-results"));
         let storage = storage_of(storage, campaign)?;
+        let repeat = check_repeat(repeat).map_err(errors::value)?;
+        if repeat.is_some() && storage.is_some() {
+            return Err(PyValueError::new_err(
+                "repeat runs each seed in its own directory with the default trial store: not with storage=",
+            ));
+        }
         let protocol = match (protocol, &storage) {
             (Some(p), _) => p.protocol.clone(),
             (None, Some((db, name))) if resume => stored_protocol(db, name)?,
@@ -538,6 +674,8 @@ impl PyCampaign {
             jobs,
             progress,
             storage,
+            repeat,
+            estimate: None,
             bound: BoundSim::None,
         })
     }
@@ -630,6 +768,12 @@ impl PyCampaign {
         self.out.clone()
     }
 
+    /// The number of seeds the protocol runs with (None: one campaign).
+    #[getter]
+    fn repeat(&self) -> Option<u32> {
+        self.repeat
+    }
+
     fn __repr__(&self) -> String {
         format!(
             "Campaign(simulator={:?}, out={:?}, resume={})",
@@ -662,6 +806,9 @@ pub fn load_campaign(
     let out = out
         .or(c.file.campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
+    let estimate = c
+        .estimate_settings(storage.is_some())
+        .map_err(errors::campaign_message)?;
     Ok(PyCampaign {
         protocol: c.protocol,
         problem: c.problem,
@@ -670,6 +817,8 @@ pub fn load_campaign(
         jobs,
         progress,
         storage,
+        repeat: c.repeat,
+        estimate,
         bound: BoundSim::Fmu(Box::new(c.file)),
     })
 }

@@ -38,6 +38,7 @@ fn _savme(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<estimation::PyEstimation>()?;
     m.add("CampaignError", py.get_type::<errors::CampaignError>())?;
     m.add_class::<campaign::PyProtocol>()?;
+    m.add("PROTOCOL_VALUES", campaign::protocol_values(py)?)?;
     m.add_class::<campaign::PyProblem>()?;
     m.add_class::<campaign::PyCampaign>()?;
     m.add_class::<campaign::PyCampaignResult>()?;

@@ -2,13 +2,10 @@
 //! from the campaign's trained posterior (see `savme::campaign::estimate`).
 
 use super::{usage, Failure};
-use savme::campaign::estimate::{
-    parse_nominal, EstimateError, EstimateProgress, EstimateRun, EstimateSettings,
-};
+use savme::campaign::estimate::{parse_nominal, EstimateError, EstimateRun, EstimateSettings};
 use savme::campaign::{load_protocol, Problem};
 use savme::compose;
 use savme_kernel::estimation::Tilt;
-use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -134,20 +131,6 @@ impl Args {
     }
 }
 
-/// Writes an estimate's progress line to standard error when it starts, then about every
-/// 10 s (nothing if `quiet`).
-pub fn progress_lines(quiet: bool) -> impl FnMut(&EstimateProgress<'_>) {
-    let mut last: Option<std::time::Instant> = None;
-    move |p: &EstimateProgress<'_>| {
-        if quiet || last.is_some_and(|t| t.elapsed() < std::time::Duration::from_secs(10)) {
-            return;
-        }
-        last = Some(std::time::Instant::now());
-        // Progress is best effort: a closed pipe must not stop the estimate.
-        let _ = writeln!(std::io::stderr(), "{}", p.line());
-    }
-}
-
 /// A usage error (exit 2) for what the flags said wrong, a runtime error otherwise.
 fn failure(e: EstimateError) -> Failure {
     match e {
@@ -180,7 +163,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
     let configured = |problem: Problem| {
         let run = EstimateRun::new(&a.campaign, problem, settings.clone())
-            .progress(progress_lines(a.quiet))
+            .progress(compose::estimate_progress_lines(a.quiet))
             .resume(a.resume)
             .jobs(
                 a.jobs

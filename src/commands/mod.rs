@@ -17,8 +17,8 @@ pub mod worker;
 use savme::campaign::config::Overrides;
 use savme::campaign::store::TrialStore;
 use savme::campaign::{
-    Campaign, CampaignOutcome, Cost, Observer, Problem, ProgressBars, ProgressLines, Protocol,
-    Repeated, RepeatedOutcome,
+    Campaign, CampaignOutcome, Observer, Problem, ProgressBars, ProgressLines, Protocol, Repeated,
+    RepeatedOutcome,
 };
 use savme::campaign::{CampaignError, Stop};
 use savme::kernel::Simulator;
@@ -127,93 +127,19 @@ fn campaign_failure(
     otherwise(e)
 }
 
-/// Protocol values on the command line (they override the preset or the campaign file).
+/// Protocol values on the command line (they override the preset or the campaign file): the
+/// flags are derived from the one declaration of every protocol value
+/// ([`savme::campaign::values`]).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct ProtocolArgs {
-    /// Master seed.
-    #[arg(long)]
-    seed: Option<u64>,
-    /// Cost of a run: measured wall-clock time, or deterministic work units (reproducible).
-    #[arg(long, value_enum)]
-    cost: Option<CostArg>,
-    /// Compute budgets C_budget, comma-separated, each in (0, 1].
-    #[arg(long, value_delimiter = ',')]
-    budgets: Option<Vec<f64>>,
-    /// Meta-training iterations per budget.
-    #[arg(long)]
-    iterations: Option<u64>,
-    /// Evaluation trials per budget.
-    #[arg(long)]
-    eval_iterations: Option<u64>,
-    /// Meta-testing iterations per budget and prior.
-    #[arg(long)]
-    test_iterations: Option<u64>,
-    /// Baseline trials on the meta-training scenarios.
-    #[arg(long)]
-    baseline_iterations: Option<u64>,
-    /// Baseline trials on the meta-testing scenarios.
-    #[arg(long)]
-    baseline_test_iterations: Option<u64>,
-    /// Meta-training scenarios (numbers or names, comma-separated).
-    #[arg(long, value_delimiter = ',')]
-    train_scenarios: Option<Vec<String>>,
-    /// Meta-testing scenarios.
-    #[arg(long, value_delimiter = ',')]
-    test_scenarios: Option<Vec<String>>,
-    /// Trials in flight at once (changes the results slightly; the number of jobs does not).
-    #[arg(long)]
-    window: Option<usize>,
-    /// Strength of the transferred fidelity prior in meta-testing (power prior; 1 = the
-    /// meta-training posterior as is).
-    #[arg(long)]
-    prior_strength: Option<f64>,
-    /// Meta-testing prior-strength ablation: strengths to compare, comma-separated (0 = the
-    /// uniform prior), e.g. 0,0.1,0.3,1.
-    #[arg(long, value_delimiter = ',')]
-    prior_strengths: Option<Vec<f64>>,
-    /// LF screening with HF confirmation: trials per budget after the evaluation (0: none).
-    #[arg(long, value_name = "N")]
-    screen_iterations: Option<u64>,
-    /// Fraction α of LF passes the screening re-runs on HF to estimate the miss rate.
-    #[arg(long, value_name = "ALPHA")]
-    audit_fraction: Option<f64>,
-    /// Run the protocol with N seeds (--seed, --seed + 1, …), in parallel, each in
-    /// OUT/seed-<s>/; OUT gets the results over the seeds with 95 % intervals.
-    #[arg(long, value_name = "N")]
-    repeat: Option<u32>,
-}
-
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum CostArg {
-    Wall,
-    Work,
+    #[command(flatten)]
+    values: Overrides,
 }
 
 impl ProtocolArgs {
     /// The values given, as protocol overrides.
     pub fn overrides(&self) -> Overrides {
-        Overrides {
-            seed: self.seed,
-            cost: self.cost.map(|c| match c {
-                CostArg::Wall => Cost::Wall,
-                CostArg::Work => Cost::Work,
-            }),
-            budgets: self.budgets.clone(),
-            train_iterations: self.iterations,
-            eval_iterations: self.eval_iterations,
-            test_iterations: self.test_iterations,
-            baseline_train_iterations: self.baseline_iterations,
-            baseline_test_iterations: self.baseline_test_iterations,
-            train_scenarios: self.train_scenarios.clone(),
-            test_scenarios: self.test_scenarios.clone(),
-            window: self.window,
-            prior_strength: self.prior_strength,
-            prior_strengths: self.prior_strengths.clone(),
-            repeat: self.repeat,
-            screen_iterations: self.screen_iterations,
-            audit_fraction: self.audit_fraction,
-            ..Overrides::default()
-        }
+        self.values.clone()
     }
 }
 

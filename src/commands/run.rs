@@ -4,7 +4,6 @@ use super::{
     config_failure, resume_dir, run_campaign, run_repeated, usage, CampaignStorageArgs, Failure,
     ProtocolArgs, RunnerArgs, Target,
 };
-use savme::campaign::estimate::{EstimateError, EstimateRun, EstimateSettings};
 use savme::campaign::store::TrialStore;
 use savme::compose;
 use savme::viewer::Frames;
@@ -64,8 +63,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
         remote,
     };
     let backend = fmu_backend(&c.file)?;
-    let repeat = overrides.repeat.or(c.file.campaign.repeat);
-    let estimate = estimate_stage(&c, &target, repeat)?;
+    let repeat = c.repeat;
+    let estimate = c
+        .estimate_settings(target.store.is_some())
+        .map_err(Failure::Runtime)?;
     if let Some(n) = repeat {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
@@ -89,16 +90,15 @@ pub fn run(a: Args) -> Result<(), Failure> {
         &backend,
     )?;
     if let Some(settings) = estimate {
-        // The `[estimate]` stage: after the campaign, on its directory (a resumed campaign
-        // resumes an estimate already started).
-        let run = EstimateRun::new(&out, c.problem, settings)
-            .progress(super::estimate::progress_lines(a.runner.quiet()));
-        let resume = run_dir_has_estimate(&run, &out);
-        let outcome = run
-            .resume(resume)
-            .jobs(a.runner.jobs())
-            .run(&backend)
-            .map_err(|e| Failure::Runtime(e.to_string()))?;
+        let outcome = compose::estimate_stage(
+            &out,
+            c.problem,
+            settings,
+            a.runner.jobs(),
+            compose::estimate_progress_lines(a.runner.quiet()),
+            &backend,
+        )
+        .map_err(|e| Failure::Runtime(e.to_string()))?;
         super::print(&format!(
             "{}\nestimate written to {}\n",
             outcome.table_md,
@@ -107,52 +107,6 @@ pub fn run(a: Args) -> Result<(), Failure> {
         .map_err(Failure::Runtime)?;
     }
     Ok(())
-}
-
-/// The settings of the file's `[estimate]` section, checked against the problem before the
-/// campaign runs; refused with `repeat` or a database store (the estimate reads the
-/// campaign's own directory).
-fn estimate_stage(
-    c: &compose::FmuCampaign,
-    target: &Target,
-    repeat: Option<u32>,
-) -> Result<Option<EstimateSettings>, Failure> {
-    let Some(section) = &c.file.estimate else {
-        return Ok(None);
-    };
-    let settings = EstimateSettings::from_section(section, &c.file.path)
-        .map_err(|e| Failure::Runtime(e.to_string()))?;
-    let at = |e: String| {
-        Failure::Runtime(format!(
-            "{}, line {}, [estimate]: {e}",
-            c.file.path.display(),
-            section.line
-        ))
-    };
-    if repeat.is_some() || target.store.is_some() {
-        return Err(at(
-            "an estimate runs on one campaign directory: not with `repeat` or --storage (run `savme estimate` on a seed's directory)".into(),
-        ));
-    }
-    settings
-        .check(&c.protocol, &c.problem)
-        .map_err(|e| match e {
-            // A budget the campaign will not train: at the key's line, before the campaign runs.
-            EstimateError::UnknownBudget { .. } => Failure::Runtime(format!(
-                "{}, line {}, key `estimate.budget`: {e}",
-                c.file.path.display(),
-                section.line_of("budget")
-            )),
-            e => at(e.to_string()),
-        })?;
-    Ok(Some(settings))
-}
-
-/// Whether the estimate's output directory already holds an estimate to resume.
-fn run_dir_has_estimate(run: &EstimateRun, campaign: &std::path::Path) -> bool {
-    savme::campaign::load_protocol(campaign)
-        .map(|p| run.out_dir(&p).join("estimate.json").exists())
-        .unwrap_or(false)
 }
 
 /// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the

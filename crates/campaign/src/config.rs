@@ -2,136 +2,9 @@
 //! command line's flags — in one place, for every command: a preset (or a file's `[campaign]`
 //! section) first, then the flags, then validation.
 
-use super::{CampaignError, Cost, Problem, Protocol};
-use savme_fmu::campaign_file::{self, CampaignSection};
-
-/// Protocol values given on the command line or in a campaign file (None: keep the value
-/// before). Scenarios are given as the user wrote them and resolved by [`Overrides::apply`].
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Overrides {
-    /// Master seed.
-    pub seed: Option<u64>,
-    /// Cost measure.
-    pub cost: Option<super::Cost>,
-    /// Compute budgets.
-    pub budgets: Option<Vec<f64>>,
-    /// Meta-training iterations per budget.
-    pub train_iterations: Option<u64>,
-    /// Evaluation trials per budget.
-    pub eval_iterations: Option<u64>,
-    /// Meta-testing iterations per budget and prior.
-    pub test_iterations: Option<u64>,
-    /// Baseline trials on the meta-training scenarios.
-    pub baseline_train_iterations: Option<u64>,
-    /// Baseline trials on the meta-testing scenarios.
-    pub baseline_test_iterations: Option<u64>,
-    /// Bins per continuous fidelity setting.
-    pub fidelity_bins: Option<u32>,
-    /// Power-prior strength of the meta-testing prior.
-    pub prior_strength: Option<f64>,
-    /// Trials in flight.
-    pub window: Option<usize>,
-    /// Meta-training scenarios (numbers or names, resolved by the caller's lookup).
-    pub train_scenarios: Option<Vec<String>>,
-    /// Meta-testing scenarios.
-    pub test_scenarios: Option<Vec<String>>,
-    /// The meta-testing prior-strength ablation.
-    pub prior_strengths: Option<Vec<f64>>,
-    /// LF screening trials per budget.
-    pub screen_iterations: Option<u64>,
-    /// Audit fraction of the screening.
-    pub audit_fraction: Option<f64>,
-    /// Seeds to run the protocol with ([`super::Repeated`]); not part of the protocol (each
-    /// seed's `protocol.json` differs only in its seed), read by the command.
-    pub repeat: Option<u32>,
-}
-
-impl Overrides {
-    /// True when any value was given.
-    pub fn any(&self) -> bool {
-        *self != Overrides::default()
-    }
-
-    /// `self`, with every value `later` gives replacing this one's (a file's values, then the
-    /// command line's).
-    pub fn then(self, later: &Overrides) -> Overrides {
-        let l = later.clone();
-        Overrides {
-            seed: l.seed.or(self.seed),
-            cost: l.cost.or(self.cost),
-            budgets: l.budgets.or(self.budgets),
-            train_iterations: l.train_iterations.or(self.train_iterations),
-            eval_iterations: l.eval_iterations.or(self.eval_iterations),
-            test_iterations: l.test_iterations.or(self.test_iterations),
-            baseline_train_iterations: l
-                .baseline_train_iterations
-                .or(self.baseline_train_iterations),
-            baseline_test_iterations: l.baseline_test_iterations.or(self.baseline_test_iterations),
-            fidelity_bins: l.fidelity_bins.or(self.fidelity_bins),
-            prior_strength: l.prior_strength.or(self.prior_strength),
-            window: l.window.or(self.window),
-            train_scenarios: l.train_scenarios.or(self.train_scenarios),
-            test_scenarios: l.test_scenarios.or(self.test_scenarios),
-            prior_strengths: l.prior_strengths.or(self.prior_strengths),
-            repeat: l.repeat.or(self.repeat),
-            screen_iterations: l.screen_iterations.or(self.screen_iterations),
-            audit_fraction: l.audit_fraction.or(self.audit_fraction),
-        }
-    }
-
-    /// Applies the values to `p`; `scenario` turns a scenario as given into its name (None:
-    /// unknown, an error listing `known`). Does not validate.
-    pub fn apply(
-        &self,
-        p: &mut Protocol,
-        scenario: &dyn Fn(&str) -> Option<String>,
-        known: &str,
-    ) -> Result<(), CampaignError> {
-        fn set<T: Clone>(slot: &mut T, v: &Option<T>) {
-            if let Some(v) = v {
-                *slot = v.clone();
-            }
-        }
-        set(&mut p.seed, &self.seed);
-        set(&mut p.cost, &self.cost);
-        set(&mut p.budgets, &self.budgets);
-        set(&mut p.train_iterations, &self.train_iterations);
-        set(&mut p.eval_iterations, &self.eval_iterations);
-        set(&mut p.test_iterations, &self.test_iterations);
-        set(
-            &mut p.baseline_train_iterations,
-            &self.baseline_train_iterations,
-        );
-        set(
-            &mut p.baseline_test_iterations,
-            &self.baseline_test_iterations,
-        );
-        set(&mut p.fidelity_bins, &self.fidelity_bins);
-        set(&mut p.prior_strength, &self.prior_strength);
-        set(&mut p.window, &self.window);
-        set(&mut p.prior_strengths, &self.prior_strengths);
-        set(&mut p.screen_iterations, &self.screen_iterations);
-        set(&mut p.audit_fraction, &self.audit_fraction);
-        let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
-            given
-                .iter()
-                .map(|k| {
-                    scenario(k.trim()).ok_or_else(|| CampaignError::UnknownScenario {
-                        name: k.trim().into(),
-                        known: known.into(),
-                    })
-                })
-                .collect()
-        };
-        if let Some(v) = &self.train_scenarios {
-            p.train_scenarios = names(v)?;
-        }
-        if let Some(v) = &self.test_scenarios {
-            p.test_scenarios = names(v)?;
-        }
-        Ok(())
-    }
-}
+pub use super::values::Overrides;
+use super::{CampaignError, Problem, Protocol};
+use savme_fmu::campaign_file::{CampaignSection, ConfigError};
 
 /// The number of seeds `repeat` asks for (None: one campaign, not a repeated one), checked
 /// against [`super::MAX_REPEAT`].
@@ -193,30 +66,71 @@ pub fn toy(label: &str, o: &Overrides) -> Result<(Protocol, Problem), CampaignEr
     ))
 }
 
-impl From<&CampaignSection> for Overrides {
-    /// A campaign file's `[campaign]` section as overrides of the paper's protocol.
-    fn from(c: &CampaignSection) -> Self {
-        Overrides {
-            seed: c.seed,
-            cost: c.cost.map(|c| match c {
-                campaign_file::Cost::Wall => Cost::Wall,
-                campaign_file::Cost::Work => Cost::Work,
-            }),
-            budgets: c.budgets.clone(),
-            train_iterations: c.train_iterations,
-            eval_iterations: c.eval_iterations,
-            test_iterations: c.test_iterations,
-            baseline_train_iterations: c.baseline_train_iterations,
-            baseline_test_iterations: c.baseline_test_iterations,
-            fidelity_bins: c.fidelity_bins,
-            prior_strength: c.prior_strength,
-            window: c.window,
-            train_scenarios: None,
-            test_scenarios: None,
-            prior_strengths: c.prior_strengths.clone(),
-            repeat: c.repeat,
-            screen_iterations: c.screen_iterations,
-            audit_fraction: c.audit_fraction,
+impl Overrides {
+    /// A campaign file's `[campaign]` section as overrides of the paper's protocol; a key that
+    /// is no protocol value, or a value of the wrong type, is an error naming the file, line
+    /// and key.
+    pub fn from_section(c: &CampaignSection, file: &str) -> Result<Overrides, ConfigError> {
+        Overrides::from_entries(c.values.iter().map(|(k, v)| (k, v.clone()))).map_err(|e| {
+            ConfigError {
+                file: file.into(),
+                line: c.lines.get(&e.key).copied(),
+                key: Some(format!("campaign.{}", e.key)),
+                message: e.message,
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn section(entries: &[(&str, toml::Value, usize)]) -> CampaignSection {
+        CampaignSection {
+            values: entries
+                .iter()
+                .map(|(k, v, _)| (k.to_string(), v.clone()))
+                .collect(),
+            out: None,
+            lines: entries
+                .iter()
+                .map(|(k, _, l)| (k.to_string(), *l))
+                .collect(),
         }
+    }
+
+    #[test]
+    fn a_campaign_section_is_read_by_the_declared_names() {
+        let c = section(&[
+            ("cost", "work".into(), 11),
+            ("screen_iterations", 5.into(), 12),
+            ("repeat", 2.into(), 13),
+        ]);
+        let o = Overrides::from_section(&c, "campaign.toml").unwrap();
+        assert_eq!(o.cost, Some(crate::Cost::Work));
+        assert_eq!((o.screen_iterations, o.repeat), (Some(5), Some(2)));
+    }
+
+    #[test]
+    fn a_wrong_key_or_value_names_file_line_and_key() {
+        let c = section(&[("cost", "cpu".into(), 11)]);
+        let e = Overrides::from_section(&c, "campaign.toml").unwrap_err();
+        assert_eq!(e.line, Some(11));
+        assert_eq!(e.key.as_deref(), Some("campaign.cost"));
+        assert!(e.message.contains("`wall`"), "{e}");
+        let c = section(&[("iterations", 5.into(), 14)]);
+        let e = Overrides::from_section(&c, "campaign.toml").unwrap_err();
+        assert_eq!(
+            (e.line, e.key.as_deref()),
+            (Some(14), Some("campaign.iterations"))
+        );
+        assert!(e.message.contains("train_iterations"), "{e}");
+        let c = section(&[("seed", (-1).into(), 3)]);
+        let e = Overrides::from_section(&c, "campaign.toml").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!("campaign.toml, line 3, key `campaign.seed`: {}", e.message)
+        );
     }
 }

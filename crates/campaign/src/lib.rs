@@ -41,6 +41,7 @@ mod repeat;
 pub mod report;
 mod stop;
 pub mod toy;
+pub mod values;
 
 /// Where trial lines live: the [`store::TrialStore`] seam and the locked JSON-lines default
 /// (crate `savme-store`).

@@ -5,7 +5,7 @@ use super::CampaignError;
 use serde::{Deserialize, Serialize};
 
 /// How a run's cost is measured (serialisable twin of [`savme_kernel::CostMeasure`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Cost {
     /// Measured wall-clock seconds (the paper's runtime).

@@ -1,0 +1,368 @@
+//! Every protocol value, declared once.
+//!
+//! One declaration per value (its name, type, flag, help text and the stages it changes) in
+//! [`protocol_values!`] below. From it come:
+//! - [`Overrides`], the values given by a front end (None: keep the preset's), with
+//!   [`Overrides::then`] (a file's values, then the command line's) and [`Overrides::apply`];
+//! - the command-line flags: [`Overrides`] is a `clap::Args` (`--train-iterations`, …; each
+//!   help text is the declaration's doc comment);
+//! - the campaign file's `[campaign]` keys and the Python keyword arguments:
+//!   [`Overrides::from_entries`] reads them by name, refusing an unknown name and naming the key
+//!   of a value of the wrong type;
+//! - [`VALUES`], the list a test walks to prove that every value is reachable from the command
+//!   line, a campaign file and Python under the same name, and that the docs can list.
+//!
+//! Adding a protocol value is one edit: a field of [`Protocol`] and a line here.
+//!
+//! ```
+//! use savme_campaign::values::{Overrides, VALUES};
+//! use savme_campaign::Protocol;
+//! let o = Overrides::from_entries([("budgets", serde_json::json!([0.3]))])?;
+//! let mut p = Protocol::paper("sim", vec!["a".into()], vec!["b".into()]);
+//! o.apply(&mut p, &|s: &str| Some(s.to_string()), "")?;
+//! assert_eq!(p.budgets, [0.3]);
+//! assert!(VALUES.iter().any(|v| v.name == "screen_iterations" && v.flag == "screen-iterations"));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+use super::{CampaignError, Cost, Protocol};
+use serde::Deserialize;
+
+/// One protocol value as declared.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ValueDef {
+    /// Its name: the field of `protocol.json`, the `[campaign]` key and the Python keyword.
+    pub name: &'static str,
+    /// The command-line flag (without `--`).
+    pub flag: &'static str,
+    /// Older spellings of the flag, still accepted.
+    pub aliases: &'static [&'static str],
+    /// What it is (the flag's help text).
+    pub help: &'static str,
+    /// The stages whose trials it changes.
+    pub stages: &'static str,
+    /// Whether it is a field of [`Protocol`] (else the command reads it: `repeat`).
+    pub in_protocol: bool,
+}
+
+/// A value given under a name no protocol value has, or of the wrong type.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("`{key}`: {message}")]
+pub struct ValueError {
+    /// The name as given.
+    pub key: String,
+    /// What is wrong (for an unknown name: the known names).
+    pub message: String,
+}
+
+macro_rules! apply_value {
+    (protocol, $p:ident, $o:ident, $name:ident) => {
+        if let Some(v) = &$o.$name {
+            $p.$name = v.clone();
+        }
+    };
+    (scenarios, $p:ident, $o:ident, $name:ident) => {};
+    (command, $p:ident, $o:ident, $name:ident) => {};
+}
+
+macro_rules! in_protocol {
+    (protocol) => {
+        true
+    };
+    (scenarios) => {
+        true
+    };
+    (command) => {
+        false
+    };
+}
+
+/// Declares every protocol value once; see the module docs for what is derived.
+macro_rules! protocol_values {
+    ($(
+        $(#[doc = $doc:literal])+
+        $name:ident: $ty:ty, flag = $flag:literal, aliases = [$($alias:literal),*],
+        stages = $stages:literal, to = $to:ident $(, cli($($cli:tt)*))?;
+    )+) => {
+        /// Protocol values given by a front end (None: keep the value before): command-line
+        /// flags, a campaign file's `[campaign]` section, Python keyword arguments. Scenarios
+        /// are given as the user wrote them and resolved by [`Overrides::apply`].
+        #[derive(Debug, Clone, Default, PartialEq, clap::Args, serde::Serialize)]
+        pub struct Overrides {
+            $(
+                $(#[doc = $doc])+
+                #[arg(long = $flag, $(visible_alias = $alias,)* $($($cli)*)?)]
+                pub $name: Option<$ty>,
+            )+
+        }
+
+        /// Every protocol value, in declaration order.
+        pub const VALUES: &[ValueDef] = &[$(
+            ValueDef {
+                name: stringify!($name),
+                flag: $flag,
+                aliases: &[$($alias),*],
+                help: concat!($($doc, "\n"),+),
+                stages: $stages,
+                in_protocol: in_protocol!($to),
+            },
+        )+];
+
+        impl Overrides {
+            /// `self`, with every value `later` gives replacing this one's (a file's values,
+            /// then the command line's).
+            pub fn then(self, later: &Overrides) -> Overrides {
+                Overrides {
+                    $($name: later.$name.clone().or(self.$name),)+
+                }
+            }
+
+            /// Whether the value named `name` is given.
+            pub fn is_given(&self, name: &str) -> bool {
+                match name {
+                    $(stringify!($name) => self.$name.is_some(),)+
+                    _ => false,
+                }
+            }
+
+            /// Reads values by name (a `[campaign]` section, Python keyword arguments): an
+            /// unknown name, or a value of the wrong type, is an error naming it.
+            pub fn from_entries<'de, K, D>(
+                entries: impl IntoIterator<Item = (K, D)>,
+            ) -> Result<Overrides, ValueError>
+            where
+                K: AsRef<str>,
+                D: serde::Deserializer<'de>,
+                D::Error: std::fmt::Display,
+            {
+                let mut o = Overrides::default();
+                for (key, value) in entries {
+                    let key = key.as_ref();
+                    let bad = |e: D::Error| ValueError {
+                        key: key.to_string(),
+                        message: e.to_string(),
+                    };
+                    match key {
+                        $(stringify!($name) => {
+                            o.$name = Some(<$ty>::deserialize(value).map_err(bad)?)
+                        })+
+                        _ => return Err(ValueError {
+                            key: key.to_string(),
+                            message: format!(
+                                "not a protocol value (known: {})",
+                                VALUES.iter().map(|v| v.name).collect::<Vec<_>>().join(", ")
+                            ),
+                        }),
+                    }
+                }
+                Ok(o)
+            }
+
+            /// Sets the protocol's fields that are given (not the scenarios; not `repeat`).
+            fn apply_fields(&self, p: &mut Protocol) {
+                $(apply_value!($to, p, self, $name);)+
+            }
+        }
+    };
+}
+
+protocol_values! {
+    /// Master seed; every kernel's seed is derived from it and the stage's name.
+    seed: u64, flag = "seed", aliases = [], stages = "all", to = protocol;
+    /// Cost of a run: measured wall-clock time, or deterministic work units (the same seed
+    /// gives the same campaign).
+    cost: Cost, flag = "cost", aliases = [], stages = "all", to = protocol, cli(value_enum);
+    /// Compute budgets C_budget, comma-separated, each in (0, 1].
+    budgets: Vec<f64>, flag = "budgets", aliases = [],
+        stages = "train, evaluate, screen, test-*", to = protocol, cli(value_delimiter = ',');
+    /// Meta-training iterations per budget.
+    train_iterations: u64, flag = "train-iterations", aliases = ["iterations"],
+        stages = "train", to = protocol;
+    /// Evaluation trials per budget (θ_LF = MAP, φ ~ p_ψ).
+    eval_iterations: u64, flag = "eval-iterations", aliases = [], stages = "evaluate",
+        to = protocol;
+    /// Meta-testing iterations per budget and prior.
+    test_iterations: u64, flag = "test-iterations", aliases = [], stages = "test-*",
+        to = protocol;
+    /// Baseline trials (uniform φ, HF only) on the meta-training scenarios.
+    baseline_train_iterations: u64, flag = "baseline-train-iterations",
+        aliases = ["baseline-iterations"], stages = "baseline-train", to = protocol;
+    /// Baseline trials on the meta-testing scenarios.
+    baseline_test_iterations: u64, flag = "baseline-test-iterations", aliases = [],
+        stages = "baseline-test", to = protocol;
+    /// Meta-training scenarios (numbers or names, comma-separated).
+    train_scenarios: Vec<String>, flag = "train-scenarios", aliases = [],
+        stages = "baseline-train, train, evaluate, screen", to = scenarios,
+        cli(value_delimiter = ',');
+    /// Meta-testing scenarios (numbers or names, comma-separated).
+    test_scenarios: Vec<String>, flag = "test-scenarios", aliases = [],
+        stages = "baseline-test, test-*", to = scenarios, cli(value_delimiter = ',');
+    /// Bins per continuous fidelity setting.
+    fidelity_bins: u32, flag = "fidelity-bins", aliases = [], stages = "all but the baselines",
+        to = protocol;
+    /// Strength of the transferred fidelity prior in meta-testing (power prior; 1 = the
+    /// meta-training posterior as is).
+    prior_strength: f64, flag = "prior-strength", aliases = [], stages = "test-learned",
+        to = protocol;
+    /// Trials in flight at once (changes the results slightly; the number of jobs does not).
+    window: usize, flag = "window", aliases = [], stages = "all", to = protocol;
+    /// Meta-testing prior-strength ablation: strengths to compare, comma-separated (0 = the
+    /// uniform prior), e.g. 0,0.1,0.3,1.
+    prior_strengths: Vec<f64>, flag = "prior-strengths", aliases = [], stages = "test-learned-s*",
+        to = protocol, cli(value_delimiter = ',');
+    /// LF screening with HF confirmation: trials per budget after the evaluation (0: none).
+    screen_iterations: u64, flag = "screen-iterations", aliases = [], stages = "screen",
+        to = protocol, cli(value_name = "N");
+    /// Fraction α of LF passes the screening re-runs on HF to estimate the miss rate.
+    audit_fraction: f64, flag = "audit-fraction", aliases = [], stages = "screen",
+        to = protocol, cli(value_name = "ALPHA");
+    /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
+    /// OUT/seed-<s>/; OUT gets the results over the seeds with 95 % intervals.
+    repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
+        to = command, cli(value_name = "N");
+}
+
+impl Overrides {
+    /// True when any value was given.
+    pub fn any(&self) -> bool {
+        *self != Overrides::default()
+    }
+
+    /// Applies the values to `p`; `scenario` turns a scenario as given into its name (None:
+    /// unknown, an error listing `known`). Does not validate.
+    pub fn apply(
+        &self,
+        p: &mut Protocol,
+        scenario: &dyn Fn(&str) -> Option<String>,
+        known: &str,
+    ) -> Result<(), CampaignError> {
+        self.apply_fields(p);
+        let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
+            given
+                .iter()
+                .map(|k| {
+                    scenario(k.trim()).ok_or_else(|| CampaignError::UnknownScenario {
+                        name: k.trim().into(),
+                        known: known.into(),
+                    })
+                })
+                .collect()
+        };
+        if let Some(v) = &self.train_scenarios {
+            p.train_scenarios = names(v)?;
+        }
+        if let Some(v) = &self.test_scenarios {
+            p.test_scenarios = names(v)?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        values: Overrides,
+    }
+
+    /// Every value in the protocol.json of a protocol is declared, and every declared value
+    /// of the protocol is in protocol.json under the same name.
+    #[test]
+    fn every_protocol_field_is_declared_once() {
+        let p = Protocol::paper("s", vec!["a".into()], vec!["b".into()]);
+        let json = serde_json::to_value(&p).unwrap();
+        let fields: Vec<&str> = json
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
+        for v in VALUES.iter().filter(|v| v.in_protocol) {
+            assert!(
+                fields.contains(&v.name),
+                "{} is not a protocol field",
+                v.name
+            );
+        }
+        // What a front end cannot set: the layout version, the simulator's label, and what
+        // the campaign file gives per scenario or per FMU (weights, on_error).
+        let not_values = ["format_version", "simulator", "weights", "on_error"];
+        for f in fields {
+            assert!(
+                not_values.contains(&f) || VALUES.iter().any(|v| v.name == f),
+                "protocol field {f} has no declaration"
+            );
+        }
+    }
+
+    #[test]
+    fn each_value_is_a_flag_with_its_name_and_help() {
+        let cmd = Cli::command();
+        for v in VALUES {
+            let arg = cmd
+                .get_arguments()
+                .find(|a| a.get_id() == v.name)
+                .unwrap_or_else(|| panic!("no flag for {}", v.name));
+            assert_eq!(arg.get_long(), Some(v.flag));
+            assert_eq!(v.flag, v.name.replace('_', "-"), "flag and name differ");
+            let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
+            assert!(!help.is_empty() && v.help.starts_with(&help[..help.len().min(20)]));
+        }
+    }
+
+    #[test]
+    fn old_flag_spellings_still_parse() {
+        use clap::Parser;
+        let cli =
+            Cli::try_parse_from(["x", "--iterations", "7", "--baseline-iterations", "9"]).unwrap();
+        assert_eq!(cli.values.train_iterations, Some(7));
+        assert_eq!(cli.values.baseline_train_iterations, Some(9));
+    }
+
+    #[test]
+    fn entries_refuse_unknown_names_and_wrong_types_naming_the_key() {
+        let e = Overrides::from_entries([("budget", serde_json::json!(0.3))]).unwrap_err();
+        assert_eq!(e.key, "budget");
+        assert!(e.message.contains("budgets"), "{e}");
+        let e = Overrides::from_entries([("seed", serde_json::json!("x"))]).unwrap_err();
+        assert_eq!(e.key, "seed");
+        let e = Overrides::from_entries([("cost", serde_json::json!("fast"))]).unwrap_err();
+        assert!(e.message.contains("wall"), "{e}");
+    }
+
+    #[test]
+    fn every_value_round_trips_through_entries() {
+        // A value for each declared name, read back by name: nothing is dropped on the way.
+        let given = Overrides {
+            seed: Some(5),
+            cost: Some(Cost::Work),
+            budgets: Some(vec![0.25]),
+            train_iterations: Some(3),
+            eval_iterations: Some(4),
+            test_iterations: Some(5),
+            baseline_train_iterations: Some(6),
+            baseline_test_iterations: Some(7),
+            train_scenarios: Some(vec!["a".into()]),
+            test_scenarios: Some(vec!["b".into()]),
+            fidelity_bins: Some(3),
+            prior_strength: Some(0.5),
+            window: Some(2),
+            prior_strengths: Some(vec![0.0, 0.5]),
+            screen_iterations: Some(8),
+            audit_fraction: Some(0.2),
+            repeat: Some(2),
+        };
+        let json = serde_json::to_value(&given).unwrap();
+        let entries = json.as_object().unwrap().clone();
+        assert_eq!(entries.len(), VALUES.len());
+        let back = Overrides::from_entries(entries).unwrap();
+        assert_eq!(back, given);
+        for v in VALUES {
+            assert!(back.is_given(v.name), "{}", v.name);
+        }
+    }
+}

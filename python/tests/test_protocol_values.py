@@ -1,0 +1,140 @@
+"""Every protocol value is declared once in savme (savme.PROTOCOL_VALUES) and reachable under
+the same name from the command line (`savme run`/`savme reproduce` flags), a campaign file's
+`[campaign]` section (savme.campaign.load) and Python (savme.Protocol keywords), with the same
+default (the paper's protocol when the value is not given)."""
+
+import json
+import os
+import shutil
+import subprocess
+
+import pytest
+
+import savme
+from conftest import REPO
+
+# A value for each declared name, different from the paper's default (and valid together).
+SAMPLES = {
+    "seed": 11,
+    "cost": "work",
+    "budgets": [0.25, 0.5],
+    "train_iterations": 9,
+    "eval_iterations": 3,
+    "test_iterations": 4,
+    "baseline_train_iterations": 5,
+    "baseline_test_iterations": 6,
+    "train_scenarios": ["lead_vehicle_brakes"],
+    "test_scenarios": ["on_ramp_merge"],
+    "fidelity_bins": 4,
+    "prior_strength": 0.5,
+    "window": 2,
+    "prior_strengths": [0.0, 0.3],
+    "screen_iterations": 7,
+    "audit_fraction": 0.2,
+    "repeat": 2,
+}
+
+
+def toml_value(v):
+    return json.dumps(v)  # numbers, strings and lists of them are the same in TOML
+
+
+def test_the_declared_values_are_the_samples_here():
+    names = [v["name"] for v in savme.PROTOCOL_VALUES]
+    assert sorted(names) == sorted(SAMPLES), "a protocol value was added: give it a sample here"
+    for v in savme.PROTOCOL_VALUES:
+        assert v["flag"] == "--" + v["name"].replace("_", "-")
+        assert v["help"] and v["stages"]
+
+
+def test_each_value_is_a_flag_of_run_and_reproduce(savme_bin):
+    for command in ("run", "reproduce", "toy"):
+        help_text = subprocess.run([savme_bin, command, "--help"], check=True, capture_output=True,
+                                   text=True).stdout
+        for v in savme.PROTOCOL_VALUES:
+            assert v["flag"] in help_text, f"savme {command} has no {v['flag']}"
+
+
+def test_each_value_is_a_protocol_keyword_with_the_papers_default():
+    paper = savme.Protocol(["a"], ["b"]).to_dict()
+    for v in savme.PROTOCOL_VALUES:
+        name = v["name"]
+        if name in ("train_scenarios", "test_scenarios", "repeat"):
+            continue  # positional arguments of Protocol; repeat belongs to the campaign
+        given = savme.Protocol(["a"], ["b"], **{name: SAMPLES[name]}).to_dict()
+        assert given[name] == SAMPLES[name], name
+        assert {k: x for k, x in given.items() if k != name} == {k: x for k, x in paper.items() if k != name}
+        # None is "not given": the paper's default.
+        assert savme.Protocol(["a"], ["b"], **{name: None}).to_dict() == paper
+    with pytest.raises(TypeError, match="`train_iteration`: not a protocol value .*train_iterations"):
+        savme.Protocol(["a"], ["b"], train_iteration=5)
+    with pytest.raises(ValueError, match="`seed`"):
+        savme.Protocol(["a"], ["b"], seed="one")
+
+
+@pytest.fixture
+def fmu_campaign(savme_bin, tmp_path):
+    fmu = tmp_path / "savme-sim.fmu"
+    packed = os.environ.get("SAVME_SIM_FMU")
+    if packed:
+        shutil.copy(packed, fmu)
+    else:
+        subprocess.run([savme_bin, "fmu", "pack", "--out", str(fmu)], check=True, capture_output=True)
+    text = (REPO / "tests" / "fixtures" / "fmu-tiny-campaign.toml").read_text()
+    return text.replace('hf = "FMU"', f'hf = "{fmu}"')
+
+
+def test_each_value_is_a_campaign_file_key_with_the_same_meaning(fmu_campaign, tmp_path):
+    base = fmu_campaign.split("[campaign]")[0] + "[campaign]\n"
+    rest = "[fidelity]" + fmu_campaign.split("[fidelity]")[1]
+    plain = tmp_path / "plain.toml"
+    plain.write_text(base + rest)
+    default = savme.campaign.load(plain).protocol.to_dict()
+    assert default["seed"] == savme.Protocol(["a"], ["b"]).to_dict()["seed"]
+    for v in savme.PROTOCOL_VALUES:
+        name = v["name"]
+        cfg = tmp_path / f"{name}.toml"
+        cfg.write_text(base + f"{name} = {toml_value(SAMPLES[name])}\n\n" + rest)
+        c = savme.campaign.load(cfg)
+        got = c.protocol.to_dict()
+        if name == "repeat":
+            assert c.repeat == SAMPLES[name]
+            assert got == default
+            continue
+        assert got[name] == SAMPLES[name], name
+    bad = tmp_path / "bad.toml"
+    bad.write_text(base + "train_iteration = 5\n\n" + rest)
+    with pytest.raises(savme.CampaignError, match=r"bad.toml, line \d+, key `campaign.train_iteration`"):
+        savme.campaign.load(bad)
+
+
+def strip_wall(path):
+    """A work-cost campaign's trial lines without the measured wall-clock fields."""
+    lines = []
+    for line in open(path):
+        row = json.loads(line)
+        for key in list(row):
+            if "wall" in key or key == "elapsed_seconds":
+                del row[key]
+        lines.append(row)
+    return lines
+
+
+def test_load_runs_what_savme_run_config_runs(savme_bin, fmu_campaign, tmp_path):
+    """savme.campaign.load(file).run() and `savme run --config file`: the same trials and the
+    same [estimate] — one composition layer behind both."""
+    text = fmu_campaign.replace("isolate = true", "isolate = false") + (
+        "\n[estimate]\nmax_runs = 12\ntarget_width = 0.9\n"
+    )
+    cfg = tmp_path / "campaign.toml"
+    cfg.write_text(text)
+    cli_out, py_out = tmp_path / "cli", tmp_path / "py"
+    subprocess.run([savme_bin, "run", "--config", str(cfg), "--out", str(cli_out), "--jobs", "2", "--quiet"],
+                   check=True, capture_output=True)
+    result = savme.campaign.load(cfg, out=py_out, jobs=2).run()
+    assert strip_wall(py_out / "trials.jsonl") == strip_wall(cli_out / "trials.jsonl")
+    (cli_est,) = cli_out.glob("estimate-*")
+    py_est = py_out / cli_est.name
+    assert strip_wall(py_est / "trials.jsonl") == strip_wall(cli_est / "trials.jsonl")
+    cli_summary = json.loads((cli_est / "summary.json").read_text())
+    assert result.estimate["estimate"]["total"] == cli_summary["estimate"]["total"]
