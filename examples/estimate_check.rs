@@ -146,7 +146,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let t1 = Instant::now();
     let est = EstimateRun::new(
-        &campaign_dir,
+        savme::campaign::source::DirSource::new(&campaign_dir),
         Problem::from(savme_sim::problem(protocol.fidelity_bins)),
         settings,
     )

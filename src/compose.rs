@@ -255,10 +255,9 @@ fn bad_weight(file: &CampaignFile, message: String) -> (String, Option<usize>, S
 
 impl FmuCampaign {
     /// The settings of the file's `[estimate]` section (None: the file has none), checked
-    /// against the campaign before it runs; refused with `repeat` or a database store
-    /// (`with_store`: the estimate reads the campaign's own directory). Errors name the
-    /// file, line and key.
-    pub fn estimate_settings(&self, with_store: bool) -> Result<Option<EstimateSettings>, String> {
+    /// against the campaign before it runs; refused with `repeat` (the estimate reads one
+    /// campaign). Errors name the file, line and key.
+    pub fn estimate_settings(&self) -> Result<Option<EstimateSettings>, String> {
         let Some(section) = &self.file.estimate else {
             return Ok(None);
         };
@@ -266,9 +265,9 @@ impl FmuCampaign {
             EstimateSettings::from_section(section, &self.file.path).map_err(|e| e.to_string())?;
         let file = self.file.path.display();
         let at = |e: String| format!("{file}, line {}, [estimate]: {e}", section.line);
-        if self.repeat.is_some() || with_store {
+        if self.repeat.is_some() {
             return Err(at(
-                "an estimate runs on one campaign directory: not with `repeat` or --storage (run `savme estimate` on a seed's directory)".into(),
+                "an estimate runs on one campaign: not with `repeat` (run `savme estimate` on a seed's directory)".into(),
             ));
         }
         settings
@@ -285,10 +284,12 @@ impl FmuCampaign {
     }
 }
 
-/// The `[estimate]` stage of a campaign file: after the campaign, on its directory `out`
-/// (a resumed campaign resumes an estimate already started there). `savme run --config` and
+/// The `[estimate]` stage of a campaign file: after the campaign, on the campaign kept at
+/// `campaign`, into `out/estimate-<budget>` (`out`: the campaign's output directory; a
+/// resumed campaign resumes an estimate already started there). `savme run --config` and
 /// `savme.campaign.load(...).run()` both run it through here.
 pub fn estimate_stage<S>(
+    campaign: &Place,
     out: &Path,
     problem: Problem,
     settings: EstimateSettings,
@@ -299,10 +300,15 @@ pub fn estimate_stage<S>(
 where
     S: Simulator + Clone + Send,
 {
-    let run = EstimateRun::new(out, problem, settings).progress(progress);
-    let resume = savme_campaign::load_protocol(out)
-        .map(|p| run.out_dir(&p).join("estimate.json").exists())
-        .unwrap_or(false);
+    let source = campaign.source();
+    let protocol = source.protocol().map_err(EstimateError::Campaign)?;
+    let budget = settings.budget.unwrap_or(protocol.budgets[0]);
+    let run = EstimateRun::new(source, problem, settings)
+        .out(out.join(format!("estimate-{budget}")))
+        .progress(progress);
+    let resume = run
+        .out_dir(&protocol)
+        .is_ok_and(|dir| dir.join("estimate.json").exists());
     run.resume(resume).jobs(jobs).run(sim)
 }
 
@@ -317,5 +323,45 @@ pub fn estimate_progress_lines(quiet: bool) -> impl FnMut(&EstimateProgress<'_>)
         last = Some(std::time::Instant::now());
         // Progress is best effort: a closed pipe must not stop the estimate.
         let _ = writeln!(std::io::stderr(), "{}", p.line());
+    }
+}
+
+/// Where a campaign is kept: its directory (the JSON-lines store), or a campaign in a
+/// database. The one place that turns what a user names into a store to run with or a source
+/// to read: a new kind of store is one variant and one arm in each method.
+#[derive(Debug, Clone)]
+pub enum Place {
+    /// A campaign directory.
+    Dir(std::path::PathBuf),
+    /// Campaign `name` in a PostgreSQL database.
+    #[cfg(feature = "postgres")]
+    Database(Box<savme_postgres::Database>, String),
+}
+
+impl Place {
+    /// The campaign read back without its lock (`savme estimate`, `savme failures`).
+    pub fn source(&self) -> Box<dyn savme_campaign::source::CampaignSource> {
+        match self {
+            Place::Dir(dir) => Box::new(savme_campaign::source::DirSource::new(dir)),
+            #[cfg(feature = "postgres")]
+            Place::Database(db, name) => Box::new(savme_postgres::PostgresSource::new(
+                (**db).clone(),
+                name.clone(),
+            )),
+        }
+    }
+
+    /// The store a campaign runs with (locked): None for a directory (the campaign opens the
+    /// directory's own JSON-lines store), the database's campaign otherwise.
+    pub fn open_store(
+        &self,
+    ) -> Result<Option<Box<dyn savme_store::TrialStore>>, savme_store::StoreError> {
+        match self {
+            Place::Dir(_) => Ok(None),
+            #[cfg(feature = "postgres")]
+            Place::Database(db, name) => Ok(Some(Box::new(savme_postgres::PostgresStore::open(
+                db, name,
+            )?))),
+        }
     }
 }

@@ -608,12 +608,24 @@ impl Plan {
                 Finished::One(c.run(sim).map_err(errors::campaign)?)
             }
         };
+        let place = match &self.storage {
+            Some((db, name)) => compose::Place::Database(Box::new(db.clone()), name.clone()),
+            None => compose::Place::Dir(self.out.clone()),
+        };
         let estimate = match self.estimate {
             Some(settings) => {
                 let progress = compose::estimate_progress_lines(!self.progress);
                 Some(
-                    compose::estimate_stage(&self.out, self.problem, settings, jobs, progress, sim)
-                        .map_err(|e| errors::campaign_message(e.to_string()))?,
+                    compose::estimate_stage(
+                        &place,
+                        &self.out,
+                        self.problem,
+                        settings,
+                        jobs,
+                        progress,
+                        sim,
+                    )
+                    .map_err(|e| errors::campaign_message(e.to_string()))?,
                 )
             }
             None => None,
@@ -806,9 +818,7 @@ pub fn load_campaign(
     let out = out
         .or(c.file.campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
-    let estimate = c
-        .estimate_settings(storage.is_some())
-        .map_err(errors::campaign_message)?;
+    let estimate = c.estimate_settings().map_err(errors::campaign_message)?;
     Ok(PyCampaign {
         protocol: c.protocol,
         problem: c.problem,

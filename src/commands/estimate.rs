@@ -3,16 +3,20 @@
 
 use super::{usage, Failure};
 use savme::campaign::estimate::{parse_nominal, EstimateError, EstimateRun, EstimateSettings};
-use savme::campaign::{load_protocol, Problem};
+use savme::campaign::Problem;
 use savme::compose;
 use savme_kernel::estimation::Tilt;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// The directory of a finished campaign (savme reproduce / run).
-    campaign: PathBuf,
-    /// Output directory (default CAMPAIGN/estimate-<budget>).
+    /// The directory of a finished campaign (savme reproduce / run); or give --storage and
+    /// --campaign for a campaign kept in a database.
+    campaign: Option<PathBuf>,
+    #[command(flatten)]
+    store: super::StorageArgs,
+    /// Output directory (default CAMPAIGN/estimate-<budget>; needed for a campaign kept in a
+    /// database).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Continue the estimate in the output directory with its stored settings.
@@ -160,9 +164,24 @@ pub fn run(a: Args) -> Result<(), Failure> {
         None => EstimateSettings::default(),
     };
     let settings = a.settings(base).map_err(failure)?;
-    let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
+    let place = match (&a.campaign, a.store.database()?) {
+        (Some(_), Some(_)) => {
+            return Err(usage("give the campaign directory or --storage, not both"))
+        }
+        (None, None) => {
+            return Err(usage(
+                "give the campaign directory (or --storage URL --campaign NAME)",
+            ))
+        }
+        (Some(dir), None) => compose::Place::Dir(dir.clone()),
+        (None, Some((db, name))) => compose::Place::Database(Box::new(db), name),
+    };
+    let source = place.source();
+    let protocol = source
+        .protocol()
+        .map_err(|e| Failure::Runtime(e.to_string()))?;
     let configured = |problem: Problem| {
-        let run = EstimateRun::new(&a.campaign, problem, settings.clone())
+        let run = EstimateRun::new(place.source(), problem, settings.clone())
             .progress(compose::estimate_progress_lines(a.quiet))
             .resume(a.resume)
             .jobs(

@@ -4,12 +4,10 @@
 //! simulator. The campaign is a directory or (`--storage URL --campaign NAME`) a database's.
 
 use super::Failure;
-use savme::campaign::log::read_dir_lines;
 use savme::campaign::log::LogLine;
 use savme::campaign::report::failures::{as_flag, found_failures, hf_runs, Filter, FoundFailure};
-use savme::campaign::{load_protocol, Protocol};
-use savme::compose::SENSORS;
-use savme::postgres::read_campaign;
+use savme::campaign::{CampaignError, Protocol};
+use savme::compose::{Place, SENSORS};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -37,39 +35,30 @@ pub struct Args {
 /// The campaign's protocol and lines, from its directory or its database (read without the
 /// coordinator's lock: a running campaign can be listed), and how to name it.
 fn campaign(a: &Args) -> Result<(Protocol, Vec<LogLine>, String), Failure> {
-    let runtime = |e: String| Failure::Runtime(e);
-    match (&a.dir, a.store.database()?) {
-        (Some(_), Some(_)) => Err(Failure::Usage(
-            "give the campaign directory or --storage, not both".into(),
-        )),
-        (None, None) => Err(Failure::Usage(
-            "give the campaign directory (or --storage URL --campaign NAME)".into(),
-        )),
-        (Some(dir), None) => {
-            let protocol = load_protocol(dir).map_err(|e| runtime(e.to_string()))?;
-            let lines = read_dir_lines(dir).map_err(|e| runtime(e.to_string()))?;
-            let lines = lines.into_iter().map(|(_, l)| l).collect();
-            Ok((protocol, lines, dir.display().to_string()))
+    let runtime = |e: CampaignError| Failure::Runtime(e.to_string());
+    let place = match (&a.dir, a.store.database()?) {
+        (Some(_), Some(_)) => {
+            return Err(Failure::Usage(
+                "give the campaign directory or --storage, not both".into(),
+            ))
         }
-        (None, Some((db, name))) => {
-            let place = format!("{}, campaign {name:?}", db.location());
-            let (saved, loaded) = super::connecting(&db, || read_campaign(&db, &name))
-                .map_err(|e| runtime(e.to_string()))?;
-            let saved = saved.ok_or_else(|| runtime(format!("{place}: no protocol stored yet")))?;
-            let protocol: Protocol = serde_json::from_value(saved)
-                .map_err(|e| runtime(format!("{place}, protocol: {e}")))?;
-            protocol
-                .validate()
-                .map_err(|e| runtime(format!("{place}, protocol: {e}")))?;
-            let lines = loaded
-                .lines
-                .iter()
-                .map(|l| LogLine::from_stored(l, &place))
-                .collect::<Result<_, _>>()
-                .map_err(|e| runtime(e.to_string()))?;
-            Ok((protocol, lines, place))
+        (None, None) => {
+            return Err(Failure::Usage(
+                "give the campaign directory (or --storage URL --campaign NAME)".into(),
+            ))
         }
+        (Some(dir), None) => Place::Dir(dir.clone()),
+        (None, Some((db, name))) => Place::Database(Box::new(db), name),
+    };
+    let source = place.source();
+    let read = || -> Result<_, CampaignError> { Ok((source.protocol()?, source.lines()?)) };
+    let (protocol, lines) = match &place {
+        Place::Database(db, _) => super::connecting(db, read),
+        Place::Dir(_) => read(),
     }
+    .map_err(runtime)?;
+    let lines = lines.into_iter().map(|(_, l)| l).collect();
+    Ok((protocol, lines, source.location()))
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {

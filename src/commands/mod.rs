@@ -266,7 +266,7 @@ pub struct StorageArgs {
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct CampaignStorageArgs {
     #[command(flatten)]
-    store: StorageArgs,
+    pub store: StorageArgs,
     /// Run the HF and LF runs by `savme worker` processes (on any hosts) through the
     /// database's work queue instead of local threads (with --storage). The trials are the
     /// same.

@@ -64,9 +64,12 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let backend = fmu_backend(&c.file)?;
     let repeat = c.repeat;
-    let estimate = c
-        .estimate_settings(target.store.is_some())
-        .map_err(Failure::Runtime)?;
+    let estimate = c.estimate_settings().map_err(Failure::Runtime)?;
+    // Where the [estimate] stage reads the campaign: its database, or its directory.
+    let place = match a.storage.store.database()? {
+        Some((db, name)) => compose::Place::Database(Box::new(db), name),
+        None => compose::Place::Dir(target.out.clone()),
+    };
     if let Some(n) = repeat {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
@@ -91,6 +94,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     )?;
     if let Some(settings) = estimate {
         let outcome = compose::estimate_stage(
+            &place,
             &out,
             c.problem,
             settings,

@@ -97,6 +97,12 @@ pub enum CampaignError {
         /// The store, with the campaign's name.
         store: String,
     },
+    /// A campaign read back (not run) whose store holds no protocol (yet).
+    #[error("{store}: no protocol stored yet")]
+    NoProtocol {
+        /// The store, with the campaign's name.
+        store: String,
+    },
     /// `--resume` on a campaign a store (a database) does not hold.
     #[error("{store}: no campaign to resume (none was started under this name) — start it without --resume")]
     NothingToResumeIn {

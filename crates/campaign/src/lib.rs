@@ -39,6 +39,7 @@ pub mod plot;
 pub mod protocol;
 mod repeat;
 pub mod report;
+pub mod source;
 mod stop;
 pub mod toy;
 pub mod values;

@@ -15,6 +15,7 @@ pub mod queue;
 mod remote;
 pub mod schema;
 mod session;
+mod source;
 mod store;
 pub mod tls;
 pub mod worker;
@@ -22,6 +23,7 @@ pub mod worker;
 pub use connect::{reconnect_for, Database, RECONNECT_FOR};
 pub use remote::Remote;
 pub use session::{Conn, Session};
+pub use source::PostgresSource;
 pub use store::{
     application_name, campaign_id, check_name, connection_lost, find_campaign, host_name,
     read_campaign, PostgresStore, MAX_NAME,

@@ -14,11 +14,12 @@
 //!
 //! ```no_run
 //! use savme_campaign::estimate::{EstimateRun, EstimateSettings};
+//! use savme_campaign::source::DirSource;
 //! use savme_campaign::Problem;
 //! use savme_sim::sim::DrivingSimulator;
 //! let settings = EstimateSettings { target_width: Some(0.1), ..EstimateSettings::default() };
 //! let problem = Problem::from(savme_sim::problem(10));
-//! let outcome = EstimateRun::new("results", problem, settings)
+//! let outcome = EstimateRun::new(DirSource::new("results"), problem, settings)
 //!     .jobs(2)
 //!     .run(&DrivingSimulator::ideal())?;
 //! println!("{}", outcome.table_md);
@@ -33,10 +34,10 @@ pub use output::{EstimateLine, EstimateOutcome, StopReason};
 pub use settings::{EstimateError, EstimateSettings, MAX_RUNS};
 
 use super::executor::{with_pool, Runner, Task, Which};
-use super::outputs::load_protocol;
 use super::store::{JsonlStore, TrialStore};
 use super::{CampaignError, Problem, Protocol};
 use crate::log::RunLine;
+use crate::source::CampaignSource;
 use savme_kernel::estimation::{Estimation, EstimationTrial, Nominal};
 use savme_kernel::Simulator;
 use std::collections::VecDeque;
@@ -45,7 +46,7 @@ use std::sync::Arc;
 
 /// An estimate to run on a finished campaign.
 pub struct EstimateRun<'p> {
-    campaign: PathBuf,
+    campaign: Box<dyn CampaignSource + 'p>,
     settings: EstimateSettings,
     out: Option<PathBuf>,
     problem: Problem,
@@ -117,11 +118,15 @@ impl EstimateProgress<'_> {
 }
 
 impl<'p> EstimateRun<'p> {
-    /// An estimate of the campaign in `campaign`, whose problem is `problem`, with `settings`
-    /// (one worker).
-    pub fn new(campaign: impl Into<PathBuf>, problem: Problem, settings: EstimateSettings) -> Self {
+    /// An estimate of `campaign` (a directory: [`DirSource`](crate::source::DirSource); or
+    /// any [`CampaignSource`]), whose problem is `problem`, with `settings` (one worker).
+    pub fn new(
+        campaign: impl CampaignSource + 'p,
+        problem: Problem,
+        settings: EstimateSettings,
+    ) -> Self {
         EstimateRun {
-            campaign: campaign.into(),
+            campaign: Box::new(campaign),
             settings,
             out: None,
             problem,
@@ -157,12 +162,19 @@ impl<'p> EstimateRun<'p> {
         self
     }
 
-    /// The output directory these settings write to.
-    pub fn out_dir(&self, protocol: &Protocol) -> PathBuf {
-        self.out.clone().unwrap_or_else(|| {
-            let b = self.settings.budget.unwrap_or(protocol.budgets[0]);
-            self.campaign.join(format!("estimate-{b}"))
-        })
+    /// The output directory these settings write to (default: `estimate-<budget>` in the
+    /// campaign's directory; a campaign without one needs [`EstimateRun::out`]).
+    pub fn out_dir(&self, protocol: &Protocol) -> Result<PathBuf, EstimateError> {
+        if let Some(out) = &self.out {
+            return Ok(out.clone());
+        }
+        let b = self.settings.budget.unwrap_or(protocol.budgets[0]);
+        match self.campaign.dir() {
+            Some(dir) => Ok(dir.join(format!("estimate-{b}"))),
+            None => Err(EstimateError::NoOutputDirectory {
+                campaign: self.campaign.location(),
+            }),
+        }
     }
 
     /// Runs (or resumes) the estimate on `sim` (its HF role) and writes the outputs. Every
@@ -171,14 +183,23 @@ impl<'p> EstimateRun<'p> {
     where
         S: Simulator + Clone + Send,
     {
-        let protocol = load_protocol(&self.campaign)?;
-        let out = self.out_dir(&protocol);
+        let protocol = self.campaign.protocol()?;
+        let out = self.out_dir(&protocol)?;
         super::outputs::usable_dir(&out)?;
         let settings = self.settings_for(&out)?;
         settings.validate()?;
         let problem = self.problem.clone();
         let budget = settings.budget.unwrap_or(protocol.budgets[0]);
-        let trained = posterior::trained(&self.campaign, &protocol, &problem, budget, &settings)?;
+        let lines = self.campaign.lines()?;
+        let (location, at) = (self.campaign.location(), self.campaign.lines_location());
+        let trained = posterior::trained(
+            &location,
+            (&at, &lines),
+            &protocol,
+            &problem,
+            budget,
+            &settings,
+        )?;
         let config = settings.config(
             settings
                 .seed

@@ -4,7 +4,6 @@ use super::{EstimateError, EstimateSettings};
 use crate::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
-use std::path::Path;
 use std::sync::Arc;
 
 /// What the estimate's proposal is built from.
@@ -23,7 +22,8 @@ pub(crate) struct Trained {
 /// Rebuilds the posteriors at `budget` from the campaign's `trials.jsonl`: every learning
 /// trial's logged scenario credit, on the kernels' uniform prior (exactly the kernel's update).
 pub(crate) fn trained(
-    dir: &Path,
+    campaign: &str,
+    (lines_store, lines): (&str, &[(u64, crate::log::LogLine)]),
     protocol: &Protocol,
     problem: &Problem,
     budget: f64,
@@ -62,7 +62,6 @@ pub(crate) fn trained(
         })?;
         stages.insert(name.clone(), stage);
     }
-    let lines = crate::log::read_dir_lines(dir)?;
     let told_in = |stage: &str| {
         lines
             .iter()
@@ -73,7 +72,7 @@ pub(crate) fn trained(
         let told = told_in(stage);
         if told < *needed {
             return Err(EstimateError::NotTrained {
-                dir: dir.to_path_buf(),
+                campaign: campaign.to_string(),
                 stage: stage.clone(),
                 told,
                 needed: *needed,
@@ -92,7 +91,7 @@ pub(crate) fn trained(
             scenario_runs += 1;
             if let Some(ok) = t.credit.scenario {
                 let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
-                    store: dir.join("trials.jsonl").display().to_string(),
+                    store: lines_store.to_string(),
                     line: line as usize,
                     message: format!(
                         "{stage} trial {}: φ outside the scenario (a campaign file other than \

@@ -213,16 +213,25 @@ pub enum EstimateError {
         message: String,
     },
     /// The campaign has not (yet) trained the posterior the estimate needs.
-    #[error("{}: stage `{stage}` has {told} of its {needed} trials; finish the campaign (savme reproduce/run --resume) before estimating", dir.display())]
+    #[error("{campaign}: stage `{stage}` has {told} of its {needed} trials; finish the campaign (savme reproduce/run --resume) before estimating")]
     NotTrained {
-        /// The campaign directory.
-        dir: PathBuf,
+        /// The campaign (its directory, or its database and name).
+        campaign: String,
         /// The training stage.
         stage: String,
         /// Its told trials.
         told: u64,
         /// The protocol's iterations.
         needed: u64,
+    },
+    /// The campaign has no directory of its own (it is kept in a database): the estimate
+    /// needs an output directory.
+    #[error(
+        "{campaign} has no directory of its own: give the estimate an output directory (--out DIR)"
+    )]
+    NoOutputDirectory {
+        /// The campaign.
+        campaign: String,
     },
     /// A budget the campaign did not train.
     #[error("estimate: `budget`: the campaign trained budgets {known}, not {budget}")]
