@@ -96,6 +96,15 @@ mod tests {
         Cli::try_parse_from(std::iter::once("savme").chain(args.split_whitespace()))
     }
 
+    /// clap's own consistency checks on every subcommand (a flag defined twice, a clash
+    /// between a positional argument and a flag of the same name): they otherwise fire only
+    /// when that subcommand is parsed.
+    #[test]
+    fn every_subcommand_passes_claps_checks() {
+        use clap::CommandFactory;
+        Cli::command().debug_assert();
+    }
+
     #[test]
     fn reproduce_help_states_the_protocol_it_runs_without_flags() {
         use clap::CommandFactory;

@@ -256,6 +256,54 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
             "the password was printed: {shown}"
         );
     }
+    // `savme estimate` reads a database's campaign through the same seam as a directory's
+    // (also without the lock): the same runs, the same estimate. It needs --out (the
+    // campaign has no directory of its own).
+    let o = savme(&["estimate", "--storage", &url, "--campaign", "tiny"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains(
+            "has no directory of its own: give the estimate an output directory (--out DIR)"
+        ),
+        "{}",
+        text(&o)
+    );
+    let (est_db, est_dir) = (temp_dir("estimate-db"), temp_dir("estimate-dir"));
+    let estimate = ["--max-runs", "12", "--no-target", "--quiet", "--jobs", "2"];
+    let (from_db, from_dir) = (
+        [
+            &[
+                "estimate",
+                "--storage",
+                &url,
+                "--campaign",
+                "tiny",
+                "--out",
+                est_db.to_str().unwrap(),
+            ][..],
+            &estimate,
+        ]
+        .concat(),
+        [
+            &[
+                "estimate",
+                dir.to_str().unwrap(),
+                "--out",
+                est_dir.to_str().unwrap(),
+            ][..],
+            &estimate,
+        ]
+        .concat(),
+    );
+    let (a, b) = (list(&from_db), list(&from_dir));
+    assert!(!a.contains(PASSWORD), "the password was printed: {a}");
+    assert!(!b.is_empty());
+    assert_eq!(file_trials(&est_db).len(), 12);
+    assert_eq!(file_trials(&est_db), file_trials(&est_dir));
+    let summary = |d: &std::path::Path| -> Value {
+        serde_json::from_str::<Value>(&read(d, "summary.json")).unwrap()["estimate"].clone()
+    };
+    assert_eq!(summary(&est_db), summary(&est_dir));
     // A database savme never used: no such campaign, and listing creates nothing there.
     let empty = server.create_db("empty");
     let o = savme(&["failures", "--storage", &empty, "--campaign", "tiny"]);
@@ -279,7 +327,7 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
         "{}",
         text(&o)
     );
-    for d in [dir, out] {
+    for d in [dir, out, est_db, est_dir] {
         let _ = std::fs::remove_dir_all(d);
     }
 }

@@ -360,8 +360,3 @@ impl FmuFile {
         &self.description
     }
 }
-
-/// The FMI 2.0 platform folder under `binaries/` (`linux64`, …).
-pub fn savme_platform() -> String {
-    savme_fmi_export::platform_folder()
-}

@@ -620,17 +620,6 @@ impl Space {
             .collect();
         Assignment::from_parts(self.names.clone(), values)
     }
-
-    /// True when both spaces have the same variable names with the same number of arms,
-    /// in the same order (so that arm statistics of one apply to the other).
-    pub fn same_arms(&self, other: &Space) -> bool {
-        self.vars.len() == other.vars.len()
-            && self
-                .vars
-                .iter()
-                .zip(&other.vars)
-                .all(|(a, b)| a.name == b.name && a.arms() == b.arms())
-    }
 }
 
 fn describe(d: &Domain) -> String {

@@ -12,7 +12,8 @@ use std::path::PathBuf;
 pub struct Args {
     /// The directory of a finished campaign (savme reproduce / run); or give --storage and
     /// --campaign for a campaign kept in a database.
-    campaign: Option<PathBuf>,
+    #[arg(value_name = "CAMPAIGN")]
+    dir: Option<PathBuf>,
     #[command(flatten)]
     store: super::StorageArgs,
     /// Output directory (default CAMPAIGN/estimate-<budget>; needed for a campaign kept in a
@@ -164,7 +165,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         None => EstimateSettings::default(),
     };
     let settings = a.settings(base).map_err(failure)?;
-    let place = match (&a.campaign, a.store.database()?) {
+    let place = match (&a.dir, a.store.database()?) {
         (Some(_), Some(_)) => {
             return Err(usage("give the campaign directory or --storage, not both"))
         }

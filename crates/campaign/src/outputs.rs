@@ -5,11 +5,9 @@ use super::log::TrialLine;
 use super::{plot, CampaignError, Problem, Protocol, Report};
 use std::path::{Path, PathBuf};
 
-/// The version of the layout of the files a campaign writes: `format_version` in
-/// `summary.json` and `protocol.json`, a closing comment in `table.md` and `fidelity.md`
-/// (`trials.jsonl` versions each line with its `v` key). It changes when a key is renamed or
-/// removed, not when one is added.
-pub const FORMAT_VERSION: u32 = 1;
+/// The layout version of the files a campaign writes (defined with the protocol, which
+/// carries it in `protocol.json`).
+pub use super::protocol::FORMAT_VERSION;
 
 /// The files a campaign writes.
 #[derive(Debug, Clone)]

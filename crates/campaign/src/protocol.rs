@@ -33,6 +33,12 @@ impl Cost {
     }
 }
 
+/// The version of the layout of the files a campaign writes: `format_version` in
+/// `summary.json` and `protocol.json`, a closing comment in `table.md` and `fidelity.md`
+/// (`trials.jsonl` versions each line with its `v` key). It changes when a key is renamed or
+/// removed, not when one is added.
+pub const FORMAT_VERSION: u32 = 1;
+
 /// The most trials one stage may run (10⁸: years of simulation even at a millisecond a run).
 pub const MAX_ITERATIONS: u64 = 100_000_000;
 /// The most trials in flight at once.
@@ -45,7 +51,7 @@ pub const MAX_BUDGETS: usize = 100;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Protocol {
-    /// The layout version of `protocol.json` ([`super::outputs::FORMAT_VERSION`]); files
+    /// The layout version of `protocol.json` ([`FORMAT_VERSION`]); files
     /// written before the key existed read as 1.
     #[serde(default = "first_format")]
     pub format_version: u32,
@@ -129,7 +135,7 @@ impl Protocol {
     /// meta-testing. The baselines get enough trials to span the meta-training runtime.
     pub fn paper(simulator: &str, train: Vec<String>, test: Vec<String>) -> Self {
         Protocol {
-            format_version: super::outputs::FORMAT_VERSION,
+            format_version: FORMAT_VERSION,
             seed: 1,
             budgets: vec![0.2, 0.3, 0.4],
             train_iterations: 500,

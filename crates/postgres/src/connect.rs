@@ -165,12 +165,6 @@ impl Database {
         }
     }
 
-    /// Connects once, as `application_name` (shown in `pg_stat_activity`, and to a refused
-    /// second coordinator).
-    pub fn connect_once(&self, application_name: &str) -> Result<Client, StoreError> {
-        self.attempt(application_name).map_err(|(e, _)| e)
-    }
-
     /// One connection attempt; the flag says whether the failure is final (the server itself
     /// refused: a wrong password, a missing database; or the TLS handshake failed).
     fn attempt(&self, application_name: &str) -> Result<Client, (StoreError, bool)> {

@@ -13,7 +13,7 @@
 //! - `/posterior/<stage>/scenarios`: the same for each scenario's φ-bins;
 //! - `/campaign/summary`: what was recorded, and why.
 
-use super::recorder::{err, RecordError, RecordOptions};
+use super::stream::{err, RecordError, RecordOptions};
 use rerun::RecordingStream;
 use savme_campaign::log::{ScreenLine, TrialLine};
 use savme_campaign::Stage;

@@ -7,7 +7,7 @@
 //! (with `/plots/clearance/threshold`), `/plots/speed/{run}`, `/plots/braking/{run}`.
 
 use super::layout::{self, Layout};
-use super::recorder::{err, RecordError, RunSide, RunSummary, TrialFrames};
+use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::RecordingStream;
 use savme_kernel::Assignment;
 use savme_sim::camera::{FOCAL, HEIGHT, WIDTH};

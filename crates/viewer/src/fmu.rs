@@ -6,8 +6,9 @@
 //! failure on a recorded output, the threshold as `/plots/<output>/threshold`; the first
 //! failure (or its absence) in `/{hf,lf}/events`. Laid out by [`super::layout::fmu_trial`].
 
+use super::layout::plot_path;
 use super::layout::{self, Layout};
-use super::recorder::{err, RecordError, RunSide, RunSummary, TrialFrames};
+use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::{EntityPath, RecordingStream, TimeColumn};
 use savme_fmu::{Crossing, Failure, FmuBackend};
 use savme_kernel::{Assignment, Role};
@@ -21,11 +22,6 @@ pub struct FmuFrames {
     backend: FmuBackend,
     record: Vec<String>,
     failure: Failure,
-}
-
-/// The entity path of output `name`'s plot (any FMU name, escaped as one path part).
-pub fn plot_path(name: &str) -> EntityPath {
-    EntityPath::new(vec!["plots".into(), name.into()])
 }
 
 fn colour(run: RunSide) -> rerun::Color {

@@ -9,7 +9,7 @@
 //! `ScalarAxis`) to the same blueprint store before activating it: a chase camera behind and
 //! above the ego, the clearance plot zoomed to the braking threshold.
 
-use super::recorder::{err, RecordError};
+use super::error::{err, RecordError};
 use rerun::blueprint::components::PanelState;
 use rerun::blueprint::{
     Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Grid, Horizontal,
@@ -171,7 +171,7 @@ pub fn fmu_trial(record: &[String]) -> Layout {
         .iter()
         .map(|name| {
             TimeSeriesView::new(output_view_name(name))
-                .with_origin(super::plot_path(name))
+                .with_origin(plot_path(name))
                 .into()
         })
         .collect();
@@ -307,4 +307,9 @@ impl Layout {
         rec.send_blueprint(msgs, activation);
         Ok(())
     }
+}
+
+/// The entity path of an FMU output `name`'s plot (any FMU name, escaped as one path part).
+pub fn plot_path(name: &str) -> rerun::EntityPath {
+    rerun::EntityPath::new(vec!["plots".into(), name.into()])
 }

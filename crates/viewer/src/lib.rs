@@ -21,11 +21,15 @@ mod campaign;
 #[cfg(feature = "rerun")]
 mod driving;
 #[cfg(feature = "rerun")]
+mod error;
+#[cfg(feature = "rerun")]
 mod fmu;
 #[cfg(feature = "rerun")]
 pub mod layout;
 #[cfg(feature = "rerun")]
 mod recorder;
+#[cfg(feature = "rerun")]
+mod stream;
 #[cfg(feature = "rerun")]
 mod trial;
 
@@ -34,11 +38,15 @@ pub use campaign::entity_label;
 #[cfg(feature = "rerun")]
 pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
-pub use fmu::{plot_path, FmuFrames, FMU_APP};
+pub use error::RecordError;
 #[cfg(feature = "rerun")]
-pub use recorder::{
-    RecordError, RecordOptions, Recorder, RunSide, RunSummary, Sink, TrialFrames, CAMPAIGN_APP,
-};
+pub use fmu::{FmuFrames, FMU_APP};
+#[cfg(feature = "rerun")]
+pub use layout::plot_path;
+#[cfg(feature = "rerun")]
+pub use recorder::{Recorder, CAMPAIGN_APP};
+#[cfg(feature = "rerun")]
+pub use stream::{RecordOptions, RunSide, RunSummary, Sink, TrialFrames};
 #[cfg(feature = "rerun")]
 pub use trial::{HF_APP, PAIRED_APP};
 
@@ -206,7 +214,7 @@ pub fn record_run(
         let theta_hf = savme_sim::fidelity::theta_hf();
         let paired = *theta != theta_hf;
         let t = trial::TrialRecording::on(
-            recorder::open(
+            stream::open(
                 &sink,
                 trial::app(paired),
                 &format!("simulate {scenario}"),
@@ -235,7 +243,7 @@ pub fn record_run(
             lf.as_ref().map(|l| (l, theta, &theta_hf)),
         ))
         .map_err(rec)?;
-        recorder::close(t.stream(), &sink).map_err(rec)?;
+        stream::close(t.stream(), &sink).map_err(rec)?;
         Ok(result)
     }
     #[cfg(not(feature = "rerun"))]

@@ -11,211 +11,17 @@
 //! deterministic runs with recording on.
 
 use super::campaign::CampaignView;
-use super::layout::{self, Layout};
+use super::layout;
+use super::stream::{close, open, RecordError, RecordOptions, TrialFrames};
 use super::trial::{self, TrialRecording};
 use rerun::RecordingStream;
 use savme_campaign::log::{ScreenLine, TrialLine};
 use savme_campaign::{CampaignError, Observer, Problem, Protocol, Stage};
-use savme_kernel::{Assignment, Kernel, Outcome};
+use savme_kernel::{Kernel, Outcome};
 use std::collections::BTreeSet;
-use std::path::PathBuf;
 
 /// The application id of campaign recordings (the viewer keeps one layout per application).
 pub const CAMPAIGN_APP: &str = "savme-campaign";
-
-/// Which run of a trial.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum RunSide {
-    /// The high-fidelity run.
-    Hf,
-    /// The low-fidelity run.
-    Lf,
-}
-
-impl RunSide {
-    /// Its entity path root, `hf` or `lf`.
-    pub fn path(self) -> &'static str {
-        match self {
-            RunSide::Hf => "hf",
-            RunSide::Lf => "lf",
-        }
-    }
-
-    /// `HF` or `LF`.
-    pub fn label(self) -> &'static str {
-        match self {
-            RunSide::Hf => "HF",
-            RunSide::Lf => "LF",
-        }
-    }
-}
-
-/// What happened in a recorded run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunSummary {
-    /// The system under test failed.
-    pub failure: bool,
-    /// When it collided, seconds.
-    pub collision_time: Option<f64>,
-    /// Smallest distance between the bodies, metres.
-    pub min_distance: f64,
-    /// Simulation steps.
-    pub steps: u64,
-    /// Wall-clock seconds of this (recording) run.
-    pub wall_seconds: f64,
-    /// Work units, if counted.
-    pub work: Option<u64>,
-}
-
-/// A simulator that can show a run in the viewer: it runs it (deterministically, as the
-/// campaign ran it) with recording on and logs its frames under `/hf` or `/lf` of the trial
-/// recording `rec`. The bundled driving simulator implements it ([`super::DrivingFrames`]: the
-/// trial view), and an FMU campaign's simulator when its file lists outputs to record
-/// ([`super::FmuFrames`]: one plot per output); without frames a campaign gets its campaign
-/// view only.
-pub trait TrialFrames: Send {
-    /// The application id and layout of its trial recordings (`paired`: with an LF run).
-    fn layout(&self, paired: bool) -> (&'static str, Layout);
-
-    /// Logs the static scene of `scenario` (false when this simulator has no frames for it).
-    fn record_scene(&mut self, rec: &RecordingStream, scenario: &str) -> Result<bool, RecordError>;
-
-    /// Runs and logs one run; None when this simulator has no frames for `scenario`.
-    fn record_run(
-        &mut self,
-        rec: &RecordingStream,
-        run: RunSide,
-        scenario: &str,
-        phi: &Assignment,
-        theta: &Assignment,
-    ) -> Result<Option<RunSummary>, RecordError>;
-}
-
-/// Where the recording goes.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Sink {
-    /// An `.rrd` file.
-    File(PathBuf),
-    /// A viewer started for it (`rerun` on the PATH).
-    Spawn,
-    /// A running viewer (its gRPC URL, or the default `rerun+http://127.0.0.1:9876/proxy`).
-    Connect(Option<String>),
-}
-
-/// What to record.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RecordOptions {
-    /// Where to.
-    pub sink: Sink,
-    /// Frames for every `every`-th told trial (counted over the whole campaign; 0: none).
-    pub every: u64,
-    /// … plus up to this many informative trials (FN/FP first, then TP, then baseline failures).
-    pub failure_cap: u64,
-}
-
-impl RecordOptions {
-    /// To `sink`, frames for every 200th trial and up to 10 informative ones.
-    pub fn new(sink: Sink) -> Self {
-        RecordOptions {
-            sink,
-            every: 200,
-            failure_cap: 10,
-        }
-    }
-}
-
-/// Why recording failed (the message says what; callers add no prefix of their own).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct RecordError(pub(crate) String);
-
-pub(crate) fn err(e: impl std::fmt::Display) -> RecordError {
-    RecordError(e.to_string())
-}
-
-/// The default `--connect` address.
-const DEFAULT_URL: &str = "rerun+http://127.0.0.1:9876/proxy";
-
-/// Checks that a viewer listens at `url` before anything is logged (the SDK would otherwise
-/// block on a full queue, or drop the data, with no viewer there).
-fn probe(url: &str) -> Result<(), RecordError> {
-    use std::str::FromStr as _;
-    let bad = |e: &dyn std::fmt::Display| RecordError(format!("--connect {url}: {e}"));
-    let uri = rerun::external::re_uri::ProxyUri::from_str(url).map_err(|e| bad(&e))?;
-    let host = uri.origin.format_host();
-    let host = host.trim_start_matches('[').trim_end_matches(']');
-    let addrs: Vec<std::net::SocketAddr> =
-        std::net::ToSocketAddrs::to_socket_addrs(&(host, uri.origin.port))
-            .map_err(|e| bad(&e))?
-            .collect();
-    let timeout = std::time::Duration::from_secs(3);
-    let mut last = None;
-    for a in &addrs {
-        match std::net::TcpStream::connect_timeout(a, timeout) {
-            Ok(_) => return Ok(()),
-            Err(e) => last = Some(e),
-        }
-    }
-    Err(RecordError(format!(
-        "--connect {url}: no rerun viewer is listening at {host}:{} ({}); start one with `rerun`, or give its address",
-        uri.origin.port,
-        last.map_or_else(|| "no address".to_string(), |e| e.to_string())
-    )))
-}
-
-/// Opens `sink` as a recording of application `app` named `name`, laid out by `layout`.
-pub fn open(
-    sink: &Sink,
-    app: &'static str,
-    name: &str,
-    layout: Layout,
-) -> Result<RecordingStream, RecordError> {
-    let builder = rerun::RecordingStreamBuilder::new(app).recording_name(name);
-    let rec = match sink {
-        Sink::File(path) => builder
-            .save(path)
-            .map_err(|e| RecordError(format!("{}: {e}", path.display())))?,
-        Sink::Spawn => builder.spawn().map_err(err)?,
-        Sink::Connect(url) => {
-            let url = url.as_deref().unwrap_or(DEFAULT_URL);
-            probe(url)?;
-            builder
-                .connect_grpc_opts(url.to_string())
-                .map_err(|e| RecordError(format!("--connect {url}: {e}")))?
-        }
-    };
-    quiet_clocks(&rec);
-    layout.send(&rec)?;
-    // Ctrl-C: flush and close the sink (the file gets its footer), then exit like SIGINT.
-    let on_interrupt = rec.clone();
-    let _ = ctrlc::set_handler(move || {
-        let _ = on_interrupt.flush_blocking();
-        on_interrupt.disconnect();
-        std::process::exit(130);
-    });
-    Ok(rec)
-}
-
-/// Our timelines only: no wall-clock `log_time` or `log_tick` on the data.
-pub(crate) fn quiet_clocks(rec: &RecordingStream) {
-    rec.set_log_time_enabled(false);
-    rec.set_log_tick_enabled(false);
-}
-
-/// Flushes and closes a recording; a sink that could not deliver (within a minute, for a
-/// viewer) is an error naming it.
-pub fn close(rec: &RecordingStream, sink: &Sink) -> Result<(), RecordError> {
-    let flushed = rec.flush_with_timeout(std::time::Duration::from_secs(60));
-    rec.disconnect();
-    flushed.map_err(|e| match sink {
-        Sink::File(p) => RecordError(format!("{}: {e}", p.display())),
-        Sink::Spawn => RecordError(format!("the spawned viewer: {e}")),
-        Sink::Connect(url) => RecordError(format!(
-            "--connect {}: {e}",
-            url.as_deref().unwrap_or(DEFAULT_URL)
-        )),
-    })
-}
 
 /// How informative a trial's frames are: lower goes first.
 fn priority(line: &TrialLine) -> Option<u8> {
@@ -327,11 +133,6 @@ impl Recorder {
     /// The campaign recording's stream.
     pub fn stream(&self) -> &RecordingStream {
         &self.rec
-    }
-
-    /// Trials (by campaign-wide told index) that got frames.
-    pub fn recorded_trials(&self) -> &BTreeSet<u64> {
-        &self.recorded
     }
 
     /// Records one trial as its own recording (in the same sink), named by stage, trial,

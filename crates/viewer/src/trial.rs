@@ -3,7 +3,7 @@
 //! document under `/outcome`.
 
 use super::layout;
-use super::recorder::{err, RecordError, RunSide, RunSummary, TrialFrames};
+use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::RecordingStream;
 use savme_campaign::log::TrialLine;
 use savme_kernel::{Assignment, Outcome, Value};
@@ -65,7 +65,7 @@ impl TrialRecording {
             .recording_name(name)
             .set_sinks(vec![Box::new(sink) as Box<dyn rerun::sink::LogSink>])
             .map_err(err)?;
-        super::recorder::quiet_clocks(&rec);
+        super::stream::quiet_clocks(&rec);
         layout.send(&rec)?;
         Ok(TrialRecording { rec })
     }

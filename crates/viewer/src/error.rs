@@ -1,0 +1,11 @@
+//! [`RecordError`]: why recording failed — the one type every module of the viewer shares,
+//! so that it sits below all of them.
+
+/// Why recording failed (the message says what; callers add no prefix of their own).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct RecordError(pub(crate) String);
+
+pub(crate) fn err(e: impl std::fmt::Display) -> RecordError {
+    RecordError(e.to_string())
+}
