@@ -104,7 +104,7 @@ def test_each_value_is_a_campaign_file_key_with_the_same_meaning(fmu_campaign, t
         assert got[name] == SAMPLES[name], name
     bad = tmp_path / "bad.toml"
     bad.write_text(base + "train_iteration = 5\n\n" + rest)
-    with pytest.raises(savme.CampaignError, match=r"bad.toml, line \d+, key `campaign.train_iteration`"):
+    with pytest.raises(ValueError, match=r"bad.toml, line \d+, key `campaign.train_iteration`: not a protocol value"):
         savme.campaign.load(bad)
 
 

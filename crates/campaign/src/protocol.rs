@@ -125,6 +125,14 @@ pub enum OnError {
     Skip,
 }
 
+/// A protocol error naming `field`.
+fn bad(field: &str, message: String) -> Result<(), CampaignError> {
+    Err(CampaignError::Protocol {
+        field: field.into(),
+        message,
+    })
+}
+
 fn first_format() -> u32 {
     1
 }
@@ -173,25 +181,40 @@ impl Protocol {
 
     /// Checks the protocol; the error names the offending field.
     pub fn validate(&self) -> Result<(), CampaignError> {
-        let bad = |field: &str, message: String| {
-            Err(CampaignError::Protocol {
-                field: field.into(),
-                message,
-            })
-        };
+        self.check_budgets()?;
+        self.check_iterations()?;
+        self.check_sizes()?;
+        self.check_ablation_and_screening()?;
+        for (name, w) in &self.weights {
+            if !(*w > 0.0 && w.is_finite()) {
+                return bad("weights", format!("`{name}`: {w} is not a positive weight"));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_budgets(&self) -> Result<(), CampaignError> {
         if self.budgets.is_empty() {
             return bad("budgets", "at least one budget is needed".into());
         }
-        for &b in &self.budgets {
+        if self.budgets.len() > MAX_BUDGETS {
+            return bad(
+                "budgets",
+                format!("{} budgets; at most {MAX_BUDGETS}", self.budgets.len()),
+            );
+        }
+        for (i, &b) in self.budgets.iter().enumerate() {
             if !(b > 0.0 && b <= 1.0) {
                 return bad("budgets", format!("{b} is outside (0, 1]"));
             }
-        }
-        for (i, a) in self.budgets.iter().enumerate() {
-            if self.budgets[..i].contains(a) {
-                return bad("budgets", format!("{a} is given twice"));
+            if self.budgets[..i].contains(&b) {
+                return bad("budgets", format!("{b} is given twice"));
             }
         }
+        Ok(())
+    }
+
+    fn check_iterations(&self) -> Result<(), CampaignError> {
         for (field, n) in [
             ("train_iterations", self.train_iterations),
             ("eval_iterations", self.eval_iterations),
@@ -209,6 +232,11 @@ impl Protocol {
                 );
             }
         }
+        Ok(())
+    }
+
+    /// Scenarios, fidelity bins, the prior's strength and the window.
+    fn check_sizes(&self) -> Result<(), CampaignError> {
         if self.train_scenarios.is_empty() {
             return bad("train_scenarios", "at least one scenario is needed".into());
         }
@@ -237,10 +265,17 @@ impl Protocol {
                 format!("{} is not between 1 and {MAX_WINDOW}", self.window),
             );
         }
-        if self.budgets.len() > MAX_BUDGETS {
+        Ok(())
+    }
+
+    fn check_ablation_and_screening(&self) -> Result<(), CampaignError> {
+        if self.prior_strengths.len() > MAX_BUDGETS {
             return bad(
-                "budgets",
-                format!("{} budgets; at most {MAX_BUDGETS}", self.budgets.len()),
+                "prior_strengths",
+                format!(
+                    "{} strengths; at most {MAX_BUDGETS}",
+                    self.prior_strengths.len()
+                ),
             );
         }
         for (i, s) in self.prior_strengths.iter().enumerate() {
@@ -265,20 +300,6 @@ impl Protocol {
                 "audit_fraction",
                 format!("{} is outside [0, 1]", self.audit_fraction),
             );
-        }
-        if self.prior_strengths.len() > MAX_BUDGETS {
-            return bad(
-                "prior_strengths",
-                format!(
-                    "{} strengths; at most {MAX_BUDGETS}",
-                    self.prior_strengths.len()
-                ),
-            );
-        }
-        for (name, w) in &self.weights {
-            if !(*w > 0.0 && w.is_finite()) {
-                return bad("weights", format!("`{name}`: {w} is not a positive weight"));
-            }
         }
         Ok(())
     }

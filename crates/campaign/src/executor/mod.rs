@@ -421,112 +421,152 @@ fn check_logged(l: &LogLine, t: &Trial, label: &str, index: u64) -> Result<(), C
 /// (with the kernel's outcome and credit) before the next trial is told.
 fn tell(
     kernel: &mut Kernel,
-    slot: Slot,
+    mut slot: Slot,
     label: &str,
     stage: &Stage,
     cost: CostMeasure,
     store: &mut dyn TrialStore,
 ) -> Result<LogLine, CampaignError> {
-    let diverged = |message: String| CampaignError::Diverged {
-        stage: label.into(),
+    let cx = TellCx {
+        label,
+        stage,
+        cost,
         index: slot.index,
-        message,
+        id: slot.trial.id,
     };
-    let untellable = |e: savme_kernel::TellError| CampaignError::Untellable {
-        stage: label.into(),
-        index: slot.index,
-        message: e.to_string(),
-    };
-    let withdraw = |kernel: &mut Kernel| {
+    match slot.logged.take() {
+        Some((number, logged)) => cx.replay(kernel, &slot, number, logged, store),
+        None => cx.tell_ran(kernel, slot, store),
+    }
+}
+
+/// What telling one trial of a stage needs to know.
+struct TellCx<'a> {
+    label: &'a str,
+    stage: &'a Stage,
+    cost: CostMeasure,
+    index: u64,
+    id: u64,
+}
+
+impl TellCx<'_> {
+    fn diverged(&self, message: String) -> CampaignError {
+        CampaignError::Diverged {
+            stage: self.label.into(),
+            index: self.index,
+            message,
+        }
+    }
+
+    fn untellable(&self, e: savme_kernel::TellError) -> CampaignError {
+        CampaignError::Untellable {
+            stage: self.label.into(),
+            index: self.index,
+            message: e.to_string(),
+        }
+    }
+
+    fn withdraw(&self, kernel: &mut Kernel) -> Result<(), CampaignError> {
         kernel
-            .cancel(slot.trial.id)
+            .cancel(self.id)
             .map(|_| ())
-            .map_err(|e| diverged(format!("the failed trial cannot be withdrawn: {e}")))
-    };
-    match slot.logged {
-        Some((_, LogLine::Failed(f))) => {
-            withdraw(kernel)?;
-            return Ok(LogLine::Failed(f));
+            .map_err(|e| self.diverged(format!("the failed trial cannot be withdrawn: {e}")))
+    }
+
+    /// A stored line replayed on resume: told as logged, and refused (naming the store line
+    /// and field) where replaying the trial gives something else.
+    fn replay(
+        &self,
+        kernel: &mut Kernel,
+        slot: &Slot,
+        number: u64,
+        logged: LogLine,
+        store: &mut dyn TrialStore,
+    ) -> Result<LogLine, CampaignError> {
+        let tampered = |field: &str, logged: String, computed: String| {
+            CampaignError::Log {
+            store: store.location(),
+            line: number as usize,
+            message: format!(
+                "field `{field}` is {logged} but replaying the trial gives {computed}: the line was edited, or written by another campaign"
+            ),
         }
-        Some((number, LogLine::Screen(l))) => {
-            let expected = savme_kernel::screening::decide(l.lf.failure, slot.audit == Some(true));
-            let hf_expected = expected != savme_kernel::screening::Screen::Pass;
-            if slot.audit.is_none() || l.screen != expected || l.hf.is_some() != hf_expected {
-                return Err(CampaignError::Log {
-                    store: store.location(),
-                    line: number as usize,
-                    message: format!(
-                        "field `screen` is {:?} (HF run: {}) but replaying the trial gives {expected:?}: the line was edited, or written by another campaign",
-                        l.screen,
-                        l.hf.is_some()
-                    ),
-                });
+        };
+        let cannot_tell = |e| self.diverged(format!("the logged outcome cannot be told: {e}"));
+        match logged {
+            LogLine::Failed(f) => {
+                self.withdraw(kernel)?;
+                Ok(LogLine::Failed(f))
             }
-            tell_screened(kernel, slot.trial.id, &l.lf, l.hf.as_ref())
-                .map_err(|e| diverged(format!("the logged outcome cannot be told: {e}")))?;
-            return Ok(LogLine::Screen(l));
+            LogLine::Screen(l) => {
+                let expected =
+                    savme_kernel::screening::decide(l.lf.failure, slot.audit == Some(true));
+                let hf_expected = expected != savme_kernel::screening::Screen::Pass;
+                if slot.audit.is_none() || l.screen != expected || l.hf.is_some() != hf_expected {
+                    return Err(tampered(
+                        "screen",
+                        format!("{:?} (HF run: {})", l.screen, l.hf.is_some()),
+                        format!("{expected:?}"),
+                    ));
+                }
+                tell_screened(kernel, self.id, &l.lf, l.hf.as_ref()).map_err(cannot_tell)?;
+                Ok(LogLine::Screen(l))
+            }
+            LogLine::Trial(l) => {
+                check_costs(&l, self.cost, &tampered)?;
+                let record = kernel.tell(self.id, l.observation()).map_err(cannot_tell)?;
+                let show = |v: &dyn std::fmt::Debug| format!("{v:?}");
+                let checks = [
+                    ("phase", show(&l.phase), show(&slot.trial.phase)),
+                    ("budget", show(&l.budget), show(&self.stage.budget)),
+                    ("outcome", show(&l.outcome), show(&record.outcome)),
+                    ("cost_ratio", show(&l.cost_ratio), show(&record.cost_ratio)),
+                    ("credit", show(&l.credit), show(&record.credit)),
+                ];
+                match checks.into_iter().find(|(_, a, b)| a != b) {
+                    Some((field, logged, computed)) => Err(tampered(field, logged, computed)),
+                    None => Ok(LogLine::Trial(l)),
+                }
+            }
         }
-        Some((number, LogLine::Trial(l))) => {
-            let tampered = |field: &str, logged: String, computed: String| {
-                CampaignError::Log {
-                store: store.location(),
-                line: number as usize,
-                message: format!(
-                    "field `{field}` is {logged} but replaying the trial gives {computed}: the line was edited, or written by another campaign"
-                ),
-            }
-            };
-            check_costs(&l, cost, &tampered)?;
+    }
+
+    /// A trial this process ran: withdrawn if a run failed, else told; its line stored.
+    fn tell_ran(
+        &self,
+        kernel: &mut Kernel,
+        slot: Slot,
+        store: &mut dyn TrialStore,
+    ) -> Result<LogLine, CampaignError> {
+        let (label, stage, cost) = (self.label, self.stage, self.cost);
+        let line = if let Some(error) = slot.error {
+            self.withdraw(kernel)?;
+            LogLine::Failed(FailedLine {
+                stage: label.into(),
+                index: slot.index,
+                id: slot.trial.id,
+                scenario: slot.trial.scenario.to_string(),
+                phi: slot.trial.phi.clone(),
+                theta_lf: slot.trial.theta_lf.clone(),
+                error,
+            })
+        } else if let Some(audit) = slot.audit {
+            let l = screen_line(&slot, audit, label, stage, cost)?;
+            tell_screened(kernel, self.id, &l.lf, l.hf.as_ref()).map_err(|e| self.untellable(e))?;
+            LogLine::Screen(l)
+        } else {
+            let mut line = trial_line(&slot, label, stage, cost)?;
             let record = kernel
-                .tell(slot.trial.id, l.observation())
-                .map_err(|e| diverged(format!("the logged outcome cannot be told: {e}")))?;
-            let show = |v: &dyn std::fmt::Debug| format!("{v:?}");
-            let checks = [
-                ("phase", show(&l.phase), show(&slot.trial.phase)),
-                ("budget", show(&l.budget), show(&stage.budget)),
-                ("outcome", show(&l.outcome), show(&record.outcome)),
-                ("cost_ratio", show(&l.cost_ratio), show(&record.cost_ratio)),
-                ("credit", show(&l.credit), show(&record.credit)),
-            ];
-            if let Some((field, logged, computed)) = checks.into_iter().find(|(_, a, b)| a != b) {
-                return Err(tampered(field, logged, computed));
-            }
-            return Ok(LogLine::Trial(l));
-        }
-        None => {}
-    }
-    if let Some(error) = slot.error {
-        withdraw(kernel)?;
-        let line = LogLine::Failed(FailedLine {
-            stage: label.into(),
-            index: slot.index,
-            id: slot.trial.id,
-            scenario: slot.trial.scenario.to_string(),
-            phi: slot.trial.phi.clone(),
-            theta_lf: slot.trial.theta_lf.clone(),
-            error,
-        });
+                .tell(self.id, line.observation())
+                .map_err(|e| self.untellable(e))?;
+            line.cost_ratio = record.cost_ratio;
+            line.outcome = record.outcome;
+            line.credit = record.credit;
+            LogLine::Trial(line)
+        };
         store.append_json(&[line.to_json()])?;
-        return Ok(line);
+        Ok(line)
     }
-    if let Some(audit) = slot.audit {
-        let line = LogLine::Screen(screen_line(&slot, audit, label, stage, cost)?);
-        if let LogLine::Screen(l) = &line {
-            tell_screened(kernel, slot.trial.id, &l.lf, l.hf.as_ref()).map_err(untellable)?;
-        }
-        store.append_json(&[line.to_json()])?;
-        return Ok(line);
-    }
-    let mut line = trial_line(&slot, label, stage, cost)?;
-    let record = kernel
-        .tell(slot.trial.id, line.observation())
-        .map_err(untellable)?;
-    line.cost_ratio = record.cost_ratio;
-    line.outcome = record.outcome;
-    line.credit = record.credit;
-    let line = LogLine::Trial(line);
-    store.append_json(&[line.to_json()])?;
-    Ok(line)
 }
 
 /// The line of a run of `slot`'s trial, with the protocol's cost.
