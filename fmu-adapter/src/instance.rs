@@ -25,10 +25,12 @@ pub enum Step {
         /// `lastSuccessfulTime`.
         time: f64,
     },
-    /// The FMU asks to end the simulation. `reached: None` — it could not complete the step
-    /// (`fmi2Discard` / `fmi3Discard`): the run ends at the last completed communication point.
-    /// `reached: Some(t)` — FMI 3.0 `terminateSimulation` after a step completed up to `t`: the
-    /// run ends there, its signals read at `t`. `terminated` is FMI 2.0's
+    /// The FMU asks to end the simulation: `fmi2Discard` / `fmi3Discard` (the step did not
+    /// complete), or FMI 3.0 `terminateSimulation`. The FMU's signals are those at its last
+    /// successful time — `reached: Some(t)`, when it got past the step's start: FMI 2.0's
+    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`, FMI 3.0's `lastSuccessfulTime` (or the end
+    /// of the step it completed); `None` when it made no progress or does not say. The run ends
+    /// there, judged on its signals read after the stop. `terminated` is FMI 2.0's
     /// `fmi2GetBooleanStatus(fmi2Terminated)` answer (`None` when it gives none), `Some(true)`
     /// for `terminateSimulation`.
     StopRequested {
@@ -297,7 +299,7 @@ impl Instance {
                 // SAFETY: a live component of this library.
                 let s = unsafe { dll.fmi2DoStep(self.component, time, h, 1) };
                 if s == fmi2Status::fmi2Discard {
-                    return Ok(self.stop_requested());
+                    return Ok(self.stop_requested(time));
                 }
                 self.status2("fmi2DoStep", s).map(|()| Step::Completed)
             }
@@ -319,7 +321,7 @@ impl Instance {
                 if s == fmi3::DISCARD {
                     return Ok(Step::StopRequested {
                         terminated: Some(terminate),
-                        reached: None,
+                        reached: (reached > time && reached.is_finite()).then_some(reached),
                     });
                 }
                 self.status3("fmi3DoStep", s)?;
@@ -331,7 +333,7 @@ impl Instance {
                 Ok(if terminate {
                     Step::StopRequested {
                         terminated: Some(true),
-                        reached: Some(end),
+                        reached: (end > time).then_some(end),
                     }
                 } else if end < time + h {
                     Step::EarlyReturn { time: end }
@@ -343,11 +345,29 @@ impl Instance {
     }
 
     #[cold]
-    fn stop_requested(&mut self) -> Step {
+    fn stop_requested(&mut self, time: f64) -> Step {
         Step::StopRequested {
             terminated: self.terminated(),
-            reached: None,
+            reached: self.last_successful_time().filter(|t| *t > time),
         }
+    }
+
+    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`, when the FMU exports it and answers.
+    fn last_successful_time(&mut self) -> Option<f64> {
+        let Api::Fmi2(dll) = &self.file.api else {
+            return None;
+        };
+        dll.fmi2GetRealStatus.as_ref().ok()?;
+        let mut v = f64::NAN;
+        // SAFETY: the function exists (checked above); one writable slot.
+        let s = unsafe {
+            dll.fmi2GetRealStatus(
+                self.component,
+                fmi2StatusKind::fmi2LastSuccessfulTime,
+                &mut v,
+            )
+        };
+        (ok2(s) && v.is_finite()).then_some(v)
     }
 
     /// `fmi2GetBooleanStatus(fmi2Terminated)`, when the FMU exports it and answers.

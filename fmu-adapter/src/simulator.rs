@@ -615,23 +615,30 @@ impl FmuSimulator {
                 self.spec.fmu_log,
             )?,
         };
-        let result = self.run_on(&mut inst, &plans[k], (scenario, phi, fidelity), tracer);
-        if result.is_ok() {
-            // Only a healthy instance is reused; a failed one is freed.
+        let ran = self.run_on(&mut inst, &plans[k], (scenario, phi, fidelity), tracer)?;
+        if !ran.stopped {
+            // Only a healthy instance is reused: a failed one is freed, and so is one whose FMU
+            // asked to end the simulation (some keep that request across a reset, which would
+            // end every later run at once, judged on its initial state).
             self.instances[k] = Some(inst);
         }
-        let (failure, work) = result?;
-        Ok(SimResult::new(failure, clock.elapsed().as_secs_f64(), work))
+        Ok(SimResult::new(
+            ran.failure,
+            clock.elapsed().as_secs_f64(),
+            ran.work,
+        ))
     }
 
-    // Long because it is one run from set-up to terminate, in the order FMI prescribes.
+    /// One run on `inst`, from set-up to terminate in the order FMI prescribes: its verdict,
+    /// its work and whether the FMU asked to end the simulation (the instance is then not
+    /// reused: some FMUs keep that request across `fmi2Reset` / `fmi3Reset`).
     fn run_on(
         &self,
         inst: &mut Instance,
         plan: &Plan,
         (scenario, phi, fidelity): (&str, &Assignment, &Assignment),
-        mut tracer: Option<&mut Tracer>,
-    ) -> Result<(bool, Option<u64>), FmuError> {
+        tracer: Option<&mut Tracer>,
+    ) -> Result<Ran, FmuError> {
         let spec = &self.spec;
         let (_, phi_bindings, fixed) = plan
             .scenarios
@@ -659,74 +666,130 @@ impl FmuSimulator {
             }
         }
         inst.initialize()?;
-        let h = match &spec.step {
-            StepSize::Fixed(h) => *h,
-            StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
-            StepSize::Of(var) => positive(fidelity, var, "step size")?,
+        let h = step_size(&spec.step, fidelity)?;
+        fixed_step_fits(inst.file(), h, stop)?;
+        let mut ran = self.steps(inst, plan, h, tracer)?;
+        let work = match &plan.cost {
+            Some(v) => inst.number(v)?.max(0.0).round() as u64,
+            None => ran.work.unwrap_or(0),
         };
+        // A run is at least one unit of work, even one judged at initialisation (a failure at
+        // t = 0 with stop_on_failure, a stop request at the first step): the kernel takes no
+        // zero cost.
+        ran.work = Some(work.max(1));
+        inst.terminate()?;
+        Ok(ran)
+    }
+
+    /// The communication steps of a run, on the grid t = n·h (as FMPy computes it: no drift
+    /// from accumulating t + h). A communication point within a relative 1e-9 of the target
+    /// counts as reached — an FMI 3.0 early return a few ulps before the point does not leave
+    /// a near-zero step. After a stop request (`fmi2Discard`, `fmi3Discard`,
+    /// `terminateSimulation`) the signals are read at the FMU's last successful time, so that
+    /// an FMU that stops *because* of the failure is judged failed. The work is the number of
+    /// `doStep` calls that advanced time.
+    fn steps(
+        &self,
+        inst: &mut Instance,
+        plan: &Plan,
+        h: f64,
+        mut tracer: Option<&mut Tracer>,
+    ) -> Result<Ran, FmuError> {
+        let (stop, stop_on_failure) = (self.spec.stop_time, self.spec.stop_on_failure);
         let mut failure = self.failed(inst, plan)?;
-        let mut t = 0.0;
-        let mut k = 0u64;
+        let (mut t, mut n, mut k) = (0.0_f64, 0u64, 0u64);
         if let Some(tr) = tracer.as_deref_mut() {
             tr.sample(inst, t, failure)?;
         }
-        // The communication point an FMI 3.0 early return left unreached.
-        let mut heading: Option<f64> = None;
-        while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
-            let (goal, dt) = match heading.take() {
-                Some(goal) => (goal, goal - t),
-                None => {
-                    let dt = h.min(stop - t);
-                    let goal = if (stop - (t + dt)).abs() < 1e-12 {
-                        stop
-                    } else {
-                        t + dt
-                    };
-                    (goal, dt)
-                }
-            };
-            match inst.step(t, dt)? {
+        let mut stopped = false;
+        while !(failure && stop_on_failure) && t < stop && !close(t, stop) {
+            let mut goal = (n + 1) as f64 * h;
+            if goal > stop && !close(goal, stop) {
+                goal = stop;
+            }
+            match inst.step(t, goal - t)? {
                 Step::Completed => t = goal,
-                Step::EarlyReturn { time } if time > t => {
-                    // An event inside the step: judged there, then on to `goal`.
-                    t = time;
-                    heading = Some(goal);
-                }
+                Step::EarlyReturn { time } if time > t => t = time.min(goal),
                 Step::EarlyReturn { time } => {
                     return Err(FmuError::Spec(format!(
                         "{}: fmi3DoStep returned early at {time} s, not after the communication point {t} s",
                         inst.file().path.display()
                     )))
                 }
-                // The FMU ends the simulation without completing the step: the run ends at the
-                // last completed communication point, judged on the signals seen up to there.
-                Step::StopRequested { reached: None, .. } => break,
-                // FMI 3.0 terminateSimulation after a completed (or early-returned) step: judged
-                // on the signals there too.
-                Step::StopRequested {
-                    reached: Some(_), ..
-                } => {
-                    k += 1;
-                    failure |= self.failed(inst, plan)?;
-                    if let Some(tr) = tracer.as_deref_mut() {
-                        tr.sample(inst, t, failure)?;
+                Step::StopRequested { reached, .. } => {
+                    if let Some(r) = reached {
+                        t = r;
+                        k += 1;
                     }
-                    break;
+                    stopped = true;
                 }
             }
-            k += 1;
+            if !stopped {
+                k += 1;
+            }
+            if close(t, goal) {
+                n += 1;
+            }
             failure |= self.failed(inst, plan)?;
             if let Some(tr) = tracer.as_deref_mut() {
                 tr.sample(inst, t, failure)?;
             }
+            if stopped {
+                break;
+            }
         }
-        let work = match &plan.cost {
-            Some(v) => Some(inst.number(v)?.max(0.0).round() as u64),
-            None => Some(k),
-        };
-        inst.terminate()?;
-        Ok((failure, work))
+        Ok(Ran {
+            failure,
+            work: Some(k),
+            stopped,
+        })
     }
+}
+
+/// What a run found.
+struct Ran {
+    failure: bool,
+    work: Option<u64>,
+    /// The FMU asked to end the simulation.
+    stopped: bool,
+}
+
+/// `a` and `b` equal within a relative 1e-9 (Python's `math.isclose`, as FMPy compares
+/// communication points).
+fn close(a: f64, b: f64) -> bool {
+    a == b || (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+}
+
+/// The communication step size of a run.
+fn step_size(step: &StepSize, fidelity: &Assignment) -> Result<f64, FmuError> {
+    Ok(match step {
+        StepSize::Fixed(h) => *h,
+        StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
+        StepSize::Of(var) => positive(fidelity, var, "step size")?,
+    })
+}
+
+/// An FMU that declares `canHandleVariableCommunicationStepSize="false"` takes steps of one
+/// size only: the stop time must be a whole number of steps `h` (else the last step would be
+/// shorter), refused naming the FMU, the step and the stop time.
+pub fn fixed_step_fits(file: &FmuDescription, h: f64, stop: f64) -> Result<(), FmuError> {
+    let variable = file
+        .model
+        .co_simulation
+        .as_ref()
+        .is_none_or(|c| c.can_handle_variable_communication_step_size);
+    let steps = (stop / h).round();
+    if variable || (steps >= 1.0 && close(steps * h, stop)) {
+        return Ok(());
+    }
+    Err(FmuError::Spec(format!(
+        "{}: the FMU declares canHandleVariableCommunicationStepSize=\"false\" (one step size only), \
+         but the stop time {stop} s is not a whole number of steps of {h} s: \
+         choose a step that divides the stop time (e.g. {}) or a stop time that is a multiple of it (e.g. {})",
+        file.path.display(),
+        stop / (stop / h).ceil(),
+        steps.max(1.0) * h,
+    )))
 }
 
 /// The run settings checked and the bindings resolved against the HF and the LF FMU.
@@ -753,10 +816,35 @@ fn plans(
             return Err(FmuError::Spec(format!("tolerance {t} is not positive")));
         }
     }
+    for file in [hf, lf] {
+        for h in step_sizes(&spec.step, fidelity) {
+            fixed_step_fits(file, h, spec.stop_time)?;
+        }
+    }
     Ok([
         Plan::new(hf, spec, fidelity, phi)?,
         Plan::new(lf, spec, fidelity, phi)?,
     ])
+}
+
+/// The step sizes a run can take, as far as known before any run: the fixed step, or those of
+/// a fidelity variable with listed values (a continuous one is checked run by run).
+fn step_sizes(step: &StepSize, fidelity: Option<&Space>) -> Vec<f64> {
+    let values = |var: &str| -> Vec<f64> {
+        match fidelity.and_then(|s| s.variable(var)).map(|v| &v.domain) {
+            Some(Domain::Discrete { values }) => values.iter().filter_map(Value::as_f64).collect(),
+            _ => Vec::new(),
+        }
+    };
+    match step {
+        StepSize::Fixed(h) => vec![*h],
+        StepSize::Of(var) => values(var).into_iter().filter(|h| *h > 0.0).collect(),
+        StepSize::RateOf(var) => values(var)
+            .into_iter()
+            .filter(|r| *r > 0.0)
+            .map(|r| 1.0 / r)
+            .collect(),
+    }
 }
 
 /// The positive, finite value of fidelity variable `var` (a `what`: rate, step size, …).
