@@ -259,6 +259,21 @@ fn needed(space: &Space, name: &str) -> Option<&'static [VarType]> {
     })
 }
 
+/// A variable's type in an error: its kind (Real, Integer, …), or for one savme does not bind
+/// its FMI 3.0 type (Binary, Clock), an array marked as such.
+fn shown_type(v: &VarInfo) -> String {
+    let name = if v.kind == VarType::Other {
+        format!("{:?}", v.repr)
+    } else {
+        format!("{:?}", v.kind)
+    };
+    if v.array {
+        format!("an array of {name}")
+    } else {
+        name
+    }
+}
+
 /// A binding resolved against one FMU.
 #[derive(Debug, Clone)]
 struct Resolved {
@@ -307,7 +322,7 @@ fn resolve(
             return Err(FmuError::WrongType {
                 fmu: file.path.display().to_string(),
                 variable: b.fmu_variable.clone(),
-                found: format!("{:?}", var.kind),
+                found: shown_type(&var),
                 expected: format!(
                     "{} (for `{}`)",
                     allowed
@@ -348,7 +363,7 @@ fn resolve_fixed(file: &FmuDescription, f: &Fixed) -> Result<(VarInfo, Value), F
         return Err(FmuError::WrongType {
             fmu: file.path.display().to_string(),
             variable: f.fmu_variable.clone(),
-            found: format!("{:?}", v.kind),
+            found: shown_type(&v),
             expected: format!("a variable that takes the value {}", f.value),
         });
     }
@@ -387,7 +402,7 @@ fn output(file: &FmuDescription, name: &str, kinds: &[VarType]) -> Result<VarInf
         return Err(FmuError::WrongType {
             fmu: file.path.display().to_string(),
             variable: name.into(),
-            found: format!("{:?}", v.kind),
+            found: shown_type(&v),
             expected: kinds
                 .iter()
                 .map(|k| format!("{k:?}"))
@@ -787,9 +802,18 @@ pub fn fixed_step_fits(file: &FmuDescription, h: f64, stop: f64) -> Result<(), F
          but the stop time {stop} s is not a whole number of steps of {h} s: \
          choose a step that divides the stop time (e.g. {}) or a stop time that is a multiple of it (e.g. {})",
         file.path.display(),
-        stop / (stop / h).ceil(),
-        steps.max(1.0) * h,
+        round12(stop / (stop / h).ceil()),
+        round12(steps.max(1.0) * h),
     )))
+}
+
+/// `x` to 12 significant digits, for a suggestion a user can type (9.9, not 9.899999999999999).
+fn round12(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(11 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
 }
 
 /// The run settings checked and the bindings resolved against the HF and the LF FMU.

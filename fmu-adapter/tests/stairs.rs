@@ -272,3 +272,230 @@ fn a_stop_at_the_failure_is_a_failure_and_the_instance_is_not_reused() {
         ],
     );
 }
+
+/// Item 7: an FMU declaring `canHandleVariableCommunicationStepSize="false"` takes one step
+/// size: a step that does not divide the stop time is refused before any run, naming the FMU,
+/// the step and the stop time (FMPy would silently stop one step short); one that divides it
+/// runs as FMPy runs it. A fidelity variable as the step size is checked value by value.
+#[test]
+fn a_fixed_step_fmu_refuses_a_step_that_does_not_divide_the_stop_time() {
+    for fmi in BOTH {
+        let dir = common::temp_dir("savme-stairs", &format!("fixed-step{fmi}"));
+        let fmu = dir.join(format!("fixed{fmi}.fmu"));
+        savme_fmu_testkit::pack_stairs(&fmu, fmi, |xml| {
+            xml.replacen(
+                "canHandleVariableCommunicationStepSize=\"true\"",
+                "canHandleVariableCommunicationStepSize=\"false\"",
+                1,
+            )
+        })
+        .unwrap();
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        let phi = phi_space();
+        let build = |spec: RunSpec, theta: Option<&Space>| {
+            FmuSimulator::new(
+                file.clone(),
+                file.clone(),
+                spec,
+                theta,
+                &|_| Some(phi.clone()),
+                None,
+            )
+        };
+        let e = build(Case::new(&[], 0.3, 10.0).spec(CostSource::Wall), None)
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            format!(
+                "run specification: {}: the FMU declares canHandleVariableCommunicationStepSize=\"false\" (one step size only), \
+                 but the stop time 10 s is not a whole number of steps of 0.3 s: choose a step that divides the stop time \
+                 (e.g. 0.294117647059) or a stop time that is a multiple of it (e.g. 9.9)",
+                fmu.display()
+            )
+        );
+        // A step size from a fidelity variable: each listed value is checked.
+        let theta = Space::new(vec![savme_kernel::Variable::discrete("h", [0.5, 0.3])]).unwrap();
+        let mut spec = Case::new(&[], 0.1, 10.0).spec(CostSource::Wall);
+        spec.step = StepSize::Of("h".into());
+        let e = build(spec.clone(), Some(&theta)).map(|_| ()).unwrap_err();
+        assert!(e.to_string().contains("steps of 0.3 s"), "{e}");
+        let theta = Space::new(vec![savme_kernel::Variable::discrete("h", [0.5, 0.1])]).unwrap();
+        assert!(build(spec, Some(&theta)).is_ok());
+        // 0.1 s divides 10 s (within FMPy's 1e-9): runs, as in FMPy.
+        let case = Case::new(&[], 0.1, 10.0);
+        let mut sim = FmuBackend::InProcess(build(case.spec(CostSource::Wall), None).unwrap());
+        let ours = run(&mut sim, 7.05);
+        assert_eq!((ours.failure, ours.work), (true, Some(100)));
+        if let Some(python) = common::fmpy_python() {
+            assert_eq!(fmpy(&python, &fmu, &case, &[7.05]), vec![(true, 100)]);
+        }
+    }
+}
+
+/// The FMI 3.0 `stairs` FMU with `edit` applied to its model description.
+fn stairs3_edited(dir: &Path, name: &str, edit: impl FnOnce(&str) -> String) -> PathBuf {
+    let out = dir.join(name);
+    savme_fmu_testkit::pack_stairs(&out, 3, edit).unwrap();
+    out
+}
+
+/// Item 6: FMI 3.0 `<Alias>` names are variables of their own — shown by `fmu info` as
+/// aliases, bindable as φ, failure signal or cost, with the verdicts of the names they alias
+/// (and FMPy's, which is run with the aliased names).
+#[test]
+fn fmi3_aliases_are_shown_and_bindable() {
+    let dir = common::temp_dir("savme-stairs", "alias");
+    let fmu = stairs3_edited(&dir, "alias.fmu", |xml| {
+        xml.replacen(
+            r#"<Float64 name="x" valueReference="7" causality="output" variability="continuous" initial="calculated"/>"#,
+            r#"<Float64 name="x" valueReference="7" causality="output" variability="continuous" initial="calculated"><Alias name="h_ft" description="x, in feet"/></Float64>"#,
+            1,
+        )
+        .replacen(
+            r#"initial="exact" start="5"/>"#,
+            r#"initial="exact" start="5"><Alias name="limit"/></Float64>"#,
+            1,
+        )
+    });
+    let text = savme_fmu::inspect::Info::read(&fmu).unwrap().text();
+    let row = |name: &str| {
+        text.lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .map(|l| l.split_whitespace().collect::<Vec<_>>().join(" "))
+            .unwrap_or_else(|| panic!("no row {name}: {text}"))
+    };
+    assert_eq!(row("h_ft"), "h_ft output Float64 alias of x: x, in feet");
+    assert_eq!(row("limit"), "limit parameter Float64 5 alias of threshold");
+    assert!(savme_fmu::inspect::problems(&fmu).is_empty());
+    let file = FmuFile::open(&fmu).unwrap();
+    assert_eq!(
+        file.variable("h_ft").unwrap().vr,
+        file.variable("x").unwrap().vr
+    );
+    // Bound through the aliases: φ → `limit`, failure: `h_ft` ≥ 7.05, cost: `steps`.
+    let case = Case::new(&[], 0.1, 10.0);
+    let mut spec = case.spec(CostSource::Output("steps".into()));
+    spec.scenarios[0].phi[0].fmu_variable = "limit".into();
+    spec.failure = Failure::Threshold {
+        variable: "h_ft".into(),
+        when: savme_fmu::Crossing::Above,
+        value: 7.05,
+    };
+    let mut sim = in_process(&fmu, spec.clone());
+    let mut iso = isolated(&fmu, spec);
+    // The threshold parameter (`limit`) decides `failed`, not the verdict here: h_ft = x = t.
+    for (limit, failure) in [(2.0, true), (50.0, true)] {
+        for s in [&mut sim, &mut iso] {
+            let r = run(s, limit);
+            assert_eq!((r.failure, r.work), (failure, Some(100)), "limit {limit}");
+        }
+    }
+    let mut short = Case::new(&[], 0.1, 5.0).spec(CostSource::Wall);
+    short.scenarios[0].phi[0].fmu_variable = "limit".into();
+    let mut sim = in_process(&fmu, short);
+    for (limit, failure) in [(2.0, true), (50.0, false)] {
+        let r = run(&mut sim, limit);
+        assert_eq!((r.failure, r.work), (failure, Some(50)), "limit {limit}");
+        if let Some(python) = common::fmpy_python() {
+            let theirs = fmpy(&python, &fmu, &Case::new(&[], 0.1, 5.0), &[limit]);
+            assert_eq!(theirs, vec![(failure, 50)]);
+        }
+    }
+    // An alias name taken twice is refused like any duplicate name.
+    let dup = stairs3_edited(&dir, "dup.fmu", |xml| {
+        xml.replacen(
+            r#"initial="exact" start="5"/>"#,
+            r#"initial="exact" start="5"><Alias name="rate"/></Float64>"#,
+            1,
+        )
+    });
+    let e = FmuFile::open(&dup).unwrap_err().to_string();
+    assert!(
+        e.ends_with("modelDescription.xml: variable `rate` is declared twice"),
+        "{e}"
+    );
+}
+
+/// Item 5 and 6: an FMI 3.0 FMU with an array (its start a list), a Binary and a Clock is
+/// valid — `fmu validate` finds no problem, as FMPy — and `fmu info` names their types; an
+/// array is refused as a binding, naming it; a ScheduledExecution-only FMU is named as such;
+/// a model description that ends before its closing tag is refused, with line and column.
+#[test]
+fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
+    let dir = common::temp_dir("savme-stairs", "types3");
+    let extra = r#"<Float64 name="m" valueReference="20" causality="parameter" variability="fixed" initial="exact" start="1 0 0 0 1 0 0 0 1"><Dimension start="3"/><Dimension start="3"/></Float64>
+    <Binary name="blob" valueReference="21" causality="parameter" variability="fixed" initial="exact"><Start value="00ff"/></Binary>
+    <Clock name="tick" valueReference="22" causality="input" intervalVariability="constant" intervalDecimal="0.1"/>
+  </ModelVariables>"#;
+    let fmu = stairs3_edited(&dir, "types.fmu", |xml| {
+        xml.replacen("  </ModelVariables>", extra, 1)
+    });
+    assert_eq!(savme_fmu::inspect::problems(&fmu), Vec::<String>::new());
+    let text = savme_fmu::inspect::Info::read(&fmu).unwrap().text();
+    for (name, shown) in [("m", "Float64[]"), ("blob", "Binary"), ("tick", "Clock")] {
+        let line = text
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("{name}: {text}"));
+        assert_eq!(line.split_whitespace().nth(2), Some(shown), "{line}");
+    }
+    let bad_array = stairs3_edited(&dir, "bad-array.fmu", |xml| {
+        xml.replacen(
+            "  </ModelVariables>",
+            &extra.replace("1 0 0 0 1", "1 0 x 0 1"),
+            1,
+        )
+    });
+    assert_eq!(
+        savme_fmu::inspect::problems(&bad_array),
+        vec!["variable `m`: element start \"x\" is not a Real".to_string()]
+    );
+    let mut spec = Case::new(&[], 0.1, 10.0).spec(CostSource::Wall);
+    spec.scenarios[0].phi[0].fmu_variable = "m".into();
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let phi = phi_space();
+    let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None)
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.ends_with(
+            "variable `m` is an array (it has Dimension elements), expected a scalar variable"
+        ),
+        "{e}"
+    );
+    // ScheduledExecution only.
+    let scheduled = stairs3_edited(&dir, "scheduled.fmu", |xml| {
+        xml.replacen("<CoSimulation", "<ScheduledExecution", 1)
+            .replacen(" canHandleVariableCommunicationStepSize=\"true\"\n    canReturnEarlyAfterIntermediateUpdate=\"false\" hasEventMode=\"false\"", "", 1)
+    });
+    let e = savme_fmu::FmuDescription::read(&scheduled)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.ends_with("no CoSimulation element; savme runs co-simulation FMUs only (this one is scheduled execution (clocked model partitions))"),
+        "{e}"
+    );
+    let text = savme_fmu::inspect::Info::read(&scheduled).unwrap().text();
+    assert!(
+        text.contains("Kinds            scheduled execution\n"),
+        "{text}"
+    );
+    // Premature end of data.
+    let cut = stairs3_edited(&dir, "cut.fmu", |xml| {
+        xml.replacen("</fmiModelDescription>", "", 1)
+    });
+    let e = savme_fmu::FmuDescription::read(&cut)
+        .unwrap_err()
+        .to_string();
+    let lines = savme_fmu_testkit::STAIRS3_MODEL_DESCRIPTION.lines().count();
+    assert!(
+        e.ends_with(&format!(
+            "modelDescription.xml: line {}, column 1: premature end of data: the element `fmiModelDescription` is not closed",
+            lines + 1
+        )),
+        "{e}"
+    );
+}
