@@ -236,8 +236,9 @@ fn variable_problem(v: &VarInfo) -> Option<String> {
     };
     let value: Option<f64> = match v.kind {
         VarType::Real => start.trim().parse::<f64>().ok(),
+        // i128: a UInt64 start may exceed 2⁶³ − 1.
         VarType::Integer | VarType::Enumeration => {
-            start.trim().parse::<i64>().ok().map(|i| i as f64)
+            start.trim().parse::<i128>().ok().map(|i| i as f64)
         }
         VarType::Boolean => {
             return (!["true", "false", "1", "0"].contains(&start.trim()))

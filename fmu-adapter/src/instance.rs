@@ -486,6 +486,18 @@ impl Instance {
                 Api::Fmi3(api) => self.set3(&api.float32, "fmi3SetFloat32", var.vr, x as f32),
                 Api::Fmi2(_) => Err(self.missing("fmi3SetFloat32")),
             },
+            // UInt64 values above 2⁶³ − 1 do not fit the i64 of `set_int`.
+            Repr::UInt64 if x.fract() == 0.0 && x >= 9_223_372_036_854_775_808.0 => {
+                match &self.file.api {
+                    Api::Fmi3(api) if x < 18_446_744_073_709_551_616.0 => {
+                        self.set3(&api.uint64, "fmi3SetUInt64", var.vr, x as u64)
+                    }
+                    _ => Err(FmuError::Spec(format!(
+                        "{x} does not fit `{}` (UInt64)",
+                        var.name
+                    ))),
+                }
+            }
             _ if x.fract() == 0.0 => self.set_int(var, x as i64),
             _ => Err(FmuError::Spec(format!(
                 "`{}` takes integers, not {x}",

@@ -318,6 +318,21 @@ fn resolve(
 ) -> Result<Resolved, FmuError> {
     let var = settable(file, &b.fmu_variable)?;
     if let Some(allowed) = space.and_then(|s| needed(s, &b.variable)) {
+        let continuous = space
+            .and_then(|s| s.variable(&b.variable))
+            .is_some_and(|v| matches!(v.domain, Domain::Continuous { .. }));
+        if continuous && matches!(var.kind, VarType::Integer | VarType::Enumeration) {
+            return Err(FmuError::WrongType {
+                fmu: file.path.display().to_string(),
+                variable: b.fmu_variable.clone(),
+                found: shown_type(&var),
+                expected: format!(
+                    "a Real for `{}`, which ranges continuously: give an {} variable its values as a list (`values = [1, 2, 3]`, not `range`)",
+                    b.variable,
+                    shown_type(&var)
+                ),
+            });
+        }
         if !allowed.contains(&var.kind) {
             return Err(FmuError::WrongType {
                 fmu: file.path.display().to_string(),
@@ -422,9 +437,11 @@ impl Plan {
     ) -> Result<Plan, FmuError> {
         let failure = match &spec.failure {
             Failure::Boolean { variable } => output(file, variable, &[VarType::Boolean])?,
-            Failure::Threshold { variable, .. } => {
-                output(file, variable, &[VarType::Real, VarType::Integer])?
-            }
+            Failure::Threshold { variable, .. } => output(
+                file,
+                variable,
+                &[VarType::Real, VarType::Integer, VarType::Enumeration],
+            )?,
         };
         let cost = match &spec.cost {
             CostSource::Wall => None,
@@ -547,6 +564,14 @@ impl FmuSimulator {
         };
         match var.kind {
             VarType::Real => inst.set_number(var, value.as_f64().ok_or_else(|| bad("a number"))?),
+            VarType::Integer
+                if var.repr == crate::Repr::UInt64
+                    && value
+                        .as_f64()
+                        .is_some_and(|x| x >= 9_223_372_036_854_775_808.0) =>
+            {
+                inst.set_number(var, value.as_f64().unwrap_or_default())
+            }
             VarType::Integer | VarType::Enumeration => {
                 let i = declared::integer_of(var, value, labels)
                     .ok_or_else(|| bad("an integer, a label or an enumeration item"))?;

@@ -499,3 +499,133 @@ fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
         "{e}"
     );
 }
+
+/// Item 10: an Enumeration output can be the failure signal (a threshold on its value: read
+/// through `fmi2GetInteger` / `fmi3GetInt64`), with the verdicts of the same output declared
+/// as an Integer.
+#[test]
+fn an_enumeration_output_can_be_the_failure_signal() {
+    for fmi in BOTH {
+        let dir = common::temp_dir("savme-stairs", &format!("enum-out{fmi}"));
+        let plain = stairs(&dir, fmi);
+        let enumerated = dir.join(format!("enum{fmi}.fmu"));
+        savme_fmu_testkit::pack_stairs(&enumerated, fmi, |xml| {
+            let items = r#"<Item name="none" value="0"/><Item name="many" value="100"/>"#;
+            if fmi == 3 {
+                xml.replacen(
+                    "<DefaultExperiment",
+                    &format!("<TypeDefinitions><EnumerationType name=\"Count\">{items}</EnumerationType></TypeDefinitions>\n  <DefaultExperiment"),
+                    1,
+                )
+                .replacen(r#"<Int32 name="events""#, r#"<Enumeration declaredType="Count" name="events""#, 1)
+            } else {
+                xml.replacen(
+                    "<DefaultExperiment",
+                    &format!("<TypeDefinitions><SimpleType name=\"Count\"><Enumeration>{items}</Enumeration></SimpleType></TypeDefinitions>\n  <DefaultExperiment"),
+                    1,
+                )
+                .replacen(
+                    "<ScalarVariable name=\"events\" valueReference=\"10\" causality=\"output\" variability=\"discrete\" initial=\"calculated\">\n      <Integer/>",
+                    "<ScalarVariable name=\"events\" valueReference=\"10\" causality=\"output\" variability=\"discrete\" initial=\"calculated\">\n      <Enumeration declaredType=\"Count\"/>",
+                    1,
+                )
+            }
+        })
+        .unwrap();
+        let kind = FmuFile::open(&enumerated)
+            .unwrap()
+            .variable("events")
+            .unwrap()
+            .kind;
+        assert_eq!(kind, savme_fmu::VarType::Enumeration);
+        for stop in [3.0, 5.0] {
+            let case = Case::new(&[("period", Value::Real(1.0))], 0.5, stop);
+            let mut spec = case.spec(CostSource::Wall);
+            spec.failure = Failure::Threshold {
+                variable: "events".into(),
+                when: savme_fmu::Crossing::Above,
+                value: 3.5,
+            };
+            let verdicts: Vec<bool> = [&plain, &enumerated]
+                .into_iter()
+                .map(|f| run(&mut in_process(f, spec.clone()), 99.0).failure)
+                .collect();
+            assert_eq!(verdicts, [stop > 4.0; 2], "FMI {fmi}, stop {stop}");
+        }
+    }
+}
+
+/// Item 10: an FMI 3.0 UInt64 above 2⁶³ − 1 — as a start value (valid), set and read back,
+/// and as a φ value listed — and a continuous φ bound to an integer variable, refused naming
+/// the variable and what to write instead.
+#[test]
+fn uint64_values_above_i64_and_integer_variables_from_ranges() {
+    let dir = common::temp_dir("savme-stairs", "uint64");
+    let fmu = stairs3_edited(&dir, "seed.fmu", |xml| {
+        xml.replacen(
+            "  </ModelVariables>",
+            r#"<UInt64 name="seed" valueReference="12" causality="parameter" variability="fixed" initial="exact" start="18446744073709551615"/>
+  </ModelVariables>"#,
+            1,
+        )
+    });
+    assert_eq!(savme_fmu::inspect::problems(&fmu), Vec::<String>::new());
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let seed = file.variable("seed").unwrap().clone();
+    let mut inst = savme_fmu::instance::Instance::new(file.clone(), "seed").unwrap();
+    inst.setup(0.0, Some(1.0), None).unwrap();
+    inst.set_number(&seed, 1.5e19).unwrap();
+    assert_eq!(inst.number(&seed).unwrap(), 1.5e19);
+    assert!(inst.set_number(&seed, 2e19).is_err(), "beyond UInt64");
+    drop(inst);
+    // Listed φ values above 2⁶³ − 1 are set as such.
+    let mut spec = Case::new(&[], 0.5, 5.0).spec(CostSource::Wall);
+    spec.scenarios[0].phi.push(Binding {
+        variable: "seed".into(),
+        fmu_variable: "seed".into(),
+        labels: None,
+    });
+    let phi = Space::new(vec![
+        savme_kernel::Variable::continuous("threshold", 0.1, 100.0, 4, Scale::Linear),
+        savme_kernel::Variable::discrete("seed", [1e19, 1.2e19]),
+    ])
+    .unwrap();
+    let mut sim = FmuSimulator::new(
+        file.clone(),
+        file.clone(),
+        spec.clone(),
+        None,
+        &|_| Some(phi.clone()),
+        None,
+    )
+    .unwrap();
+    let values = Assignment::new()
+        .with("threshold", 2.0)
+        .with("seed", 1.2e19);
+    assert!(
+        sim.run(Role::High, "s", &values, &Assignment::new())
+            .unwrap()
+            .failure
+    );
+    // A continuous φ cannot set an integer.
+    let ranged = Space::new(vec![
+        savme_kernel::Variable::continuous("threshold", 0.1, 100.0, 4, Scale::Linear),
+        savme_kernel::Variable::continuous("seed", 0.0, 100.0, 4, Scale::Linear),
+    ])
+    .unwrap();
+    let e = FmuSimulator::new(
+        file.clone(),
+        file,
+        spec,
+        None,
+        &|_| Some(ranged.clone()),
+        None,
+    )
+    .map(|_| ())
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.ends_with("variable `seed` is Integer, expected a Real for `seed`, which ranges continuously: give an Integer variable its values as a list (`values = [1, 2, 3]`, not `range`)"),
+        "{e}"
+    );
+}

@@ -31,7 +31,7 @@
 #define EXPORT __attribute__((visibility("default")))
 
 enum { VR_X0, VR_RATE, VR_THRESHOLD, VR_PERIOD, VR_JUMP, VR_MIN_STEP, VR_STOP, VR_X, VR_FAILED,
-       VR_STEPS, VR_EVENTS, VR_TIME };
+       VR_STEPS, VR_EVENTS, VR_TIME, VR_SEED };
 
 typedef struct {
     double x0, rate, threshold, period, jump, min_step;
@@ -39,6 +39,7 @@ typedef struct {
     double time, x;
     int steps, events, failed;
     int stop_requested; /* deliberately kept by reset */
+    uint64_t seed;      /* an FMI 3.0 UInt64 parameter, unused by the model */
     int early_return_allowed;
     /* FMI 2.0 or 3.0 logger, called as log3(env, status, category, message) or
      * log2(env, name, status, category, "%s", message) */
@@ -65,6 +66,7 @@ static void defaults(Model *m) {
     m->jump = 0;
     m->min_step = 1e-9;
     m->stop_at_failure = 0;
+    m->seed = 0;
     m->time = 0;
     m->steps = 0;
     m->events = 0;
@@ -398,6 +400,29 @@ EXPORT fmi3Status fmi3DoStep(void *c, double t, double h, bool noSetPrior, bool 
     return r == BAD ? fmi3Error : fmi3OK;
 }
 
+/* `events` read as an Int64 (an Enumeration output, when the model description says so). */
+EXPORT fmi3Status fmi3GetInt64(void *c, const fmi3ValueReference vr[], size_t nv, int64_t v[], size_t nValues) {
+    EACH3 {
+        if (vr[k] != VR_EVENTS) return fmi3Error;
+        v[k] = ((Model *)c)->events;
+    }
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3GetUInt64(void *c, const fmi3ValueReference vr[], size_t nv, uint64_t v[], size_t nValues) {
+    EACH3 {
+        if (vr[k] != VR_SEED) return fmi3Error;
+        v[k] = ((Model *)c)->seed;
+    }
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3SetUInt64(void *c, const fmi3ValueReference vr[], size_t nv, const uint64_t v[], size_t nValues) {
+    EACH3 {
+        if (vr[k] != VR_SEED) return fmi3Error;
+        ((Model *)c)->seed = v[k];
+    }
+    return fmi3OK;
+}
+
 /* The rest of the FMI 3.0 API, bound by importers such as FMPy; not provided. */
 #define NOT_PROVIDED3(name) \
     EXPORT fmi3Status name(void *c) { if (c) say(c, 3, #name " is not provided"); return fmi3Error; }
@@ -408,8 +433,7 @@ NOT_PROVIDED3(fmi3GetInt16) NOT_PROVIDED3(fmi3SetInt16)
 NOT_PROVIDED3(fmi3GetUInt16) NOT_PROVIDED3(fmi3SetUInt16)
 NOT_PROVIDED3(fmi3SetInt32)
 NOT_PROVIDED3(fmi3GetUInt32) NOT_PROVIDED3(fmi3SetUInt32)
-NOT_PROVIDED3(fmi3GetInt64) NOT_PROVIDED3(fmi3SetInt64)
-NOT_PROVIDED3(fmi3GetUInt64) NOT_PROVIDED3(fmi3SetUInt64)
+NOT_PROVIDED3(fmi3SetInt64)
 NOT_PROVIDED3(fmi3GetString) NOT_PROVIDED3(fmi3SetString)
 NOT_PROVIDED3(fmi3GetBinary) NOT_PROVIDED3(fmi3SetBinary)
 NOT_PROVIDED3(fmi3GetClock) NOT_PROVIDED3(fmi3SetClock)
