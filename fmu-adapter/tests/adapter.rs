@@ -266,10 +266,11 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
         &|s| s.scenarios[0].phi[0].fmu_variable = "nope".into(),
         "no variable `nope`",
     );
-    // A continuous savme variable needs a Real; `fault` is an Integer.
+    // A continuous savme variable needs a Real; `fault` is an Integer (issue 26 item 10: the
+    // error says what to write instead).
     check(
         &|s| s.scenarios[0].phi[0].fmu_variable = "fault".into(),
-        "variable `fault` is Integer, expected Real (for `start`)",
+        "variable `fault` is Integer, expected a Real for `start`, which ranges continuously: give an Integer variable its values as a list (`values = [1, 2, 3]`, not `range`)",
     );
     check(
         &|s| s.fidelity[0].fmu_variable = "enabled".into(),
@@ -278,7 +279,7 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
     // Outputs cannot be set; parameters are no failure signal.
     check(
         &|s| s.scenarios[0].phi[0].fmu_variable = "x".into(),
-        "variable `x` cannot be used here: expected a parameter or an input",
+        "variable `x` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
     );
     check(
         &|s| {
