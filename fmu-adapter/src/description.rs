@@ -191,6 +191,9 @@ pub struct VarInfo {
     pub causality: VarCausality,
     /// Its variability as written (`continuous` when not given).
     pub variability: String,
+    /// Its `initial` attribute as written (`exact`, `approx`, `calculated`), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial: Option<String>,
     /// Its description, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
@@ -564,6 +567,7 @@ impl Parser {
                 .get("variability")
                 .cloned()
                 .unwrap_or_else(|| default_variability.into()),
+            initial: v.get("initial").cloned(),
             description: v.get("description").cloned(),
             start: a.get("start").cloned(),
             min: number(a, "min", &what)?.or(inherited.min),

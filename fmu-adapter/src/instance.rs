@@ -50,6 +50,9 @@ pub struct Instance {
     _callbacks: Option<Box<fmi2CallbackFunctions>>,
     log: Box<LogSink>,
     _name: CString,
+    /// FMI 3.0: the experiment [`Instance::setup`] remembered for
+    /// `fmi3EnterInitializationMode` (start, stop, tolerance).
+    experiment: (f64, Option<f64>, Option<f64>),
 }
 
 // SAFETY: an instance is used by one thread at a time (it moves between threads only whole);
@@ -158,6 +161,7 @@ impl Instance {
             _callbacks: callbacks,
             log,
             _name: name,
+            experiment: (0.0, None, None),
         })
     }
 
@@ -246,28 +250,19 @@ impl Instance {
                 };
                 self.status2("fmi2SetupExperiment", s)
             }
-            Api::Fmi3(api) => {
-                // FMI 3.0: the values set before initialisation are set in initialization
-                // mode, which takes the experiment's times and tolerance.
-                // SAFETY: a live component of this library.
-                let s = unsafe {
-                    (api.enter_initialization_mode)(
-                        self.component,
-                        tolerance.is_some(),
-                        tolerance.unwrap_or(0.0),
-                        start,
-                        stop.is_some(),
-                        stop.unwrap_or(0.0),
-                    )
-                };
-                self.status3("fmi3EnterInitializationMode", s)
+            Api::Fmi3(_) => {
+                // FMI 3.0: the values are set in the Instantiated state (as FMPy sets them:
+                // variables with initial="approx" can be set only there), then
+                // `fmi3EnterInitializationMode` takes the experiment's times and tolerance.
+                self.experiment = (start, stop, tolerance);
+                Ok(())
             }
         }
     }
 
-    /// Ends initialisation: FMI 2.0 `fmi2EnterInitializationMode` then
-    /// `fmi2ExitInitializationMode`; FMI 3.0 `fmi3ExitInitializationMode` (entered in
-    /// [`Instance::setup`]), after which the instance is in step mode.
+    /// Initialises: `fmi2EnterInitializationMode` / `fmi3EnterInitializationMode` (with the
+    /// experiment of [`Instance::setup`]) then `fmi2ExitInitializationMode` /
+    /// `fmi3ExitInitializationMode`, after which the instance is in step mode.
     pub fn initialize(&mut self) -> Result<(), FmuError> {
         match &self.file.api {
             Api::Fmi2(dll) => {
@@ -279,7 +274,20 @@ impl Instance {
                 self.status2("fmi2ExitInitializationMode", s)
             }
             Api::Fmi3(api) => {
+                let (start, stop, tolerance) = self.experiment;
                 // SAFETY: a live component of this library.
+                let s = unsafe {
+                    (api.enter_initialization_mode)(
+                        self.component,
+                        tolerance.is_some(),
+                        tolerance.unwrap_or(0.0),
+                        start,
+                        stop.is_some(),
+                        stop.unwrap_or(0.0),
+                    )
+                };
+                self.status3("fmi3EnterInitializationMode", s)?;
+                // SAFETY: as above.
                 let s = unsafe { (api.exit_initialization_mode)(self.component) };
                 self.status3("fmi3ExitInitializationMode", s)
             }

@@ -16,7 +16,7 @@ use std::time::Instant;
 pub struct Binding {
     /// The savme variable.
     pub variable: String,
-    /// The FMU variable (a parameter or an input).
+    /// The FMU variable (a parameter, an input, or a variable whose start value can be set).
     pub fmu_variable: String,
     /// For a variable with label values: the labels, in order — a label is set as its position
     /// (an FMU Integer).
@@ -98,7 +98,8 @@ pub enum CostSource {
 }
 
 /// The outputs a run recorded (`[fmu] record`): their values at every communication point,
-/// from the initialised state at time 0 to the end of the run.
+/// from the initialised state at the start time (`DefaultExperiment startTime`, else 0) to the
+/// end of the run.
 ///
 /// ```
 /// use savme_fmu::simulator::Trace;
@@ -296,13 +297,20 @@ fn scalar(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     Ok(v)
 }
 
+/// Variable `name` of `file`, if savme can set it before initialisation: a parameter, an
+/// input, or — as FMI allows and FMPy does — any variable with a settable start value
+/// (`initial="exact"` or `"approx"`, not constant: the start value of a state, a counter, …).
 fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     let v = scalar(file, name)?;
-    if !matches!(v.causality, VarCausality::Parameter | VarCausality::Input) {
+    let start_settable =
+        v.variability != "constant" && matches!(v.initial.as_deref(), Some("exact" | "approx"));
+    if !(matches!(v.causality, VarCausality::Parameter | VarCausality::Input) || start_settable) {
         return Err(FmuError::WrongCausality {
             fmu: file.path.display().to_string(),
             variable: name.into(),
-            expected: "a parameter or an input".into(),
+            expected: "a parameter, an input, or a variable whose start value can be set \
+                       (initial=\"exact\" or \"approx\")"
+                .into(),
         });
     }
     Ok(v)
@@ -691,7 +699,8 @@ impl FmuSimulator {
             Some(Tolerance::Fixed(t)) => Some(*t),
             Some(Tolerance::Of(var)) => Some(positive(fidelity, var, "tolerance")?),
         };
-        inst.setup(0.0, Some(stop), tolerance)?;
+        let start = start_time(inst.file());
+        inst.setup(start, Some(stop), tolerance)?;
         for (var, value) in fixed {
             Self::set(inst, var, value, None)?;
         }
@@ -708,7 +717,7 @@ impl FmuSimulator {
         inst.initialize()?;
         let h = step_size(&spec.step, fidelity)?;
         fixed_step_fits(inst.file(), h, stop)?;
-        let mut ran = self.steps(inst, plan, h, tracer)?;
+        let mut ran = self.steps(inst, plan, (start, h), tracer)?;
         let work = match &plan.cost {
             Some(v) => inst.number(v)?.max(0.0).round() as u64,
             None => ran.work.unwrap_or(0),
@@ -721,7 +730,7 @@ impl FmuSimulator {
         Ok(ran)
     }
 
-    /// The communication steps of a run, on the grid t = n·h (as FMPy computes it: no drift
+    /// The communication steps of a run, on the grid t = start + n·h (as FMPy computes it: no drift
     /// from accumulating t + h). A communication point within a relative 1e-9 of the target
     /// counts as reached — an FMI 3.0 early return a few ulps before the point does not leave
     /// a near-zero step. After a stop request (`fmi2Discard`, `fmi3Discard`,
@@ -732,18 +741,18 @@ impl FmuSimulator {
         &self,
         inst: &mut Instance,
         plan: &Plan,
-        h: f64,
+        (start, h): (f64, f64),
         mut tracer: Option<&mut Tracer>,
     ) -> Result<Ran, FmuError> {
         let (stop, stop_on_failure) = (self.spec.stop_time, self.spec.stop_on_failure);
         let mut failure = self.failed(inst, plan)?;
-        let (mut t, mut n, mut k) = (0.0_f64, 0u64, 0u64);
+        let (mut t, mut n, mut k) = (start, 0u64, 0u64);
         if let Some(tr) = tracer.as_deref_mut() {
             tr.sample(inst, t, failure)?;
         }
         let mut stopped = false;
         while !(failure && stop_on_failure) && t < stop && !close(t, stop) {
-            let mut goal = (n + 1) as f64 * h;
+            let mut goal = start + (n + 1) as f64 * h;
             if goal > stop && !close(goal, stop) {
                 goal = stop;
             }
@@ -818,18 +827,34 @@ pub fn fixed_step_fits(file: &FmuDescription, h: f64, stop: f64) -> Result<(), F
         .co_simulation
         .as_ref()
         .is_none_or(|c| c.can_handle_variable_communication_step_size);
-    let steps = (stop / h).round();
-    if variable || (steps >= 1.0 && close(steps * h, stop)) {
+    let start = start_time(file);
+    let span = stop - start;
+    let steps = (span / h).round();
+    if variable || (steps >= 1.0 && close(start + steps * h, stop)) {
         return Ok(());
     }
+    let from = if start == 0.0 {
+        String::new()
+    } else {
+        format!(" from the start time {start} s")
+    };
     Err(FmuError::Spec(format!(
         "{}: the FMU declares canHandleVariableCommunicationStepSize=\"false\" (one step size only), \
-         but the stop time {stop} s is not a whole number of steps of {h} s: \
+         but the stop time {stop} s is not a whole number of steps of {h} s{from}: \
          choose a step that divides the stop time (e.g. {}) or a stop time that is a multiple of it (e.g. {})",
         file.path.display(),
-        round12(stop / (stop / h).ceil()),
-        round12(steps.max(1.0) * h),
+        round12(span / (span / h).ceil()),
+        round12(start + steps.max(1.0) * h),
     )))
+}
+
+/// Where a run of `file` starts: its `DefaultExperiment startTime` (as in FMPy), else 0.
+pub fn start_time(file: &FmuDescription) -> f64 {
+    file.model
+        .default_experiment
+        .start_time
+        .filter(|t| t.is_finite())
+        .unwrap_or(0.0)
 }
 
 /// `x` to 12 significant digits, for a suggestion a user can type (9.9, not 9.899999999999999).
@@ -866,6 +891,14 @@ fn plans(
         }
     }
     for file in [hf, lf] {
+        let start = start_time(file);
+        if spec.stop_time <= start {
+            return Err(FmuError::Spec(format!(
+                "{}: the stop time {} s is not after the FMU's start time (DefaultExperiment startTime = {start} s)",
+                file.path.display(),
+                spec.stop_time
+            )));
+        }
         for h in step_sizes(&spec.step, fidelity) {
             fixed_step_fits(file, h, spec.stop_time)?;
         }

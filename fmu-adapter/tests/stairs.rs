@@ -629,3 +629,105 @@ fn uint64_values_above_i64_and_integer_variables_from_ranges() {
         "{e}"
     );
 }
+
+/// The `stairs` FMU of version `fmi` whose output `x` declares a start value savme may set
+/// (`initial="exact"`), its `DefaultExperiment startTime` set to `start`.
+fn stairs_with_start(dir: &Path, fmi: u8, start: f64) -> PathBuf {
+    let out = dir.join(format!("start{fmi}-{start}.fmu"));
+    savme_fmu_testkit::pack_stairs(&out, fmi, |xml| {
+        let xml = xml.replacen(
+            "startTime=\"0.0\"",
+            &format!("startTime=\"{start:?}\""),
+            1,
+        );
+        if fmi == 3 {
+            xml.replacen(
+                r#"<Float64 name="x" valueReference="7" causality="output" variability="continuous" initial="calculated"/>"#,
+                r#"<Float64 name="x" valueReference="7" causality="output" variability="continuous" initial="exact" start="0"/>"#,
+                1,
+            )
+        } else {
+            xml.replacen(
+                "<ScalarVariable name=\"x\" valueReference=\"7\" causality=\"output\" variability=\"continuous\" initial=\"calculated\">\n      <Real/>",
+                "<ScalarVariable name=\"x\" valueReference=\"7\" causality=\"output\" variability=\"continuous\" initial=\"exact\">\n      <Real start=\"0\"/>",
+                1,
+            )
+        }
+    })
+    .unwrap();
+    out
+}
+
+/// Item 8: φ, fixed values and θ can set the start value of a state or an output declared with
+/// `initial="exact"` / `"approx"` (as FMPy does: set before initialisation) — here `x`'s;
+/// a calculated output is still refused, naming what is settable. And the model
+/// description's `DefaultExperiment startTime` is honoured: the run starts there, its grid is
+/// startTime + n·h. Verdicts and steps equal FMPy's, in-process and isolated.
+#[test]
+fn start_values_of_outputs_and_the_default_start_time() {
+    for fmi in BOTH {
+        let dir = common::temp_dir("savme-stairs", &format!("start-values{fmi}"));
+        for start in [0.0, 2.0] {
+            let fmu = stairs_with_start(&dir, fmi, start);
+            // φ binds `x` (its start value); the threshold is fixed at 5.
+            let mut case = Case::new(&[("threshold", Value::Real(5.0))], 0.1, 4.0);
+            let mut spec = case.spec(CostSource::Wall);
+            spec.scenarios[0].phi[0].fmu_variable = "x".into();
+            let steps = ((4.0 - start) / 0.1_f64).round() as u64;
+            // x = x0 + t up to t = 4: from x0 = 0.5 it never reaches 5, from 1.5 at t = 3.5,
+            // from 6 at once; the start time changes the number of steps (40 or 20).
+            let expected = [(0.5, false), (1.5, true), (6.0, true)];
+            for (how, mut sim) in [
+                ("in-process", in_process(&fmu, spec.clone())),
+                ("isolated", isolated(&fmu, spec.clone())),
+            ] {
+                for (x0, failure) in expected {
+                    let r = run(&mut sim, x0);
+                    assert_eq!(
+                        (r.failure, r.work),
+                        (failure, Some(steps)),
+                        "FMI {fmi} start {start} {how} x0 {x0}"
+                    );
+                }
+            }
+            if let Some(python) = common::fmpy_python() {
+                // FMPy sets `x` by name: the helper's φ is called threshold, so fix `x` instead.
+                for (x0, failure) in expected {
+                    case.fixed = vec![("x", Value::Real(x0))];
+                    let theirs = fmpy(&python, &fmu, &case, &[5.0]);
+                    assert_eq!(
+                        theirs,
+                        vec![(failure, steps)],
+                        "FMPy, FMI {fmi} start {start} x0 {x0}"
+                    );
+                }
+            }
+        }
+        // A calculated output's start cannot be set.
+        let fmu = stairs(&dir, fmi);
+        let mut spec = Case::new(&[], 0.1, 4.0).spec(CostSource::Wall);
+        spec.scenarios[0].phi[0].fmu_variable = "steps".into();
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        let phi = phi_space();
+        let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None)
+            .map(|_| ())
+            .unwrap_err()
+            .to_string();
+        assert!(e.ends_with("variable `steps` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")"), "{e}");
+        // A stop time not after the start time is refused naming both.
+        let late = stairs_with_start(&dir, fmi, 5.0);
+        let file = Arc::new(FmuFile::open(&late).unwrap());
+        let e = FmuSimulator::new(
+            file.clone(),
+            file,
+            Case::new(&[], 0.1, 4.0).spec(CostSource::Wall),
+            None,
+            &|_| Some(phi.clone()),
+            None,
+        )
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+        assert!(e.ends_with("the stop time 4 s is not after the FMU's start time (DefaultExperiment startTime = 5 s)"), "{e}");
+    }
+}

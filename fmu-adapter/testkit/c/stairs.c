@@ -82,6 +82,8 @@ static void evaluate(Model *m) {
 static int set_real(Model *m, unsigned vr, double v) {
     switch (vr) {
     case VR_X0: m->x0 = v; break;
+    /* x's start value, when the model description declares one (initial="exact"): x0 */
+    case VR_X: m->x0 = v; break;
     case VR_RATE: m->rate = v; break;
     case VR_THRESHOLD: m->threshold = v; break;
     case VR_PERIOD: m->period = v; break;
