@@ -405,18 +405,7 @@ impl Parser {
                 self.simple_type = Some((n, st));
                 self.bounds(&a)?;
             }
-            "Item" => {
-                if let Some((t, st)) = self.simple_type.as_mut() {
-                    let item = a.get("name").cloned().unwrap_or_default();
-                    let value = a
-                        .get("value")
-                        .and_then(|v| v.trim().parse::<i64>().ok())
-                        .ok_or_else(|| {
-                            format!("type `{t}`, item `{item}`: no integer `value` attribute")
-                        })?;
-                    st.items.push(EnumItem { name: item, value });
-                }
-            }
+            "Item" => self.item(&a)?,
             "ScalarVariable" => self.variable = Some(a),
             "Start" if self.in_variable3 => {
                 if let (Some(v), Some(value)) = (self.md.variables.last_mut(), a.get("value")) {
@@ -428,13 +417,7 @@ impl Parser {
                     v.array = true;
                 }
             }
-            "Alias" if self.in_variable3 => {
-                let alias = a.get("name").cloned().ok_or_else(|| {
-                    let of = self.md.variables.last().map_or("", |v| v.name.as_str());
-                    format!("variable `{of}`: an Alias without a name")
-                })?;
-                self.aliases.push((alias, a.get("description").cloned()));
-            }
+            "Alias" if self.in_variable3 => self.alias(&a)?,
             t if fmi3 && self.in_variables => {
                 if let Some((kind, repr)) = Repr::fmi3(t) {
                     self.push_variable(&a, &a, kind, repr)?;
@@ -448,6 +431,31 @@ impl Parser {
             }
             _ => {}
         }
+        Ok(())
+    }
+
+    /// An `Item` of the enumeration type being defined.
+    fn item(&mut self, a: &HashMap<String, String>) -> Result<(), String> {
+        if let Some((t, st)) = self.simple_type.as_mut() {
+            let item = a.get("name").cloned().unwrap_or_default();
+            let value = a
+                .get("value")
+                .and_then(|v| v.trim().parse::<i64>().ok())
+                .ok_or_else(|| {
+                    format!("type `{t}`, item `{item}`: no integer `value` attribute")
+                })?;
+            st.items.push(EnumItem { name: item, value });
+        }
+        Ok(())
+    }
+
+    /// An FMI 3.0 `<Alias>` of the variable being read (added when its element ends).
+    fn alias(&mut self, a: &HashMap<String, String>) -> Result<(), String> {
+        let alias = a.get("name").cloned().ok_or_else(|| {
+            let of = self.md.variables.last().map_or("", |v| v.name.as_str());
+            format!("variable `{of}`: an Alias without a name")
+        })?;
+        self.aliases.push((alias, a.get("description").cloned()));
         Ok(())
     }
 
