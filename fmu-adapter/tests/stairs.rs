@@ -731,3 +731,83 @@ fn start_values_of_outputs_and_the_default_start_time() {
         assert!(e.ends_with("the stop time 4 s is not after the FMU's start time (DefaultExperiment startTime = 5 s)"), "{e}");
     }
 }
+
+/// Item 1 as a campaign meets it: a kernel whose cost is the work, on HF and LF runs of the
+/// stairs FMU (the step size is the fidelity) that fail at initialisation for every threshold
+/// below x0 = 6 and stop there. Every trial is told — none is refused for a zero runtime
+/// (`HF runtime must be finite and > 0, got 0` aborted such a campaign) — in this process and
+/// isolated, FMI 2.0 and 3.0.
+#[test]
+fn a_kernel_on_work_takes_runs_that_fail_at_initialisation() {
+    use savme_kernel::{Kernel, Observation};
+    let fidelity = Space::new(vec![savme_kernel::Variable::discrete("h", [0.5, 0.25])]).unwrap();
+    let theta_hf = Assignment::new().with("h", 0.25);
+    let mut spec = Case {
+        stop_on_failure: true,
+        ..Case::new(&[("x0", Value::Real(6.0))], 0.25, 5.0)
+    }
+    .spec(CostSource::Wall);
+    spec.step = StepSize::Of("h".into());
+    for fmi in BOTH {
+        let dir = common::temp_dir("savme-stairs", &format!("kernel{fmi}"));
+        let fmu = stairs(&dir, fmi);
+        let file = Arc::new(FmuFile::open(&fmu).unwrap());
+        let phi = phi_space();
+        let local = FmuSimulator::new(
+            file.clone(),
+            file,
+            spec.clone(),
+            Some(&fidelity),
+            &|_| Some(phi.clone()),
+            None,
+        )
+        .unwrap();
+        let init = WorkerInit {
+            hf: fmu.clone(),
+            lf: fmu.clone(),
+            spec: spec.clone(),
+            fidelity: Some(fidelity.clone()),
+            phi: [("s".to_string(), phi_space())].into_iter().collect(),
+            theta_hf: None,
+        };
+        let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
+        let iso = FmuBackend::new(&init, Some(worker), Duration::from_secs(60)).unwrap();
+        for (how, mut sim) in [
+            ("in-process", FmuBackend::InProcess(local)),
+            ("isolated", iso),
+        ] {
+            let mut kernel = Kernel::builder(fidelity.clone(), theta_hf.clone())
+                .scenario("s", phi_space(), 1.0)
+                .seed(11)
+                .build()
+                .unwrap();
+            let (mut at_start, mut later) = (0, 0);
+            for _ in 0..40 {
+                let trial = kernel.ask();
+                let theta_lf = trial.theta_lf.clone().unwrap_or_else(|| theta_hf.clone());
+                let mut go = |role, theta: &Assignment| {
+                    let r = sim
+                        .simulate_as(role, &trial.scenario, &trial.phi, theta)
+                        .unwrap();
+                    r.run(CostMeasure::Work).unwrap()
+                };
+                let hf = go(Role::High, &theta_hf);
+                let lf = go(Role::Learned, &theta_lf);
+                // x = 6 + t up to t = 5: a failure at once below 6, later below 11.
+                let threshold = trial.phi.get_f64("threshold").unwrap();
+                let failed_at_start = threshold <= 6.0;
+                assert_eq!(hf.failure, threshold <= 11.0, "{how} {}", trial.phi);
+                if failed_at_start {
+                    assert_eq!((hf.runtime, lf.runtime), (1.0, 1.0), "{how}");
+                    at_start += 1;
+                } else {
+                    later += 1;
+                }
+                kernel
+                    .tell(trial.id, Observation::Paired { hf, lf })
+                    .unwrap_or_else(|e| panic!("FMI {fmi} {how}: {e}"));
+            }
+            assert!(at_start > 0 && later > 0, "{how}: {at_start} / {later}");
+        }
+    }
+}
