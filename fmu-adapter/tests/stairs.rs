@@ -498,6 +498,32 @@ fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
         )),
         "{e}"
     );
+    // FMPy's validation agrees on each: no problem, the array element, the premature end (at
+    // the same line and column).
+    if let Some(python) = common::fmpy_python() {
+        let script = format!(
+            "import fmpy.validation as v\nfor f in {:?}:\n    print(len(v.validate_fmu(f)), ' '.join(v.validate_fmu(f)))\n",
+            [&fmu, &bad_array, &cut].map(|p| p.display().to_string())
+        );
+        let o = std::process::Command::new(python)
+            .arg("-c")
+            .arg(&script)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let out = String::from_utf8_lossy(&o.stdout);
+        let lines_out: Vec<&str> = out.lines().collect();
+        assert_eq!(lines_out.len(), 3, "{out}");
+        assert_eq!(lines_out[0], "0 ", "{out}");
+        assert!(lines_out[1].contains("'x' is not a valid value"), "{out}");
+        assert!(
+            lines_out[2].contains(&format!(
+                "Premature end of data in tag fmiModelDescription line 2, line {}, column 1",
+                lines + 1
+            )),
+            "{out}"
+        );
+    }
 }
 
 /// Item 10: an Enumeration output can be the failure signal (a threshold on its value: read
