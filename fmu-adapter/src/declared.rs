@@ -76,7 +76,11 @@ pub(crate) fn integer_of(var: &VarInfo, value: &Value, labels: Option<&[String]>
         }
         _ => {
             let f = value.as_f64()?;
-            if f.fract() != 0.0 {
+            // Beyond i64 (a UInt64 above 2⁶³ − 1) `as` would saturate: no integer here (the
+            // caller sets such a value as a number).
+            if f.fract() != 0.0
+                || !(-9_223_372_036_854_775_808.0..9_223_372_036_854_775_808.0).contains(&f)
+            {
                 return None;
             }
             f as i64

@@ -60,8 +60,12 @@ pub enum Repr {
     Boolean,
     /// A C string.
     String,
-    /// Not bound by savme (FMI 3.0 Binary, Clock).
+    /// Not bound by savme (an FMI 3.0 type savme does not name otherwise).
     Other,
+    /// FMI 3.0 Binary (bytes): shown, not bound.
+    Binary,
+    /// FMI 3.0 Clock: shown, not bound.
+    Clock,
 }
 
 impl Repr {
@@ -102,7 +106,8 @@ impl Repr {
             "Boolean" => (VarType::Boolean, Repr::Boolean),
             "String" => (VarType::String, Repr::String),
             "Enumeration" => (VarType::Enumeration, Repr::Int64),
-            "Binary" | "Clock" => (VarType::Other, Repr::Other),
+            "Binary" => (VarType::Other, Repr::Binary),
+            "Clock" => (VarType::Other, Repr::Clock),
             _ => return None,
         })
     }
@@ -178,10 +183,17 @@ pub struct VarInfo {
     /// An FMI 3.0 array (it has `<Dimension>` elements): shown, not bound.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub array: bool,
+    /// An FMI 3.0 `<Alias>`: the variable it names (this entry has its value reference, type
+    /// and bounds, and its own name and description).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alias_of: Option<String>,
     /// Its causality.
     pub causality: VarCausality,
     /// Its variability as written (`continuous` when not given).
     pub variability: String,
+    /// Its `initial` attribute as written (`exact`, `approx`, `calculated`), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial: Option<String>,
     /// Its description, if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub description: Option<String>,
@@ -266,6 +278,9 @@ pub struct ModelDescription {
     pub co_simulation: Option<CoSimulation>,
     /// The model-exchange interface's model identifier, if declared.
     pub model_exchange: Option<String>,
+    /// The FMI 3.0 scheduled-execution interface's model identifier, if declared.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scheduled_execution: Option<String>,
     /// `DefaultExperiment`.
     pub default_experiment: DefaultExperiment,
     /// The variables in file order.
@@ -326,8 +341,12 @@ struct Parser {
     simple_type: Option<(String, SimpleType)>,
     /// The `ScalarVariable` being read (2.0): its attributes.
     variable: Option<HashMap<String, String>>,
-    /// Inside an FMI 3.0 variable element (its `<Start>` and `<Dimension>` children).
+    /// Inside an FMI 3.0 variable element (its `<Start>`, `<Dimension>` and `<Alias>`
+    /// children).
     in_variable3: bool,
+    /// The `<Alias>` names (and descriptions) of the FMI 3.0 variable being read, added as
+    /// variables when it ends.
+    aliases: Vec<(String, Option<String>)>,
     /// Inside `ModelVariables`, `TypeDefinitions`, `ModelStructure/Outputs` (2.0).
     in_variables: bool,
     in_types: bool,
@@ -349,6 +368,10 @@ impl Parser {
             "CoSimulation" => self.co_simulation(&a),
             "ModelExchange" => {
                 self.md.model_exchange = Some(a.get("modelIdentifier").cloned().unwrap_or_default())
+            }
+            "ScheduledExecution" => {
+                self.md.scheduled_execution =
+                    Some(a.get("modelIdentifier").cloned().unwrap_or_default())
             }
             "DefaultExperiment" => {
                 let d = &mut self.md.default_experiment;
@@ -382,18 +405,7 @@ impl Parser {
                 self.simple_type = Some((n, st));
                 self.bounds(&a)?;
             }
-            "Item" => {
-                if let Some((t, st)) = self.simple_type.as_mut() {
-                    let item = a.get("name").cloned().unwrap_or_default();
-                    let value = a
-                        .get("value")
-                        .and_then(|v| v.trim().parse::<i64>().ok())
-                        .ok_or_else(|| {
-                            format!("type `{t}`, item `{item}`: no integer `value` attribute")
-                        })?;
-                    st.items.push(EnumItem { name: item, value });
-                }
-            }
+            "Item" => self.item(&a)?,
             "ScalarVariable" => self.variable = Some(a),
             "Start" if self.in_variable3 => {
                 if let (Some(v), Some(value)) = (self.md.variables.last_mut(), a.get("value")) {
@@ -405,6 +417,7 @@ impl Parser {
                     v.array = true;
                 }
             }
+            "Alias" if self.in_variable3 => self.alias(&a)?,
             t if fmi3 && self.in_variables => {
                 if let Some((kind, repr)) = Repr::fmi3(t) {
                     self.push_variable(&a, &a, kind, repr)?;
@@ -418,6 +431,31 @@ impl Parser {
             }
             _ => {}
         }
+        Ok(())
+    }
+
+    /// An `Item` of the enumeration type being defined.
+    fn item(&mut self, a: &HashMap<String, String>) -> Result<(), String> {
+        if let Some((t, st)) = self.simple_type.as_mut() {
+            let item = a.get("name").cloned().unwrap_or_default();
+            let value = a
+                .get("value")
+                .and_then(|v| v.trim().parse::<i64>().ok())
+                .ok_or_else(|| {
+                    format!("type `{t}`, item `{item}`: no integer `value` attribute")
+                })?;
+            st.items.push(EnumItem { name: item, value });
+        }
+        Ok(())
+    }
+
+    /// An FMI 3.0 `<Alias>` of the variable being read (added when its element ends).
+    fn alias(&mut self, a: &HashMap<String, String>) -> Result<(), String> {
+        let alias = a.get("name").cloned().ok_or_else(|| {
+            let of = self.md.variables.last().map_or("", |v| v.name.as_str());
+            format!("variable `{of}`: an Alias without a name")
+        })?;
+        self.aliases.push((alias, a.get("description").cloned()));
         Ok(())
     }
 
@@ -531,11 +569,13 @@ impl Parser {
             kind,
             repr,
             array: false,
+            alias_of: None,
             causality,
             variability: v
                 .get("variability")
                 .cloned()
                 .unwrap_or_else(|| default_variability.into()),
+            initial: v.get("initial").cloned(),
             description: v.get("description").cloned(),
             start: a.get("start").cloned(),
             min: number(a, "min", &what)?.or(inherited.min),
@@ -552,8 +592,11 @@ impl Parser {
             b"ModelVariables" => self.in_variables = false,
             b"TypeDefinitions" => self.in_types = false,
             b"Outputs" => self.in_outputs = false,
-            b"Start" | b"Dimension" => {}
-            _ if self.in_variables && self.md.is_fmi3() => self.in_variable3 = false,
+            b"Start" | b"Dimension" | b"Alias" | b"Annotations" | b"Annotation" | b"Tool" => {}
+            _ if self.in_variables && self.md.is_fmi3() => {
+                self.in_variable3 = false;
+                self.push_aliases();
+            }
             _ => {}
         }
         let type_end = name == b"SimpleType" || (self.md.is_fmi3() && name.ends_with(b"Type"));
@@ -561,6 +604,21 @@ impl Parser {
             if let Some((n, t)) = self.simple_type.take() {
                 self.types.insert(n, t);
             }
+        }
+    }
+
+    /// The aliases of the FMI 3.0 variable just read: copies of it under their own names.
+    fn push_aliases(&mut self) {
+        let Some(of) = self.md.variables.last().cloned() else {
+            return;
+        };
+        for (name, description) in std::mem::take(&mut self.aliases) {
+            self.md.variables.push(VarInfo {
+                name,
+                description: description.or_else(|| of.description.clone()),
+                alias_of: Some(of.name.clone()),
+                ..of.clone()
+            });
         }
     }
 
@@ -575,6 +633,14 @@ impl Parser {
         }
         Ok(())
     }
+}
+
+/// The 1-based line and column of byte `pos` of `text`.
+fn line_column(text: &str, pos: usize) -> (usize, usize) {
+    let before = text.get(..pos.min(text.len())).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
 }
 
 impl ModelDescription {
@@ -596,19 +662,38 @@ impl ModelDescription {
     /// ```
     pub fn parse(xml: &str) -> Result<ModelDescription, String> {
         let mut reader = quick_xml::Reader::from_str(xml);
+        reader.check_end_names(true);
         let mut p = Parser::default();
+        // The open elements, to refuse a document that ends inside one.
+        let mut open: Vec<String> = Vec::new();
+        let at = |pos: usize| {
+            let (line, column) = line_column(xml, pos);
+            format!("line {line}, column {column}")
+        };
         loop {
             match reader.read_event() {
-                Ok(Event::Start(e)) => p.element(&e)?,
+                Ok(Event::Start(e)) => {
+                    p.element(&e)?;
+                    open.push(String::from_utf8_lossy(e.name().as_ref()).into_owned());
+                }
                 Ok(Event::Empty(e)) => {
                     p.element(&e)?;
                     p.end(e.name().as_ref());
                 }
-                Ok(Event::End(e)) => p.end(e.name().as_ref()),
+                Ok(Event::End(e)) => {
+                    open.pop();
+                    p.end(e.name().as_ref());
+                }
                 Ok(Event::Eof) => break,
                 Ok(_) => {}
-                Err(e) => return Err(format!("at byte {}: {e}", reader.buffer_position())),
+                Err(e) => return Err(format!("{}: {e}", at(reader.buffer_position()))),
             }
+        }
+        if let Some(unclosed) = open.last() {
+            return Err(format!(
+                "{}: premature end of data: the element `{unclosed}` is not closed",
+                at(xml.len())
+            ));
         }
         p.finish()?;
         if !p.seen_root || p.md.fmi_version.is_empty() {

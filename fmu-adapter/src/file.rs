@@ -61,7 +61,24 @@ impl FmuDescription {
             });
         }
         let Some(cs) = &model.co_simulation else {
-            return Err(FmuError::NoCoSimulation { fmu: shown });
+            let kinds: Vec<&str> = [
+                model.model_exchange.as_ref().map(|_| "model exchange"),
+                model
+                    .scheduled_execution
+                    .as_ref()
+                    .map(|_| "scheduled execution (clocked model partitions)"),
+            ]
+            .into_iter()
+            .flatten()
+            .collect();
+            return Err(FmuError::NoCoSimulation {
+                fmu: shown,
+                kinds: if kinds.is_empty() {
+                    "neither model exchange nor scheduled execution".into()
+                } else {
+                    kinds.join(" and ")
+                },
+            });
         };
         let binary = binary_path(&cs.model_identifier, model.is_fmi3());
         if !d.files.contains(&binary) {
@@ -208,11 +225,73 @@ fn read_archive(path: &Path, shown: &str) -> Result<(String, Vec<String>), FmuEr
     Ok((xml, files))
 }
 
+/// The prefix of the directories FMUs are unpacked to, in the temporary directory:
+/// `savme-fmu-<pid>-<random>`, the pid of the process that unpacked it.
+const UNPACKED: &str = "savme-fmu-";
+
+/// The pid in an unpacked directory's name, if it is one of savme's.
+fn unpacked_by(name: &str) -> Option<u32> {
+    let (pid, rest) = name.strip_prefix(UNPACKED)?.split_once('-')?;
+    (!rest.is_empty()).then_some(())?;
+    pid.parse().ok()
+}
+
+/// Whether process `pid` is alive (Linux: `/proc/<pid>/stat` exists and is not a zombie's —
+/// an orphaned worker can stay a zombie where nothing reaps it; elsewhere every process
+/// counts as alive, so that nothing is swept).
+fn alive(pid: u32) -> bool {
+    if !cfg!(target_os = "linux") {
+        return true;
+    }
+    let Ok(stat) = std::fs::read_to_string(format!("/proc/{pid}/stat")) else {
+        return false;
+    };
+    // `pid (comm) state …`: comm may hold spaces and parentheses, the state follows the last ')'.
+    let state = stat
+        .rsplit_once(')')
+        .and_then(|(_, rest)| rest.split_whitespace().next());
+    !matches!(state, Some("Z" | "X" | "x"))
+}
+
+/// Removes the unpacked FMUs of processes that are gone — a worker that crashed, hung and was
+/// killed, a campaign killed with `kill -9` — from the temporary directory: done once per
+/// process, before its first unpacking. Returns the directories removed.
+pub fn sweep_stale_unpacked() -> Vec<PathBuf> {
+    remove_unpacked(|pid| pid != std::process::id() && !alive(pid))
+}
+
+/// Removes what process `pid` unpacked (called once that worker process has ended).
+pub fn remove_unpacked_of(pid: u32) -> Vec<PathBuf> {
+    remove_unpacked(|p| p == pid)
+}
+
+fn remove_unpacked(stale: impl Fn(u32) -> bool) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(std::env::temp_dir()) else {
+        return Vec::new();
+    };
+    entries
+        .flatten()
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+        .filter(|e| {
+            e.file_name()
+                .to_str()
+                .and_then(unpacked_by)
+                .is_some_and(&stale)
+        })
+        .map(|e| e.path())
+        .filter(|p| std::fs::remove_dir_all(p).is_ok())
+        .collect()
+}
+
 /// Unpacks the archive at `path` into a fresh private directory (entries that would land
 /// outside it are refused).
 fn unpack(path: &Path, shown: &str) -> Result<tempfile::TempDir, FmuError> {
+    static SWEPT: std::sync::Once = std::sync::Once::new();
+    SWEPT.call_once(|| {
+        sweep_stale_unpacked();
+    });
     let dir = tempfile::Builder::new()
-        .prefix("savme-fmu-")
+        .prefix(&format!("{UNPACKED}{}-", std::process::id()))
         .tempdir()
         .map_err(|e| FmuError::Io {
             what: "a temporary directory for the FMU".into(),

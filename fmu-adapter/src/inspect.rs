@@ -41,6 +41,9 @@ impl Info {
         let kinds: Vec<&str> = [
             m.co_simulation.as_ref().map(|_| "co-simulation"),
             m.model_exchange.as_ref().map(|_| "model exchange"),
+            m.scheduled_execution
+                .as_ref()
+                .map(|_| "scheduled execution"),
         ]
         .into_iter()
         .flatten()
@@ -129,7 +132,12 @@ fn variable_table(vars: &[VarInfo], fmi3: bool) -> String {
     ]
     .map(String::from)];
     for v in vars {
-        let items = if v.items.is_empty() {
+        let items = if let Some(of) = &v.alias_of {
+            match &v.description {
+                Some(d) => format!("alias of {of}: {d}"),
+                None => format!("alias of {of}"),
+            }
+        } else if v.items.is_empty() {
             cell(&v.description)
         } else {
             v.items
@@ -144,11 +152,7 @@ fn variable_table(vars: &[VarInfo], fmi3: bool) -> String {
                 .ok()
                 .and_then(|c| c.as_str().map(String::from))
                 .unwrap_or_default(),
-            if fmi3 && matches!(v.kind, VarType::Real | VarType::Integer) {
-                format!("{:?}", v.repr)
-            } else {
-                format!("{:?}", v.kind)
-            },
+            type_name(v, fmi3),
             cell(&v.start),
             num(v.min),
             num(v.max),
@@ -171,6 +175,21 @@ fn variable_table(vars: &[VarInfo], fmi3: bool) -> String {
     s
 }
 
+/// A variable's type as `fmu info` shows it: FMI 3.0's own names (Float64, UInt32, Binary,
+/// Clock, …), with `[]` for an array.
+pub fn type_name(v: &VarInfo, fmi3: bool) -> String {
+    let name = if fmi3 && matches!(v.kind, VarType::Real | VarType::Integer | VarType::Other) {
+        format!("{:?}", v.repr)
+    } else {
+        format!("{:?}", v.kind)
+    };
+    if v.array {
+        format!("{name}[]")
+    } else {
+        name
+    }
+}
+
 /// The problems savme's checks find in `path` without loading it: the archive, the model
 /// description, FMI 2.0 co-simulation, a binary for this platform (one problem if any fails),
 /// then every variable's declaration — `min` ≤ `max`, the start value of the right type and
@@ -189,8 +208,23 @@ pub fn problems(path: &Path) -> Vec<String> {
     out
 }
 
-/// What is wrong with a variable's declaration, if anything.
+/// What is wrong with a variable's declaration, if anything (an array's start holds one value
+/// per element, each checked).
 fn variable_problem(v: &VarInfo) -> Option<String> {
+    if v.alias_of.is_some() {
+        return None; // checked as the variable it names
+    }
+    if v.array {
+        let elements = v.start.as_deref().map(str::split_whitespace);
+        return elements.into_iter().flatten().find_map(|x| {
+            let one = VarInfo {
+                array: false,
+                start: Some(x.to_string()),
+                ..v.clone()
+            };
+            variable_problem(&one).map(|p| format!("element {p}"))
+        });
+    }
     if let (Some(lo), Some(hi)) = (v.min, v.max) {
         if lo > hi {
             return Some(format!("min {lo} > max {hi}"));
@@ -202,8 +236,9 @@ fn variable_problem(v: &VarInfo) -> Option<String> {
     };
     let value: Option<f64> = match v.kind {
         VarType::Real => start.trim().parse::<f64>().ok(),
+        // i128: a UInt64 start may exceed 2⁶³ − 1.
         VarType::Integer | VarType::Enumeration => {
-            start.trim().parse::<i64>().ok().map(|i| i as f64)
+            start.trim().parse::<i128>().ok().map(|i| i as f64)
         }
         VarType::Boolean => {
             return (!["true", "false", "1", "0"].contains(&start.trim()))

@@ -25,10 +25,12 @@ pub enum Step {
         /// `lastSuccessfulTime`.
         time: f64,
     },
-    /// The FMU asks to end the simulation. `reached: None` — it could not complete the step
-    /// (`fmi2Discard` / `fmi3Discard`): the run ends at the last completed communication point.
-    /// `reached: Some(t)` — FMI 3.0 `terminateSimulation` after a step completed up to `t`: the
-    /// run ends there, its signals read at `t`. `terminated` is FMI 2.0's
+    /// The FMU asks to end the simulation: `fmi2Discard` / `fmi3Discard` (the step did not
+    /// complete), or FMI 3.0 `terminateSimulation`. The FMU's signals are those at its last
+    /// successful time — `reached: Some(t)`, when it got past the step's start: FMI 2.0's
+    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`, FMI 3.0's `lastSuccessfulTime` (or the end
+    /// of the step it completed); `None` when it made no progress or does not say. The run ends
+    /// there, judged on its signals read after the stop. `terminated` is FMI 2.0's
     /// `fmi2GetBooleanStatus(fmi2Terminated)` answer (`None` when it gives none), `Some(true)`
     /// for `terminateSimulation`.
     StopRequested {
@@ -48,6 +50,9 @@ pub struct Instance {
     _callbacks: Option<Box<fmi2CallbackFunctions>>,
     log: Box<LogSink>,
     _name: CString,
+    /// FMI 3.0: the experiment [`Instance::setup`] remembered for
+    /// `fmi3EnterInitializationMode` (start, stop, tolerance).
+    experiment: (f64, Option<f64>, Option<f64>),
 }
 
 // SAFETY: an instance is used by one thread at a time (it moves between threads only whole);
@@ -156,6 +161,7 @@ impl Instance {
             _callbacks: callbacks,
             log,
             _name: name,
+            experiment: (0.0, None, None),
         })
     }
 
@@ -244,28 +250,19 @@ impl Instance {
                 };
                 self.status2("fmi2SetupExperiment", s)
             }
-            Api::Fmi3(api) => {
-                // FMI 3.0: the values set before initialisation are set in initialization
-                // mode, which takes the experiment's times and tolerance.
-                // SAFETY: a live component of this library.
-                let s = unsafe {
-                    (api.enter_initialization_mode)(
-                        self.component,
-                        tolerance.is_some(),
-                        tolerance.unwrap_or(0.0),
-                        start,
-                        stop.is_some(),
-                        stop.unwrap_or(0.0),
-                    )
-                };
-                self.status3("fmi3EnterInitializationMode", s)
+            Api::Fmi3(_) => {
+                // FMI 3.0: the values are set in the Instantiated state (as FMPy sets them:
+                // variables with initial="approx" can be set only there), then
+                // `fmi3EnterInitializationMode` takes the experiment's times and tolerance.
+                self.experiment = (start, stop, tolerance);
+                Ok(())
             }
         }
     }
 
-    /// Ends initialisation: FMI 2.0 `fmi2EnterInitializationMode` then
-    /// `fmi2ExitInitializationMode`; FMI 3.0 `fmi3ExitInitializationMode` (entered in
-    /// [`Instance::setup`]), after which the instance is in step mode.
+    /// Initialises: `fmi2EnterInitializationMode` / `fmi3EnterInitializationMode` (with the
+    /// experiment of [`Instance::setup`]) then `fmi2ExitInitializationMode` /
+    /// `fmi3ExitInitializationMode`, after which the instance is in step mode.
     pub fn initialize(&mut self) -> Result<(), FmuError> {
         match &self.file.api {
             Api::Fmi2(dll) => {
@@ -277,7 +274,20 @@ impl Instance {
                 self.status2("fmi2ExitInitializationMode", s)
             }
             Api::Fmi3(api) => {
+                let (start, stop, tolerance) = self.experiment;
                 // SAFETY: a live component of this library.
+                let s = unsafe {
+                    (api.enter_initialization_mode)(
+                        self.component,
+                        tolerance.is_some(),
+                        tolerance.unwrap_or(0.0),
+                        start,
+                        stop.is_some(),
+                        stop.unwrap_or(0.0),
+                    )
+                };
+                self.status3("fmi3EnterInitializationMode", s)?;
+                // SAFETY: as above.
                 let s = unsafe { (api.exit_initialization_mode)(self.component) };
                 self.status3("fmi3ExitInitializationMode", s)
             }
@@ -297,7 +307,7 @@ impl Instance {
                 // SAFETY: a live component of this library.
                 let s = unsafe { dll.fmi2DoStep(self.component, time, h, 1) };
                 if s == fmi2Status::fmi2Discard {
-                    return Ok(self.stop_requested());
+                    return Ok(self.stop_requested(time));
                 }
                 self.status2("fmi2DoStep", s).map(|()| Step::Completed)
             }
@@ -319,7 +329,7 @@ impl Instance {
                 if s == fmi3::DISCARD {
                     return Ok(Step::StopRequested {
                         terminated: Some(terminate),
-                        reached: None,
+                        reached: (reached > time && reached.is_finite()).then_some(reached),
                     });
                 }
                 self.status3("fmi3DoStep", s)?;
@@ -331,7 +341,7 @@ impl Instance {
                 Ok(if terminate {
                     Step::StopRequested {
                         terminated: Some(true),
-                        reached: Some(end),
+                        reached: (end > time).then_some(end),
                     }
                 } else if end < time + h {
                     Step::EarlyReturn { time: end }
@@ -343,11 +353,29 @@ impl Instance {
     }
 
     #[cold]
-    fn stop_requested(&mut self) -> Step {
+    fn stop_requested(&mut self, time: f64) -> Step {
         Step::StopRequested {
             terminated: self.terminated(),
-            reached: None,
+            reached: self.last_successful_time().filter(|t| *t > time),
         }
+    }
+
+    /// `fmi2GetRealStatus(fmi2LastSuccessfulTime)`, when the FMU exports it and answers.
+    fn last_successful_time(&mut self) -> Option<f64> {
+        let Api::Fmi2(dll) = &self.file.api else {
+            return None;
+        };
+        dll.fmi2GetRealStatus.as_ref().ok()?;
+        let mut v = f64::NAN;
+        // SAFETY: the function exists (checked above); one writable slot.
+        let s = unsafe {
+            dll.fmi2GetRealStatus(
+                self.component,
+                fmi2StatusKind::fmi2LastSuccessfulTime,
+                &mut v,
+            )
+        };
+        (ok2(s) && v.is_finite()).then_some(v)
     }
 
     /// `fmi2GetBooleanStatus(fmi2Terminated)`, when the FMU exports it and answers.
@@ -466,6 +494,18 @@ impl Instance {
                 Api::Fmi3(api) => self.set3(&api.float32, "fmi3SetFloat32", var.vr, x as f32),
                 Api::Fmi2(_) => Err(self.missing("fmi3SetFloat32")),
             },
+            // UInt64 values above 2⁶³ − 1 do not fit the i64 of `set_int`.
+            Repr::UInt64 if x.fract() == 0.0 && x >= 9_223_372_036_854_775_808.0 => {
+                match &self.file.api {
+                    Api::Fmi3(api) if x < 18_446_744_073_709_551_616.0 => {
+                        self.set3(&api.uint64, "fmi3SetUInt64", var.vr, x as u64)
+                    }
+                    _ => Err(FmuError::Spec(format!(
+                        "{x} does not fit `{}` (UInt64)",
+                        var.name
+                    ))),
+                }
+            }
             _ if x.fract() == 0.0 => self.set_int(var, x as i64),
             _ => Err(FmuError::Spec(format!(
                 "`{}` takes integers, not {x}",

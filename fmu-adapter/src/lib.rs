@@ -81,10 +81,15 @@ pub enum FmuError {
         version: String,
     },
     /// No co-simulation interface.
-    #[error("{fmu}: no CoSimulation element; savme runs co-simulation FMUs only (this one is model exchange)")]
+    #[error(
+        "{fmu}: no CoSimulation element; savme runs co-simulation FMUs only (this one is {kinds})"
+    )]
     NoCoSimulation {
         /// The FMU.
         fmu: String,
+        /// What it is instead: `model exchange`, `scheduled execution` (FMI 3.0, clocked
+        /// partitions), both, or `neither`.
+        kinds: String,
     },
     /// No binary for this platform.
     #[error("{fmu}: no binary for this platform ({expected})")]

@@ -16,7 +16,7 @@ use std::time::Instant;
 pub struct Binding {
     /// The savme variable.
     pub variable: String,
-    /// The FMU variable (a parameter or an input).
+    /// The FMU variable (a parameter, an input, or a variable whose start value can be set).
     pub fmu_variable: String,
     /// For a variable with label values: the labels, in order — a label is set as its position
     /// (an FMU Integer).
@@ -98,7 +98,8 @@ pub enum CostSource {
 }
 
 /// The outputs a run recorded (`[fmu] record`): their values at every communication point,
-/// from the initialised state at time 0 to the end of the run.
+/// from the initialised state at the start time (`DefaultExperiment startTime`, else 0) to the
+/// end of the run.
 ///
 /// ```
 /// use savme_fmu::simulator::Trace;
@@ -259,6 +260,21 @@ fn needed(space: &Space, name: &str) -> Option<&'static [VarType]> {
     })
 }
 
+/// A variable's type in an error: its kind (Real, Integer, …), or for one savme does not bind
+/// its FMI 3.0 type (Binary, Clock), an array marked as such.
+fn shown_type(v: &VarInfo) -> String {
+    let name = if v.kind == VarType::Other {
+        format!("{:?}", v.repr)
+    } else {
+        format!("{:?}", v.kind)
+    };
+    if v.array {
+        format!("an array of {name}")
+    } else {
+        name
+    }
+}
+
 /// A binding resolved against one FMU.
 #[derive(Debug, Clone)]
 struct Resolved {
@@ -281,13 +297,20 @@ fn scalar(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     Ok(v)
 }
 
+/// Variable `name` of `file`, if savme can set it before initialisation: a parameter, an
+/// input, or — as FMI allows and FMPy does — any variable with a settable start value
+/// (`initial="exact"` or `"approx"`, not constant: the start value of a state, a counter, …).
 fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     let v = scalar(file, name)?;
-    if !matches!(v.causality, VarCausality::Parameter | VarCausality::Input) {
+    let start_settable =
+        v.variability != "constant" && matches!(v.initial.as_deref(), Some("exact" | "approx"));
+    if !(matches!(v.causality, VarCausality::Parameter | VarCausality::Input) || start_settable) {
         return Err(FmuError::WrongCausality {
             fmu: file.path.display().to_string(),
             variable: name.into(),
-            expected: "a parameter or an input".into(),
+            expected: "a parameter, an input, or a variable whose start value can be set \
+                       (initial=\"exact\" or \"approx\")"
+                .into(),
         });
     }
     Ok(v)
@@ -303,11 +326,26 @@ fn resolve(
 ) -> Result<Resolved, FmuError> {
     let var = settable(file, &b.fmu_variable)?;
     if let Some(allowed) = space.and_then(|s| needed(s, &b.variable)) {
+        let continuous = space
+            .and_then(|s| s.variable(&b.variable))
+            .is_some_and(|v| matches!(v.domain, Domain::Continuous { .. }));
+        if continuous && matches!(var.kind, VarType::Integer | VarType::Enumeration) {
+            return Err(FmuError::WrongType {
+                fmu: file.path.display().to_string(),
+                variable: b.fmu_variable.clone(),
+                found: shown_type(&var),
+                expected: format!(
+                    "a Real for `{}`, which ranges continuously: give an {} variable its values as a list (`values = [1, 2, 3]`, not `range`)",
+                    b.variable,
+                    shown_type(&var)
+                ),
+            });
+        }
         if !allowed.contains(&var.kind) {
             return Err(FmuError::WrongType {
                 fmu: file.path.display().to_string(),
                 variable: b.fmu_variable.clone(),
-                found: format!("{:?}", var.kind),
+                found: shown_type(&var),
                 expected: format!(
                     "{} (for `{}`)",
                     allowed
@@ -348,7 +386,7 @@ fn resolve_fixed(file: &FmuDescription, f: &Fixed) -> Result<(VarInfo, Value), F
         return Err(FmuError::WrongType {
             fmu: file.path.display().to_string(),
             variable: f.fmu_variable.clone(),
-            found: format!("{:?}", v.kind),
+            found: shown_type(&v),
             expected: format!("a variable that takes the value {}", f.value),
         });
     }
@@ -387,7 +425,7 @@ fn output(file: &FmuDescription, name: &str, kinds: &[VarType]) -> Result<VarInf
         return Err(FmuError::WrongType {
             fmu: file.path.display().to_string(),
             variable: name.into(),
-            found: format!("{:?}", v.kind),
+            found: shown_type(&v),
             expected: kinds
                 .iter()
                 .map(|k| format!("{k:?}"))
@@ -407,9 +445,11 @@ impl Plan {
     ) -> Result<Plan, FmuError> {
         let failure = match &spec.failure {
             Failure::Boolean { variable } => output(file, variable, &[VarType::Boolean])?,
-            Failure::Threshold { variable, .. } => {
-                output(file, variable, &[VarType::Real, VarType::Integer])?
-            }
+            Failure::Threshold { variable, .. } => output(
+                file,
+                variable,
+                &[VarType::Real, VarType::Integer, VarType::Enumeration],
+            )?,
         };
         let cost = match &spec.cost {
             CostSource::Wall => None,
@@ -532,6 +572,14 @@ impl FmuSimulator {
         };
         match var.kind {
             VarType::Real => inst.set_number(var, value.as_f64().ok_or_else(|| bad("a number"))?),
+            VarType::Integer
+                if var.repr == crate::Repr::UInt64
+                    && value
+                        .as_f64()
+                        .is_some_and(|x| x >= 9_223_372_036_854_775_808.0) =>
+            {
+                inst.set_number(var, value.as_f64().unwrap_or_default())
+            }
             VarType::Integer | VarType::Enumeration => {
                 let i = declared::integer_of(var, value, labels)
                     .ok_or_else(|| bad("an integer, a label or an enumeration item"))?;
@@ -615,23 +663,30 @@ impl FmuSimulator {
                 self.spec.fmu_log,
             )?,
         };
-        let result = self.run_on(&mut inst, &plans[k], (scenario, phi, fidelity), tracer);
-        if result.is_ok() {
-            // Only a healthy instance is reused; a failed one is freed.
+        let ran = self.run_on(&mut inst, &plans[k], (scenario, phi, fidelity), tracer)?;
+        if !ran.stopped {
+            // Only a healthy instance is reused: a failed one is freed, and so is one whose FMU
+            // asked to end the simulation (some keep that request across a reset, which would
+            // end every later run at once, judged on its initial state).
             self.instances[k] = Some(inst);
         }
-        let (failure, work) = result?;
-        Ok(SimResult::new(failure, clock.elapsed().as_secs_f64(), work))
+        Ok(SimResult::new(
+            ran.failure,
+            clock.elapsed().as_secs_f64(),
+            ran.work,
+        ))
     }
 
-    // Long because it is one run from set-up to terminate, in the order FMI prescribes.
+    /// One run on `inst`, from set-up to terminate in the order FMI prescribes: its verdict,
+    /// its work and whether the FMU asked to end the simulation (the instance is then not
+    /// reused: some FMUs keep that request across `fmi2Reset` / `fmi3Reset`).
     fn run_on(
         &self,
         inst: &mut Instance,
         plan: &Plan,
         (scenario, phi, fidelity): (&str, &Assignment, &Assignment),
-        mut tracer: Option<&mut Tracer>,
-    ) -> Result<(bool, Option<u64>), FmuError> {
+        tracer: Option<&mut Tracer>,
+    ) -> Result<Ran, FmuError> {
         let spec = &self.spec;
         let (_, phi_bindings, fixed) = plan
             .scenarios
@@ -644,7 +699,8 @@ impl FmuSimulator {
             Some(Tolerance::Fixed(t)) => Some(*t),
             Some(Tolerance::Of(var)) => Some(positive(fidelity, var, "tolerance")?),
         };
-        inst.setup(0.0, Some(stop), tolerance)?;
+        let start = start_time(inst.file());
+        inst.setup(start, Some(stop), tolerance)?;
         for (var, value) in fixed {
             Self::set(inst, var, value, None)?;
         }
@@ -659,74 +715,155 @@ impl FmuSimulator {
             }
         }
         inst.initialize()?;
-        let h = match &spec.step {
-            StepSize::Fixed(h) => *h,
-            StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
-            StepSize::Of(var) => positive(fidelity, var, "step size")?,
+        let h = step_size(&spec.step, fidelity)?;
+        fixed_step_fits(inst.file(), h, stop)?;
+        let mut ran = self.steps(inst, plan, (start, h), tracer)?;
+        let work = match &plan.cost {
+            Some(v) => inst.number(v)?.max(0.0).round() as u64,
+            None => ran.work.unwrap_or(0),
         };
+        // A run is at least one unit of work, even one judged at initialisation (a failure at
+        // t = 0 with stop_on_failure, a stop request at the first step): the kernel takes no
+        // zero cost.
+        ran.work = Some(work.max(1));
+        inst.terminate()?;
+        Ok(ran)
+    }
+
+    /// The communication steps of a run, on the grid t = start + n·h (as FMPy computes it: no drift
+    /// from accumulating t + h). A communication point within a relative 1e-9 of the target
+    /// counts as reached — an FMI 3.0 early return a few ulps before the point does not leave
+    /// a near-zero step. After a stop request (`fmi2Discard`, `fmi3Discard`,
+    /// `terminateSimulation`) the signals are read at the FMU's last successful time, so that
+    /// an FMU that stops *because* of the failure is judged failed. The work is the number of
+    /// `doStep` calls that advanced time.
+    fn steps(
+        &self,
+        inst: &mut Instance,
+        plan: &Plan,
+        (start, h): (f64, f64),
+        mut tracer: Option<&mut Tracer>,
+    ) -> Result<Ran, FmuError> {
+        let (stop, stop_on_failure) = (self.spec.stop_time, self.spec.stop_on_failure);
         let mut failure = self.failed(inst, plan)?;
-        let mut t = 0.0;
-        let mut k = 0u64;
+        let (mut t, mut n, mut k) = (start, 0u64, 0u64);
         if let Some(tr) = tracer.as_deref_mut() {
             tr.sample(inst, t, failure)?;
         }
-        // The communication point an FMI 3.0 early return left unreached.
-        let mut heading: Option<f64> = None;
-        while !(failure && spec.stop_on_failure) && t < stop - 1e-9 * stop.max(1.0) {
-            let (goal, dt) = match heading.take() {
-                Some(goal) => (goal, goal - t),
-                None => {
-                    let dt = h.min(stop - t);
-                    let goal = if (stop - (t + dt)).abs() < 1e-12 {
-                        stop
-                    } else {
-                        t + dt
-                    };
-                    (goal, dt)
-                }
-            };
-            match inst.step(t, dt)? {
+        let mut stopped = false;
+        while !(failure && stop_on_failure) && t < stop && !close(t, stop) {
+            let mut goal = start + (n + 1) as f64 * h;
+            if goal > stop && !close(goal, stop) {
+                goal = stop;
+            }
+            match inst.step(t, goal - t)? {
                 Step::Completed => t = goal,
-                Step::EarlyReturn { time } if time > t => {
-                    // An event inside the step: judged there, then on to `goal`.
-                    t = time;
-                    heading = Some(goal);
-                }
+                Step::EarlyReturn { time } if time > t => t = time.min(goal),
                 Step::EarlyReturn { time } => {
                     return Err(FmuError::Spec(format!(
                         "{}: fmi3DoStep returned early at {time} s, not after the communication point {t} s",
                         inst.file().path.display()
                     )))
                 }
-                // The FMU ends the simulation without completing the step: the run ends at the
-                // last completed communication point, judged on the signals seen up to there.
-                Step::StopRequested { reached: None, .. } => break,
-                // FMI 3.0 terminateSimulation after a completed (or early-returned) step: judged
-                // on the signals there too.
-                Step::StopRequested {
-                    reached: Some(_), ..
-                } => {
-                    k += 1;
-                    failure |= self.failed(inst, plan)?;
-                    if let Some(tr) = tracer.as_deref_mut() {
-                        tr.sample(inst, t, failure)?;
+                Step::StopRequested { reached, .. } => {
+                    if let Some(r) = reached {
+                        t = r;
+                        k += 1;
                     }
-                    break;
+                    stopped = true;
                 }
             }
-            k += 1;
+            if !stopped {
+                k += 1;
+            }
+            if close(t, goal) {
+                n += 1;
+            }
             failure |= self.failed(inst, plan)?;
             if let Some(tr) = tracer.as_deref_mut() {
                 tr.sample(inst, t, failure)?;
             }
+            if stopped {
+                break;
+            }
         }
-        let work = match &plan.cost {
-            Some(v) => Some(inst.number(v)?.max(0.0).round() as u64),
-            None => Some(k),
-        };
-        inst.terminate()?;
-        Ok((failure, work))
+        Ok(Ran {
+            failure,
+            work: Some(k),
+            stopped,
+        })
     }
+}
+
+/// What a run found.
+struct Ran {
+    failure: bool,
+    work: Option<u64>,
+    /// The FMU asked to end the simulation.
+    stopped: bool,
+}
+
+/// `a` and `b` equal within a relative 1e-9 (Python's `math.isclose`, as FMPy compares
+/// communication points).
+fn close(a: f64, b: f64) -> bool {
+    a == b || (a - b).abs() <= 1e-9 * a.abs().max(b.abs())
+}
+
+/// The communication step size of a run.
+fn step_size(step: &StepSize, fidelity: &Assignment) -> Result<f64, FmuError> {
+    Ok(match step {
+        StepSize::Fixed(h) => *h,
+        StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
+        StepSize::Of(var) => positive(fidelity, var, "step size")?,
+    })
+}
+
+/// An FMU that declares `canHandleVariableCommunicationStepSize="false"` takes steps of one
+/// size only: the stop time must be a whole number of steps `h` (else the last step would be
+/// shorter), refused naming the FMU, the step and the stop time.
+pub fn fixed_step_fits(file: &FmuDescription, h: f64, stop: f64) -> Result<(), FmuError> {
+    let variable = file
+        .model
+        .co_simulation
+        .as_ref()
+        .is_none_or(|c| c.can_handle_variable_communication_step_size);
+    let start = start_time(file);
+    let span = stop - start;
+    let steps = (span / h).round();
+    if variable || (steps >= 1.0 && close(start + steps * h, stop)) {
+        return Ok(());
+    }
+    let from = if start == 0.0 {
+        String::new()
+    } else {
+        format!(" from the start time {start} s")
+    };
+    Err(FmuError::Spec(format!(
+        "{}: the FMU declares canHandleVariableCommunicationStepSize=\"false\" (one step size only), \
+         but the stop time {stop} s is not a whole number of steps of {h} s{from}: \
+         choose a step that divides the stop time (e.g. {}) or a stop time that is a multiple of it (e.g. {})",
+        file.path.display(),
+        round12(span / (span / h).ceil()),
+        round12(start + steps.max(1.0) * h),
+    )))
+}
+
+/// Where a run of `file` starts: its `DefaultExperiment startTime` (as in FMPy), else 0.
+pub fn start_time(file: &FmuDescription) -> f64 {
+    file.model
+        .default_experiment
+        .start_time
+        .filter(|t| t.is_finite())
+        .unwrap_or(0.0)
+}
+
+/// `x` to 12 significant digits, for a suggestion a user can type (9.9, not 9.899999999999999).
+fn round12(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(11 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
 }
 
 /// The run settings checked and the bindings resolved against the HF and the LF FMU.
@@ -753,10 +890,43 @@ fn plans(
             return Err(FmuError::Spec(format!("tolerance {t} is not positive")));
         }
     }
+    for file in [hf, lf] {
+        let start = start_time(file);
+        if spec.stop_time <= start {
+            return Err(FmuError::Spec(format!(
+                "{}: the stop time {} s is not after the FMU's start time (DefaultExperiment startTime = {start} s)",
+                file.path.display(),
+                spec.stop_time
+            )));
+        }
+        for h in step_sizes(&spec.step, fidelity) {
+            fixed_step_fits(file, h, spec.stop_time)?;
+        }
+    }
     Ok([
         Plan::new(hf, spec, fidelity, phi)?,
         Plan::new(lf, spec, fidelity, phi)?,
     ])
+}
+
+/// The step sizes a run can take, as far as known before any run: the fixed step, or those of
+/// a fidelity variable with listed values (a continuous one is checked run by run).
+fn step_sizes(step: &StepSize, fidelity: Option<&Space>) -> Vec<f64> {
+    let values = |var: &str| -> Vec<f64> {
+        match fidelity.and_then(|s| s.variable(var)).map(|v| &v.domain) {
+            Some(Domain::Discrete { values }) => values.iter().filter_map(Value::as_f64).collect(),
+            _ => Vec::new(),
+        }
+    };
+    match step {
+        StepSize::Fixed(h) => vec![*h],
+        StepSize::Of(var) => values(var).into_iter().filter(|h| *h > 0.0).collect(),
+        StepSize::RateOf(var) => values(var)
+            .into_iter()
+            .filter(|r| *r > 0.0)
+            .map(|r| 1.0 / r)
+            .collect(),
+    }
 }
 
 /// The positive, finite value of fidelity variable `var` (a `what`: rate, step size, …).

@@ -190,12 +190,16 @@ struct Worker {
 }
 
 impl Worker {
+    /// Kills the worker and removes the FMUs it unpacked (a killed or crashed process leaves
+    /// them behind): how it ended.
     fn kill(mut self) -> String {
         let _ = self.child.kill();
-        match self.child.wait() {
+        let status = match self.child.wait() {
             Ok(status) => describe(status),
             Err(e) => e.to_string(),
-        }
+        };
+        crate::file::remove_unpacked_of(self.child.id());
+        status
     }
 }
 
@@ -473,7 +477,10 @@ impl Drop for IsolatedSimulator {
         if let Some(w) = self.worker.take() {
             drop(w.stdin); // the worker exits when its input closes
             let mut child = w.child;
-            let _ = child.wait();
+            if child.wait().is_ok() {
+                // Whatever the ended worker left (it removes its own when it exits normally).
+                crate::file::remove_unpacked_of(child.id());
+            }
         }
     }
 }

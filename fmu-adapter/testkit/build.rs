@@ -1,8 +1,10 @@
 //! Compiles the test FMUs written in C, as vendors write them: `braking` (the example of
 //! `examples/fmu/braking`: resources, an enumeration, a String parameter, bounds, stop
 //! requests, logger messages), `braking3` (the same model against the FMI 3.0 C API), `braking_once` (the same, refusing a second live instance in a
-//! process) and `crash_on_load` (dies while its library is loaded). Their paths reach the crate
-//! as `SAVME_BRAKING_LIB`, `SAVME_BRAKING3_LIB`, `SAVME_BRAKING_ONCE_LIB` and `SAVME_CRASH_ON_LOAD_LIB`.
+//! process), `stairs` (the third-party quirks of issue 26, both C APIs: `c/stairs.c`) and
+//! `crash_on_load` (dies while its library is loaded). Their paths reach the crate as
+//! `SAVME_BRAKING_LIB`, `SAVME_BRAKING3_LIB`, `SAVME_BRAKING_ONCE_LIB`, `SAVME_STAIRS_LIB` and
+//! `SAVME_CRASH_ON_LOAD_LIB`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -46,6 +48,9 @@ fn main() {
     println!("cargo:rustc-env=SAVME_BRAKING3_LIB={}", lib.display());
     let lib = shared_library(&braking, "braking_once", &["BRAKING_ONLY_ONCE"], &out_dir);
     println!("cargo:rustc-env=SAVME_BRAKING_ONCE_LIB={}", lib.display());
+    let stairs = manifest.join("c/stairs.c");
+    let lib = shared_library(&stairs, "stairs", &[], &out_dir);
+    println!("cargo:rustc-env=SAVME_STAIRS_LIB={}", lib.display());
     let crash = manifest.join("c/crash_on_load.c");
     let lib = shared_library(&crash, "crash_on_load", &[], &out_dir);
     println!("cargo:rustc-env=SAVME_CRASH_ON_LOAD_LIB={}", lib.display());

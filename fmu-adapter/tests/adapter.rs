@@ -266,10 +266,11 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
         &|s| s.scenarios[0].phi[0].fmu_variable = "nope".into(),
         "no variable `nope`",
     );
-    // A continuous savme variable needs a Real; `fault` is an Integer.
+    // A continuous savme variable needs a Real; `fault` is an Integer (issue 26 item 10: the
+    // error says what to write instead).
     check(
         &|s| s.scenarios[0].phi[0].fmu_variable = "fault".into(),
-        "variable `fault` is Integer, expected Real (for `start`)",
+        "variable `fault` is Integer, expected a Real for `start`, which ranges continuously: give an Integer variable its values as a list (`values = [1, 2, 3]`, not `range`)",
     );
     check(
         &|s| s.fidelity[0].fmu_variable = "enabled".into(),
@@ -278,7 +279,7 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
     // Outputs cannot be set; parameters are no failure signal.
     check(
         &|s| s.scenarios[0].phi[0].fmu_variable = "x".into(),
-        "variable `x` cannot be used here: expected a parameter or an input",
+        "variable `x` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
     );
     check(
         &|s| {
@@ -392,6 +393,60 @@ mod isolation {
         assert!(e.contains("fmi2DoStep failed"), "{e}");
     }
 
+    /// The directories `savme-fmu-<pid>-*` in the temporary directory: what process `pid`
+    /// unpacked.
+    fn unpacked_by(pid: u32) -> Vec<PathBuf> {
+        let prefix = format!("savme-fmu-{pid}-");
+        std::fs::read_dir(std::env::temp_dir())
+            .unwrap()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+            .map(|e| e.path())
+            .collect()
+    }
+
+    /// Issue 26 item 9: a worker that crashes (abort, segfault) or hangs (killed at the
+    /// timeout) leaves no unpacked FMU behind; nor does one that ends normally. The workers are
+    /// started through `sh -c 'echo $$ >> pids; exec savme-fmu-worker'` to learn their pids.
+    #[test]
+    fn a_crashed_or_hung_worker_leaves_no_unpacked_fmu() {
+        let dir = temp_dir("iso-clean");
+        let fmu = testkit(&dir);
+        let pids = dir.join("pids");
+        let (fidelity, phi) = spaces();
+        for (fault, timeout) in [(2, 20_000), (4, 20_000), (3, 1_500), (0, 20_000)] {
+            let init = WorkerInit {
+                hf: fmu.clone(),
+                lf: fmu.clone(),
+                spec: spec(fault, true),
+                fidelity: Some(fidelity.clone()),
+                phi: [("grow".to_string(), phi.clone())].into_iter().collect(),
+                theta_hf: None,
+            };
+            let script = format!(
+                "echo $$ >> '{}'; exec '{}'",
+                pids.display(),
+                env!("CARGO_BIN_EXE_savme-fmu-worker")
+            );
+            let command = vec!["sh".into(), "-c".into(), script];
+            let mut iso =
+                IsolatedSimulator::new(command, &init, Duration::from_millis(timeout)).unwrap();
+            let (p, theta) = args(0.0, 0.1);
+            let r = iso.simulate_as(Role::High, "grow", &p, &theta);
+            assert_eq!(r.is_ok(), fault == 0, "fault {fault}: {r:?}");
+            drop(iso);
+        }
+        let pids: Vec<u32> = std::fs::read_to_string(&pids)
+            .unwrap()
+            .lines()
+            .map(|l| l.parse().unwrap())
+            .collect();
+        assert_eq!(pids.len(), 4, "{pids:?}");
+        for pid in pids {
+            assert_eq!(unpacked_by(pid), Vec::<PathBuf>::new(), "worker {pid}");
+        }
+    }
+
     #[test]
     fn a_hang_is_cut_off_by_the_timeout() {
         let dir = temp_dir("iso-hang");
@@ -499,5 +554,24 @@ mod isolation {
             }
             std::thread::sleep(Duration::from_millis(20));
         }
+        // Issue 26 item 9: killed with SIGKILL, the worker left its unpacked FMU; the next
+        // start (any process that unpacks an FMU) removes it, and only what dead processes left.
+        let left = unpacked_by(worker);
+        assert_eq!(left.len(), 1, "{left:?}");
+        // (This process's first unpacking sweeps; the explicit sweep is for when it has
+        // unpacked before.)
+        let mine = FmuFile::open(&fmu).unwrap();
+        let swept = savme_fmu::file::sweep_stale_unpacked();
+        assert!(!left[0].exists(), "{left:?}");
+        assert_eq!(unpacked_by(worker), Vec::<PathBuf>::new());
+        // What a live process (this one) unpacked stays.
+        let own = format!("savme-fmu-{}-", std::process::id());
+        assert!(
+            swept.iter().all(|p| !p.to_string_lossy().contains(&own)),
+            "{swept:?}"
+        );
+        let uri = mine.resource_uri.to_string_lossy().into_owned();
+        let resources = uri.strip_prefix("file://").unwrap();
+        assert!(Path::new(resources).parent().unwrap().is_dir(), "{uri}");
     }
 }

@@ -199,3 +199,31 @@ pub fn pack_braking_library(
 pub fn crash_on_load_library() -> std::path::PathBuf {
     env!("SAVME_CRASH_ON_LOAD_LIB").into()
 }
+
+/// The `stairs` test FMU (`testkit/c/stairs.c`, both C APIs): the third-party behaviours of
+/// issue 26 — failures at t = 0, FMI 3.0 early returns at events computed as k·period, a stop
+/// request at the failure (fmi2Discard / terminateSimulation) and a reset that keeps it.
+pub fn stairs_library() -> std::path::PathBuf {
+    env!("SAVME_STAIRS_LIB").into()
+}
+
+/// The `stairs` FMU's FMI 2.0 `modelDescription.xml`.
+pub const STAIRS_MODEL_DESCRIPTION: &str = include_str!("../c/stairs.xml");
+
+/// The `stairs` FMU's FMI 3.0 `modelDescription.xml`.
+pub const STAIRS3_MODEL_DESCRIPTION: &str = include_str!("../c/stairs3.xml");
+
+/// Packs the `stairs` FMU of FMI version `fmi` (2 or 3) into `out`, its model description
+/// edited by `edit` (e.g. to declare a fixed step size).
+pub fn pack_stairs(
+    out: &std::path::Path,
+    fmi: u8,
+    edit: impl FnOnce(&str) -> String,
+) -> Result<(), savme_fmi_export::PackError> {
+    let xml = if fmi == 3 {
+        STAIRS3_MODEL_DESCRIPTION
+    } else {
+        STAIRS_MODEL_DESCRIPTION
+    };
+    savme_fmi_export::pack(&edit(xml), "stairs", &stairs_library(), out)
+}

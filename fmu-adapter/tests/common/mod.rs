@@ -27,3 +27,19 @@ pub fn testkit_library() -> PathBuf {
     }
     panic!("{name} not found next to {}", exe.display());
 }
+
+/// FMPy (PyPI `fmpy`), the independent FMI client, if the environment provides it: the python
+/// in SAVME_FMPY_PYTHON (`scripts/test` sets it with SAVME_REQUIRE_FMPY=1, which turns a
+/// missing FMPy into a failure instead of a loud skip).
+pub fn fmpy_python() -> Option<String> {
+    let python = std::env::var("SAVME_FMPY_PYTHON").ok();
+    let required = std::env::var("SAVME_REQUIRE_FMPY").is_ok_and(|v| v == "1");
+    match python {
+        Some(p) => Some(p),
+        None if required => panic!("SAVME_REQUIRE_FMPY=1 but SAVME_FMPY_PYTHON is not set"),
+        None => {
+            eprintln!("FMPy cross-check skipped: set SAVME_FMPY_PYTHON to a python with fmpy");
+            None
+        }
+    }
+}
