@@ -8,6 +8,7 @@ use common::{made_dir, EXE};
 use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
 use rerun::{ChunkStore, ChunkStoreConfig};
 use savme::viewer::layout::names;
+use savme::viewer::rerun;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;

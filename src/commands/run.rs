@@ -79,7 +79,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         Frames::None
     } else {
         Frames::Fmu {
-            backend: backend.clone(),
+            backend: Box::new(backend.clone()),
             record: c.file.record.clone(),
             failure: c.file.init.spec.failure.clone(),
         }

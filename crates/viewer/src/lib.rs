@@ -45,6 +45,9 @@ pub use fmu::{FmuFrames, FMU_APP};
 pub use layout::plot_path;
 #[cfg(feature = "rerun")]
 pub use recorder::{Recorder, CAMPAIGN_APP};
+/// The rerun SDK this crate records with (to read recordings back with the same version).
+#[cfg(feature = "rerun")]
+pub use rerun;
 #[cfg(feature = "rerun")]
 pub use stream::{RecordOptions, RunSide, RunSummary, Sink, TrialFrames};
 #[cfg(feature = "rerun")]
@@ -116,8 +119,9 @@ pub enum Frames {
     /// An FMU campaign's simulator, re-run reading the outputs `record` (`[fmu] record`) at
     /// every communication point; `failure` is the campaign's failure signal.
     Fmu {
-        /// The simulator as the campaign runs it (in this process or in workers).
-        backend: FmuBackend,
+        /// The simulator as the campaign runs it (in this process or in workers; boxed: it
+        /// is large beside the other variants).
+        backend: Box<FmuBackend>,
         /// The outputs to show.
         record: Vec<String>,
         /// The failure signal.
@@ -189,7 +193,7 @@ fn recorder(
             backend,
             record,
             failure,
-        } => Some(Box::new(FmuFrames::new(backend, record, failure))),
+        } => Some(Box::new(FmuFrames::new(*backend, record, failure))),
         Frames::None => None,
     };
     Recorder::start(opts, frames, protocol, problem.clone())
