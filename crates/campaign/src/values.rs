@@ -1,7 +1,7 @@
 //! Every protocol value, declared once.
 //!
 //! One declaration per value (its name, type, flag, help text and the stages it changes) in
-//! [`protocol_values!`] below. From it come:
+//! `protocol_values!` below. From it come:
 //! - [`Overrides`], the values given by a front end (None: keep the preset's), with
 //!   [`Overrides::then`] (a file's values, then the command line's) and [`Overrides::apply`];
 //! - the command-line flags: [`Overrides`] is a `clap::Args` (`--train-iterations`, …; each
@@ -217,7 +217,7 @@ protocol_values! {
     audit_fraction: f64, flag = "audit-fraction", aliases = [], stages = "screen",
         to = protocol, cli(value_name = "ALPHA");
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
-    /// OUT/seed-<s>/; OUT gets the results over the seeds with 95 % intervals.
+    /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
         to = command, cli(value_name = "N");
 }
