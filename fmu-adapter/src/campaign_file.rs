@@ -956,7 +956,9 @@ impl Part {
             SpaceError::NoValues { .. }
             | SpaceError::DuplicateValue { .. }
             | SpaceError::NonFiniteValue { .. } => Part::Values,
-            SpaceError::NonFiniteBound { .. } | SpaceError::EmptyRange { .. } => Part::Range,
+            SpaceError::NonFiniteBound { .. }
+            | SpaceError::EmptyRange { .. }
+            | SpaceError::RangeNotRepresentable { .. } => Part::Range,
             SpaceError::TooManyArms { .. } if v.values.is_some() => Part::Values,
             SpaceError::ZeroBins { .. } | SpaceError::TooManyArms { .. } => Part::Bins,
             SpaceError::LogRangeNotPositive { .. } => Part::Scale,
@@ -1524,6 +1526,13 @@ range = [0.0, 1.0]
                     &format!("{k}.range"),
                     "non-finite",
                 ),
+                // Finite but too wide to compute with: refused, not a panic at the first draw.
+                (
+                    &[(values, "range = [-1e308, 1e308]")],
+                    17,
+                    &format!("{k}.range"),
+                    "`rate` has a range too wide",
+                ),
                 // A third number is not dropped silently; one number names the key too.
                 (
                     &[(values, "range = [1.0, 2.0, 3.0]")],
@@ -1567,6 +1576,12 @@ range = [0.0, 1.0]
                     27,
                     "scenario[0].phi[0].range",
                     "non-finite",
+                ),
+                (
+                    &[("range = [0.0, 1.0]", "range = [-1e308, 1e308]")],
+                    27,
+                    "scenario[0].phi[0].range",
+                    "range too wide",
                 ),
                 (
                     &[(start, twice)],
