@@ -115,7 +115,8 @@ pub(crate) fn save_protocol(p: &Protocol, files: &Outputs) -> Result<(), Campaig
         field: "protocol".into(),
         message: e.to_string(),
     })?;
-    std::fs::write(&files.protocol, json + "\n").map_err(|e| CampaignError::io(&files.protocol, e))
+    super::store::safe_file::write_file(&files.protocol, (json + "\n").as_bytes())
+        .map_err(|e| CampaignError::io(&files.protocol, e))
 }
 
 /// Writes the results of a campaign (all of them computed from `lines`).
@@ -128,7 +129,8 @@ pub(crate) fn write(
     elapsed: f64,
 ) -> Result<(), CampaignError> {
     let write = |path: &Path, text: String| {
-        std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
+        super::store::safe_file::write_file(path, text.as_bytes())
+            .map_err(|e| CampaignError::io(path, e))
     };
     let version = format!("\n<!-- savme format_version {FORMAT_VERSION} -->\n");
     write(&files.table, report.table_md() + &version)?;
@@ -162,7 +164,8 @@ pub(crate) fn write_repeated(
     elapsed: f64,
 ) -> Result<(), CampaignError> {
     let write = |path: &Path, text: String| {
-        std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
+        super::store::safe_file::write_file(path, text.as_bytes())
+            .map_err(|e| CampaignError::io(path, e))
     };
     let version = format!("\n<!-- savme format_version {FORMAT_VERSION} -->\n");
     write(&out.join("table.md"), report.table_md() + &version)?;

@@ -268,7 +268,8 @@ fn create(out: &Path, settings: &EstimateSettings) -> Result<(), EstimateError> 
     let path = out.join("estimate.json");
     std::fs::create_dir_all(out).map_err(|e| CampaignError::io(out, e))?;
     let json = serde_json::to_string_pretty(settings).unwrap_or_default();
-    std::fs::write(&path, json + "\n").map_err(|e| CampaignError::io(&path, e))?;
+    crate::campaign::store::safe_file::write_file(&path, (json + "\n").as_bytes())
+        .map_err(|e| CampaignError::io(&path, e))?;
     Ok(())
 }
 

@@ -4,7 +4,7 @@
 
 use super::StoreError;
 use std::fs::{File, OpenOptions, TryLockError};
-use std::io::{Read, Write};
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// An exclusive lock, held until dropped.
@@ -31,13 +31,13 @@ impl StoreLock {
     /// ```
     pub fn acquire(path: &Path, store: &str) -> Result<StoreLock, StoreError> {
         let io = |e| StoreError::io(path.display().to_string(), e);
-        let mut file = OpenOptions::new()
+        let options = OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
-            .open(path)
-            .map_err(io)?;
+            .clone();
+        let mut file = super::safe_file::open_no_follow(&options, path).map_err(io)?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
@@ -53,6 +53,7 @@ impl StoreLock {
             }
             Err(TryLockError::Error(e)) => return Err(io(e)),
         }
+        only_a_pid(&mut file).map_err(io)?;
         file.set_len(0).map_err(io)?;
         file.write_all(format!("{}\n", std::process::id()).as_bytes())
             .map_err(io)?;
@@ -66,4 +67,21 @@ impl StoreLock {
     pub fn path(&self) -> &Path {
         &self.path
     }
+}
+
+/// Refuses a lock file holding anything but a process id (what savme writes there): savme
+/// truncates only a lock file it wrote.
+fn only_a_pid(file: &mut File) -> std::io::Result<()> {
+    let mut bytes = Vec::new();
+    Read::by_ref(file).take(64).read_to_end(&mut bytes)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let pid = text.trim();
+    if bytes.len() < 64 && (pid.is_empty() || pid.parse::<u32>().is_ok()) {
+        file.seek(SeekFrom::Start(0))?;
+        return Ok(());
+    }
+    Err(super::safe_file::UnsafeFile::NotOurs {
+        what: "a lock file holds only the pid of the savme process that holds it",
+    }
+    .into())
 }

@@ -32,6 +32,7 @@ pub mod journal;
 mod jsonl;
 mod lock;
 pub mod postgres;
+pub mod safe_file;
 
 pub use jsonl::JsonlStore;
 pub use lock::StoreLock;
