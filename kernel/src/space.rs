@@ -339,13 +339,6 @@ impl Variable {
                 if *bins == 0 {
                     return Err(SpaceError::ZeroBins { variable: name() });
                 }
-                if !representable(*lo, *hi, *bins, *scale) {
-                    return Err(SpaceError::RangeNotRepresentable {
-                        variable: name(),
-                        lo: *lo,
-                        hi: *hi,
-                    });
-                }
                 if *bins > MAX_ARMS as u32 {
                     return Err(SpaceError::TooManyArms {
                         variable: name(),
@@ -356,6 +349,13 @@ impl Variable {
                     return Err(SpaceError::LogRangeNotPositive {
                         variable: name(),
                         lo: *lo,
+                    });
+                }
+                if !representable(*lo, *hi, *bins, *scale) {
+                    return Err(SpaceError::RangeNotRepresentable {
+                        variable: name(),
+                        lo: *lo,
+                        hi: *hi,
                     });
                 }
             }
