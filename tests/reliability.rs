@@ -230,3 +230,149 @@ fn an_extreme_but_finite_range_is_refused_by_serve_naming_the_variable() {
     assert!(!err.contains("panicked"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Starts `savme ARGS` with stderr captured and waits until `file` has `lines` lines.
+fn start_and_wait(args: &[String], file: &Path, lines: usize) -> std::process::Child {
+    let mut child = Command::new(common::EXE)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(file).map_or(0, |s| s.lines().count()) < lines {
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(120),
+            "no progress"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "finished too early");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child
+}
+
+/// Sends `signal` (`INT`, `TERM`) with kill(1), as a shell, `timeout` or a scheduler does.
+fn send(child: &std::process::Child, signal: &str) {
+    let sent = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+}
+
+fn stopped(child: std::process::Child) -> (Option<i32>, String) {
+    let o = child.wait_with_output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn line_count(file: &Path) -> usize {
+    std::fs::read_to_string(file).unwrap().lines().count()
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_and_sigterm_stop_a_campaign_and_an_estimate_between_runs_and_say_how_to_resume() {
+    let dir = temp_dir("signals-campaign");
+    let mut args = vec!["reproduce".to_string(), "--out".into()];
+    args.push(dir.display().to_string());
+    args.extend(TINY_PROTOCOL.iter().map(|s| s.to_string()));
+    args.extend(["--jobs".to_string(), "2".into()]);
+    let trials = dir.join("trials.jsonl");
+    // SIGTERM (SIGINT: tests/reproduce.rs): stops between runs, exit 143, the resume command.
+    let child = start_and_wait(&args, &trials, 10);
+    send(&child, "TERM");
+    let (code, err) = stopped(child);
+    assert_eq!(code, Some(143), "{err}");
+    assert!(
+        err.contains("SIGTERM: stopping after the runs in flight"),
+        "{err}"
+    );
+    let hint = format!("continue with --resume {}", dir.display());
+    assert!(err.contains(&hint), "{err}");
+    let before = line_count(&trials);
+    assert!(before < 60, "the campaign finished before the signal");
+    let (code, err) = resume(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(line_count(&trials), 60, "no trial lost or repeated");
+    // The estimate on the finished campaign, stopped by each signal, then resumed.
+    for (signal, status) in [("INT", 130), ("TERM", 143)] {
+        let out = dir.join(format!("estimate-{signal}"));
+        let o = out.display().to_string();
+        let c = dir.display().to_string();
+        let mut args = vec![
+            "estimate",
+            &c,
+            "--out",
+            &o,
+            "--no-target",
+            "--max-runs",
+            "40",
+        ];
+        args.extend(["--jobs", "1"]);
+        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        let lines = out.join("trials.jsonl");
+        let child = start_and_wait(&args, &lines, 3);
+        send(&child, signal);
+        let (code, err) = stopped(child);
+        assert_eq!(code, Some(status), "{signal}: {err}");
+        let hint = format!("continue with savme estimate {c} --out {o} --resume");
+        assert!(
+            err.contains(&hint) && err.contains("every one stored"),
+            "{signal}: {err}"
+        );
+        let told = line_count(&lines);
+        assert!(
+            told < 40,
+            "{signal}: the estimate finished before the signal"
+        );
+        let (code, _, err) = run(&["estimate", &c, "--out", &o, "--resume", "--quiet"]);
+        assert_eq!(code, Some(0), "{signal}: {err}");
+        assert_eq!(line_count(&lines), 40, "{signal}: no run lost or repeated");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_second_signal_quits_at_once_and_still_prints_the_resume_command() {
+    let dir = temp_dir("signals-twice");
+    let d = dir.display().to_string();
+    let args: Vec<String> = ["toy", "--out", &d, "--sleep-ms", "4000", "--jobs", "1"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    // The protocol exists once the campaign runs; its first run then sleeps 4 s.
+    let child = start_and_wait(&args, &dir.join("protocol.json"), 1);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    send(&child, "INT");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let started = std::time::Instant::now();
+    send(&child, "TERM");
+    let (code, err) = stopped(child);
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(3),
+        "{err}"
+    );
+    assert_eq!(code, Some(143), "{err}");
+    assert!(
+        err.contains("quit at once") && err.contains(&format!("continue with --resume {d}")),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_run_that_would_never_end_is_refused_naming_the_flag_and_its_maximum() {
+    let dir = temp_dir("never-ends");
+    let d = dir.display().to_string();
+    let (code, _, err) = run(&["toy", "--out", &d, "--sleep-ms", "18446744073709551615"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--sleep-ms") && err.contains("3600000 ms (one hour)"),
+        "{err}"
+    );
+    assert!(!dir.exists(), "nothing created");
+}

@@ -148,6 +148,30 @@ pub fn progress_lines(quiet: bool) -> impl FnMut(&EstimateProgress<'_>) {
     }
 }
 
+/// `continue with savme estimate CAMPAIGN [--config FILE] [--out DIR] --resume`.
+fn resume_hint(a: &Args) -> String {
+    let mut s = format!("continue with savme estimate {}", a.campaign.display());
+    if let Some(c) = &a.config {
+        s += &format!(" --config {}", c.display());
+    }
+    if let Some(o) = &a.out {
+        s += &format!(" --out {}", o.display());
+    }
+    s + " --resume"
+}
+
+/// An estimate a signal stopped, as [`Failure::Interrupted`] saying how to continue; any other
+/// error given back.
+pub fn interrupted(e: EstimateError, hint: &str) -> Result<Failure, EstimateError> {
+    match e {
+        EstimateError::Stopped { .. } => Ok(Failure::Interrupted(format!(
+            "interrupted ({}): {e}; {hint}",
+            super::signals::received_name()
+        ))),
+        other => Err(other),
+    }
+}
+
 /// A usage error (exit 2) for what the flags said wrong, a runtime error otherwise.
 fn failure(e: EstimateError) -> Failure {
     match e {
@@ -178,7 +202,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let settings = a.settings(base).map_err(failure)?;
     let protocol = load_protocol(&a.campaign).map_err(|e| Failure::Runtime(e.to_string()))?;
+    let hint = resume_hint(&a);
     let mut run = EstimateRun::new(&a.campaign, settings)
+        .stop_on(super::signals::stop_on_signals(&hint))
         .progress(progress_lines(a.quiet))
         .resume(a.resume)
         .jobs(
@@ -204,7 +230,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
                 .run(&sim)
         }
     }
-    .map_err(failure)?;
+    .map_err(|e| interrupted(e, &hint).unwrap_or_else(failure))?;
     super::print(&format!(
         "{}\nwritten to {}\n",
         outcome.table_md,

@@ -91,7 +91,13 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(settings) = estimate {
         // The `[estimate]` stage: after the campaign, on its directory (a resumed campaign
         // resumes an estimate already started).
+        let hint = format!(
+            "continue with savme run --config {} --resume {}",
+            config.display(),
+            out.display()
+        );
         let run = EstimateRun::new(&out, settings)
+            .stop_on(super::signals::stop_on_signals(&hint))
             .problem(c.problem)
             .progress(super::estimate::progress_lines(a.runner.quiet()));
         let resume = run_dir_has_estimate(&run, &out);
@@ -99,7 +105,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
             .resume(resume)
             .jobs(a.runner.jobs())
             .run(&backend)
-            .map_err(|e| Failure::Runtime(e.to_string()))?;
+            .map_err(|e| {
+                super::estimate::interrupted(e, &hint)
+                    .unwrap_or_else(|e| Failure::Runtime(e.to_string()))
+            })?;
         super::print(&format!(
             "{}\nestimate written to {}\n",
             outcome.table_md,
