@@ -664,6 +664,9 @@ impl FmuSimulator {
             StepSize::RateOf(var) => 1.0 / positive(fidelity, var, "rate")?,
             StepSize::Of(var) => positive(fidelity, var, "step size")?,
         };
+        if let Some(message) = too_many_steps(stop, h) {
+            return Err(FmuError::Spec(message));
+        }
         let mut failure = self.failed(inst, plan)?;
         let mut t = 0.0;
         let mut k = 0u64;
@@ -729,6 +732,22 @@ impl FmuSimulator {
     }
 }
 
+/// The most communication steps one run may take: 10⁹ (a smaller step, e.g. `step = 1e-300`
+/// with `stop_time = 12`, gives a run that never ends).
+pub const MAX_STEPS: f64 = 1e9;
+
+/// Why a run of `stop_time` seconds in steps of `step` seconds cannot finish (more than
+/// [`MAX_STEPS`] steps), if it cannot.
+pub fn too_many_steps(stop_time: f64, step: f64) -> Option<String> {
+    let steps = stop_time / step;
+    (!(steps <= MAX_STEPS)).then(|| {
+        format!(
+            "step size {step:e} s makes {steps:.3e} steps to the stop time {stop_time} s, more than the \
+             maximum of {MAX_STEPS:e} steps a run may take: a run that cannot finish"
+        )
+    })
+}
+
 /// The run settings checked and the bindings resolved against the HF and the LF FMU.
 fn plans(
     hf: &FmuDescription,
@@ -746,6 +765,9 @@ fn plans(
     if let StepSize::Fixed(h) = spec.step {
         if !(h > 0.0 && h.is_finite()) {
             return Err(FmuError::Spec(format!("step size {h} is not positive")));
+        }
+        if let Some(message) = too_many_steps(spec.stop_time, h) {
+            return Err(FmuError::Spec(message));
         }
     }
     if let Some(Tolerance::Fixed(t)) = spec.tolerance {
