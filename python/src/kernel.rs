@@ -95,12 +95,12 @@ fn run(which: &str, id: u64, arg: &Bound<'_, PyAny>) -> PyResult<Run> {
             "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair, got {arg}"
         ))
     })?;
-    if !failure.is_instance_of::<pyo3::types::PyBool>() && !failure.hasattr("__bool__")? {
-        return Err(PyTypeError::new_err(format!(
-            "tell(trial {id}, {which}=…): failure must be a bool"
-        )));
-    }
-    Ok(Run::new(failure.is_truthy()?, runtime))
+    let failure = crate::convert::failure_flag(&failure).map_err(|kind| {
+        PyTypeError::new_err(format!(
+            "tell(trial {id}, {which}=…): the failure flag (first of the pair) must be a bool or a numpy bool, got {kind} {failure}"
+        ))
+    })?;
+    Ok(Run::new(failure, runtime))
 }
 
 impl PyKernel {

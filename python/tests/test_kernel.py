@@ -375,3 +375,31 @@ def test_bad_estimation_arguments_name_what_is_wrong():
         k.estimation(nominal=[1, 2])
     with pytest.raises(ValueError, match='tilt: unknown tilt "sideways"'):
         k.estimation(tilt="sideways")
+
+
+def test_extreme_but_finite_ranges_are_refused_naming_the_variable():
+    # hi - lo overflows: every draw would be NaN (a panic at the first ask before).
+    with pytest.raises(ValueError, match="continuous variable `gap` has a range too wide to compute with"):
+        savme.Continuous("gap", -1e308, 1e308)
+    with pytest.raises(ValueError, match="continuous variable `view` has a range too wide"):
+        savme.Continuous("view", 1e-308, 1e308, scale="log")
+    wide = savme.Continuous("gap", -8e307, 8e307, bins=4)
+    k = kernel(scenarios={"lead_brakes": savme.Space([wide])})
+    for _ in range(8):
+        x = k.ask().phi["gap"]
+        assert -8e307 <= x <= 8e307
+
+
+def test_the_failure_flag_is_a_bool_or_a_numpy_bool_nothing_merely_truthy():
+    k = kernel()
+    t = k.ask()
+    for bad, kind in [(0.7, "float"), (None, "NoneType"), (1, "int"), ("yes", "str"), ((True,), "tuple")]:
+        with pytest.raises(TypeError, match=rf"tell\(trial {t.id}, hf=…\): the failure flag \(first of the pair\) must be a bool or a numpy bool, got {kind}"):
+            k.tell(t, hf=(bad, 1.0), lf=(True, 0.1))
+    # A swapped (runtime, failure) pair.
+    with pytest.raises(TypeError, match=r"lf=…\): the failure flag .* got float 0.1"):
+        k.tell(t, hf=(True, 1.0), lf=(0.1, True))
+    assert k.stats()["told"] == 0
+    np = pytest.importorskip("numpy")
+    k.tell(t, hf=(np.bool_(True), 1.0), lf=(np.bool_(True), 0.1))
+    assert k.stats()["told"] == 1
