@@ -237,20 +237,21 @@ pub struct PySimulator {
 }
 
 fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
-    if out.is_instance_of::<pyo3::types::PyBool>() {
-        return Ok(SimResult::new(
-            out.is_truthy().map_err(|e| e.to_string())?,
-            wall,
-            None,
-        ));
-    }
-    if let Ok(t) = out.cast::<PyTuple>() {
-        if let Ok((failure, work)) = t.extract::<(bool, u64)>() {
-            return Ok(SimResult::new(failure, wall, Some(work)));
-        }
-    }
+    // The flag alone, or the first of (failure, work_units).
+    let pair = out
+        .cast::<PyTuple>()
+        .ok()
+        .and_then(|t| t.extract::<(Bound<'_, PyAny>, u64)>().ok());
+    let (flag, work) = match pair {
+        Some((flag, work)) => (flag, Some(work)),
+        None => (out.clone(), None),
+    };
+    let kind = match crate::convert::failure_flag(&flag) {
+        Ok(failure) => return Ok(SimResult::new(failure, wall, work)),
+        Err(kind) => kind,
+    };
     Err(format!(
-        "a simulator must return the failure flag (bool) or (failure, work_units), got {out}"
+        "a simulator must return the failure flag (bool or numpy bool) or (failure, work_units), got {kind} {flag}"
     ))
 }
 
