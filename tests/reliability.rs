@@ -278,7 +278,9 @@ fn sigint_and_sigterm_stop_a_campaign_and_an_estimate_between_runs_and_say_how_t
     let dir = temp_dir("signals-campaign");
     let mut args = vec!["reproduce".to_string(), "--out".into()];
     args.push(dir.display().to_string());
-    args.extend(TINY_PROTOCOL.iter().map(|s| s.to_string()));
+    // Not --quiet: the progress lines say the stage stopped.
+    let tiny = TINY_PROTOCOL.iter().filter(|&&s| s != "--quiet");
+    args.extend(tiny.map(|s| s.to_string()));
     args.extend(["--jobs".to_string(), "2".into()]);
     let trials = dir.join("trials.jsonl");
     // SIGTERM (SIGINT: tests/reproduce.rs): stops between runs, exit 143, the resume command.
@@ -292,6 +294,10 @@ fn sigint_and_sigterm_stop_a_campaign_and_an_estimate_between_runs_and_say_how_t
     );
     let hint = format!("continue with --resume {}", dir.display());
     assert!(err.contains(&hint), "{err}");
+    let stopped_stage = err
+        .lines()
+        .any(|l| l.contains(" stopped: ") && l.contains(" trials, "));
+    assert!(stopped_stage, "a stage cut short says so: {err}");
     let before = line_count(&trials);
     assert!(before < 60, "the campaign finished before the signal");
     let (code, err) = resume(&dir);
