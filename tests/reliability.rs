@@ -382,3 +382,29 @@ fn a_run_that_would_never_end_is_refused_naming_the_flag_and_its_maximum() {
     );
     assert!(!dir.exists(), "nothing created");
 }
+
+#[test]
+fn jobs_zero_is_the_same_usage_error_for_every_command() {
+    let dir = temp_dir("jobs-zero");
+    let d = dir.display().to_string();
+    for args in [
+        vec!["estimate", &d, "--jobs", "0"],
+        vec!["reproduce", "--out", &d, "--jobs", "0"],
+        vec!["toy", "--out", &d, "--jobs", "0"],
+        vec![
+            "worker",
+            "--storage",
+            "postgresql://localhost/x",
+            "--jobs",
+            "0",
+        ],
+    ] {
+        let (code, _, err) = run(&args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("'0' for '--jobs <JOBS>': must be at least 1"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!dir.exists());
+}

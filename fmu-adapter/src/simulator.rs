@@ -740,7 +740,7 @@ pub const MAX_STEPS: f64 = 1e9;
 /// [`MAX_STEPS`] steps), if it cannot.
 pub fn too_many_steps(stop_time: f64, step: f64) -> Option<String> {
     let steps = stop_time / step;
-    (!(steps <= MAX_STEPS)).then(|| {
+    (steps > MAX_STEPS || steps.is_nan()).then(|| {
         format!(
             "step size {step:e} s makes {steps:.3e} steps to the stop time {stop_time} s, more than the \
              maximum of {MAX_STEPS:e} steps a run may take: a run that cannot finish"

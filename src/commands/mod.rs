@@ -214,6 +214,10 @@ pub fn parse_jobs(s: &str) -> Result<usize, String> {
     if n > MAX_JOBS {
         return Err(format!("at most {MAX_JOBS} worker threads"));
     }
+    // One rule for every command (estimate read 0 as 1, reproduce refused it).
+    if n == 0 {
+        return Err("must be at least 1 (worker threads)".into());
+    }
     Ok(n)
 }
 
