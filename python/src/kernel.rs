@@ -242,7 +242,18 @@ impl PyKernel {
 
     /// Suggests the next trial, or a list of `n` trials (all or none).
     #[pyo3(signature = (n = None))]
-    fn ask(&self, py: Python<'_>, n: Option<usize>) -> PyResult<Py<PyAny>> {
+    fn ask(&self, py: Python<'_>, n: Option<i64>) -> PyResult<Py<PyAny>> {
+        // Any int is taken, so that a negative one is named as `n`, not an OverflowError.
+        let n = n
+            .map(|n| {
+                usize::try_from(n).map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "n must be between 1 and {}, got {n}",
+                        savme::serve::MAX_BATCH
+                    ))
+                })
+            })
+            .transpose()?;
         let trials = self.with(|s| s.ask(n.unwrap_or(1)).map_err(errors::session))?;
         let mut trials = trials.into_iter().map(|trial| PyTrial { trial });
         match (n, trials.next()) {

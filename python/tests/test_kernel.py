@@ -403,3 +403,12 @@ def test_the_failure_flag_is_a_bool_or_a_numpy_bool_nothing_merely_truthy():
     np = pytest.importorskip("numpy")
     k.tell(t, hf=(np.bool_(True), 1.0), lf=(np.bool_(True), 0.1))
     assert k.stats()["told"] == 1
+
+
+def test_a_str_of_values_and_a_negative_n_are_named():
+    with pytest.raises(TypeError, match=r"Discrete\(\"x\"\): values must be a list of values, got the str 'abc'"):
+        savme.Discrete("x", "abc")
+    k = kernel()
+    with pytest.raises(ValueError, match="n must be between 1 and 100000, got -1"):
+        k.ask(-1)
+    assert k.stats()["asked"] == 0
