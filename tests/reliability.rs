@@ -408,3 +408,15 @@ fn jobs_zero_is_the_same_usage_error_for_every_command() {
     }
     assert!(!dir.exists());
 }
+
+#[test]
+fn a_value_that_is_no_number_is_named_as_such_not_as_outside_the_variable() {
+    let phi = "ego_speed=abc,intruder_speed=10,time_offset=0";
+    let (code, _, err) = run(&["simulate", "--scenario", "1", "--phi", phi]);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(
+        err.contains("value abc of variable `ego_speed` is not a number")
+            && !err.contains("outside"),
+        "{err}"
+    );
+}

@@ -506,6 +506,16 @@ pub enum SpaceError {
         /// The name given.
         variable: String,
     },
+    /// A continuous variable's value is not a number (a label or a boolean).
+    #[error("value {value} of variable `{variable}` is not a number; the variable is continuous ({allowed})")]
+    NotANumber {
+        /// The variable.
+        variable: String,
+        /// The value given.
+        value: String,
+        /// What the variable allows.
+        allowed: String,
+    },
     /// An assignment's value lies outside its variable.
     #[error("value {value} is outside variable `{variable}` ({allowed})")]
     OutOfSpace {
@@ -625,11 +635,19 @@ impl Space {
                 let value = a.get(&v.name).ok_or_else(|| SpaceError::MissingValue {
                     variable: v.name.to_string(),
                 })?;
-                v.arm_of(value).ok_or_else(|| SpaceError::OutOfSpace {
-                    variable: v.name.to_string(),
-                    value: value.to_string(),
-                    allowed: describe(&v.domain),
-                })
+                v.arm_of(value)
+                    .ok_or_else(|| match (&v.domain, value.as_f64()) {
+                        (Domain::Continuous { .. }, None) => SpaceError::NotANumber {
+                            variable: v.name.to_string(),
+                            value: value.to_string(),
+                            allowed: describe(&v.domain),
+                        },
+                        _ => SpaceError::OutOfSpace {
+                            variable: v.name.to_string(),
+                            value: value.to_string(),
+                            allowed: describe(&v.domain),
+                        },
+                    })
             })
             .collect()
     }

@@ -235,3 +235,29 @@ fn spaces_round_trip_through_json_and_are_validated_on_read() {
     let err = serde_json::from_str::<Space>(bad).unwrap_err().to_string();
     assert!(err.contains("lo < hi"), "{err}");
 }
+
+#[test]
+fn a_value_that_is_no_number_for_a_continuous_variable_is_named_as_such() {
+    let s = Space::new(vec![Variable::continuous(
+        "speed",
+        5.0,
+        35.0,
+        6,
+        Scale::Linear,
+    )])
+    .unwrap();
+    for given in [Value::from("abc"), Value::Bool(true)] {
+        let e = s
+            .arms_of(&Assignment::new().with("speed", given.clone()))
+            .unwrap_err();
+        assert!(
+            matches!(&e, SpaceError::NotANumber { variable, .. } if variable == "speed"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("is not a number"), "{e}");
+    }
+    let e = s
+        .arms_of(&Assignment::new().with("speed", 99.0))
+        .unwrap_err();
+    assert!(matches!(e, SpaceError::OutOfSpace { .. }), "{e}");
+}

@@ -412,3 +412,8 @@ def test_a_str_of_values_and_a_negative_n_are_named():
     with pytest.raises(ValueError, match="n must be between 1 and 100000, got -1"):
         k.ask(-1)
     assert k.stats()["asked"] == 0
+
+
+def test_a_theta_hf_given_as_a_str_is_named_as_no_number():
+    with pytest.raises(ValueError, match="value far of variable `view_m` is not a number; the variable is continuous"):
+        kernel(theta_hf=dict(THETA_HF, view_m="far"))
