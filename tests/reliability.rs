@@ -420,3 +420,32 @@ fn a_value_that_is_no_number_is_named_as_such_not_as_outside_the_variable() {
         "{err}"
     );
 }
+
+#[cfg(unix)]
+#[test]
+fn a_dangling_output_link_and_a_missing_journal_directory_are_named() {
+    let home = made_dir("dangling");
+    let out = home.join("out");
+    let gone = home.join("gone");
+    link(&gone, &out);
+    let (code, err) = reproduce(&out);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(
+        err.contains(&out.display().to_string())
+            && err.contains(&format!(
+                "is a symbolic link to {}, which does not exist",
+                gone.display()
+            )),
+        "{err}"
+    );
+    assert!(!err.contains("os error 17") && !gone.exists(), "{err}");
+    let journal = home.join("missing").join("j");
+    let (code, err) = serve(&["--journal", journal.to_str().unwrap()]);
+    assert_ne!(code, Some(0), "{err}");
+    let dir = home.join("missing").display().to_string();
+    assert!(
+        err.contains(&format!("its directory {dir} does not exist")) && !err.contains("j.lock"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&home);
+}

@@ -507,14 +507,12 @@ pub enum SpaceError {
         variable: String,
     },
     /// A continuous variable's value is not a number (a label or a boolean).
-    #[error("value {value} of variable `{variable}` is not a number; the variable is continuous ({allowed})")]
+    #[error("value {value} of variable `{variable}` is not a number; the variable is continuous")]
     NotANumber {
         /// The variable.
         variable: String,
         /// The value given.
         value: String,
-        /// What the variable allows.
-        allowed: String,
     },
     /// An assignment's value lies outside its variable.
     #[error("value {value} is outside variable `{variable}` ({allowed})")]
@@ -640,7 +638,6 @@ impl Space {
                         (Domain::Continuous { .. }, None) => SpaceError::NotANumber {
                             variable: v.name.to_string(),
                             value: value.to_string(),
-                            allowed: describe(&v.domain),
                         },
                         _ => SpaceError::OutOfSpace {
                             variable: v.name.to_string(),

@@ -96,6 +96,7 @@ pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
 /// Refuses an output directory that is a file, or lies below one (instead of the I/O error
 /// "File exists" or "Not a directory" creating or reading it would give).
 pub(crate) fn usable_dir(dir: &Path) -> Result<(), CampaignError> {
+    super::store::safe_file::dangling_link(dir).map_err(|e| CampaignError::io(dir, e))?;
     let in_the_way = dir
         .ancestors()
         .filter(|p| !p.as_os_str().is_empty())

@@ -25,6 +25,7 @@ impl JsonlStore {
     /// Locks and opens `path`, creating it if missing.
     pub fn open(path: &Path) -> Result<JsonlStore, StoreError> {
         let shown = path.display().to_string();
+        missing_directory(path).map_err(|e| StoreError::io(shown.clone(), e))?;
         let mut lock_name = path.as_os_str().to_owned();
         lock_name.push(".lock");
         let lock = StoreLock::acquire(Path::new(&lock_name), &shown)?;
@@ -117,6 +118,18 @@ fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Result<()> {
         let mut f = file;
         f.seek(SeekFrom::Start(offset))?;
         f.write_all(bytes)
+    }
+}
+
+/// Refuses a store whose directory does not exist, naming the directory (not the lock file
+/// beside the store, the first file opened there).
+fn missing_directory(path: &Path) -> std::io::Result<()> {
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) if !dir.is_dir() => Err(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!("its directory {} does not exist", dir.display()),
+        )),
+        _ => Ok(()),
     }
 }
 

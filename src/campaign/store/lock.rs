@@ -41,14 +41,9 @@ impl StoreLock {
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
-                let mut text = String::new();
-                let holder = file
-                    .read_to_string(&mut text)
-                    .ok()
-                    .and_then(|_| text.trim().parse().ok());
                 return Err(StoreError::Locked {
                     store: store.to_string(),
-                    holder,
+                    holder: holder_pid(&mut file),
                 });
             }
             Err(TryLockError::Error(e)) => return Err(io(e)),
@@ -69,6 +64,23 @@ impl StoreLock {
     }
 }
 
+/// The pid in a held lock file. The holder writes it just after taking the lock: a second
+/// process racing it (two `--resume` at once) waits up to 200 ms for it rather than say "pid
+/// unknown".
+fn holder_pid(file: &mut File) -> Option<u32> {
+    for _ in 0..20 {
+        let mut text = String::new();
+        let read = file
+            .seek(SeekFrom::Start(0))
+            .and_then(|_| file.read_to_string(&mut text));
+        if let Some(pid) = read.ok().and_then(|_| text.trim().parse().ok()) {
+            return Some(pid);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    None
+}
+
 /// Refuses a lock file holding anything but a process id (what savme writes there): savme
 /// truncates only a lock file it wrote.
 fn only_a_pid(file: &mut File) -> std::io::Result<()> {
@@ -84,4 +96,31 @@ fn only_a_pid(file: &mut File) -> std::io::Result<()> {
         what: "a lock file holds only the pid of the savme process that holds it",
     }
     .into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two `--resume` at once: the loser reads the lock file before the winner wrote its pid.
+    #[test]
+    fn a_racing_second_opener_waits_for_the_holders_pid() {
+        let path =
+            std::env::temp_dir().join(format!("savme-lock-race-{}.lock", std::process::id()));
+        let _ = std::fs::remove_file(&path);
+        let holder = File::create(&path).unwrap();
+        holder.try_lock().unwrap();
+        let writer = {
+            let mut f = holder.try_clone().unwrap();
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                f.write_all(b"4242\n").unwrap();
+            })
+        };
+        let e = StoreLock::acquire(&path, "demo").unwrap_err();
+        writer.join().unwrap();
+        assert!(e.to_string().contains("pid 4242"), "{e}");
+        drop(holder);
+        let _ = std::fs::remove_file(&path);
+    }
 }

@@ -43,6 +43,12 @@ pub enum UnsafeFile {
         /// Its number of names.
         links: u64,
     },
+    /// A directory savme would create is a symbolic link to a path that does not exist.
+    #[error("is a symbolic link to {target}, which does not exist; savme does not create a directory through a link: create {target}, remove the link, or choose another directory")]
+    DanglingLink {
+        /// Where the link points.
+        target: String,
+    },
     /// The file holds data savme did not write there.
     #[error("holds data savme did not write ({what}); it was left unchanged: move it away, or choose another path")]
     NotOurs {
@@ -108,6 +114,23 @@ fn check_metadata(meta: &std::fs::Metadata) -> Result<(), UnsafeFile> {
                 links: meta.nlink(),
             });
         }
+    }
+    Ok(())
+}
+
+/// Refuses a directory path that is a dangling symbolic link (creating the directory would fail
+/// with "File exists" and name nothing), naming where it points.
+pub fn dangling_link(dir: &Path) -> io::Result<()> {
+    let meta = match std::fs::symlink_metadata(dir) {
+        Ok(meta) => meta,
+        Err(_) => return Ok(()),
+    };
+    if meta.file_type().is_symlink() && !dir.exists() {
+        let target = std::fs::read_link(dir).map(|t| t.display().to_string());
+        return Err(UnsafeFile::DanglingLink {
+            target: target.unwrap_or_else(|_| "a missing path".into()),
+        }
+        .into());
     }
     Ok(())
 }
