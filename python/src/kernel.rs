@@ -145,9 +145,19 @@ impl PyKernel {
         })
     }
 
-    fn trial_id(trial: &Bound<'_, PyAny>) -> PyResult<u64> {
+    /// The id of `trial` (a Trial or an id). A Trial that is not this kernel's pending trial
+    /// of that id (another `Kernel` asked it) is refused: it would credit this kernel's trial.
+    fn trial_id(&self, trial: &Bound<'_, PyAny>) -> PyResult<u64> {
         if let Ok(t) = trial.cast::<PyTrial>() {
-            return Ok(t.get().trial.id);
+            let t = &t.get().trial;
+            let other = self.with(|s| Ok(s.kernel().pending().any(|p| p.id == t.id && p != t)))?;
+            if other {
+                return Err(PyValueError::new_err(format!(
+                    "trial {} was asked by another Kernel (this kernel's trial {} differs): tell or cancel it on the kernel that asked it",
+                    t.id, t.id
+                )));
+            }
+            return Ok(t.id);
         }
         trial.extract::<u64>().map_err(|_| {
             PyTypeError::new_err(format!(
@@ -279,7 +289,7 @@ impl PyKernel {
         hf: &Bound<'_, PyAny>,
         lf: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyRecord> {
-        let id = PyKernel::trial_id(trial)?;
+        let id = self.trial_id(trial)?;
         let hf = run("hf", id, hf)?;
         let observation = match lf {
             Some(lf) => Observation::Paired {
@@ -294,7 +304,7 @@ impl PyKernel {
 
     /// Withdraws a pending trial (its simulation crashed); it will never be told.
     fn cancel(&self, trial: &Bound<'_, PyAny>) -> PyResult<PyTrial> {
-        let id = PyKernel::trial_id(trial)?;
+        let id = self.trial_id(trial)?;
         let trial = self.with(|s| s.cancel(id).map_err(errors::session))?;
         Ok(PyTrial { trial })
     }

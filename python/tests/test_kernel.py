@@ -417,3 +417,17 @@ def test_a_str_of_values_and_a_negative_n_are_named():
 def test_a_theta_hf_given_as_a_str_is_named_as_no_number():
     with pytest.raises(ValueError, match="value far of variable `view_m` is not a number; the variable is continuous"):
         kernel(theta_hf=dict(THETA_HF, view_m="far"))
+
+
+def test_a_trial_of_another_kernel_is_refused_not_credited_to_this_ones_trial_of_that_id():
+    a, b = kernel(seed=1), kernel(seed=2)
+    ta, tb = a.ask(), b.ask()
+    assert ta.id == tb.id and ta != tb
+    for call in (lambda: b.tell(ta, hf=(True, 1.0), lf=(True, 0.1)), lambda: b.cancel(ta)):
+        with pytest.raises(ValueError, match=f"trial {ta.id} was asked by another Kernel"):
+            call()
+    assert (b.stats()["told"], b.stats()["cancelled"]) == (0, 0)
+    # The same trial from a restored snapshot of the kernel that asked it is this kernel's.
+    restored = savme.Kernel.from_json(a.to_json())
+    restored.tell(ta, hf=(True, 1.0), lf=(True, 0.1))
+    b.tell(tb, hf=(True, 1.0), lf=(True, 0.1))
