@@ -186,6 +186,12 @@ impl PyKernel {
         prior_strength: f64,
         journal: Option<PathBuf>,
     ) -> PyResult<Self> {
+        if fidelity_prior.is_none() && prior_strength != 1.0 {
+            return Err(PyValueError::new_err(format!(
+                "prior_strength = {prior_strength} without fidelity_prior: it weighs a transferred \
+                 fidelity prior; give fidelity_prior=… too, or leave prior_strength out"
+            )));
+        }
         let fidelity: Space = fidelity.space.clone();
         let config = KernelConfig {
             scenarios: self::scenarios(scenarios)?,

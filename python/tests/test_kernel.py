@@ -431,3 +431,12 @@ def test_a_trial_of_another_kernel_is_refused_not_credited_to_this_ones_trial_of
     restored = savme.Kernel.from_json(a.to_json())
     restored.tell(ta, hf=(True, 1.0), lf=(True, 0.1))
     b.tell(tb, hf=(True, 1.0), lf=(True, 0.1))
+
+
+def test_a_prior_strength_without_a_prior_is_refused_naming_it():
+    for strength, shown in ((-1.0, "-1"), (0.5, "0.5")):
+        with pytest.raises(ValueError, match=rf"prior_strength = {shown} without fidelity_prior"):
+            kernel(prior_strength=strength)
+    prior = trained_kernel().fidelity_posterior()
+    with pytest.raises(ValueError, match="strength"):
+        kernel(fidelity_prior=prior, prior_strength=-1.0)
