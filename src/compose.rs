@@ -288,28 +288,43 @@ impl FmuCampaign {
 /// `campaign`, into `out/estimate-<budget>` (`out`: the campaign's output directory; a
 /// resumed campaign resumes an estimate already started there). `savme run --config` and
 /// `savme.campaign.load(...).run()` both run it through here.
-pub fn estimate_stage<S>(
-    campaign: &Place,
-    out: &Path,
-    problem: Problem,
-    settings: EstimateSettings,
-    jobs: usize,
-    progress: impl FnMut(&EstimateProgress<'_>) + 'static,
-    sim: &S,
-) -> Result<EstimateOutcome, EstimateError>
-where
-    S: Simulator + Clone + Send,
-{
-    let source = campaign.source();
-    let protocol = source.protocol().map_err(EstimateError::Campaign)?;
-    let budget = settings.budget.unwrap_or(protocol.budgets[0]);
-    let run = EstimateRun::new(source, problem, settings)
-        .out(out.join(format!("estimate-{budget}")))
-        .progress(progress);
-    let resume = run
-        .out_dir(&protocol)
-        .is_ok_and(|dir| dir.join("estimate.json").exists());
-    run.resume(resume).jobs(jobs).run(sim)
+pub struct EstimateStage {
+    /// Where the campaign is kept.
+    pub campaign: Place,
+    /// The campaign's output directory.
+    pub out: std::path::PathBuf,
+    /// The campaign's problem.
+    pub problem: Problem,
+    /// The file's `[estimate]` settings.
+    pub settings: EstimateSettings,
+    /// Worker threads.
+    pub jobs: usize,
+    /// Asks the estimate to stop between runs.
+    pub stop: savme_campaign::Stop,
+}
+
+impl EstimateStage {
+    /// Runs (or resumes) the estimate on `sim`'s HF role.
+    pub fn run<S>(
+        self,
+        progress: impl FnMut(&EstimateProgress<'_>) + 'static,
+        sim: &S,
+    ) -> Result<EstimateOutcome, EstimateError>
+    where
+        S: Simulator + Clone + Send,
+    {
+        let source = self.campaign.source();
+        let protocol = source.protocol().map_err(EstimateError::Campaign)?;
+        let budget = self.settings.budget.unwrap_or(protocol.budgets[0]);
+        let run = EstimateRun::new(source, self.problem, self.settings)
+            .out(self.out.join(format!("estimate-{budget}")))
+            .stop_on(self.stop)
+            .progress(progress);
+        let resume = run
+            .out_dir(&protocol)
+            .is_ok_and(|dir| dir.join("estimate.json").exists());
+        run.resume(resume).jobs(self.jobs).run(sim)
+    }
 }
 
 /// Writes an estimate's progress line to standard error when it starts, then about every

@@ -336,6 +336,12 @@ fn evidence(p: &savme_kernel::Posterior) -> f64 {
 /// Why a line is not a request, said without serde's "line 1" (the request line is named by
 /// the caller) and with a hint for the usual mistakes.
 fn not_a_request(line: &str, e: &serde_json::Error) -> String {
+    if let Some(mistake) = serde_json::from_str::<Value>(line)
+        .ok()
+        .and_then(|v| mistake(&v))
+    {
+        return format!("not a request: {mistake}");
+    }
     let text = e.to_string();
     let message = match text.find(" at line ") {
         Some(i) => format!("{} (column {})", &text[..i], e.column()),
@@ -344,11 +350,41 @@ fn not_a_request(line: &str, e: &serde_json::Error) -> String {
     let hint = if line.starts_with('\u{feff}') {
         "; the line starts with a byte-order mark: send UTF-8 without one"
     } else if ["NaN", "Infinity"].iter().any(|t| line.contains(t)) {
-        "; JSON has no NaN or Infinity: runtimes must be finite numbers"
+        "; JSON has no NaN or Infinity: every number (a runtime, epsilon, a mean) must be finite"
     } else {
         ""
     };
     format!("not a request: {message}{hint}")
+}
+
+/// The usual mistake in a line that is JSON but not a request, said plainly (serde's message
+/// speaks of variant identifiers and maps with a single key).
+fn mistake(v: &Value) -> Option<String> {
+    let Some(request) = v.as_object() else {
+        let kind = match v {
+            Value::Null => "null",
+            Value::Bool(_) => "a boolean",
+            Value::Number(_) => "a number",
+            Value::String(_) => "a string",
+            _ => "an array",
+        };
+        return Some(format!(
+            "a request is a JSON object with an \"op\" key, e.g. {{\"op\":\"ask\"}}; got {kind}"
+        ));
+    };
+    if let Some(n) = request.get("n").filter(|n| n.as_u64().is_none()) {
+        return Some(format!(
+            "`n` must be a whole number between 1 and {MAX_BATCH}, got {n}"
+        ));
+    }
+    let observation = request.get("observation").and_then(Value::as_object);
+    if observation.is_some_and(|o| o.contains_key("paired") && o.contains_key("hf_only")) {
+        return Some(
+            "an observation is exactly one of `paired` (HF and LF runs) or `hf_only` (a baseline trial), got both"
+                .into(),
+        );
+    }
+    None
 }
 
 fn error(message: String) -> Value {
@@ -562,6 +598,28 @@ mod tests {
         assert!(msg(4).contains("byte-order mark"), "{}", msg(4));
         assert!(msg(5).contains("unknown field `runtme`"), "{}", msg(5));
         assert_eq!(r[6]["ok"], true);
+        assert_eq!(r[6]["stats"]["asked"], 0);
+    }
+
+    #[test]
+    fn json_that_is_no_request_is_named_plainly_and_changes_nothing() {
+        let mut s = session();
+        let input =
+            "{\"op\":\"ask\",\"n\":18446744073709551616}\n[1,2]\nnull\n{\"op\":\"ask\",\"n\":-1}\n\
+             {\"op\":\"tell\",\"id\":0,\"observation\":{\"paired\":{},\"hf_only\":{}}}\n\
+             {\"op\":\"estimation\",\"epsilon\":NaN,\"seed\":1}\n{\"op\":\"stats\"}\n";
+        let r = errors(&mut s, input.as_bytes());
+        let msg = |i: usize| r[i]["error"].as_str().unwrap_or_default().to_string();
+        for (i, needle) in [
+            (0, "`n` must be a whole number between 1 and 100000, got 1.8446744073709552e+19"),
+            (1, "a request is a JSON object with an \"op\" key, e.g. {\"op\":\"ask\"}; got an array"),
+            (2, "got null"),
+            (3, "`n` must be a whole number between 1 and 100000, got -1"),
+            (4, "exactly one of `paired` (HF and LF runs) or `hf_only` (a baseline trial), got both"),
+            (5, "every number (a runtime, epsilon, a mean) must be finite"),
+        ] {
+            assert!(msg(i).contains(needle), "{i}: {}", msg(i));
+        }
         assert_eq!(r[6]["stats"]["asked"], 0);
     }
 

@@ -8,7 +8,8 @@
 //!
 //! The properties: no input panics; every rejection is an error value naming where it is;
 //! a refused serve request changes nothing; the store gives back exactly the complete lines
-//! written, whatever is cut off or appended after them.
+//! written, whatever is cut off or appended after them; a store never writes through a link or
+//! a file other names share. Campaign files are mutated with extreme finite numbers too.
 use proptest::prelude::*;
 use savme::campaign::log::LogLine;
 use savme::campaign::store::{JsonlStore, StoredLine, TrialStore};
@@ -137,6 +138,13 @@ fn mutated(base: &'static str) -> impl Strategy<Value = String> {
         "\u{feff}",
         "\"\u{0}\"",
         "18446744073709551616",
+        // Extreme but finite numbers (issue 27: [-1e308, 1e308] panicked at the first draw).
+        "[-1e308, 1e308]",
+        "[-1.7976931348623157e308, 1.7976931348623157e308]",
+        "[5e-324, 1e-320]",
+        "1e-300",
+        "5e-324",
+        "1.7976931348623157e308",
     ]);
     (0..n, 0..n, 0..4usize, tokens).prop_map(move |(a, b, how, token)| {
         let mut l: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
@@ -155,6 +163,36 @@ fn mutated(base: &'static str) -> impl Strategy<Value = String> {
         }
         l.join("\n") + "\n"
     })
+}
+
+/// Whether bytes begin like a line savme writes (`{`, after any blanks), or are all blank.
+fn starts_like_a_store_line(bytes: &[u8]) -> bool {
+    bytes
+        .iter()
+        .find(|b| !b.is_ascii_whitespace())
+        .is_none_or(|&b| b == b'{')
+}
+
+/// What the store and lock paths are, in the symlink fuzz target.
+#[cfg(unix)]
+#[derive(Debug, Clone, Copy)]
+enum Planted {
+    Missing,
+    Regular,
+    LinkToDecoy,
+    Dangling,
+    HardLinkToDecoy,
+}
+
+#[cfg(unix)]
+fn plant(kind: Planted, at: &std::path::Path, decoy: &std::path::Path) {
+    match kind {
+        Planted::Missing => {}
+        Planted::Regular => std::fs::write(at, "").unwrap(),
+        Planted::LinkToDecoy => std::os::unix::fs::symlink(decoy, at).unwrap(),
+        Planted::Dangling => std::os::unix::fs::symlink(at.with_extension("gone"), at).unwrap(),
+        Planted::HardLinkToDecoy => std::fs::hard_link(decoy, at).unwrap(),
+    }
 }
 
 fn paper(bins: u32) -> (savme::kernel::Space, savme::kernel::Assignment) {
@@ -178,6 +216,36 @@ proptest! {
             return Err(TestCaseError::fail("loaded a campaign whose FMU does not exist"));
         };
         prop_assert!(e.to_string().starts_with(&path.display().to_string()), "{}", e);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_store_never_writes_through_a_planted_link_or_shared_file(
+        kinds in prop::array::uniform2(prop::sample::select(vec![
+            Planted::Missing, Planted::Regular, Planted::LinkToDecoy, Planted::Dangling, Planted::HardLinkToDecoy,
+        ])),
+    ) {
+        let dir = temp("links");
+        let decoy = dir.join("decoy.txt");
+        std::fs::write(&decoy, "someone else's\n").unwrap();
+        let path = dir.join("j.jsonl");
+        let lock = dir.join("j.jsonl.lock");
+        plant(kinds[0], &path, &decoy);
+        plant(kinds[1], &lock, &decoy);
+        let safe = |k| matches!(k, Planted::Missing | Planted::Regular);
+        match JsonlStore::open(&path) {
+            Ok(mut store) => {
+                prop_assert!(safe(kinds[0]) && safe(kinds[1]), "{:?} opened", kinds);
+                store.append(&serde_json::json!({"a": 1})).unwrap();
+            }
+            Err(e) => {
+                prop_assert!(!(safe(kinds[0]) && safe(kinds[1])), "{:?}: {}", kinds, e);
+                let m = e.to_string();
+                prop_assert!(m.contains("symbolic link") || m.contains(" names (hard links)"), "{}", m);
+            }
+        }
+        prop_assert_eq!(std::fs::read_to_string(&decoy).unwrap(), "someone else's\n");
+        prop_assert!(!path.with_extension("gone").exists() && !lock.with_extension("gone").exists());
     }
 
     #[test]
@@ -221,6 +289,13 @@ proptest! {
         // Garbage after the last complete line: a torn write, without a newline.
         let tail: Vec<u8> = tail.into_iter().filter(|&b| b != b'\n').collect();
         std::fs::OpenOptions::new().append(true).open(&path).unwrap().write_all(&tail).unwrap();
+        if lines.is_empty() && !starts_like_a_store_line(&tail) {
+            // No complete line and no store line begun: not a file savme wrote; left as it is.
+            let e = JsonlStore::open(&path).unwrap_err();
+            prop_assert!(e.to_string().contains("did not write"), "{}", e);
+            prop_assert_eq!(std::fs::read(&path).unwrap(), tail);
+            return Ok(());
+        }
         let mut store = JsonlStore::open(&path).unwrap();
         let loaded = store.load().unwrap();
         let got: Vec<serde_json::Value> = loaded.lines.into_iter().map(|l| l.value).collect();
@@ -233,7 +308,16 @@ proptest! {
         let dir = temp("bytes");
         let path = dir.join("trials.jsonl");
         std::fs::write(&path, &bytes).unwrap();
-        let mut store = JsonlStore::open(&path).unwrap();
+        let mut store = match JsonlStore::open(&path) {
+            Ok(store) => store,
+            // No complete line, and not the beginning of one savme wrote: refused, unchanged.
+            Err(e) => {
+                prop_assert!(!bytes.contains(&b'\n') && !starts_like_a_store_line(&bytes), "{}", e);
+                prop_assert!(e.to_string().contains("did not write"), "{}", e);
+                prop_assert_eq!(std::fs::read(&path).unwrap(), bytes);
+                return Ok(());
+            }
+        };
         match store.load() {
             Ok(loaded) => {
                 for l in &loaded.lines {

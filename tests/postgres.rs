@@ -630,7 +630,7 @@ fn storage_flags_are_checked() {
         ),
         (
             vec!["worker", "--storage", url, "--campaign", "x", "--jobs", "0"],
-            "--jobs: must be at least 1",
+            "'0' for '--jobs <JOBS>': must be at least 1",
         ),
         (
             vec![

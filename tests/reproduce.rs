@@ -385,7 +385,10 @@ fn bad_input_is_refused_before_any_simulation() {
         "`test_iterations`: 18446744073709551615 is more",
     );
     bad(&["--window", "0"], "`window`: 0 is not between 1 and");
-    bad(&["--jobs", "0"], "`--jobs`: must be at least 1");
+    bad(
+        &["--jobs", "0"],
+        "'0' for '--jobs <JOBS>': must be at least 1",
+    );
 
     // An output directory that cannot be created.
     let file = temp_dir("bad-file");

@@ -225,6 +225,7 @@ impl CampaignFile {
         let step = step(&src, &f.fmu, &fidelity)?;
         let tolerance = tolerance(&src, fmu.tolerance.as_ref(), &fidelity)?;
         let stop_time = stop_time(&src, &fmu.stop_time)?;
+        step_count(&src, &f.fmu, &step, stop_time, &fidelity)?;
         let failure = failure(&src, &f.failure, &mut origins)?;
         let cost = cost_source(&src, fmu.cost.as_ref(), &mut origins);
         let hf = resolve(base, fmu.hf.get_ref());
@@ -899,7 +900,9 @@ impl Part {
             SpaceError::NoValues { .. }
             | SpaceError::DuplicateValue { .. }
             | SpaceError::NonFiniteValue { .. } => Part::Values,
-            SpaceError::NonFiniteBound { .. } | SpaceError::EmptyRange { .. } => Part::Range,
+            SpaceError::NonFiniteBound { .. }
+            | SpaceError::EmptyRange { .. }
+            | SpaceError::RangeNotRepresentable { .. } => Part::Range,
             SpaceError::TooManyArms { .. } if v.values.is_some() => Part::Values,
             SpaceError::ZeroBins { .. } | SpaceError::TooManyArms { .. } => Part::Bins,
             SpaceError::LogRangeNotPositive { .. } => Part::Scale,
@@ -1041,6 +1044,53 @@ fn step(
             )),
         StepSection::Rate { rate_of } => Ok(StepSize::RateOf(rate_of.clone())),
     }
+}
+
+/// Refuses a step size that gives a run more than [`crate::simulator::MAX_STEPS`] steps (at
+/// the largest rate, or the smallest step, its fidelity variable allows), naming the key.
+fn step_count(
+    src: &Source,
+    fmu: &Spanned<raw::FmuSection>,
+    step: &StepSize,
+    stop_time: f64,
+    fidelity: &FidelityParts,
+) -> Result<(), ConfigError> {
+    let at_step = || fmu.get_ref().step.as_ref().map(|s| src.line(s.span()));
+    let (smallest, line, key) = match step {
+        StepSize::Fixed(h) => (*h, at_step(), "fmu.step".to_string()),
+        StepSize::RateOf(v) => {
+            let most = fidelity.space.variable(v).and_then(extremes).map(|e| e.1);
+            (
+                1.0 / most.unwrap_or(0.0),
+                at_step(),
+                "fmu.step.rate_of".into(),
+            )
+        }
+        StepSize::Of(v) => {
+            let least = fidelity.space.variable(v).and_then(extremes).map(|e| e.0);
+            let driver = fidelity.drivers.iter().find(|d| &d.variable == v);
+            let (line, key) =
+                driver.map_or((None, "fidelity".into()), |d| (Some(d.line), d.key.clone()));
+            (least.unwrap_or(f64::INFINITY), line, key)
+        }
+    };
+    match crate::simulator::too_many_steps(stop_time, smallest) {
+        // A non-positive step is refused when the run reads it.
+        Some(message) if smallest > 0.0 => Err(src.err(line, Some(&key), message)),
+        _ => Ok(()),
+    }
+}
+
+/// The least and the greatest value of a numeric variable.
+fn extremes(v: &Variable) -> Option<(f64, f64)> {
+    let values = (0..v.arms()).flat_map(|a| match v.bin(a) {
+        Some((lo, hi)) => [Some(lo), Some(hi)],
+        None => [v.representative(a).as_f64(), None],
+    });
+    values.flatten().fold(None, |acc, x| match acc {
+        None => Some((x, x)),
+        Some((lo, hi)) => Some((lo.min(x), hi.max(x))),
+    })
 }
 
 /// `[fmu] tolerance` (positive), or the fidelity variable that `drives = "tolerance"`, or
@@ -1467,6 +1517,13 @@ range = [0.0, 1.0]
                     &format!("{k}.range"),
                     "non-finite",
                 ),
+                // Finite but too wide to compute with: refused, not a panic at the first draw.
+                (
+                    &[(values, "range = [-1e308, 1e308]")],
+                    17,
+                    &format!("{k}.range"),
+                    "`rate` has a range too wide",
+                ),
                 // A third number is not dropped silently; one number names the key too.
                 (
                     &[(values, "range = [1.0, 2.0, 3.0]")],
@@ -1512,6 +1569,12 @@ range = [0.0, 1.0]
                     "non-finite",
                 ),
                 (
+                    &[("range = [0.0, 1.0]", "range = [-1e308, 1e308]")],
+                    27,
+                    "scenario[0].phi[0].range",
+                    "range too wide",
+                ),
+                (
                     &[(start, twice)],
                     36,
                     "scenario[1].phi[1].name",
@@ -1541,6 +1604,22 @@ range = [0.0, 1.0]
                     5,
                     "fmu.step",
                     "step size -0.5 is not a positive",
+                ),
+                // A run that cannot finish: more steps than a run may take.
+                (
+                    &[("step = { rate_of = \"rate\" }", "step = 1e-300")],
+                    5,
+                    "fmu.step",
+                    "more than the maximum of 1e9 steps",
+                ),
+                (
+                    &[(
+                        "values = [1.0, 2.0]\nhf = 2.0",
+                        "values = [1.0, 2e12]\nhf = 1.0",
+                    )],
+                    5,
+                    "fmu.step.rate_of",
+                    "step size 5e-13 s makes 2.000e12 steps",
                 ),
             ],
         );

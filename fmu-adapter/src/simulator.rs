@@ -716,6 +716,9 @@ impl FmuSimulator {
         }
         inst.initialize()?;
         let h = step_size(&spec.step, fidelity)?;
+        if let Some(message) = too_many_steps(stop - start, h) {
+            return Err(FmuError::Spec(message));
+        }
         fixed_step_fits(inst.file(), h, stop)?;
         let mut ran = self.steps(inst, plan, (start, h), tracer)?;
         let work = match &plan.cost {
@@ -866,6 +869,22 @@ fn round12(x: f64) -> f64 {
     (x * scale).round() / scale
 }
 
+/// The most communication steps one run may take: 10⁹ (a smaller step, e.g. `step = 1e-300`
+/// with `stop_time = 12`, gives a run that never ends).
+pub const MAX_STEPS: f64 = 1e9;
+
+/// Why a run of `stop_time` seconds in steps of `step` seconds cannot finish (more than
+/// [`MAX_STEPS`] steps), if it cannot.
+pub fn too_many_steps(stop_time: f64, step: f64) -> Option<String> {
+    let steps = stop_time / step;
+    (steps > MAX_STEPS || steps.is_nan()).then(|| {
+        format!(
+            "step size {step:e} s makes {steps:.3e} steps to the stop time {stop_time} s, more than the \
+             maximum of {MAX_STEPS:e} steps a run may take: a run that cannot finish"
+        )
+    })
+}
+
 /// The run settings checked and the bindings resolved against the HF and the LF FMU.
 fn plans(
     hf: &FmuDescription,
@@ -883,6 +902,9 @@ fn plans(
     if let StepSize::Fixed(h) = spec.step {
         if !(h > 0.0 && h.is_finite()) {
             return Err(FmuError::Spec(format!("step size {h} is not positive")));
+        }
+        if let Some(message) = too_many_steps(spec.stop_time, h) {
+            return Err(FmuError::Spec(message));
         }
     }
     if let Some(Tolerance::Fixed(t)) = spec.tolerance {

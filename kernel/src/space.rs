@@ -351,6 +351,13 @@ impl Variable {
                         lo: *lo,
                     });
                 }
+                if !representable(*lo, *hi, *bins, *scale) {
+                    return Err(SpaceError::RangeNotRepresentable {
+                        variable: name(),
+                        lo: *lo,
+                        hi: *hi,
+                    });
+                }
             }
         }
         if self.arms() > MAX_ARMS {
@@ -365,6 +372,19 @@ impl Variable {
 
 /// The most arms one variable may have (arm indices are stored as `u16`).
 pub const MAX_ARMS: usize = u16::MAX as usize;
+
+/// Whether `[lo, hi]` (finite, `lo < hi`) cut into `bins` bins can be computed with: its width
+/// (linear: `hi − lo`; log: `hi / lo`) is a finite number and a bin's width and its inverse (the
+/// density of a uniform draw in it) are positive finite numbers. `[-1e308, 1e308]` is not
+/// (`hi − lo` overflows to infinity: every draw and density would be NaN or infinite).
+fn representable(lo: f64, hi: f64, bins: u32, scale: Scale) -> bool {
+    let usable = |w: f64| w.is_finite() && w > 0.0 && w.recip().is_finite();
+    let bins = f64::from(bins.max(1));
+    match scale {
+        Scale::Linear => usable((hi - lo) / bins),
+        Scale::Log => (hi / lo).is_finite() && usable((hi / lo).ln() / bins),
+    }
+}
 
 /// Edge `k` (0..=bins) of a continuous variable; edge 0 is `lo` and edge `bins` is `hi` exactly.
 fn edge(lo: f64, hi: f64, bins: u32, scale: Scale, k: usize) -> f64 {
@@ -433,6 +453,22 @@ pub enum SpaceError {
         /// Its upper bound.
         hi: f64,
     },
+    /// A range too wide (or too narrow) to compute with although both bounds are finite.
+    #[error(
+        "continuous variable `{variable}` has a range too wide to compute with: lo = {lo}, hi = {hi} \
+         (hi − lo, or hi / lo on a log scale, must be a finite number, at most {max:e}, and a \
+         bin's width must be above {min:e}; narrow the range, or rescale the variable)",
+        max = f64::MAX,
+        min = 1.0 / f64::MAX
+    )]
+    RangeNotRepresentable {
+        /// The variable.
+        variable: String,
+        /// Its lower bound.
+        lo: f64,
+        /// Its upper bound.
+        hi: f64,
+    },
     /// `bins == 0`.
     #[error("continuous variable `{variable}` needs at least one bin")]
     ZeroBins {
@@ -469,6 +505,14 @@ pub enum SpaceError {
     UnknownVariable {
         /// The name given.
         variable: String,
+    },
+    /// A continuous variable's value is not a number (a label or a boolean).
+    #[error("value {value} of variable `{variable}` is not a number; the variable is continuous")]
+    NotANumber {
+        /// The variable.
+        variable: String,
+        /// The value given.
+        value: String,
     },
     /// An assignment's value lies outside its variable.
     #[error("value {value} is outside variable `{variable}` ({allowed})")]
@@ -589,11 +633,18 @@ impl Space {
                 let value = a.get(&v.name).ok_or_else(|| SpaceError::MissingValue {
                     variable: v.name.to_string(),
                 })?;
-                v.arm_of(value).ok_or_else(|| SpaceError::OutOfSpace {
-                    variable: v.name.to_string(),
-                    value: value.to_string(),
-                    allowed: describe(&v.domain),
-                })
+                v.arm_of(value)
+                    .ok_or_else(|| match (&v.domain, value.as_f64()) {
+                        (Domain::Continuous { .. }, None) => SpaceError::NotANumber {
+                            variable: v.name.to_string(),
+                            value: value.to_string(),
+                        },
+                        _ => SpaceError::OutOfSpace {
+                            variable: v.name.to_string(),
+                            value: value.to_string(),
+                            allowed: describe(&v.domain),
+                        },
+                    })
             })
             .collect()
     }

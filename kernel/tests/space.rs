@@ -133,6 +133,33 @@ fn validation_names_the_problem() {
         Err(SpaceError::TooManyArms { .. })
     ));
     assert!(cont(1e-9, 1.0, 3, Log).is_ok());
+    // Extreme but finite ranges: refused naming the variable, not a panic at the first draw.
+    for (lo, hi, scale) in [
+        (-1e308, 1e308, Linear),
+        (-f64::MAX, f64::MAX, Linear),
+        (0.0, 1e-320, Linear),
+        (1e-308, 1e308, Log),
+    ] {
+        let e = cont(lo, hi, 3, scale).unwrap_err();
+        assert!(
+            matches!(&e, SpaceError::RangeNotRepresentable { variable, .. } if variable == "v"),
+            "[{lo}, {hi}] {scale:?}: {e}"
+        );
+        assert!(e.to_string().contains("`v`") && e.to_string().contains("too wide"));
+    }
+    // The widest ranges accepted draw inside their bins.
+    let mut rng = Pcg64::seed_from_u64(7);
+    for v in [
+        Variable::continuous("w", -8e307, 8e307, 65_535, Linear),
+        Variable::continuous("w", 1e-150, 1e150, 65_535, Log),
+    ] {
+        Space::new(vec![v.clone()]).unwrap();
+        for arm in [0, 1, 32_767, 65_534] {
+            let x = v.draw_in_arm(arm, &mut rng).as_f64().unwrap();
+            let (a, b) = v.bin(arm).unwrap();
+            assert!(x.is_finite() && a <= x && x <= b, "{x} in [{a}, {b}]");
+        }
+    }
     let dup = Space::new(vec![Variable::boolean("a"), Variable::boolean("a")]);
     assert_eq!(dup, Err(SpaceError::DuplicateName("a".into())));
     let empty_vals = Space::new(vec![Variable::discrete::<i64>("a", [])]);
@@ -207,4 +234,30 @@ fn spaces_round_trip_through_json_and_are_validated_on_read() {
     let bad = r#"[{"name":"v","type":"continuous","lo":5,"hi":1,"bins":3,"scale":"linear"}]"#;
     let err = serde_json::from_str::<Space>(bad).unwrap_err().to_string();
     assert!(err.contains("lo < hi"), "{err}");
+}
+
+#[test]
+fn a_value_that_is_no_number_for_a_continuous_variable_is_named_as_such() {
+    let s = Space::new(vec![Variable::continuous(
+        "speed",
+        5.0,
+        35.0,
+        6,
+        Scale::Linear,
+    )])
+    .unwrap();
+    for given in [Value::from("abc"), Value::Bool(true)] {
+        let e = s
+            .arms_of(&Assignment::new().with("speed", given.clone()))
+            .unwrap_err();
+        assert!(
+            matches!(&e, SpaceError::NotANumber { variable, .. } if variable == "speed"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("is not a number"), "{e}");
+    }
+    let e = s
+        .arms_of(&Assignment::new().with("speed", 99.0))
+        .unwrap_err();
+    assert!(matches!(e, SpaceError::OutOfSpace { .. }), "{e}");
 }

@@ -76,7 +76,12 @@ class FalsificationSampler:
         """Every told trial's record, in tell order."""
 
     def next_sample(self) -> Sample:
-        """The next simulation to run (asks the kernel for a new trial when needed)."""
+        """The next simulation to run (asks the kernel for a new trial when needed). A trial
+        withdrawn meanwhile (`cancel`, or `kernel.cancel`) hands out no more runs."""
+        if self._queue:
+            pending = {t.id for t in self.kernel.pending()}
+            for gone in {s.trial.id for s in self._queue} - pending:
+                self._forget(gone)
         if not self._queue:
             trial = self.kernel.ask()
             self._queue.append(Sample(trial, "hf", self.kernel.theta_hf))
@@ -138,6 +143,25 @@ class FalsificationSampler:
             self._runs[sample.trial.id] = runs
         del self._handed[sample.key]
         return record
+
+    def cancel(self, sample: Union[Sample, Trial, int]) -> Trial:
+        """Withdraws a sample's trial (its simulation crashed): the kernel never hears of it
+        again, and none of its runs is handed out any more. Returns the trial."""
+        if isinstance(sample, Sample):
+            trial_id = sample.trial.id
+        elif isinstance(sample, Trial):
+            trial_id = sample.id
+        else:
+            trial_id = sample
+        trial = self.kernel.cancel(trial_id)
+        self._forget(trial.id)
+        return trial
+
+    def _forget(self, trial_id: int) -> None:
+        """Drops every queued, handed-out and collected run of a withdrawn trial."""
+        self._queue = [s for s in self._queue if s.trial.id != trial_id]
+        self._handed = {k: v for k, v in self._handed.items() if k[0] != trial_id}
+        self._runs.pop(trial_id, None)
 
     def failures(self) -> List[Trial]:
         """The trials whose high-fidelity run failed (the counterexamples found)."""

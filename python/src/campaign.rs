@@ -255,20 +255,21 @@ pub struct PySimulator {
 }
 
 fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
-    if out.is_instance_of::<pyo3::types::PyBool>() {
-        return Ok(SimResult::new(
-            out.is_truthy().map_err(|e| e.to_string())?,
-            wall,
-            None,
-        ));
-    }
-    if let Ok(t) = out.cast::<PyTuple>() {
-        if let Ok((failure, work)) = t.extract::<(bool, u64)>() {
-            return Ok(SimResult::new(failure, wall, Some(work)));
-        }
-    }
+    // The flag alone, or the first of (failure, work_units).
+    let pair = out
+        .cast::<PyTuple>()
+        .ok()
+        .and_then(|t| t.extract::<(Bound<'_, PyAny>, u64)>().ok());
+    let (flag, work) = match pair {
+        Some((flag, work)) => (flag, Some(work)),
+        None => (out.clone(), None),
+    };
+    let kind = match crate::convert::failure_flag(&flag) {
+        Ok(failure) => return Ok(SimResult::new(failure, wall, work)),
+        Err(kind) => kind,
+    };
     Err(format!(
-        "a simulator must return the failure flag (bool) or (failure, work_units), got {out}"
+        "a simulator must return the failure flag (bool or numpy bool) or (failure, work_units), got {kind} {flag}"
     ))
 }
 
@@ -588,7 +589,7 @@ impl Plan {
                     .out(&self.out)
                     .resume(self.resume)
                     .jobs(jobs)
-                    .stop_on(stop)
+                    .stop_on(stop.clone())
                     .run(sim)
                     .map_err(errors::campaign)?,
             ),
@@ -596,7 +597,7 @@ impl Plan {
                 let mut c = Campaign::new(self.protocol, self.problem.clone())
                     .out(&self.out)
                     .resume(self.resume)
-                    .stop_on(stop)
+                    .stop_on(stop.clone())
                     .jobs(jobs);
                 if self.progress {
                     c = c.observer(ProgressLines::new(std::io::stderr()));
@@ -616,15 +617,15 @@ impl Plan {
             Some(settings) => {
                 let progress = compose::estimate_progress_lines(!self.progress);
                 Some(
-                    compose::estimate_stage(
-                        &place,
-                        &self.out,
-                        self.problem,
+                    compose::EstimateStage {
+                        campaign: place,
+                        out: self.out.clone(),
+                        problem: self.problem,
                         settings,
                         jobs,
-                        progress,
-                        sim,
-                    )
+                        stop,
+                    }
+                    .run(progress, sim)
                     .map_err(|e| errors::campaign_message(e.to_string()))?,
                 )
             }

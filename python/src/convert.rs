@@ -5,6 +5,26 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString};
 use savme_kernel::{Assignment, Space, Value};
 
+/// A failure flag: a Python `bool` or a numpy bool (`numpy.bool_`), nothing else — not `0`/`1`,
+/// not a tuple or `None` (truthiness would record `(0.7, 1.0)` as a failure and `None` as a
+/// pass). `Err` holds the type's name for the caller's message.
+pub fn failure_flag(obj: &Bound<'_, PyAny>) -> Result<bool, String> {
+    if obj.is_instance_of::<PyBool>() {
+        return obj.is_truthy().map_err(|e| e.to_string());
+    }
+    let kind = obj.get_type();
+    let module = kind.module().map(|m| m.to_string()).unwrap_or_default();
+    let name = kind.name().map(|n| n.to_string()).unwrap_or_default();
+    if module == "numpy" && (name == "bool_" || name == "bool") {
+        return obj.is_truthy().map_err(|e| e.to_string());
+    }
+    Err(if module.is_empty() || module == "builtins" {
+        name
+    } else {
+        format!("{module}.{name}")
+    })
+}
+
 /// A Python value as a kernel [`Value`]: `bool`, `int`, `float`, `str` (and numpy scalars,
 /// which convert to these); `what` names it in the error.
 pub fn value(what: &str, obj: &Bound<'_, PyAny>) -> PyResult<Value> {

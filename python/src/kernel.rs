@@ -95,12 +95,12 @@ fn run(which: &str, id: u64, arg: &Bound<'_, PyAny>) -> PyResult<Run> {
             "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair, got {arg}"
         ))
     })?;
-    if !failure.is_instance_of::<pyo3::types::PyBool>() && !failure.hasattr("__bool__")? {
-        return Err(PyTypeError::new_err(format!(
-            "tell(trial {id}, {which}=…): failure must be a bool"
-        )));
-    }
-    Ok(Run::new(failure.is_truthy()?, runtime))
+    let failure = crate::convert::failure_flag(&failure).map_err(|kind| {
+        PyTypeError::new_err(format!(
+            "tell(trial {id}, {which}=…): the failure flag (first of the pair) must be a bool or a numpy bool, got {kind} {failure}"
+        ))
+    })?;
+    Ok(Run::new(failure, runtime))
 }
 
 impl PyKernel {
@@ -145,9 +145,19 @@ impl PyKernel {
         })
     }
 
-    fn trial_id(trial: &Bound<'_, PyAny>) -> PyResult<u64> {
+    /// The id of `trial` (a Trial or an id). A Trial that is not this kernel's pending trial
+    /// of that id (another `Kernel` asked it) is refused: it would credit this kernel's trial.
+    fn trial_id(&self, trial: &Bound<'_, PyAny>) -> PyResult<u64> {
         if let Ok(t) = trial.cast::<PyTrial>() {
-            return Ok(t.get().trial.id);
+            let t = &t.get().trial;
+            let other = self.with(|s| Ok(s.kernel().pending().any(|p| p.id == t.id && p != t)))?;
+            if other {
+                return Err(PyValueError::new_err(format!(
+                    "trial {} was asked by another Kernel (this kernel's trial {} differs): tell or cancel it on the kernel that asked it",
+                    t.id, t.id
+                )));
+            }
+            return Ok(t.id);
         }
         trial.extract::<u64>().map_err(|_| {
             PyTypeError::new_err(format!(
@@ -176,6 +186,12 @@ impl PyKernel {
         prior_strength: f64,
         journal: Option<PathBuf>,
     ) -> PyResult<Self> {
+        if fidelity_prior.is_none() && prior_strength != 1.0 {
+            return Err(PyValueError::new_err(format!(
+                "prior_strength = {prior_strength} without fidelity_prior: it weighs a transferred \
+                 fidelity prior; give fidelity_prior=… too, or leave prior_strength out"
+            )));
+        }
         let fidelity: Space = fidelity.space.clone();
         let config = KernelConfig {
             scenarios: self::scenarios(scenarios)?,
@@ -242,7 +258,18 @@ impl PyKernel {
 
     /// Suggests the next trial, or a list of `n` trials (all or none).
     #[pyo3(signature = (n = None))]
-    fn ask(&self, py: Python<'_>, n: Option<usize>) -> PyResult<Py<PyAny>> {
+    fn ask(&self, py: Python<'_>, n: Option<i64>) -> PyResult<Py<PyAny>> {
+        // Any int is taken, so that a negative one is named as `n`, not an OverflowError.
+        let n = n
+            .map(|n| {
+                usize::try_from(n).map_err(|_| {
+                    PyValueError::new_err(format!(
+                        "n must be between 1 and {}, got {n}",
+                        savme::serve::MAX_BATCH
+                    ))
+                })
+            })
+            .transpose()?;
         let trials = self.with(|s| s.ask(n.unwrap_or(1)).map_err(errors::session))?;
         let mut trials = trials.into_iter().map(|trial| PyTrial { trial });
         match (n, trials.next()) {
@@ -268,7 +295,7 @@ impl PyKernel {
         hf: &Bound<'_, PyAny>,
         lf: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyRecord> {
-        let id = PyKernel::trial_id(trial)?;
+        let id = self.trial_id(trial)?;
         let hf = run("hf", id, hf)?;
         let observation = match lf {
             Some(lf) => Observation::Paired {
@@ -283,7 +310,7 @@ impl PyKernel {
 
     /// Withdraws a pending trial (its simulation crashed); it will never be told.
     fn cancel(&self, trial: &Bound<'_, PyAny>) -> PyResult<PyTrial> {
-        let id = PyKernel::trial_id(trial)?;
+        let id = self.trial_id(trial)?;
         let trial = self.with(|s| s.cancel(id).map_err(errors::session))?;
         Ok(PyTrial { trial })
     }

@@ -111,6 +111,12 @@ fn scale_name(s: Scale) -> &'static str {
 #[pyfunction]
 #[pyo3(name = "Discrete")]
 pub fn discrete(name: &str, values: &Bound<'_, PyAny>) -> PyResult<PyVariable> {
+    if values.is_instance_of::<pyo3::types::PyString>() {
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "Discrete({name:?}): values must be a list of values, got the str {values:?}; \
+             a str is not split into its characters: give [{values:?}] for one value"
+        )));
+    }
     let values = values
         .try_iter()?
         .enumerate()

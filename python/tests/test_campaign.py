@@ -153,8 +153,11 @@ def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path)
 
 
 def test_bad_simulator_results_and_bad_protocols_are_named(tmp_path):
-    with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool\) or \(failure, work_units\), got 0.5"):
+    with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool or numpy bool\) or \(failure, work_units\), got float 0.5"):
         savme.Campaign(protocol(), problem(), out=tmp_path / "x", jobs=1).run(lambda s, phi, th: 0.5)
+    # 0/1 is not a failure flag (truthiness would hide a simulator returning a count or a distance).
+    with pytest.raises(savme.CampaignError, match=r"got int 1"):
+        savme.Campaign(protocol(), problem(), out=tmp_path / "x1", jobs=1).run(lambda s, phi, th: (1, 3))
     with pytest.raises(savme.CampaignError, match="work"):
         # Work cost, but the simulator returns a bare flag (no work count).
         savme.Campaign(protocol(), problem(), out=tmp_path / "y", jobs=1).run(lambda s, phi, th: False)

@@ -105,3 +105,23 @@ def test_bad_results_and_unknown_samples_are_refused_naming_the_trial():
         FalsificationSampler(object())
     with pytest.raises(ValueError, match="threshold must be a finite number"):
         FalsificationSampler(k, threshold=float("inf"))
+
+
+def test_a_cancelled_trial_hands_out_no_more_runs():
+    k = kernel()
+    sampler = FalsificationSampler(k)
+    hf = sampler.next_sample()
+    # Withdrawn through the kernel: its queued LF run is not handed out.
+    k.cancel(hf.trial)
+    nxt = sampler.next_sample()
+    assert nxt.trial.id != hf.trial.id and nxt.role == "hf"
+    with pytest.raises(KeyError, match="not outstanding"):
+        sampler.update(hf, (1.0, 1.0))
+    # Withdrawn through the sampler (a crashed simulation): the same, and the kernel knows.
+    assert sampler.cancel(nxt).id == nxt.trial.id
+    after = sampler.next_sample()
+    assert after.trial.id not in (hf.trial.id, nxt.trial.id) and after.role == "hf"
+    assert k.stats()["cancelled"] == 2
+    falsify(sampler, 1)
+    falsify(sampler, 10)
+    assert k.stats()["told"] == 5

@@ -2,6 +2,7 @@
 trials as the Rust kernel behind `savme serve`, and each resumes the other's journals."""
 
 import json
+import os
 import pathlib
 import shutil
 import subprocess
@@ -151,7 +152,8 @@ def test_a_journal_held_by_a_running_server_is_refused_naming_its_pid(savme_bin,
 def test_python_is_refused_while_another_python_kernel_holds_the_journal(example_config, tmp_path):
     journal = tmp_path / "j"
     k = savme.Kernel.from_config(example_config, journal=journal)
-    with pytest.raises(savme.JournalError, match="in use by another savme process"):
+    # The same process: said so (it read "another savme process (pid <this pid>)").
+    with pytest.raises(savme.JournalError, match=rf"already open in this process \(pid {os.getpid()}\).*close\(\) or drop the one that holds it first"):
         savme.Kernel.resume(journal)
     k.close()
     savme.Kernel.resume(journal)

@@ -375,3 +375,68 @@ def test_bad_estimation_arguments_name_what_is_wrong():
         k.estimation(nominal=[1, 2])
     with pytest.raises(ValueError, match='tilt: unknown tilt "sideways"'):
         k.estimation(tilt="sideways")
+
+
+def test_extreme_but_finite_ranges_are_refused_naming_the_variable():
+    # hi - lo overflows: every draw would be NaN (a panic at the first ask before).
+    with pytest.raises(ValueError, match="continuous variable `gap` has a range too wide to compute with"):
+        savme.Continuous("gap", -1e308, 1e308)
+    with pytest.raises(ValueError, match="continuous variable `view` has a range too wide"):
+        savme.Continuous("view", 1e-308, 1e308, scale="log")
+    wide = savme.Continuous("gap", -8e307, 8e307, bins=4)
+    k = kernel(scenarios={"lead_brakes": savme.Space([wide])})
+    for _ in range(8):
+        x = k.ask().phi["gap"]
+        assert -8e307 <= x <= 8e307
+
+
+def test_the_failure_flag_is_a_bool_or_a_numpy_bool_nothing_merely_truthy():
+    k = kernel()
+    t = k.ask()
+    for bad, kind in [(0.7, "float"), (None, "NoneType"), (1, "int"), ("yes", "str"), ((True,), "tuple")]:
+        with pytest.raises(TypeError, match=rf"tell\(trial {t.id}, hf=…\): the failure flag \(first of the pair\) must be a bool or a numpy bool, got {kind}"):
+            k.tell(t, hf=(bad, 1.0), lf=(True, 0.1))
+    # A swapped (runtime, failure) pair.
+    with pytest.raises(TypeError, match=r"lf=…\): the failure flag .* got float 0.1"):
+        k.tell(t, hf=(True, 1.0), lf=(0.1, True))
+    assert k.stats()["told"] == 0
+    np = pytest.importorskip("numpy")
+    k.tell(t, hf=(np.bool_(True), 1.0), lf=(np.bool_(True), 0.1))
+    assert k.stats()["told"] == 1
+
+
+def test_a_str_of_values_and_a_negative_n_are_named():
+    with pytest.raises(TypeError, match=r"Discrete\(\"x\"\): values must be a list of values, got the str 'abc'"):
+        savme.Discrete("x", "abc")
+    k = kernel()
+    with pytest.raises(ValueError, match="n must be between 1 and 100000, got -1"):
+        k.ask(-1)
+    assert k.stats()["asked"] == 0
+
+
+def test_a_theta_hf_given_as_a_str_is_named_as_no_number():
+    with pytest.raises(ValueError, match="value far of variable `view_m` is not a number; the variable is continuous"):
+        kernel(theta_hf=dict(THETA_HF, view_m="far"))
+
+
+def test_a_trial_of_another_kernel_is_refused_not_credited_to_this_ones_trial_of_that_id():
+    a, b = kernel(seed=1), kernel(seed=2)
+    ta, tb = a.ask(), b.ask()
+    assert ta.id == tb.id and ta != tb
+    for call in (lambda: b.tell(ta, hf=(True, 1.0), lf=(True, 0.1)), lambda: b.cancel(ta)):
+        with pytest.raises(ValueError, match=f"trial {ta.id} was asked by another Kernel"):
+            call()
+    assert (b.stats()["told"], b.stats()["cancelled"]) == (0, 0)
+    # The same trial from a restored snapshot of the kernel that asked it is this kernel's.
+    restored = savme.Kernel.from_json(a.to_json())
+    restored.tell(ta, hf=(True, 1.0), lf=(True, 0.1))
+    b.tell(tb, hf=(True, 1.0), lf=(True, 0.1))
+
+
+def test_a_prior_strength_without_a_prior_is_refused_naming_it():
+    for strength, shown in ((-1.0, "-1"), (0.5, "0.5")):
+        with pytest.raises(ValueError, match=rf"prior_strength = {shown} without fidelity_prior"):
+            kernel(prior_strength=strength)
+    prior = trained_kernel().fidelity_posterior()
+    with pytest.raises(ValueError, match="strength"):
+        kernel(fidelity_prior=prior, prior_strength=-1.0)

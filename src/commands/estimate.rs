@@ -136,6 +136,38 @@ impl Args {
     }
 }
 
+/// `continue with savme estimate CAMPAIGN [--config FILE] [--out DIR] --resume` (or
+/// `--storage … --campaign NAME` for a database's campaign).
+fn resume_hint(a: &Args) -> String {
+    let mut s = match (&a.dir, &a.store.campaign) {
+        (Some(dir), _) => format!("continue with savme estimate {}", dir.display()),
+        (None, Some(name)) => format!(
+            "continue with savme estimate --storage URL --campaign {:?}",
+            name
+        ),
+        (None, None) => "continue with savme estimate".to_string(),
+    };
+    if let Some(c) = &a.config {
+        s += &format!(" --config {}", c.display());
+    }
+    if let Some(o) = &a.out {
+        s += &format!(" --out {}", o.display());
+    }
+    s + " --resume"
+}
+
+/// An estimate a signal stopped, as [`Failure::Interrupted`] saying how to continue; any other
+/// error given back.
+pub fn interrupted(e: EstimateError, hint: &str) -> Result<Failure, EstimateError> {
+    match e {
+        EstimateError::Stopped { .. } => Ok(Failure::Interrupted(format!(
+            "interrupted ({}): {e}; {hint}",
+            super::signals::received_name()
+        ))),
+        other => Err(other),
+    }
+}
+
 /// A usage error (exit 2) for what the flags said wrong, a runtime error otherwise.
 fn failure(e: EstimateError) -> Failure {
     match e {
@@ -181,8 +213,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let protocol = source
         .protocol()
         .map_err(|e| Failure::Runtime(e.to_string()))?;
+    let hint = resume_hint(&a);
     let configured = |problem: Problem| {
         let run = EstimateRun::new(place.source(), problem, settings.clone())
+            .stop_on(super::signals::stop_on_signals(&hint))
             .progress(compose::estimate_progress_lines(a.quiet))
             .resume(a.resume)
             .jobs(
@@ -206,7 +240,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
             configured(Problem::from(savme_sim::problem(protocol.fidelity_bins))).run(&sim)
         }
     }
-    .map_err(failure)?;
+    .map_err(|e| interrupted(e, &hint).unwrap_or_else(failure))?;
     super::print(&format!(
         "{}\nwritten to {}\n",
         outcome.table_md,

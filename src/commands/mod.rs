@@ -10,6 +10,7 @@ pub mod reproduce;
 pub mod run;
 pub mod scenarios;
 pub mod serve;
+mod signals;
 pub mod simulate;
 pub mod toy;
 pub mod worker;
@@ -49,7 +50,7 @@ impl Failure {
         match self {
             Failure::Usage(_) => 2,
             Failure::Runtime(_) => 1,
-            Failure::Interrupted(_) => 130,
+            Failure::Interrupted(_) => signals::interrupted_code(),
         }
     }
 
@@ -87,26 +88,11 @@ pub fn config_failure(e: CampaignError) -> Failure {
     }
 }
 
-/// Ctrl-C during a campaign: the first asks it to stop between trials (the runs in flight
-/// finish, every told trial is stored, the recording is closed); a second quits at once.
-fn stop_on_ctrl_c() -> Stop {
-    let stop = Stop::new();
-    let handler = stop.clone();
-    let installed = ctrlc::set_handler(move || {
-        if handler.is_requested() {
-            std::process::exit(130);
-        }
-        handler.request();
-        eprintln!(
-            "savme: stopping after the runs in flight; Ctrl-C again quits at once (the told trials are kept either way)"
-        );
-    });
-    if let Err(e) = installed {
-        eprintln!(
-            "savme: warning: Ctrl-C will end the campaign at once ({e}); --resume continues it"
-        );
-    }
-    stop
+/// Ctrl-C or SIGTERM during a campaign: the first asks it to stop between trials (the runs in
+/// flight finish, every told trial is stored, the recording is closed); a second quits at once,
+/// printing `resume_hint` ([`signals`]).
+fn stop_on_ctrl_c(resume_hint: &str) -> Stop {
+    signals::stop_on_signals(resume_hint)
 }
 
 /// A campaign stopped by Ctrl-C as a [`Failure`] that says how to continue; `otherwise` for
@@ -153,6 +139,10 @@ pub fn parse_jobs(s: &str) -> Result<usize, String> {
     let n: usize = s.parse().map_err(|e| format!("{e}"))?;
     if n > MAX_JOBS {
         return Err(format!("at most {MAX_JOBS} worker threads"));
+    }
+    // One rule for every command (estimate read 0 as 1, reproduce refused it).
+    if n == 0 {
+        return Err("must be at least 1 (worker threads)".into());
     }
     Ok(n)
 }
@@ -435,7 +425,7 @@ where
     }
     // Before the observers: the recording's own Ctrl-C handler then stays out of the way, and
     // the stopped campaign closes the recording.
-    campaign = campaign.stop_on(stop_on_ctrl_c());
+    campaign = campaign.stop_on(stop_on_ctrl_c(&hint));
     for o in observers(runner, frames, &protocol, &problem).map_err(usage)? {
         campaign = campaign.boxed_observer(o);
     }
@@ -484,7 +474,7 @@ where
         .out(target.out)
         .resume(target.resume)
         .observers(&factory)
-        .stop_on(stop_on_ctrl_c());
+        .stop_on(stop_on_ctrl_c(&hint));
     if let Some(j) = runner.jobs {
         if j == 0 {
             return Err(usage("protocol: `--jobs`: must be at least 1"));

@@ -93,16 +93,24 @@ pub fn run(a: Args) -> Result<(), Failure> {
         &backend,
     )?;
     if let Some(settings) = estimate {
-        let outcome = compose::estimate_stage(
-            &place,
-            &out,
-            c.problem,
+        let hint = format!(
+            "continue with savme run --config {} --resume {}",
+            config.display(),
+            out.display()
+        );
+        let outcome = compose::EstimateStage {
+            campaign: place,
+            out: out.clone(),
+            problem: c.problem,
             settings,
-            a.runner.jobs(),
-            compose::estimate_progress_lines(a.runner.quiet()),
-            &backend,
-        )
-        .map_err(|e| Failure::Runtime(e.to_string()))?;
+            jobs: a.runner.jobs(),
+            stop: super::signals::stop_on_signals(&hint),
+        }
+        .run(compose::estimate_progress_lines(a.runner.quiet()), &backend)
+        .map_err(|e| {
+            super::estimate::interrupted(e, &hint)
+                .unwrap_or_else(|e| Failure::Runtime(e.to_string()))
+        })?;
         super::print(&format!(
             "{}\nestimate written to {}\n",
             outcome.table_md,

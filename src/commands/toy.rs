@@ -37,7 +37,16 @@ pub struct Args {
     runner: RunnerArgs,
 }
 
+/// The longest `--sleep-ms` a run may take: one hour (a larger value would make a run that
+/// never ends in practice; 2⁶⁴ − 1 ms is 585 million years).
+pub const MAX_SLEEP_MS: u64 = 3_600_000;
+
 pub fn run(a: Args) -> Result<(), Failure> {
+    if let Some(ms) = a.sleep_ms.filter(|&ms| ms > MAX_SLEEP_MS) {
+        return Err(usage(format!(
+            "--sleep-ms: {ms} ms per run is more than the maximum, {MAX_SLEEP_MS} ms (one hour)"
+        )));
+    }
     let mut overrides = a.protocol.overrides();
     let store = a.storage.open()?;
     let remote = a.storage.remote(store.as_ref())?;

@@ -307,7 +307,7 @@ impl<W: Write> ProgressLines<W> {
         };
         c.printed = Instant::now();
         let eta = match state {
-            "done" => String::new(),
+            "done" | "stopped" => String::new(),
             _ => format!(
                 ", ETA {} (campaign: {} of {} trials, ETA {})",
                 c.eta(),
@@ -354,8 +354,11 @@ impl<W: Write> ProgressLines<W> {
         }
     }
 
+    /// The stage's last line: `done`, or `stopped` when it ends short of its trials (the
+    /// campaign was interrupted or failed).
     fn end_stage(&mut self) {
-        self.line("done");
+        let short = self.stage.as_ref().is_some_and(|(_, c)| c.done < c.total);
+        self.line(if short { "stopped" } else { "done" });
         self.stage = None;
     }
 }
@@ -464,12 +467,13 @@ mod tests {
             "{text}"
         );
         assert!(
-            lines[4].starts_with(&format!("{a} done: 3/{n} trials, 1 failure (HF)")),
+            // Ended short of its trials (here by the next stage; really by a stop).
+            lines[4].starts_with(&format!("{a} stopped: 3/{n} trials, 1 failure (HF)")),
             "{text}"
         );
         assert!(!lines[4].contains("ETA"), "{text}");
         assert!(lines[5].starts_with(&format!("{b} started: 0/")), "{text}");
-        assert!(lines[6].starts_with(&format!("{b} done: 0/")), "{text}");
+        assert!(lines[6].starts_with(&format!("{b} stopped: 0/")), "{text}");
     }
 
     #[test]

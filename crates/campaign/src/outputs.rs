@@ -94,6 +94,7 @@ pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
 /// Refuses an output directory that is a file, or lies below one (instead of the I/O error
 /// "File exists" or "Not a directory" creating or reading it would give).
 pub(crate) fn usable_dir(dir: &Path) -> Result<(), CampaignError> {
+    super::store::safe_file::dangling_link(dir).map_err(|e| CampaignError::io(dir, e))?;
     let in_the_way = dir
         .ancestors()
         .filter(|p| !p.as_os_str().is_empty())
@@ -113,7 +114,8 @@ pub(crate) fn save_protocol(p: &Protocol, files: &Outputs) -> Result<(), Campaig
         field: "protocol".into(),
         message: e.to_string(),
     })?;
-    std::fs::write(&files.protocol, json + "\n").map_err(|e| CampaignError::io(&files.protocol, e))
+    super::store::safe_file::write_file(&files.protocol, (json + "\n").as_bytes())
+        .map_err(|e| CampaignError::io(&files.protocol, e))
 }
 
 /// Writes the results of a campaign (all of them computed from `lines`).
@@ -126,7 +128,8 @@ pub(crate) fn write(
     elapsed: f64,
 ) -> Result<(), CampaignError> {
     let write = |path: &Path, text: String| {
-        std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
+        super::store::safe_file::write_file(path, text.as_bytes())
+            .map_err(|e| CampaignError::io(path, e))
     };
     let version = format!("\n<!-- savme format_version {FORMAT_VERSION} -->\n");
     write(&files.table, report.table_md() + &version)?;
@@ -160,7 +163,8 @@ pub(crate) fn write_repeated(
     elapsed: f64,
 ) -> Result<(), CampaignError> {
     let write = |path: &Path, text: String| {
-        std::fs::write(path, text).map_err(|e| CampaignError::io(path, e))
+        super::store::safe_file::write_file(path, text.as_bytes())
+            .map_err(|e| CampaignError::io(path, e))
     };
     let version = format!("\n<!-- savme format_version {FORMAT_VERSION} -->\n");
     write(&out.join("table.md"), report.table_md() + &version)?;

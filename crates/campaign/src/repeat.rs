@@ -245,7 +245,8 @@ impl<'f> Repeated<'f> {
         }
         std::fs::create_dir_all(&self.out).map_err(|e| CampaignError::io(&self.out, e))?;
         let json = serde_json::to_string_pretty(&file).unwrap_or_default();
-        std::fs::write(&path, json + "\n").map_err(|e| CampaignError::io(&path, e))
+        super::store::safe_file::write_file(&path, (json + "\n").as_bytes())
+            .map_err(|e| CampaignError::io(&path, e))
     }
 
     fn run_seed<S>(

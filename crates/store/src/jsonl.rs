@@ -25,19 +25,23 @@ impl JsonlStore {
     /// Locks and opens `path`, creating it if missing.
     pub fn open(path: &Path) -> Result<JsonlStore, StoreError> {
         let shown = path.display().to_string();
+        missing_directory(path).map_err(|e| StoreError::io(shown.clone(), e))?;
         let mut lock_name = path.as_os_str().to_owned();
         lock_name.push(".lock");
         let lock = StoreLock::acquire(Path::new(&lock_name), &shown)?;
         let io = |e| StoreError::io(shown.clone(), e);
-        let mut file = OpenOptions::new()
+        let options = OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
-            .open(path)
-            .map_err(io)?;
+            .clone();
+        let mut file = super::safe_file::open_no_follow(&options, path).map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
         let end = end_of_last_line(&mut file, len).map_err(io)?;
+        if end == 0 && len > 0 {
+            not_a_store_to_cut(&mut file).map_err(io)?;
+        }
         Ok(JsonlStore {
             path: path.to_path_buf(),
             file,
@@ -114,6 +118,33 @@ fn write_at(file: &File, bytes: &[u8], offset: u64) -> std::io::Result<()> {
         let mut f = file;
         f.seek(SeekFrom::Start(offset))?;
         f.write_all(bytes)
+    }
+}
+
+/// Refuses a store whose directory does not exist, naming the directory (not the lock file
+/// beside the store, the first file opened there).
+fn missing_directory(path: &Path) -> std::io::Result<()> {
+    match path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(dir) if !dir.is_dir() => Err(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!("its directory {} does not exist", dir.display()),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Refuses a file without a complete line whose bytes do not begin a store line (`{`): loading
+/// would cut all of it as a torn tail, and savme cuts only what it wrote.
+fn not_a_store_to_cut(file: &mut File) -> std::io::Result<()> {
+    let mut head = Vec::new();
+    file.seek(SeekFrom::Start(0))?;
+    file.take(4096).read_to_end(&mut head)?;
+    match head.iter().find(|b| !b.is_ascii_whitespace()) {
+        Some(b'{') | None => Ok(()),
+        Some(_) => Err(super::safe_file::UnsafeFile::NotOurs {
+            what: "a store's lines are JSON objects",
+        }
+        .into()),
     }
 }
 

@@ -33,6 +33,7 @@
 pub mod journal;
 mod jsonl;
 mod lock;
+pub mod safe_file;
 
 pub use jsonl::JsonlStore;
 pub use lock::StoreLock;
@@ -83,7 +84,7 @@ pub enum StoreError {
         source: std::io::Error,
     },
     /// Another process holds the store.
-    #[error("{store} is in use by another savme process ({}); it was left unchanged — wait for that process, or stop it", holder.map_or_else(|| "pid unknown".to_string(), |p| format!("pid {p}")))]
+    #[error("{store} is {}; it was left unchanged — {}", held_by(*holder), if *holder == Some(std::process::id()) { "close() or drop the one that holds it first" } else { "wait for that process, or stop it" })]
     Locked {
         /// The store.
         store: String,
@@ -127,6 +128,18 @@ pub enum StoreError {
         /// The repair error.
         repair: std::io::Error,
     },
+}
+
+/// Who holds a locked store, for [`StoreError::Locked`]: this very process (a second opener in
+/// it, e.g. a second Python `Kernel` on one journal), another process, or one not known.
+fn held_by(holder: Option<u32>) -> String {
+    match holder {
+        Some(p) if p == std::process::id() => {
+            format!("already open in this process (pid {p}): a store has one writer")
+        }
+        Some(p) => format!("in use by another savme process (pid {p})"),
+        None => "in use by another savme process (pid unknown)".into(),
+    }
 }
 
 impl StoreError {

@@ -4,7 +4,7 @@
 
 use super::StoreError;
 use std::fs::{File, OpenOptions, TryLockError};
-use std::io::{Read, Write};
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// An exclusive lock, held until dropped.
@@ -31,28 +31,24 @@ impl StoreLock {
     /// ```
     pub fn acquire(path: &Path, store: &str) -> Result<StoreLock, StoreError> {
         let io = |e| StoreError::io(path.display().to_string(), e);
-        let mut file = OpenOptions::new()
+        let options = OpenOptions::new()
             .read(true)
             .write(true)
             .create(true)
             .truncate(false)
-            .open(path)
-            .map_err(io)?;
+            .clone();
+        let mut file = super::safe_file::open_no_follow(&options, path).map_err(io)?;
         match file.try_lock() {
             Ok(()) => {}
             Err(TryLockError::WouldBlock) => {
-                let mut text = String::new();
-                let holder = file
-                    .read_to_string(&mut text)
-                    .ok()
-                    .and_then(|_| text.trim().parse().ok());
                 return Err(StoreError::Locked {
                     store: store.to_string(),
-                    holder,
+                    holder: holder_pid(&mut file),
                 });
             }
             Err(TryLockError::Error(e)) => return Err(io(e)),
         }
+        only_a_pid(&mut file).map_err(io)?;
         file.set_len(0).map_err(io)?;
         file.write_all(format!("{}\n", std::process::id()).as_bytes())
             .map_err(io)?;
@@ -65,5 +61,66 @@ impl StoreLock {
     /// The lock file.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+}
+
+/// The pid in a held lock file. The holder writes it just after taking the lock: a second
+/// process racing it (two `--resume` at once) waits up to 200 ms for it rather than say "pid
+/// unknown".
+fn holder_pid(file: &mut File) -> Option<u32> {
+    for _ in 0..20 {
+        let mut text = String::new();
+        let read = file
+            .seek(SeekFrom::Start(0))
+            .and_then(|_| file.read_to_string(&mut text));
+        if let Some(pid) = read.ok().and_then(|_| text.trim().parse().ok()) {
+            return Some(pid);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    None
+}
+
+/// Refuses a lock file holding anything but a process id (what savme writes there): savme
+/// truncates only a lock file it wrote.
+fn only_a_pid(file: &mut File) -> std::io::Result<()> {
+    let mut bytes = Vec::new();
+    Read::by_ref(file).take(64).read_to_end(&mut bytes)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let pid = text.trim();
+    if bytes.len() < 64 && (pid.is_empty() || pid.parse::<u32>().is_ok()) {
+        file.seek(SeekFrom::Start(0))?;
+        return Ok(());
+    }
+    Err(super::safe_file::UnsafeFile::NotOurs {
+        what: "a lock file holds only the pid of the savme process that holds it",
+    }
+    .into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two `--resume` at once: the loser reads the lock file before the winner wrote its pid.
+    #[test]
+    fn a_racing_second_opener_waits_for_the_holders_pid() {
+        let path =
+            std::env::temp_dir().join(format!("savme-lock-race-{}.lock", std::process::id()));
+        let _ = std::fs::remove_file(&path);
+        let holder = File::create(&path).unwrap();
+        holder.try_lock().unwrap();
+        let writer = {
+            let mut f = holder.try_clone().unwrap();
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                f.write_all(b"4242\n").unwrap();
+            })
+        };
+        let e = StoreLock::acquire(&path, "demo").unwrap_err();
+        writer.join().unwrap();
+        assert!(e.to_string().contains("pid 4242"), "{e}");
+        drop(holder);
+        let _ = std::fs::remove_file(&path);
     }
 }

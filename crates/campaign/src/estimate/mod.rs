@@ -53,6 +53,7 @@ pub struct EstimateRun<'p> {
     jobs: usize,
     resume: bool,
     progress: Option<ProgressFn<'p>>,
+    stop: super::Stop,
 }
 
 /// A progress callback ([`EstimateRun::progress`]).
@@ -133,6 +134,7 @@ impl<'p> EstimateRun<'p> {
             jobs: 1,
             resume: false,
             progress: None,
+            stop: super::Stop::new(),
         }
     }
 
@@ -140,6 +142,14 @@ impl<'p> EstimateRun<'p> {
     /// run told.
     pub fn progress(mut self, progress: impl FnMut(&EstimateProgress<'_>) + 'p) -> Self {
         self.progress = Some(Box::new(progress));
+        self
+    }
+
+    /// Stops between runs once `stop` is requested (e.g. by Ctrl-C or SIGTERM): the runs in
+    /// flight are told and stored, then [`run`](EstimateRun::run) returns
+    /// [`EstimateError::Stopped`]; a resume continues where it stopped.
+    pub fn stop_on(mut self, stop: super::Stop) -> Self {
+        self.stop = stop;
         self
     }
 
@@ -233,6 +243,7 @@ impl<'p> EstimateRun<'p> {
                     cost: protocol.cost.measure(),
                     theta_hf: &problem.theta_hf,
                     report: &mut report,
+                    stop: &self.stop,
                 };
                 with_pool(sim, self.jobs, |pool| run.run(pool, 2 * self.jobs))?
             }
@@ -284,7 +295,8 @@ fn create(out: &Path, settings: &EstimateSettings) -> Result<(), EstimateError> 
     let path = out.join("estimate.json");
     std::fs::create_dir_all(out).map_err(|e| CampaignError::io(out, e))?;
     let json = serde_json::to_string_pretty(settings).unwrap_or_default();
-    std::fs::write(&path, json + "\n").map_err(|e| CampaignError::io(&path, e))?;
+    savme_store::safe_file::write_file(&path, (json + "\n").as_bytes())
+        .map_err(|e| CampaignError::io(&path, e))?;
     Ok(())
 }
 
@@ -365,6 +377,7 @@ struct Running<'a, 'p> {
     cost: savme_kernel::CostMeasure,
     theta_hf: &'a savme_kernel::Assignment,
     report: &'a mut Reporter<'p>,
+    stop: &'a super::Stop,
 }
 
 impl Running<'_, '_> {
@@ -377,7 +390,10 @@ impl Running<'_, '_> {
             VecDeque::new();
         let mut asked = self.lines.len() as u64;
         loop {
-            while flight.len() < window && asked < self.settings.max_runs {
+            while flight.len() < window
+                && asked < self.settings.max_runs
+                && !self.stop.is_requested()
+            {
                 // None: a refinement round waits for its outcomes before the refit.
                 let Some(t) = self.estimation.ask() else {
                     break;
@@ -403,6 +419,12 @@ impl Running<'_, '_> {
                 }
             }
             if flight.is_empty() {
+                if self.stop.is_requested() {
+                    return Err(EstimateError::Stopped {
+                        told: self.estimation.told(),
+                        store: self.store.path().to_path_buf(),
+                    });
+                }
                 // Everything asked was told and the rule did not stop: ask more.
                 continue;
             }

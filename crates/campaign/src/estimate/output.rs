@@ -296,7 +296,8 @@ impl EstimateOutcome {
     pub(crate) fn write(&self) -> Result<(), EstimateError> {
         let write = |name: &str, text: String| {
             let path = self.out.join(name);
-            std::fs::write(&path, text).map_err(|e| CampaignError::io(&path, e))
+            savme_store::safe_file::write_file(&path, text.as_bytes())
+                .map_err(|e| CampaignError::io(&path, e))
         };
         let mut summary = serde_json::to_value(self).unwrap_or_default();
         if let Some(o) = summary.as_object_mut() {

@@ -284,6 +284,17 @@ pub enum EstimateError {
         /// What failed.
         message: String,
     },
+    /// A stop was requested ([`EstimateRun::stop_on`]): the runs in flight were told and
+    /// stored, no more were asked; resume continues the estimate.
+    ///
+    /// [`EstimateRun::stop_on`]: super::EstimateRun::stop_on
+    #[error("estimate stopped after {told} HF runs, every one stored in {}", store.display())]
+    Stopped {
+        /// HF runs told (replayed ones included).
+        told: u64,
+        /// The estimate's trial store.
+        store: PathBuf,
+    },
     /// The estimation could not be set up (ε, a nominal, a posterior).
     #[error("estimate: {0}")]
     Estimation(#[from] EstimationError),

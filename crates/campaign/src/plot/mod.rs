@@ -179,7 +179,10 @@ fn bitmap(
 
 fn save(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), CampaignError> {
     font()
-        .and_then(|()| draw(path))
+        .and_then(|()| {
+            // The encoder opens the path itself: hand it a fresh file savme created.
+            super::store::safe_file::write_via_fresh_file(path, draw, |e| e.to_string())
+        })
         .map_err(|message| CampaignError::Plot {
             path: path.to_path_buf(),
             message,

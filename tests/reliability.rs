@@ -1,0 +1,451 @@
+//! What savme promises a user whose directory holds links, and whose input holds extreme
+//! values, checked on the real binary (docs/RELIABILITY.md).
+mod common;
+
+use common::{made_dir, run, temp_dir, TINY_PROTOCOL};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+/// A decoy file holding text no savme process writes.
+fn decoy(dir: &Path) -> PathBuf {
+    let path = dir.join("decoy.txt");
+    std::fs::write(&path, "someone else's file\n").unwrap();
+    path
+}
+
+fn assert_untouched(decoy: &Path) {
+    assert_eq!(
+        std::fs::read_to_string(decoy).unwrap(),
+        "someone else's file\n",
+        "{} was written through a link",
+        decoy.display()
+    );
+}
+
+#[cfg(unix)]
+fn link(target: &Path, at: &Path) {
+    let _ = std::fs::remove_file(at);
+    std::os::unix::fs::symlink(target, at).unwrap();
+}
+
+fn example_config(dir: &Path) -> PathBuf {
+    let out = Command::new(common::EXE)
+        .arg("example-config")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let path = dir.join("kernel.json");
+    std::fs::write(&path, out.stdout).unwrap();
+    path
+}
+
+/// `savme serve ARGS` with stdin closed at once: exit code and stderr.
+fn serve(args: &[&str]) -> (Option<i32>, String) {
+    let o = Command::new(common::EXE)
+        .arg("serve")
+        .args(args)
+        .stdin(Stdio::null())
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+#[cfg(unix)]
+#[test]
+fn a_served_journal_or_its_lock_that_is_a_link_is_refused_and_the_target_unchanged() {
+    let dir = made_dir("serve-links");
+    let config = example_config(&dir);
+    let config = config.to_str().unwrap();
+    let decoy = decoy(&dir);
+    let journal = dir.join("jj");
+    let j = journal.to_str().unwrap();
+    // The lock file beside the journal is a link onto the decoy.
+    let lock = dir.join("jj.lock");
+    link(&decoy, &lock);
+    let (code, err) = serve(&["--config", config, "--journal", j]);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(
+        err.contains(&lock.display().to_string()) && err.contains("symbolic link"),
+        "{err}"
+    );
+    assert_untouched(&decoy);
+    assert!(!journal.exists(), "nothing was created");
+    // The journal itself a link (onto the decoy, or dangling).
+    std::fs::remove_file(&lock).unwrap();
+    for target in [decoy.clone(), dir.join("elsewhere.jsonl")] {
+        link(&target, &journal);
+        let (code, err) = serve(&["--config", config, "--journal", j]);
+        assert_ne!(code, Some(0), "{err}");
+        assert!(err.contains(j) && err.contains("symbolic link"), "{err}");
+        assert_untouched(&decoy);
+        assert!(!dir.join("elsewhere.jsonl").exists());
+    }
+    // A lock file or a journal of someone else's (not written by savme) is not truncated.
+    std::fs::remove_file(&journal).unwrap();
+    std::fs::copy(&decoy, &lock).unwrap();
+    let (code, err) = serve(&["--config", config, "--journal", j]);
+    assert!(code != Some(0) && err.contains("did not write"), "{err}");
+    assert_untouched(&lock);
+    std::fs::remove_file(&lock).unwrap();
+    std::fs::write(&journal, "notes without a newline").unwrap();
+    let (code, err) = serve(&["--config", config, "--journal", j]);
+    assert!(code != Some(0) && err.contains("did not write"), "{err}");
+    assert_eq!(
+        std::fs::read_to_string(&journal).unwrap(),
+        "notes without a newline"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn reproduce(dir: &Path) -> (Option<i32>, String) {
+    let mut args = vec!["reproduce".to_string(), "--out".into()];
+    args.push(dir.display().to_string());
+    args.extend(TINY_PROTOCOL.iter().map(|s| s.to_string()));
+    let (code, _, err) = run(&args);
+    (code, err)
+}
+
+fn resume(dir: &Path) -> (Option<i32>, String) {
+    let (code, _, err) = run(&[
+        "reproduce".as_ref(),
+        "--quiet".as_ref(),
+        "--resume".as_ref(),
+        dir.as_os_str(),
+    ]);
+    (code, err)
+}
+
+#[cfg(unix)]
+#[test]
+fn a_campaign_never_writes_through_a_link_in_its_directory() {
+    let home = made_dir("campaign-links");
+    let decoy = decoy(&home);
+    // A new campaign into a directory whose lock file is a planted link.
+    let fresh = home.join("fresh");
+    std::fs::create_dir_all(&fresh).unwrap();
+    link(&decoy, &fresh.join("trials.jsonl.lock"));
+    let (code, err) = reproduce(&fresh);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(
+        err.contains("trials.jsonl.lock") && err.contains("symbolic link"),
+        "{err}"
+    );
+    assert_untouched(&decoy);
+    // A finished campaign, then each file it writes replaced by a link onto the decoy: the
+    // resume is refused naming the file, and the decoy is unchanged.
+    let dir = temp_dir("campaign-links-done");
+    let (code, err) = reproduce(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    for name in [
+        "trials.jsonl.lock",
+        "trials.jsonl",
+        "table.md",
+        "summary.json",
+        "breakeven.png",
+    ] {
+        let path = dir.join(name);
+        let kept = dir.join(format!("{name}.kept"));
+        std::fs::rename(&path, &kept).unwrap();
+        let copy = home.join(name);
+        std::fs::copy(&kept, &copy).unwrap();
+        link(
+            if name == "trials.jsonl" {
+                &copy
+            } else {
+                &decoy
+            },
+            &path,
+        );
+        let (code, err) = resume(&dir);
+        assert_ne!(code, Some(0), "{name}: {err}");
+        assert!(
+            err.contains(&path.display().to_string()) && err.contains("symbolic link"),
+            "{name}: {err}"
+        );
+        assert_untouched(&decoy);
+        assert_eq!(std::fs::read(&copy).unwrap(), std::fs::read(&kept).unwrap());
+        std::fs::remove_file(&path).unwrap();
+        std::fs::rename(&kept, &path).unwrap();
+    }
+    let (code, err) = resume(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let _ = std::fs::remove_dir_all(&home);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Sets `lo`/`hi` of every variable named `name` in a JSON document.
+fn set_range(v: &mut Value, name: &str, lo: f64, hi: f64) -> usize {
+    match v {
+        Value::Object(m) if m.get("name").and_then(Value::as_str) == Some(name) => {
+            let mut set = 0;
+            for (key, x) in [("lo", lo), ("hi", hi)] {
+                if let Some(slot) = find_key(m, key) {
+                    *slot = x.into();
+                    set += 1;
+                }
+            }
+            usize::from(set == 2)
+        }
+        Value::Object(m) => m.values_mut().map(|x| set_range(x, name, lo, hi)).sum(),
+        Value::Array(a) => a.iter_mut().map(|x| set_range(x, name, lo, hi)).sum(),
+        _ => 0,
+    }
+}
+
+fn find_key<'a>(m: &'a mut serde_json::Map<String, Value>, key: &str) -> Option<&'a mut Value> {
+    if m.contains_key(key) {
+        return m.get_mut(key);
+    }
+    m.values_mut()
+        .filter_map(Value::as_object_mut)
+        .find_map(|inner| find_key(inner, key))
+}
+
+#[test]
+fn an_extreme_but_finite_range_is_refused_by_serve_naming_the_variable() {
+    let dir = made_dir("serve-extreme");
+    let config = example_config(&dir);
+    let mut json: Value = serde_json::from_slice(&std::fs::read(&config).unwrap()).unwrap();
+    assert!(
+        set_range(&mut json, "ego_speed", -1e308, 1e308) > 0,
+        "{json}"
+    );
+    std::fs::write(&config, json.to_string()).unwrap();
+    let journal = dir.join("j.jsonl");
+    let (code, err) = serve(&[
+        "--config",
+        config.to_str().unwrap(),
+        "--journal",
+        journal.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("kernel.json") && err.contains("`ego_speed`") && err.contains("too wide"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Starts `savme ARGS` with stderr captured and waits until `file` has `lines` lines.
+fn start_and_wait(args: &[String], file: &Path, lines: usize) -> std::process::Child {
+    let mut child = Command::new(common::EXE)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(file).map_or(0, |s| s.lines().count()) < lines {
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(120),
+            "no progress"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "finished too early");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    child
+}
+
+/// Sends `signal` (`INT`, `TERM`) with kill(1), as a shell, `timeout` or a scheduler does.
+fn send(child: &std::process::Child, signal: &str) {
+    let sent = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+}
+
+fn stopped(child: std::process::Child) -> (Option<i32>, String) {
+    let o = child.wait_with_output().unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+fn line_count(file: &Path) -> usize {
+    std::fs::read_to_string(file).unwrap().lines().count()
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_and_sigterm_stop_a_campaign_and_an_estimate_between_runs_and_say_how_to_resume() {
+    let dir = temp_dir("signals-campaign");
+    let mut args = vec!["reproduce".to_string(), "--out".into()];
+    args.push(dir.display().to_string());
+    // Not --quiet: the progress lines say the stage stopped.
+    let tiny = TINY_PROTOCOL.iter().filter(|&&s| s != "--quiet");
+    args.extend(tiny.map(|s| s.to_string()));
+    args.extend(["--jobs".to_string(), "2".into()]);
+    let trials = dir.join("trials.jsonl");
+    // SIGTERM (SIGINT: tests/reproduce.rs): stops between runs, exit 143, the resume command.
+    let child = start_and_wait(&args, &trials, 10);
+    send(&child, "TERM");
+    let (code, err) = stopped(child);
+    assert_eq!(code, Some(143), "{err}");
+    assert!(
+        err.contains("SIGTERM: stopping after the runs in flight"),
+        "{err}"
+    );
+    let hint = format!("continue with --resume {}", dir.display());
+    assert!(err.contains(&hint), "{err}");
+    let stopped_stage = err
+        .lines()
+        .any(|l| l.contains(" stopped: ") && l.contains(" trials, "));
+    assert!(stopped_stage, "a stage cut short says so: {err}");
+    let before = line_count(&trials);
+    assert!(before < 60, "the campaign finished before the signal");
+    let (code, err) = resume(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(line_count(&trials), 60, "no trial lost or repeated");
+    // The estimate on the finished campaign, stopped by each signal, then resumed.
+    for (signal, status) in [("INT", 130), ("TERM", 143)] {
+        let out = dir.join(format!("estimate-{signal}"));
+        let o = out.display().to_string();
+        let c = dir.display().to_string();
+        let mut args = vec![
+            "estimate",
+            &c,
+            "--out",
+            &o,
+            "--no-target",
+            "--max-runs",
+            "40",
+        ];
+        args.extend(["--jobs", "1"]);
+        let args: Vec<String> = args.iter().map(|s| s.to_string()).collect();
+        let lines = out.join("trials.jsonl");
+        let child = start_and_wait(&args, &lines, 3);
+        send(&child, signal);
+        let (code, err) = stopped(child);
+        assert_eq!(code, Some(status), "{signal}: {err}");
+        let hint = format!("continue with savme estimate {c} --out {o} --resume");
+        assert!(
+            err.contains(&hint) && err.contains("every one stored"),
+            "{signal}: {err}"
+        );
+        let told = line_count(&lines);
+        assert!(
+            told < 40,
+            "{signal}: the estimate finished before the signal"
+        );
+        let (code, _, err) = run(&["estimate", &c, "--out", &o, "--resume", "--quiet"]);
+        assert_eq!(code, Some(0), "{signal}: {err}");
+        assert_eq!(line_count(&lines), 40, "{signal}: no run lost or repeated");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_second_signal_quits_at_once_and_still_prints_the_resume_command() {
+    let dir = temp_dir("signals-twice");
+    let d = dir.display().to_string();
+    let args: Vec<String> = ["toy", "--out", &d, "--sleep-ms", "4000", "--jobs", "1"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    // The protocol exists once the campaign runs; its first run then sleeps 4 s.
+    let child = start_and_wait(&args, &dir.join("protocol.json"), 1);
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    send(&child, "INT");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let started = std::time::Instant::now();
+    send(&child, "TERM");
+    let (code, err) = stopped(child);
+    assert!(
+        started.elapsed() < std::time::Duration::from_secs(3),
+        "{err}"
+    );
+    assert_eq!(code, Some(143), "{err}");
+    assert!(
+        err.contains("quit at once") && err.contains(&format!("continue with --resume {d}")),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_run_that_would_never_end_is_refused_naming_the_flag_and_its_maximum() {
+    let dir = temp_dir("never-ends");
+    let d = dir.display().to_string();
+    let (code, _, err) = run(&["toy", "--out", &d, "--sleep-ms", "18446744073709551615"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("--sleep-ms") && err.contains("3600000 ms (one hour)"),
+        "{err}"
+    );
+    assert!(!dir.exists(), "nothing created");
+}
+
+#[test]
+fn jobs_zero_is_the_same_usage_error_for_every_command() {
+    let dir = temp_dir("jobs-zero");
+    let d = dir.display().to_string();
+    for args in [
+        vec!["estimate", &d, "--jobs", "0"],
+        vec!["reproduce", "--out", &d, "--jobs", "0"],
+        vec!["toy", "--out", &d, "--jobs", "0"],
+        vec![
+            "worker",
+            "--storage",
+            "postgresql://localhost/x",
+            "--jobs",
+            "0",
+        ],
+    ] {
+        let (code, _, err) = run(&args);
+        assert_eq!(code, Some(2), "{args:?}: {err}");
+        assert!(
+            err.contains("'0' for '--jobs <JOBS>': must be at least 1"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!dir.exists());
+}
+
+#[test]
+fn a_value_that_is_no_number_is_named_as_such_not_as_outside_the_variable() {
+    let phi = "ego_speed=abc,intruder_speed=10,time_offset=0";
+    let (code, _, err) = run(&["simulate", "--scenario", "1", "--phi", phi]);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(
+        err.contains("value abc of variable `ego_speed` is not a number")
+            && !err.contains("outside"),
+        "{err}"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn a_dangling_output_link_and_a_missing_journal_directory_are_named() {
+    let home = made_dir("dangling");
+    let out = home.join("out");
+    let gone = home.join("gone");
+    link(&gone, &out);
+    let (code, err) = reproduce(&out);
+    assert_ne!(code, Some(0), "{err}");
+    assert!(
+        err.contains(&out.display().to_string())
+            && err.contains(&format!(
+                "is a symbolic link to {}, which does not exist",
+                gone.display()
+            )),
+        "{err}"
+    );
+    assert!(!err.contains("os error 17") && !gone.exists(), "{err}");
+    let journal = home.join("missing").join("j");
+    let (code, err) = serve(&["--journal", journal.to_str().unwrap()]);
+    assert_ne!(code, Some(0), "{err}");
+    let dir = home.join("missing").display().to_string();
+    assert!(
+        err.contains(&format!("its directory {dir} does not exist")) && !err.contains("j.lock"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&home);
+}
