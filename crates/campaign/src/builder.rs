@@ -206,9 +206,21 @@ impl<'o> Campaign<'o> {
             }
         }
         drop(store);
+        self.write_outcome(files, &logged, &all_lines, clock)
+    }
 
+    /// The report and the output files of a campaign whose stages are done: `logged` were
+    /// replayed, `all_lines` are every stage's lines.
+    fn write_outcome(
+        &self,
+        files: Outputs,
+        logged: &[LogLine],
+        all_lines: &[LogLine],
+        clock: Instant,
+    ) -> Result<CampaignOutcome, CampaignError> {
+        let p = &self.protocol;
         let count = |l: &[LogLine]| l.iter().filter(|x| x.is_told()).count() as u64;
-        let replayed = count(&logged);
+        let replayed = count(logged);
         let trials: Vec<TrialLine> = all_lines
             .iter()
             .filter_map(|l| l.trial().cloned())
@@ -223,7 +235,7 @@ impl<'o> Campaign<'o> {
         let elapsed = clock.elapsed().as_secs_f64();
         outputs::write(&report, &trials, failed, &files, &self.problem, elapsed)?;
         Ok(CampaignOutcome {
-            ran: count(&all_lines) - replayed,
+            ran: count(all_lines) - replayed,
             report,
             outputs: files,
             replayed,

@@ -192,12 +192,25 @@ impl RepeatedReport {
         }
     }
 
-    /// Table III with intervals, meta-testing and the ablation (Markdown).
-    // Long because it is one document: four tables written in order.
+    /// Table III with intervals, meta-testing, the screening and the ablation (Markdown):
+    /// one document, its sections written in order.
     pub fn table_md(&self) -> String {
+        let mut s = String::new();
+        self.table_iii(&mut s);
+        self.meta_testing_md(&mut s);
+        if self.budgets.iter().any(|b| b.screening.is_some()) {
+            self.screening_md(&mut s);
+        }
+        if self.budgets.iter().any(|b| !b.ablation.is_empty()) {
+            self.ablation_md(&mut s);
+        }
+        s
+    }
+
+    /// Table III over the seeds.
+    fn table_iii(&self, s: &mut String) {
         let p = &self.protocol;
         let n = self.seeds.len();
-        let mut s = String::new();
         let _ = writeln!(
             s,
             "# Meta-training results over {n} seeds (the paper's Table III with 95 % intervals)\n"
@@ -239,6 +252,11 @@ impl RepeatedReport {
                 b.break_even.defined(),
             );
         }
+    }
+
+    /// The meta-testing section.
+    fn meta_testing_md(&self, s: &mut String) {
+        let p = &self.protocol;
         let _ = writeln!(s, "\n{}", super::TABLE_III_LEGEND);
         let _ = writeln!(
             s,
@@ -270,61 +288,66 @@ impl RepeatedReport {
                 m.gain_vs_baseline.show(2),
             );
         }
-        if self.budgets.iter().any(|b| b.screening.is_some()) {
-            let _ = writeln!(
-                s,
-                "\n## LF screening with HF confirmation ({} trials per budget and seed, audit α = {})\n",
-                p.screen_iterations, p.audit_fraction
-            );
-            let _ = writeln!(
-                s,
-                "| C_budget | confirmed failures / runtime vs paired evaluation | vs HF-only baseline | LF failures confirmed (pooled) | miss rate of LF passes (pooled audit) | meta-testing gain vs uniform (screened) |"
-            );
-            let _ = writeln!(s, "|---|---|---|---|---|---|");
-            for b in &self.budgets {
-                if let Some(x) = &b.screening {
-                    let _ = writeln!(
-                        s,
-                        "| {} | {} × | {} × | {} | {} | {} |",
-                        b.budget,
-                        x.vs_paired.show(2),
-                        x.vs_baseline.show(1),
-                        show_opt(x.confirmed_share.pooled, 3),
-                        show_opt(x.miss_rate.pooled, 3),
-                        b.meta_testing.gain_vs_uniform_screened.show(2),
-                    );
-                }
+    }
+
+    /// The screening section.
+    fn screening_md(&self, s: &mut String) {
+        let p = &self.protocol;
+        let _ = writeln!(
+            s,
+            "\n## LF screening with HF confirmation ({} trials per budget and seed, audit α = {})\n",
+            p.screen_iterations, p.audit_fraction
+        );
+        let _ = writeln!(
+            s,
+            "| C_budget | confirmed failures / runtime vs paired evaluation | vs HF-only baseline | LF failures confirmed (pooled) | miss rate of LF passes (pooled audit) | meta-testing gain vs uniform (screened) |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|");
+        for b in &self.budgets {
+            if let Some(x) = &b.screening {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} × | {} × | {} | {} | {} |",
+                    b.budget,
+                    x.vs_paired.show(2),
+                    x.vs_baseline.show(1),
+                    show_opt(x.confirmed_share.pooled, 3),
+                    show_opt(x.miss_rate.pooled, 3),
+                    b.meta_testing.gain_vs_uniform_screened.show(2),
+                );
             }
         }
-        if self.budgets.iter().any(|b| !b.ablation.is_empty()) {
-            let _ = writeln!(
-                s,
-                "\n## Prior-strength ablation of meta-testing\n\nStrength 0 is the uniform prior, \
-                 {} the protocol's learned prior. Gain = found failures / the uniform prior's − 1 \
-                 by the common runtime of all strengths.\n",
-                p.prior_strength
-            );
-            let _ = writeln!(
-                s,
-                "| C_budget | strength | found (every run) | gain (every run) | gain (LF only) | mean LF cost |"
-            );
-            let _ = writeln!(s, "|---|---|---|---|---|---|");
-            for b in &self.budgets {
-                for r in &b.ablation {
-                    let _ = writeln!(
-                        s,
-                        "| {} | {} | {} | {} | {} | {} |",
-                        b.budget,
-                        r.strength,
-                        r.found.show(1),
-                        r.gain_all_runs.show(2),
-                        r.gain_lf_only.show(2),
-                        r.mean_lf_cost.show(3)
-                    );
-                }
+    }
+
+    /// The prior-strength ablation section.
+    fn ablation_md(&self, s: &mut String) {
+        let p = &self.protocol;
+        let _ = writeln!(
+            s,
+            "\n## Prior-strength ablation of meta-testing\n\nStrength 0 is the uniform prior, \
+             {} the protocol's learned prior. Gain = found failures / the uniform prior's − 1 \
+             by the common runtime of all strengths.\n",
+            p.prior_strength
+        );
+        let _ = writeln!(
+            s,
+            "| C_budget | strength | found (every run) | gain (every run) | gain (LF only) | mean LF cost |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|");
+        for b in &self.budgets {
+            for r in &b.ablation {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {} |",
+                    b.budget,
+                    r.strength,
+                    r.found.show(1),
+                    r.gain_all_runs.show(2),
+                    r.gain_lf_only.show(2),
+                    r.mean_lf_cost.show(3)
+                );
             }
         }
-        s
     }
 }
 
