@@ -93,32 +93,45 @@ pub fn run(a: Args) -> Result<(), Failure> {
         &backend,
     )?;
     if let Some(settings) = estimate {
-        let hint = format!(
-            "continue with savme run --config {} --resume {}",
-            config.display(),
-            out.display()
-        );
-        let outcome = compose::EstimateStage {
+        let stage = compose::EstimateStage {
             campaign: place,
             out: out.clone(),
             problem: c.problem,
             settings,
             jobs: a.runner.jobs(),
-            stop: super::signals::stop_on_signals(&hint),
-        }
-        .run(compose::estimate_progress_lines(a.runner.quiet()), &backend)
+            stop: savme::campaign::Stop::new(),
+        };
+        run_estimate_stage(stage, &config, a.runner.quiet(), &backend)?;
+    }
+    Ok(())
+}
+
+/// The campaign file's `[estimate]` stage, after its campaign; a signal stops it between runs
+/// with the command that resumes it.
+fn run_estimate_stage(
+    mut stage: compose::EstimateStage,
+    config: &std::path::Path,
+    quiet: bool,
+    backend: &FmuBackend,
+) -> Result<(), Failure> {
+    let hint = format!(
+        "continue with savme run --config {} --resume {}",
+        config.display(),
+        stage.out.display()
+    );
+    stage.stop = super::signals::stop_on_signals(&hint);
+    let outcome = stage
+        .run(compose::estimate_progress_lines(quiet), backend)
         .map_err(|e| {
             super::estimate::interrupted(e, &hint)
                 .unwrap_or_else(|e| Failure::Runtime(e.to_string()))
         })?;
-        super::print(&format!(
-            "{}\nestimate written to {}\n",
-            outcome.table_md,
-            outcome.out.display()
-        ))
-        .map_err(Failure::Runtime)?;
-    }
-    Ok(())
+    super::print(&format!(
+        "{}\nestimate written to {}\n",
+        outcome.table_md,
+        outcome.out.display()
+    ))
+    .map_err(Failure::Runtime)
 }
 
 /// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the
