@@ -44,6 +44,7 @@ mod outcome;
 mod posterior;
 mod sampler;
 pub mod screening;
+mod search;
 mod simulator;
 mod space;
 mod value;
@@ -54,6 +55,7 @@ pub use kernel::{
 };
 pub use outcome::{Credit, Observation, Outcome, Run};
 pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
+pub use search::{EliteMixture, SearchError, SearchModel};
 pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};
 pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
 pub use value::{Assignment, Value};
