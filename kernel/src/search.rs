@@ -89,6 +89,11 @@ pub struct EliteMixture {
     /// Novelty: an elite's weight is divided by `1 + spread × (failures in its joint cell)`
     /// (finite, ≥ 0; 0 = every elite alike).
     pub spread: f64,
+    /// Candidates per kernel draw, at least 1. The one with the highest score wins: the
+    /// Parzen estimate of its failure probability (failures, and near-misses at their weight,
+    /// against all archived trials, Gaussian kernels of the same bandwidth) divided by
+    /// `1 + trials already in its joint cell` — likely failures in cells not yet tried.
+    pub tries: u32,
     /// Most trials kept per scenario (the oldest go first); at least 1.
     pub archive: usize,
 }
@@ -102,6 +107,7 @@ impl Default for EliteMixture {
             near_miss: 0.1,
             near_miss_weight: 0.5,
             spread: 1.0,
+            tries: 4,
             archive: 4096,
         }
     }
@@ -143,6 +149,8 @@ impl EliteMixture {
         check("near_miss_weight", w, w.is_finite() && w >= 0.0, "[0, ∞)")?;
         let s = self.spread;
         check("spread", s, s.is_finite() && s >= 0.0, "[0, ∞)")?;
+        let t = f64::from(self.tries);
+        check("tries", t, self.tries >= 1, "[1, ∞)")?;
         let a = self.archive as f64;
         check("archive", a, self.archive >= 1, "[1, ∞)")
     }
@@ -160,6 +168,20 @@ pub(crate) struct Point {
     /// The HF run's robustness, if reported.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     robustness: Option<f64>,
+}
+
+impl Point {
+    /// 1 for a failure, the near-miss weight for a pass at or below the near-miss
+    /// `threshold`, 0 otherwise.
+    fn weight(&self, m: &EliteMixture, threshold: Option<f64>) -> f64 {
+        if self.failure {
+            1.0
+        } else if self.robustness.zip(threshold).is_some_and(|(r, t)| r <= t) {
+            m.near_miss_weight
+        } else {
+            0.0
+        }
+    }
 }
 
 /// The told trials of one scenario ([`SearchModel::EliteMixture`]'s state).
@@ -214,7 +236,10 @@ impl Archive {
         arms: &mut Vec<u16>,
     ) -> Assignment {
         let explore: f64 = rng.random();
-        let elites = self.elites(m);
+        let tried = self.tried_cells();
+        let threshold = self.near_miss_threshold(m.near_miss);
+        let weights: Vec<f64> = self.points.iter().map(|p| p.weight(m, threshold)).collect();
+        let elites = self.elites(m, &tried, &weights);
         let total: f64 = elites.iter().map(|e| e.1).sum();
         if explore < m.explore || !(total > 0.0) {
             let start = arms.len();
@@ -231,35 +256,76 @@ impl Archive {
             .map_or(elites[elites.len() - 1].0, |e| e.0);
         let wide = rng.random::<f64>() < m.jump;
         let sd = m.bandwidth * if wide { 4.0 } else { 1.0 };
-        let u: Vec<f64> = self.points[centre]
-            .u
-            .iter()
-            .map(|&c| reflect(c + sd * rng.sample::<f64, _>(StandardNormal)))
-            .collect();
-        space.from_unit(&u, arms)
+        let start = arms.len();
+        let mut best: Option<(f64, Vec<u16>, Assignment)> = None;
+        for _ in 0..m.tries {
+            let u: Vec<f64> = self.points[centre]
+                .u
+                .iter()
+                .map(|&c| reflect(c + sd * rng.sample::<f64, _>(StandardNormal)))
+                .collect();
+            let mut cell = Vec::with_capacity(u.len());
+            let phi = space.from_unit(&u, &mut cell);
+            let score = if m.tries > 1 {
+                let visits = tried.get(&*cell).map_or(0, |c| c.0);
+                self.failure_odds(&u, m, &weights) / (1.0 + f64::from(visits))
+            } else {
+                0.0
+            };
+            if best.as_ref().is_none_or(|b| score > b.0) {
+                best = Some((score, cell, phi));
+            }
+        }
+        arms.truncate(start);
+        match best {
+            Some((_, cell, phi)) => {
+                arms.extend(cell);
+                phi
+            }
+            None => space.from_unit(&self.points[centre].u, arms),
+        }
+    }
+
+    /// The Parzen estimate of the failure probability at `u`: Σ K·w / (Σ K + 1) + ½-prior,
+    /// with `w` = 1 for failures, the near-miss weight for near-misses, 0 otherwise.
+    fn failure_odds(&self, u: &[f64], m: &EliteMixture, weights: &[f64]) -> f64 {
+        let inv = -0.5 / (m.bandwidth * m.bandwidth);
+        let (mut hit, mut all) = (0.5, 1.0);
+        for (p, w) in self.points.iter().zip(weights) {
+            let d2: f64 = p.u.iter().zip(u).map(|(a, b)| (a - b) * (a - b)).sum();
+            let k = (d2 * inv).exp();
+            hit += k * w;
+            all += k;
+        }
+        hit / all
+    }
+
+    /// Per joint cell in the archive: (trials, failures).
+    fn tried_cells(&self) -> BTreeMap<&[u16], (u32, u32)> {
+        let mut cells: BTreeMap<&[u16], (u32, u32)> = BTreeMap::new();
+        for p in &self.points {
+            let c = cells.entry(&p.cell).or_default();
+            c.0 += 1;
+            c.1 += u32::from(p.failure);
+        }
+        cells
     }
 
     /// The centres of the mixture: (index of the point, weight > 0).
-    fn elites(&self, m: &EliteMixture) -> Vec<(usize, f64)> {
-        let mut failing: BTreeMap<&[u16], f64> = BTreeMap::new();
-        for p in self.points.iter().filter(|p| p.failure) {
-            *failing.entry(&p.cell).or_default() += 1.0;
-        }
-        let threshold = self.near_miss_threshold(m.near_miss);
-        let novelty = |p: &Point| 1.0 / (1.0 + m.spread * failing.get(&*p.cell).unwrap_or(&0.0));
+    fn elites(
+        &self,
+        m: &EliteMixture,
+        tried: &BTreeMap<&[u16], (u32, u32)>,
+        weights: &[f64],
+    ) -> Vec<(usize, f64)> {
+        let failures = |p: &Point| tried.get(&*p.cell).map_or(0.0, |c| f64::from(c.1));
+        let novelty = |p: &Point| 1.0 / (1.0 + m.spread * failures(p));
         self.points
             .iter()
+            .zip(weights)
             .enumerate()
-            .filter_map(|(i, p)| {
-                let w = if p.failure {
-                    1.0
-                } else if p.robustness.zip(threshold).is_some_and(|(r, t)| r <= t) {
-                    m.near_miss_weight
-                } else {
-                    return None;
-                };
-                Some((i, w * novelty(p))).filter(|e| e.1 > 0.0)
-            })
+            .map(|(i, (p, w))| (i, w * novelty(p)))
+            .filter(|e| e.1 > 0.0)
             .collect()
     }
 

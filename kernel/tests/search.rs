@@ -39,24 +39,34 @@ fn elite() -> SearchModel {
     SearchModel::EliteMixture(EliteMixture::default())
 }
 
-/// Distance of `t`'s φ from a compact joint corner (≤ 0 inside: a failure). The corner
-/// `[0.62, 0.9]³` holds 2.2 % of the uniform mass, spread over 27 joint cells; "other" fails
-/// when x > 60 and mode = fast.
+/// Distance of `t`'s φ from a joint failure region of "corner" (≤ 0 inside: a failure): the
+/// diagonal band `|a − b| < 0.05` with `c` in `[0.6, 0.9]`, 2.9 % of the uniform mass. Its
+/// marginals in `a` and `b` are flat, so independent bins cannot concentrate on it. "other"
+/// fails when x > 60 and mode = fast.
 fn margin(t: &Trial) -> f64 {
     if &*t.scenario == "other" {
         let x = t.phi.get_f64("x").unwrap();
         let fast = t.phi.get("mode").unwrap().to_string().contains("fast");
         return if fast { (60.0 - x) / 100.0 } else { 0.5 };
     }
-    VARS.iter()
-        .map(|n| {
-            let v = t.phi.get_f64(n).unwrap();
-            (0.62 - v).max(v - 0.9)
-        })
-        .fold(f64::NEG_INFINITY, f64::max)
+    let [a, b, c] = VARS.map(|n| t.phi.get_f64(n).unwrap());
+    ((a - b).abs() - 0.05).max(0.6 - c).max(c - 0.9)
+}
+
+/// A needle: `|a − b| < 0.02` with `c` in `[0.85, 0.95]`, 0.4 % of the uniform mass.
+fn needle(t: &Trial) -> f64 {
+    if &*t.scenario == "other" {
+        return margin(t);
+    }
+    let [a, b, c] = VARS.map(|n| t.phi.get_f64(n).unwrap());
+    ((a - b).abs() - 0.02).max(0.85 - c).max(c - 0.95)
 }
 
 fn observe(t: &Trial, robust: bool) -> Observation {
+    observe_with(t, robust, margin)
+}
+
+fn observe_with(t: &Trial, robust: bool, margin: fn(&Trial) -> f64) -> Observation {
     let m = margin(t);
     let mut hf = Run::new(m <= 0.0, if m <= 0.0 { 0.5 } else { 1.0 });
     if robust {
@@ -69,11 +79,21 @@ fn observe(t: &Trial, robust: bool) -> Observation {
 
 /// HF failures and distinct failing joint cells of "corner" after `n` trials.
 fn hunt(search: SearchModel, seed: u64, n: usize, robust: bool) -> (usize, usize) {
+    hunt_with(search, seed, n, robust, margin)
+}
+
+fn hunt_with(
+    search: SearchModel,
+    seed: u64,
+    n: usize,
+    robust: bool,
+    margin: fn(&Trial) -> f64,
+) -> (usize, usize) {
     let mut k = Kernel::new(config(search, seed)).unwrap();
     let (mut fails, mut cells) = (0, BTreeSet::new());
     for _ in 0..n {
         let t = k.ask();
-        let r = k.tell(t.id, observe(&t, robust)).unwrap();
+        let r = k.tell(t.id, observe_with(&t, robust, margin)).unwrap();
         if r.observation.hf().failure && &*t.scenario == "corner" {
             fails += 1;
             let space = &k.config().scenarios[0].space;
@@ -81,6 +101,18 @@ fn hunt(search: SearchModel, seed: u64, n: usize, robust: bool) -> (usize, usize
         }
     }
     (fails, cells.len())
+}
+
+#[test]
+#[ignore = "prints the figures the margins below are set from"]
+fn print_hunts() {
+    for seed in 1..=5 {
+        let b = hunt(SearchModel::IndependentBins, seed, 400, true);
+        let e = hunt(elite(), seed, 400, true);
+        let r = hunt_with(elite(), seed, 300, true, needle);
+        let n = hunt_with(elite(), seed, 300, false, needle);
+        println!("seed {seed}: bins {b:?} elite {e:?} needle robust {r:?} needle binary {n:?}");
+    }
 }
 
 #[test]
@@ -161,10 +193,12 @@ fn journal_replay_rebuilds_the_archive_with_batched_out_of_order_tells() {
     }
 }
 
-/// Over seeds 1–5, 400 trials each, the elite mixture finds at least 3× the paper's HF
-/// failures in the joint corner and at least 1.5× the distinct failing joint cells.
+/// Over seeds 1–5, 400 trials each, on the diagonal band: the paper's bins lock onto one or
+/// two cells of the band (42 failing cells in all when this was written, 401 failures), the
+/// elite mixture spreads along it (164 cells, 365 failures). Claims: ≥ 3× the distinct
+/// failing cells, ≥ 0.75× the failures, and ≥ 20 failing cells in every seed.
 #[test]
-fn the_elite_mixture_beats_independent_bins_on_a_joint_corner() {
+fn the_elite_mixture_covers_a_joint_failure_band() {
     let total = |search: SearchModel| {
         (1..=5).fold((0, 0), |acc, seed| {
             let (f, c) = hunt(search, seed, 400, true);
@@ -173,27 +207,26 @@ fn the_elite_mixture_beats_independent_bins_on_a_joint_corner() {
     };
     let (bf, bc) = total(SearchModel::IndependentBins);
     let (ef, ec) = total(elite());
-    assert!(ef >= 3 * bf, "failures: elite {ef} vs bins {bf}");
-    assert!(2 * ec >= 3 * bc, "cells: elite {ec} vs bins {bc}");
-    // It keeps exploring: most of the corner's 27 cells are found in every seed.
+    assert!(ec >= 3 * bc, "cells: elite {ec} vs bins {bc}");
+    assert!(4 * ef >= 3 * bf, "failures: elite {ef} vs bins {bf}");
     for seed in 1..=5 {
         let (_, c) = hunt(elite(), seed, 400, true);
-        assert!(c >= 18, "seed {seed}: {c} of 27 failing cells");
+        assert!(c >= 20, "seed {seed}: {c} failing cells");
     }
 }
 
-/// Near-misses lead the search to the corner before any failure is seen: with robustness it
-/// finds more failures than with the failure flag alone (seeds 1–5, 250 trials each).
+/// Near-misses lead the search to a needle (0.4 % of the mass): seeds 1–5, 300 trials each,
+/// with robustness it found 87 failures, with the failure flag alone 39. Claim: ≥ 1.5×.
 #[test]
-fn robustness_speeds_up_the_hunt() {
+fn robustness_finds_the_needle_sooner() {
     let total = |robust| {
         (1..=5)
-            .map(|s| hunt(elite(), s, 250, robust).0)
+            .map(|s| hunt_with(elite(), s, 300, robust, needle).0)
             .sum::<usize>()
     };
     let (with, without) = (total(true), total(false));
     assert!(
-        4 * with >= 5 * without,
+        2 * with >= 3 * without,
         "with robustness {with}, without {without}"
     );
 }

@@ -11,7 +11,8 @@
 //!
 //! `budget_gwu` in 10⁹ work units (default 15, about the paper's 500 iterations), `seeds` a
 //! count (default 3, seeds 1..=n), `threads` (default 2), `models` a comma list of
-//! `bins,elite,elite-binary` (default all three; `elite-binary` ignores robustness).
+//! `bins` and `elite[+key=value…][+binary]` (default `bins,elite`; `+binary` tells no
+//! robustness, so the elites are failures only).
 use savme_kernel::{EliteMixture, Kernel, Observation, Run, SearchModel};
 use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
@@ -31,12 +32,32 @@ struct Tally {
     per_scenario: BTreeMap<usize, (u64, u64)>,
 }
 
-fn model(name: &str) -> Result<SearchModel, String> {
-    match name {
-        "bins" => Ok(SearchModel::IndependentBins),
-        "elite" | "elite-binary" => Ok(SearchModel::EliteMixture(EliteMixture::default())),
-        other => Err(format!("model `{other}`: use bins, elite or elite-binary")),
+/// `bins`, or `elite` with optional `+key=value` parameters of [`EliteMixture`] and `+binary`
+/// (tell no robustness), e.g. `elite+explore=0.1+tries=8`.
+fn model(spec: &str) -> Result<SearchModel, String> {
+    let mut parts = spec.split('+');
+    match parts.next() {
+        Some("bins") => return Ok(SearchModel::IndependentBins),
+        Some("elite") => {}
+        _ => return Err(format!("model `{spec}`: use bins or elite[+key=value…]")),
     }
+    let mut m = EliteMixture::default();
+    for p in parts.filter(|p| *p != "binary") {
+        let (key, value) = p.split_once('=').ok_or(format!("`{p}`: use key=value"))?;
+        let x: f64 = value.parse().map_err(|e| format!("`{p}`: {e}"))?;
+        match key {
+            "explore" => m.explore = x,
+            "bandwidth" => m.bandwidth = x,
+            "jump" => m.jump = x,
+            "near_miss" => m.near_miss = x,
+            "near_miss_weight" => m.near_miss_weight = x,
+            "spread" => m.spread = x,
+            "tries" => m.tries = x as u32,
+            other => return Err(format!("unknown parameter `{other}`")),
+        }
+    }
+    m.validate().map_err(|e| e.to_string())?;
+    Ok(SearchModel::EliteMixture(m))
 }
 
 fn search(name: &str, seed: u64, budget: u64) -> Result<Tally, Box<dyn std::error::Error>> {
@@ -50,7 +71,7 @@ fn search(name: &str, seed: u64, budget: u64) -> Result<Tally, Box<dyn std::erro
     }
     let mut k = b.build()?;
     let sim = DrivingSimulator::default();
-    let robust = name != "elite-binary";
+    let robust = !name.split('+').any(|p| p == "binary");
     let mut t = Tally::default();
     while t.work < budget {
         let trial = k.ask();
@@ -104,7 +125,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let threads: usize = args.next().map_or(Ok(2), |a| a.parse())?;
     let models: Vec<String> = args
         .next()
-        .unwrap_or_else(|| "bins,elite,elite-binary".into())
+        .unwrap_or_else(|| "bins,elite".into())
         .split(',')
         .map(str::to_string)
         .collect();
