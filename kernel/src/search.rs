@@ -194,7 +194,7 @@ impl Archive {
     /// Keeps a told trial: φ as drawn (`phi`, its `arms`) and the HF run.
     pub(crate) fn record(&mut self, space: &Space, phi: &Assignment, arms: &[u16], hf: &Run) {
         self.points.push_back(Point {
-            u: space.to_unit(phi, arms),
+            u: space.unit_of(phi, arms),
             cell: arms.to_vec(),
             failure: hf.failure,
             robustness: hf.robustness,
@@ -241,7 +241,7 @@ impl Archive {
         let weights: Vec<f64> = self.points.iter().map(|p| p.weight(m, threshold)).collect();
         let elites = self.elites(m, &tried, &weights);
         let total: f64 = elites.iter().map(|e| e.1).sum();
-        if explore < m.explore || !(total > 0.0) {
+        if explore < m.explore || total.is_nan() || total <= 0.0 {
             let start = arms.len();
             bins.thompson(rng, arms);
             return space.draw(&arms[start..], rng);
@@ -265,7 +265,7 @@ impl Archive {
                 .map(|&c| reflect(c + sd * rng.sample::<f64, _>(StandardNormal)))
                 .collect();
             let mut cell = Vec::with_capacity(u.len());
-            let phi = space.from_unit(&u, &mut cell);
+            let phi = space.at_unit(&u, &mut cell);
             let score = if m.tries > 1 {
                 let visits = tried.get(&*cell).map_or(0, |c| c.0);
                 self.failure_odds(&u, m, &weights) / (1.0 + f64::from(visits))
@@ -282,7 +282,7 @@ impl Archive {
                 arms.extend(cell);
                 phi
             }
-            None => space.from_unit(&self.points[centre].u, arms),
+            None => space.at_unit(&self.points[centre].u, arms),
         }
     }
 

@@ -614,7 +614,7 @@ impl Space {
     /// value at `(x − lo) / (hi − lo)` (linear) or `ln(x / lo) / ln(hi / lo)` (log), a
     /// discrete value at the centre of its arm's slice `(arm + ½) / n`. `arms` are the arms of
     /// `phi` (one per variable, as drawn).
-    pub(crate) fn to_unit(&self, phi: &Assignment, arms: &[u16]) -> Vec<f64> {
+    pub(crate) fn unit_of(&self, phi: &Assignment, arms: &[u16]) -> Vec<f64> {
         self.vars
             .iter()
             .zip(arms)
@@ -638,10 +638,10 @@ impl Space {
             .collect()
     }
 
-    /// The inverse of [`Space::to_unit`]: the arms and the assignment at unit-cube position `u`
+    /// The inverse of [`Space::unit_of`]: the arms and the assignment at unit-cube position `u`
     /// (one coordinate per variable, each clamped into `[0, 1]`); a discrete variable takes
     /// the value whose slice holds its coordinate.
-    pub(crate) fn from_unit(&self, u: &[f64], arms: &mut Vec<u16>) -> Assignment {
+    pub(crate) fn at_unit(&self, u: &[f64], arms: &mut Vec<u16>) -> Assignment {
         let values = self
             .vars
             .iter()
