@@ -86,6 +86,9 @@ pub struct EliteMixture {
     pub near_miss: f64,
     /// Weight of a near-miss relative to a failure as a centre (finite, ≥ 0).
     pub near_miss_weight: f64,
+    /// Near-misses count only while the scenario's archive holds fewer failures than this:
+    /// they lead the search to failures, then the failures lead (0 = never).
+    pub near_miss_until: u32,
     /// Novelty: an elite's weight is divided by `1 + spread × (failures in its joint cell)`
     /// (finite, ≥ 0; 0 = every elite alike).
     pub spread: f64,
@@ -106,6 +109,7 @@ impl Default for EliteMixture {
             jump: 0.2,
             near_miss: 0.1,
             near_miss_weight: 0.5,
+            near_miss_until: 20,
             spread: 1.0,
             tries: 4,
             archive: 4096,
@@ -237,7 +241,12 @@ impl Archive {
     ) -> Assignment {
         let explore: f64 = rng.random();
         let tried = self.tried_cells();
-        let threshold = self.near_miss_threshold(m.near_miss);
+        let failures = self.points.iter().filter(|p| p.failure).count();
+        let threshold = if failures < m.near_miss_until as usize {
+            self.near_miss_threshold(m.near_miss)
+        } else {
+            None
+        };
         let weights: Vec<f64> = self.points.iter().map(|p| p.weight(m, threshold)).collect();
         let elites = self.elites(m, &tried, &weights);
         let total: f64 = elites.iter().map(|e| e.1).sum();

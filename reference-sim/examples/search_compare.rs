@@ -52,6 +52,7 @@ fn model(spec: &str) -> Result<SearchModel, String> {
             "near_miss" => m.near_miss = x,
             "near_miss_weight" => m.near_miss_weight = x,
             "spread" => m.spread = x,
+            "near_miss_until" => m.near_miss_until = x as u32,
             "tries" => m.tries = x as u32,
             other => return Err(format!("unknown parameter `{other}`")),
         }
