@@ -82,7 +82,9 @@ pub struct EliteMixture {
     pub jump: f64,
     /// Fraction of passing runs counted as near-misses: those whose HF robustness is in the
     /// lowest `near_miss` quantile of the scenario's passes (in `[0, 1)`; 0 = failures only;
-    /// runs without a robustness are never near-misses).
+    /// runs without a robustness are never near-misses). Default 0: on the bundled
+    /// simulator's eight scenarios near-misses (by clearance) cost failures per work unit
+    /// (docs/RESULTS.md, issue 25); on a needle-like failure region they find it sooner.
     pub near_miss: f64,
     /// Weight of a near-miss relative to a failure as a centre (finite, ≥ 0).
     pub near_miss_weight: f64,
@@ -107,7 +109,7 @@ impl Default for EliteMixture {
             explore: 0.2,
             bandwidth: 0.06,
             jump: 0.2,
-            near_miss: 0.1,
+            near_miss: 0.0,
             near_miss_weight: 0.5,
             near_miss_until: 20,
             spread: 1.0,

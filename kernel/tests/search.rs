@@ -39,6 +39,14 @@ fn elite() -> SearchModel {
     SearchModel::EliteMixture(EliteMixture::default())
 }
 
+/// The elite mixture learning from near-misses (the lowest 10 % of passing margins).
+fn near_misses() -> SearchModel {
+    SearchModel::EliteMixture(EliteMixture {
+        near_miss: 0.1,
+        ..EliteMixture::default()
+    })
+}
+
 /// Distance of `t`'s φ from a joint failure region of "corner" (≤ 0 inside: a failure): the
 /// diagonal band `|a − b| < 0.05` with `c` in `[0.6, 0.9]`, 2.9 % of the uniform mass. Its
 /// marginals in `a` and `b` are flat, so independent bins cannot concentrate on it. "other"
@@ -109,8 +117,8 @@ fn print_hunts() {
     for seed in 1..=5 {
         let b = hunt(SearchModel::IndependentBins, seed, 400, true);
         let e = hunt(elite(), seed, 400, true);
-        let r = hunt_with(elite(), seed, 300, true, needle);
-        let n = hunt_with(elite(), seed, 300, false, needle);
+        let r = hunt_with(near_misses(), seed, 300, true, needle);
+        let n = hunt_with(near_misses(), seed, 300, false, needle);
         println!("seed {seed}: bins {b:?} elite {e:?} needle robust {r:?} needle binary {n:?}");
     }
 }
@@ -148,7 +156,7 @@ fn the_elite_mixture_is_deterministic_from_the_seed() {
 
 #[test]
 fn snapshots_restore_the_archive_and_the_same_asks() {
-    let mut k = Kernel::new(config(elite(), 9)).unwrap();
+    let mut k = Kernel::new(config(near_misses(), 9)).unwrap();
     for _ in 0..200 {
         let t = k.ask();
         k.tell(t.id, observe(&t, true)).unwrap();
@@ -173,7 +181,7 @@ fn snapshots_restore_the_archive_and_the_same_asks() {
 
 #[test]
 fn journal_replay_rebuilds_the_archive_with_batched_out_of_order_tells() {
-    let mut log = Journaled::start(config(elite(), 3), Vec::new()).unwrap();
+    let mut log = Journaled::start(config(near_misses(), 3), Vec::new()).unwrap();
     for round in 0..40 {
         let batch = log.ask_batch(6).unwrap();
         // Tell in reverse order, leaving the last batch's first trial pending.
@@ -195,8 +203,8 @@ fn journal_replay_rebuilds_the_archive_with_batched_out_of_order_tells() {
 
 /// Over seeds 1–5, 400 trials each, on the diagonal band: the paper's bins lock onto one or
 /// two cells of the band (42 failing cells in all when this was written, 401 failures), the
-/// elite mixture spreads along it (147 cells, 362 failures). Claims: ≥ 3× the distinct
-/// failing cells, ≥ 0.75× the failures, and ≥ 15 failing cells in every seed.
+/// elite mixture spreads along it (160 cells, 390 failures). Claims: ≥ 3× the distinct
+/// failing cells, ≥ 0.75× the failures, and ≥ 20 failing cells in every seed.
 #[test]
 fn the_elite_mixture_covers_a_joint_failure_band() {
     let total = |search: SearchModel| {
@@ -211,17 +219,18 @@ fn the_elite_mixture_covers_a_joint_failure_band() {
     assert!(4 * ef >= 3 * bf, "failures: elite {ef} vs bins {bf}");
     for seed in 1..=5 {
         let (_, c) = hunt(elite(), seed, 400, true);
-        assert!(c >= 15, "seed {seed}: {c} failing cells");
+        assert!(c >= 20, "seed {seed}: {c} failing cells");
     }
 }
 
 /// Near-misses lead the search to a needle (0.4 % of the mass): seeds 1–5, 300 trials each,
-/// with robustness it found 87 failures, with the failure flag alone 39. Claim: ≥ 1.5×.
+/// with robustness (near_miss = 0.1) it found 83 failures, with the failure flag alone 39.
+/// Claim: ≥ 1.5×.
 #[test]
 fn robustness_finds_the_needle_sooner() {
     let total = |robust| {
         (1..=5)
-            .map(|s| hunt_with(elite(), s, 300, robust, needle).0)
+            .map(|s| hunt_with(near_misses(), s, 300, robust, needle).0)
             .sum::<usize>()
     };
     let (with, without) = (total(true), total(false));
