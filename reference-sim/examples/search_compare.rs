@@ -7,12 +7,13 @@
 //! reports HF failures per 10⁹ work units and distinct failing joint cells (10 bins per
 //! variable, the φ-spaces' own bins), with a per-scenario breakdown.
 //!
-//! `cargo run --release -p savme-sim --example search_compare -- [budget_gwu] [seeds] [threads] [models]`
+//! `cargo run --release -p savme-sim --example search_compare -- [budget_gwu] [seeds] [threads] [models] [train|test]`
 //!
 //! `budget_gwu` in 10⁹ work units (default 15, about the paper's 500 iterations), `seeds` a
 //! count (default 3, seeds 1..=n), `threads` (default 2), `models` a comma list of
 //! `bins` and `elite[+key=value…][+binary]` (default `bins,elite`; `+binary` tells no
-//! robustness, so the elites are failures only).
+//! robustness, so the elites are failures only); `test` searches the meta-testing scenarios
+//! (9–10) instead of the eight meta-training ones.
 use savme_kernel::{EliteMixture, Kernel, Observation, Run, SearchModel};
 use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
@@ -61,8 +62,13 @@ fn model(spec: &str) -> Result<SearchModel, String> {
     Ok(SearchModel::EliteMixture(m))
 }
 
-fn search(name: &str, seed: u64, budget: u64) -> Result<Tally, Box<dyn std::error::Error>> {
-    let training: Vec<_> = SCENARIOS.iter().filter(|s| s.training()).collect();
+fn search(
+    name: &str,
+    seed: u64,
+    budget: u64,
+    train: bool,
+) -> Result<Tally, Box<dyn std::error::Error>> {
+    let training: Vec<_> = SCENARIOS.iter().filter(|s| s.training() == train).collect();
     let mut b = Kernel::builder(fidelity::space(10), fidelity::theta_hf())
         .budget(0.3)
         .seed(seed)
@@ -133,6 +139,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for m in &models {
         model(m)?;
     }
+    let train = match args.next().as_deref() {
+        None | Some("train") => true,
+        Some("test") => false,
+        Some(other) => return Err(format!("scenarios `{other}`: use train or test").into()),
+    };
     let budget = (budget_gwu * 1e9) as u64;
     let jobs: Vec<(String, u64)> = models
         .iter()
@@ -146,7 +157,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             std::thread::spawn(move || loop {
                 let job = queue.lock().ok().and_then(|mut q| q.pop());
                 let Some((m, seed)) = job else { break };
-                match search(&m, seed, budget) {
+                match search(&m, seed, budget, train) {
                     Ok(t) => {
                         eprintln!(
                             "{m} seed {seed}: {} trials, {} HF failures, {} cells",
@@ -167,12 +178,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         w.join().map_err(|_| "a worker panicked")?;
     }
     let results = results.lock().map_err(|_| "poisoned")?.clone();
-    report(&models, &results, budget_gwu);
+    report(&models, &results, budget_gwu, train);
     Ok(())
 }
 
-fn report(models: &[String], results: &BTreeMap<(String, u64), Tally>, budget_gwu: f64) {
-    println!("budget {budget_gwu} × 10⁹ wu per seed; 8 meta-training scenarios, camera + lidar\n");
+fn report(
+    models: &[String],
+    results: &BTreeMap<(String, u64), Tally>,
+    budget_gwu: f64,
+    train: bool,
+) {
+    let set = if train {
+        "8 meta-training"
+    } else {
+        "2 meta-testing"
+    };
+    println!("budget {budget_gwu} × 10⁹ wu per seed; {set} scenarios, camera + lidar\n");
     println!("| model | seeds | trials | HF failures per 10⁹ wu | distinct failing joint cells | failing cells per 10⁹ wu |");
     println!("|---|---|---|---|---|---|");
     for m in models {
@@ -202,7 +223,11 @@ fn report(models: &[String], results: &BTreeMap<(String, u64), Tally>, budget_gw
     print!("|---|");
     models.iter().for_each(|_| print!("---|"));
     println!();
-    for (i, info) in SCENARIOS.iter().filter(|s| s.training()).enumerate() {
+    for (i, info) in SCENARIOS
+        .iter()
+        .filter(|s| s.training() == train)
+        .enumerate()
+    {
         print!("| {} |", info.name);
         for m in models {
             let (n, f) = results
