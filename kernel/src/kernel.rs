@@ -2,6 +2,7 @@
 
 use crate::outcome::{Credit, Observation, Outcome, Run};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
+use crate::search::{Archive, SearchError, SearchModel};
 use crate::space::{Space, SpaceError};
 use crate::value::Assignment;
 use rand::{RngExt, SeedableRng};
@@ -130,6 +131,10 @@ pub struct KernelConfig {
     pub estimator: Estimator,
     /// A fidelity prior carried over from an earlier posterior.
     pub fidelity_prior: Option<FidelityPrior>,
+    /// How the learning phases draw φ (default: the paper's independent bins, which leaves
+    /// the field out of the serialised configuration).
+    #[serde(default, skip_serializing_if = "SearchModel::is_independent_bins")]
+    pub search: SearchModel,
 }
 
 /// Why a kernel cannot be built or restored.
@@ -178,6 +183,9 @@ pub enum ConfigError {
     /// A restored state is inconsistent.
     #[error("inconsistent kernel state: {0}")]
     State(String),
+    /// The search model's parameters are out of range.
+    #[error("search model: {0}")]
+    Search(SearchError),
 }
 
 /// Why a tell (or a cancel) was refused. A refused tell leaves the kernel unchanged.
@@ -223,6 +231,16 @@ pub enum TellError {
         /// Its phase.
         phase: Phase,
     },
+    /// A robustness value that is NaN or infinite.
+    #[error("trial {id}: {simulator} robustness must be a finite number, got {robustness}")]
+    BadRobustness {
+        /// The trial.
+        id: u64,
+        /// `"HF"` or `"LF"`.
+        simulator: &'static str,
+        /// The robustness given.
+        robustness: f64,
+    },
     /// Runtimes whose ratio t_LF / t_HF is not a finite number (e.g. HF 5e-324, LF 1): the
     /// ratio could not be credited, logged or replayed.
     #[error("trial {id}: the runtime ratio LF {lf} / HF {hf} is not a finite number; give runtimes on a common scale")]
@@ -265,6 +283,10 @@ pub struct Snapshot {
     scenarios: Vec<Posterior>,
     pending: Vec<Pending>,
     rng: Rng64,
+    /// Per scenario, the archive of [`SearchModel::EliteMixture`] (empty for the paper's
+    /// independent bins, and then left out of the JSON).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    search: Vec<Archive>,
 }
 
 /// The SAVME ask/tell kernel.
@@ -350,6 +372,25 @@ impl KernelBuilder {
         self
     }
 
+    /// Sets how the train and test phases draw φ (default [`SearchModel::IndependentBins`],
+    /// the paper's).
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, EliteMixture, Kernel, Scale, SearchModel, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
+    /// let kernel = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .search(SearchModel::EliteMixture(EliteMixture::default()))
+    ///     .build()?;
+    /// assert!(!kernel.config().search.is_independent_bins());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn search(mut self, model: SearchModel) -> Self {
+        self.config.search = model;
+        self
+    }
+
     /// Validates the configuration and builds the kernel.
     pub fn build(self) -> Result<Kernel, ConfigError> {
         Kernel::new(self.config)
@@ -369,6 +410,7 @@ impl Kernel {
                 prior: PriorCounts::UNIFORM,
                 estimator: Estimator::Map,
                 fidelity_prior: None,
+                search: SearchModel::IndependentBins,
             },
         }
     }
@@ -390,6 +432,10 @@ impl Kernel {
             .collect::<Result<Vec<_>, _>>()
             .map_err(ConfigError::Prior)?;
         let rng = Rng64::seed_from_u64(config.seed);
+        let search = match config.search {
+            SearchModel::IndependentBins => Vec::new(),
+            SearchModel::EliteMixture(_) => vec![Archive::default(); config.scenarios.len()],
+        };
         Ok(Kernel {
             state: Snapshot {
                 config,
@@ -400,6 +446,7 @@ impl Kernel {
                 scenarios,
                 pending: Vec::new(),
                 rng,
+                search,
             },
             cumulative,
         })
@@ -502,17 +549,7 @@ impl Kernel {
         let scenario = &st.config.scenarios[s];
         let n_phi = scenario.space.len();
         let mut arms = Vec::with_capacity(n_phi + st.config.fidelity.len());
-        match phase {
-            Phase::Baseline => arms.extend(
-                scenario
-                    .space
-                    .variables()
-                    .iter()
-                    .map(|v| rng.random_range(0..v.arms()) as u16),
-            ),
-            _ => st.scenarios[s].thompson(rng, &mut arms),
-        }
-        let phi = scenario.space.draw(&arms, rng);
+        let phi = self.draw_phi(phase, s, rng, &mut arms);
         let theta_lf = match phase {
             Phase::Baseline => None,
             Phase::Evaluate => {
@@ -535,6 +572,27 @@ impl Kernel {
             },
             arms,
         }
+    }
+
+    /// Draws φ of scenario `s` in `phase`, pushing its arms onto `arms`.
+    fn draw_phi(&self, phase: Phase, s: usize, rng: &mut Rng64, arms: &mut Vec<u16>) -> Assignment {
+        let st = &self.state;
+        let space = &st.config.scenarios[s].space;
+        match (phase, &st.config.search, st.search.get(s)) {
+            (Phase::Baseline, _, _) => {
+                arms.extend(
+                    space
+                        .variables()
+                        .iter()
+                        .map(|v| rng.random_range(0..v.arms()) as u16),
+                );
+            }
+            (Phase::Train | Phase::Test, SearchModel::EliteMixture(m), Some(archive)) => {
+                return archive.propose(m, &st.scenarios[s], space, rng, arms);
+            }
+            _ => st.scenarios[s].thompson(rng, arms),
+        }
+        space.draw(arms, rng)
     }
 
     fn commit_ask(&mut self, pending: Pending) -> Trial {
@@ -582,8 +640,10 @@ impl Kernel {
             _ => {}
         }
         check(observation.hf(), "HF")?;
+        check_robustness(id, observation.hf(), "HF")?;
         if let Some(lf) = observation.lf() {
             check(lf, "LF")?;
+            check_robustness(id, lf, "LF")?;
         }
         let outcome = observation.outcome();
         let cost_ratio = observation.cost_ratio();
@@ -631,6 +691,13 @@ impl Kernel {
         let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
         if let Some(ok) = assessed.credit.scenario {
             self.state.scenarios[s].update(phi_arms, ok);
+            if let (Some(archive), SearchModel::EliteMixture(m)) =
+                (self.state.search.get_mut(s), &self.state.config.search)
+            {
+                let space = &self.state.config.scenarios[s].space;
+                archive.record(space, &pending.trial.phi, phi_arms, observation.hf());
+                archive.truncate(m.archive);
+            }
         }
         if let Some(ok) = assessed.credit.fidelity {
             self.state.fidelity.update(theta_arms, ok);
@@ -677,6 +744,7 @@ impl Kernel {
                 runtime: lf.runtime,
             });
         }
+        check_robustness(id, &lf, "LF")?;
         self.state.stats.told += 1;
         Ok(self.state.pending.remove(index).trial)
     }
@@ -714,6 +782,7 @@ impl Kernel {
             p.check_fits(&s.space)
                 .map_err(|e| state(format!("scenario `{}` posterior: {e}", s.name)))?;
         }
+        check_archives(&snapshot)?;
         let mut last = None;
         for p in &snapshot.pending {
             let t = &p.trial;
@@ -839,6 +908,38 @@ pub enum RestoreError {
     Config(ConfigError),
 }
 
+/// Checks a finite robustness, if any.
+fn check_robustness(id: u64, run: &Run, simulator: &'static str) -> Result<(), TellError> {
+    match run.robustness {
+        Some(r) if !r.is_finite() => Err(TellError::BadRobustness {
+            id,
+            simulator,
+            robustness: r,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Checks that a snapshot's search archives fit its search model and scenarios.
+fn check_archives(snapshot: &Snapshot) -> Result<(), ConfigError> {
+    let cfg = &snapshot.config;
+    let expected = match cfg.search {
+        SearchModel::IndependentBins => 0,
+        SearchModel::EliteMixture(_) => cfg.scenarios.len(),
+    };
+    if snapshot.search.len() != expected {
+        return Err(ConfigError::State(format!(
+            "{} search archives for {expected} expected",
+            snapshot.search.len()
+        )));
+    }
+    for (a, s) in snapshot.search.iter().zip(&cfg.scenarios) {
+        a.check_fits(&s.space)
+            .map_err(|e| ConfigError::State(format!("scenario `{}`: {e}", s.name)))?;
+    }
+    Ok(())
+}
+
 /// Validates a configuration; returns the cumulative normalised scenario weights.
 fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError> {
     if c.scenarios.is_empty() {
@@ -871,6 +972,7 @@ fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError> {
         return Err(ConfigError::BadBudget(c.budget));
     }
     c.prior.validate().map_err(ConfigError::Prior)?;
+    c.search.validate().map_err(ConfigError::Search)?;
     if let Some(fp) = &c.fidelity_prior {
         fp.posterior
             .check_fits(&c.fidelity)

@@ -5,7 +5,10 @@
 //! over scenario parameters — and which cheap simulator fidelity settings θ_LF agree with the
 //! high-fidelity simulator within a compute budget — one scenario-agnostic p_ω(θ_LF). Both are
 //! independent Beta–Bernoulli Thompson-sampling bandits, one per variable; continuous variables
-//! are binned.
+//! are binned. Beyond the paper, [`SearchModel::EliteMixture`] replaces the independent φ bins
+//! of the learning phases with a joint proposal learned from failures (and, optionally,
+//! near-misses by a run's [`Run::robustness`]); [`SearchModel::IndependentBins`], the paper's,
+//! stays the default.
 //!
 //! The kernel is pure: it suggests trials ([`Kernel::ask`]) and ingests their outcomes
 //! ([`Kernel::tell`]); the harness runs the simulators, in any language, in any order.
@@ -44,6 +47,7 @@ mod outcome;
 mod posterior;
 mod sampler;
 pub mod screening;
+mod search;
 mod simulator;
 mod space;
 mod value;
@@ -54,6 +58,7 @@ pub use kernel::{
 };
 pub use outcome::{Credit, Observation, Outcome, Run};
 pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
+pub use search::{EliteMixture, SearchError, SearchModel};
 pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};
 pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
 pub use value::{Assignment, Value};

@@ -3,11 +3,28 @@
 
 use serde::{Deserialize, Serialize};
 
-/// One simulator run: did the system under test fail, and how long did the run take.
+/// One simulator run: did the system under test fail, how long did the run take, and —
+/// optionally — how close it came to failing.
 ///
 /// `runtime` is in whatever unit the harness uses (seconds of wall-clock by convention, or
 /// deterministic work units); only ratios `t_LF / t_HF` and sums are ever taken. It must be
 /// finite and strictly positive.
+///
+/// `robustness` is a continuous margin of the run (e.g. the smallest clearance in metres):
+/// `≤ 0` on a failure by convention, and the smaller, the closer the run came to failing. It is
+/// optional (the paper credits the failure flag only, and that stays the default); searches
+/// that learn from near-misses ([`crate::SearchModel::EliteMixture`]) use it. A run without it
+/// serialises exactly as before, so older journals load unchanged.
+///
+/// ```
+/// use savme_kernel::Run;
+/// let near_miss = Run::new(false, 2.0).with_robustness(0.4);
+/// assert_eq!(near_miss.robustness, Some(0.4));
+/// let json = serde_json::to_string(&Run::new(true, 1.0)).unwrap();
+/// assert_eq!(json, r#"{"failure":true,"runtime":1.0}"#);
+/// let old: Run = serde_json::from_str(&json).unwrap();
+/// assert_eq!(old.robustness, None);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Run {
@@ -15,12 +32,26 @@ pub struct Run {
     pub failure: bool,
     /// Cost of the run (> 0).
     pub runtime: f64,
+    /// How close the run came to failing (finite; `≤ 0` = failed, smaller = closer), if the
+    /// harness measures it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robustness: Option<f64>,
 }
 
 impl Run {
-    /// A run with the given outcome and cost.
+    /// A run with the given outcome and cost, without a robustness value.
     pub fn new(failure: bool, runtime: f64) -> Self {
-        Run { failure, runtime }
+        Run {
+            failure,
+            runtime,
+            robustness: None,
+        }
+    }
+
+    /// The same run with robustness `margin` (finite; `≤ 0` = failed, smaller = closer).
+    pub fn with_robustness(mut self, margin: f64) -> Self {
+        self.robustness = Some(margin);
+        self
     }
 }
 

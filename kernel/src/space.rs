@@ -661,6 +661,68 @@ impl Space {
         Assignment::from_parts(self.names.clone(), values)
     }
 
+    /// The position of every variable of `phi` in the unit cube along its scale: a continuous
+    /// value at `(x − lo) / (hi − lo)` (linear) or `ln(x / lo) / ln(hi / lo)` (log), a
+    /// discrete value at the centre of its arm's slice `(arm + ½) / n`. `arms` are the arms of
+    /// `phi` (one per variable, as drawn).
+    pub(crate) fn unit_of(&self, phi: &Assignment, arms: &[u16]) -> Vec<f64> {
+        self.vars
+            .iter()
+            .zip(arms)
+            .map(|(v, &arm)| {
+                let centre = (f64::from(arm) + 0.5) / v.arms() as f64;
+                match (&v.domain, phi.get(&v.name).and_then(Value::as_f64)) {
+                    (Domain::Continuous { lo, hi, scale, .. }, Some(x)) => {
+                        let t = match scale {
+                            Scale::Linear => (x - lo) / (hi - lo),
+                            Scale::Log => (x / lo).ln() / (hi / lo).ln(),
+                        };
+                        if t.is_finite() {
+                            t.clamp(0.0, 1.0)
+                        } else {
+                            centre
+                        }
+                    }
+                    _ => centre,
+                }
+            })
+            .collect()
+    }
+
+    /// The inverse of [`Space::unit_of`]: the arms and the assignment at unit-cube position `u`
+    /// (one coordinate per variable, each clamped into `[0, 1]`); a discrete variable takes
+    /// the value whose slice holds its coordinate.
+    pub(crate) fn at_unit(&self, u: &[f64], arms: &mut Vec<u16>) -> Assignment {
+        let values = self
+            .vars
+            .iter()
+            .zip(u)
+            .zip(&self.log_spans)
+            .map(|((v, &t), &span)| {
+                let t = if t.is_finite() {
+                    t.clamp(0.0, 1.0)
+                } else {
+                    0.5
+                };
+                let n = v.arms();
+                let slice = ((t * n as f64).floor() as usize).min(n - 1);
+                let value = match &v.domain {
+                    Domain::Discrete { values } => values[slice].clone(),
+                    Domain::Continuous { lo, hi, scale, .. } => Value::Real(
+                        match scale {
+                            Scale::Linear => lo + t * (hi - lo),
+                            Scale::Log => lo * (t * span).exp(),
+                        }
+                        .clamp(*lo, *hi),
+                    ),
+                };
+                arms.push(v.arm_of(&value).unwrap_or(slice) as u16);
+                value
+            })
+            .collect();
+        Assignment::from_parts(self.names.clone(), values)
+    }
+
     /// The representative value of every variable for the given arms (one per variable).
     pub(crate) fn representatives(&self, arms: &[u16]) -> Assignment {
         let values = self

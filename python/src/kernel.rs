@@ -208,6 +208,7 @@ impl PyKernel {
                 posterior: p.posterior.clone(),
                 strength: prior_strength,
             }),
+            search: Default::default(),
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal)

@@ -1,0 +1,392 @@
+//! How the learning phases (train, test) draw scenario parameters φ: the paper's independent
+//! Beta–Bernoulli bins, or a joint proposal learned from failures and near-misses.
+//!
+//! [`SearchModel::EliteMixture`] keeps, per scenario, an archive of the told trials' φ (as
+//! positions in the unit cube) with their HF outcome and robustness. Each ask either draws
+//! from the paper's independent-bin Thompson sampler (probability [`EliteMixture::explore`]),
+//! or picks an *elite* — a failure, or a near-miss among the passes when the runs report a
+//! robustness — and draws φ from a Gaussian kernel around it: a mixture of Gaussians in the
+//! unit cube, weighted towards failing joint cells that hold few failures so far, so that the
+//! search crawls along failure regions instead of resampling one hot spot. The bins keep
+//! being credited per Table I either way, and the archive is rebuilt by replaying the tells,
+//! so journals and snapshots restore the exact same asks.
+
+use crate::outcome::Run;
+use crate::posterior::Posterior;
+use crate::space::Space;
+use crate::value::Assignment;
+use rand::{Rng, RngExt};
+use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, VecDeque};
+
+/// How the train and test phases draw φ. Part of the [`crate::KernelConfig`]; the default is
+/// the paper's.
+///
+/// ```
+/// use savme_kernel::{EliteMixture, SearchModel};
+/// assert_eq!(SearchModel::default(), SearchModel::IndependentBins);
+/// let joint = SearchModel::EliteMixture(EliteMixture::default());
+/// let json = serde_json::to_string(&joint)?;
+/// assert!(json.starts_with(r#"{"model":"elite_mixture""#));
+/// assert_eq!(serde_json::from_str::<SearchModel>(&json)?, joint);
+/// # Ok::<(), serde_json::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "model", rename_all = "snake_case")]
+pub enum SearchModel {
+    /// The paper's: one Beta–Bernoulli Thompson sampler per φ variable, independent bins.
+    #[default]
+    IndependentBins,
+    /// A joint proposal per scenario: a Gaussian mixture around failures and near-misses,
+    /// mixed with the independent bins for exploration.
+    EliteMixture(EliteMixture),
+}
+
+impl SearchModel {
+    /// True for the paper's [`SearchModel::IndependentBins`] (then the configuration
+    /// serialises without a `search` field, exactly as before the field existed).
+    pub fn is_independent_bins(&self) -> bool {
+        matches!(self, SearchModel::IndependentBins)
+    }
+
+    /// Checks the model's parameters.
+    pub fn validate(&self) -> Result<(), SearchError> {
+        match self {
+            SearchModel::IndependentBins => Ok(()),
+            SearchModel::EliteMixture(m) => m.validate(),
+        }
+    }
+}
+
+/// The parameters of [`SearchModel::EliteMixture`]. Missing fields take their defaults when
+/// deserialised.
+///
+/// ```
+/// use savme_kernel::EliteMixture;
+/// let m = EliteMixture { explore: 0.3, ..EliteMixture::default() };
+/// assert!(m.validate().is_ok());
+/// assert!(EliteMixture { bandwidth: 0.0, ..m }.validate().is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EliteMixture {
+    /// Probability that an ask draws from the independent bins instead (in `[0, 1]`); it is 1
+    /// until the scenario has an elite.
+    pub explore: f64,
+    /// Standard deviation of the Gaussian kernel around an elite, in unit-cube widths (a
+    /// variable's whole range is 1; with 10 bins a bin is 0.1); in `(0, 1]`.
+    pub bandwidth: f64,
+    /// Probability that a kernel draw uses four times the bandwidth (a jump to a neighbouring
+    /// region); in `[0, 1]`.
+    pub jump: f64,
+    /// Fraction of passing runs counted as near-misses: those whose HF robustness is in the
+    /// lowest `near_miss` quantile of the scenario's passes (in `[0, 1)`; 0 = failures only;
+    /// runs without a robustness are never near-misses). Default 0: on the bundled
+    /// simulator's eight scenarios near-misses (by clearance) cost failures per work unit
+    /// (docs/RESULTS.md, issue 25); on a needle-like failure region they find it sooner.
+    pub near_miss: f64,
+    /// Weight of a near-miss relative to a failure as a centre (finite, ≥ 0).
+    pub near_miss_weight: f64,
+    /// Near-misses count only while the scenario's archive holds fewer failures than this:
+    /// they lead the search to failures, then the failures lead (0 = never).
+    pub near_miss_until: u32,
+    /// Novelty: an elite's weight is divided by `1 + spread × (failures in its joint cell)`
+    /// (finite, ≥ 0; 0 = every elite alike).
+    pub spread: f64,
+    /// Candidates per kernel draw, at least 1. The one with the highest score wins: the
+    /// Parzen estimate of its failure probability (failures, and near-misses at their weight,
+    /// against all archived trials, Gaussian kernels of the same bandwidth) divided by
+    /// `1 + trials already in its joint cell` — likely failures in cells not yet tried.
+    pub tries: u32,
+    /// Most trials kept per scenario (the oldest go first); at least 1.
+    pub archive: usize,
+}
+
+impl Default for EliteMixture {
+    fn default() -> Self {
+        EliteMixture {
+            explore: 0.2,
+            bandwidth: 0.06,
+            jump: 0.2,
+            near_miss: 0.0,
+            near_miss_weight: 0.5,
+            near_miss_until: 20,
+            spread: 1.0,
+            tries: 4,
+            archive: 4096,
+        }
+    }
+}
+
+/// A search model parameter out of its range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SearchError {
+    /// A parameter outside its documented range (or NaN).
+    #[error("search parameter `{name}` = {value} is outside {range}")]
+    BadParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// The allowed range.
+        range: &'static str,
+    },
+}
+
+impl EliteMixture {
+    /// Checks every parameter against its documented range.
+    pub fn validate(&self) -> Result<(), SearchError> {
+        let check = |name, value: f64, ok: bool, range| {
+            if ok {
+                Ok(())
+            } else {
+                Err(SearchError::BadParameter { name, value, range })
+            }
+        };
+        let unit = |x: f64| (0.0..=1.0).contains(&x);
+        check("explore", self.explore, unit(self.explore), "[0, 1]")?;
+        let b = self.bandwidth;
+        check("bandwidth", b, b > 0.0 && b <= 1.0, "(0, 1]")?;
+        check("jump", self.jump, unit(self.jump), "[0, 1]")?;
+        let q = self.near_miss;
+        check("near_miss", q, (0.0..1.0).contains(&q), "[0, 1)")?;
+        let w = self.near_miss_weight;
+        check("near_miss_weight", w, w.is_finite() && w >= 0.0, "[0, ∞)")?;
+        let s = self.spread;
+        check("spread", s, s.is_finite() && s >= 0.0, "[0, ∞)")?;
+        let t = f64::from(self.tries);
+        check("tries", t, self.tries >= 1, "[1, ∞)")?;
+        let a = self.archive as f64;
+        check("archive", a, self.archive >= 1, "[1, ∞)")
+    }
+}
+
+/// One told trial of a scenario, as the archive keeps it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub(crate) struct Point {
+    /// φ in the unit cube.
+    u: Vec<f64>,
+    /// φ's arms (its joint cell).
+    cell: Vec<u16>,
+    /// The HF run failed.
+    failure: bool,
+    /// The HF run's robustness, if reported.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    robustness: Option<f64>,
+}
+
+impl Point {
+    /// 1 for a failure, the near-miss weight for a pass at or below the near-miss
+    /// `threshold`, 0 otherwise.
+    fn weight(&self, m: &EliteMixture, threshold: Option<f64>) -> f64 {
+        if self.failure {
+            1.0
+        } else if self.robustness.zip(threshold).is_some_and(|(r, t)| r <= t) {
+            m.near_miss_weight
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The told trials of one scenario ([`SearchModel::EliteMixture`]'s state).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub(crate) struct Archive {
+    points: VecDeque<Point>,
+}
+
+impl Archive {
+    /// Keeps a told trial: φ as drawn (`phi`, its `arms`) and the HF run.
+    pub(crate) fn record(&mut self, space: &Space, phi: &Assignment, arms: &[u16], hf: &Run) {
+        self.points.push_back(Point {
+            u: space.unit_of(phi, arms),
+            cell: arms.to_vec(),
+            failure: hf.failure,
+            robustness: hf.robustness,
+        });
+    }
+
+    /// Drops the oldest points beyond `cap`.
+    pub(crate) fn truncate(&mut self, cap: usize) {
+        while self.points.len() > cap {
+            self.points.pop_front();
+        }
+    }
+
+    /// Checks that every point fits `space` (a restored snapshot).
+    pub(crate) fn check_fits(&self, space: &Space) -> Result<(), String> {
+        for (i, p) in self.points.iter().enumerate() {
+            let arms_ok = p.cell.len() == space.len()
+                && space
+                    .variables()
+                    .iter()
+                    .zip(&p.cell)
+                    .all(|(v, &a)| (a as usize) < v.arms());
+            let u_ok = p.u.len() == space.len() && p.u.iter().all(|x| (0.0..=1.0).contains(x));
+            let r_ok = p.robustness.is_none_or(f64::is_finite);
+            if !(arms_ok && u_ok && r_ok) {
+                return Err(format!("archived trial {i} does not fit the scenario"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Draws φ (and pushes its arms onto `arms`).
+    pub(crate) fn propose<R: Rng + ?Sized>(
+        &self,
+        m: &EliteMixture,
+        bins: &Posterior,
+        space: &Space,
+        rng: &mut R,
+        arms: &mut Vec<u16>,
+    ) -> Assignment {
+        let explore: f64 = rng.random();
+        let tried = self.tried_cells();
+        let failures = self.points.iter().filter(|p| p.failure).count();
+        let threshold = if failures < m.near_miss_until as usize {
+            self.near_miss_threshold(m.near_miss)
+        } else {
+            None
+        };
+        let weights: Vec<f64> = self.points.iter().map(|p| p.weight(m, threshold)).collect();
+        let elites = self.elites(m, &tried, &weights);
+        let total: f64 = elites.iter().map(|e| e.1).sum();
+        if explore < m.explore || total.is_nan() || total <= 0.0 {
+            let start = arms.len();
+            bins.thompson(rng, arms);
+            return space.draw(&arms[start..], rng);
+        }
+        let mut pick = rng.random::<f64>() * total;
+        let centre = elites
+            .iter()
+            .find(|e| {
+                pick -= e.1;
+                pick < 0.0
+            })
+            .map_or(elites[elites.len() - 1].0, |e| e.0);
+        let wide = rng.random::<f64>() < m.jump;
+        let sd = m.bandwidth * if wide { 4.0 } else { 1.0 };
+        let start = arms.len();
+        let mut best: Option<(f64, Vec<u16>, Assignment)> = None;
+        for _ in 0..m.tries {
+            let u: Vec<f64> = self.points[centre]
+                .u
+                .iter()
+                .map(|&c| reflect(c + sd * rng.sample::<f64, _>(StandardNormal)))
+                .collect();
+            let mut cell = Vec::with_capacity(u.len());
+            let phi = space.at_unit(&u, &mut cell);
+            let score = if m.tries > 1 {
+                let visits = tried.get(&*cell).map_or(0, |c| c.0);
+                self.failure_odds(&u, m, &weights) / (1.0 + f64::from(visits))
+            } else {
+                0.0
+            };
+            if best.as_ref().is_none_or(|b| score > b.0) {
+                best = Some((score, cell, phi));
+            }
+        }
+        arms.truncate(start);
+        match best {
+            Some((_, cell, phi)) => {
+                arms.extend(cell);
+                phi
+            }
+            None => space.at_unit(&self.points[centre].u, arms),
+        }
+    }
+
+    /// The Parzen estimate of the failure probability at `u`: Σ K·w / (Σ K + 1) + ½-prior,
+    /// with `w` = 1 for failures, the near-miss weight for near-misses, 0 otherwise.
+    fn failure_odds(&self, u: &[f64], m: &EliteMixture, weights: &[f64]) -> f64 {
+        let inv = -0.5 / (m.bandwidth * m.bandwidth);
+        let (mut hit, mut all) = (0.5, 1.0);
+        for (p, w) in self.points.iter().zip(weights) {
+            let d2: f64 = p.u.iter().zip(u).map(|(a, b)| (a - b) * (a - b)).sum();
+            let k = (d2 * inv).exp();
+            hit += k * w;
+            all += k;
+        }
+        hit / all
+    }
+
+    /// Per joint cell in the archive: (trials, failures).
+    fn tried_cells(&self) -> BTreeMap<&[u16], (u32, u32)> {
+        let mut cells: BTreeMap<&[u16], (u32, u32)> = BTreeMap::new();
+        for p in &self.points {
+            let c = cells.entry(&p.cell).or_default();
+            c.0 += 1;
+            c.1 += u32::from(p.failure);
+        }
+        cells
+    }
+
+    /// The centres of the mixture: (index of the point, weight > 0).
+    fn elites(
+        &self,
+        m: &EliteMixture,
+        tried: &BTreeMap<&[u16], (u32, u32)>,
+        weights: &[f64],
+    ) -> Vec<(usize, f64)> {
+        let failures = |p: &Point| tried.get(&*p.cell).map_or(0.0, |c| f64::from(c.1));
+        let novelty = |p: &Point| 1.0 / (1.0 + m.spread * failures(p));
+        self.points
+            .iter()
+            .zip(weights)
+            .enumerate()
+            .map(|(i, (p, w))| (i, w * novelty(p)))
+            .filter(|e| e.1 > 0.0)
+            .collect()
+    }
+
+    /// The robustness at the `q` quantile of the passing runs (None without enough of them).
+    fn near_miss_threshold(&self, q: f64) -> Option<f64> {
+        if q <= 0.0 {
+            return None;
+        }
+        let mut r: Vec<f64> = self
+            .points
+            .iter()
+            .filter(|p| !p.failure)
+            .filter_map(|p| p.robustness)
+            .collect();
+        if r.len() < 5 {
+            return None;
+        }
+        r.sort_by(f64::total_cmp);
+        Some(r[((q * r.len() as f64) as usize).min(r.len() - 1)])
+    }
+}
+
+/// Folds `x` back into `[0, 1]` by reflection at the walls.
+fn reflect(x: f64) -> f64 {
+    if !x.is_finite() {
+        return 0.5;
+    }
+    let y = x.rem_euclid(2.0);
+    if y > 1.0 {
+        2.0 - y
+    } else {
+        y
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reflect_stays_in_the_unit_interval() {
+        for &(x, y) in &[
+            (0.3, 0.3),
+            (-0.2, 0.2),
+            (1.1, 0.9),
+            (2.5, 0.5),
+            (-1.25, 0.75),
+        ] {
+            assert!((reflect(x) - y).abs() < 1e-12, "{x}");
+        }
+        assert_eq!(reflect(f64::NAN), 0.5);
+    }
+}
