@@ -360,6 +360,7 @@ class Protocol:
         prior_strengths: Optional[Sequence[float]] = None,
         screen_iterations: Optional[int] = None,
         audit_fraction: Optional[float] = None,
+        search: Optional[Literal["bins", "elite"]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:

@@ -31,6 +31,7 @@ SAMPLES = {
     "prior_strengths": [0.0, 0.3],
     "screen_iterations": 7,
     "audit_fraction": 0.2,
+    "search": "elite",
     "repeat": 2,
 }
 

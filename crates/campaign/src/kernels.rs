@@ -70,7 +70,8 @@ impl<'a> StageKernels<'a> {
         let p = self.protocol;
         let mut b = Kernel::builder(self.problem.fidelity.clone(), self.problem.theta_hf.clone())
             .budget(budget)
-            .seed(p.kernel_seed(label));
+            .seed(p.kernel_seed(label))
+            .search(p.search.model());
         for (name, space) in scenarios {
             b = b.scenario(name, space.clone(), p.weight(name));
         }

@@ -39,6 +39,33 @@ impl Cost {
 /// removed, not when one is added.
 pub const FORMAT_VERSION: u32 = 1;
 
+/// How φ is searched in meta-training and meta-testing (the kernel's
+/// [`SearchModel`](savme_kernel::SearchModel)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Search {
+    /// The paper's independent Beta–Bernoulli bins per φ variable.
+    #[default]
+    Bins,
+    /// A joint proposal per scenario around the failures found (the kernel's `EliteMixture`
+    /// with its default parameters), mixed with the bins for exploration.
+    Elite,
+}
+
+impl Search {
+    /// The kernel's search model.
+    pub fn model(self) -> savme_kernel::SearchModel {
+        match self {
+            Search::Bins => savme_kernel::SearchModel::IndependentBins,
+            Search::Elite => savme_kernel::SearchModel::EliteMixture(Default::default()),
+        }
+    }
+
+    fn is_bins(&self) -> bool {
+        *self == Search::Bins
+    }
+}
+
 /// The most trials one stage may run (10⁸: years of simulation even at a millisecond a run).
 pub const MAX_ITERATIONS: u64 = 100_000_000;
 /// The most trials in flight at once.
@@ -103,6 +130,10 @@ pub struct Protocol {
     /// The fraction α of LF passes re-run on HF in screening, to estimate the miss rate.
     #[serde(default = "default_audit_fraction")]
     pub audit_fraction: f64,
+    /// How φ is searched in meta-training and meta-testing (the paper's bins by default; not
+    /// written when it is the default, so older protocol.json files read the same).
+    #[serde(default, skip_serializing_if = "Search::is_bins")]
+    pub search: Search,
 }
 
 fn is_zero(n: &u64) -> bool {
@@ -163,6 +194,7 @@ impl Protocol {
             prior_strengths: Vec::new(),
             screen_iterations: 0,
             audit_fraction: default_audit_fraction(),
+            search: Search::Bins,
         }
     }
 

@@ -25,7 +25,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{CampaignError, Cost, Protocol};
+use super::{CampaignError, Cost, Protocol, Search};
 use serde::Deserialize;
 
 /// One protocol value as declared.
@@ -216,6 +216,10 @@ protocol_values! {
     /// Fraction α of LF passes the screening re-runs on HF to estimate the miss rate.
     audit_fraction: f64, flag = "audit-fraction", aliases = [], stages = "screen",
         to = protocol, cli(value_name = "ALPHA");
+    /// How φ is searched in meta-training and meta-testing: the paper's independent bins, or
+    /// a joint proposal around the failures found (`elite`).
+    search: Search, flag = "search", aliases = [], stages = "train, test-*", to = protocol,
+        cli(value_enum);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -273,7 +277,13 @@ mod tests {
     /// of the protocol is in protocol.json under the same name.
     #[test]
     fn every_protocol_field_is_declared_once() {
-        let p = Protocol::paper("s", vec!["a".into()], vec!["b".into()]);
+        // Every optional field set to a value that is written (defaults may be left out).
+        let p = Protocol {
+            prior_strengths: vec![0.0, 0.5],
+            screen_iterations: 3,
+            search: Search::Elite,
+            ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
+        };
         let json = serde_json::to_value(&p).unwrap();
         let fields: Vec<&str> = json
             .as_object()
@@ -310,7 +320,13 @@ mod tests {
             assert_eq!(arg.get_long(), Some(v.flag));
             assert_eq!(v.flag, v.name.replace('_', "-"), "flag and name differ");
             let help = arg.get_help().map(|h| h.to_string()).unwrap_or_default();
-            assert!(!help.is_empty() && v.help.starts_with(&help[..help.len().min(20)]));
+            let start: String = help.chars().take(20).collect();
+            assert!(
+                !help.is_empty() && v.help.trim_start().starts_with(&start),
+                "{}: {help:?} vs {:?}",
+                v.name,
+                v.help
+            );
         }
     }
 
@@ -354,6 +370,7 @@ mod tests {
             prior_strengths: Some(vec![0.0, 0.5]),
             screen_iterations: Some(8),
             audit_fraction: Some(0.2),
+            search: Some(Search::Elite),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();
