@@ -329,11 +329,11 @@ class Estimation:
 _SimulatorFn = Callable[[str, Dict[str, _Value], Dict[str, _Value]], Union[bool, Tuple[bool, int]]]
 """A Python simulator: (scenario, phi, theta) -> failure, or (failure, work_units)."""
 
-@final
 PROTOCOL_VALUES: List[Dict[str, Any]]
 """Every protocol value as declared once in savme: name (the keyword of Protocol, the
 `[campaign]` key of a campaign file), flag (`savme run`'s), help, the stages it changes."""
 
+@final
 class Protocol:
     """What a campaign runs: the paper's protocol (or the quick preset) for the given
     meta-training and meta-testing scenarios, any protocol value overridden by its name (see
