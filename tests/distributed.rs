@@ -519,12 +519,20 @@ fn a_worker_without_the_fmu_fails_its_runs_and_the_campaigns_on_error_applies() 
     broken.wait().unwrap();
     std::fs::rename(&away, &fmu).unwrap();
     let healthy = worker(&url, "s", &["--config", skip.to_str().unwrap()]);
-    finish(coordinator, "the coordinator");
+    let said = finish(coordinator, "the coordinator");
     finish(healthy, "the healthy worker");
     let lines = db_trials(&mut client, "s");
     let (failed, told): (Vec<&Value>, Vec<&Value>) =
         lines.iter().partition(|l| l.get("error").is_some());
     assert!(!failed.is_empty());
+    // The printed summary says so too, not only summary.json.
+    assert!(
+        said.contains(&format!(
+            "{} trials withdrawn because a simulation failed",
+            failed.len()
+        )),
+        "{said}"
+    );
     for f in &failed {
         assert!(names_the_fmu_and_host(f["error"].as_str().unwrap()), "{f}");
     }

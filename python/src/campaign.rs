@@ -603,7 +603,8 @@ impl Plan {
                     c = c.observer(ProgressLines::new(std::io::stderr()));
                 }
                 if let Some((db, name)) = &self.storage {
-                    let store = PostgresStore::open(db, name).map_err(|e| errors::campaign(e.into()))?;
+                    let store =
+                        PostgresStore::open(db, name).map_err(|e| errors::campaign(e.into()))?;
                     c = c.store(Box::new(store));
                 }
                 Finished::One(c.run(sim).map_err(errors::campaign)?)

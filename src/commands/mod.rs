@@ -532,6 +532,15 @@ pub fn summary_text(o: &CampaignOutcome, problem: &Problem) -> String {
     let _ = writeln!(s, "{}", r.table_md());
     let _ = writeln!(s, "{}", r.fidelity_md(&problem.fidelity, &problem.theta_hf));
     let _ = writeln!(s, "{}", r.findings_text());
+    if o.withdrawn > 0 {
+        let _ = writeln!(
+            s,
+            "{} trials withdrawn because a simulation failed (on_error = \"skip\"; each is in \
+             the trial store with its error, and `failed_simulations` in summary.json) and \
+             replaced by new ones: the results rest on the told trials only.",
+            o.withdrawn
+        );
+    }
     let _ = writeln!(
         s,
         "{} trials ({} replayed from the trial store, {} run) in {}; outputs in {}",

@@ -241,6 +241,7 @@ impl<'o> Campaign<'o> {
             replayed,
             elapsed_seconds: clock.elapsed().as_secs_f64(),
             trials,
+            withdrawn: failed as u64,
         })
     }
 

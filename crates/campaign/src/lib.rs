@@ -75,6 +75,9 @@ pub struct CampaignOutcome {
     pub elapsed_seconds: f64,
     /// Every told trial (replayed and run), in store order.
     pub trials: Vec<log::TrialLine>,
+    /// Trials withdrawn because a simulation failed (`on_error = "skip"`; stored as failed
+    /// lines with their error), replayed and run.
+    pub withdrawn: u64,
 }
 
 /// What is searched: the fidelity space with θ_HF, and each scenario's parameter space.
