@@ -5,7 +5,7 @@
 use super::{usage, Failure};
 use savme::compose::{self, named_simulator};
 use savme::postgres::worker::{work, Unavailable, WorkerOptions};
-use savme::postgres::{find_campaign, Session};
+use savme::postgres::{stored_simulator, Session};
 use savme_fmu::FmuBackend;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -118,19 +118,7 @@ fn simulator_label(
     let mut said = false;
     loop {
         let label: Option<String> = s
-            .run(|c| {
-                let exists: bool = c
-                    .query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])?
-                    .get(0);
-                if !exists || find_campaign(c, name)?.is_none() {
-                    return Ok(None);
-                }
-                Ok(c.query_one(
-                    "SELECT protocol->>'simulator' FROM savme.campaigns WHERE name = $1",
-                    &[&name],
-                )?
-                .get(0))
-            })
+            .run(|c| stored_simulator(c, name))
             .map_err(|e| e.to_string())?;
         if let Some(label) = label {
             return Ok(label);

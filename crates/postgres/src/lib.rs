@@ -26,5 +26,5 @@ pub use session::{Conn, Session};
 pub use source::PostgresSource;
 pub use store::{
     application_name, campaign_id, check_name, connection_lost, find_campaign, host_name,
-    read_campaign, PostgresStore, MAX_NAME,
+    read_campaign, stored_simulator, PostgresStore, MAX_NAME,
 };

@@ -112,6 +112,26 @@ pub fn find_campaign(client: &mut Client, name: &str) -> Result<Option<i32>, pos
         .map(|r| r.get(0)))
 }
 
+/// The simulator label of campaign `name`'s stored protocol — None while the database has no
+/// savme schema, no such campaign or no protocol yet (a worker waits for its coordinator).
+pub fn stored_simulator(
+    client: &mut Client,
+    name: &str,
+) -> Result<Option<String>, postgres::Error> {
+    let exists: bool = client
+        .query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])?
+        .get(0);
+    if !exists {
+        return Ok(None);
+    }
+    Ok(client
+        .query_opt(
+            "SELECT protocol->>'simulator' FROM savme.campaigns WHERE name = $1",
+            &[&name],
+        )?
+        .and_then(|r| r.get(0)))
+}
+
 impl PostgresStore {
     /// Connects to `db` (with backoff), creates or migrates savme's schema, creates campaign
     /// `name` if it is new, and takes its coordinator lock — or fails with
