@@ -14,7 +14,7 @@ _RunResult = Tuple[bool, float]
 __version__: str
 __all__ = [
     "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
-    "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Estimation", "Protocol", "Problem",
+    "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Estimation", "Protocol", "PROTOCOL_VALUES", "Problem",
     "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator",
 ]
 
