@@ -32,14 +32,15 @@ pub struct Preset {
 /// The protocol and problem of a campaign on the bundled driving simulator, validated.
 ///
 /// ```
-/// use savme_campaign::config::{bundled, Overrides, Preset};
+/// use savme::campaign::config::Overrides;
+/// use savme::compose::{bundled, Preset};
 /// let o = Overrides { seed: Some(3), train_scenarios: Some(vec!["7".into()]), ..Default::default() };
 /// let (p, problem) = bundled(Preset { quick: true, ideal: false }, &o)?;
 /// assert_eq!((p.seed, p.budgets.clone()), (3, vec![0.3]));
 /// assert_eq!(p.train_scenarios, ["lead_vehicle_brakes"]);
 /// assert!(problem.scenarios.contains_key("on_ramp_merge"));
 /// assert!(bundled(Preset::default(), &Overrides { budgets: Some(vec![2.0]), ..Default::default() }).is_err());
-/// # Ok::<(), savme_campaign::CampaignError>(())
+/// # Ok::<(), savme::campaign::CampaignError>(())
 /// ```
 pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), CampaignError> {
     let (train, test) = savme_sim::scenario::train_test_names();
@@ -92,7 +93,8 @@ impl Simulator for NamedSimulator {
 /// FMU campaign's label needs its campaign file: None).
 ///
 /// ```
-/// use savme_campaign::config::{named_simulator, toy_label, NamedSimulator};
+/// use savme::campaign::config::toy_label;
+/// use savme::compose::{named_simulator, NamedSimulator};
 /// assert!(matches!(named_simulator("savme-sim/ideal"), Some(NamedSimulator::Driving(_))));
 /// assert!(matches!(named_simulator(&toy_label(20)), Some(NamedSimulator::Toy(_))));
 /// assert!(named_simulator("my-fmu-campaign").is_none());
