@@ -150,7 +150,7 @@ def peers_ahead(outcomes: list[Outcome], savme_methods: list[str]) -> list[str]:
                     continue
                 if ms[m][key][0] > base:
                     out.append(
-                        f"- {label}: VerifAI {m} {ms[m][key][0]:.1f} > {sm} {base:.1f} "
-                        f"({ms[m][key][0] / base:.2f}×)" if base > 0 else f"- {label}: VerifAI {m} > {sm}"
+                        f"- {label}: {m} {ms[m][key][0]:.1f} > {sm} {base:.1f} "
+                        f"({ms[m][key][0] / base:.2f}×)" if base > 0 else f"- {label}: {m} > {sm}"
                     )
     return out

@@ -42,7 +42,7 @@ OPTIONAL = HERE / "requirements-bayesopt.txt"
 
 TRAIN = ("1", "2", "3", "4", "5", "6", "7", "8")
 TEST = ("9", "10")
-QUICK_SCENARIOS = ("7", "5")  # lead_vehicle_brakes, cut_in (4-5 parameters each)
+QUICK_SCENARIOS = ("7", "5")  # lead_vehicle_brakes, intruder_cuts_in (5 and 4 parameters)
 BEGIN, END = "<!-- peers:begin -->", "<!-- peers:end -->"
 
 
@@ -133,16 +133,19 @@ def main() -> int:
 
     # savme first: its search and deployment costs set every peer's budgets, seed by seed.
     outcomes: list[report.Outcome] = []
-    commands: list[str] = [shlex.join([sys.argv[0], *sys.argv[1:]])]
+    commands: list[str] = [shlex.join(["python3", "benches/peers/run.py", *sys.argv[1:]])]
     budgets: dict[int, tuple[int, int]] = {}
     for v in variants:
         vdir = out / "savme" / v.name
         vdir.parent.mkdir(parents=True, exist_ok=True)
         log(f"savme `{v.name}`: seeds {seeds}, {iterations} iterations, {screen} screened")
-        commands.append(shlex.join(savme_rows.run_campaign(savme_exe, v, protocol, vdir, out / "savme.log")))
+        cmd = savme_rows.run_campaign(savme_exe, v, protocol, vdir, out / "savme.log")
+        commands.append(shlex.join(cmd).replace(f"{REPO}/", ""))
         with Simulator(sim_exe) as sim:
             for seed in seeds:
-                trials = vdir / f"seed-{seed}" / "trials.jsonl" if len(seeds) > 1 else vdir / "trials.jsonl"
+                trials = vdir / f"seed-{seed}" / "trials.jsonl"
+                if not trials.exists():  # one seed: the campaign may be written in vdir itself
+                    trials = vdir / "trials.jsonl"
                 s = savme_rows.read_seed(trials, v.name, seed, args.budget)
                 outcomes.append(savme_outcome(s, sim, report))
                 if v is variants[0]:
