@@ -1,0 +1,285 @@
+#!/usr/bin/env python3
+"""Peer benchmark: savme's search against VerifAI's samplers on the same problem.
+
+    python3 benches/peers/run.py --quick              # a few minutes: 1 seed, 2 scenarios
+    python3 benches/peers/run.py                      # scenarios 1–8, 3 seeds, paper length
+    python3 benches/peers/run.py --scenarios test     # the meta-testing scenarios 9–10
+
+Same simulator (the bundled driving simulator, camera + lidar), same φ-ranges (one VerifAI
+`Box` per φ variable), same budget in deterministic work units (wu): each seed's savme search
+(`train@B` of a `savme reproduce --cost work` campaign, HF + LF runs charged) sets the budget
+every peer gets on that seed; the deployed part likewise (savme's `screen@B` stage). Everything
+runs in one invocation. See benches/peers/README.md.
+
+The first run creates target/peers-venv (VerifAI from PyPI; GPyOpt for Bayesian optimisation
+if it installs) and re-runs itself inside it; it also builds `savme` and the `peers_sim`
+example in release mode.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import json
+import os
+import shlex
+import subprocess
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict
+from pathlib import Path
+
+# One BLAS thread per process: the peers run `--jobs` processes on a shared machine, and
+# GPyOpt's fits stall under oversubscribed BLAS threads.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent.parent
+VENV = REPO / "target" / "peers-venv"
+REQUIREMENTS = HERE / "requirements.txt"
+OPTIONAL = HERE / "requirements-bayesopt.txt"
+
+TRAIN = ("1", "2", "3", "4", "5", "6", "7", "8")
+TEST = ("9", "10")
+QUICK_SCENARIOS = ("7", "5")  # lead_vehicle_brakes, intruder_cuts_in (5 and 4 parameters)
+BEGIN, END = "<!-- peers:begin -->", "<!-- peers:end -->"
+
+
+def in_venv() -> bool:
+    return Path(sys.prefix).resolve() == VENV.resolve()
+
+
+def ensure_venv() -> None:
+    """Creates target/peers-venv on first use and re-executes this script inside it."""
+    if in_venv():
+        return
+    py = VENV / "bin" / "python"
+    if not (VENV / ".complete").exists():
+        print(f"setting up {VENV} (VerifAI from PyPI) …", file=sys.stderr, flush=True)
+        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
+        pip = [str(py), "-m", "pip", "install", "-q"]
+        subprocess.run(pip + ["-r", str(REQUIREMENTS)], check=True)
+        if subprocess.run(pip + ["-r", str(OPTIONAL)]).returncode != 0:
+            print("GPyOpt did not install: Bayesian optimisation is left out", file=sys.stderr)
+        (VENV / ".complete").write_text("ok\n")
+    os.execv(str(py), [str(py), str(Path(__file__).resolve()), *sys.argv[1:]])
+
+
+def build(profile_dir: Path) -> tuple[Path, Path]:
+    """`savme` and the `peers_sim` example, release mode, at low priority."""
+    cmd = ["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme", "--example", "peers_sim"]
+    subprocess.run(cmd, check=True, cwd=REPO)
+    return profile_dir / "savme", profile_dir / "examples" / "peers_sim"
+
+
+def parse_args() -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="1 seed, scenarios 7 and 5, 40 iterations")
+    ap.add_argument("--scenarios", default="train", help="train (1–8), test (9–10) or a list: 7,5")
+    ap.add_argument("--seeds", type=int, default=None, help="number of seeds (default 3; quick 1)")
+    ap.add_argument("--first-seed", type=int, default=1)
+    ap.add_argument("--iterations", type=int, default=None, help="savme search iterations (default 500; quick 40)")
+    ap.add_argument("--screen-iterations", type=int, default=None, help="savme deployed trials (default 300; quick 30)")
+    ap.add_argument("--budget", type=float, default=0.3, help="savme's C_budget")
+    ap.add_argument("--methods", default=None, help="VerifAI peers, comma-separated (default: all that installed)")
+    ap.add_argument("--savme-variant", action="append", default=None, metavar="NAME[=FLAGS]",
+                    help="a savme row: name and extra `savme reproduce` flags (repeatable; default: savme)")
+    ap.add_argument("--jobs", type=int, default=2, help="processes at once (savme --jobs, peer runs in parallel)")
+    ap.add_argument("--out", type=Path, default=None, help="default target/peers/<mode>")
+    ap.add_argument("--results-md", type=Path, default=None,
+                    help="also write the tables into this markdown file between the peers markers")
+    return ap.parse_args()
+
+
+def scenario_keys(arg: str, quick: bool) -> tuple[str, ...]:
+    if arg == "train":
+        return QUICK_SCENARIOS if quick else TRAIN
+    if arg == "test":
+        return TEST
+    return tuple(s.strip() for s in arg.split(",") if s.strip())
+
+
+def main() -> int:
+    args = parse_args()
+    ensure_venv()
+    sys.path.insert(0, str(HERE))
+    import report
+    import savme_rows
+    import verifai_peers
+    from simulator import Simulator
+
+    started = dt.datetime.now(dt.timezone.utc)
+    t0 = time.monotonic()
+    keys = scenario_keys(args.scenarios, args.quick)
+    n_seeds = args.seeds or (1 if args.quick else 3)
+    seeds = tuple(range(args.first_seed, args.first_seed + n_seeds))
+    iterations = args.iterations or (40 if args.quick else 500)
+    screen = args.screen_iterations if args.screen_iterations is not None else (30 if args.quick else 300)
+    mode = "quick" if args.quick else "full"
+    out = args.out or REPO / "target" / "peers" / f"{mode}-{args.scenarios.replace(',', '_')}"
+    out.mkdir(parents=True, exist_ok=True)
+    variants = [savme_rows.Variant.parse(v) for v in (args.savme_variant or ["savme"])]
+    methods = [m for m in (args.methods.split(",") if args.methods else verifai_peers.PEERS)]
+    if "bayesopt" in methods and not verifai_peers.bayesopt_available():
+        print("GPyOpt is not installed: Bayesian optimisation left out", file=sys.stderr)
+        methods.remove("bayesopt")
+
+    savme_exe, sim_exe = build(REPO / "target" / "release")
+    with Simulator(sim_exe) as sim:
+        spaces = [sim.space(k) for k in keys]
+    names = [s.name for s in spaces]
+    protocol = savme_rows.Protocol(seeds, iterations, screen, args.budget, keys, args.jobs)
+
+    # savme first: its search and deployment costs set every peer's budgets, seed by seed.
+    outcomes: list[report.Outcome] = []
+    commands: list[str] = [shlex.join(["python3", "benches/peers/run.py", *sys.argv[1:]])]
+    budgets: dict[int, tuple[int, int]] = {}
+    for v in variants:
+        vdir = out / "savme" / v.name
+        vdir.parent.mkdir(parents=True, exist_ok=True)
+        log(f"savme `{v.name}`: seeds {seeds}, {iterations} iterations, {screen} screened")
+        cmd = savme_rows.run_campaign(savme_exe, v, protocol, vdir, out / "savme.log")
+        commands.append(shlex.join(cmd).replace(f"{REPO}/", ""))
+        with Simulator(sim_exe) as sim:
+            for seed in seeds:
+                trials = vdir / f"seed-{seed}" / "trials.jsonl"
+                if not trials.exists():  # one seed: the campaign may be written in vdir itself
+                    trials = vdir / "trials.jsonl"
+                s = savme_rows.read_seed(trials, v.name, seed, args.budget)
+                outcomes.append(savme_outcome(s, sim, report))
+                if v is variants[0]:
+                    budgets[seed] = (sum(s.search_work.values()), sum(s.deployed_work.values()))
+
+    # The peers: one process per (peer, seed), `--jobs` at once.
+    log(f"VerifAI peers {methods} on seeds {seeds}; budgets (wu) {budgets}")
+    jobs = [(m, seed) for m in methods for seed in seeds]
+    with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+        futures = {
+            job: pool.submit(verifai_peers.run_peer, job[0], job[1], spaces,
+                             budgets[job[1]][0], budgets[job[1]][1], sim_exe)
+            for job in jobs
+        }
+        for (m, seed), f in futures.items():
+            peer = f.result()
+            save_runs(out / "peers" / f"{m}-seed-{seed}.jsonl", peer)
+            outcomes.append(peer_outcome(peer, report, verifai_peers))
+            log(f"  {m} seed {seed}: {len(peer.search)} + {len(peer.deployed)} HF runs")
+
+    finished = dt.datetime.now(dt.timezone.utc)
+    text = render(report, outcomes, names, [v.name for v in variants], dict(
+        mode=mode, seeds=seeds, iterations=iterations, screen=screen, budget=args.budget,
+        budgets=budgets, started=started, finished=finished, wall=time.monotonic() - t0,
+        commands=commands, methods=methods,
+    ))
+    (out / "table.md").write_text(text)
+    (out / "outcomes.json").write_text(json.dumps([outcome_json(o) for o in outcomes], indent=1))
+    print(text)
+    if args.results_md:
+        write_section(args.results_md, text, args.scenarios, mode)
+    return 0
+
+
+def log(msg: str) -> None:
+    print(f"[{dt.datetime.now(dt.timezone.utc):%H:%M:%S}] {msg}", file=sys.stderr, flush=True)
+
+
+def savme_outcome(s, sim, report):
+    """Tallies of a savme seed; failing cells by savme's own bins (the simulator's `arms`)."""
+    def tallies(hits, work, trials):
+        out = {sc: report.Tally(trials=trials[sc], work=work[sc]) for sc in work}
+        for h in hits:
+            if h.failure:
+                out[h.scenario].failures += 1
+                out[h.scenario].cells.add((h.scenario, sim.arms(h.scenario, h.phi)))
+        return out
+
+    return report.Outcome(
+        s.method, s.seed,
+        tallies(s.search_hf, s.search_work, s.search_trials),
+        tallies(s.deployed_hf, s.deployed_work, s.deployed_trials),
+    )
+
+
+def peer_outcome(peer, report, verifai_peers):
+    def tallies(runs):
+        out = {}
+        for r in runs:
+            t = out.setdefault(r.scenario, report.Tally())
+            t.trials += 1
+            t.work += r.work
+            if r.failure:
+                t.failures += 1
+                t.cells.add((r.scenario, r.arms))
+        return out
+
+    return report.Outcome(
+        f"VerifAI {peer.method}", peer.seed, tallies(peer.search), tallies(peer.deployed),
+        verifai_peers.overhead_ms(peer),
+    )
+
+
+def save_runs(path: Path, peer) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w") as f:
+        for part in ("search", "deployed"):
+            for r in getattr(peer, part):
+                f.write(json.dumps({"part": part, **asdict(r)}) + "\n")
+
+
+def outcome_json(o) -> dict:
+    def part(d):
+        return {sc: {"trials": t.trials, "failures": t.failures, "work": t.work, "cells": len(t.cells)}
+                for sc, t in d.items()}
+
+    return {"method": o.method, "seed": o.seed, "overhead_ms": o.overhead_ms,
+            "search": part(o.search), "deployed": part(o.deployed)}
+
+
+def render(report, outcomes, names, savme_methods, info) -> str:
+    ahead = report.peers_ahead(outcomes, savme_methods)
+    lines = [
+        f"Run {info['started']:%Y-%m-%d %H:%M}–{info['finished']:%H:%M} UTC ({info['wall'] / 60:.0f} min wall), "
+        f"mode {info['mode']}, seeds {', '.join(map(str, info['seeds']))}, scenarios {', '.join(names)}, "
+        f"camera + lidar. savme: C_budget {info['budget']}, {info['iterations']} search iterations, "
+        f"{info['screen']} screened trials (`--audit-fraction 0`). Budgets per seed (search, deployed; "
+        f"10⁹ wu): " + "; ".join(f"seed {s}: {a / 1e9:.2f}, {b / 1e9:.2f}" for s, (a, b) in info["budgets"].items())
+        + ". Every VerifAI peer gets its seed's budgets on HF only.",
+        "",
+        "Commands:",
+        "",
+        "```sh",
+        *info["commands"],
+        "```",
+        "",
+        "Per 10⁹ work units, mean ± sd over seeds:",
+        "",
+        report.main_table(outcomes),
+        "",
+        "HF failures per 10⁹ wu in the search, per scenario (mean ± sd over seeds):",
+        "",
+        report.scenario_table(outcomes, names, savme_methods),
+        "",
+        "Where a peer is ahead of savme (means):",
+        "",
+        *(ahead or ["- nowhere"]),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def write_section(path: Path, text: str, scenarios: str, mode: str) -> None:
+    """Replaces (or appends) the block between this mode's markers in `path`."""
+    begin, end = f"{BEGIN[:-4]} {mode} {scenarios} -->", f"{END[:-4]} {mode} {scenarios} -->"
+    doc = path.read_text() if path.exists() else ""
+    block = f"{begin}\n{text}\n{end}"
+    if begin in doc and end in doc:
+        head, rest = doc.split(begin, 1)
+        doc = head + block + rest.split(end, 1)[1]
+    else:
+        doc = doc.rstrip("\n") + "\n\n" + block + "\n"
+    path.write_text(doc)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
