@@ -26,7 +26,9 @@ use serde_json::{json, Value as Json};
 
 fn assignment(object: &Json, base: Assignment) -> Result<Assignment, String> {
     let mut out = base;
-    let map = object.as_object().ok_or("expected an object of name: number")?;
+    let map = object
+        .as_object()
+        .ok_or("expected an object of name: number")?;
     for (name, value) in map {
         let x = value
             .as_f64()
