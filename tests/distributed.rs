@@ -398,7 +398,8 @@ fn fmu_coordinator(url: &str, name: &str, config: &Path, out: &Path) -> Child {
         .arg(config)
         .arg("--out")
         .arg(out)
-        .stdout(Stdio::null())
+        // The summary is printed at the end (a few kB: the pipe does not fill while it runs).
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap()
