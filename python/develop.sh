@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the savme Python package and installs it (editable) into a virtual environment with
-# pytest and mypy (for the stub check), so that `cargo test --workspace` also runs the pytest suite (tests/python_package.rs).
+# pytest, mypy (for the stub check) and numpy (numpy-bool results are tested), so that `cargo test --workspace` also runs the pytest suite (tests/python_package.rs).
 # Run it once, and again after changing Rust code.
 #
 #   python/develop.sh            # debug build into $CARGO_TARGET_DIR/py-venv (or target/py-venv)
@@ -17,7 +17,7 @@ venv="${SAVME_PY_VENV:-$target/py-venv}"
 if ! [ -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" "mypy>=1.18"
+"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" "mypy>=1.18" numpy
 if [ "${1:-}" = "--wheel" ]; then
   shift
   wheels="$target/wheels/test"

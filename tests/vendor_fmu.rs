@@ -276,11 +276,24 @@ fn fmu_validate_lists_every_problem() {
     assert!(!ok && err.contains("not valid (2 problem(s))"), "{err}");
     let v: serde_json::Value = serde_json::from_str(&json).unwrap();
     assert_eq!(v["valid"], false);
+    // Each problem names the line of the variable's declaration (as FMPy's validation does).
+    let line_of = |name: &str| {
+        1 + xml
+            .lines()
+            .position(|l| l.contains(&format!("name=\"{name}\"")))
+            .unwrap()
+    };
     assert_eq!(
         v["problems"],
         serde_json::json!([
-            "variable `speed0`: start 30.0 lies outside [min, max]",
-            "variable `road`: start 7 is none of its enumeration's items"
+            format!(
+                "modelDescription.xml, line {}: variable `speed0`: start 30.0 lies outside [min, max]",
+                line_of("speed0")
+            ),
+            format!(
+                "modelDescription.xml, line {}: variable `road`: start 7 is none of its enumeration's items",
+                line_of("road")
+            )
         ])
     );
     // A GUID the library does not know: found by instantiating it.

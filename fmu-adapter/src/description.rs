@@ -172,6 +172,9 @@ pub struct EnumItem {
 /// A variable of the FMU.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct VarInfo {
+    /// The 1-based line of its declaring element in `modelDescription.xml` (0: not parsed
+    /// from a file).
+    pub line: usize,
     /// Its name.
     pub name: String,
     /// Its value reference.
@@ -354,6 +357,9 @@ struct Parser {
     /// `ModelStructure` outputs of FMI 2.0, by 1-based variable index (resolved at the end).
     output_indices: Vec<usize>,
     seen_root: bool,
+    /// The line of the element being read, and of the variable being read.
+    line: usize,
+    variable_line: usize,
 }
 
 impl Parser {
@@ -406,7 +412,10 @@ impl Parser {
                 self.bounds(&a)?;
             }
             "Item" => self.item(&a)?,
-            "ScalarVariable" => self.variable = Some(a),
+            "ScalarVariable" => {
+                self.variable = Some(a);
+                self.variable_line = self.line;
+            }
             "Start" if self.in_variable3 => {
                 if let (Some(v), Some(value)) = (self.md.variables.last_mut(), a.get("value")) {
                     v.start.get_or_insert_with(|| value.clone());
@@ -420,6 +429,7 @@ impl Parser {
             "Alias" if self.in_variable3 => self.alias(&a)?,
             t if fmi3 && self.in_variables => {
                 if let Some((kind, repr)) = Repr::fmi3(t) {
+                    self.variable_line = self.line;
                     self.push_variable(&a, &a, kind, repr)?;
                     self.in_variable3 = true;
                 }
@@ -564,6 +574,7 @@ impl Parser {
             "discrete"
         };
         self.md.variables.push(VarInfo {
+            line: self.variable_line,
             name,
             vr,
             kind,
@@ -671,13 +682,16 @@ impl ModelDescription {
             format!("line {line}, column {column}")
         };
         loop {
+            let before = reader.buffer_position();
+            p.line = line_column(xml, before).0;
+            let in_element = |m: String| format!("{}: {m}", at(before));
             match reader.read_event() {
                 Ok(Event::Start(e)) => {
-                    p.element(&e)?;
+                    p.element(&e).map_err(in_element)?;
                     open.push(String::from_utf8_lossy(e.name().as_ref()).into_owned());
                 }
                 Ok(Event::Empty(e)) => {
-                    p.element(&e)?;
+                    p.element(&e).map_err(in_element)?;
                     p.end(e.name().as_ref());
                 }
                 Ok(Event::End(e)) => {
@@ -702,7 +716,10 @@ impl ModelDescription {
         let mut names = std::collections::HashSet::new();
         for v in &p.md.variables {
             if !names.insert(v.name.as_str()) {
-                return Err(format!("variable `{}` is declared twice", v.name));
+                return Err(format!(
+                    "line {}: variable `{}` is declared twice",
+                    v.line, v.name
+                ));
             }
         }
         Ok(p.md)

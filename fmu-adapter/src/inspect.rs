@@ -202,7 +202,10 @@ pub fn problems(path: &Path) -> Vec<String> {
     let mut out = Vec::new();
     for v in &d.model.variables {
         if let Some(p) = variable_problem(v) {
-            out.push(format!("variable `{}`: {p}", v.name));
+            out.push(format!(
+                "modelDescription.xml, line {}: variable `{}`: {p}",
+                v.line, v.name
+            ));
         }
     }
     out

@@ -413,7 +413,8 @@ fn fmi3_aliases_are_shown_and_bindable() {
     });
     let e = FmuFile::open(&dup).unwrap_err().to_string();
     assert!(
-        e.ends_with("modelDescription.xml: variable `rate` is declared twice"),
+        e.contains("modelDescription.xml: line ")
+            && e.ends_with(": variable `rate` is declared twice"),
         "{e}"
     );
 }
@@ -448,9 +449,17 @@ fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
             1,
         )
     });
-    assert_eq!(
-        savme_fmu::inspect::problems(&bad_array),
-        vec!["variable `m`: element start \"x\" is not a Real".to_string()]
+    let problems = savme_fmu::inspect::problems(&bad_array);
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    let line: usize = problems[0]
+        .strip_prefix("modelDescription.xml, line ")
+        .and_then(|r| r.split(':').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no line: {problems:?}"));
+    assert!(line > 1, "{problems:?}");
+    assert!(
+        problems[0].ends_with(": variable `m`: element start \"x\" is not a Real"),
+        "{problems:?}"
     );
     let mut spec = Case::new(&[], 0.1, 10.0).spec(CostSource::Wall);
     spec.scenarios[0].phi[0].fmu_variable = "m".into();
