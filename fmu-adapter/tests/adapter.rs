@@ -219,7 +219,10 @@ fn broken_fmus_are_refused_with_an_error_naming_them() {
         "fmi3.fmu",
         &md.replace("fmiVersion=\"2.0\"", "fmiVersion=\"3.0\""),
     );
-    expect(&v3, "modelDescription.xml: variable #1: no name");
+    expect(
+        &v3,
+        "modelDescription.xml: line 22, column 7: variable #1: no name",
+    );
     // … and an FMI 3.0 description over a library of FMI 2.0 functions only (the C braking
     // FMU) is refused on loading.
     let v3 = dir.join("fmi3-lib2.fmu");
