@@ -119,8 +119,10 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
         } else {
             url.clone()
         };
+        // One thread each: with up to 2 × window runs in flight, one worker cannot take them
+        // all while the others wait (with a thread per core, a fast first worker sometimes did).
         let children: Vec<Child> = (0..workers)
-            .map(|_| worker(&worker_url, &name, &[]))
+            .map(|_| worker(&worker_url, &name, &["--jobs", "1"]))
             .collect();
         let o = Command::new(EXE)
             .args([

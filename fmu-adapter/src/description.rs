@@ -655,8 +655,8 @@ fn line_column(text: &str, pos: usize) -> (usize, usize) {
 }
 
 impl ModelDescription {
-    /// Parses a `modelDescription.xml`; an error says what is wrong (and where, for XML
-    /// syntax).
+    /// Parses a `modelDescription.xml`; an error lists what is wrong, one problem per line,
+    /// each with its line and column.
     ///
     /// ```
     /// use savme_fmu::description::{ModelDescription, VarType};
@@ -681,17 +681,24 @@ impl ModelDescription {
             let (line, column) = line_column(xml, pos);
             format!("line {line}, column {column}")
         };
+        // A bad element is a problem to report, not the end of the reading: every one is
+        // listed (each with its line and column), as FMPy's validation lists them.
+        let mut problems: Vec<String> = Vec::new();
         loop {
             let before = reader.buffer_position();
             p.line = line_column(xml, before).0;
-            let in_element = |m: String| format!("{}: {m}", at(before));
+            let mut checked = |r: Result<(), String>| {
+                if let Err(m) = r {
+                    problems.push(format!("{}: {m}", at(before)));
+                }
+            };
             match reader.read_event() {
                 Ok(Event::Start(e)) => {
-                    p.element(&e).map_err(in_element)?;
+                    checked(p.element(&e));
                     open.push(String::from_utf8_lossy(e.name().as_ref()).into_owned());
                 }
                 Ok(Event::Empty(e)) => {
-                    p.element(&e).map_err(in_element)?;
+                    checked(p.element(&e));
                     p.end(e.name().as_ref());
                 }
                 Ok(Event::End(e)) => {
@@ -700,14 +707,21 @@ impl ModelDescription {
                 }
                 Ok(Event::Eof) => break,
                 Ok(_) => {}
-                Err(e) => return Err(format!("{}: {e}", at(reader.buffer_position()))),
+                // Not well-formed: nothing after it can be read.
+                Err(e) => {
+                    problems.push(format!("{}: {e}", at(reader.buffer_position())));
+                    return Err(problems.join("\n"));
+                }
             }
         }
         if let Some(unclosed) = open.last() {
-            return Err(format!(
+            problems.push(format!(
                 "{}: premature end of data: the element `{unclosed}` is not closed",
                 at(xml.len())
             ));
+        }
+        if !problems.is_empty() {
+            return Err(problems.join("\n"));
         }
         p.finish()?;
         if !p.seen_root || p.md.fmi_version.is_empty() {

@@ -197,6 +197,13 @@ pub fn type_name(v: &VarInfo, fmi3: bool) -> String {
 pub fn problems(path: &Path) -> Vec<String> {
     let d = match FmuDescription::read(path) {
         Ok(d) => d,
+        // Each problem of the model description on its own (the message lists one per line).
+        Err(crate::FmuError::BadModelDescription { fmu, message }) => {
+            return message
+                .lines()
+                .map(|m| format!("{fmu}: modelDescription.xml: {m}"))
+                .collect()
+        }
         Err(e) => return vec![e.to_string()],
     };
     let mut out = Vec::new();

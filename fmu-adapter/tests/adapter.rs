@@ -223,6 +223,16 @@ fn broken_fmus_are_refused_with_an_error_naming_them() {
         &v3,
         "modelDescription.xml: line 22, column 7: variable #1: no name",
     );
+    // `savme fmu validate` lists every problem of the description, each at its line and
+    // column (as FMPy's validation does), not only the first.
+    let all = savme_fmu::inspect::problems(&v3);
+    assert!(all.len() > 1, "{all:?}");
+    for p in &all {
+        assert!(
+            p.contains("fmi3.fmu: modelDescription.xml: line ") && p.contains(", column "),
+            "{all:?}"
+        );
+    }
     // … and an FMI 3.0 description over a library of FMI 2.0 functions only (the C braking
     // FMU) is refused on loading.
     let v3 = dir.join("fmi3-lib2.fmu");
