@@ -356,18 +356,8 @@ enum BoundSim {
 /// A campaign: a protocol, a problem, an output directory.
 #[pyclass(name = "Campaign", module = "savme", frozen)]
 pub struct PyCampaign {
-    protocol: Protocol,
-    problem: Problem,
-    out: PathBuf,
-    resume: bool,
-    jobs: Option<usize>,
-    progress: bool,
-    /// The PostgreSQL database and the campaign's name in it, instead of the directory's store.
-    storage: Option<(Database, String)>,
-    /// Seeds to run the protocol with (None: one campaign).
-    repeat: Option<u32>,
-    /// A campaign file's `[estimate]` stage, run after the campaign.
-    estimate: Option<EstimateSettings>,
+    /// What `run` runs (cloned onto the campaign thread).
+    plan: Plan,
     bound: BoundSim,
 }
 
@@ -524,17 +514,7 @@ impl PyCampaign {
         py: Python<'_>,
         sim: S,
     ) -> PyResult<PyCampaignResult> {
-        let plan = Plan {
-            protocol: self.protocol.clone(),
-            problem: self.problem.clone(),
-            out: self.out.clone(),
-            resume: self.resume,
-            jobs: self.jobs,
-            progress: self.progress,
-            storage: self.storage.clone(),
-            repeat: self.repeat,
-            estimate: self.estimate.clone(),
-        };
+        let plan = self.plan.clone();
         let stop = Stop::new();
         let stop_campaign = stop.clone();
         let (tx, rx) = crossbeam_channel::bounded(1);
@@ -566,6 +546,7 @@ impl PyCampaign {
 
 /// What a campaign runs, on the campaign thread: the campaign (or one per seed), then the
 /// `[estimate]` stage — the plan `savme run --config` runs (through the same parts).
+#[derive(Clone)]
 struct Plan {
     protocol: Protocol,
     problem: Problem,
@@ -573,8 +554,11 @@ struct Plan {
     resume: bool,
     jobs: Option<usize>,
     progress: bool,
+    /// The PostgreSQL database and the campaign's name in it, instead of the directory's store.
     storage: Option<(Database, String)>,
+    /// Seeds to run the protocol with (None: one campaign).
     repeat: Option<u32>,
+    /// A campaign file's `[estimate]` stage, run after the campaign.
     estimate: Option<EstimateSettings>,
 }
 
@@ -681,15 +665,17 @@ impl PyCampaign {
             }
         };
         Ok(PyCampaign {
-            protocol,
-            problem: problem.problem.clone(),
-            out,
-            resume,
-            jobs,
-            progress,
-            storage,
-            repeat,
-            estimate: None,
+            plan: Plan {
+                protocol,
+                problem: problem.problem.clone(),
+                out,
+                resume,
+                jobs,
+                progress,
+                storage,
+                repeat,
+                estimate: None,
+            },
             bound: BoundSim::None,
         })
     }
@@ -772,28 +758,28 @@ impl PyCampaign {
     #[getter]
     fn protocol(&self) -> PyProtocol {
         PyProtocol {
-            protocol: self.protocol.clone(),
+            protocol: self.plan.protocol.clone(),
         }
     }
 
     /// The output directory.
     #[getter]
     fn out(&self) -> PathBuf {
-        self.out.clone()
+        self.plan.out.clone()
     }
 
     /// The number of seeds the protocol runs with (None: one campaign).
     #[getter]
     fn repeat(&self) -> Option<u32> {
-        self.repeat
+        self.plan.repeat
     }
 
     fn __repr__(&self) -> String {
         format!(
             "Campaign(simulator={:?}, out={:?}, resume={})",
-            self.protocol.simulator,
-            self.out.display().to_string(),
-            self.resume
+            self.plan.protocol.simulator,
+            self.plan.out.display().to_string(),
+            self.plan.resume
         )
     }
 }
@@ -822,15 +808,17 @@ pub fn load_campaign(
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let estimate = c.estimate_settings().map_err(errors::campaign_message)?;
     Ok(PyCampaign {
-        protocol: c.protocol,
-        problem: c.problem,
-        out,
-        resume,
-        jobs,
-        progress,
-        storage,
-        repeat: c.repeat,
-        estimate,
+        plan: Plan {
+            protocol: c.protocol,
+            problem: c.problem,
+            out,
+            resume,
+            jobs,
+            progress,
+            storage,
+            repeat: c.repeat,
+            estimate,
+        },
         bound: BoundSim::Fmu(Box::new(c.file)),
     })
 }
