@@ -148,7 +148,7 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
             std::fs::read_to_string(out.join("table.md")).unwrap(),
             std::fs::read_to_string(local.join("table.md")).unwrap()
         );
-        // Every run ran once, and with three workers, more than one worker ran some.
+        // Every run ran once.
         let id: i32 = client
             .query_one("SELECT id FROM savme.campaigns WHERE name = $1", &[&name])
             .unwrap()
@@ -165,9 +165,10 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
         assert_eq!(row.get::<_, i64>(0), runs);
         assert_eq!(row.get::<_, i32>(1), 1);
         assert!(row.get::<_, bool>(3));
-        if workers == 3 {
-            assert!(row.get::<_, i64>(2) > 1, "one worker did everything");
-        }
+        // (How the runs are shared out between the workers depends on timing: on an idle
+        // machine one worker sometimes claims them all, which is correct. The trials above
+        // must be the same whatever the sharing.)
+        assert!(row.get::<_, i64>(2) >= 1);
         let _ = std::fs::remove_dir_all(out);
     }
     let _ = std::fs::remove_dir_all(local);
