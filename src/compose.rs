@@ -9,7 +9,8 @@ use savme_campaign::estimate::{
 };
 use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
 use savme_campaign::{CampaignError, OnError, Problem, Protocol};
-use savme_fmu::campaign_file::{CampaignFile, ConfigError};
+use savme_campaign_file::{CampaignFile, ConfigError};
+use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_kernel::{Assignment, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use std::io::Write;
@@ -140,7 +141,7 @@ pub struct FmuCampaign {
     /// The fidelity space with θ_HF and the scenario spaces of the file.
     pub problem: Problem,
     /// The file as read and checked against its FMUs.
-    pub file: CampaignFile,
+    pub file: FmuCampaignFile,
     /// The number of seeds (`repeat`: the file's, then the flags'; None: one campaign).
     pub repeat: Option<u32>,
 }
@@ -162,30 +163,32 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
             message: "an FMU campaign's fidelity space comes from its file: set `[campaign] fidelity_bins` there".into(),
         });
     }
-    let file = CampaignFile::load(path, &paper)?;
-    let mut p = Protocol::paper(&file.label, file.train.clone(), file.test.clone());
-    p.weights = file.weights.clone();
+    let file = FmuCampaignFile::load(path, &paper)?;
+    let common = &file.common;
+    let scenarios = &common.scenarios;
+    let mut p = Protocol::paper(&file.label, scenarios.train.clone(), scenarios.test.clone());
+    p.weights = scenarios.weights.clone();
     p.on_error = if file.skip_failed_runs {
         OnError::Skip
     } else {
         OnError::Abort
     };
-    let known = file
-        .scenarios
+    let known = scenarios
+        .spaces
         .keys()
         .cloned()
         .collect::<Vec<_>>()
         .join(", ");
-    let lookup = |k: &str| file.scenarios.contains_key(k).then(|| k.to_string());
+    let lookup = |k: &str| scenarios.spaces.contains_key(k).then(|| k.to_string());
     let overrides =
-        Overrides::from_section(&file.campaign, &file.path.display().to_string())?.then(flags);
+        Overrides::from_section(&common.campaign, &common.path.display().to_string())?.then(flags);
     overrides.apply(&mut p, &lookup, &known)?;
-    p.validate().map_err(|e| in_file(e, &file, flags))?;
-    check_repeat(overrides.repeat).map_err(|e| in_file(e, &file, flags))?;
+    p.validate().map_err(|e| in_file(e, common, flags))?;
+    check_repeat(overrides.repeat).map_err(|e| in_file(e, common, flags))?;
     let problem = Problem {
-        fidelity: file.fidelity.clone(),
-        theta_hf: file.theta_hf.clone(),
-        scenarios: file.scenarios.clone(),
+        fidelity: common.fidelity.space.clone(),
+        theta_hf: common.fidelity.theta_hf.clone(),
+        scenarios: scenarios.spaces.clone(),
     };
     Ok(FmuCampaign {
         protocol: p,
@@ -235,7 +238,7 @@ fn missing_role(
     message: String,
 ) -> (String, Option<usize>, String) {
     let message = format!("no scenario has role \"{role}\": {message}");
-    match file.scenario_lines.first() {
+    match file.scenarios.lines.first() {
         Some(s) => (format!("scenario[{}].role", s.index), Some(s.role), message),
         None => ("scenario".into(), None, message),
     }
@@ -244,11 +247,10 @@ fn missing_role(
 /// The key, line and message of a weight the protocol refused: the weight of the first
 /// scenario (by name, as [`Protocol::validate`] checks them) that is not positive and finite.
 fn bad_weight(file: &CampaignFile, message: String) -> (String, Option<usize>, String) {
-    let bad = file
-        .weights
-        .iter()
+    let scenarios = &file.scenarios;
+    let bad = (scenarios.weights.iter())
         .find(|(_, w)| !(**w > 0.0 && w.is_finite()))
-        .and_then(|(name, _)| file.scenario_lines.iter().find(|s| &s.name == name));
+        .and_then(|(name, _)| scenarios.lines.iter().find(|s| &s.name == name));
     match bad {
         Some(s) => (format!("scenario[{}].weight", s.index), s.weight, message),
         None => ("scenario.weight".into(), None, message),
@@ -260,12 +262,12 @@ impl FmuCampaign {
     /// against the campaign before it runs; refused with `repeat` (the estimate reads one
     /// campaign). Errors name the file, line and key.
     pub fn estimate_settings(&self) -> Result<Option<EstimateSettings>, String> {
-        let Some(section) = &self.file.estimate else {
+        let Some(section) = &self.file.common.estimate else {
             return Ok(None);
         };
-        let settings =
-            EstimateSettings::from_section(section, &self.file.path).map_err(|e| e.to_string())?;
-        let file = self.file.path.display();
+        let settings = EstimateSettings::from_section(section, &self.file.common.path)
+            .map_err(|e| e.to_string())?;
+        let file = self.file.common.path.display();
         let at = |e: String| format!("{file}, line {}, [estimate]: {e}", section.line);
         if self.repeat.is_some() {
             return Err(at(

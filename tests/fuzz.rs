@@ -210,7 +210,7 @@ proptest! {
         let dir = temp("campaign");
         let path = dir.join("campaign.toml");
         std::fs::write(&path, &text).unwrap();
-        let result = savme_fmu::campaign_file::CampaignFile::load(&path, &paper);
+        let result = savme_fmu::campaign_file::FmuCampaignFile::load(&path, &paper);
         // The FMU does not exist, so nothing loads; the error names this file.
         let Err(e) = result else {
             return Err(TestCaseError::fail("loaded a campaign whose FMU does not exist"));

@@ -1,23 +1,24 @@
-//! The TOML campaign file of `savme run --config`: which FMUs, how runs execute, the fidelity
-//! space with θ_HF and the scenarios — every savme variable bound to an FMU variable by name.
+//! The FMU adapter's part of a campaign file (`savme run --config`): which FMUs, how runs
+//! execute (`[fmu]`), what a failure is (`[failure]`), and the FMU variable each savme variable
+//! of the campaign's part (read by `savme_campaign_file`: `[campaign]`, `[estimate]`, the
+//! fidelity space and the scenarios) is bound to.
 //!
-//! [`CampaignFile::load`] reads and checks a file: the TOML (syntax, unknown keys, types), the
-//! spaces, the run specification, then both FMUs (opened, every binding and signal type-checked
-//! against both). Every error is a [`ConfigError`] naming the file and, where known, the line and
-//! the key (an error that names a key always names a line: of the part of a table it is about)
-//! — also for an FMU variable that does not fit, by remembering where each FMU variable name came
-//! from and checking the FMUs one use at a time (failure signal, cost, fidelity, each scenario).
-//! Two bindings that would set one FMU variable in the same run (a scenario's φ and fixed
-//! parameters, the fidelity settings) are refused, naming both. The `[campaign]` section is
-//! protocol data: it comes back as written ([`CampaignSection`], with the line of each key) for
-//! the caller to apply and validate.
+//! [`FmuCampaignFile::load`] reads and checks a file: the campaign's part, the run
+//! specification, then both FMUs (opened, every binding and signal type-checked against both).
+//! Every error is a [`ConfigError`] naming the file and, where known, the line and the key
+//! (an error that names a key always names a line: of the part of a table it is about) — also
+//! for an FMU variable that does not fit, by remembering where each FMU variable name came from
+//! and checking the FMUs one use at a time (failure signal, cost, fidelity, each scenario). Two
+//! bindings that would set one FMU variable in the same run (a scenario's φ and fixed
+//! parameters, the fidelity settings) are refused, naming both.
 //!
 //! ```toml
 //! [fmu]
 //! hf = "hf.fmu"                  # paths relative to the campaign file
 //! lf = "lf.fmu"                  # optional: the HF FMU with other settings
 //! stop_time = 12.0
-//! step = { rate_of = "rate" }    # or a fixed step: step = 0.1 (or see `drives` below)
+//! step = { rate_of = "rate" }    # or a fixed step: step = 0.1 (or a fidelity variable with
+//!                                # drives = "step_size")
 //! tolerance = 1e-6               # optional: passed to fmi2SetupExperiment
 //! stop_on_failure = true         # default true
 //! cost = "wall"                  # or the name of an output counting work units
@@ -31,136 +32,49 @@
 //! [failure]
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
 //!
-//! [campaign]                     # optional; every key optional (see CampaignSection)
-//! budgets = [0.3]
-//!
-//! [estimate]                     # optional: P(failure) under the nominal after the campaign
-//! target_width = 0.1             # (see EstimateSection for every key)
-//!
-//! [fidelity]                     # paper = true, or variables:
-//! [[fidelity.variable]]
-//! name = "rate"                  # bound to the FMU variable `rate` unless fmu = "…"
-//! values = [2, 4, 10]            # or range = [lo, hi], bins = 10, scale = "linear" | "log"
-//! hf = 10                        # θ_HF
-//! # drives = "step_size"         # or "tolerance": the variable IS the step size (seconds) or
-//! #                              # the tolerance, bound to no FMU variable; then no `step`
-//!
-//! [[scenario]]
-//! name = "cut_in"
-//! role = "train"                 # or "test"
-//! weight = 1.0                   # p(s) weight, default 1
-//! fixed = { scenario = 5 }       # FMU parameters set for every run of this scenario
-//! [[scenario.phi]]
-//! name = "gap"
-//! range = [2.0, 8.0]
+//! # … and the campaign's sections: [campaign], [estimate], [fidelity], [[scenario]]
+//! # (see savme_campaign_file), every savme variable bound to the FMU variable of its name
+//! # unless `fmu = "…"` names another.
 //! ```
 
 mod bindings;
-mod estimate;
 
-pub use estimate::EstimateSection;
+pub use savme_campaign_file::{
+    CampaignFile, CampaignSection, ConfigError, EstimateSection, ScenarioLines,
+};
 
 use crate::worker::WorkerInit;
 use crate::{
     Binding, CostSource, Crossing, Failure, Fixed, RunSpec, ScenarioSpec, StepSize, Tolerance,
 };
 use bindings::{Origins, Use};
-use raw::{Drives, ScaleSection, StepSection, VarSection};
-use savme_kernel::{Assignment, Scale, Space, SpaceError, Value, Variable};
-use std::collections::BTreeMap;
-use std::ops::Range;
-use std::path::{Path, PathBuf};
+use raw::StepSection;
+use savme_campaign_file::{resolve, Bound, Drives, Fidelity, Source};
+use savme_kernel::{Assignment, Space, Variable};
+use std::path::Path;
 use std::time::Duration;
 use toml::Spanned;
 
-/// A problem with a campaign file: where it is and what is wrong. Displayed as
-/// ``FILE, line N, key `K`: message`` (line and key when known).
-///
-/// ```
-/// use savme_fmu::campaign_file::ConfigError;
-/// let e = ConfigError {
-///     file: "campaign.toml".into(),
-///     line: Some(12),
-///     key: Some("campaign.budgets".into()),
-///     message: "1.3 is outside (0, 1]".into(),
-/// };
-/// assert_eq!(
-///     e.to_string(),
-///     "campaign.toml, line 12, key `campaign.budgets`: 1.3 is outside (0, 1]"
-/// );
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{file}{}{}: {message}", line.map_or(String::new(), |l| format!(", line {l}")), key.as_ref().map_or(String::new(), |k| format!(", key `{k}`")))]
-pub struct ConfigError {
-    /// The campaign file.
-    pub file: String,
-    /// 1-based line, when known.
-    pub line: Option<usize>,
-    /// The key, when known.
-    pub key: Option<String>,
-    /// What is wrong.
-    pub message: String,
-}
+/// The sections the FMU adapter reads.
+pub const SECTIONS: [&str; 2] = ["fmu", "failure"];
 
-/// The `[campaign]` section as written: the protocol's values by key, each optional (the
-/// campaign layer reads them by name — `savme_campaign::values` declares every one — supplies
-/// the defaults and validates), and the output directory.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct CampaignSection {
-    /// The protocol values given, by key (`out` not among them).
-    pub values: BTreeMap<String, toml::Value>,
-    /// `out`, resolved relative to the campaign file.
-    pub out: Option<PathBuf>,
-    /// The 1-based line of each key given (`"budgets"` → 12), to name the line of an error
-    /// found in a value later.
-    pub lines: BTreeMap<String, usize>,
-}
-
-impl CampaignSection {
-    /// `fidelity_bins` as given, if it is a number of bins (the paper's fidelity space needs
-    /// it while the file is read; a value of another type is refused by the campaign layer).
-    pub fn fidelity_bins(&self) -> Option<i64> {
-        self.values
-            .get("fidelity_bins")
-            .and_then(toml::Value::as_integer)
-    }
-}
-
-/// A campaign file, read and checked against its FMUs.
+/// A campaign file of FMUs, read and checked against them.
 #[derive(Debug, Clone)]
-pub struct CampaignFile {
-    /// The file.
-    pub path: PathBuf,
+pub struct FmuCampaignFile {
+    /// The campaign's part: `[campaign]`, `[estimate]`, the fidelity space with θ_HF, the
+    /// scenarios.
+    pub common: CampaignFile,
     /// What the simulator (in-process or in workers) is built from: the FMU paths (resolved
     /// relative to the file), the run specification, the spaces and θ_HF.
     pub init: WorkerInit,
     /// `[fmu] isolate`: run each evaluation in a worker process — also when an FMU declares
     /// `canBeInstantiatedOnlyOncePerProcess`. Without isolation the FMUs' libraries were
-    /// loaded by [`CampaignFile::load`] (as a check); with it nothing was loaded.
+    /// loaded by [`FmuCampaignFile::load`] (as a check); with it nothing was loaded.
     pub isolate: bool,
     /// `[fmu] timeout_s`: per-run timeout with isolation (default 60 s).
     pub timeout: Duration,
     /// `[fmu] on_error = "skip"` (true) or `"abort"` (false, the default).
     pub skip_failed_runs: bool,
-    /// The fidelity space.
-    pub fidelity: Space,
-    /// θ_HF.
-    pub theta_hf: Assignment,
-    /// Each scenario's φ-space.
-    pub scenarios: BTreeMap<String, Space>,
-    /// The meta-training scenarios (role `"train"`), in file order.
-    pub train: Vec<String>,
-    /// The meta-testing scenarios (role `"test"`), in file order.
-    pub test: Vec<String>,
-    /// Scenario weights other than 1.
-    pub weights: BTreeMap<String, f64>,
-    /// Where each scenario is in the file, in file order: to name the line of an error found
-    /// later in its role or weight (a protocol without meta-testing scenarios, a weight ≤ 0).
-    pub scenario_lines: Vec<ScenarioLines>,
-    /// The `[campaign]` section.
-    pub campaign: CampaignSection,
-    /// The `[estimate]` section: estimate P(failure) after the campaign (`savme run`).
-    pub estimate: Option<EstimateSection>,
     /// `fmu:<hf path>|<lf path>`: which simulator ran the trials.
     pub label: String,
     /// `[fmu] record`: the outputs (of both FMUs) that recorded trials show as time series
@@ -168,64 +82,49 @@ pub struct CampaignFile {
     pub record: Vec<String>,
 }
 
-/// Where one `[[scenario]]` table is in its file.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct ScenarioLines {
-    /// The scenario's name.
-    pub name: String,
-    /// Its position among the file's scenarios: its keys are `scenario[index].…`.
-    pub index: usize,
-    /// The 1-based line of its `[[scenario]]` header.
-    pub table: usize,
-    /// The line of its `role`.
-    pub role: usize,
-    /// The line of its `weight`, when given.
-    pub weight: Option<usize>,
+/// The FMU sections of a file.
+#[derive(Debug, serde::Deserialize)]
+struct Sections {
+    fmu: Spanned<raw::FmuSection>,
+    failure: Spanned<raw::FailureSection>,
 }
 
-impl CampaignFile {
-    /// Reads and checks `path`: the TOML, then the FMUs (opened, every binding and signal
-    /// type-checked against both). `paper(bins)` gives the fidelity space and θ_HF of
-    /// `[fidelity] paper = true` (called with `[campaign] fidelity_bins`, between 1 and [`savme_kernel::MAX_ARMS`]), each
-    /// setting bound to the FMU variable of its name. Bindings that would set one FMU variable
-    /// twice in a run (a scenario's φ and fixed parameters, the fidelity settings) are refused.
+impl FmuCampaignFile {
+    /// Reads and checks `path`: the campaign's part, then the FMU sections, then both FMUs
+    /// (opened, every binding and signal type-checked against both). `paper(bins)` gives the
+    /// fidelity space and θ_HF of `[fidelity] paper = true` (called with `[campaign]
+    /// fidelity_bins`, between 1 and [`savme_kernel::MAX_ARMS`]), each setting bound to the
+    /// FMU variable of its name. Bindings that would set one FMU variable twice in a run (a
+    /// scenario's φ and fixed parameters, the fidelity settings) are refused.
     ///
     /// ```no_run
-    /// use savme_fmu::campaign_file::CampaignFile;
+    /// use savme_fmu::campaign_file::FmuCampaignFile;
     /// use savme_kernel::{Assignment, Space, Variable};
     ///
     /// // The caller's "paper" fidelity table (savme passes the bundled simulator's Table II).
-    /// let file = CampaignFile::load("campaign.toml".as_ref(), &|_bins| {
+    /// let file = FmuCampaignFile::load("campaign.toml".as_ref(), &|_bins| {
     ///     let space = Space::new(vec![Variable::discrete("rate_hz", [2, 10])]).expect("valid");
     ///     (space, Assignment::new().with("rate_hz", 10))
     /// })?;
-    /// println!("{}: {} scenarios", file.label, file.scenarios.len());
+    /// println!("{}: {} scenarios", file.label, file.common.scenarios.spaces.len());
     /// # Ok::<(), savme_fmu::campaign_file::ConfigError>(())
     /// ```
     pub fn load(
         path: &Path,
         paper: &dyn Fn(u32) -> (Space, Assignment),
-    ) -> Result<CampaignFile, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
-            file: file.clone(),
-            line: None,
-            key: None,
-            message: e.to_string(),
-        })?;
-        let src = Source { file, text: &text };
-        let f = src.parse()?;
+    ) -> Result<FmuCampaignFile, ConfigError> {
+        let src = Source::read(path)?;
+        let common = CampaignFile::parse(&src, path, &SECTIONS, paper)?;
+        let f: Sections = src.parse()?;
         let base = path.parent().unwrap_or(Path::new("."));
-        let campaign = campaign_section(&src, f.campaign, base)?;
-        let estimate = f.estimate.map(|e| estimate::section(&src, e));
         let mut origins = Origins::default();
-        let fidelity = fidelity(&src, &f.fidelity, &campaign, paper, &mut origins)?;
-        let scenarios = scenarios(&src, &f.scenarios, &mut origins)?;
+        let fidelity = fidelity_bindings(&src, &common.fidelity, &mut origins)?;
+        let scenarios = scenario_specs(&src, &common, &mut origins)?;
         let fmu = f.fmu.get_ref();
-        let step = step(&src, &f.fmu, &fidelity)?;
-        let tolerance = tolerance(&src, fmu.tolerance.as_ref(), &fidelity)?;
+        let step = step(&src, &f.fmu, &common.fidelity)?;
+        let tolerance = tolerance(&src, fmu.tolerance.as_ref(), &common.fidelity)?;
         let stop_time = stop_time(&src, &fmu.stop_time)?;
-        step_count(&src, &f.fmu, &step, stop_time, &fidelity)?;
+        step_count(&src, &f.fmu, &step, stop_time, &common.fidelity)?;
         let failure = failure(&src, &f.failure, &mut origins)?;
         let cost = cost_source(&src, fmu.cost.as_ref(), &mut origins);
         let hf = resolve(base, fmu.hf.get_ref());
@@ -243,13 +142,13 @@ impl CampaignFile {
                 failure,
                 stop_on_failure: fmu.stop_on_failure,
                 cost,
-                fidelity: fidelity.bindings,
-                scenarios: scenarios.specs,
+                fidelity,
+                scenarios,
                 fmu_log: fmu.log,
             },
-            fidelity: Some(fidelity.space.clone()),
-            phi: scenarios.spaces.clone(),
-            theta_hf: Some(fidelity.theta_hf.clone()),
+            fidelity: Some(common.fidelity.space.clone()),
+            phi: common.scenarios.spaces.clone(),
+            theta_hf: Some(common.fidelity.theta_hf.clone()),
         };
         let (hf, lf) = bindings::check_fmus(&src, &init, &f.fmu, &origins)?;
         let record = bindings::check_record(&src, &hf, &lf, fmu.record.as_ref())?;
@@ -259,47 +158,24 @@ impl CampaignFile {
             bindings::load_fmus(&src, &init, &f.fmu)?;
         }
         let timeout = timeout(&src, fmu.timeout_s.as_ref())?;
-        Ok(CampaignFile {
-            path: path.to_path_buf(),
+        Ok(FmuCampaignFile {
+            common,
             label: format!("fmu:{}|{}", init.hf.display(), init.lf.display()),
             init,
             isolate,
             timeout,
             skip_failed_runs: fmu.on_error == raw::OnError::Skip,
-            fidelity: fidelity.space,
-            theta_hf: fidelity.theta_hf,
-            scenarios: scenarios.spaces,
-            train: scenarios.train,
-            test: scenarios.test,
-            weights: scenarios.weights,
-            scenario_lines: scenarios.lines,
-            campaign,
             record,
-            estimate,
         })
     }
 }
 
-/// The file as serde reads it. Keep the type names: serde names some of them in its messages
-/// (e.g. "untagged enum StepSection"). Values an error may be about later are spanned, to name
-/// their line.
+/// The FMU sections as serde reads them. Keep the type names: serde names some of them in its
+/// messages (e.g. "untagged enum StepSection"). Values an error may be about later are spanned,
+/// to name their line.
 mod raw {
     use serde::Deserialize;
-    use std::collections::BTreeMap;
     use toml::Spanned;
-
-    #[derive(Debug, Deserialize)]
-    #[serde(deny_unknown_fields)]
-    pub struct File {
-        pub fmu: Spanned<FmuSection>,
-        pub failure: Spanned<FailureSection>,
-        #[serde(default)]
-        pub campaign: CampaignSection,
-        pub estimate: Option<Spanned<super::estimate::raw::EstimateSection>>,
-        pub fidelity: Spanned<FidelitySection>,
-        #[serde(rename = "scenario")]
-        pub scenarios: Spanned<Vec<Spanned<ScenarioSection>>>,
-    }
 
     #[derive(Debug, Deserialize)]
     #[serde(deny_unknown_fields)]
@@ -352,648 +228,64 @@ mod raw {
         pub above: Option<Spanned<f64>>,
         pub below: Option<Spanned<f64>>,
     }
-
-    /// `[campaign]`: every key with its span (the protocol values are read by name later).
-    pub type CampaignSection = BTreeMap<String, Spanned<toml::Value>>;
-
-    #[derive(Debug, Deserialize)]
-    #[serde(deny_unknown_fields)]
-    pub struct FidelitySection {
-        /// The paper's Table II, each setting bound to the FMU variable of the same name.
-        #[serde(default)]
-        pub paper: Option<Spanned<bool>>,
-        #[serde(default, rename = "variable")]
-        pub variables: Vec<Spanned<VarSection>>,
-    }
-
-    #[derive(Debug, Deserialize)]
-    #[serde(deny_unknown_fields)]
-    pub struct VarSection {
-        pub name: Spanned<String>,
-        pub fmu: Option<Spanned<String>>,
-        pub values: Option<Spanned<Vec<toml::Value>>>,
-        /// `[lo, hi]`; a list, not `[f64; 2]`: serde's arrays ignore a third number.
-        pub range: Option<Spanned<Vec<f64>>>,
-        /// Default 10.
-        pub bins: Option<Spanned<u32>>,
-        /// Default linear.
-        pub scale: Option<Spanned<ScaleSection>>,
-        pub hf: Option<Spanned<toml::Value>>,
-        /// A fidelity variable that is the step size or the tolerance, bound to no FMU variable.
-        pub drives: Option<Spanned<Drives>>,
-    }
-
-    #[derive(Debug, Deserialize, Clone, Copy, PartialEq, Eq)]
-    #[serde(rename_all = "snake_case")]
-    pub enum Drives {
-        StepSize,
-        Tolerance,
-    }
-
-    #[derive(Debug, Deserialize, Default, Clone, Copy)]
-    #[serde(rename_all = "lowercase")]
-    pub enum ScaleSection {
-        #[default]
-        Linear,
-        Log,
-    }
-
-    #[derive(Debug, Deserialize)]
-    #[serde(deny_unknown_fields)]
-    pub struct ScenarioSection {
-        pub name: Spanned<String>,
-        /// Default 1.
-        pub weight: Option<Spanned<f64>>,
-        pub role: Spanned<String>,
-        #[serde(default)]
-        pub fixed: BTreeMap<String, Spanned<toml::Value>>,
-        #[serde(rename = "phi")]
-        pub phi: Vec<Spanned<VarSection>>,
-    }
 }
 
-/// The file's name and text: turns spans into lines and builds errors.
-struct Source<'a> {
-    file: String,
-    text: &'a str,
-}
-
-impl Source<'_> {
-    /// The 1-based line of a span's start.
-    fn line(&self, span: Range<usize>) -> usize {
-        line_of(self.text, span.start)
-    }
-
-    fn err(
-        &self,
-        line: Option<usize>,
-        key: Option<&str>,
-        message: impl Into<String>,
-    ) -> ConfigError {
-        ConfigError {
-            file: self.file.clone(),
-            line,
-            key: key.map(String::from),
-            message: message.into(),
-        }
-    }
-
-    /// The TOML, deserialised; a syntax or type error names its line.
-    fn parse(&self) -> Result<raw::File, ConfigError> {
-        toml::from_str(self.text).map_err(|e| {
-            let line = e.span().map(|s| self.line(s));
-            self.err(line, None, e.message())
-        })
-    }
-}
-
-/// The 1-based line of byte `offset` in `text`.
-fn line_of(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].matches('\n').count() + 1
-}
-
-/// `p` relative to the campaign file's directory, unless absolute.
-fn resolve(base: &Path, p: &str) -> PathBuf {
-    let p = Path::new(p);
-    if p.is_absolute() {
-        p.to_path_buf()
-    } else {
-        base.join(p)
-    }
-}
-
-/// The `[campaign]` section without its spans, `out` checked and resolved.
-fn campaign_section(
+/// The fidelity settings bound to FMU variables (a setting that drives the step size or the
+/// tolerance is bound to none), each remembered as set in every run.
+fn fidelity_bindings(
     src: &Source,
-    c: raw::CampaignSection,
-    base: &Path,
-) -> Result<CampaignSection, ConfigError> {
-    let mut section = CampaignSection::default();
-    for (key, value) in c {
-        let line = src.line(value.span());
-        if key == "out" {
-            let out = match value.get_ref() {
-                toml::Value::String(o) if !o.trim().is_empty() => o.clone(),
-                // "" would resolve to the file's own directory: the campaign beside its FMUs.
-                toml::Value::String(_) => {
-                    return Err(src.err(
-                        Some(line),
-                        Some("campaign.out"),
-                        "is empty: name the output directory, or leave the key out",
-                    ))
-                }
-                other => {
-                    return Err(src.err(
-                        Some(line),
-                        Some("campaign.out"),
-                        format!(
-                            "must be a directory name (a string), not {}",
-                            other.type_str()
-                        ),
-                    ))
-                }
-            };
-            section.out = Some(resolve(base, &out));
-        } else {
-            section.values.insert(key.clone(), value.into_inner());
-        }
-        section.lines.insert(key, line);
-    }
-    Ok(section)
-}
-
-/// The fidelity space, θ_HF and the fidelity bindings.
-struct FidelityParts {
-    space: Space,
-    theta_hf: Assignment,
-    bindings: Vec<Binding>,
-    /// The variables that drive the step size or the tolerance.
-    drivers: Vec<Driver>,
-}
-
-/// A fidelity variable with `drives`: what it drives, where it is.
-struct Driver {
-    drives: Drives,
-    variable: String,
-    line: usize,
-    key: String,
-}
-
-/// `[fidelity]`: the paper's settings, or the variables listed.
-fn fidelity(
-    src: &Source,
-    section: &Spanned<raw::FidelitySection>,
-    campaign: &CampaignSection,
-    paper: &dyn Fn(u32) -> (Space, Assignment),
+    fidelity: &Fidelity,
     origins: &mut Origins,
-) -> Result<FidelityParts, ConfigError> {
-    let f = section.get_ref();
-    let Some(paper_line) = f
-        .paper
-        .as_ref()
-        .filter(|p| *p.get_ref())
-        .map(|p| src.line(p.span()))
-    else {
-        return listed_fidelity(src, section, origins);
-    };
-    if let Some(first) = f.variables.first() {
-        return Err(src.err(
-            Some(src.line(first.span())),
-            Some("fidelity.variable"),
-            "give either `paper = true` or variables, not both",
-        ));
-    }
-    let bins = campaign.fidelity_bins().unwrap_or(10);
-    if bins < 1 || bins > savme_kernel::MAX_ARMS as i64 {
-        let message = if bins < 1 {
-            "must be at least 1".to_string()
-        } else {
-            format!(
-                "{bins} bins: at most {} are supported",
-                savme_kernel::MAX_ARMS
-            )
-        };
-        return Err(src.err(
-            campaign.lines.get("fidelity_bins").copied(),
-            Some("campaign.fidelity_bins"),
-            message,
-        ));
-    }
-    let (space, theta_hf) = paper(bins as u32);
+) -> Result<Vec<Binding>, ConfigError> {
     let mut bindings = Vec::new();
-    for v in space.variables() {
-        origins.set(src, &v.name, paper_line, "fidelity.paper", Use::Fidelity)?;
-        bindings.push(Binding {
-            variable: v.name.to_string(),
-            fmu_variable: v.name.to_string(),
-            labels: crate::simulator::labels_of(&space, &v.name),
-        });
-    }
-    Ok(FidelityParts {
-        space,
-        theta_hf,
-        bindings,
-        drivers: Vec::new(),
-    })
-}
-
-/// `[[fidelity.variable]]`: each variable with its θ_HF value and FMU binding.
-fn listed_fidelity(
-    src: &Source,
-    section: &Spanned<raw::FidelitySection>,
-    origins: &mut Origins,
-) -> Result<FidelityParts, ConfigError> {
-    let list = &section.get_ref().variables;
-    let vars = variables(src, "fidelity.variable", list)?;
-    let space = Space::new(vars.clone()).map_err(|e| {
-        src.err(
-            Some(src.line(section.span())),
-            Some("fidelity"),
-            format!("{e}: give `paper = true` or [[fidelity.variable]] tables"),
-        )
-    })?;
-    let mut theta_hf = Assignment::new();
-    let mut bindings = Vec::new();
-    let mut drivers = Vec::new();
-    for (k, (sv, var)) in list.iter().zip(&vars).enumerate() {
-        let key = format!("fidelity.variable[{k}]");
-        theta_hf.set(&var.name, theta_hf_value(src, &key, sv, var)?);
-        if let Some(d) = &sv.get_ref().drives {
-            drivers.push(driver(src, &key, sv, d, var, &drivers)?);
+    for s in &fidelity.settings {
+        let Bound::To(named) = &s.bound else {
             continue;
-        }
+        };
+        origins.set(src, &named.name, named.line, &named.key, Use::Fidelity)?;
         bindings.push(Binding {
-            variable: var.name.to_string(),
-            fmu_variable: bind(src, sv, &key, Use::Fidelity, origins)?,
-            labels: crate::simulator::labels_of(&space, &var.name),
+            variable: s.variable.clone(),
+            fmu_variable: named.name.clone(),
+            labels: crate::simulator::labels_of(&fidelity.space, &s.variable),
         });
     }
-    Ok(FidelityParts {
-        space,
-        theta_hf,
-        bindings,
-        drivers,
-    })
+    Ok(bindings)
 }
 
-/// A fidelity variable with `drives`: bound to no FMU variable (no `fmu` key), every value a
-/// positive number of seconds (step size) or a positive tolerance, at most one per kind.
-fn driver(
+/// Each scenario's run specification: its fixed parameters and φ bindings, each remembered as
+/// set in that scenario's runs.
+fn scenario_specs(
     src: &Source,
-    key: &str,
-    sv: &Spanned<VarSection>,
-    drives: &Spanned<Drives>,
-    var: &Variable,
-    earlier: &[Driver],
-) -> Result<Driver, ConfigError> {
-    let d = *drives.get_ref();
-    let line = src.line(drives.span());
-    let dkey = format!("{key}.drives");
-    let what = match d {
-        Drives::StepSize => "the step size",
-        Drives::Tolerance => "the tolerance",
-    };
-    if let Some(f) = &sv.get_ref().fmu {
-        return Err(src.err(
-            Some(src.line(f.span())),
-            Some(&format!("{key}.fmu")),
-            format!("a variable that drives {what} is bound to no FMU variable: remove `fmu`"),
-        ));
-    }
-    if let Some(o) = earlier.iter().find(|o| o.drives == d) {
-        return Err(src.err(
-            Some(line),
-            Some(&dkey),
-            format!(
-                "`{}` already drives {what} (`{}`, line {})",
-                o.variable, o.key, o.line
-            ),
-        ));
-    }
-    let positive = match &var.domain {
-        savme_kernel::Domain::Continuous { lo, .. } => *lo > 0.0,
-        savme_kernel::Domain::Discrete { values } => values
-            .iter()
-            .all(|v| v.as_f64().is_some_and(|x| x > 0.0 && x.is_finite())),
-    };
-    if !positive {
-        return Err(src.err(
-            Some(line),
-            Some(&dkey),
-            format!(
-                "`{}` drives {what}: every value must be a positive number",
-                var.name
-            ),
-        ));
-    }
-    Ok(Driver {
-        drives: d,
-        variable: var.name.to_string(),
-        line,
-        key: dkey,
-    })
-}
-
-/// θ_HF of a fidelity variable: its `hf` value, which must lie inside the variable.
-fn theta_hf_value(
-    src: &Source,
-    key: &str,
-    sv: &Spanned<VarSection>,
-    var: &Variable,
-) -> Result<Value, ConfigError> {
-    let hf = sv
-        .get_ref()
-        .hf
-        .as_ref()
-        .and_then(|h| toml_value(h.get_ref()));
-    let hf = hf.ok_or_else(|| {
-        var_error(
-            src,
-            key,
-            sv,
-            Part::Hf,
-            "θ_HF value missing or not a number/boolean/string",
-        )
-    })?;
-    let one = Assignment::new().with(&var.name, hf.clone());
-    Space::new(vec![var.clone()])
-        .and_then(|s| s.arms_of(&one))
-        .map_err(|e| var_error(src, key, sv, Part::Hf, format!("θ_HF: {e}")))?;
-    Ok(hf)
-}
-
-/// The FMU variable a savme variable binds to — its `fmu` key, else its own name — remembered
-/// with the line and key that name it (`….fmu`, else `….name`), as set by `used`.
-fn bind(
-    src: &Source,
-    sv: &Spanned<VarSection>,
-    key: &str,
-    used: Use,
+    common: &CampaignFile,
     origins: &mut Origins,
-) -> Result<String, ConfigError> {
-    let v = sv.get_ref();
-    let (name, span, key) = match &v.fmu {
-        Some(f) => (f.get_ref(), f.span(), format!("{key}.fmu")),
-        None => (v.name.get_ref(), v.name.span(), format!("{key}.name")),
-    };
-    origins.set(src, name, src.line(span), &key, used)?;
-    Ok(name.clone())
-}
-
-/// The scenarios: spaces, run specifications, roles, weights and lines.
-#[derive(Default)]
-struct ScenarioParts {
-    spaces: BTreeMap<String, Space>,
-    specs: Vec<ScenarioSpec>,
-    train: Vec<String>,
-    test: Vec<String>,
-    weights: BTreeMap<String, f64>,
-    lines: Vec<ScenarioLines>,
-}
-
-/// `[[scenario]]`: every scenario, at least one.
-fn scenarios(
-    src: &Source,
-    list: &Spanned<Vec<Spanned<raw::ScenarioSection>>>,
-    origins: &mut Origins,
-) -> Result<ScenarioParts, ConfigError> {
-    if list.get_ref().is_empty() {
-        return Err(src.err(
-            Some(src.line(list.span())),
-            Some("scenario"),
-            "no scenarios: give [[scenario]] tables",
-        ));
-    }
-    let mut parts = ScenarioParts::default();
-    for (k, table) in list.get_ref().iter().enumerate() {
-        let key = format!("scenario[{k}]");
-        let s = table.get_ref();
-        let name = s.name.get_ref();
-        if name.trim().is_empty() {
-            return Err(src.err(
-                Some(src.line(s.name.span())),
-                Some(&format!("{key}.name")),
-                "a scenario has an empty name",
-            ));
+) -> Result<Vec<ScenarioSpec>, ConfigError> {
+    let mut specs = Vec::new();
+    for (k, s) in common.scenarios.bindings.iter().enumerate() {
+        let used = Use::Scenario(k);
+        let mut fixed = Vec::new();
+        for (named, value) in &s.fixed {
+            origins.set(src, &named.name, named.line, &named.key, used)?;
+            fixed.push(Fixed {
+                fmu_variable: named.name.clone(),
+                value: value.clone(),
+            });
         }
-        if parts.spaces.contains_key(name) {
-            return Err(src.err(
-                Some(src.line(s.name.span())),
-                Some(&format!("{key}.name")),
-                format!("scenario `{name}` is defined twice"),
-            ));
+        let mut phi = Vec::new();
+        for (variable, named) in &s.phi {
+            origins.set(src, &named.name, named.line, &named.key, used)?;
+            phi.push(Binding {
+                variable: variable.clone(),
+                fmu_variable: named.name.clone(),
+                labels: None,
+            });
         }
-        match s.role.get_ref().as_str() {
-            "train" => parts.train.push(name.clone()),
-            "test" => parts.test.push(name.clone()),
-            other => {
-                return Err(src.err(
-                    Some(src.line(s.role.span())),
-                    Some(&format!("{key}.role")),
-                    format!("`{other}`: expected \"train\" or \"test\""),
-                ))
-            }
-        }
-        let weight = s.weight.as_ref().map_or(1.0, |w| *w.get_ref());
-        if weight != 1.0 {
-            parts.weights.insert(name.clone(), weight);
-        }
-        parts.lines.push(ScenarioLines {
-            name: name.clone(),
-            index: k,
-            table: src.line(table.span()),
-            role: src.line(s.role.span()),
-            weight: s.weight.as_ref().map(|w| src.line(w.span())),
-        });
-        let (space, spec) = scenario(src, k, table, origins)?;
-        parts.spaces.insert(name.clone(), space);
-        parts.specs.push(spec);
-    }
-    Ok(parts)
-}
-
-/// Scenario `k`'s φ-space and run specification (its fixed parameters and φ bindings).
-fn scenario(
-    src: &Source,
-    k: usize,
-    table: &Spanned<raw::ScenarioSection>,
-    origins: &mut Origins,
-) -> Result<(Space, ScenarioSpec), ConfigError> {
-    let key = format!("scenario[{k}]");
-    let s = table.get_ref();
-    let vars = variables(src, &format!("{key}.phi"), &s.phi)?;
-    let space = Space::new(vars).map_err(|e| {
-        src.err(
-            Some(src.line(table.span())),
-            Some(&format!("{key}.phi")),
-            format!("{e}: give at least one [[scenario.phi]] table"),
-        )
-    })?;
-    let used = Use::Scenario(k);
-    let mut fixed = Vec::new();
-    for (name, v) in &s.fixed {
-        let fkey = format!("{key}.fixed.{name}");
-        let line = src.line(v.span());
-        let value = toml_value(v.get_ref()).ok_or_else(|| {
-            src.err(
-                Some(line),
-                Some(&fkey),
-                "expected a number, boolean or string",
-            )
-        })?;
-        origins.set(src, name, line, &fkey, used)?;
-        fixed.push(Fixed {
-            fmu_variable: name.clone(),
-            value,
+        specs.push(ScenarioSpec {
+            name: s.name.clone(),
+            phi,
+            fixed,
         });
     }
-    let mut phi = Vec::new();
-    for (j, sv) in s.phi.iter().enumerate() {
-        phi.push(Binding {
-            variable: sv.get_ref().name.get_ref().clone(),
-            fmu_variable: bind(src, sv, &format!("{key}.phi[{j}]"), used, origins)?,
-            labels: None,
-        });
-    }
-    let spec = ScenarioSpec {
-        name: s.name.get_ref().clone(),
-        phi,
-        fixed,
-    };
-    Ok((space, spec))
-}
-
-/// The variables of `[[fidelity.variable]]` or of a scenario's `[[scenario.phi]]` tables (keys
-/// `{prefix}[j]`): each checked as the kernel checks it, no name twice.
-fn variables(
-    src: &Source,
-    prefix: &str,
-    list: &[Spanned<VarSection>],
-) -> Result<Vec<Variable>, ConfigError> {
-    let mut vars: Vec<Variable> = Vec::new();
-    for (j, sv) in list.iter().enumerate() {
-        let key = format!("{prefix}[{j}]");
-        let var = variable(sv.get_ref()).map_err(|(part, m)| var_error(src, &key, sv, part, m))?;
-        if vars.iter().any(|w| w.name == var.name) {
-            let message = format!("variable `{}` is defined twice", var.name);
-            return Err(var_error(src, &key, sv, Part::Name, message));
-        }
-        vars.push(var);
-    }
-    Ok(vars)
-}
-
-/// The part of a variable's table an error is about.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Part {
-    /// The table as a whole.
-    Table,
-    Name,
-    Values,
-    Range,
-    Bins,
-    Scale,
-    Hf,
-}
-
-impl Part {
-    /// The part's key below the table's (`""` for the table) and its span in `v`, if written.
-    fn locate(self, v: &VarSection) -> (&'static str, Option<Range<usize>>) {
-        fn span<T>(x: &Option<Spanned<T>>) -> Option<Range<usize>> {
-            x.as_ref().map(Spanned::span)
-        }
-        match self {
-            Part::Table => ("", None),
-            Part::Name => (".name", Some(v.name.span())),
-            Part::Values => (".values", span(&v.values)),
-            Part::Range => (".range", span(&v.range)),
-            Part::Bins => (".bins", span(&v.bins)),
-            Part::Scale => (".scale", span(&v.scale)),
-            Part::Hf => (".hf", span(&v.hf)),
-        }
-    }
-
-    /// The part a kernel error about a single variable `v` is about.
-    fn of(e: &SpaceError, v: &VarSection) -> Part {
-        match e {
-            SpaceError::EmptyName => Part::Name,
-            SpaceError::NoValues { .. }
-            | SpaceError::DuplicateValue { .. }
-            | SpaceError::NonFiniteValue { .. } => Part::Values,
-            SpaceError::NonFiniteBound { .. }
-            | SpaceError::EmptyRange { .. }
-            | SpaceError::RangeNotRepresentable { .. } => Part::Range,
-            SpaceError::TooManyArms { .. } if v.values.is_some() => Part::Values,
-            SpaceError::ZeroBins { .. } | SpaceError::TooManyArms { .. } => Part::Bins,
-            SpaceError::LogRangeNotPositive { .. } => Part::Scale,
-            _ => Part::Table,
-        }
-    }
-}
-
-/// An error about `part` of the variable table `sv` at `key`: named `{key}.{part}`, at the
-/// part's line when the file gives the part, else at the table's.
-fn var_error(
-    src: &Source,
-    key: &str,
-    sv: &Spanned<VarSection>,
-    part: Part,
-    message: impl Into<String>,
-) -> ConfigError {
-    let (suffix, span) = part.locate(sv.get_ref());
-    let line = src.line(span.unwrap_or_else(|| sv.span()));
-    src.err(Some(line), Some(&format!("{key}{suffix}")), message)
-}
-
-/// A savme variable from its TOML section, checked as the kernel checks it; an error names the
-/// part of the section at fault.
-fn variable(v: &VarSection) -> Result<Variable, (Part, String)> {
-    let name = v.name.get_ref();
-    let var = match (&v.values, &v.range) {
-        (Some(values), None) => {
-            let values: Option<Vec<Value>> = values.get_ref().iter().map(toml_value).collect();
-            let values = values.ok_or_else(|| {
-                (
-                    Part::Values,
-                    "`values` must be numbers, booleans or strings".to_string(),
-                )
-            })?;
-            if values.is_empty() {
-                return Err((Part::Values, "`values` is empty".into()));
-            }
-            Variable::discrete(name, values)
-        }
-        (None, Some(range)) => match range.get_ref()[..] {
-            [lo, hi] => continuous(v, [lo, hi])?,
-            ref other => {
-                return Err((
-                    Part::Range,
-                    format!("`range` must be [lo, hi], got {} numbers", other.len()),
-                ))
-            }
-        },
-        _ => {
-            return Err((
-                Part::Table,
-                "give either `values` (discrete) or `range` (continuous)".into(),
-            ))
-        }
-    };
-    Space::new(vec![var.clone()]).map_err(|e| (Part::of(&e, v), e.to_string()))?;
-    Ok(var)
-}
-
-/// A continuous savme variable over `[lo, hi]` with the section's bins (default 10) and scale.
-fn continuous(v: &VarSection, [lo, hi]: [f64; 2]) -> Result<Variable, (Part, String)> {
-    if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
-        return Err((Part::Range, format!("`range` = [{lo}, {hi}] is empty")));
-    }
-    let bins = v.bins.as_ref().map_or(10, |b| *b.get_ref());
-    if bins == 0 {
-        return Err((Part::Bins, "`bins` must be at least 1".into()));
-    }
-    let scale = match v.scale.as_ref().map(|s| *s.get_ref()).unwrap_or_default() {
-        ScaleSection::Linear => Scale::Linear,
-        ScaleSection::Log if lo > 0.0 => Scale::Log,
-        ScaleSection::Log => {
-            return Err((
-                Part::Scale,
-                format!("a log scale needs 0 < lo (range [{lo}, {hi}])"),
-            ))
-        }
-    };
-    Ok(Variable::continuous(v.name.get_ref(), lo, hi, bins, scale))
-}
-
-/// A savme value from a TOML scalar (None for arrays, tables and dates).
-fn toml_value(v: &toml::Value) -> Option<Value> {
-    Some(match v {
-        toml::Value::Boolean(b) => Value::Bool(*b),
-        toml::Value::Integer(i) => Value::Int(*i),
-        toml::Value::Float(f) => Value::Real(*f),
-        toml::Value::String(s) => Value::from(s.as_str()),
-        _ => return None,
-    })
+    Ok(specs)
 }
 
 /// `[fmu] step`: a fixed positive step, or the rate a fidelity variable gives — or, without
@@ -1001,15 +293,12 @@ fn toml_value(v: &toml::Value) -> Option<Value> {
 fn step(
     src: &Source,
     fmu: &Spanned<raw::FmuSection>,
-    fidelity: &FidelityParts,
+    fidelity: &Fidelity,
 ) -> Result<StepSize, ConfigError> {
-    let driver = fidelity
-        .drivers
-        .iter()
-        .find(|d| d.drives == Drives::StepSize);
+    let driver = fidelity.driver(Drives::StepSize);
     let Some(step) = &fmu.get_ref().step else {
         return match driver {
-            Some(d) => Ok(StepSize::Of(d.variable.clone())),
+            Some((d, _, _)) => Ok(StepSize::Of(d.variable.clone())),
             None => Err(src.err(
                 Some(src.line(fmu.span())),
                 Some("fmu.step"),
@@ -1019,13 +308,14 @@ fn step(
         };
     };
     let line = Some(src.line(step.span()));
-    if let Some(d) = driver {
+    if let Some((d, d_line, d_key)) = driver {
         return Err(src.err(
             line,
             Some("fmu.step"),
             format!(
-                "the step size is the fidelity variable `{}` (`{}`, line {}): remove `step`",
-                d.variable, d.key, d.line
+                "the step size is the fidelity variable `{}` (`{d_key}`, line {d_line}): \
+                 remove `step`",
+                d.variable
             ),
         ));
     }
@@ -1053,7 +343,7 @@ fn step_count(
     fmu: &Spanned<raw::FmuSection>,
     step: &StepSize,
     stop_time: f64,
-    fidelity: &FidelityParts,
+    fidelity: &Fidelity,
 ) -> Result<(), ConfigError> {
     let at_step = || fmu.get_ref().step.as_ref().map(|s| src.line(s.span()));
     let (smallest, line, key) = match step {
@@ -1068,9 +358,10 @@ fn step_count(
         }
         StepSize::Of(v) => {
             let least = fidelity.space.variable(v).and_then(extremes).map(|e| e.0);
-            let driver = fidelity.drivers.iter().find(|d| &d.variable == v);
-            let (line, key) =
-                driver.map_or((None, "fidelity".into()), |d| (Some(d.line), d.key.clone()));
+            let driver = fidelity.driver(Drives::StepSize);
+            let (line, key) = driver.map_or((None, "fidelity".into()), |(_, line, key)| {
+                (Some(line), key.to_string())
+            });
             (least.unwrap_or(f64::INFINITY), line, key)
         }
     };
@@ -1098,21 +389,18 @@ fn extremes(v: &Variable) -> Option<(f64, f64)> {
 fn tolerance(
     src: &Source,
     fixed: Option<&Spanned<f64>>,
-    fidelity: &FidelityParts,
+    fidelity: &Fidelity,
 ) -> Result<Option<Tolerance>, ConfigError> {
-    let driver = fidelity
-        .drivers
-        .iter()
-        .find(|d| d.drives == Drives::Tolerance);
-    match (fixed, driver) {
+    match (fixed, fidelity.driver(Drives::Tolerance)) {
         (None, None) => Ok(None),
-        (None, Some(d)) => Ok(Some(Tolerance::Of(d.variable.clone()))),
-        (Some(t), Some(d)) => Err(src.err(
+        (None, Some((d, _, _))) => Ok(Some(Tolerance::Of(d.variable.clone()))),
+        (Some(t), Some((d, d_line, d_key))) => Err(src.err(
             Some(src.line(t.span())),
             Some("fmu.tolerance"),
             format!(
-                "the tolerance is the fidelity variable `{}` (`{}`, line {}): remove `tolerance`",
-                d.variable, d.key, d.line
+                "the tolerance is the fidelity variable `{}` (`{d_key}`, line {d_line}): \
+                 remove `tolerance`",
+                d.variable
             ),
         )),
         (Some(t), None) if *t.get_ref() > 0.0 && t.get_ref().is_finite() => {
@@ -1241,7 +529,9 @@ fn timeout(src: &Source, t: Option<&Spanned<f64>>) -> Result<Duration, ConfigErr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use savme_kernel::Scale;
     use savme_kernel::Variable;
+    use std::path::PathBuf;
 
     /// A file every check before the FMUs accepts; its FMU does not exist, so a load that gets
     /// that far fails at line 3 (`fmu.hf`).
@@ -1314,7 +604,7 @@ range = [0.0, 1.0]
         }
         let path = dir(name).join("campaign.toml");
         std::fs::write(&path, body).unwrap();
-        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
         assert_eq!(e.file, path.display().to_string());
         e
     }
@@ -1683,7 +973,7 @@ range = [0.0, 1.0]
         let (fidelity, scenarios) = fidelity.split_at(fidelity.find("[[scenario]]").unwrap());
         let path = dir("fidelity-last").join("campaign.toml");
         std::fs::write(&path, format!("{head}{scenarios}\n{fidelity}")).unwrap();
-        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
         assert_eq!(at(&e), (Some(32), Some("fidelity.variable[0].name")), "{e}");
         assert_eq!(
             e.message,
@@ -1703,7 +993,7 @@ range = [0.0, 1.0]
             .replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
         let path = dir("paper-bound").join("campaign.toml");
         std::fs::write(&path, body).unwrap();
-        let e = CampaignFile::load(&path, &paper).unwrap_err();
+        let e = FmuCampaignFile::load(&path, &paper).unwrap_err();
         assert_eq!(at(&e), (Some(21), Some("scenario[0].fixed.rate")), "{e}");
         assert_eq!(
             e.message,
@@ -1737,7 +1027,7 @@ range = [0.0, 1.0]
         let body = &body[..body.find("[[scenario]]").unwrap()];
         let path = dir("no-scenarios").join("campaign.toml");
         std::fs::write(&path, body).unwrap();
-        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
         assert_eq!(at(&e), (Some(2), Some("scenario")), "{e}");
         assert_eq!(e.message, "no scenarios: give [[scenario]] tables");
     }
@@ -1838,7 +1128,7 @@ range = [0.0, 1.0]
         let path = dir("paper").join("campaign.toml");
         std::fs::write(&path, body).unwrap();
         let asked = std::cell::Cell::new(None);
-        let e = CampaignFile::load(&path, &|bins| {
+        let e = FmuCampaignFile::load(&path, &|bins| {
             asked.set(Some(bins));
             paper(bins)
         })
@@ -1874,7 +1164,7 @@ range = [0.0, 1.0]
     #[test]
     fn a_missing_file_is_named() {
         let path = dir("missing").join("campaign.toml");
-        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
         assert_eq!(at(&e), (None, None));
         assert!(
             e.to_string().starts_with(&path.display().to_string()),
@@ -1889,12 +1179,11 @@ range = [0.0, 1.0]
             "budgets = [0.5]\nseed = 7\ncost = \"work\"\nprior_strength = 0.5\nrepeat = 3\nprior_strengths = [0, 0.5]",
             1,
         );
-        let src = Source {
-            file: "campaign.toml".into(),
-            text: &text,
-        };
-        let f = src.parse().unwrap();
-        let c = campaign_section(&src, f.campaign, Path::new("/runs")).unwrap();
+        let src = Source::new("campaign.toml", text);
+        let path = Path::new("/runs/campaign.toml");
+        let c = CampaignFile::parse(&src, path, &SECTIONS, &no_paper)
+            .unwrap()
+            .campaign;
         let value = |k: &str| c.values.get(k).cloned();
         assert_eq!(value("budgets"), Some(toml::Value::Array(vec![0.5.into()])));
         assert_eq!(value("seed"), Some(toml::Value::Integer(7)));
@@ -1919,11 +1208,11 @@ range = [0.0, 1.0]
         );
         // No [campaign] table: nothing given.
         let text = BASE.replacen("[campaign]\nbudgets = [0.5]\nout = \"results\"\n", "", 1);
-        let src = Source {
-            file: "campaign.toml".into(),
-            text: &text,
-        };
-        let c = campaign_section(&src, src.parse().unwrap().campaign, Path::new(".")).unwrap();
+        let src = Source::new("campaign.toml", text);
+        let path = Path::new("campaign.toml");
+        let c = CampaignFile::parse(&src, path, &SECTIONS, &no_paper)
+            .unwrap()
+            .campaign;
         assert_eq!(c, CampaignSection::default());
     }
 
@@ -1944,6 +1233,7 @@ range = [0.0, 1.0]
 
     #[test]
     fn lines_and_errors_display_as_before() {
+        let line_of = savme_campaign_file::line_of;
         assert_eq!(line_of("a\nb\nc", 0), 1);
         assert_eq!(line_of("a\nb\nc", 2), 2);
         assert_eq!(line_of("a\nb\nc", 99), 3);

@@ -1,7 +1,7 @@
 //! Campaign files on the test-kit FMU: a good one loads into its parts; a binding the FMU does
 //! not have, or of the wrong type, is named with its line and key.
 mod common;
-use savme_fmu::campaign_file::{CampaignFile, ConfigError};
+use savme_fmu::campaign_file::{ConfigError, FmuCampaignFile};
 use savme_fmu::{CostSource, Failure, StepSize};
 use savme_kernel::{Assignment, Space, Value};
 use std::path::{Path, PathBuf};
@@ -92,22 +92,24 @@ range = [0.0, 0.5]
 fn a_good_file_loads_into_its_parts() {
     let path = campaign("good", GOOD);
     let dir = path.parent().unwrap();
-    let f = CampaignFile::load(&path, &no_paper).unwrap();
+    let f = FmuCampaignFile::load(&path, &no_paper).unwrap();
     let fmu = dir.join("testkit.fmu");
-    assert_eq!(f.path, path);
+    assert_eq!(f.common.path, path);
     assert_eq!((&f.init.hf, &f.init.lf), (&fmu, &fmu));
     assert_eq!(f.label, format!("fmu:{}|{}", fmu.display(), fmu.display()));
     assert!(f.isolate && f.skip_failed_runs);
     assert_eq!(f.timeout, Duration::from_secs(5));
-    assert_eq!(f.train, ["grow"]);
-    assert_eq!(f.test, ["slow"]);
+    assert_eq!(f.common.scenarios.train, ["grow"]);
+    assert_eq!(f.common.scenarios.test, ["slow"]);
     assert_eq!(
-        f.weights.into_iter().collect::<Vec<_>>(),
+        f.common.scenarios.weights.into_iter().collect::<Vec<_>>(),
         [("slow".to_string(), 2.0)]
     );
     // Where each scenario is, for protocol errors found later (role, weight).
     let lines: Vec<_> = f
-        .scenario_lines
+        .common
+        .scenarios
+        .lines
         .iter()
         .map(|s| (s.name.as_str(), s.index, s.table, s.role, s.weight))
         .collect();
@@ -115,10 +117,13 @@ fn a_good_file_loads_into_its_parts() {
         lines,
         [("grow", 0, 26, 28, None), ("slow", 1, 36, 38, Some(39))]
     );
-    assert_eq!(f.theta_hf, Assignment::new().with("rate", 2.0));
-    assert_eq!(f.fidelity.variables()[0].arms(), 2);
-    assert_eq!(f.scenarios["grow"].variables()[0].arms(), 4);
-    assert_eq!(f.init.phi, f.scenarios);
+    assert_eq!(
+        f.common.fidelity.theta_hf,
+        Assignment::new().with("rate", 2.0)
+    );
+    assert_eq!(f.common.fidelity.space.variables()[0].arms(), 2);
+    assert_eq!(f.common.scenarios.spaces["grow"].variables()[0].arms(), 4);
+    assert_eq!(f.init.phi, f.common.scenarios.spaces);
     // The run specification the simulator is built from.
     let spec = &f.init.spec;
     assert_eq!(spec.step, StepSize::RateOf("rate".into()));
@@ -136,7 +141,7 @@ fn a_good_file_loads_into_its_parts() {
         [("fault", &Value::Int(0)), ("threshold", &Value::Real(0.5))]
     );
     // The [campaign] section as written, with its lines.
-    let c = &f.campaign;
+    let c = &f.common.campaign;
     assert_eq!(c.values["seed"], toml::Value::Integer(3));
     assert_eq!(c.values["cost"], toml::Value::String("work".into()));
     assert_eq!(c.values["budgets"], toml::Value::Array(vec![0.5.into()]));
@@ -151,7 +156,7 @@ fn a_good_file_loads_into_its_parts() {
 fn error(name: &str, from: &str, to: &str) -> ConfigError {
     assert!(GOOD.contains(from), "{from}");
     let path = campaign(name, &GOOD.replacen(from, to, 1));
-    let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+    let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
     assert_eq!(e.file, path.display().to_string());
     e
 }
@@ -312,10 +317,10 @@ fn absolute_paths_stay_absolute() {
         1,
     );
     std::fs::write(&moved, body).unwrap();
-    let f = CampaignFile::load(&moved, &no_paper).unwrap();
+    let f = FmuCampaignFile::load(&moved, &no_paper).unwrap();
     assert_eq!(f.init.hf, fmu);
     assert_eq!(
-        f.campaign.out,
+        f.common.campaign.out,
         Some(moved.parent().unwrap().join("results"))
     );
 }
@@ -342,7 +347,7 @@ fn a_fidelity_variable_can_be_the_step_size_or_the_tolerance() {
         "\n[[fidelity.variable]]\nname = \"tol\"\ndrives = \"tolerance\"\nrange = [1e-6, 1e-3]\nscale = \"log\"\nhf = 1e-6",
     );
     let path = campaign("step-fidelity", &body);
-    let f = CampaignFile::load(&path, &no_paper).unwrap();
+    let f = FmuCampaignFile::load(&path, &no_paper).unwrap();
     assert_eq!(f.init.spec.step, StepSize::Of("h".into()));
     assert_eq!(
         f.init.spec.tolerance,
@@ -350,7 +355,7 @@ fn a_fidelity_variable_can_be_the_step_size_or_the_tolerance() {
     );
     assert!(f.init.spec.fidelity.is_empty(), "bound to no FMU variable");
     assert_eq!(
-        f.theta_hf,
+        f.common.fidelity.theta_hf,
         Assignment::new().with("h", 0.125).with("tol", 1e-6)
     );
     // It runs in steps of θ[h] (the test kit counts its steps) up to the failure at t = 0.5
@@ -414,7 +419,7 @@ fn a_step_size_or_tolerance_variable_is_checked() {
     ];
     for (k, (body, line, key, message)) in cases.iter().enumerate() {
         let path = campaign(&format!("step-bad-{k}"), body);
-        let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+        let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
         assert_eq!(
             (e.line, e.key.as_deref()),
             (Some(*line), Some(*key)),
@@ -427,7 +432,7 @@ fn a_step_size_or_tolerance_variable_is_checked() {
         "step-bad-kind",
         &with_step_fidelity("").replacen("\"step_size\"", "\"steps\"", 1),
     );
-    let e = CampaignFile::load(&path, &no_paper).unwrap_err();
+    let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
     assert_eq!(e.line, Some(22), "{e}");
     assert!(
         e.message.contains("expected `step_size` or `tolerance`"),

@@ -584,7 +584,7 @@ range = [5.0, 20.0]
 "#,
     )
     .unwrap();
-    let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
+    let f = savme_fmu::campaign_file::FmuCampaignFile::load(&path, &|_| unreachable!()).unwrap();
     assert!(f.isolate, "forced by canBeInstantiatedOnlyOncePerProcess");
     assert!(f.init.spec.fmu_log, "[fmu] log = true");
 }
@@ -633,7 +633,7 @@ range = [5.0, 20.0]
 "#,
     )
     .unwrap();
-    let f = savme_fmu::campaign_file::CampaignFile::load(&path, &|_| unreachable!()).unwrap();
+    let f = savme_fmu::campaign_file::FmuCampaignFile::load(&path, &|_| unreachable!()).unwrap();
     let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
     let e = FmuBackend::new(&f.init, Some(worker), std::time::Duration::from_secs(30))
         .unwrap_err()

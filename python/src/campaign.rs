@@ -19,7 +19,7 @@ use savme::campaign::{
 };
 use savme::compose;
 use savme::postgres::{check_name, Database, PostgresStore};
-use savme_fmu::campaign_file::CampaignFile;
+use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use std::collections::BTreeMap;
@@ -350,7 +350,7 @@ fn stored_protocol(db: &Database, name: &str) -> PyResult<Protocol> {
 enum BoundSim {
     None,
     /// The checked campaign file; its FMU back end is made for each run.
-    Fmu(Box<CampaignFile>),
+    Fmu(Box<FmuCampaignFile>),
 }
 
 /// A campaign: a protocol, a problem, an output directory.
@@ -804,7 +804,7 @@ pub fn load_campaign(
     // Open the FMUs now, so that a campaign that cannot run fails here.
     crate::sim::fmu_backend(&c.file)?;
     let out = out
-        .or(c.file.campaign.out.clone())
+        .or(c.file.common.campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let estimate = c.estimate_settings().map_err(errors::campaign_message)?;
     Ok(PyCampaign {

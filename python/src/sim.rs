@@ -8,7 +8,7 @@ use crate::space::PySpace;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use savme_fmu::campaign_file::CampaignFile;
+use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_fmu::FmuBackend;
 use savme_kernel::{Assignment, Role, SimResult, Simulator, Space};
 use savme_sim::sim::DrivingSimulator;
@@ -157,7 +157,7 @@ impl PyDriving {
 
 /// The FMU back end of a checked campaign file: in this process, or (`isolate = true`) in
 /// worker processes started as `$SAVME_FMU_WORKER`, else `savme-fmu-worker` on the PATH.
-pub fn fmu_backend(file: &CampaignFile) -> PyResult<FmuBackend> {
+pub fn fmu_backend(file: &FmuCampaignFile) -> PyResult<FmuBackend> {
     let worker = if file.isolate {
         let command =
             std::env::var("SAVME_FMU_WORKER").unwrap_or_else(|_| "savme-fmu-worker".into());
@@ -166,7 +166,7 @@ pub fn fmu_backend(file: &CampaignFile) -> PyResult<FmuBackend> {
         None
     };
     FmuBackend::new(&file.init, worker, file.timeout)
-        .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", file.path.display())))
+        .map_err(|e| PyRuntimeError::new_err(format!("{}: {e}", file.common.path.display())))
 }
 
 /// The HF and LF FMUs of a campaign file (TOML, as `savme run --config` reads), with their
@@ -174,7 +174,7 @@ pub fn fmu_backend(file: &CampaignFile) -> PyResult<FmuBackend> {
 #[pyclass(name = "Simulator", module = "savme.fmu", frozen)]
 pub struct PyFmuSimulator {
     path: PathBuf,
-    file: CampaignFile,
+    file: FmuCampaignFile,
 }
 
 impl PyFmuSimulator {
@@ -213,14 +213,23 @@ impl PyFmuSimulator {
                 )))
             }
         };
-        let space =
-            self.file.scenarios.get(scenario).ok_or_else(|| {
-                convert::unknown("scenario", scenario, self.file.scenarios.keys())
+        let space = self
+            .file
+            .common
+            .scenarios
+            .spaces
+            .get(scenario)
+            .ok_or_else(|| {
+                convert::unknown(
+                    "scenario",
+                    scenario,
+                    self.file.common.scenarios.spaces.keys(),
+                )
             })?;
         let phi = assignment_for("phi", phi, Some(space))?;
         let theta = match theta {
-            Some(t) => assignment_for("theta", t, Some(&self.file.fidelity))?,
-            None => self.file.theta_hf.clone(),
+            Some(t) => assignment_for("theta", t, Some(&self.file.common.fidelity.space))?,
+            None => self.file.common.fidelity.theta_hf.clone(),
         };
         let mut backend = self.backend()?;
         let scenario = scenario.to_string();
@@ -233,14 +242,23 @@ impl PyFmuSimulator {
     /// The scenarios' names.
     #[getter]
     fn scenarios(&self) -> Vec<String> {
-        self.file.scenarios.keys().cloned().collect()
+        self.file.common.scenarios.spaces.keys().cloned().collect()
     }
 
     /// Scenario `scenario`'s φ-space.
     fn phi_space(&self, scenario: &str) -> PyResult<PySpace> {
-        let space =
-            self.file.scenarios.get(scenario).ok_or_else(|| {
-                convert::unknown("scenario", scenario, self.file.scenarios.keys())
+        let space = self
+            .file
+            .common
+            .scenarios
+            .spaces
+            .get(scenario)
+            .ok_or_else(|| {
+                convert::unknown(
+                    "scenario",
+                    scenario,
+                    self.file.common.scenarios.spaces.keys(),
+                )
             })?;
         Ok(PySpace {
             space: space.clone(),
@@ -251,14 +269,14 @@ impl PyFmuSimulator {
     #[getter]
     fn fidelity(&self) -> PySpace {
         PySpace {
-            space: self.file.fidelity.clone(),
+            space: self.file.common.fidelity.space.clone(),
         }
     }
 
     /// θ_HF.
     #[getter]
     fn theta_hf<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        convert::dict(py, &self.file.theta_hf)
+        convert::dict(py, &self.file.common.fidelity.theta_hf)
     }
 
     fn __repr__(&self) -> String {

@@ -190,9 +190,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let base = match file
         .as_ref()
-        .and_then(|c| c.file.estimate.as_ref().map(|e| (c, e)))
+        .and_then(|c| c.file.common.estimate.as_ref().map(|e| (c, e)))
     {
-        Some((c, section)) => EstimateSettings::from_section(section, &c.file.path)
+        Some((c, section)) => EstimateSettings::from_section(section, &c.file.common.path)
             .map_err(|e| Failure::Runtime(e.to_string()))?,
         None => EstimateSettings::default(),
     };

@@ -51,7 +51,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     c.file.init.spec.fmu_log |= a.fmu_log;
     let out = a
         .out
-        .or(c.file.campaign.out.clone())
+        .or(c.file.common.campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let target = Target {
         out: match &resume {
@@ -136,7 +136,7 @@ fn run_estimate_stage(
 
 /// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the
 /// file asks).
-pub fn fmu_backend(file: &savme_fmu::campaign_file::CampaignFile) -> Result<FmuBackend, String> {
+pub fn fmu_backend(file: &savme_fmu::campaign_file::FmuCampaignFile) -> Result<FmuBackend, String> {
     let worker = if file.isolate {
         let exe = std::env::current_exe()
             .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;

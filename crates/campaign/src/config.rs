@@ -4,7 +4,7 @@
 
 pub use super::values::Overrides;
 use super::{CampaignError, Problem, Protocol};
-use savme_fmu::campaign_file::{CampaignSection, ConfigError};
+use savme_campaign_file::{CampaignSection, ConfigError};
 
 /// The number of seeds `repeat` asks for (None: one campaign, not a repeated one), checked
 /// against [`super::MAX_REPEAT`].

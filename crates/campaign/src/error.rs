@@ -34,7 +34,7 @@ pub enum CampaignError {
     },
     /// A campaign file is invalid (names the file, line and key).
     #[error(transparent)]
-    File(#[from] savme_fmu::campaign_file::ConfigError),
+    File(#[from] savme_campaign_file::ConfigError),
     /// The trial store failed (locked by another process, unreadable, unwritable).
     #[error(transparent)]
     Store(#[from] StoreError),

@@ -307,9 +307,9 @@ impl EstimateSettings {
     /// The settings of a campaign file's `[estimate]` section (defaults for the keys not
     /// given), checked: the error names the file, the line and the key.
     pub fn from_section(
-        section: &savme_fmu::campaign_file::EstimateSection,
+        section: &savme_campaign_file::EstimateSection,
         file: &std::path::Path,
-    ) -> Result<EstimateSettings, savme_fmu::campaign_file::ConfigError> {
+    ) -> Result<EstimateSettings, savme_campaign_file::ConfigError> {
         let d = EstimateSettings::default();
         let s = EstimateSettings {
             budget: section.budget,
@@ -325,7 +325,7 @@ impl EstimateSettings {
             refine_runs: section.refine_runs.unwrap_or(0),
             refine_reuse: section.refine_reuse.unwrap_or(0),
         };
-        let error = |key: String, message: String| savme_fmu::campaign_file::ConfigError {
+        let error = |key: String, message: String| savme_campaign_file::ConfigError {
             file: file.display().to_string(),
             line: Some(section.line_of(&key)),
             key: Some(format!("estimate.{key}")),

@@ -16,13 +16,13 @@
 //! lane = { distribution = "weights", weights = [4, 2, 1] }
 //! ```
 
-use super::Source;
+use crate::Source;
 use savme_kernel::estimation::{Nominal, Tilt};
 use std::collections::BTreeMap;
 use toml::Spanned;
 
 /// The section as serde reads it.
-pub(super) mod raw {
+pub(crate) mod raw {
     use super::{Nominal, Spanned};
     use serde::Deserialize;
     use std::collections::BTreeMap;
@@ -89,7 +89,7 @@ impl EstimateSection {
 }
 
 /// The section without its spans.
-pub(super) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> EstimateSection {
+pub(crate) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> EstimateSection {
     let line = src.line(e.span());
     let e = e.into_inner();
     let mut lines = BTreeMap::new();
