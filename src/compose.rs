@@ -3,15 +3,14 @@
 //! an FMU campaign from its campaign file. Front ends call these; they never assemble the
 //! parts themselves.
 
-use savme_campaign::config::{check_repeat, Overrides, NULL, TOY};
+use savme_campaign::config::{check_repeat, Overrides};
 use savme_campaign::estimate::{
     EstimateError, EstimateOutcome, EstimateProgress, EstimateRun, EstimateSettings,
 };
-use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
 use savme_campaign::{CampaignError, OnError, Problem, Protocol};
 use savme_campaign_file::{CampaignFile, ConfigError};
 use savme_fmu::campaign_file::FmuCampaignFile;
-use savme_kernel::{Assignment, SimError, SimResult, Simulator};
+use savme_kernel::Simulator;
 use savme_sim::sim::DrivingSimulator;
 use std::io::Write;
 use std::path::Path;
@@ -62,64 +61,6 @@ pub fn bundled(preset: Preset, o: &Overrides) -> Result<(Protocol, Problem), Cam
     Ok((p, problem))
 }
 
-/// The simulators a protocol can name by its label alone (what a `savme worker` runs without
-/// a campaign file): the bundled driving simulator, the toy (optionally sleeping before each
-/// run: `savme-toy/sleep=20ms`) and the null simulator.
-#[derive(Debug, Clone)]
-pub enum NamedSimulator {
-    /// The bundled driving simulator.
-    Driving(DrivingSimulator),
-    /// The toy simulator, sleeping first.
-    Toy(Sleeping<ToySimulator>),
-    /// The null simulator.
-    Null(NullSimulator),
-}
-
-impl Simulator for NamedSimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        match self {
-            NamedSimulator::Driving(s) => s.simulate(scenario, phi, fidelity),
-            NamedSimulator::Toy(s) => s.simulate(scenario, phi, fidelity),
-            NamedSimulator::Null(s) => s.simulate(scenario, phi, fidelity),
-        }
-    }
-}
-
-/// The simulator a protocol's label names, if savme can build it from the label alone (an
-/// FMU campaign's label needs its campaign file: None).
-///
-/// ```
-/// use savme::campaign::config::toy_label;
-/// use savme::compose::{named_simulator, NamedSimulator};
-/// assert!(matches!(named_simulator("savme-sim/ideal"), Some(NamedSimulator::Driving(_))));
-/// assert!(matches!(named_simulator(&toy_label(20)), Some(NamedSimulator::Toy(_))));
-/// assert!(named_simulator("my-fmu-campaign").is_none());
-/// ```
-pub fn named_simulator(label: &str) -> Option<NamedSimulator> {
-    let sleeping = |ms: u64| {
-        NamedSimulator::Toy(Sleeping {
-            inner: ToySimulator,
-            sleep: std::time::Duration::from_millis(ms),
-        })
-    };
-    match label {
-        SENSORS => Some(NamedSimulator::Driving(DrivingSimulator::default())),
-        IDEAL => Some(NamedSimulator::Driving(DrivingSimulator::ideal())),
-        TOY => Some(sleeping(0)),
-        NULL => Some(NamedSimulator::Null(NullSimulator)),
-        other => other
-            .strip_prefix("savme-toy/sleep=")
-            .and_then(|ms| ms.strip_suffix("ms"))
-            .and_then(|ms| ms.parse().ok())
-            .map(sleeping),
-    }
-}
-
 /// The bundled simulator a protocol names (for `--resume`).
 pub fn bundled_simulator(p: &Protocol) -> Result<DrivingSimulator, CampaignError> {
     match p.simulator.as_str() {
@@ -163,6 +104,7 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
             message: "an FMU campaign's fidelity space comes from its file: set `[campaign] fidelity_bins` there".into(),
         });
     }
+    file_adapter(path)?;
     let file = FmuCampaignFile::load(path, &paper)?;
     let common = &file.common;
     let scenarios = &common.scenarios;
@@ -196,6 +138,38 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
         repeat: overrides.repeat,
         file,
     })
+}
+
+/// The adapter that reads the campaign file at `path` (by the sections it has): the FMU
+/// adapter, the only one that reads campaign files today. A file with no adapter's sections is
+/// refused naming the adapters and their sections.
+fn file_adapter(path: &Path) -> Result<&'static dyn crate::adapter::Adapter, CampaignError> {
+    let src = savme_campaign_file::Source::read(path)?;
+    let top: std::collections::BTreeMap<String, toml::Value> = src.parse()?;
+    let sections: Vec<&str> = top.keys().map(String::as_str).collect();
+    let found = crate::adapter::file_adapters(&sections);
+    match found.as_slice() {
+        [one] => Ok(*one),
+        _ => {
+            let offered: Vec<String> = (crate::adapter::ADAPTERS.iter())
+                .filter(|a| !a.file_sections().is_empty())
+                .map(|a| format!("{} ([{}])", a.name(), a.file_sections().join("], [")))
+                .collect();
+            let what = if found.is_empty() {
+                "no"
+            } else {
+                "more than one"
+            };
+            Err(CampaignError::File(src.err(
+                None,
+                None,
+                format!(
+                    "{what} simulator adapter reads this file: give the sections of one of {}",
+                    offered.join(", ")
+                ),
+            )))
+        }
+    }
 }
 
 /// A protocol error of a value the campaign file gave, as an error naming its key and line.

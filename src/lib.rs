@@ -5,7 +5,8 @@
 //! - [`kernel`]: the ask/tell kernel (crate `savme-kernel`);
 //! - [`campaign`]: the one campaign loop ([`campaign::Campaign`]), its protocol and problem,
 //!   reports and figures (crate `savme-campaign`); [`store`]: the trial store seam;
-//!   [`compose`]: the composition layer the CLI and Python share;
+//!   [`compose`]: the composition layer the CLI and Python share; [`adapter`]: the simulator
+//!   adapters (each registers itself);
 //!   `postgres`: campaigns in PostgreSQL (feature `postgres`);
 //! - [`viewer`]: recording to the rerun viewer (feature `rerun`);
 //! - [`serve`]: the kernel behind a JSON-lines protocol, for harnesses in any language;
@@ -47,6 +48,7 @@ pub use savme_postgres as postgres;
 pub use savme_store as store;
 /// Recording to the rerun viewer (crate `savme-viewer`; the recorder needs feature `rerun`).
 pub use savme_viewer as viewer;
+pub mod adapter;
 pub mod compose;
 pub mod serve;
 

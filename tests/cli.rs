@@ -245,3 +245,23 @@ fn more_jobs_than_savme_starts_are_a_usage_error_not_an_abort() {
         assert!(!out.exists(), "{args:?} created {o}");
     }
 }
+
+#[test]
+fn a_campaign_file_no_adapter_reads_is_refused_naming_the_adapters() {
+    let dir = std::env::temp_dir().join(format!("savme-cli-no-adapter-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("campaign.toml");
+    let text = "[fidelity]\npaper = true\n[[scenario]]\nname = \"a\"\nrole = \"train\"\n\
+                [[scenario.phi]]\nname = \"x\"\nrange = [0.0, 1.0]\n";
+    std::fs::write(&file, text).unwrap();
+    let (ok, _, err) = savme(&["run", "--config", file.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!(
+            "{}: no simulator adapter reads this file",
+            file.display()
+        )) && err.contains("fmu ([fmu], [failure])"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -7,10 +7,10 @@ use super::{
     config_failure, resume_dir, run_campaign, run_repeated, stored_protocol, usage,
     CampaignStorageArgs, Failure, ProtocolArgs, RunnerArgs, Target,
 };
+use savme::adapter::simulator_of_label;
 use savme::campaign::config::{self, toy_label, NULL};
 use savme::campaign::store::TrialStore;
 use savme::campaign::{load_protocol, load_repeat, Cost};
-use savme::compose::named_simulator;
 use savme::viewer::Frames;
 use std::path::PathBuf;
 
@@ -92,7 +92,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let label = protocol.as_ref().map_or(label, |p| p.simulator.clone());
     let (fresh, problem) = config::toy(&label, &overrides).map_err(config_failure)?;
     let protocol = protocol.unwrap_or(fresh);
-    let sim = named_simulator(&protocol.simulator)
+    let sim = simulator_of_label(&protocol.simulator)
         .ok_or_else(|| format!("`{}` is not a toy simulator", protocol.simulator))?;
     let out = a.out.unwrap_or_else(|| PathBuf::from("savme-toy-results"));
     let target = Target {

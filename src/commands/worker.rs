@@ -3,7 +3,8 @@
 //! is finished.
 
 use super::{usage, Failure};
-use savme::compose::{self, named_simulator};
+use savme::adapter::simulator_of_label;
+use savme::compose;
 use savme::postgres::worker::{work, Unavailable, WorkerOptions};
 use savme::postgres::{stored_simulator, Session};
 use savme_fmu::FmuBackend;
@@ -54,7 +55,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         wait_for_campaign: seconds("wait", a.wait)?,
     };
     let label = simulator_label(&db, &name, options.wait_for_campaign)?;
-    let report = match (named_simulator(&label), &a.config) {
+    let report = match (simulator_of_label(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
         (None, Some(file)) => match fmu_simulator(file, &name, &label)? {
             Ok(backend) => work(&db, &name, &backend, &options),

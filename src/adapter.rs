@@ -1,0 +1,277 @@
+//! Simulator adapters: how savme builds the simulator a campaign names. Each adapter registers
+//! itself in [`ADAPTERS`] with its name, the protocol labels it builds a simulator from (what a
+//! `savme worker`, `savme toy` and `--resume` need: the label alone) and the campaign-file
+//! sections it reads (an FMU campaign's `[fmu]` and `[failure]`). A new adapter is one type
+//! implementing [`Adapter`] and one entry in [`ADAPTERS`]; nothing else lists simulators.
+//!
+//! ```
+//! use savme::adapter::{adapter_of_label, simulator_of_label};
+//! use savme::kernel::{Assignment, Role, Simulator};
+//! let mut sim = simulator_of_label("savme-null").expect("the null simulator");
+//! let r = sim.simulate_as(Role::High, "any", &Assignment::new(), &Assignment::new())?;
+//! assert!(!r.failure);
+//! assert_eq!(adapter_of_label("savme-sim/ideal").map(|a| a.name()), Some("savme-sim"));
+//! assert!(simulator_of_label("my-fmu-campaign").is_none());
+//! # Ok::<(), savme::kernel::SimError>(())
+//! ```
+
+use savme_campaign::config::{NULL, TOY};
+use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
+use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
+use savme_sim::sim::DrivingSimulator;
+
+/// A simulator adapter: a kind of simulator savme can build.
+pub trait Adapter: Sync {
+    /// Its short name (`savme-sim`, `savme-toy`, `savme-null`, `fmu`).
+    fn name(&self) -> &'static str;
+    /// One line on what it runs (for docs and messages).
+    fn about(&self) -> &'static str;
+    /// The simulator a protocol's `label` names, if this adapter builds it from the label
+    /// alone (None: not its label, or it needs a campaign file).
+    fn simulator(&self, label: &str) -> Option<AnySimulator>;
+    /// The top-level sections of a campaign file this adapter reads (none: it reads no
+    /// campaign file).
+    fn file_sections(&self) -> &'static [&'static str] {
+        &[]
+    }
+}
+
+/// Every adapter savme has, in the order they are asked.
+pub static ADAPTERS: &[&dyn Adapter] = &[&Bundled, &Toy, &Null, &Fmu];
+
+/// The simulator a protocol's label names, from the first adapter that builds it from the
+/// label alone.
+pub fn simulator_of_label(label: &str) -> Option<AnySimulator> {
+    ADAPTERS.iter().find_map(|a| a.simulator(label))
+}
+
+/// The adapter that builds a protocol's label's simulator from the label alone.
+pub fn adapter_of_label(label: &str) -> Option<&'static dyn Adapter> {
+    ADAPTERS
+        .iter()
+        .copied()
+        .find(|a| a.simulator(label).is_some())
+}
+
+/// The adapters that read a campaign file with these top-level `sections` (each adapter
+/// whose sections the file has), and every adapter's sections (to name in an error).
+pub fn file_adapters(sections: &[&str]) -> Vec<&'static dyn Adapter> {
+    ADAPTERS
+        .iter()
+        .copied()
+        .filter(|a| a.file_sections().iter().any(|s| sections.contains(s)))
+        .collect()
+}
+
+/// Any simulator an adapter built, as one type: the campaign copies it to each worker thread.
+pub struct AnySimulator(Box<dyn DynSimulator>);
+
+impl AnySimulator {
+    /// Wraps `sim`.
+    pub fn new<S: Simulator + Clone + Send + 'static>(sim: S) -> AnySimulator {
+        AnySimulator(Box::new(sim))
+    }
+}
+
+impl Clone for AnySimulator {
+    fn clone(&self) -> AnySimulator {
+        AnySimulator(self.0.box_clone())
+    }
+}
+
+impl std::fmt::Debug for AnySimulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("AnySimulator")
+    }
+}
+
+impl Simulator for AnySimulator {
+    fn simulate(
+        &mut self,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        self.0.dyn_simulate(None, scenario, phi, fidelity)
+    }
+
+    fn simulate_as(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        self.0.dyn_simulate(Some(role), scenario, phi, fidelity)
+    }
+}
+
+/// A simulator behind a box: [`Simulator`] with a clone that keeps the box.
+trait DynSimulator: Send {
+    fn dyn_simulate(
+        &mut self,
+        role: Option<Role>,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError>;
+    fn box_clone(&self) -> Box<dyn DynSimulator>;
+}
+
+impl<S: Simulator + Clone + Send + 'static> DynSimulator for S {
+    fn dyn_simulate(
+        &mut self,
+        role: Option<Role>,
+        scenario: &str,
+        phi: &Assignment,
+        fidelity: &Assignment,
+    ) -> Result<SimResult, SimError> {
+        match role {
+            Some(role) => self.simulate_as(role, scenario, phi, fidelity),
+            None => self.simulate(scenario, phi, fidelity),
+        }
+    }
+
+    fn box_clone(&self) -> Box<dyn DynSimulator> {
+        Box::new(self.clone())
+    }
+}
+
+/// The bundled driving simulator: `savme-sim/sensors` (camera + lidar) and `savme-sim/ideal`.
+struct Bundled;
+
+impl Adapter for Bundled {
+    fn name(&self) -> &'static str {
+        "savme-sim"
+    }
+    fn about(&self) -> &'static str {
+        "the bundled driving simulator (savme-sim/sensors: camera + lidar; savme-sim/ideal)"
+    }
+    fn simulator(&self, label: &str) -> Option<AnySimulator> {
+        match label {
+            crate::compose::SENSORS => Some(AnySimulator::new(DrivingSimulator::default())),
+            crate::compose::IDEAL => Some(AnySimulator::new(DrivingSimulator::ideal())),
+            _ => None,
+        }
+    }
+}
+
+/// The toy simulator, optionally sleeping before each run: `savme-toy`,
+/// `savme-toy/sleep=20ms`.
+struct Toy;
+
+impl Adapter for Toy {
+    fn name(&self) -> &'static str {
+        "savme-toy"
+    }
+    fn about(&self) -> &'static str {
+        "the toy simulator (savme-toy, or savme-toy/sleep=<ms>ms: sleeping before each run)"
+    }
+    fn simulator(&self, label: &str) -> Option<AnySimulator> {
+        let ms = if label == TOY {
+            0
+        } else {
+            label
+                .strip_prefix("savme-toy/sleep=")?
+                .strip_suffix("ms")?
+                .parse()
+                .ok()?
+        };
+        Some(AnySimulator::new(Sleeping {
+            inner: ToySimulator,
+            sleep: std::time::Duration::from_millis(ms),
+        }))
+    }
+}
+
+/// The null simulator (`savme-null`): every run passes at once.
+struct Null;
+
+impl Adapter for Null {
+    fn name(&self) -> &'static str {
+        "savme-null"
+    }
+    fn about(&self) -> &'static str {
+        "the null simulator (savme-null: every run passes at once; overhead benchmarks)"
+    }
+    fn simulator(&self, label: &str) -> Option<AnySimulator> {
+        (label == NULL).then(|| AnySimulator::new(NullSimulator))
+    }
+}
+
+/// FMUs named by a campaign file (`[fmu]`, `[failure]`): built from the file
+/// ([`crate::compose::fmu_file`]), never from a label alone.
+struct Fmu;
+
+impl Adapter for Fmu {
+    fn name(&self) -> &'static str {
+        "fmu"
+    }
+    fn about(&self) -> &'static str {
+        "FMI 2.0 / 3.0 co-simulation FMUs named by a campaign file ([fmu], [failure])"
+    }
+    fn simulator(&self, _label: &str) -> Option<AnySimulator> {
+        None
+    }
+    fn file_sections(&self) -> &'static [&'static str] {
+        &savme_fmu::campaign_file::SECTIONS
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_label_savme_writes_finds_its_adapter() {
+        let toy = savme_campaign::config::toy_label(20);
+        for (label, name) in [
+            (crate::compose::SENSORS, "savme-sim"),
+            (crate::compose::IDEAL, "savme-sim"),
+            (TOY, "savme-toy"),
+            (toy.as_str(), "savme-toy"),
+            (NULL, "savme-null"),
+        ] {
+            assert_eq!(
+                adapter_of_label(label).map(|a| a.name()),
+                Some(name),
+                "{label}"
+            );
+        }
+        for label in ["fmu:a.fmu|b.fmu", "savme-toy/sleep=xms", "savme-sim", ""] {
+            assert!(simulator_of_label(label).is_none(), "{label}");
+        }
+    }
+
+    #[test]
+    fn names_are_unique_and_the_fmu_adapter_reads_its_sections() {
+        let mut names: Vec<&str> = ADAPTERS.iter().map(|a| a.name()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), ADAPTERS.len());
+        let found: Vec<&str> = file_adapters(&["fmu", "campaign"])
+            .iter()
+            .map(|a| a.name())
+            .collect();
+        assert_eq!(found, ["fmu"]);
+        assert!(file_adapters(&["campaign", "scenario"]).is_empty());
+    }
+
+    #[test]
+    fn a_boxed_simulator_keeps_its_behaviour_and_its_clones_are_independent() {
+        let (_, theta) = savme_campaign::toy::fidelity();
+        let phi = Assignment::new().with("gap", 20.0).with("ego_speed", 15.0);
+        let mut direct = ToySimulator;
+        let mut boxed = simulator_of_label(TOY).expect("toy");
+        let mut copy = boxed.clone();
+        let want = direct
+            .simulate("stopped_obstacle", &phi, &theta)
+            .expect("runs");
+        for sim in [&mut boxed, &mut copy] {
+            let got = sim
+                .simulate_as(Role::High, "stopped_obstacle", &phi, &theta)
+                .expect("runs");
+            assert_eq!((got.failure, got.work), (want.failure, want.work));
+        }
+    }
+}
