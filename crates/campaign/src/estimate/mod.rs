@@ -210,11 +210,9 @@ impl<'p> EstimateRun<'p> {
             budget,
             &settings,
         )?;
-        let config = settings.config(
-            settings
-                .seed
-                .unwrap_or_else(|| protocol.kernel_seed(&format!("estimate@{budget}"))),
-        );
+        let config = settings.config(settings.seed.unwrap_or_else(|| {
+            protocol.kernel_seed(&format!("estimate@{}", crate::protocol::Compact(budget)))
+        }));
         let mut estimation = Estimation::new(&trained.scenarios, &config)?;
         if !self.resume {
             create(&out, &settings)?;
