@@ -295,7 +295,10 @@ impl EstimateStage {
         let protocol = source.protocol().map_err(EstimateError::Campaign)?;
         let budget = self.settings.budget.unwrap_or(protocol.budgets[0]);
         let run = EstimateRun::new(source, self.problem, self.settings)
-            .out(self.out.join(format!("estimate-{budget}")))
+            .out(self.out.join(format!(
+                "estimate-{}",
+                savme_campaign::protocol::Compact(budget)
+            )))
             .stop_on(self.stop)
             .progress(progress);
         let resume = run

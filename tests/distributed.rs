@@ -547,3 +547,82 @@ fn a_worker_without_the_fmu_fails_its_runs_and_the_campaigns_on_error_applies() 
     );
     let _ = std::fs::remove_dir_all(dir);
 }
+
+/// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell or a scheduler does.
+fn send(child: &Child, signal: &str) {
+    let sent = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_and_sigterm_stop_a_worker_between_runs_and_nothing_is_lost() {
+    let Some(server) = Server::start("sigworker") else {
+        return;
+    };
+    let url = server.create_db("sigworker");
+    let local = temp_dir("sigworker-local");
+    let expected = toy_local(&local, &["--sleep-ms", "100"]);
+    let out = temp_dir("sigworker-out");
+    let coordinator = toy_coordinator(&url, "s", &out, &["--sleep-ms", "100"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let done = "SELECT count(*) FROM savme.runs WHERE state = 'done'";
+    // A worker waiting for a campaign that does not exist yet stops too.
+    let waiting = worker(&url, "not-yet", &["--wait", "60"]);
+    std::thread::sleep(Duration::from_millis(800));
+    send(&waiting, "TERM");
+    let o = waiting.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(143), "{}", text(&o));
+    assert!(
+        text(&o).contains("while waiting for campaign"),
+        "{}",
+        text(&o)
+    );
+    for (k, (signal, status)) in [("INT", 130), ("TERM", 143)].into_iter().enumerate() {
+        let w = worker(&url, "s", &["--jobs", "2", "--lease", "30"]);
+        let before = query_i64(&mut client, done);
+        wait_until("the worker to finish runs", Duration::from_secs(60), || {
+            query_i64(&mut client, done) >= before + 2
+        });
+        send(&w, signal);
+        let o = w.wait_with_output().unwrap();
+        let said = text(&o);
+        assert_eq!(o.status.code(), Some(status), "{signal}: {said}");
+        assert!(
+            said.contains("stopped between runs") || said.contains("between runs"),
+            "{said}"
+        );
+        assert!(
+            said.contains("start it again with: savme worker --storage"),
+            "{signal}: {said}"
+        );
+        // Nothing it held is left running: its runs were finished or queued again (a lease of
+        // 30 s would otherwise hold them).
+        let held = query_i64(
+            &mut client,
+            "SELECT count(*) FROM savme.runs WHERE state = 'running'",
+        );
+        assert_eq!(
+            held, 0,
+            "{signal}: run {k}: a stopped worker still holds runs"
+        );
+    }
+    let last = worker(&url, "s", &["--jobs", "2"]);
+    finish(coordinator, "the coordinator");
+    finish(last, "the last worker");
+    assert_eq!(
+        db_trials(&mut client, "s"),
+        expected,
+        "no run lost or repeated"
+    );
+    for d in [local, out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

@@ -569,3 +569,65 @@ fn the_nominal_weighted_tilt_is_stored_with_the_settings() {
         "{err}"
     );
 }
+
+#[test]
+fn a_resume_refuses_a_changed_setting_naming_both_values_and_applies_a_stopping_rule() {
+    let out = temp_dir("resume-changed");
+    let o = out.display().to_string();
+    let (code, _, err) = estimate(&out, &["--no-target", "--max-runs", "20", "--jobs", "1"]);
+    assert_eq!(code, Some(0), "{err}");
+    let first = trial_lines(&out);
+    assert_eq!(first.len(), 20);
+    // A setting that changes the runs drawn: refused, naming it and both values; nothing ran.
+    for (flags, named) in [
+        (
+            vec!["--epsilon", "0.5"],
+            "`epsilon` = 0.1, and this resume gives 0.5",
+        ),
+        (
+            vec!["--seed", "9"],
+            "`seed` = null, and this resume gives 9",
+        ),
+        (
+            vec!["--tilt", "nominal-weighted"],
+            "`tilt` = \"posterior\", and this resume gives \"nominal-weighted\"",
+        ),
+    ] {
+        let mut args = vec!["--resume", "--quiet"];
+        args.extend(flags.iter().copied());
+        let (code, _, err) = estimate(&out, &args);
+        assert_eq!(code, Some(2), "{flags:?}: {err}");
+        assert!(
+            err.contains(named) && err.contains("estimate.json"),
+            "{flags:?}: {err}"
+        );
+        assert_eq!(trial_lines(&out), first, "{flags:?}: nothing ran");
+    }
+    // The same value as stored, or none given: accepted (a resume of a finished estimate).
+    let (code, _, err) = estimate(&out, &["--resume", "--quiet", "--epsilon", "0.1"]);
+    assert_eq!(code, Some(0), "{err}");
+    // A stopping rule: applied, said, stored; the first 20 runs are those of before.
+    let (code, _, err) = estimate(&out, &["--resume", "--quiet", "--max-runs", "30"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("max_runs: 20 → 30"), "{err}");
+    let more = trial_lines(&out);
+    assert_eq!((more.len(), &more[..20]), (30, &first[..]));
+    assert_eq!(summary(&out)["settings"]["max_runs"], 30);
+    assert_eq!(summary(&out)["changed_on_resume"][0], "max_runs: 20 → 30");
+    // Fewer runs than are stored: refused naming both counts.
+    let (code, _, err) = run(&[
+        "estimate",
+        &campaign().display().to_string(),
+        "--out",
+        &o,
+        "--resume",
+        "--max-runs",
+        "25",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("holds 30 runs") && err.contains("got 25"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -2,7 +2,7 @@
 //! values, checked on the real binary (docs/RELIABILITY.md).
 mod common;
 
-use common::{made_dir, run, temp_dir, TINY_PROTOCOL};
+use common::{made_dir, run, temp_dir, trial_lines, TINY_PROTOCOL};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -448,4 +448,38 @@ fn a_dangling_output_link_and_a_missing_journal_directory_are_named() {
         "{err}"
     );
     let _ = std::fs::remove_dir_all(&home);
+}
+
+#[test]
+fn an_audit_fraction_without_screening_is_refused_before_anything_runs() {
+    let dir = temp_dir("audit-alone");
+    let d = dir.display().to_string();
+    let (code, _, err) = run(&["toy", "--out", &d, "--audit-fraction", "0.5"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("`audit_fraction`: 0.5 would do nothing") && err.contains("screen_iterations"),
+        "{err}"
+    );
+    assert!(!dir.exists(), "nothing created");
+}
+
+#[test]
+fn extreme_budgets_and_strengths_make_compact_stage_names() {
+    let dir = temp_dir("tiny-budget");
+    let d = dir.display().to_string();
+    let mut args = vec!["toy", "--out", &d, "--jobs", "1"];
+    args.extend(TINY_PROTOCOL.iter().filter(|&&s| s != "0.3"));
+    let budgets = args.iter().position(|&s| s == "--budgets").unwrap();
+    args.insert(budgets + 1, "1e-300");
+    args.extend(["--prior-strengths", "0,1e300"]);
+    let (code, _, err) = run(&args);
+    assert_eq!(code, Some(0), "{err}");
+    let stages: std::collections::BTreeSet<String> = trial_lines(&dir)
+        .iter()
+        .map(|t| t["stage"].as_str().unwrap().to_string())
+        .collect();
+    assert!(stages.contains("train@1e-300"), "{stages:?}");
+    assert!(stages.contains("test-learned-s1e300@1e-300"), "{stages:?}");
+    assert!(stages.iter().all(|s| s.len() < 40), "{stages:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -373,3 +373,97 @@ fn a_full_disk_leaves_no_partial_line_and_the_server_goes_on_when_space_returns(
     drop(again.stdin);
     assert!(again.child.wait().unwrap().success());
 }
+
+/// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell or a scheduler does.
+#[cfg(unix)]
+fn send(child: &Child, signal: &str) {
+    let sent = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
+}
+
+#[cfg(unix)]
+#[test]
+fn sigint_and_sigterm_stop_a_server_between_requests_and_say_how_to_continue() {
+    let dir = made_dir("serve-signals");
+    let config = write_config(&dir);
+    let config = config.to_str().unwrap();
+    // Reference: 20 trials without a stop.
+    let whole_journal = dir.join("whole.jsonl");
+    let mut whole = Server::start(&[
+        "--config",
+        config,
+        "--journal",
+        whole_journal.to_str().unwrap(),
+    ]);
+    let reference = drive(&mut whole, 20);
+    drop(whole.stdin);
+    assert!(whole.child.wait().unwrap().success());
+    for (signal, status) in [("INT", 130), ("TERM", 143)] {
+        let journal = dir.join(format!("{signal}.jsonl"));
+        let j = journal.to_str().unwrap();
+        let mut first = Command::new(EXE)
+            .args(["serve", "--config", config, "--journal", j])
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let stdin = first.stdin.take().unwrap();
+        let stdout = BufReader::new(first.stdout.take().unwrap());
+        let mut s = Server {
+            child: first,
+            stdin,
+            stdout,
+        };
+        let mut seen = drive(&mut s, 8);
+        let pending = s.call(json!({"op": "ask"}))["trials"][0].clone();
+        // The server waits for its next request, its stdin still open: the signal ends it.
+        send(&s.child, signal);
+        let out = s.child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(status), "{signal}: {err}");
+        assert!(err.contains("stopped ("), "{signal}: {err}");
+        let hint = format!("continue with: savme serve --journal {j}");
+        assert!(err.contains(&hint), "{signal}: {err}");
+        // Resumed: the pending trial is still pending, nothing lost or repeated.
+        let mut second = Server::start(&["--journal", j]);
+        let stats = second.call(json!({"op": "stats"}));
+        assert_eq!(stats["stats"]["told"], 8, "{signal}: {stats}");
+        assert_eq!(
+            stats["pending"],
+            json!([pending["id"]]),
+            "{signal}: {stats}"
+        );
+        let r = second
+            .call(json!({"op": "tell", "id": pending["id"], "observation": observation(&pending)}));
+        assert_eq!(r["ok"], true, "{r}");
+        seen.push(pending);
+        seen.extend(drive(&mut second, 11));
+        drop(second.stdin);
+        assert!(second.child.wait().unwrap().success());
+        assert_eq!(
+            seen, reference,
+            "{signal}: the stopped and resumed server asked the same trials"
+        );
+    }
+    // Without a journal it says that nothing was kept, and exits 143 all the same.
+    let mut plain = Command::new(EXE)
+        .args(["serve", "--config", config])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    send(&plain, "TERM");
+    let keep_open = plain.stdin.take();
+    let out = plain.wait_with_output().unwrap();
+    drop(keep_open);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(143), "{err}");
+    assert!(err.contains("nothing was journaled"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

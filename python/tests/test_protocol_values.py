@@ -35,6 +35,9 @@ SAMPLES = {
     "repeat": 2,
 }
 
+# Values that mean something only with another one (audit_fraction audits the screening).
+COMPANIONS = {"audit_fraction": {"screen_iterations": 7}}
+
 
 def toml_value(v):
     return json.dumps(v)  # numbers, strings and lists of them are the same in TOML
@@ -62,9 +65,12 @@ def test_each_value_is_a_protocol_keyword_with_the_papers_default():
         name = v["name"]
         if name in ("train_scenarios", "test_scenarios", "repeat"):
             continue  # positional arguments of Protocol; repeat belongs to the campaign
-        given = savme.Protocol(["a"], ["b"], **{name: SAMPLES[name]}).to_dict()
+        with_ = COMPANIONS.get(name, {})
+        given = savme.Protocol(["a"], ["b"], **{name: SAMPLES[name]}, **with_).to_dict()
         assert given[name] == SAMPLES[name], name
-        assert {k: x for k, x in given.items() if k != name} == {k: x for k, x in paper.items() if k != name}
+        changed = {name, *with_}
+        assert {k: x for k, x in given.items() if k not in changed} == {
+            k: x for k, x in paper.items() if k not in changed}
         # None is "not given": the paper's default.
         assert savme.Protocol(["a"], ["b"], **{name: None}).to_dict() == paper
     with pytest.raises(TypeError, match="`train_iteration`: not a protocol value .*train_iterations"):
@@ -95,7 +101,8 @@ def test_each_value_is_a_campaign_file_key_with_the_same_meaning(fmu_campaign, t
     for v in savme.PROTOCOL_VALUES:
         name = v["name"]
         cfg = tmp_path / f"{name}.toml"
-        cfg.write_text(base + f"{name} = {toml_value(SAMPLES[name])}\n\n" + rest)
+        companions = "".join(f"{k} = {toml_value(x)}\n" for k, x in COMPANIONS.get(name, {}).items())
+        cfg.write_text(base + f"{name} = {toml_value(SAMPLES[name])}\n{companions}\n" + rest)
         c = savme.campaign.load(cfg)
         got = c.protocol.to_dict()
         if name == "repeat":
@@ -107,6 +114,18 @@ def test_each_value_is_a_campaign_file_key_with_the_same_meaning(fmu_campaign, t
     bad.write_text(base + "train_iteration = 5\n\n" + rest)
     with pytest.raises(ValueError, match=r"bad.toml, line \d+, key `campaign.train_iteration`: not a protocol value"):
         savme.campaign.load(bad)
+    # audit_fraction without screening would do nothing: refused, in a file as from Python.
+    alone = tmp_path / "alone.toml"
+    alone.write_text(base + "audit_fraction = 0.5\n\n" + rest)
+    with pytest.raises(ValueError, match=r"`audit_fraction`: 0.5 would do nothing.*screen_iterations is 0"):
+        savme.campaign.load(alone)
+
+
+def test_an_audit_fraction_without_screening_is_refused():
+    with pytest.raises(ValueError, match=r"`audit_fraction`: 0.5 would do nothing.*screen_iterations is 0"):
+        savme.Protocol(["a"], ["b"], audit_fraction=0.5)
+    p = savme.Protocol(["a"], ["b"], audit_fraction=0.5, screen_iterations=3).to_dict()
+    assert (p["audit_fraction"], p["screen_iterations"]) == (0.5, 3)
 
 
 def without_wall(value):

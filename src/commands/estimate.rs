@@ -136,6 +136,58 @@ impl Args {
     }
 }
 
+impl Args {
+    /// The names of the settings given: by a flag, or by a key of the campaign file's
+    /// `[estimate]` section (a resume compares these with the stored ones, and keeps the
+    /// stored value of every other).
+    fn given(&self, section: Option<&savme_campaign_file::EstimateSection>) -> Vec<&'static str> {
+        let mut names = Vec::new();
+        let mut add = |name: &'static str, flag: bool, key: bool| {
+            if flag || key {
+                names.push(name);
+            }
+        };
+        let s = section.cloned().unwrap_or_default();
+        add("budget", self.budget.is_some(), s.budget.is_some());
+        add("epsilon", self.epsilon.is_some(), s.epsilon.is_some());
+        add("seed", self.seed.is_some(), s.seed.is_some());
+        add(
+            "target_width",
+            self.target_width.is_some() || self.no_target,
+            s.target_width.is_some(),
+        );
+        add("max_runs", self.max_runs.is_some(), s.max_runs.is_some());
+        add(
+            "min_failures",
+            self.min_failures.is_some(),
+            s.min_failures.is_some(),
+        );
+        add(
+            "scenarios",
+            !self.scenarios.is_empty(),
+            s.scenarios.is_some(),
+        );
+        add("nominal", !self.nominals.is_empty(), !s.nominal.is_empty());
+        add("tilt", self.tilt.is_some(), s.tilt.is_some());
+        add(
+            "refine_rounds",
+            self.refine_rounds.is_some(),
+            s.refine_rounds.is_some(),
+        );
+        add(
+            "refine_runs",
+            self.refine_runs.is_some(),
+            s.refine_runs.is_some(),
+        );
+        add(
+            "refine_reuse",
+            self.refine_reuse.is_some(),
+            s.refine_reuse.is_some(),
+        );
+        names
+    }
+}
+
 /// `continue with savme estimate CAMPAIGN [--config FILE] [--out DIR] --resume` (or
 /// `--storage … --campaign NAME` for a database's campaign).
 fn resume_hint(a: &Args) -> String {
@@ -175,6 +227,7 @@ fn failure(e: EstimateError) -> Failure {
         | EstimateError::NominalSyntax { .. }
         | EstimateError::UnknownBudget { .. }
         | EstimateError::UnknownScenario { .. }
+        | EstimateError::ChangedOnResume { .. }
         | EstimateError::Estimation(_) => usage(e),
         other => Failure::Runtime(other.to_string()),
     }
@@ -197,6 +250,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         None => EstimateSettings::default(),
     };
     let settings = a.settings(base).map_err(failure)?;
+    let given = a.given(file.as_ref().and_then(|c| c.file.common.estimate.as_ref()));
     let place = match (&a.dir, a.store.database()?) {
         (Some(_), Some(_)) => {
             return Err(usage("give the campaign directory or --storage, not both"))
@@ -219,6 +273,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
             .stop_on(super::signals::stop_on_signals(&hint))
             .progress(compose::estimate_progress_lines(a.quiet))
             .resume(a.resume)
+            .given(given.iter().copied())
             .jobs(
                 a.jobs
                     .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
@@ -241,6 +296,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
         }
     }
     .map_err(|e| interrupted(e, &hint).unwrap_or_else(failure))?;
+    for change in &outcome.changed_on_resume {
+        eprintln!(
+            "savme: resumed with a changed stopping rule (the runs drawn are the same): {change}"
+        );
+    }
     super::print(&format!(
         "{}\nwritten to {}\n",
         outcome.table_md,

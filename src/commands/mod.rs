@@ -293,6 +293,19 @@ impl StorageArgs {
         Ok(Some((db, name)))
     }
 
+    /// The flags naming this database and campaign, for a command to run again (the URL's
+    /// password redacted by `db`).
+    pub fn flags(&self, db: &Database) -> String {
+        let campaign = self.campaign.as_deref().unwrap_or("NAME");
+        match (&self.storage, &self.storage_file) {
+            (Some(url), _) => format!("--storage {} --campaign {campaign}", db.redact(url)),
+            (None, Some(file)) => {
+                format!("--storage-file {} --campaign {campaign}", file.display())
+            }
+            (None, None) => format!("--campaign {campaign}"),
+        }
+    }
+
     /// Opens (and locks) the campaign in the database given, if any.
     pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
         match self.database()? {

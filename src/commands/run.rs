@@ -126,6 +126,9 @@ fn run_estimate_stage(
             super::estimate::interrupted(e, &hint)
                 .unwrap_or_else(|e| Failure::Runtime(e.to_string()))
         })?;
+    for change in &outcome.changed_on_resume {
+        eprintln!("savme: [estimate] resumed with a changed stopping rule (the runs drawn are the same): {change}");
+    }
     super::print(&format!(
         "{}\nestimate written to {}\n",
         outcome.table_md,

@@ -3,10 +3,13 @@
 
 use super::{usage, Failure};
 use savme::campaign::store::{journal, JsonlStore, TrialStore};
+use savme::campaign::Stop;
 use savme::kernel::{Kernel, KernelConfig};
 use savme::serve::Session;
-use std::io;
+use std::io::{self, BufRead, Read};
 use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::time::Duration;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -30,6 +33,24 @@ pub fn run(a: Args) -> Result<(), Failure> {
             "give --config FILE (a kernel configuration, e.g. from `savme example-config`), or --journal FILE to resume",
         ));
     }
+    let again = match (&a.journal, a.storage.database()?) {
+        (Some(path), _) => format!(
+            "its journal {} holds every answered request: continue with: savme serve --journal {}",
+            path.display(),
+            path.display()
+        ),
+        (None, Some((db, name))) => format!(
+            "campaign {name:?} holds every answered request: continue with: savme serve {}",
+            a.storage.flags(&db)
+        ),
+        (None, None) => {
+            "nothing was journaled (no --journal): the kernel's state is gone".to_string()
+        }
+    };
+    let stop = super::signals::stop_on_signals_saying(
+        "stopping after the request being answered; a second signal quits at once (the journal keeps every answered request either way)",
+        &again,
+    );
     let database = a.storage.open()?;
     let store: Option<Box<dyn TrialStore>> = match (a.journal.as_deref(), database) {
         (Some(path), _) => Some(Box::new(
@@ -38,7 +59,72 @@ pub fn run(a: Args) -> Result<(), Failure> {
         (None, Some(db)) => Some(Box::new(db)),
         (None, None) => None,
     };
-    serve(a.config.as_deref(), store).map_err(Failure::from)
+    serve(a.config.as_deref(), store, &stop).map_err(Failure::from)?;
+    if stop.is_requested() {
+        return Err(Failure::Interrupted(format!(
+            "serve stopped ({}) between requests; {again}",
+            super::signals::received_name()
+        )));
+    }
+    Ok(())
+}
+
+/// Standard input's lines, read by a thread of their own so that a stop (SIGINT, SIGTERM) is
+/// seen while no request comes: the input ends at the first line boundary after the stop.
+struct LinesUntilStop {
+    lines: Receiver<io::Result<Vec<u8>>>,
+    line: Vec<u8>,
+    at: usize,
+    stop: Stop,
+}
+
+impl LinesUntilStop {
+    fn stdin(stop: &Stop) -> LinesUntilStop {
+        let (send, lines) = mpsc::sync_channel(16);
+        std::thread::spawn(move || {
+            let mut input = io::stdin().lock();
+            loop {
+                let mut line = Vec::new();
+                match input.read_until(b'\n', &mut line) {
+                    Ok(0) => return,
+                    Ok(_) => {
+                        if send.send(Ok(line)).is_err() {
+                            return;
+                        }
+                    }
+                    Err(e) => {
+                        let _ = send.send(Err(e));
+                        return;
+                    }
+                }
+            }
+        });
+        LinesUntilStop {
+            lines,
+            line: Vec::new(),
+            at: 0,
+            stop: stop.clone(),
+        }
+    }
+}
+
+impl Read for LinesUntilStop {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        while self.at == self.line.len() {
+            if self.stop.is_requested() {
+                return Ok(0);
+            }
+            match self.lines.recv_timeout(Duration::from_millis(100)) {
+                Ok(line) => (self.line, self.at) = (line?, 0),
+                Err(RecvTimeoutError::Timeout) => continue,
+                Err(RecvTimeoutError::Disconnected) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.line.len() - self.at);
+        buf[..n].copy_from_slice(&self.line[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
 }
 
 pub fn example_config() -> Result<(), String> {
@@ -59,9 +145,13 @@ fn read_config(path: &Path) -> Result<KernelConfig, String> {
     Ok(config)
 }
 
-fn serve(config: Option<&Path>, journal: Option<Box<dyn TrialStore>>) -> Result<(), String> {
+fn serve(
+    config: Option<&Path>,
+    journal: Option<Box<dyn TrialStore>>,
+    stop: &Stop,
+) -> Result<(), String> {
     let config = config.map(read_config).transpose()?;
-    let stdin = io::stdin().lock();
+    let stdin = io::BufReader::new(LinesUntilStop::stdin(stop));
     let stdout = io::stdout().lock();
     let io_err = |e: io::Error| format!("stdin/stdout: {e}");
     let session = match journal {

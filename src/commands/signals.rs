@@ -14,6 +14,9 @@ static RECEIVED: AtomicI32 = AtomicI32::new(0);
 static STOP: OnceLock<Stop> = OnceLock::new();
 /// What a second signal prints before quitting: `savme: quit at once; continue with …`.
 static QUIT_LINE: OnceLock<Vec<u8>> = OnceLock::new();
+/// What the first signal prints, when the command said (else: stopping after the runs in
+/// flight).
+static FIRST_LINE: OnceLock<Vec<u8>> = OnceLock::new();
 
 const SIGINT: i32 = 2;
 const SIGTERM: i32 = 15;
@@ -37,6 +40,14 @@ pub fn stop_on_signals(resume_hint: &str) -> Stop {
         }
     }
     stop.clone()
+}
+
+/// As [`stop_on_signals`], for a command whose first signal does something else than
+/// finishing the runs in flight (`savme serve` stops between requests): `first_line` is what
+/// the first signal prints (its name, `SIGTERM: ` or `Ctrl-C: `, is put in front).
+pub fn stop_on_signals_saying(first_line: &str, resume_hint: &str) -> Stop {
+    let _ = FIRST_LINE.set(first_line.as_bytes().to_vec());
+    stop_on_signals(resume_hint)
 }
 
 /// The exit status of a command a signal stopped: 128 + the signal (130 for SIGINT and when no
@@ -96,6 +107,16 @@ extern "C" fn on_signal(sig: libc::c_int) {
     }
     if let Some(stop) = STOP.get() {
         stop.request();
+    }
+    if let Some(line) = FIRST_LINE.get() {
+        write(if sig == libc::SIGTERM {
+            b"savme: SIGTERM: "
+        } else {
+            b"savme: Ctrl-C: "
+        });
+        write(line);
+        write(b"\n");
+        return;
     }
     write(if sig == libc::SIGTERM {
         b"savme: SIGTERM: stopping after the runs in flight; a second signal quits at once (the told trials are kept either way)\n"

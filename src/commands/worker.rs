@@ -49,12 +49,31 @@ pub fn run(a: Args) -> Result<(), Failure> {
             )))
         }
     };
+    let again = format!(
+        "start it again with: savme worker {}{}",
+        a.storage.flags(&db),
+        match &a.config {
+            Some(file) => format!(" --config {}", file.display()),
+            None => String::new(),
+        }
+    );
+    let (lease, wait_for_campaign) = (seconds("lease", a.lease)?, seconds("wait", a.wait)?);
+    let stop = super::signals::stop_on_signals_saying(
+        "stopping after the runs in flight (their results are written; the campaign goes on with the other workers); a second signal quits at once (its runs are taken over when their lease expires)",
+        &again,
+    );
     let options = WorkerOptions {
         jobs: a.jobs,
-        lease: seconds("lease", a.lease)?,
-        wait_for_campaign: seconds("wait", a.wait)?,
+        lease,
+        wait_for_campaign,
+        stop,
     };
-    let label = simulator_label(&db, &name, options.wait_for_campaign)?;
+    let Some(label) = simulator_label(&db, &name, &options)? else {
+        return Err(Failure::Interrupted(format!(
+            "worker stopped ({}) while waiting for campaign {name:?} to be started; {again}",
+            super::signals::received_name()
+        )));
+    };
     let report = match (simulator_of_label(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
         (None, Some(file)) => match fmu_simulator(file, &name, &label)? {
@@ -75,6 +94,14 @@ pub fn run(a: Args) -> Result<(), Failure> {
         }
     }
     .map_err(|e| e.to_string())?;
+    if report.stopped {
+        return Err(Failure::Interrupted(format!(
+            "worker stopped ({}) between runs: this worker ran {} runs ({} dropped: their lease had expired), every result is written and its unstarted claims are queued again; campaign {name:?} goes on; {again}",
+            super::signals::received_name(),
+            report.runs,
+            report.dropped
+        )));
+    }
     eprintln!(
         "savme worker: campaign {name:?} finished; this worker ran {} runs ({} finished after their lease expired and were dropped)",
         report.runs, report.dropped
@@ -107,12 +134,14 @@ fn fmu_simulator(
     Ok(super::run::fmu_backend(&c.file))
 }
 
-/// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it.
+/// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it
+/// (none if a signal stopped the wait).
 fn simulator_label(
     db: &savme::postgres::Database,
     name: &str,
-    patience: Duration,
-) -> Result<String, String> {
+    options: &WorkerOptions,
+) -> Result<Option<String>, String> {
+    let patience = options.wait_for_campaign;
     let mut s =
         super::connecting(db, || Session::connect(db, "worker")).map_err(|e| e.to_string())?;
     let start = std::time::Instant::now();
@@ -121,7 +150,7 @@ fn simulator_label(
         let label: Option<String> = s
             .run(|c| stored_simulator(c, name))
             .map_err(|e| e.to_string())?;
-        if let Some(label) = label {
+        if label.is_some() || options.stop.is_requested() {
             return Ok(label);
         }
         if start.elapsed() >= patience {

@@ -3,7 +3,7 @@
 //! uniform fidelity prior). All are configured before the first run, so that a configuration
 //! error comes before any simulation.
 
-use super::protocol::{Protocol, Stage, StageKind};
+use super::protocol::{Compact, Protocol, Stage, StageKind};
 use super::{CampaignError, Problem};
 use savme_kernel::{Kernel, KernelBuilder, Space};
 
@@ -57,7 +57,10 @@ impl<'a> StageKernels<'a> {
         };
         let mut kernels = vec![k.builder(&train, 1.0, "baseline-train").build()?];
         for &b in &protocol.budgets {
-            kernels.push(k.builder(&train, b, &format!("train@{b}")).build()?);
+            kernels.push(
+                k.builder(&train, b, &format!("train@{}", Compact(b)))
+                    .build()?,
+            );
         }
         kernels.push(k.builder(&k.test_spaces, 1.0, "baseline-test").build()?);
         k.kernels = kernels;
@@ -97,7 +100,7 @@ impl<'a> StageKernels<'a> {
         b: f64,
         strength: Option<f64>,
     ) -> Result<Kernel, CampaignError> {
-        let mut builder = self.builder(&self.test_spaces, b, &format!("test@{b}"));
+        let mut builder = self.builder(&self.test_spaces, b, &format!("test@{}", Compact(b)));
         if kind == StageKind::TestLearned {
             let trained = &self.kernels[1 + self.budget_index(b)];
             builder = builder.fidelity_prior(

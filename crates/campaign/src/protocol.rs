@@ -459,6 +459,36 @@ pub struct Stage {
     pub strength: Option<f64>,
 }
 
+/// A budget or strength as it appears in stage labels, directory names and messages: as Rust
+/// prints it (`0.3`, `0.05`) when that is at most [`Compact::MAX_PLAIN`] characters, else in
+/// scientific notation (`1e-300`, not 300 zeros). Labels of every budget shorter than that are
+/// unchanged, so the kernels' seeds (derived from the labels) and stored campaigns are too.
+///
+/// ```
+/// use savme_campaign::protocol::Compact;
+/// assert_eq!(Compact(0.3).to_string(), "0.3");
+/// assert_eq!(Compact(1e-300).to_string(), "1e-300");
+/// assert_eq!(Compact(1e300).to_string(), "1e300");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Compact(pub f64);
+
+impl Compact {
+    /// The longest plain rendering kept as is.
+    pub const MAX_PLAIN: usize = 20;
+}
+
+impl std::fmt::Display for Compact {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let plain = self.0.to_string();
+        if plain.len() <= Self::MAX_PLAIN {
+            f.write_str(&plain)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
 impl Stage {
     /// The kernel phase its trials are asked in.
     pub fn phase(&self) -> savme_kernel::Phase {
@@ -475,11 +505,11 @@ impl Stage {
     /// `test-learned-s0.1@0.3` for a prior-strength ablation stage.
     pub fn label(&self) -> String {
         let kind = match self.strength {
-            Some(s) => format!("{}-s{s}", self.kind.name()),
+            Some(s) => format!("{}-s{}", self.kind.name(), Compact(s)),
             None => self.kind.name().into(),
         };
         match self.budget {
-            Some(b) => format!("{kind}@{b}"),
+            Some(b) => format!("{kind}@{}", Compact(b)),
             None => kind,
         }
     }

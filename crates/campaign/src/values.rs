@@ -233,7 +233,9 @@ impl Overrides {
     }
 
     /// Applies the values to `p`; `scenario` turns a scenario as given into its name (None:
-    /// unknown, an error listing `known`). Does not validate.
+    /// unknown, an error listing `known`). Does not validate the values one by one, but
+    /// refuses a value that would do nothing: `audit_fraction` without screening
+    /// (`screen_iterations` 0), whoever gave it (a flag, a campaign file, Python).
     pub fn apply(
         &self,
         p: &mut Protocol,
@@ -241,6 +243,14 @@ impl Overrides {
         known: &str,
     ) -> Result<(), CampaignError> {
         self.apply_fields(p);
+        if let (Some(alpha), 0) = (self.audit_fraction, p.screen_iterations) {
+            return Err(CampaignError::Protocol {
+                field: "audit_fraction".into(),
+                message: format!(
+                    "{alpha} would do nothing: it is the fraction of LF passes the screening stage re-runs on HF, and there is no screening (screen_iterations is 0); give screen_iterations too, or leave audit_fraction out"
+                ),
+            });
+        }
         let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
             given
                 .iter()
@@ -328,6 +338,23 @@ mod tests {
                 v.help
             );
         }
+    }
+
+    #[test]
+    fn an_audit_fraction_without_screening_is_refused_naming_both_values() {
+        let mut p = Protocol::paper("sim", vec!["a".into()], vec!["b".into()]);
+        let known = |s: &str| Some(s.to_string());
+        let alone = Overrides::from_entries([("audit_fraction", serde_json::json!(0.5))]).unwrap();
+        let e = alone.apply(&mut p, &known, "").unwrap_err().to_string();
+        assert!(e.contains("`audit_fraction`: 0.5 would do nothing"), "{e}");
+        assert!(e.contains("screen_iterations is 0"), "{e}");
+        let with = Overrides::from_entries([
+            ("audit_fraction", serde_json::json!(0.5)),
+            ("screen_iterations", serde_json::json!(4)),
+        ])
+        .unwrap();
+        with.apply(&mut p, &known, "").unwrap();
+        assert_eq!((p.audit_fraction, p.screen_iterations), (0.5, 4));
     }
 
     #[test]

@@ -315,6 +315,17 @@ pub fn finish_and_claim(
     Ok((row.get::<_, i64>(0) == 1, claimed(&row, 1)))
 }
 
+/// Queues run `id` again if `worker` still holds it (a stopping worker hands back a run it
+/// claimed but did not start; the claim does not count as an attempt).
+pub fn release(c: &mut Conn<'_>, id: i64, worker: &str) -> Result<u64, postgres::Error> {
+    let statement = c.prepared(
+        "UPDATE savme.runs SET state = 'queued', lease_until = NULL, started_at = NULL,
+                attempts = greatest(attempts - 1, 0)
+          WHERE id = $1 AND worker = $2 AND state = 'running'",
+    )?;
+    c.execute(&statement, &[&id, &worker])
+}
+
 /// Starts listening on `channel` on this connection.
 pub fn listen(client: &mut impl GenericClient, channel: &str) -> Result<(), postgres::Error> {
     // Channel names are savme's own (`savme_tasks_<id>`): safe to quote as identifiers.

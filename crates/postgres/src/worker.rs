@@ -22,6 +22,7 @@
 
 use crate::{application_name, find_campaign, queue, Database, Session};
 use savme_campaign::executor::simulate;
+use savme_campaign::Stop;
 use savme_kernel::{Assignment, SimError, SimResult, Simulator};
 use savme_store::StoreError;
 use std::collections::HashSet;
@@ -39,6 +40,11 @@ pub struct WorkerOptions {
     pub lease: Duration,
     /// How long to wait for the campaign to appear in the database before giving up.
     pub wait_for_campaign: Duration,
+    /// Asks the worker to stop between runs (SIGINT/SIGTERM in `savme worker`): each thread
+    /// finishes and writes the run it is running, hands back a run it claimed but did not
+    /// start (queued again for another worker), and [`work`] returns with
+    /// [`WorkerReport::stopped`] set.
+    pub stop: Stop,
 }
 
 impl Default for WorkerOptions {
@@ -47,6 +53,7 @@ impl Default for WorkerOptions {
             jobs: 1,
             lease: Duration::from_secs(30),
             wait_for_campaign: Duration::from_secs(600),
+            stop: Stop::new(),
         }
     }
 }
@@ -101,6 +108,8 @@ pub struct WorkerReport {
     pub runs: u64,
     /// Runs it finished too late: its lease had expired and another worker had taken them.
     pub dropped: u64,
+    /// It stopped because [`WorkerOptions::stop`] was requested (the campaign may go on).
+    pub stopped: bool,
 }
 
 /// Works on campaign `name` until the coordinator marks it finished.
@@ -131,6 +140,9 @@ where
                     s.listen(&queue::tasks_channel(campaign))?;
                     let mut claimed = None;
                     loop {
+                        if options.stop.is_requested() {
+                            return hand_back(&mut s, claimed.take(), &me);
+                        }
                         if claimed.is_none() {
                             claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
                         }
@@ -141,6 +153,9 @@ where
                             s.wait(Duration::from_secs(1))?;
                             continue;
                         };
+                        if options.stop.is_requested() {
+                            return hand_back(&mut s, Some(run), &me);
+                        }
                         lock(held).insert(run.id);
                         let result = match &run.task {
                             Ok(t) => {
@@ -184,7 +199,17 @@ where
     Ok(WorkerReport {
         runs: runs.into_inner(),
         dropped: dropped.into_inner(),
+        stopped: options.stop.is_requested(),
     })
+}
+
+/// A stopping thread's claimed but unstarted run, queued again for another worker (without
+/// waiting for its lease to expire).
+fn hand_back(s: &mut Session, run: Option<queue::Claimed>, me: &str) -> Result<(), StoreError> {
+    if let Some(run) = run {
+        s.run(|c| queue::release(c, run.id, me))?;
+    }
+    Ok(())
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

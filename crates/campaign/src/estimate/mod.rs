@@ -31,7 +31,9 @@ mod posterior;
 mod settings;
 
 pub use output::{EstimateLine, EstimateOutcome, StopReason};
-pub use settings::{EstimateError, EstimateSettings, MAX_RUNS};
+pub use settings::{
+    resumed as settings_on_resume, EstimateError, EstimateSettings, MAX_RUNS, STOPPING_RULES,
+};
 
 use super::executor::{with_pool, Runner, Task, Which};
 use super::store::{JsonlStore, TrialStore};
@@ -52,6 +54,7 @@ pub struct EstimateRun<'p> {
     problem: Problem,
     jobs: usize,
     resume: bool,
+    given: Option<Vec<String>>,
     progress: Option<ProgressFn<'p>>,
     stop: super::Stop,
 }
@@ -133,6 +136,7 @@ impl<'p> EstimateRun<'p> {
             problem,
             jobs: 1,
             resume: false,
+            given: None,
             progress: None,
             stop: super::Stop::new(),
         }
@@ -165,10 +169,21 @@ impl<'p> EstimateRun<'p> {
         self
     }
 
-    /// Continue the estimate in the output directory with its stored settings (the given
-    /// settings are ignored).
+    /// Continue the estimate in the output directory with its stored settings. A given
+    /// setting that differs from the stored one is refused naming both values
+    /// ([`EstimateError::ChangedOnResume`]), except the stopping rules (`max_runs`,
+    /// `target_width`, `min_failures`), which do not change the runs drawn: those are applied,
+    /// stored, and listed in [`EstimateOutcome::changed_on_resume`].
     pub fn resume(mut self, resume: bool) -> Self {
         self.resume = resume;
+        self
+    }
+
+    /// The names of the settings the caller gave (flags, a file's keys), compared with the
+    /// stored ones on resume; the others are taken from the stored estimate. Default: every
+    /// setting counts as given (a campaign file's `[estimate]` section, with its defaults).
+    pub fn given(mut self, names: impl IntoIterator<Item = impl Into<String>>) -> Self {
+        self.given = Some(names.into_iter().map(Into::into).collect());
         self
     }
 
@@ -180,7 +195,7 @@ impl<'p> EstimateRun<'p> {
         }
         let b = self.settings.budget.unwrap_or(protocol.budgets[0]);
         match self.campaign.dir() {
-            Some(dir) => Ok(dir.join(format!("estimate-{b}"))),
+            Some(dir) => Ok(dir.join(format!("estimate-{}", crate::protocol::Compact(b)))),
             None => Err(EstimateError::NoOutputDirectory {
                 campaign: self.campaign.location(),
             }),
@@ -196,7 +211,7 @@ impl<'p> EstimateRun<'p> {
         let protocol = self.campaign.protocol()?;
         let out = self.out_dir(&protocol)?;
         super::outputs::usable_dir(&out)?;
-        let settings = self.settings_for(&out)?;
+        let (settings, changed) = self.settings_for(&out)?;
         settings.validate()?;
         let problem = self.problem.clone();
         let budget = settings.budget.unwrap_or(protocol.budgets[0]);
@@ -210,11 +225,9 @@ impl<'p> EstimateRun<'p> {
             budget,
             &settings,
         )?;
-        let config = settings.config(
-            settings
-                .seed
-                .unwrap_or_else(|| protocol.kernel_seed(&format!("estimate@{budget}"))),
-        );
+        let config = settings.config(settings.seed.unwrap_or_else(|| {
+            protocol.kernel_seed(&format!("estimate@{}", crate::protocol::Compact(budget)))
+        }));
         let mut estimation = Estimation::new(&trained.scenarios, &config)?;
         if !self.resume {
             create(&out, &settings)?;
@@ -223,6 +236,19 @@ impl<'p> EstimateRun<'p> {
         let started = std::time::Instant::now();
         let mut lines = replay(&mut store, &mut estimation)?;
         let replayed = lines.len() as u64;
+        if replayed > settings.max_runs {
+            return Err(EstimateError::Setting {
+                key: "max_runs".into(),
+                message: format!(
+                    "{} already holds {replayed} runs; a resumed estimate needs max_runs ≥ {replayed}, got {}",
+                    out.display(),
+                    settings.max_runs
+                ),
+            });
+        }
+        if !changed.is_empty() {
+            create(&out, &settings)?;
+        }
         let mut report = Reporter {
             callback: self.progress.take(),
             started,
@@ -259,13 +285,16 @@ impl<'p> EstimateRun<'p> {
             started.elapsed().as_secs_f64(),
             out,
         );
+        let mut outcome = outcome;
+        outcome.changed_on_resume = changed;
         outcome.write()?;
         Ok(outcome)
     }
 
-    /// The settings to run with: the stored ones on resume, else the given ones (refusing a
-    /// directory that already holds an estimate). Creates nothing.
-    fn settings_for(&self, out: &Path) -> Result<EstimateSettings, EstimateError> {
+    /// The settings to run with: the stored ones on resume (with the given stopping rules
+    /// that differ, listed), else the given ones (refusing a directory that already holds an
+    /// estimate). Creates nothing.
+    fn settings_for(&self, out: &Path) -> Result<(EstimateSettings, Vec<String>), EstimateError> {
         let path = out.join("estimate.json");
         match (self.resume, path.exists()) {
             (false, true) => Err(EstimateError::Exists {
@@ -277,15 +306,16 @@ impl<'p> EstimateRun<'p> {
             (true, true) => {
                 let text = std::fs::read_to_string(&path)
                     .map_err(|e| EstimateError::Campaign(CampaignError::io(&path, e)))?;
-                serde_json::from_str(&text).map_err(|e| {
+                let stored = serde_json::from_str(&text).map_err(|e| {
                     EstimateError::Campaign(CampaignError::Log {
                         store: path.display().to_string(),
                         line: e.line(),
                         message: e.to_string(),
                     })
-                })
+                })?;
+                settings_on_resume(&path, stored, &self.settings, self.given.as_deref())
             }
-            (false, false) => Ok(self.settings.clone()),
+            (false, false) => Ok((self.settings.clone(), Vec::new())),
         }
     }
 }

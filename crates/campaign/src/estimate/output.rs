@@ -133,6 +133,9 @@ pub struct EstimateOutcome {
     pub elapsed_seconds: f64,
     /// Where the outputs are.
     pub out: PathBuf,
+    /// The stopping rules this resume changed (`max_runs: 40 → 100`), if any.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub changed_on_resume: Vec<String>,
     /// `table.md`'s text.
     #[serde(skip)]
     pub table_md: String,
@@ -205,6 +208,7 @@ impl EstimateOutcome {
             replayed,
             elapsed_seconds,
             out,
+            changed_on_resume: Vec::new(),
             table_md: String::new(),
         };
         o.table_md = o.table();

@@ -1,6 +1,7 @@
 //! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
 
 use super::{EstimateError, EstimateSettings};
+use crate::protocol::Compact;
 use crate::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -36,8 +37,8 @@ pub(crate) fn trained(
             known: known.join(", "),
         });
     }
-    let train = format!("train@{budget}");
-    let test = format!("test-learned@{budget}");
+    let train = format!("train@{}", Compact(budget));
+    let test = format!("test-learned@{}", Compact(budget));
     let learned_in = |name: &str| {
         if protocol.train_scenarios.iter().any(|s| s == name) {
             Some((train.clone(), protocol.train_iterations))

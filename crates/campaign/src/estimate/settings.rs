@@ -75,6 +75,64 @@ impl Default for EstimateSettings {
     }
 }
 
+/// The settings that only decide when an estimate stops: a resume may change them.
+pub const STOPPING_RULES: &[&str] = &["max_runs", "target_width", "min_failures"];
+
+/// The settings a resume runs with: `stored`, with each setting named in `given` (None: every
+/// one) compared with `wanted`'s. A stopping rule that differs is applied (listed as
+/// `name: stored → given`); any other difference is [`EstimateError::ChangedOnResume`].
+///
+/// ```
+/// use savme_campaign::estimate::{settings_on_resume, EstimateSettings};
+/// let stored = EstimateSettings::default();
+/// let mut wanted = stored.clone();
+/// wanted.max_runs = 50;
+/// let (s, changed) = settings_on_resume("e/estimate.json".as_ref(), stored.clone(), &wanted, None)?;
+/// assert_eq!((s.max_runs, changed), (50, vec!["max_runs: 10000 → 50".to_string()]));
+/// wanted.epsilon = 0.5;
+/// let e = settings_on_resume("e/estimate.json".as_ref(), stored.clone(), &wanted, Some(&["epsilon".into()]));
+/// assert!(e.unwrap_err().to_string().contains("`epsilon` = 0.1, and this resume gives 0.5"));
+/// // Not given: the stored value is kept.
+/// let (s, _) = settings_on_resume("e/estimate.json".as_ref(), stored, &wanted, Some(&[]))?;
+/// assert_eq!(s.epsilon, 0.1);
+/// # Ok::<(), savme_campaign::estimate::EstimateError>(())
+/// ```
+pub fn resumed(
+    file: &std::path::Path,
+    stored: EstimateSettings,
+    wanted: &EstimateSettings,
+    given: Option<&[String]>,
+) -> Result<(EstimateSettings, Vec<String>), EstimateError> {
+    let as_map = |s: &EstimateSettings| match serde_json::to_value(s) {
+        Ok(serde_json::Value::Object(m)) => m,
+        _ => serde_json::Map::new(),
+    };
+    let (mut merged, wanted) = (as_map(&stored), as_map(wanted));
+    let zero = serde_json::Value::from(0); // refine_reuse is left out when 0
+    let mut changed = Vec::new();
+    for (name, value) in &wanted {
+        if given.is_some_and(|g| !g.iter().any(|n| n == name)) {
+            continue;
+        }
+        let was = merged.get(name).unwrap_or(&zero).clone();
+        if was == *value {
+            continue;
+        }
+        if !STOPPING_RULES.contains(&name.as_str()) {
+            return Err(EstimateError::ChangedOnResume {
+                file: file.to_path_buf(),
+                setting: name.clone(),
+                stored: was.to_string(),
+                given: value.to_string(),
+            });
+        }
+        changed.push(format!("{name}: {was} → {value}"));
+        merged.insert(name.clone(), value.clone());
+    }
+    let settings = serde_json::from_value(serde_json::Value::Object(merged)).unwrap_or(stored);
+    Ok((settings, changed))
+}
+
 impl EstimateSettings {
     /// The cross-entropy refinement these settings ask for, if any.
     pub fn refine(&self) -> Option<Refine> {
@@ -260,6 +318,18 @@ pub enum EstimateError {
     NothingToResume {
         /// The directory.
         dir: PathBuf,
+    },
+    /// A resume gives a setting that changes the runs drawn, other than the stored one.
+    #[error("{}: the estimate was started with `{setting}` = {stored}, and this resume gives {given}: a resumed estimate keeps the settings its runs were drawn with; leave `{setting}` as it was, or start a new estimate in another output directory", file.display())]
+    ChangedOnResume {
+        /// The stored settings (`estimate.json`).
+        file: PathBuf,
+        /// The setting's name.
+        setting: String,
+        /// Its stored value (JSON).
+        stored: String,
+        /// The value given (JSON).
+        given: String,
     },
     /// A stored estimate trial that is not what the settings give (edited, or another run).
     #[error("{store}, line {line}: {message}")]

@@ -3,7 +3,7 @@
 
 use super::{bitmap, legend, lines_of, save, scale, tick, FONT, PALETTE};
 use crate::log::TrialLine;
-use crate::protocol::{Cost, Protocol, StageKind};
+use crate::protocol::{Compact, Cost, Protocol, StageKind};
 use crate::report::curve;
 use crate::report::intervals::Band;
 use crate::CampaignError;
@@ -119,7 +119,7 @@ pub fn breakeven(path: &Path, p: &Protocol, runs: &[&[TrialLine]]) -> Result<(),
             format!("SAVME meta-training, C_budget = {b}"),
             PALETTE[i % PALETTE.len()],
             runs,
-            &format!("train@{b}"),
+            &format!("train@{}", Compact(*b)),
         ));
     }
     let end = series
@@ -159,13 +159,13 @@ pub fn meta_testing(path: &Path, p: &Protocol, runs: &[&[TrialLine]]) -> Result<
                     "uniform fidelity prior".into(),
                     PALETTE[1],
                     runs,
-                    &format!("test-uniform@{b}"),
+                    &format!("test-uniform@{}", Compact(*b)),
                 ),
                 BandSeries::of(
                     "learned fidelity prior".into(),
                     PALETTE[0],
                     runs,
-                    &format!("test-learned@{b}"),
+                    &format!("test-learned@{}", Compact(*b)),
                 ),
             ];
             (

@@ -4,7 +4,7 @@
 mod text;
 
 use super::log::TrialLine;
-use super::protocol::{Cost, Protocol, StageKind};
+use super::protocol::{Compact, Cost, Protocol, StageKind};
 use super::report::curve;
 use super::CampaignError;
 use plotters::coord::types::{RangedCoordf64, RangedCoordu64};
@@ -199,7 +199,7 @@ pub fn breakeven(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<(), C
         break_even: None,
     }];
     for (i, b) in p.budgets.iter().enumerate() {
-        let train = curve(&lines_of(lines, &format!("train@{b}")));
+        let train = curve(&lines_of(lines, &format!("train@{}", Compact(*b))));
         let at = (!series[0].curve.points().is_empty())
             .then(|| break_even(&train, &series[0].curve))
             .flatten();
@@ -242,13 +242,13 @@ pub fn meta_testing(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<()
                 Series {
                     label: "uniform fidelity prior".into(),
                     colour: PALETTE[1],
-                    curve: curve(&lines_of(lines, &format!("test-uniform@{b}"))),
+                    curve: curve(&lines_of(lines, &format!("test-uniform@{}", Compact(*b)))),
                     break_even: None,
                 },
                 Series {
                     label: "learned fidelity prior".into(),
                     colour: PALETTE[0],
-                    curve: curve(&lines_of(lines, &format!("test-learned@{b}"))),
+                    curve: curve(&lines_of(lines, &format!("test-learned@{}", Compact(*b)))),
                     break_even: None,
                 },
             ];
