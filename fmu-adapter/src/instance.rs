@@ -3,6 +3,9 @@
 //! behind this one type: the run loop, the campaign and the worker never ask which version
 //! they drive. An evaluation allocates nothing and reuses its instance with `fmi2Reset` /
 //! `fmi3Reset`; `fmi2Warning` / `fmi3Warning` count as success.
+//!
+//! One file of ~640 lines because it is one type over two C APIs: each operation (set, get,
+//! step, reset, terminate) is written once with its FMI 2.0 and FMI 3.0 arms side by side.
 
 use crate::description::{Repr, VarInfo};
 use crate::file::{Api, FmuFile};

@@ -13,6 +13,10 @@
 //!
 //! **Bins are half-open**, `[e_k, e_{k+1})`, except the last, which also holds `hi`. A value on an
 //! inner edge belongs to the upper bin.
+//!
+//! One file of ~750 lines: [`Variable`] (its arms, bins, draws and the checks that make every
+//! bin representable) and [`Space`] (an ordered list of them, with the same checks across
+//! variables) are one concept; most of the length is the documented edge cases of binning.
 
 use crate::value::{Assignment, Value};
 use rand::{Rng, RngExt};
