@@ -253,11 +253,40 @@ fn a_killed_coordinator_resumes_using_the_runs_workers_finished_meanwhile() {
         .spawn()
         .unwrap();
     let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
-    wait_until("trials to be stored", Duration::from_secs(60), || {
-        query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 6
-    });
-    coordinator.kill().unwrap(); // SIGKILL
-    coordinator.wait().unwrap();
+    // Killed twice mid-campaign (the second time after a resume): each time the stored lines
+    // are exactly the first lines of the local run — a batch is committed whole or not at all.
+    for (round, at) in [(0, 4), (1, 9)] {
+        if round > 0 {
+            coordinator = Command::new(EXE)
+                .args([
+                    "toy",
+                    "--storage",
+                    &url,
+                    "--campaign",
+                    "c",
+                    "--remote",
+                    "--resume",
+                ])
+                .args(["--quiet", "--out"])
+                .arg(&out)
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+        }
+        wait_until("trials to be stored", Duration::from_secs(60), || {
+            query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= at
+        });
+        coordinator.kill().unwrap(); // SIGKILL
+        coordinator.wait().unwrap();
+        let stored = db_trials(&mut client, "c");
+        assert!(stored.len() < expected.len(), "finished before the kill");
+        assert_eq!(stored, expected[..stored.len()], "after kill {round}");
+        assert_eq!(
+            query_i64(&mut client, "SELECT max(line) FROM savme.trials"),
+            stored.len() as i64
+        );
+    }
     // The workers finish what was queued; those results must be used, not run again.
     std::thread::sleep(Duration::from_millis(500));
     let done_before = query_i64(
