@@ -480,6 +480,14 @@ where
             return Err(usage("protocol: `--jobs`: must be at least 1"));
         }
         campaign = campaign.jobs(j);
+        if j > 2 * protocol.window && !runner.quiet() {
+            eprintln!(
+                "savme: WARNING: --jobs {j} but a window of {} trials keeps at most {} runs in flight: {} threads will be idle; --window {j} would keep them busy (it changes the trials slightly)",
+                protocol.window,
+                2 * protocol.window,
+                j - 2 * protocol.window
+            );
+        }
     }
     // Before the observers: the recording's own Ctrl-C handler then stays out of the way, and
     // the stopped campaign closes the recording.

@@ -428,3 +428,13 @@ pub fn finished_by(c: &mut Conn<'_>, id: i64, worker: &str) -> Result<bool, post
     )?;
     Ok(row.is_some_and(|r| r.get(0)))
 }
+
+/// The window of `campaign`'s stored protocol (trials in flight at once), if saved.
+pub fn window(client: &mut Client, campaign: i32) -> Result<Option<i64>, postgres::Error> {
+    Ok(client
+        .query_opt(
+            "SELECT (protocol->>'window')::bigint FROM savme.campaigns WHERE id = $1",
+            &[&campaign],
+        )?
+        .and_then(|r| r.get(0)))
+}

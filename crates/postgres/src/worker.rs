@@ -17,7 +17,7 @@
 //! let db = Database::parse("postgresql://worker@db.example/safety")?;
 //! let report = work(&db, "night-run-1", &ToySimulator, &WorkerOptions::default())?;
 //! println!("{} runs", report.runs);
-//! # Ok::<(), savme_store::StoreError>(())
+//! # Ok::<(), savme_postgres::worker::WorkerError>(())
 //! ```
 
 use crate::{
@@ -158,6 +158,11 @@ where
 {
     let mut session = Session::connect(db, "worker")?;
     let campaign = wait_for_campaign(&mut session, name, options.wait_for_campaign)?;
+    if let Some(window) = session.run(|c| queue::window(c, campaign))? {
+        if let Some(warning) = window_warning(name, window, options.jobs) {
+            eprintln!("{warning}");
+        }
+    }
     let held = Mutex::new(HashSet::new());
     let stop = AtomicBool::new(false);
     let watch = Watch::default();
@@ -328,6 +333,22 @@ fn watch_coordinator(
         }
         std::thread::sleep(Duration::from_secs(1));
     }
+}
+
+/// A warning when `jobs` threads are more than campaign `name`'s window keeps busy: at most
+/// two runs (HF and LF) per trial in flight, so 2 × window runs for all its workers together.
+///
+/// ```
+/// use savme_postgres::worker::window_warning;
+/// assert!(window_warning("n", 4, 8).is_none());
+/// assert!(window_warning("n", 4, 9).unwrap().contains("--window 9"));
+/// ```
+pub fn window_warning(name: &str, window: i64, jobs: usize) -> Option<String> {
+    (jobs as i64 > 2 * window).then(|| format!(
+        "savme worker: WARNING: campaign {name:?} has a window of {window} trials, so at most {} runs are in flight for all its workers together; {} of this worker's {jobs} threads will always be idle. A new campaign keeps N worker threads busy with --window N (docs/DISTRIBUTED.md, \"The window\"): e.g. --window {jobs}",
+        2 * window,
+        jobs as i64 - 2 * window
+    ))
 }
 
 /// How long a coordinator's heartbeat stays fresh.
