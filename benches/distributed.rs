@@ -1,25 +1,30 @@
-//! Campaigns on `savme worker` processes through PostgreSQL, against the local thread pool.
+//! Campaigns on `savme worker` processes through PostgreSQL with **durable commits**.
 //!
 //! `cargo bench --bench distributed -- [repetitions]`
 //!
-//! Starts a throwaway PostgreSQL (as the tests do: `tests/common/postgres.rs`), then:
-//! 1. **Throughput**: `savme toy --sleep-ms 20` (every run sleeps 20 ms: a slow simulator that
-//!    uses no CPU), 200 trials (350 runs), window 16, work-unit cost — run by N = 1, 2, 4, 8
-//!    worker processes (`savme worker --jobs 1` each, coordinator with `--remote`), and by the
-//!    local pool with `--jobs N`. Wall time of the coordinator process, median of the
-//!    repetitions.
-//! 2. **Coordinator cost per trial**: `savme toy --null` (runs cost nothing), 1,000 trials,
-//!    window 16, 2 workers: the coordinator process's CPU time (user + system, from
-//!    `/proc/PID/stat`) per trial — ask + task insert + result read + tell + store — and the
-//!    same for the local pool (kernel + JSON-lines store) for comparison.
+//! Starts a throwaway PostgreSQL 15 with durable commits (`fsync=on`, `synchronous_commit=on`:
+//! `tests/common/postgres.rs` `Server::start_durable`; the settings are printed), then for N =
+//! 1, 4, 16, 64 worker threads (one `savme worker --jobs N` process; the coordinator `savme toy
+//! --remote`, window 64 for every row):
+//! 1. a **null** simulator (`--null`: runs cost nothing), 1,000 trials (1,750 runs): trials/s of
+//!    the coordinator process's wall time (start to exit: schema, connections and outputs
+//!    included), and its CPU per trial;
+//! 2. a **sleeping** simulator (`--sleep-ms 20`: every run sleeps 20 ms), 200 trials (350 runs).
+//!
+//! Then the reference: Optuna with RDB storage on the same server (`benches/optuna_rdb.py`,
+//! `n_jobs` = N threads, RandomSampler, a null and a 20 ms objective) when
+//! `target/optuna-venv/bin/python` (or `SAVME_OPTUNA_PYTHON`) has optuna and psycopg2.
 #[path = "../tests/common/postgres.rs"]
 mod pg;
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 const EXE: &str = env!("CARGO_BIN_EXE_savme");
+
+/// The window of every row: trials in flight at once (2 runs each at most).
+const WINDOW: &str = "64";
 
 const SLEEPING: &[&str] = &[
     "--sleep-ms",
@@ -29,7 +34,7 @@ const SLEEPING: &[&str] = &[
     "--seed",
     "1",
     "--window",
-    "16",
+    WINDOW,
     "--iterations",
     "80",
     "--eval-iterations",
@@ -51,7 +56,7 @@ const NULL: &[&str] = &[
     "--seed",
     "1",
     "--window",
-    "16",
+    WINDOW,
     "--iterations",
     "400",
     "--eval-iterations",
@@ -115,38 +120,17 @@ fn measure(mut cmd: Command) -> (f64, f64) {
     }
 }
 
-fn local(out: &Path, flags: &[&str], jobs: usize) -> Command {
+/// A remote campaign `name` with one worker process of `threads` threads started first;
+/// returns the coordinator's (wall, CPU) seconds.
+fn remote(url: &str, name: &str, out: &Path, flags: &[&str], threads: usize) -> (f64, f64) {
     let _ = std::fs::remove_dir_all(out);
-    let mut c = Command::new(EXE);
-    c.args(["toy", "--out"])
-        .arg(out)
-        .args(flags)
-        .args(["--jobs", &jobs.to_string()]);
-    c
-}
-
-/// A remote campaign `name` with `workers` worker processes started first; returns the
-/// coordinator's (wall, CPU) seconds.
-fn remote(url: &str, name: &str, out: &Path, flags: &[&str], workers: usize) -> (f64, f64) {
-    let _ = std::fs::remove_dir_all(out);
-    let children: Vec<Child> = (0..workers)
-        .map(|_| {
-            Command::new(EXE)
-                .args([
-                    "worker",
-                    "--storage",
-                    url,
-                    "--campaign",
-                    name,
-                    "--jobs",
-                    "1",
-                ])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("worker starts")
-        })
-        .collect();
+    let mut worker = Command::new(EXE)
+        .args(["worker", "--storage", url, "--campaign", name])
+        .args(["--jobs", &threads.to_string()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("worker starts");
     let mut c = Command::new(EXE);
     c.args([
         "toy",
@@ -160,68 +144,131 @@ fn remote(url: &str, name: &str, out: &Path, flags: &[&str], workers: usize) -> 
     .arg(out)
     .args(flags);
     let r = measure(c);
-    for mut w in children {
-        let _ = w.wait();
-    }
+    let _ = worker.wait();
     r
+}
+
+/// The Python with optuna and psycopg2, if any.
+fn optuna_python() -> Option<PathBuf> {
+    let python = std::env::var_os("SAVME_OPTUNA_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("target/optuna-venv/bin/python")
+        });
+    let ok = Command::new(&python)
+        .args(["-c", "import optuna, psycopg2"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !ok {
+        eprintln!("\n!!!!!!!!!! no Optuna reference: {} lacks optuna or psycopg2 (python3 -m venv target/optuna-venv && target/optuna-venv/bin/pip install optuna psycopg2-binary) !!!!!!!!!!\n", python.display());
+        return None;
+    }
+    Some(python)
+}
+
+/// Optuna's trials/s on `url` (SQLAlchemy form) with `threads` threads.
+fn optuna(python: &Path, url: &str, sim: &str, trials: usize, threads: usize) -> f64 {
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/optuna_rdb.py");
+    let o = Command::new(python)
+        .arg(script)
+        .args([url, sim, &trials.to_string(), &threads.to_string()])
+        .output()
+        .expect("python runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let mut words = text.split_whitespace();
+    let seconds: f64 = words.next().and_then(|w| w.parse().ok()).expect("seconds");
+    let done: f64 = words.next().and_then(|w| w.parse().ok()).expect("trials");
+    done / seconds
+}
+
+fn settings(server: &pg::Server) -> String {
+    let mut c = server.client();
+    [
+        "fsync",
+        "synchronous_commit",
+        "wal_sync_method",
+        "full_page_writes",
+    ]
+    .iter()
+    .map(|k| {
+        let v: String = c.query_one(&format!("SHOW {k}"), &[]).unwrap().get(0);
+        format!("{k}={v}")
+    })
+    .collect::<Vec<_>>()
+    .join(", ")
 }
 
 fn main() {
     let reps: usize = std::env::args()
         .skip(1)
         .find_map(|a| a.parse().ok())
-        .unwrap_or(3);
-    let Some(server) = pg::Server::start("bench") else {
+        .unwrap_or(1);
+    let Some(server) = pg::Server::start_durable("bench") else {
         return;
     };
     let url = server.create_db("bench");
+    println!("server: {}", settings(&server));
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("load average before: {}", load.trim());
     let out: PathBuf =
         std::env::temp_dir().join(format!("savme-bench-dist-{}", std::process::id()));
-    let counts = [1usize, 2, 4, 8];
-    let mut local_s = vec![Vec::new(); counts.len()];
-    let mut remote_s = vec![Vec::new(); counts.len()];
-    for rep in 0..reps {
-        for (k, &n) in counts.iter().enumerate() {
-            local_s[k].push(measure(local(&out, SLEEPING, n)).0);
-            let name = format!("sleep-{n}-{rep}");
-            remote_s[k].push(remote(&url, &name, &out, SLEEPING, n).0);
+    let threads = [1usize, 4, 16, 64];
+    println!("\nsavme, window {WINDOW}, median of {reps}; one `savme worker --jobs N` process");
+    println!("| N threads | null: trials/s | coordinator CPU ms/trial | 20 ms sleep: trials/s | vs 1 thread |");
+    println!("|---|---|---|---|---|");
+    let mut one = 0.0;
+    for (k, &n) in threads.iter().enumerate() {
+        let mut null = Vec::new();
+        let mut sleep = Vec::new();
+        for rep in 0..reps {
+            null.push(remote(&url, &format!("null-{n}-{rep}"), &out, NULL, n));
+            sleep.push(remote(&url, &format!("sleep-{n}-{rep}"), &out, SLEEPING, n).0);
         }
-    }
-    println!("sleeping 20 ms runs, {SLEEPING_TRIALS} trials, window 16, median of {reps}:");
-    println!("| N | local pool --jobs N: s | trials/s | N worker processes: s | trials/s | vs 1 worker |");
-    println!("|---|---|---|---|---|---|");
-    let one = median(remote_s[0].clone());
-    for (k, &n) in counts.iter().enumerate() {
-        let (l, r) = (median(local_s[k].clone()), median(remote_s[k].clone()));
+        let wall = median(null.iter().map(|x| x.0).collect());
+        let cpu = median(null.iter().map(|x| x.1).collect());
+        let s = SLEEPING_TRIALS / median(sleep);
+        if k == 0 {
+            one = s;
+        }
         println!(
-            "| {n} | {l:.2} | {:.1} | {r:.2} | {:.1} | {:.2}× |",
-            SLEEPING_TRIALS / l,
-            SLEEPING_TRIALS / r,
-            one / r
+            "| {n} | {:.0} | {:.3} | {s:.1} | {:.2}× |",
+            NULL_TRIALS / wall,
+            cpu / NULL_TRIALS * 1e3,
+            s / one
         );
     }
-
-    let mut null_local = Vec::new();
-    let mut null_remote = Vec::new();
-    for rep in 0..reps {
-        null_local.push(measure(local(&out, NULL, 1)));
-        null_remote.push(remote(&url, &format!("null-{rep}"), &out, NULL, 2));
+    if let Some(python) = optuna_python() {
+        let sa = format!(
+            "postgresql+psycopg2://{}:{}@127.0.0.1:{}/bench",
+            pg::USER,
+            pg::PASSWORD,
+            server.port()
+        );
+        println!(
+            "\nOptuna RDBStorage, same server, RandomSampler, n_jobs = N threads, median of {reps}"
+        );
+        println!("| N threads | null: trials/s | 20 ms sleep: trials/s | vs 1 thread |");
+        println!("|---|---|---|---|");
+        let mut one = 0.0;
+        for (k, &n) in threads.iter().enumerate() {
+            let null = median(
+                (0..reps)
+                    .map(|_| optuna(&python, &sa, "null", 500, n))
+                    .collect(),
+            );
+            let s = median(
+                (0..reps)
+                    .map(|_| optuna(&python, &sa, "sleep", 200, n))
+                    .collect(),
+            );
+            if k == 0 {
+                one = s;
+            }
+            println!("| {n} | {null:.0} | {s:.1} | {:.2}× |", s / one);
+        }
     }
-    let per = |v: &[(f64, f64)], f: fn(&(f64, f64)) -> f64| {
-        median(v.iter().map(f).collect()) / NULL_TRIALS * 1e3
-    };
-    println!("\nnull simulator, {NULL_TRIALS} trials, window 16, median of {reps} (ms per trial):");
-    println!("| executor | coordinator CPU | wall |");
-    println!("|---|---|---|");
-    println!(
-        "| local pool, --jobs 1 (JSON-lines store) | {:.3} | {:.3} |",
-        per(&null_local, |x| x.1),
-        per(&null_local, |x| x.0)
-    );
-    println!(
-        "| --remote, 2 worker processes (PostgreSQL) | {:.3} | {:.3} |",
-        per(&null_remote, |x| x.1),
-        per(&null_remote, |x| x.0)
-    );
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("\nload average after: {}", load.trim());
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -132,6 +132,8 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
                 "--campaign",
                 &name,
                 "--remote",
+                "--worker-role",
+                "savme_worker",
                 "--out",
             ])
             .arg(&out)
@@ -251,11 +253,40 @@ fn a_killed_coordinator_resumes_using_the_runs_workers_finished_meanwhile() {
         .spawn()
         .unwrap();
     let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
-    wait_until("trials to be stored", Duration::from_secs(60), || {
-        query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 6
-    });
-    coordinator.kill().unwrap(); // SIGKILL
-    coordinator.wait().unwrap();
+    // Killed twice mid-campaign (the second time after a resume): each time the stored lines
+    // are exactly the first lines of the local run — a batch is committed whole or not at all.
+    for (round, at) in [(0, 4), (1, 9)] {
+        if round > 0 {
+            coordinator = Command::new(EXE)
+                .args([
+                    "toy",
+                    "--storage",
+                    &url,
+                    "--campaign",
+                    "c",
+                    "--remote",
+                    "--resume",
+                ])
+                .args(["--quiet", "--out"])
+                .arg(&out)
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+        }
+        wait_until("trials to be stored", Duration::from_secs(60), || {
+            query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= at
+        });
+        coordinator.kill().unwrap(); // SIGKILL
+        coordinator.wait().unwrap();
+        let stored = db_trials(&mut client, "c");
+        assert!(stored.len() < expected.len(), "finished before the kill");
+        assert_eq!(stored, expected[..stored.len()], "after kill {round}");
+        assert_eq!(
+            query_i64(&mut client, "SELECT max(line) FROM savme.trials"),
+            stored.len() as i64
+        );
+    }
     // The workers finish what was queued; those results must be used, not run again.
     std::thread::sleep(Duration::from_millis(500));
     let done_before = query_i64(
@@ -310,7 +341,8 @@ fn a_database_restart_mid_campaign_loses_nothing() {
     let local = temp_dir("restart-local");
     let expected = toy_local(&local, &["--sleep-ms", "40"]);
     let out = temp_dir("restart-out");
-    let w = worker(&url, "r", &["--jobs", "2", "--lease", "2"]);
+    // Leases long enough to outlast the restart: no run changes hands, so none is dropped.
+    let w = worker(&url, "r", &["--jobs", "2", "--lease", "30"]);
     let coordinator = toy_coordinator(&url, "r", &out, &["--sleep-ms", "40"])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -328,7 +360,12 @@ fn a_database_restart_mid_campaign_loses_nothing() {
     let said = finish(coordinator, "the coordinator");
     assert!(said.contains("connection lost"), "{said}");
     assert!(!said.contains(common::postgres::PASSWORD), "{said}");
-    finish(w, "the worker");
+    let t = finish(w, "the worker");
+    // A finish that committed just before the connection broke is not counted as dropped.
+    assert!(
+        t.contains("(0 finished after their lease expired and were dropped)"),
+        "{t}"
+    );
     let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
     assert_eq!(db_trials(&mut client, "r"), expected);
     for d in [local, out] {
@@ -337,28 +374,56 @@ fn a_database_restart_mid_campaign_loses_nothing() {
 }
 
 #[test]
-fn a_coordinator_without_workers_says_so() {
+fn a_coordinator_without_workers_says_so_with_a_command_that_pastes() {
     let Some(server) = Server::start("noworkers") else {
         return;
     };
     let url = server.create_db("noworkers");
     let out = temp_dir("noworkers");
-    let mut coordinator = toy_coordinator(&url, "lonely", &out, &["--worker-wait", "1"])
+    // A name a shell would split, and a URL option with `&`: the command must be quoted.
+    let name = "lonely & night";
+    let url = format!("{url}?sslmode=disable&connect_timeout=10");
+    let mut coordinator = toy_coordinator(&url, name, &out, &["--worker-wait", "1"])
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_secs(4));
-    coordinator.kill().unwrap();
-    let o = coordinator.wait_with_output().unwrap();
-    let t = text(&o);
+    let mut err = std::io::BufReader::new(coordinator.stderr.take().unwrap());
+    let mut said = String::new();
+    let command = loop {
+        let mut line = String::new();
+        assert!(
+            std::io::BufRead::read_line(&mut err, &mut line).unwrap() > 0,
+            "the coordinator ended: {said}"
+        );
+        said.push_str(&line);
+        if let Some((_, c)) = line.split_once("Start workers on any host with: ") {
+            break c.trim().to_string();
+        }
+    };
     assert!(
-        t.contains("no worker has taken a run of campaign \"lonely\" in 1 s")
-            && t.contains("savme worker --storage postgresql://savme@127.0.0.1:")
-            && t.contains("--campaign \"lonely\""),
-        "{t}"
+        said.contains("no worker has taken a run of campaign \"lonely & night\" in 1 s"),
+        "{said}"
     );
-    assert!(!t.contains(common::postgres::PASSWORD), "{t}");
+    assert!(
+        command.starts_with("savme worker --storage 'postgresql://savme@127.0.0.1:")
+            && command.ends_with("/noworkers?sslmode=disable' --campaign 'lonely & night'"),
+        "{command}"
+    );
+    assert!(!said.contains(common::postgres::PASSWORD), "{said}");
+    // Pasted into a shell (the password from the environment), it runs the campaign.
+    let pasted = command.replacen("savme", EXE, 1);
+    let w = Command::new("sh")
+        .args(["-c", &pasted])
+        .env("PGPASSWORD", common::postgres::PASSWORD)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::spawn(move || std::io::copy(&mut err, &mut std::io::sink()));
+    finish(coordinator, "the coordinator");
+    let t = finish(w, "the pasted worker");
+    assert!(t.contains("finished"), "{t}");
     let _ = std::fs::remove_dir_all(out);
 }
 
@@ -546,6 +611,273 @@ fn a_worker_without_the_fmu_fails_its_runs_and_the_campaigns_on_error_applies() 
         "every stage told its trials"
     );
     let _ = std::fs::remove_dir_all(dir);
+}
+
+/// Waits (up to `limit`) for `child` to exit; its status code and output.
+fn exit_of(mut child: Child, limit: Duration) -> (Option<i32>, String) {
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!("still running after {limit:?}: {}", text(&o));
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let o = child.wait_with_output().unwrap();
+    (o.status.code(), text(&o))
+}
+
+#[test]
+fn a_worker_says_at_once_when_its_campaign_runs_without_remote_and_stops_after_its_grace() {
+    let Some(server) = Server::start("noremote") else {
+        return;
+    };
+    let url = server.create_db("noremote");
+    let out = temp_dir("noremote");
+    // The coordinator runs its trials itself (no --remote), slowly enough to outlast the
+    // worker's grace.
+    let mut coordinator = Command::new(EXE)
+        .args(["toy", "--storage", &url, "--campaign", "local", "--out"])
+        .arg(&out)
+        .args(TOY)
+        .args(["--sleep-ms", "400", "--jobs", "1"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    wait_until("the campaign to start", Duration::from_secs(60), || {
+        client
+            .query_opt("SELECT 1 FROM savme.campaigns WHERE name = 'local'", &[])
+            .is_ok_and(|r| r.is_some())
+    });
+    let start = std::time::Instant::now();
+    let mut w = worker(&url, "local", &["--grace", "6"]);
+    let mut err = std::io::BufReader::new(w.stderr.take().unwrap());
+    let mut line = String::new();
+    std::io::BufRead::read_line(&mut err, &mut line).unwrap();
+    let first = start.elapsed();
+    assert!(
+        line.contains("is held by a coordinator started without --remote")
+            && line.contains("waits"),
+        "{line}"
+    );
+    assert!(first < Duration::from_secs(8), "said after {first:?}");
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    let status = w.wait().unwrap();
+    let stopped = start.elapsed();
+    assert_eq!(status.code(), Some(1), "{rest}");
+    assert!(
+        rest.contains("no live coordinator of campaign \"local\" for 6 s")
+            && rest.contains("Resume the campaign with:")
+            && rest.contains("savme worker --storage"),
+        "{rest}"
+    );
+    assert!(
+        stopped < Duration::from_secs(30),
+        "stopped after {stopped:?}"
+    );
+    let _ = coordinator.kill();
+    let _ = coordinator.wait();
+    let _ = std::fs::remove_dir_all(out);
+}
+
+#[test]
+fn a_worker_whose_coordinator_was_killed_stops_after_its_grace_naming_the_resume_command() {
+    let Some(server) = Server::start("graceful") else {
+        return;
+    };
+    let url = server.create_db("graceful");
+    let local = temp_dir("graceful-local");
+    let expected = toy_local(&local, &["--sleep-ms", "100"]);
+    let out = temp_dir("graceful-out");
+    let w = worker(&url, "g", &["--grace", "5"]);
+    let mut coordinator = toy_coordinator(&url, "g", &out, &["--sleep-ms", "100"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    wait_until("trials to be stored", Duration::from_secs(60), || {
+        query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 3
+    });
+    coordinator.kill().unwrap(); // SIGKILL
+    coordinator.wait().unwrap();
+    let killed = std::time::Instant::now();
+    let (code, said) = exit_of(w, Duration::from_secs(60));
+    assert_eq!(code, Some(1), "{said}");
+    assert!(
+        killed.elapsed() < Duration::from_secs(30),
+        "{:?}",
+        killed.elapsed()
+    );
+    assert!(said.contains("has no coordinator running"), "{said}");
+    let resume = said
+        .lines()
+        .find_map(|l| {
+            l.split_once("Resume the campaign with: ")
+                .map(|(_, c)| c.to_string())
+        })
+        .unwrap_or_else(|| panic!("no resume command: {said}"));
+    assert!(
+        resume.starts_with("savme toy --storage postgresql://savme@127.0.0.1:")
+            && resume.contains(" --campaign g --remote --out ")
+            && resume.ends_with(" --resume")
+            && !resume.contains(common::postgres::PASSWORD),
+        "{resume}"
+    );
+    // The command, pasted, resumes the campaign (the password from the environment).
+    let w = worker(&url, "g", &[]);
+    let resumed = Command::new("sh")
+        .args(["-c", &resume.replacen("savme", EXE, 1)])
+        .env("PGPASSWORD", common::postgres::PASSWORD)
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    finish(w, "the second worker");
+    assert_eq!(db_trials(&mut client, "g"), expected);
+    for d in [local, out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn a_worker_role_sees_and_changes_only_the_campaigns_it_is_allowed_on() {
+    let Some(server) = Server::start("rls") else {
+        return;
+    };
+    let url = server.create_db("rls");
+    let local = temp_dir("rls-local");
+    let expected = toy_local(&local, &["--sleep-ms", "30"]);
+    let mut admin = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let db = savme::postgres::Database::parse(&url).unwrap();
+    drop(savme::postgres::PostgresStore::open(&db, "setup").unwrap());
+    for role in ["worker_a", "worker_b"] {
+        let sql = common::doc_sql("worker-role")
+            .replace("savme_worker", role)
+            .replace("change-me", "pw")
+            .replace("DATABASE safety", "DATABASE rls");
+        admin.batch_execute(&sql).unwrap();
+    }
+    // Campaign B: its coordinator allows worker_b only; no worker yet, so its runs wait.
+    let out_b = temp_dir("rls-b");
+    let coordinator_b = toy_coordinator(&url, "b", &out_b, &["--sleep-ms", "30"])
+        .args(["--worker-role", "worker_b"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_until("b's runs to be queued", Duration::from_secs(60), || {
+        query_i64(&mut admin, "SELECT count(*) FROM savme.runs r JOIN savme.campaigns c ON c.id = r.campaign_id WHERE c.name = 'b'") > 0
+    });
+    // Campaign A, worked on by worker_a, finishes as locally.
+    let out_a = temp_dir("rls-a");
+    let url_a = server.url_for("worker_a", "pw", "rls");
+    let wa = worker(&url_a, "a", &[]);
+    let o = toy_coordinator(&url, "a", &out_a, &["--sleep-ms", "30"])
+        .args(["--worker-role", "worker_a"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    finish(wa, "worker_a");
+    assert_eq!(db_trials(&mut admin, "a"), expected);
+    // worker_a neither reads nor changes campaign B: its protocol and runs are invisible, and
+    // a forged result updates nothing.
+    let mut a = postgres::Client::connect(&url_a, postgres::NoTls).unwrap();
+    let sees =
+        |a: &mut postgres::Client, sql: &str| a.query_one(sql, &[]).unwrap().get::<_, i64>(0);
+    assert_eq!(
+        sees(
+            &mut a,
+            "SELECT count(*) FROM savme.campaigns WHERE name = 'b'"
+        ),
+        0
+    );
+    assert_eq!(
+        sees(
+            &mut a,
+            "SELECT count(*) FROM savme.campaigns WHERE name = 'a'"
+        ),
+        1
+    );
+    let b_id: i32 = admin
+        .query_one("SELECT id FROM savme.campaigns WHERE name = 'b'", &[])
+        .unwrap()
+        .get(0);
+    assert_eq!(
+        sees(
+            &mut a,
+            &format!("SELECT count(*) FROM savme.runs WHERE campaign_id = {b_id}")
+        ),
+        0
+    );
+    let forged = a
+        .execute(
+            "UPDATE savme.runs SET state = 'done', failure = true, wall_seconds = 1, work = 1
+              WHERE campaign_id = $1",
+            &[&b_id],
+        )
+        .unwrap();
+    assert_eq!(forged, 0);
+    assert!(a.query("SELECT * FROM savme.trials", &[]).is_err());
+    // A worker of role worker_a on campaign B waits for a campaign it cannot see.
+    let stray = worker(&url_a, "b", &["--wait", "2"]);
+    let (code, said) = exit_of(stray, Duration::from_secs(60));
+    assert_eq!(code, Some(1), "{said}");
+    assert!(said.contains("--worker-role"), "{said}");
+    // worker_b finishes B: no forged result got in.
+    let wb = worker(&server.url_for("worker_b", "pw", "rls"), "b", &[]);
+    finish(coordinator_b, "b's coordinator");
+    finish(wb, "worker_b");
+    assert_eq!(db_trials(&mut admin, "b"), expected);
+    for d in [local, out_a, out_b] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn a_coordinator_whose_database_stays_down_says_it_gave_up_and_how_to_resume() {
+    let Some(mut server) = Server::start("down") else {
+        return;
+    };
+    let url = server.create_db("down");
+    let out = temp_dir("down");
+    let w = worker(&url, "d", &[]);
+    let coordinator = toy_coordinator(&url, "d", &out, &["--sleep-ms", "100"])
+        .env("SAVME_RECONNECT_SECONDS", "3")
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    {
+        let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+        wait_until("trials to be stored", Duration::from_secs(60), || {
+            query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 2
+        });
+    }
+    server.stop();
+    let (code, said) = exit_of(coordinator, Duration::from_secs(60));
+    assert_eq!(code, Some(1), "{said}");
+    let last = said
+        .trim_end()
+        .lines()
+        .rev()
+        .take(2)
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert!(
+        last.contains("gave up reconnecting after")
+            && last.contains("every trial it told is in the database")
+            && last.contains("--resume"),
+        "{said}"
+    );
+    assert!(!said.contains(common::postgres::PASSWORD), "{said}");
+    let mut w = w;
+    let _ = w.kill();
+    let _ = w.wait();
+    let _ = std::fs::remove_dir_all(out);
 }
 
 /// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell or a scheduler does.

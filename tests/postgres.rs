@@ -122,7 +122,7 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
         .query_one("SELECT max(version) FROM savme.schema_version", &[])
         .unwrap()
         .get(0);
-    assert_eq!(v, 1);
+    assert_eq!(v, savme::postgres::schema::VERSION);
 
     // The three queries of docs/DISTRIBUTED.md give what the trial lines say.
     let trials = file_trials(&dir);
@@ -644,11 +644,95 @@ fn storage_flags_are_checked() {
             ],
             "--lease: 0 is not a positive number of seconds",
         ),
+        // Refused values (issue 28): a worker checks a campaign name by the coordinator's
+        // rule, with its message, at once; an unknown URL option; verify-full without a root
+        // certificate.
+        (
+            vec!["worker", "--storage", url, "--campaign", ""],
+            "\"\" is not a campaign name (1 to 200 characters, no control characters)",
+        ),
+        (
+            vec!["toy", "--storage", url, "--campaign", ""],
+            "\"\" is not a campaign name (1 to 200 characters, no control characters)",
+        ),
+        (
+            vec![
+                "worker",
+                "--storage",
+                "postgresql://u@h/d?bogus=1",
+                "--campaign",
+                "x",
+            ],
+            "not a PostgreSQL connection URL",
+        ),
+        (
+            vec![
+                "worker",
+                "--storage",
+                "postgresql://u@h/d?sslmode=verify-full",
+                "--campaign",
+                "x",
+            ],
+            "sslmode=verify-full needs the root certificate",
+        ),
     ] {
-        let o = savme(&args);
+        let start = std::time::Instant::now();
+        let o = Command::new(EXE)
+            .args(&args)
+            .env("HOME", "/nonexistent")
+            .env_remove("PGSSLROOTCERT")
+            .output()
+            .unwrap();
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
         assert!(text(&o).contains(message), "{args:?}: {}", text(&o));
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(10),
+            "{args:?}"
+        );
     }
+}
+
+#[test]
+fn a_world_readable_pgpass_is_ignored_with_a_warning_as_libpq_does() {
+    use std::os::unix::fs::PermissionsExt;
+    let Some(server) = Server::start("pgpass") else {
+        return;
+    };
+    let dir = temp_dir("pgpass");
+    std::fs::create_dir_all(&dir).unwrap();
+    let pgpass = dir.join("pgpass");
+    std::fs::write(&pgpass, format!("127.0.0.1:*:*:savme:{PASSWORD}\n")).unwrap();
+    let url = format!("postgresql://savme@127.0.0.1:{}/postgres", server.port());
+    let failures = |mode: u32| {
+        std::fs::set_permissions(&pgpass, std::fs::Permissions::from_mode(mode)).unwrap();
+        Command::new(EXE)
+            .args(["failures", "--storage", &url, "--campaign", "none"])
+            .env("PGPASSFILE", &pgpass)
+            .env_remove("PGPASSWORD")
+            .env("SAVME_RECONNECT_SECONDS", "0")
+            .output()
+            .unwrap()
+    };
+    // Private: the password is used (the campaign does not exist, but savme got in).
+    let o = failures(0o600);
+    assert!(
+        text(&o).contains("no such campaign in this database"),
+        "{}",
+        text(&o)
+    );
+    assert!(!text(&o).contains("WARNING"), "{}", text(&o));
+    // Readable by others: ignored, with libpq's warning, so the login fails.
+    let o = failures(0o644);
+    let t = text(&o);
+    assert!(
+        t.contains("WARNING: password file")
+            && t.contains("has group or world access (mode 644)")
+            && t.contains("chmod 600"),
+        "{t}"
+    );
+    assert!(!t.contains("no such campaign"), "{t}");
+    assert!(!t.contains(PASSWORD), "{t}");
+    let _ = std::fs::remove_dir_all(dir);
 }
 
 #[test]

@@ -23,8 +23,8 @@ use savme::campaign::{
 };
 use savme::campaign::{CampaignError, Stop};
 use savme::kernel::Simulator;
-use savme::postgres::Remote;
 use savme::postgres::{Database, PostgresStore};
+use savme::postgres::{Remote, RemoteOptions};
 use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Write};
@@ -266,6 +266,11 @@ pub struct CampaignStorageArgs {
     /// started, or the workers stopped), then keep waiting.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     worker_wait: f64,
+    /// With --remote: a database role allowed to work on this campaign (repeatable). A role
+    /// that may not write trials (a worker role) sees and changes only the campaigns it is
+    /// allowed on (row-level security; docs/DISTRIBUTED.md).
+    #[arg(long, value_name = "ROLE")]
+    worker_role: Vec<String>,
 }
 
 impl StorageArgs {
@@ -286,10 +291,12 @@ impl StorageArgs {
                 return Ok(None);
             }
         }
-        .map_err(|e| e.to_string())?;
+        // A URL or option savme refuses is a refused value, as clap's own (exit status 2).
+        .map_err(usage)?;
         let name = self.campaign.clone().ok_or_else(|| {
             usage("--storage needs --campaign NAME (the campaign's name in the database)")
         })?;
+        savme::postgres::check_name(&name).map_err(usage)?;
         Ok(Some((db, name)))
     }
 
@@ -366,15 +373,65 @@ impl CampaignStorageArgs {
                 self.worker_wait
             )));
         }
-        Remote::open(
-            store.database(),
-            store.campaign_id(),
-            store.name(),
-            Duration::from_secs_f64(self.worker_wait),
-        )
-        .map(Some)
-        .map_err(|e| Failure::Runtime(e.to_string()))
+        let options = RemoteOptions {
+            worker_wait: Duration::from_secs_f64(self.worker_wait),
+            resume_command: resume_command(store.database()),
+            worker_roles: self.worker_role.clone(),
+        };
+        Remote::open(store, options).map(Some).map_err(|e| match e {
+            CampaignError::Store(savme::campaign::store::StoreError::Database {
+                ref store,
+                ..
+            }) if store == "--worker-role" => usage(e),
+            e => Failure::Runtime(e.to_string()),
+        })
     }
+}
+
+/// The command that resumes this coordinator's campaign: its subcommand with the flags a
+/// resumed campaign takes (`--config`, `--out`, `--storage` — its URL without the password —,
+/// `--campaign`, `--remote`, `--worker-role`, `--worker-wait`), then `--resume`; shell-quoted.
+/// Workers print it when their coordinator is gone.
+fn resume_command(db: &Database) -> String {
+    const KEPT: &[&str] = &[
+        "--config",
+        "--out",
+        "--storage",
+        "--storage-file",
+        "--campaign",
+        "--worker-role",
+        "--worker-wait",
+    ];
+    let mut args = std::env::args().skip(1);
+    let mut words: Vec<String> = vec!["savme".into()];
+    words.extend(args.next());
+    while let Some(arg) = args.next() {
+        let (flag, inline) = match arg.split_once('=') {
+            Some((f, v)) if f.starts_with("--") => (f.to_string(), Some(v.to_string())),
+            _ => (arg.clone(), None),
+        };
+        if flag == "--remote" {
+            words.push(flag);
+            continue;
+        }
+        if !KEPT.contains(&flag.as_str()) {
+            continue;
+        }
+        let Some(value) = inline.or_else(|| args.next()) else {
+            continue;
+        };
+        let value = match flag.as_str() {
+            "--storage" => savme::postgres::worker_url(db),
+            _ => db.redact(&value),
+        };
+        words.extend([flag, value]);
+    }
+    words.push("--resume".into());
+    let quoted: Vec<String> = words
+        .iter()
+        .map(|w| savme::postgres::shell_quote(w))
+        .collect();
+    quoted.join(" ")
 }
 
 /// The protocol a database keeps for campaign `store` (for `--resume`).
@@ -421,6 +478,7 @@ where
         Some(_) => "continue with the same --storage and --campaign and --resume".to_string(),
         None => format!("continue with --resume {}", target.out.display()),
     };
+    let target_in_database = target.store.is_some();
     let mut campaign = Campaign::new(protocol.clone(), problem.clone())
         .out(target.out)
         .resume(target.resume);
@@ -435,6 +493,14 @@ where
             return Err(usage("protocol: `--jobs`: must be at least 1"));
         }
         campaign = campaign.jobs(j);
+        if j > 2 * protocol.window && !runner.quiet() {
+            eprintln!(
+                "savme: WARNING: --jobs {j} but a window of {} trials keeps at most {} runs in flight: {} threads will be idle; --window {j} would keep them busy (it changes the trials slightly)",
+                protocol.window,
+                2 * protocol.window,
+                j - 2 * protocol.window
+            );
+        }
     }
     // Before the observers: the recording's own Ctrl-C handler then stays out of the way, and
     // the stopped campaign closes the recording.
@@ -442,9 +508,17 @@ where
     for o in observers(runner, frames, &protocol, &problem).map_err(usage)? {
         campaign = campaign.boxed_observer(o);
     }
-    let outcome = campaign
-        .run(sim)
-        .map_err(|e| campaign_failure(e, &hint, |e| Failure::Runtime(e.to_string())))?;
+    let in_database = target_in_database;
+    let outcome = campaign.run(sim).map_err(|e| {
+        let database_failed = in_database && matches!(e, CampaignError::Store(_));
+        match campaign_failure(e, &hint, |e| Failure::Runtime(e.to_string())) {
+            // The told trials are in the database: say how to go on once it is back.
+            Failure::Runtime(m) if database_failed => Failure::Runtime(format!(
+                "{m}\nsavme: the campaign stopped; every trial it told is in the database. Once the database is reachable again, {hint}"
+            )),
+            other => other,
+        }
+    })?;
     Ok(print(&summary_text(&outcome, &problem))?)
 }
 

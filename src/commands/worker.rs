@@ -29,6 +29,11 @@ pub struct Args {
     /// Seconds to wait for the campaign's coordinator to create the campaign.
     #[arg(long, value_name = "SECONDS", default_value_t = 600.0)]
     wait: f64,
+    /// Seconds without a live coordinator (one running the campaign with --remote, its
+    /// heartbeat fresh) before this worker stops (exit status 1, naming the command that
+    /// resumes the campaign). The worker says so on stderr within seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
+    grace: f64,
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {
@@ -67,6 +72,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         lease,
         wait_for_campaign,
         stop,
+        grace: seconds("grace", a.grace)?,
     };
     let Some(label) = simulator_label(&db, &name, &options)? else {
         return Err(Failure::Interrupted(format!(
@@ -162,7 +168,7 @@ fn simulator_label(
         }
         if !said {
             eprintln!(
-                "savme worker: {}: waiting for campaign {name:?} to be started",
+                "savme worker: {}: waiting for campaign {name:?} to be started (or, if it runs, for this role to be allowed to work on it: its coordinator's --worker-role)",
                 db.location()
             );
             said = true;

@@ -33,6 +33,9 @@ pub struct Server {
     child: Option<Child>,
     as_nobody: bool,
     tls: bool,
+    /// Commits wait for the disk (fsync on, synchronous_commit on), as a production server's;
+    /// the tests' servers skip fsync.
+    durable: bool,
 }
 
 /// The directory holding `initdb`, `postgres` and `pg_ctl`, if any.
@@ -74,6 +77,16 @@ impl Server {
     /// installed and `SAVME_REQUIRE_POSTGRES` is not `1`.
     pub fn start(test: &str) -> Option<Server> {
         Server::start_with(test, None)
+    }
+
+    /// [`Server::start`] with **durable commits** (`fsync=on`, `synchronous_commit=on`, the
+    /// PostgreSQL defaults) and room for 200 connections: for benchmarks.
+    pub fn start_durable(test: &str) -> Option<Server> {
+        let mut s = Server::start_with(test, None)?;
+        s.durable = true;
+        s.stop();
+        s.run();
+        Some(s)
     }
 
     /// [`Server::start`], the server accepting TCP connections only over TLS (`hostssl` in
@@ -132,6 +145,7 @@ impl Server {
             child: None,
             as_nobody,
             tls: tls.is_some(),
+            durable: false,
         };
         let data = server.dir.join("data");
         let out = server
@@ -217,10 +231,17 @@ impl Server {
             .arg("-k")
             .arg(&self.dir)
             .args(["-p", &self.port.to_string()])
-            .args(["-c", "listen_addresses=127.0.0.1", "-c", "fsync=off"])
+            .args(["-c", "listen_addresses=127.0.0.1"])
+            .args(match self.durable {
+                true => ["-c", "fsync=on", "-c", "synchronous_commit=on"],
+                false => ["-c", "fsync=off", "-c", "synchronous_commit=on"],
+            })
             // Light: several servers run at once (one per test), and CI containers may have a
             // small /dev/shm.
-            .args(["-c", "max_connections=60", "-c", "shared_buffers=16MB"])
+            .args(match self.durable {
+                true => ["-c", "max_connections=200", "-c", "shared_buffers=64MB"],
+                false => ["-c", "max_connections=60", "-c", "shared_buffers=16MB"],
+            })
             .args(["-c", "dynamic_shared_memory_type=mmap"])
             .args(if self.tls { &["-c", "ssl=on"][..] } else { &[] })
             .stdin(Stdio::null())

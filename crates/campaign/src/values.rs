@@ -204,7 +204,10 @@ protocol_values! {
     /// meta-training posterior as is).
     prior_strength: f64, flag = "prior-strength", aliases = [], stages = "test-learned",
         to = protocol;
-    /// Trials in flight at once (changes the results slightly; the number of jobs does not).
+    /// Trials in flight at once: asked, not yet told (at most 2 runs each). Keeps up to about
+    /// 2 × window jobs or `savme worker` threads busy; set it to the number of threads that run
+    /// the campaign. Changes the trials slightly (the number of jobs does not): a larger window
+    /// learns from fewer told trials per ask (docs/DISTRIBUTED.md, "The window").
     window: usize, flag = "window", aliases = [], stages = "all", to = protocol;
     /// Meta-testing prior-strength ablation: strengths to compare, comma-separated (0 = the
     /// uniform prior), e.g. 0,0.1,0.3,1.

@@ -215,14 +215,31 @@ impl Database {
             match self.attempt(application_name) {
                 Ok(c) => return Ok(c),
                 Err((e, permanent)) => {
-                    if permanent || start.elapsed() + pause > patience {
+                    if permanent {
                         return Err(e);
+                    }
+                    if start.elapsed() + pause > patience {
+                        return Err(gave_up(e, start.elapsed()));
                     }
                 }
             }
             std::thread::sleep(pause);
             pause = (pause * 2).min(Duration::from_secs(5));
         }
+    }
+}
+
+/// The last connection error of a server that stayed unreachable, saying that savme gave up.
+fn gave_up(e: StoreError, after: Duration) -> StoreError {
+    match e {
+        StoreError::Database { store, message } => StoreError::Database {
+            store,
+            message: format!(
+                "{message} — gave up reconnecting after {:.0} s (SAVME_RECONNECT_SECONDS sets how long)",
+                after.as_secs_f64()
+            ),
+        },
+        other => other,
     }
 }
 
@@ -270,11 +287,15 @@ fn location_of(config: &Config) -> String {
 }
 
 /// The password `~/.pgpass` (or `PGPASSFILE`) gives for the configuration's first host, port,
-/// database and user (`*` matches anything), as libpq reads it.
+/// database and user (`*` matches anything), as libpq reads it — and, as libpq does, not from a
+/// file that others may read (a warning says so).
 fn pgpass(config: &Config) -> Option<String> {
     let path = std::env::var_os("PGPASSFILE")
         .map(std::path::PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|h| Path::new(&h).join(".pgpass")))?;
+    if !private(&path) {
+        return None;
+    }
     let text = std::fs::read_to_string(path).ok()?;
     let host = match config.get_hosts().first()? {
         Host::Tcp(h) => h.clone(),
@@ -306,6 +327,30 @@ fn pgpass(config: &Config) -> Option<String> {
 }
 
 /// A `.pgpass` line's fields (`:` separates, `\` escapes).
+/// Whether the password file `path` is readable by its owner only (libpq's rule: a file that
+/// the group or others can read or write is ignored, with a warning). A missing file is
+/// "private": there is nothing to warn about.
+fn private(path: &Path) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        if let Ok(meta) = std::fs::metadata(path) {
+            let mode = meta.permissions().mode();
+            if meta.is_file() && mode & 0o077 != 0 {
+                static WARNED: std::sync::Once = std::sync::Once::new();
+                WARNED.call_once(|| eprintln!(
+                    "savme: WARNING: password file {} has group or world access (mode {:o}); it is ignored, as libpq ignores it. Make it private: chmod 600 {}",
+                    path.display(),
+                    mode & 0o777,
+                    path.display()
+                ));
+                return false;
+            }
+        }
+    }
+    true
+}
+
 fn split_pgpass(line: &str) -> Vec<String> {
     let mut fields = vec![String::new()];
     let mut chars = line.chars();

@@ -10,7 +10,9 @@
 //! [`Runner`](savme_campaign::executor::Runner). Nothing above this crate writes SQL.
 #![warn(missing_docs)]
 
+mod command;
 mod connect;
+mod locked;
 pub mod queue;
 mod remote;
 pub mod schema;
@@ -20,8 +22,9 @@ mod store;
 pub mod tls;
 pub mod worker;
 
+pub use command::{shell_quote, worker_command, worker_url};
 pub use connect::{reconnect_for, Database, RECONNECT_FOR};
-pub use remote::Remote;
+pub use remote::{Remote, RemoteOptions, HEARTBEAT};
 pub use session::{Conn, Session};
 pub use source::PostgresSource;
 pub use store::{

@@ -33,7 +33,7 @@ pub fn done_channel(campaign: i32) -> String {
 /// The upsert of a batch of runs (arrays of their fields), waking idle workers in the same
 /// statement (identical notifications of one transaction are delivered once). A row that failed
 /// before is queued again; a finished one is left as it is (on `--resume` its result is used).
-const SUBMIT: &str = "WITH run AS (
+pub(crate) const SUBMIT: &str = "WITH run AS (
     INSERT INTO savme.runs (campaign_id, stage, trial_id, role, scenario, phi, fidelity)
     SELECT $1, u.stage, u.trial, u.role, u.scenario, u.phi::json, u.fidelity::json
       FROM unnest($2::text[], $3::bigint[], $4::text[], $5::text[], $6::text[], $7::text[])
@@ -45,10 +45,11 @@ const SUBMIT: &str = "WITH run AS (
  SELECT id, stage, trial_id, role, CASE WHEN state = 'queued' THEN pg_notify($8, '') END IS NULL
    FROM run";
 
-/// Submits `tasks` (each a distinct run) in one statement and wakes the workers; returns
-/// each task's row id, in the order of `tasks`.
-pub fn submit(
-    c: &mut Conn<'_>,
+/// Submits `tasks` (each a distinct run) in one statement (`statement`: [`SUBMIT`] prepared on
+/// the connection) and wakes the workers; returns each task's row id, in the order of `tasks`.
+pub(crate) fn submit(
+    c: &mut impl GenericClient,
+    statement: &postgres::Statement,
     campaign: i32,
     tasks: &[Task],
 ) -> Result<Vec<i64>, postgres::Error> {
@@ -62,9 +63,8 @@ pub fn submit(
     let scenarios: Vec<&str> = tasks.iter().map(|t| &*t.scenario).collect();
     let phis: Vec<String> = tasks.iter().map(|t| json(&t.phi)).collect();
     let fidelities: Vec<String> = tasks.iter().map(|t| json(&t.fidelity)).collect();
-    let statement = c.prepared(SUBMIT)?;
     let rows = c.query(
-        &statement,
+        statement,
         &[
             &campaign,
             &stages,
@@ -330,4 +330,122 @@ pub fn release(c: &mut Conn<'_>, id: i64, worker: &str) -> Result<u64, postgres:
 pub fn listen(client: &mut impl GenericClient, channel: &str) -> Result<(), postgres::Error> {
     // Channel names are savme's own (`savme_tasks_<id>`): safe to quote as identifiers.
     client.batch_execute(&format!("LISTEN \"{channel}\""))
+}
+
+/// Lets database role `role` work on `campaign` (false: there is no such role).
+pub fn add_worker_role(
+    client: &mut Client,
+    campaign: i32,
+    role: &str,
+) -> Result<bool, postgres::Error> {
+    let exists: bool = client
+        .query_one(
+            "SELECT EXISTS (SELECT 1 FROM pg_roles WHERE rolname = $1)",
+            &[&role],
+        )?
+        .get(0);
+    if exists {
+        client.execute(
+            "INSERT INTO savme.campaign_workers (campaign_id, role) VALUES ($1, $2::text::name)
+             ON CONFLICT DO NOTHING",
+            &[&campaign, &role],
+        )?;
+    }
+    Ok(exists)
+}
+
+/// Marks `campaign` as run through the queue by a live coordinator (not finished, seen now,
+/// resumed by `resume`) and wakes its workers.
+pub fn start_remote(
+    client: &mut Client,
+    campaign: i32,
+    resume: &str,
+) -> Result<(), postgres::Error> {
+    client.execute(
+        "UPDATE savme.campaigns SET finished_at = NULL, remote = true,
+                coordinator_seen_at = clock_timestamp(), resume_command = $2
+          WHERE id = $1",
+        &[&campaign, &resume],
+    )?;
+    wake_workers(client, campaign)
+}
+
+/// Marks `campaign` as held by a coordinator that runs its trials itself (no `--remote`).
+pub fn start_local(client: &mut Client, campaign: i32) -> Result<(), postgres::Error> {
+    client
+        .execute(
+            "UPDATE savme.campaigns SET remote = false, coordinator_seen_at = NULL WHERE id = $1",
+            &[&campaign],
+        )
+        .map(|_| ())
+}
+
+/// The coordinator's heartbeat (not waited for on disk: a lost stamp is harmless).
+pub fn coordinator_seen(client: &mut Client, campaign: i32) -> Result<(), postgres::Error> {
+    client.batch_execute("SET synchronous_commit = off")?;
+    client
+        .execute(
+            "UPDATE savme.campaigns SET coordinator_seen_at = clock_timestamp() WHERE id = $1",
+            &[&campaign],
+        )
+        .map(|_| ())
+}
+
+/// What a worker knows of its campaign's coordinator.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Coordinator {
+    /// The campaign is finished.
+    pub finished: bool,
+    /// A coordinator runs it through the queue (`--remote`).
+    pub remote: bool,
+    /// Seconds since the coordinator's last heartbeat (None: never).
+    pub seen_ago: Option<f64>,
+    /// A session holds the campaign's coordinator lock.
+    pub locked: bool,
+    /// The command that resumes it, as its coordinator stored it.
+    pub resume_command: Option<String>,
+}
+
+/// The state of `campaign`'s coordinator (None: the campaign's row is gone, or this role may no
+/// longer see it).
+pub fn coordinator(
+    c: &mut Conn<'_>,
+    campaign: i32,
+) -> Result<Option<Coordinator>, postgres::Error> {
+    let statement = c.prepared(
+        "SELECT finished_at IS NOT NULL, remote,
+                extract(epoch FROM clock_timestamp() - coordinator_seen_at)::float8,
+                EXISTS (SELECT 1 FROM pg_locks l WHERE l.locktype = 'advisory' AND l.granted
+                          AND l.objsubid = 2 AND l.classid = 29558::oid AND l.objid = id::oid),
+                resume_command
+           FROM savme.campaigns WHERE id = $1",
+    )?;
+    let row = c.query_opt(&statement, &[&campaign])?;
+    Ok(row.map(|r| Coordinator {
+        finished: r.get(0),
+        remote: r.get(1),
+        seen_ago: r.get(2),
+        locked: r.get(3),
+        resume_command: r.get(4),
+    }))
+}
+
+/// Whether run `id` is finished and was last held by `worker` (its result is the one stored:
+/// after a reconnect, the finish that seemed lost had committed).
+pub fn finished_by(c: &mut Conn<'_>, id: i64, worker: &str) -> Result<bool, postgres::Error> {
+    let row = c.query_opt(
+        "SELECT state IN ('done', 'failed') AND worker = $2 FROM savme.runs WHERE id = $1",
+        &[&id, &worker],
+    )?;
+    Ok(row.is_some_and(|r| r.get(0)))
+}
+
+/// The window of `campaign`'s stored protocol (trials in flight at once), if saved.
+pub fn window(client: &mut Client, campaign: i32) -> Result<Option<i64>, postgres::Error> {
+    Ok(client
+        .query_opt(
+            "SELECT (protocol->>'window')::bigint FROM savme.campaigns WHERE id = $1",
+            &[&campaign],
+        )?
+        .and_then(|r| r.get(0)))
 }

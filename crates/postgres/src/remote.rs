@@ -3,51 +3,95 @@
 //! them; the coordinator waits for their results with `LISTEN`/`NOTIFY` (re-reading at least
 //! once a second, so a notification lost in a reconnect costs a second, not the campaign).
 //!
+//! **One commit per wake-up.** The Remote shares the store's locked connection: the trial
+//! lines told since it last waited and the runs asked for meanwhile are committed in one
+//! transaction just before it waits again ([`crate::locked`]), so a campaign costs one durable
+//! commit per batch of finished runs, not one per trial.
+//!
+//! **Heartbeat.** While it runs, a thread stamps `savme.campaigns.coordinator_seen_at` every
+//! [`HEARTBEAT`]; a worker that sees no fresh stamp says so and, after its grace period,
+//! exits naming the command that resumes the campaign (stored in `resume_command`).
+//!
 //! If no run finishes for [`Remote::worker_wait`], the coordinator says so on stderr — that no
 //! worker ever started a run of this campaign (with the command to start one), or that the
 //! workers stopped — and keeps waiting.
 
-use crate::{queue, Database, Session};
+use crate::locked::Locked;
+use crate::{queue, worker_command, Database, PostgresStore, Session};
 use savme_campaign::executor::{Done, RemoteRunner, Runner, Task, Which};
 use savme_campaign::CampaignError;
 use std::collections::{HashMap, VecDeque};
+use std::sync::mpsc::{channel, RecvTimeoutError, Sender};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+
+/// How often the coordinator stamps its heartbeat.
+pub const HEARTBEAT: Duration = Duration::from_secs(2);
+
+/// How a coordinator runs its campaign through the queue.
+#[derive(Debug, Clone)]
+pub struct RemoteOptions {
+    /// How long without a finished run before the coordinator says so (and again after as
+    /// long).
+    pub worker_wait: Duration,
+    /// The command that resumes this campaign (shown by workers whose coordinator is gone;
+    /// no password).
+    pub resume_command: String,
+    /// Database roles allowed to work on this campaign (registered in
+    /// `savme.campaign_workers`; a worker role sees only the campaigns it is listed for).
+    pub worker_roles: Vec<String>,
+}
 
 /// The coordinator's connection to the work queue of one campaign.
 pub struct Remote {
     session: Session,
+    locked: Arc<Mutex<Locked>>,
     campaign: i32,
     name: String,
     /// Row id → the run, for runs submitted and not yet returned.
     waiting: HashMap<i64, (u64, Which)>,
-    /// Runs asked for since the last wait: inserted together (one statement) before it.
+    /// Runs asked for since the last wait: queued together (one statement) before it.
     pending: Vec<Task>,
     ready: VecDeque<Done>,
     worker_wait: Duration,
     last_progress: Instant,
+    heartbeat: Option<(Sender<()>, JoinHandle<()>)>,
 }
 
 impl Remote {
-    /// Connects to the queue of campaign `name` (id `campaign`, as the store opened it) and
-    /// marks the campaign running.
-    pub fn open(
-        db: &Database,
-        campaign: i32,
-        name: &str,
-        worker_wait: Duration,
-    ) -> Result<Remote, CampaignError> {
+    /// Connects to the queue of `store`'s campaign, registers the worker roles, marks the
+    /// campaign running through the queue, and starts the heartbeat. From now on the store's
+    /// appends are committed with the queue updates.
+    pub fn open(store: &PostgresStore, options: RemoteOptions) -> Result<Remote, CampaignError> {
+        let db = store.database();
+        let campaign = store.campaign_id();
         let mut session = Session::connect(db, "coordinator queue")?;
         session.listen(&queue::done_channel(campaign))?;
-        session.run(|c| queue::set_finished(c, campaign, false))?;
+        for role in &options.worker_roles {
+            let exists = session.run(|c| queue::add_worker_role(c, campaign, role))?;
+            if !exists {
+                return Err(CampaignError::Store(savme_store::StoreError::Database {
+                    store: "--worker-role".into(),
+                    message: format!("{role:?}: no such role in {}", db.location()),
+                }));
+            }
+        }
+        let resume = options.resume_command.clone();
+        session.run(|c| queue::start_remote(c, campaign, &resume))?;
+        let locked = store.shared();
+        lock(&locked).defer();
         Ok(Remote {
             session,
+            locked,
             campaign,
-            name: name.into(),
+            name: store.name().into(),
             waiting: HashMap::new(),
             pending: Vec::new(),
             ready: VecDeque::new(),
-            worker_wait,
+            worker_wait: options.worker_wait,
             last_progress: Instant::now(),
+            heartbeat: Some(beat(db.clone(), campaign)),
         })
     }
 
@@ -56,14 +100,11 @@ impl Remote {
         self.worker_wait
     }
 
-    /// Inserts the pending runs into the queue (one statement, one notification).
+    /// Commits the trials told since the last wait and queues the runs asked for meanwhile
+    /// (one transaction, one notification).
     fn flush(&mut self) -> Result<(), CampaignError> {
-        if self.pending.is_empty() {
-            return Ok(());
-        }
-        let campaign = self.campaign;
         let tasks = std::mem::take(&mut self.pending);
-        let ids = self.session.run(|c| queue::submit(c, campaign, &tasks))?;
+        let ids = lock(&self.locked).commit(&tasks)?;
         for (id, task) in ids.into_iter().zip(&tasks) {
             if id < 0 {
                 return Err(CampaignError::Store(savme_store::StoreError::Database {
@@ -101,24 +142,57 @@ impl Remote {
     fn complain(&mut self) -> Result<(), CampaignError> {
         let campaign = self.campaign;
         let started = self.session.run(|c| queue::started(c, campaign))?;
-        let db = self.session.database().location().to_string();
+        let command = worker_command(self.session.database(), &self.name);
         let secs = self.last_progress.elapsed().as_secs();
         if started == 0 {
             eprintln!(
-                "savme: no worker has taken a run of campaign {:?} in {secs} s; {} runs are waiting. Start workers on any host with: savme worker --storage {db} --campaign {:?}",
+                "savme: no worker has taken a run of campaign {:?} in {secs} s; {} runs are waiting. Start workers on any host with: {command}",
                 self.name,
                 self.waiting.len(),
-                self.name
             );
         } else {
             eprintln!(
-                "savme: no run of campaign {:?} finished in {secs} s ({} waiting); are the workers still running? (savme worker --storage {db} --campaign {:?})",
+                "savme: no run of campaign {:?} finished in {secs} s ({} waiting); are the workers still running? ({command})",
                 self.name,
                 self.waiting.len(),
-                self.name
             );
         }
         Ok(())
+    }
+
+    fn stop_heartbeat(&mut self) {
+        if let Some((stop, thread)) = self.heartbeat.take() {
+            drop(stop);
+            let _ = thread.join();
+        }
+    }
+}
+
+fn lock(m: &Mutex<Locked>) -> std::sync::MutexGuard<'_, Locked> {
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+/// Starts the heartbeat thread of campaign `campaign` (stopped by dropping the sender).
+fn beat(db: Database, campaign: i32) -> (Sender<()>, JoinHandle<()>) {
+    let (stop, stopped) = channel::<()>();
+    let thread = std::thread::spawn(move || {
+        let Ok(mut s) = Session::connect(&db, "coordinator heartbeat") else {
+            return;
+        };
+        loop {
+            // A missed beat is retried at the next one; workers allow several.
+            let _ = s.run(|c| queue::coordinator_seen(c, campaign));
+            if stopped.recv_timeout(HEARTBEAT) != Err(RecvTimeoutError::Timeout) {
+                return;
+            }
+        }
+    });
+    (stop, thread)
+}
+
+impl Drop for Remote {
+    fn drop(&mut self) {
+        self.stop_heartbeat();
     }
 }
 
@@ -155,8 +229,10 @@ impl Runner for Remote {
 }
 
 impl RemoteRunner for Remote {
-    /// Marks the campaign finished: idle workers exit.
+    /// Commits the last trials and marks the campaign finished: idle workers exit.
     fn finish(mut self: Box<Self>) -> Result<(), CampaignError> {
+        self.flush()?;
+        self.stop_heartbeat();
         let campaign = self.campaign;
         self.session
             .run(|c| queue::set_finished(c, campaign, true))?;

@@ -10,14 +10,15 @@
 use postgres::Client;
 
 /// The schema version this savme writes.
-pub const VERSION: i32 = 1;
+pub const VERSION: i32 = 2;
 
 /// The advisory-lock class of savme's locks (`pg_try_advisory_lock(CLASS, campaign id)`):
 /// "sv" in ASCII.
 pub const LOCK_CLASS: i32 = 0x7376;
 
 /// The migrations, in order: migration `i` brings the schema to version `i + 1`.
-const MIGRATIONS: &[&str] = &[r#"
+const MIGRATIONS: &[&str] = &[
+    r#"
 CREATE SCHEMA IF NOT EXISTS savme;
 
 -- One row per campaign (or `savme serve` journal), identified by its name.
@@ -93,7 +94,43 @@ CREATE TABLE savme.runs (
     UNIQUE (campaign_id, stage, trial_id, role)
 );
 CREATE INDEX runs_open ON savme.runs (campaign_id, id) WHERE state IN ('queued', 'running');
-"#];
+"#,
+    r#"
+-- The coordinator's liveness, for its workers: whether it runs the campaign's runs through the
+-- queue (--remote), when it was last seen (a heartbeat every few seconds), and the command that
+-- resumes it (without a password), which a worker prints when it gives up waiting.
+ALTER TABLE savme.campaigns
+    ADD COLUMN remote              boolean NOT NULL DEFAULT false,
+    ADD COLUMN coordinator_seen_at timestamptz,
+    ADD COLUMN resume_command      text;
+
+-- Which roles may work on which campaign. A role that may not write trials (a worker role)
+-- sees and changes only the campaigns and runs of the campaigns it (or a role it belongs to)
+-- is listed for here; a role that may write trials (a coordinator) sees them all.
+CREATE TABLE savme.campaign_workers (
+    campaign_id integer NOT NULL REFERENCES savme.campaigns (id) ON DELETE CASCADE,
+    role        name NOT NULL,
+    PRIMARY KEY (campaign_id, role)
+);
+
+CREATE FUNCTION savme.is_coordinator() RETURNS boolean LANGUAGE sql STABLE AS
+  $$ SELECT has_table_privilege('savme.trials', 'INSERT') $$;
+CREATE FUNCTION savme.worker_campaigns() RETURNS SETOF integer LANGUAGE sql STABLE AS
+  $$ SELECT w.campaign_id FROM savme.campaign_workers w JOIN pg_roles r ON r.rolname = w.role
+      WHERE pg_has_role(r.oid, 'MEMBER') $$;
+
+ALTER TABLE savme.campaigns ENABLE ROW LEVEL SECURITY;
+ALTER TABLE savme.runs ENABLE ROW LEVEL SECURITY;
+ALTER TABLE savme.campaign_workers ENABLE ROW LEVEL SECURITY;
+CREATE POLICY by_campaign ON savme.campaigns
+  USING (savme.is_coordinator() OR id IN (SELECT savme.worker_campaigns()));
+CREATE POLICY by_campaign ON savme.runs
+  USING (savme.is_coordinator() OR campaign_id IN (SELECT savme.worker_campaigns()))
+  WITH CHECK (savme.is_coordinator() OR campaign_id IN (SELECT savme.worker_campaigns()));
+CREATE POLICY by_role ON savme.campaign_workers
+  USING (savme.is_coordinator() OR pg_has_role((SELECT oid FROM pg_roles WHERE rolname = role), 'MEMBER'));
+"#,
+];
 
 /// Why the schema cannot be used.
 #[derive(Debug)]

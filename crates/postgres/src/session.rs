@@ -50,6 +50,8 @@ pub struct Session {
     role: String,
     client: Client,
     channels: Vec<String>,
+    /// Session settings (`SET …`), made again after every reconnect.
+    settings: Vec<String>,
     /// Statements prepared on `client` (forgotten when it is replaced).
     prepared: HashMap<&'static str, Statement>,
 }
@@ -63,6 +65,7 @@ impl Session {
             role: role.into(),
             client,
             channels: Vec::new(),
+            settings: Vec::new(),
             prepared: HashMap::new(),
         })
     }
@@ -77,6 +80,14 @@ impl Session {
         self.channels.push(channel.into());
         let channel = channel.to_string();
         self.run(|c| queue::listen(&mut **c, &channel))
+    }
+
+    /// Makes session setting `sql` (e.g. `SET synchronous_commit = off`), again after every
+    /// reconnect.
+    pub fn set(&mut self, sql: &str) -> Result<(), StoreError> {
+        self.settings.push(sql.into());
+        let sql = sql.to_string();
+        self.run(|c| c.batch_execute(&sql))
     }
 
     /// Runs `op`; when the connection is lost, reconnects with backoff and runs it again (up
@@ -111,6 +122,11 @@ impl Session {
     fn reconnect(&mut self) -> Result<(), StoreError> {
         self.client = self.db.connect(&application_name(&self.role))?;
         self.prepared.clear();
+        for sql in self.settings.clone() {
+            self.client
+                .batch_execute(&sql)
+                .map_err(|e| self.db.error(self.db.location(), &e))?;
+        }
         for channel in self.channels.clone() {
             queue::listen(&mut self.client, &channel)
                 .map_err(|e| self.db.error(self.db.location(), &e))?;

@@ -24,10 +24,12 @@
 //! # Ok::<(), savme_store::StoreError>(())
 //! ```
 
-use crate::{schema, Database};
+use crate::locked::Locked;
+use crate::Database;
 use postgres::{Client, GenericClient, Statement};
 use savme_store::{Loaded, StoreError, StoredLine, TrialStore, FORMAT};
 use serde_json::Value;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// The longest campaign name.
 pub const MAX_NAME: usize = 200;
@@ -37,12 +39,9 @@ pub struct PostgresStore {
     db: Database,
     name: String,
     campaign: i32,
-    client: Client,
-    /// Lines stored so far (the last line number).
-    lines: i64,
     location: String,
-    /// The prepared insert of a line, on the current connection.
-    insert: Option<Statement>,
+    /// The connection holding the lock (shared with a [`Remote`](crate::Remote)).
+    locked: Arc<Mutex<Locked>>,
 }
 
 impl std::fmt::Debug for PostgresStore {
@@ -138,83 +137,14 @@ impl PostgresStore {
     /// [`StoreError::Held`] naming the process that holds it.
     pub fn open(db: &Database, name: &str) -> Result<PostgresStore, StoreError> {
         check_name(name)?;
-        let location = format!("{}, campaign {name:?}", db.location());
-        let client = db.connect(&application_name("coordinator"))?;
-        let mut store = PostgresStore {
+        let locked = Locked::open(db, name)?;
+        Ok(PostgresStore {
+            location: locked.location.clone(),
             db: db.clone(),
             name: name.into(),
-            campaign: 0,
-            client,
-            lines: 0,
-            location,
-            insert: None,
-        };
-        store.attach()?;
-        Ok(store)
-    }
-
-    /// On a (new) connection: the schema, the campaign row, the lock, the line count.
-    fn attach(&mut self) -> Result<(), StoreError> {
-        let err = |s: &Self, e: postgres::Error| s.db.error(&s.location, &e);
-        match schema::migrate(&mut self.client) {
-            Ok(()) => {}
-            Err(schema::SchemaError::Db(e)) => return Err(err(self, e)),
-            Err(schema::SchemaError::TooNew(v)) => {
-                return Err(StoreError::Database {
-                    store: self.location.clone(),
-                    message: format!(
-                        "the database's savme schema is version {v}, newer than this savme's ({}); use a newer savme",
-                        schema::VERSION
-                    ),
-                })
-            }
-        }
-        self.campaign = campaign_id(&mut self.client, &self.name).map_err(|e| err(self, e))?;
-        let locked: bool = self
-            .client
-            .query_one(
-                "SELECT pg_try_advisory_lock($1, $2)",
-                &[&schema::LOCK_CLASS, &self.campaign],
-            )
-            .map_err(|e| err(self, e))?
-            .get(0);
-        if !locked {
-            return Err(StoreError::Held {
-                store: self.location.clone(),
-                holder: self.holder(),
-            });
-        }
-        let row = self
-            .client
-            .query_one(
-                "SELECT coalesce(max(line), 0) FROM savme.trials WHERE campaign_id = $1",
-                &[&self.campaign],
-            )
-            .map_err(|e| err(self, e))?;
-        self.lines = row.get(0);
-        Ok(())
-    }
-
-    /// Who holds the campaign's lock, as far as the server shows it.
-    fn holder(&mut self) -> String {
-        let row = self.client.query_opt(
-            "SELECT a.application_name, coalesce(host(a.client_addr), 'local socket')
-               FROM pg_locks l JOIN pg_stat_activity a ON a.pid = l.pid
-              WHERE l.locktype = 'advisory' AND l.granted AND l.objsubid = 2
-                AND l.classid = ($1::int)::oid AND l.objid = ($2::int)::oid",
-            &[&schema::LOCK_CLASS, &self.campaign],
-        );
-        match row {
-            Ok(Some(r)) => {
-                let app: Option<String> = r.get(0);
-                let addr: Option<String> = r.get(1);
-                match app.filter(|a| !a.is_empty()) {
-                    Some(app) => format!("{app}, connected from {}", addr.unwrap_or_default()),
-                    None => "a session not started by savme".into(),
-                }
-            }
-            _ => "a process this role may not see".into(),
-        }
+            campaign: locked.campaign,
+            locked: Arc::new(Mutex::new(locked)),
+        })
     }
 
     /// The campaign's name.
@@ -232,29 +162,14 @@ impl PostgresStore {
         &self.db
     }
 
-    /// Runs `op` on the connection; when the connection is lost, reconnects (with backoff,
-    /// taking the lock again) and runs it once more, up to five times.
-    fn retrying<T>(
-        &mut self,
-        mut op: impl FnMut(&mut Client, i32) -> Result<T, postgres::Error>,
-    ) -> Result<T, StoreError> {
-        let mut tries = 0;
-        loop {
-            match op(&mut self.client, self.campaign) {
-                Ok(v) => return Ok(v),
-                Err(e) if tries < 5 && connection_lost(&self.client, &e) => {
-                    tries += 1;
-                    eprintln!(
-                        "savme: {}: connection lost ({}); reconnecting",
-                        self.location,
-                        self.db.redact(&e.to_string())
-                    );
-                    self.client = self.db.connect(&application_name("coordinator"))?;
-                    self.attach()?;
-                }
-                Err(e) => return Err(self.db.error(&self.location, &e)),
-            }
-        }
+    /// The locked connection, shared with the campaign's [`Remote`](crate::Remote), which
+    /// commits this store's lines with its queue updates ([`Locked`]).
+    pub(crate) fn shared(&self) -> Arc<Mutex<Locked>> {
+        self.locked.clone()
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Locked> {
+        self.locked.lock().unwrap_or_else(|p| p.into_inner())
     }
 }
 
@@ -337,7 +252,7 @@ pub fn read_campaign(db: &Database, name: &str) -> Result<(Option<Value>, Loaded
 }
 
 /// A line's fields as the typed columns of `savme.trials`.
-struct Columns {
+pub(crate) struct Columns {
     stage: Option<String>,
     idx: Option<i64>,
     trial_id: Option<i64>,
@@ -401,7 +316,7 @@ impl Columns {
     }
 }
 
-const INSERT: &str =
+pub(crate) const INSERT: &str =
     "INSERT INTO savme.trials (campaign_id, line, v, body, stage, idx, trial_id, phase,
     budget, scenario, phi, theta_lf, hf_failure, hf_runtime, hf_wall_seconds, hf_work,
     lf_failure, lf_runtime, lf_wall_seconds, lf_work, cost_ratio, outcome, credit_fidelity,
@@ -409,30 +324,19 @@ const INSERT: &str =
   VALUES ($1, $2, $3, $4::text::json, $5, $6, $7, $8, $9, $10, $11::text::jsonb,
     $12::text::jsonb, $13, $14, $15, $16, $17, $18, $19, $20, $21, $22, $23, $24, $25)";
 
-/// Inserts `rows` (text, fields) as lines `first..` with the prepared `statement`: one
-/// statement for one row (atomic by itself), else one transaction.
-fn insert(
-    client: &mut Client,
+/// Inserts `rows` (text, fields) as lines `first..` with the prepared `statement` (in the
+/// caller's transaction).
+pub(crate) fn insert_lines(
+    client: &mut impl GenericClient,
     statement: &Statement,
     campaign: i32,
     first: i64,
     rows: &[(String, Columns)],
 ) -> Result<(), postgres::Error> {
-    if let [(text, columns)] = rows {
-        return insert_one(client, statement, campaign, first, text, columns);
-    }
-    let mut tx = client.transaction()?;
     for (k, (text, columns)) in rows.iter().enumerate() {
-        insert_one(
-            &mut tx,
-            statement,
-            campaign,
-            first + k as i64,
-            text,
-            columns,
-        )?;
+        insert_one(client, statement, campaign, first + k as i64, text, columns)?;
     }
-    tx.commit()
+    Ok(())
 }
 
 /// Inserts one line.
@@ -485,10 +389,15 @@ impl TrialStore for PostgresStore {
     }
 
     fn load(&mut self) -> Result<Loaded, StoreError> {
-        let rows = self.retrying(|c, id| c.query(SELECT_LINES, &[&id]))?;
+        let mut locked = self.lock();
+        locked.commit(&[])?;
+        let rows = locked.retrying(|c, _, id, _| c.query(SELECT_LINES, &[&id]))?;
         lines_of(&self.location, &rows)
     }
 
+    /// Stores the lines in one transaction — at once, or, in a campaign whose runs go through
+    /// the work queue, at the coordinator's next wait, in one transaction with its queue
+    /// update ([`Locked`]).
     fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
         let mut rows = Vec::with_capacity(objects.len());
         for text in objects {
@@ -507,37 +416,7 @@ impl TrialStore for PostgresStore {
             let columns = Columns::of(&value);
             rows.push((text.trim().to_string(), columns));
         }
-        let first = self.lines + 1;
-        let last = self.lines + rows.len() as i64;
-        // After a reconnect the insert may have committed before the connection broke: the
-        // line count says (this store is the only writer). The prepared statement is kept
-        // between appends, and prepared again on a new connection.
-        let mut statement = self.insert.take();
-        let mut retry = false;
-        self.retrying(|c, id| {
-            if retry {
-                statement = None;
-                let stored: i64 = c
-                    .query_one(
-                        "SELECT coalesce(max(line), 0) FROM savme.trials WHERE campaign_id = $1",
-                        &[&id],
-                    )?
-                    .get(0);
-                if stored >= last {
-                    return Ok(());
-                }
-            }
-            retry = true;
-            let prepared = match &statement {
-                Some(s) => s.clone(),
-                None => c.prepare(INSERT)?,
-            };
-            statement = Some(prepared.clone());
-            insert(c, &prepared, id, first, &rows)
-        })?;
-        self.insert = statement;
-        self.lines = last;
-        Ok(())
+        self.lock().append(rows)
     }
 
     fn keeps_protocol(&self) -> bool {
@@ -545,14 +424,15 @@ impl TrialStore for PostgresStore {
     }
 
     fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
-        let text: Option<String> =
-            self.retrying(|c, id| Ok(c.query_one(SELECT_PROTOCOL, &[&id])?.get(0)))?;
+        let text: Option<String> = self
+            .lock()
+            .retrying(|c, _, id, _| Ok(c.query_one(SELECT_PROTOCOL, &[&id])?.get(0)))?;
         protocol_of(&self.location, text)
     }
 
     fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
         let text = protocol.to_string();
-        self.retrying(|c, id| {
+        self.lock().retrying(|c, _, id, _| {
             c.execute(
                 "UPDATE savme.campaigns SET protocol = $2::text::json WHERE id = $1",
                 &[&id, &text],

@@ -17,10 +17,13 @@
 //! let db = Database::parse("postgresql://worker@db.example/safety")?;
 //! let report = work(&db, "night-run-1", &ToySimulator, &WorkerOptions::default())?;
 //! println!("{} runs", report.runs);
-//! # Ok::<(), savme_store::StoreError>(())
+//! # Ok::<(), savme_postgres::worker::WorkerError>(())
 //! ```
 
-use crate::{application_name, find_campaign, queue, Database, Session};
+use crate::{
+    application_name, find_campaign, queue, shell_quote, worker_command, worker_url, Database,
+    Session,
+};
 use savme_campaign::executor::simulate;
 use savme_campaign::Stop;
 use savme_kernel::{Assignment, SimError, SimResult, Simulator};
@@ -45,6 +48,9 @@ pub struct WorkerOptions {
     /// start (queued again for another worker), and [`work`] returns with
     /// [`WorkerReport::stopped`] set.
     pub stop: Stop,
+    /// How long without a live coordinator (one whose heartbeat is fresh and that runs the
+    /// campaign through the queue) before the worker stops.
+    pub grace: Duration,
 }
 
 impl Default for WorkerOptions {
@@ -54,6 +60,7 @@ impl Default for WorkerOptions {
             lease: Duration::from_secs(30),
             wait_for_campaign: Duration::from_secs(600),
             stop: Stop::new(),
+            grace: Duration::from_secs(120),
         }
     }
 }
@@ -112,71 +119,84 @@ pub struct WorkerReport {
     pub stopped: bool,
 }
 
-/// Works on campaign `name` until the coordinator marks it finished.
+/// Why a worker stopped before its campaign finished.
+#[derive(Debug, thiserror::Error)]
+pub enum WorkerError {
+    /// The database failed (named, without its password).
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// No live coordinator for the grace period.
+    #[error("no live coordinator of campaign {campaign:?} for {seconds} s (the grace period, --grace); this worker stops. Resume the campaign with: {resume}\nthen start the workers again: {worker}")]
+    CoordinatorGone {
+        /// The campaign.
+        campaign: String,
+        /// The grace period, in seconds.
+        seconds: u64,
+        /// The command that resumes the campaign.
+        resume: String,
+        /// The command that starts a worker again.
+        worker: String,
+    },
+}
+
+/// The campaign's coordinator as the worker's watch thread last saw it.
+#[derive(Default)]
+struct Watch {
+    /// The coordinator marked the campaign finished.
+    finished: AtomicBool,
+    /// No live coordinator for the grace period: stop claiming.
+    gone: Mutex<Option<WorkerError>>,
+}
+
+impl Watch {
+    fn stop(&self) -> bool {
+        self.finished.load(Ordering::Relaxed) || lock(&self.gone).is_some()
+    }
+}
+
+/// Works on campaign `name` until the coordinator marks it finished — or until no live
+/// coordinator has been seen for `options.grace` ([`WorkerError::CoordinatorGone`]).
 pub fn work<S>(
     db: &Database,
     name: &str,
     sim: &S,
     options: &WorkerOptions,
-) -> Result<WorkerReport, StoreError>
+) -> Result<WorkerReport, WorkerError>
 where
     S: Simulator + Clone + Send,
 {
     let mut session = Session::connect(db, "worker")?;
     let campaign = wait_for_campaign(&mut session, name, options.wait_for_campaign)?;
+    if let Some(window) = session.run(|c| queue::window(c, campaign))? {
+        if let Some(warning) = window_warning(name, window, options.jobs) {
+            eprintln!("{warning}");
+        }
+    }
     let held = Mutex::new(HashSet::new());
     let stop = AtomicBool::new(false);
+    let watch = Watch::default();
     let (runs, dropped) = (AtomicU64::new(0), AtomicU64::new(0));
     let lease = options.lease.max(Duration::from_millis(300));
-    std::thread::scope(|scope| -> Result<(), StoreError> {
+    std::thread::scope(|scope| -> Result<(), WorkerError> {
         let beat = scope.spawn(|| heartbeat(db, &held, &stop, lease));
+        let watcher = scope
+            .spawn(|| watch_coordinator(session, campaign, name, options.grace, &watch, &stop));
         let threads: Vec<_> = (0..options.jobs.max(1))
             .map(|k| {
                 let mut sim = sim.clone();
-                let (held, runs, dropped) = (&held, &runs, &dropped);
-                scope.spawn(move || -> Result<(), StoreError> {
-                    let me = format!("{} #{k}", application_name("worker"));
-                    let mut s = Session::connect(db, "worker")?;
-                    s.listen(&queue::tasks_channel(campaign))?;
-                    let mut claimed = None;
-                    loop {
-                        if options.stop.is_requested() {
-                            return hand_back(&mut s, claimed.take(), &me);
-                        }
-                        if claimed.is_none() {
-                            claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
-                        }
-                        let Some(run) = claimed.take() else {
-                            if s.run(|c| queue::is_finished(c, campaign))? {
-                                return Ok(());
-                            }
-                            s.wait(Duration::from_secs(1))?;
-                            continue;
-                        };
-                        if options.stop.is_requested() {
-                            return hand_back(&mut s, Some(run), &me);
-                        }
-                        lock(held).insert(run.id);
-                        let result = match &run.task {
-                            Ok(t) => {
-                                simulate(&mut sim, t.which.role(), &t.scenario, &t.phi, &t.fidelity)
-                            }
-                            Err(message) => Err(SimError::Failed(message.clone())),
-                        };
-                        // The result, and the next run, in one round trip.
-                        let (kept, next) = s.run(|c| {
-                            queue::finish_and_claim(c, campaign, run.id, &me, &result, lease)
-                        })?;
-                        let mut held = lock(held);
-                        held.remove(&run.id);
-                        if let Some(next) = &next {
-                            held.insert(next.id);
-                        }
-                        drop(held);
-                        claimed = next;
-                        let counter = if kept { runs } else { dropped };
-                        counter.fetch_add(1, Ordering::Relaxed);
-                    }
+                let (held, runs, dropped, watch) = (&held, &runs, &dropped, &watch);
+                let stop = &options.stop;
+                scope.spawn(move || {
+                    work_thread(
+                        db,
+                        campaign,
+                        k,
+                        &mut sim,
+                        lease,
+                        held,
+                        (watch, stop),
+                        [runs, dropped],
+                    )
                 })
             })
             .collect();
@@ -194,7 +214,12 @@ where
         }
         stop.store(true, Ordering::Relaxed);
         let _ = beat.join();
-        first_error
+        let _ = watcher.join();
+        first_error?;
+        match lock(&watch.gone).take() {
+            Some(gone) if !watch.finished.load(Ordering::Relaxed) => Err(gone),
+            _ => Ok(()),
+        }
     })?;
     Ok(WorkerReport {
         runs: runs.into_inner(),
@@ -210,6 +235,182 @@ fn hand_back(s: &mut Session, run: Option<queue::Claimed>, me: &str) -> Result<(
         s.run(|c| queue::release(c, run.id, me))?;
     }
     Ok(())
+}
+
+/// One worker thread: claims, runs and finishes runs until the watch says stop, or until
+/// `stop` is requested (then it hands back a run it claimed but did not start), counting
+/// `[runs, dropped]`.
+#[allow(clippy::too_many_arguments)]
+fn work_thread<S: Simulator>(
+    db: &Database,
+    campaign: i32,
+    k: usize,
+    sim: &mut S,
+    lease: Duration,
+    held: &Mutex<HashSet<i64>>,
+    (watch, stop): (&Watch, &Stop),
+    [runs, dropped]: [&AtomicU64; 2],
+) -> Result<(), StoreError> {
+    let me = format!("{} #{k}", application_name("worker"));
+    let mut s = Session::connect(db, "worker")?;
+    // A result lost in a server crash only costs running its run again (its row stays
+    // `running` and its lease expires); the coordinator's own commits, which store the
+    // trials, are durable and flush every result they were made from.
+    s.set("SET synchronous_commit = off")?;
+    s.listen(&queue::tasks_channel(campaign))?;
+    let mut claimed = None;
+    loop {
+        if stop.is_requested() {
+            return hand_back(&mut s, claimed.take(), &me);
+        }
+        if claimed.is_none() {
+            if watch.stop() {
+                return Ok(());
+            }
+            claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
+        }
+        let Some(run) = claimed.take() else {
+            s.wait(Duration::from_secs(1))?;
+            continue;
+        };
+        if stop.is_requested() {
+            return hand_back(&mut s, Some(run), &me);
+        }
+        lock(held).insert(run.id);
+        let result = match &run.task {
+            Ok(t) => simulate(sim, t.which.role(), &t.scenario, &t.phi, &t.fidelity),
+            Err(message) => Err(SimError::Failed(message.clone())),
+        };
+        // The result, and the next run, in one round trip (none once told to stop).
+        let mut tried = false;
+        let (kept, next) = s.run(|c| {
+            let retry = std::mem::replace(&mut tried, true);
+            let (kept, next) = queue::finish_and_claim(c, campaign, run.id, &me, &result, lease)?;
+            // After a reconnect the finish may have committed before the connection broke.
+            let kept = kept || (retry && queue::finished_by(c, run.id, &me)?);
+            Ok((kept, next))
+        })?;
+        let mut held = lock(held);
+        held.remove(&run.id);
+        if let Some(next) = &next {
+            held.insert(next.id);
+        }
+        drop(held);
+        claimed = next;
+        let counter = if kept { runs } else { dropped };
+        counter.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// Watches the campaign's coordinator once a second until `stop`: marks the campaign finished,
+/// says on stderr when no live coordinator runs it through the queue (at once when one runs it
+/// without `--remote`), and gives up after `grace` without one.
+fn watch_coordinator(
+    mut s: Session,
+    campaign: i32,
+    name: &str,
+    grace: Duration,
+    watch: &Watch,
+    stop: &AtomicBool,
+) {
+    let mut lost: Option<Instant> = None;
+    let mut said = None;
+    while !stop.load(Ordering::Relaxed) {
+        let state = match s.run(|c| queue::coordinator(c, campaign)) {
+            Ok(Some(state)) => state,
+            Ok(None) => queue::Coordinator {
+                finished: true,
+                ..gone_state()
+            },
+            // The sessions reconnect by themselves; try again in a second.
+            Err(_) => gone_state(),
+        };
+        if state.finished {
+            watch.finished.store(true, Ordering::Relaxed);
+            return;
+        }
+        let live = state.remote && state.seen_ago.is_some_and(|a| a < STALE.as_secs_f64());
+        if live {
+            if said.take().is_some() {
+                eprintln!("savme worker: campaign {name:?}: its coordinator is back");
+            }
+            lost = None;
+        } else {
+            let since = *lost.get_or_insert_with(Instant::now);
+            let left = grace.saturating_sub(since.elapsed()).as_secs();
+            let why = absence(&state, name, left);
+            if said.as_ref() != Some(&why) && since.elapsed() >= SETTLE {
+                eprintln!("{why}");
+                said = Some(why);
+            }
+            if since.elapsed() >= grace {
+                let resume = state.resume_command.clone().unwrap_or_else(|| format!(
+                    "its coordinator's command (savme reproduce, run or toy) with --storage {} --campaign {} --remote --resume",
+                    shell_quote(&worker_url(s.database())),
+                    shell_quote(name)
+                ));
+                *lock(&watch.gone) = Some(WorkerError::CoordinatorGone {
+                    campaign: name.into(),
+                    seconds: grace.as_secs(),
+                    resume,
+                    worker: worker_command(s.database(), name),
+                });
+                return;
+            }
+        }
+        std::thread::sleep(Duration::from_secs(1));
+    }
+}
+
+/// A warning when `jobs` threads are more than campaign `name`'s window keeps busy: at most
+/// two runs (HF and LF) per trial in flight, so 2 × window runs for all its workers together.
+///
+/// ```
+/// use savme_postgres::worker::window_warning;
+/// assert!(window_warning("n", 4, 8).is_none());
+/// assert!(window_warning("n", 4, 9).unwrap().contains("--window 9"));
+/// ```
+pub fn window_warning(name: &str, window: i64, jobs: usize) -> Option<String> {
+    (jobs as i64 > 2 * window).then(|| format!(
+        "savme worker: WARNING: campaign {name:?} has a window of {window} trials, so at most {} runs are in flight for all its workers together; {} of this worker's {jobs} threads will always be idle. A new campaign keeps N worker threads busy with --window N (docs/DISTRIBUTED.md, \"The window\"): e.g. --window {jobs}",
+        2 * window,
+        jobs as i64 - 2 * window
+    ))
+}
+
+/// How long a coordinator's heartbeat stays fresh.
+pub const STALE: Duration = Duration::from_secs(10);
+/// How long a worker lets a coordinator that is starting settle before it says anything.
+const SETTLE: Duration = Duration::from_secs(2);
+
+fn gone_state() -> queue::Coordinator {
+    queue::Coordinator {
+        finished: false,
+        remote: false,
+        seen_ago: None,
+        locked: false,
+        resume_command: None,
+    }
+}
+
+/// Why the campaign has no live coordinator, as the worker says it.
+fn absence(state: &queue::Coordinator, name: &str, left: u64) -> String {
+    let then =
+        format!("this worker waits {left} s more for a coordinator with --remote, then stops");
+    if state.locked && !state.remote {
+        format!(
+            "savme worker: campaign {name:?} is held by a coordinator started without --remote: it runs its trials on its own threads, and this worker has nothing to do. Restart the coordinator with --remote to use workers; {then}"
+        )
+    } else if state.locked {
+        let ago = state
+            .seen_ago
+            .map_or("ever".into(), |a| format!("{a:.0} s"));
+        format!(
+            "savme worker: campaign {name:?}: no heartbeat from its coordinator for {ago} (it is stuck or has lost the database); {then}"
+        )
+    } else {
+        format!("savme worker: campaign {name:?} has no coordinator running (it stopped, was killed, or has not been resumed yet); {then}")
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -247,7 +448,7 @@ fn wait_for_campaign(
         }
         if !said {
             eprintln!(
-                "savme worker: {}: waiting for campaign {name:?} to be started",
+                "savme worker: {}: waiting for campaign {name:?} to be started (or, if it runs, for this role to be allowed to work on it: its coordinator's --worker-role)",
                 session.database().location()
             );
             said = true;

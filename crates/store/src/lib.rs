@@ -165,7 +165,9 @@ pub trait TrialStore: Send {
 
     /// Appends serialised JSON objects (each the text of one object, without a top-level `v`
     /// key, which the store adds) as lines, all or none, durably (handed whole to the
-    /// operating system) before returning. On an error nothing was appended.
+    /// operating system) before returning. On an error nothing was appended. (One exception,
+    /// documented where it is made: a PostgreSQL store whose campaign runs through its work
+    /// queue commits the lines with the queue's next batch, in one transaction.)
     fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError>;
 
     /// Appends JSON objects as lines, all or none ([`TrialStore::append_json`]).
