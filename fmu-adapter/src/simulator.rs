@@ -661,6 +661,25 @@ fn positive(fidelity: &Assignment, var: &str, what: &str) -> Result<f64, FmuErro
     }
 }
 
+/// The role of a run asked without one ([`Simulator::simulate`]): HF when `fidelity` is θ_HF,
+/// else LF — the same in this process and in a worker. Every campaign path asks with the role
+/// ([`Simulator::simulate_as`]); this is for callers that drive the simulator by hand.
+///
+/// ```
+/// use savme_fmu::simulator::role_of;
+/// use savme_kernel::{Assignment, Role};
+/// let hf = Assignment::new().with("rate", 10);
+/// assert_eq!(role_of(Some(&hf), &hf), Role::High);
+/// assert_eq!(role_of(Some(&hf), &Assignment::new().with("rate", 2)), Role::Learned);
+/// ```
+pub fn role_of(theta_hf: Option<&Assignment>, fidelity: &Assignment) -> Role {
+    if theta_hf == Some(fidelity) {
+        Role::High
+    } else {
+        Role::Learned
+    }
+}
+
 impl Simulator for FmuSimulator {
     fn simulate(
         &mut self,
@@ -668,11 +687,7 @@ impl Simulator for FmuSimulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        let role = if self.theta_hf.as_ref() == Some(fidelity) {
-            Role::High
-        } else {
-            Role::Learned
-        };
+        let role = role_of(self.theta_hf.as_ref(), fidelity);
         self.simulate_as(role, scenario, phi, fidelity)
     }
 

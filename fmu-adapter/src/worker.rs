@@ -80,7 +80,7 @@ impl WorkerInit {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WorkerRequest {
     /// HF or LF.
-    pub learned: bool,
+    pub role: Role,
     /// Scenario.
     pub scenario: String,
     /// φ.
@@ -159,7 +159,7 @@ pub fn serve(input: impl BufRead, mut output: impl Write) -> std::io::Result<()>
         let response = match serde_json::from_str::<WorkerRequest>(&line) {
             Err(e) => WorkerResponse::Error(format!("worker request: {e}")),
             Ok(r) => {
-                let role = if r.learned { Role::Learned } else { Role::High };
+                let role = r.role;
                 let run = if r.record.is_empty() {
                     sim.run(role, &r.scenario, &r.phi, &r.fidelity)
                         .map(|res| (res, None))
@@ -229,6 +229,8 @@ pub struct IsolatedSimulator {
     fmu: Arc<String>,
     timeout: Duration,
     worker: Option<Worker>,
+    /// θ_HF: what a run without a role is judged by ([`crate::simulator::role_of`]).
+    theta_hf: Option<Arc<Assignment>>,
 }
 
 impl Clone for IsolatedSimulator {
@@ -239,6 +241,7 @@ impl Clone for IsolatedSimulator {
             fmu: self.fmu.clone(),
             timeout: self.timeout,
             worker: None,
+            theta_hf: self.theta_hf.clone(),
         }
     }
 }
@@ -264,6 +267,7 @@ impl IsolatedSimulator {
         }
         let text = serde_json::to_string(init).map_err(|e| FmuError::Spec(e.to_string()))?;
         Ok(IsolatedSimulator {
+            theta_hf: init.theta_hf.clone().map(Arc::new),
             command: Arc::new(command),
             init: Arc::new(text),
             fmu: Arc::new(if init.hf == init.lf {
@@ -381,7 +385,8 @@ impl Simulator for IsolatedSimulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        self.simulate_as(Role::High, scenario, phi, fidelity)
+        let role = crate::simulator::role_of(self.theta_hf.as_deref(), fidelity);
+        self.simulate_as(role, scenario, phi, fidelity)
     }
 
     fn simulate_as(
@@ -392,7 +397,7 @@ impl Simulator for IsolatedSimulator {
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
         self.request(WorkerRequest {
-            learned: role == Role::Learned,
+            role,
             scenario: scenario.into(),
             phi: phi.clone(),
             fidelity: fidelity.clone(),
@@ -414,7 +419,7 @@ impl IsolatedSimulator {
         record: &[String],
     ) -> Result<(SimResult, Trace), SimError> {
         let (r, trace) = self.request(WorkerRequest {
-            learned: role == Role::Learned,
+            role,
             scenario: scenario.into(),
             phi: phi.clone(),
             fidelity: fidelity.clone(),

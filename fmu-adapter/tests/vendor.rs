@@ -231,7 +231,7 @@ fn fmu_log_prints_every_message() {
                 theta_hf: None,
             };
             let request = savme_fmu::worker::WorkerRequest {
-                learned: false,
+                role: savme_kernel::Role::High,
                 scenario: "brake".into(),
                 phi: Assignment::new().with("v", 10.0),
                 fidelity: Assignment::new(),

@@ -85,13 +85,50 @@ pub enum SimError {
     Failed(String),
 }
 
-/// Which of a trial's two runs a simulation is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+/// Which of a trial's two runs a simulation is: the one role type of the whole toolkit (the
+/// executor, the work queue, the FMU workers and the viewer all speak it). Serialised as
+/// `"hf"` / `"lf"`.
+///
+/// ```
+/// use savme_kernel::Role;
+/// assert_eq!((Role::High.key(), Role::Learned.name()), ("hf", "LF"));
+/// assert_eq!(Role::from_key("lf"), Some(Role::Learned));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub enum Role {
     /// The high-fidelity run (θ_HF).
+    #[serde(rename = "hf")]
     High,
     /// The learned-fidelity run (θ_LF).
+    #[serde(rename = "lf")]
     Learned,
+}
+
+impl Role {
+    /// `hf` or `lf` (as stored and sent).
+    pub fn key(self) -> &'static str {
+        match self {
+            Role::High => "hf",
+            Role::Learned => "lf",
+        }
+    }
+
+    /// `HF` or `LF` (as messages name it).
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::High => "HF",
+            Role::Learned => "LF",
+        }
+    }
+
+    /// The role of a key written by [`Role::key`].
+    pub fn from_key(key: &str) -> Option<Role> {
+        match key {
+            "hf" => Some(Role::High),
+            "lf" => Some(Role::Learned),
+            _ => None,
+        }
+    }
 }
 
 /// A simulator the kernel's trials can be run on: one call runs scenario `scenario` with

@@ -15,7 +15,8 @@
 
 use super::Conn;
 use postgres::{Client, GenericClient};
-use savme_campaign::executor::{Task, Which};
+use savme_campaign::executor::Task;
+use savme_kernel::Role;
 use savme_kernel::{Assignment, SimError, SimResult};
 use std::sync::OnceLock;
 use std::time::Duration;
@@ -221,10 +222,10 @@ fn claimed(r: &postgres::Row, at: usize) -> Option<Claimed> {
             .map_err(|e| format!("savme.runs row {id}: `{what}` is not an assignment: {e}"))
     };
     let task = (|| {
-        let which = match r.get::<_, &str>(at + 3) {
-            "lf" => Which::Lf,
-            _ => Which::Hf,
-        };
+        let key = r.get::<_, &str>(at + 3);
+        let which = Role::from_key(key).ok_or_else(|| {
+            format!("savme.runs row {id}: role {key:?} is neither \"hf\" nor \"lf\"")
+        })?;
         Ok(Task {
             stage: r.get::<_, &str>(at + 1).into(),
             trial: r.get::<_, i64>(at + 2) as u64,

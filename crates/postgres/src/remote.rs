@@ -18,8 +18,9 @@
 
 use crate::locked::Locked;
 use crate::{queue, worker_command, Database, PostgresStore, Session};
-use savme_campaign::executor::{Done, RemoteRunner, Runner, Task, Which};
+use savme_campaign::executor::{Done, RemoteRunner, Runner, Task};
 use savme_campaign::CampaignError;
+use savme_kernel::Role;
 use std::collections::{HashMap, VecDeque};
 use std::sync::mpsc::{channel, RecvTimeoutError, Sender};
 use std::sync::{Arc, Mutex};
@@ -50,7 +51,7 @@ pub struct Remote {
     campaign: i32,
     name: String,
     /// Row id → the run, for runs submitted and not yet returned.
-    waiting: HashMap<i64, (u64, Which)>,
+    waiting: HashMap<i64, (u64, Role)>,
     /// Runs asked for since the last wait: queued together (one statement) before it.
     pending: Vec<Task>,
     ready: VecDeque<Done>,

@@ -278,7 +278,7 @@ fn work_thread<S: Simulator>(
         }
         lock(held).insert(run.id);
         let result = match &run.task {
-            Ok(t) => simulate(sim, t.which.role(), &t.scenario, &t.phi, &t.fidelity),
+            Ok(t) => simulate(sim, t.which, &t.scenario, &t.phi, &t.fidelity),
             Err(message) => Err(SimError::Failed(message.clone())),
         };
         // The result, and the next run, in one round trip (none once told to stop).

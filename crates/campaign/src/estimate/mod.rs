@@ -35,12 +35,13 @@ pub use settings::{
     resumed as settings_on_resume, EstimateError, EstimateSettings, MAX_RUNS, STOPPING_RULES,
 };
 
-use super::executor::{with_pool, Runner, Task, Which};
+use super::executor::{with_pool, Runner, Task};
 use super::store::{JsonlStore, TrialStore};
 use super::{CampaignError, Problem, Protocol};
 use crate::log::RunLine;
 use crate::source::CampaignSource;
 use savme_kernel::estimation::{Estimation, EstimationTrial, Nominal};
+use savme_kernel::Role;
 use savme_kernel::Simulator;
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
@@ -431,7 +432,7 @@ impl Running<'_, '_> {
                 pool.submit(Task {
                     stage: stage.clone(),
                     trial: t.id,
-                    which: Which::Hf,
+                    which: Role::High,
                     scenario: t.scenario.clone(),
                     phi: t.phi.clone(),
                     fidelity: self.theta_hf.clone(),

@@ -43,8 +43,7 @@ where
                     if stop.load(Ordering::Relaxed) {
                         break;
                     }
-                    let result =
-                        simulate(&mut sim, t.which.role(), &t.scenario, &t.phi, &t.fidelity);
+                    let result = simulate(&mut sim, t.which, &t.scenario, &t.phi, &t.fidelity);
                     let done = Done {
                         trial: t.trial,
                         which: t.which,

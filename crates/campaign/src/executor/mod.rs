@@ -17,33 +17,6 @@ use std::collections::VecDeque;
 use std::panic::AssertUnwindSafe;
 use std::sync::Arc;
 
-/// Which of a trial's two runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Which {
-    /// The high-fidelity run (θ_HF).
-    Hf,
-    /// The low-fidelity run (θ_LF).
-    Lf,
-}
-
-impl Which {
-    /// The simulator role of the run.
-    pub fn role(self) -> Role {
-        match self {
-            Which::Hf => Role::High,
-            Which::Lf => Role::Learned,
-        }
-    }
-
-    /// `hf` or `lf` (as stored in the task table).
-    pub fn key(self) -> &'static str {
-        match self {
-            Which::Hf => "hf",
-            Which::Lf => "lf",
-        }
-    }
-}
-
 /// One simulator run a stage wants.
 #[derive(Debug, Clone)]
 pub struct Task {
@@ -52,7 +25,7 @@ pub struct Task {
     /// The kernel's trial id.
     pub trial: u64,
     /// HF or LF.
-    pub which: Which,
+    pub which: Role,
     /// The scenario.
     pub scenario: Arc<str>,
     /// Its parameters φ.
@@ -67,7 +40,7 @@ pub struct Done {
     /// The kernel's trial id.
     pub trial: u64,
     /// HF or LF.
-    pub which: Which,
+    pub which: Role,
     /// The simulator's result or error.
     pub result: Result<SimResult, SimError>,
 }
@@ -169,13 +142,6 @@ pub struct StageContext<'a> {
     pub stop: &'a crate::Stop,
 }
 
-fn which_name(w: Which) -> &'static str {
-    match w {
-        Which::Hf => "HF",
-        Which::Lf => "LF",
-    }
-}
-
 /// Runs (or replays) one stage on `kernel` until it has told `stage.iterations` trials; calls
 /// `progress` after each told or screened trial (with the kernel that learnt from it) and
 /// returns the stage's lines (withdrawn trials included).
@@ -251,10 +217,10 @@ impl StageRun<'_, '_, '_> {
             None => {
                 if audit.is_none() {
                     let theta_hf = self.theta_hf.clone();
-                    self.send(&trial, Which::Hf, &theta_hf)?;
+                    self.send(&trial, Role::High, &theta_hf)?;
                 }
                 if let Some(theta) = &trial.theta_lf {
-                    self.send(&trial, Which::Lf, theta)?;
+                    self.send(&trial, Role::Learned, theta)?;
                 }
             }
         }
@@ -273,7 +239,7 @@ impl StageRun<'_, '_, '_> {
     fn send(
         &mut self,
         trial: &Trial,
-        which: Which,
+        which: Role,
         fidelity: &Assignment,
     ) -> Result<(), CampaignError> {
         let task = Task {
@@ -345,26 +311,26 @@ impl StageRun<'_, '_, '_> {
         };
         match done.result {
             Ok(r) => match done.which {
-                Which::Hf => slot.hf = Some(r),
-                Which::Lf => {
+                Role::High => slot.hf = Some(r),
+                Role::Learned => {
                     // Screening: an LF failure is confirmed on HF, an audited pass checked.
                     let confirm = slot.audit.is_some_and(|audit| r.failure || audit);
                     slot.lf = Some(r);
                     if confirm {
                         let (trial, theta_hf) = (slot.trial.clone(), self.theta_hf.clone());
-                        self.send(&trial, Which::Hf, &theta_hf)?;
+                        self.send(&trial, Role::High, &theta_hf)?;
                     }
                 }
             },
             Err(source) if self.cx.on_error == OnError::Skip => {
                 slot.error
-                    .get_or_insert(format!("{} run: {source}", which_name(done.which)));
+                    .get_or_insert(format!("{} run: {source}", done.which.name()));
             }
             Err(source) => {
                 return Err(simulation_error(
                     &self.label,
                     &slot.trial,
-                    which_name(done.which),
+                    done.which.name(),
                     source,
                 ))
             }
