@@ -28,6 +28,10 @@ pub struct Args {
     /// Seconds to wait for the campaign's coordinator to create the campaign.
     #[arg(long, value_name = "SECONDS", default_value_t = 600.0)]
     wait: f64,
+    /// No progress messages (waiting for the campaign, the closing count); warnings and
+    /// errors still go to standard error.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {
@@ -53,7 +57,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         lease: seconds("lease", a.lease)?,
         wait_for_campaign: seconds("wait", a.wait)?,
     };
-    let label = simulator_label(&db, &name, options.wait_for_campaign)?;
+    let label = simulator_label(&db, &name, options.wait_for_campaign, a.quiet)?;
     let report = match (named_simulator(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
         (None, Some(file)) => match fmu_simulator(file, &name, &label)? {
@@ -74,6 +78,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
         }
     }
     .map_err(|e| e.to_string())?;
+    if a.quiet {
+        return Ok(());
+    }
     eprintln!(
         "savme worker: campaign {name:?} finished; this worker ran {} runs ({} finished after their lease expired and were dropped)",
         report.runs, report.dropped
@@ -111,11 +118,12 @@ fn simulator_label(
     db: &savme::postgres::Database,
     name: &str,
     patience: Duration,
+    quiet: bool,
 ) -> Result<String, String> {
     let mut s =
         super::connecting(db, || Session::connect(db, "worker")).map_err(|e| e.to_string())?;
     let start = std::time::Instant::now();
-    let mut said = false;
+    let mut said = quiet;
     loop {
         let label: Option<String> = s
             .run(|c| stored_simulator(c, name))

@@ -599,6 +599,32 @@ pub fn format_seconds(s: f64) -> String {
     }
 }
 
+/// A probability as a person reads it: two significant digits (`0.081`, `0.22`, `0.00084`,
+/// `0`), and below 0.0001 in scientific notation (`2.0e-6`); the raw value is in the JSON
+/// outputs.
+///
+/// ```
+/// use savme_campaign::report::format_probability;
+/// assert_eq!(format_probability(8.065e-2), "0.081");
+/// assert_eq!(format_probability(2.164e-1), "0.22");
+/// assert_eq!(format_probability(0.0), "0");
+/// assert_eq!(format_probability(1.0), "1.0");
+/// assert_eq!(format_probability(8.4e-4), "0.00084");
+/// assert_eq!(format_probability(2.04e-6), "2.0e-6");
+/// assert_eq!(format_probability(f64::NAN), "—");
+/// ```
+pub fn format_probability(x: f64) -> String {
+    match x {
+        x if !x.is_finite() => "—".into(),
+        0.0 => "0".into(),
+        x if x.abs() < 1e-4 => format!("{x:.1e}"),
+        x => {
+            let digits = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+            format!("{x:.digits$}")
+        }
+    }
+}
+
 fn format_value(var: &savme_kernel::Variable, v: &savme_kernel::Value, with_bin: bool) -> String {
     match (v.as_f64(), var.arm_of(v).and_then(|a| var.bin(a))) {
         (Some(x), Some((lo, hi))) if with_bin => format!("{} [{}, {}]", sig(x), sig(lo), sig(hi)),

@@ -95,7 +95,7 @@ impl EstimateProgress<'_> {
     /// };
     /// assert_eq!(
     ///     p.line(),
-    ///     "estimate: 17000 of at most 200000 HF runs; P(failure) = 2.000e-3 ± 9.8 % from 5000 runs (400 failures); 12 s elapsed"
+    ///     "estimate: 17000 of at most 200000 HF runs; P(failure) = 0.0020 ± 9.8 % from 5000 runs (400 failures); 12 s elapsed"
     /// );
     /// ```
     pub fn line(&self) -> String {
@@ -104,8 +104,8 @@ impl EstimateProgress<'_> {
             Some((r, rounds)) => format!("cross-entropy pilot round {} of {rounds}", r + 1),
             None if e.failures == 0 => format!("no failure yet in {} runs", e.runs),
             None => format!(
-                "P(failure) = {:.3e} ± {:.1} % from {} runs ({} failures)",
-                e.total.mean,
+                "P(failure) = {} ± {:.1} % from {} runs ({} failures)",
+                crate::report::format_probability(e.total.mean),
                 100.0 * e.total.relative_half_width(),
                 e.runs,
                 e.failures

@@ -143,7 +143,8 @@ pub(crate) const ESTIMATE_LEGEND: &str = "±: the 95 % interval's half-width rel
 estimate (what --target-width bounds). ESS: Kish's effective sample size (Σw)²/Σw² of the \
 scenario's runs; failure ESS: the same over its failures' weights (how many equally weighted \
 failures the estimate rests on). Mean weight: the mean of w = p(φ)/q(φ), 1 in expectation (far \
-from 1: the proposal misses part of the nominal). docs/ESTIMATION.md explains the estimator.";
+from 1: the proposal misses part of the nominal). Probabilities are rounded to two significant \
+digits; summary.json holds the raw values. docs/ESTIMATION.md explains the estimator.";
 
 impl EstimateOutcome {
     #[allow(clippy::too_many_arguments)] // the parts of one outcome, assembled in one place
@@ -232,18 +233,19 @@ impl EstimateOutcome {
                 "—".into()
             }
         };
+        let p = crate::report::format_probability;
         for s in &e.scenarios {
             let i = &s.estimate;
             let _ = writeln!(
                 t,
-                "| {} | {:.3} | {} | {} | {:.3e} | [{:.3e}, {:.3e}] | {} | {:.0} | {:.1} | {:.3} |",
+                "| {} | {:.3} | {} | {} | {} | [{}, {}] | {} | {:.0} | {:.1} | {:.3} |",
                 s.scenario,
                 s.probability,
                 s.runs,
                 s.failures,
-                i.mean,
-                i.lo,
-                i.hi,
+                p(i.mean),
+                p(i.lo),
+                p(i.hi),
                 pct(i.relative_half_width()),
                 s.ess,
                 s.failure_ess,
@@ -253,12 +255,12 @@ impl EstimateOutcome {
         let i = &e.total;
         let _ = writeln!(
             t,
-            "| **total (weighted by p(s))** | 1 | {} | {} | {:.3e} | [{:.3e}, {:.3e}] | {} | | | |",
+            "| **total (weighted by p(s))** | 1 | {} | {} | {} | [{}, {}] | {} | | | |",
             e.runs,
             e.failures,
-            i.mean,
-            i.lo,
-            i.hi,
+            p(i.mean),
+            p(i.lo),
+            p(i.hi),
             pct(i.relative_half_width())
         );
         let _ = write!(
@@ -292,6 +294,17 @@ impl EstimateOutcome {
         t
     }
 
+    /// `summary.json`'s text (what `savme estimate --json` prints): this outcome with its
+    /// `format_version` first.
+    pub fn summary_json(&self) -> String {
+        let mut summary = serde_json::Map::new();
+        summary.insert("format_version".into(), FORMAT_VERSION.into());
+        if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(self) {
+            summary.extend(fields);
+        }
+        serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n"
+    }
+
     /// Writes `summary.json` and `table.md` into the output directory.
     pub(crate) fn write(&self) -> Result<(), EstimateError> {
         let write = |name: &str, text: String| {
@@ -299,14 +312,7 @@ impl EstimateOutcome {
             savme_store::safe_file::write_file(&path, text.as_bytes())
                 .map_err(|e| CampaignError::io(&path, e))
         };
-        let mut summary = serde_json::to_value(self).unwrap_or_default();
-        if let Some(o) = summary.as_object_mut() {
-            o.insert("format_version".into(), FORMAT_VERSION.into());
-        }
-        write(
-            "summary.json",
-            serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
-        )?;
+        write("summary.json", self.summary_json())?;
         write(
             "table.md",
             format!(
