@@ -43,7 +43,7 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("fmu pack", "savme fmu pack --out savme-sim.fmu\n  savme fmu pack --fmi 3 --out savme-sim3.fmu"),
     ("fmu info", "savme fmu info model.fmu\n  savme fmu info model.fmu --json"),
     ("fmu validate", "savme fmu validate model.fmu\n  savme fmu validate model.fmu --json"),
-    ("simulate", "savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --fidelity simulation_rate_hz=2 --json"),
+    ("simulate", "savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --fidelity simulation_rate_hz=2 --json\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --perception ideal"),
     ("toy", "savme toy --out toy-results\n  savme toy --sleep-ms 20 --jobs 4 --quiet"),
     ("worker", "savme worker --storage-file db.url --campaign c1 --jobs 4"),
     ("completions", "savme completions bash > ~/.local/share/bash-completion/completions/savme\n  savme completions zsh > ~/.zfunc/_savme\n  savme completions fish > ~/.config/fish/completions/savme.fish"),

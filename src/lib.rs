@@ -8,6 +8,7 @@
 //!   [`compose`]: the composition layer the CLI and Python share;
 //!   `postgres`: campaigns in PostgreSQL (feature `postgres`);
 //! - [`viewer`]: recording to the rerun viewer (feature `rerun`);
+//! - [`json`]: the JSON documents the command line prints, and their schemas;
 //! - [`serve`]: the kernel behind a JSON-lines protocol, for harnesses in any language;
 //! - [`toy`]: a small paired simulator to try things on.
 //!
@@ -48,6 +49,7 @@ pub use savme_store as store;
 /// Recording to the rerun viewer (crate `savme-viewer`; the recorder needs feature `rerun`).
 pub use savme_viewer as viewer;
 pub mod compose;
+pub mod json;
 pub mod serve;
 
 /// The README's code, compiled and run as a doctest.

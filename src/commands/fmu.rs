@@ -56,7 +56,11 @@ pub fn run(c: Command) -> Result<(), String> {
         Command::Info { file, json } => {
             let info = savme_fmu::inspect::Info::read(&file).map_err(|e| e.to_string())?;
             let text = if json {
-                serde_json::to_string_pretty(&info).map_err(|e| e.to_string())? + "\n"
+                let doc = savme::json::FmuInfo {
+                    format_version: savme::json::FORMAT_VERSION,
+                    info,
+                };
+                serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n"
             } else {
                 info.text()
             };
@@ -79,11 +83,12 @@ fn validate(file: &Path, json: bool) -> Result<(), String> {
     }
     let shown = file.display().to_string();
     let text = if json {
-        let report = serde_json::json!({
-            "fmu": shown,
-            "valid": problems.is_empty(),
-            "problems": problems,
-        });
+        let report = savme::json::FmuValidation {
+            format_version: savme::json::FORMAT_VERSION,
+            fmu: shown.clone(),
+            valid: problems.is_empty(),
+            problems: problems.clone(),
+        };
         serde_json::to_string_pretty(&report).map_err(|e| e.to_string())? + "\n"
     } else if problems.is_empty() {
         format!("{shown}: valid — every check savme makes before a campaign passes\n")

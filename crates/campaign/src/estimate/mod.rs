@@ -30,7 +30,7 @@ mod output;
 mod posterior;
 mod settings;
 
-pub use output::{EstimateLine, EstimateOutcome, StopReason};
+pub use output::{EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
 pub use settings::{EstimateError, EstimateSettings, MAX_RUNS};
 
 use super::executor::{with_pool, Runner, Task, Which};

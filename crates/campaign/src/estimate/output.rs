@@ -88,6 +88,7 @@ impl EstimateLine {
 }
 
 /// Why an estimate stopped.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
@@ -98,6 +99,7 @@ pub enum StopReason {
 }
 
 /// A finished estimate.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Serialize)]
 pub struct EstimateOutcome {
     /// The settings it ran with.
@@ -136,6 +138,17 @@ pub struct EstimateOutcome {
     /// `table.md`'s text.
     #[serde(skip)]
     pub table_md: String,
+}
+
+/// `summary.json` of an estimate: its `format_version`, then the outcome's fields.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Serialize)]
+pub struct EstimateSummary<'a> {
+    /// The layout version of savme's JSON documents (1 for now; a script checks it).
+    pub format_version: u32,
+    /// The estimate.
+    #[serde(flatten)]
+    pub outcome: &'a EstimateOutcome,
 }
 
 /// What the estimate table's columns mean, written under it (`table.md`, printed).
@@ -294,14 +307,12 @@ impl EstimateOutcome {
         t
     }
 
-    /// `summary.json`'s text (what `savme estimate --json` prints): this outcome with its
-    /// `format_version` first.
+    /// `summary.json`'s text (what `savme estimate --json` prints): an [`EstimateSummary`].
     pub fn summary_json(&self) -> String {
-        let mut summary = serde_json::Map::new();
-        summary.insert("format_version".into(), FORMAT_VERSION.into());
-        if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(self) {
-            summary.extend(fields);
-        }
+        let summary = EstimateSummary {
+            format_version: FORMAT_VERSION,
+            outcome: self,
+        };
         serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n"
     }
 
