@@ -9,6 +9,7 @@
 //!   adapters (each registers itself);
 //!   `postgres`: campaigns in PostgreSQL (feature `postgres`);
 //! - [`viewer`]: recording to the rerun viewer (feature `rerun`);
+//! - [`json`]: the JSON documents the command line prints, and their schemas;
 //! - [`serve`]: the kernel behind a JSON-lines protocol, for harnesses in any language;
 //! - [`toy`]: a small paired simulator to try things on.
 //!
@@ -50,6 +51,7 @@ pub use savme_store as store;
 pub use savme_viewer as viewer;
 pub mod adapter;
 pub mod compose;
+pub mod json;
 pub mod serve;
 
 /// The README's code, compiled and run as a doctest.

@@ -1,15 +1,16 @@
 //! The `savme` command line: parses the flags (clap) and hands each subcommand to its module
 //! under `commands/`.
 mod commands;
+mod help;
 
-use clap::{Parser, Subcommand};
+use clap::{FromArgMatches, Parser, Subcommand};
 use commands::Failure;
 use std::process::ExitCode;
 
 #[derive(Parser)]
 #[command(
     name = "savme",
-    version,
+    version = help::VERSION,
     about = "Find the failures of an autonomous system in simulation, fast (SAVME).",
     after_help = "Exit status: 0 on success; 1 when running failed (a file, a simulator, the trial store, \
                   the output); 2 when the command line is wrong (an unknown flag, or a value savme \
@@ -53,17 +54,25 @@ enum Command {
     FmuWorker,
     /// Run one simulation on the bundled driving simulator.
     Simulate(commands::simulate::Args),
-    /// Run the paper's protocol on the toy simulator (fast; `--sleep-ms` or `--null` to try
-    /// and benchmark distribution).
+    /// Run the quick preset of the paper's protocol (one budget, fewer iterations) on the toy
+    /// simulator, a 1-D braking model that runs in microseconds (`--sleep-ms` or `--null` to
+    /// try and benchmark distribution).
+    #[command(after_help = commands::toy::defaults_help())]
     Toy(commands::toy::Args),
     /// Run the HF and LF runs of a campaign kept in PostgreSQL whose coordinator was started
     /// with --remote, on this host, until the campaign is finished.
     Worker(commands::worker::Args),
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions(commands::completions::CompletionArgs),
+    /// Print the man page savme(1), or write every subcommand's page with --out DIR.
+    Man(commands::completions::ManArgs),
 }
 
 fn main() -> ExitCode {
     // Each command fails with a message (a runtime failure) or a `Failure` that says which.
-    let result = match Cli::parse().command {
+    // The command line with its Examples and defaults (help.rs); parsed into `Cli`.
+    let cli = Cli::from_arg_matches(&help::command().get_matches()).unwrap_or_else(|e| e.exit());
+    let result = match cli.command {
         Command::Serve(a) => commands::serve::run(a),
         Command::ExampleConfig => commands::serve::example_config().map_err(Failure::from),
         Command::Scenarios(a) => commands::scenarios::run(a).map_err(Failure::from),
@@ -77,6 +86,10 @@ fn main() -> ExitCode {
         Command::Simulate(a) => commands::simulate::run(a),
         Command::Toy(a) => commands::toy::run(a),
         Command::Worker(a) => commands::worker::run(a),
+        Command::Completions(a) => {
+            commands::completions::completions(a, help::command()).map_err(Failure::from)
+        }
+        Command::Man(a) => commands::completions::man(a, help::command()).map_err(Failure::from),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -246,6 +246,81 @@ fn more_jobs_than_savme_starts_are_a_usage_error_not_an_abort() {
     }
 }
 
+/// `savme completions bash` completes the subcommands and their flags in a real bash; the zsh
+/// and fish scripts name them too (no zsh or fish on the test machine to run them in).
+#[test]
+fn shell_completions_complete_subcommands_and_flags() {
+    let (ok, bash, err) = savme(&["completions", "bash"]);
+    assert!(ok, "{err}");
+    let complete = |words: &str, cword: usize| -> String {
+        let script = format!(
+            "{bash}\nCOMP_WORDS=({words}); COMP_CWORD={cword}\n\
+             _savme savme \"${{COMP_WORDS[COMP_CWORD]}}\" \"${{COMP_WORDS[COMP_CWORD-1]}}\"\n\
+             printf '%s\\n' \"${{COMPREPLY[@]}}\""
+        );
+        let out = Command::new("bash")
+            .args(["--norc", "-c", &script])
+            .output()
+            .expect("bash");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let subcommands = complete("savme re", 1);
+    assert!(
+        subcommands.lines().any(|l| l == "reproduce"),
+        "{subcommands}"
+    );
+    let flags = complete("savme estimate --", 2);
+    for flag in ["--json", "--quiet", "--target-width", "--storage"] {
+        assert!(flags.lines().any(|l| l == flag), "{flag} not in {flags}");
+    }
+    for shell in ["zsh", "fish", "elvish", "powershell"] {
+        let (ok, script, err) = savme(&["completions", shell]);
+        assert!(ok, "{shell}: {err}");
+        for word in ["reproduce", "estimate", "target-width", "completions"] {
+            assert!(script.contains(word), "{shell}: no {word}");
+        }
+    }
+    let (ok, _, err) = savme(&["completions", "tcsh"]);
+    assert!(!ok && err.contains("tcsh"), "{err}");
+}
+
+/// `savme man` prints savme(1); `--out DIR` writes a page per subcommand, each with its
+/// Examples.
+#[test]
+fn man_pages_are_written_for_every_subcommand() {
+    let (ok, page, err) = savme(&["man"]);
+    assert!(ok, "{err}");
+    assert!(page.contains(".TH savme 1"), "{page}");
+    assert!(page.contains("reproduce") && page.contains("completions"));
+    let dir = std::env::temp_dir().join(format!("savme-man-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (ok, _, err) = savme(&["man", "--out", dir.to_str().unwrap()]);
+    let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
+    let (estimate, pack) = (read("savme-estimate.1"), read("savme-fmu-pack.1"));
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(ok, "{err}");
+    assert!(estimate.contains("target\\-width"), "{estimate}");
+    assert!(estimate.contains("Examples:"), "{estimate}");
+    assert!(pack.contains("savme fmu pack"), "{pack}");
+}
+
+/// `--version` names the commit it was built from and the enabled features.
+#[test]
+fn version_names_commit_and_features() {
+    let (ok, out, err) = savme(&["--version"]);
+    assert!(ok, "{err}");
+    assert!(out.starts_with("savme 0."), "{out}");
+    assert!(
+        out.contains("(commit ") && out.contains("features: postgres"),
+        "{out}"
+    );
+}
+
 #[test]
 fn a_campaign_file_no_adapter_reads_is_refused_naming_the_adapters() {
     let dir = std::env::temp_dir().join(format!("savme-cli-no-adapter-{}", std::process::id()));

@@ -1,4 +1,4 @@
-//! Export a Rust model as an FMI 2.0 co-simulation FMU.
+//! Export a Rust model as an FMI 2.0 or FMI 3.0 co-simulation FMU.
 //!
 //! A model implements [`Model`] (its variables, how it initialises from its parameters and how
 //! it steps); [`export_fmi2!`] then defines every function of the FMI 2.0 co-simulation C API

@@ -20,6 +20,7 @@ use std::collections::HashMap;
 
 /// A variable's type, as savme binds it (the same for FMI 2.0 and 3.0; [`Repr`] has the exact
 /// C type).
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum VarType {
     /// fmi2Real; FMI 3.0 Float64 or Float32.
@@ -38,6 +39,7 @@ pub enum VarType {
 
 /// The C type an FMU's get/set functions take for a variable: what `fmi2Get/SetReal` …
 /// or `fmi3Get/SetFloat64` … are called with.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum Repr {
     /// `double` (fmi2Real, fmi3Float64).
@@ -130,6 +132,7 @@ impl Repr {
 }
 
 /// A variable's causality.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "camelCase")]
 pub enum VarCausality {
@@ -165,6 +168,7 @@ impl VarCausality {
 }
 
 /// An item of an enumeration type.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
 pub struct EnumItem {
     /// Its name.
@@ -174,6 +178,7 @@ pub struct EnumItem {
 }
 
 /// A variable of the FMU.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct VarInfo {
     /// The 1-based line of its declaring element in `modelDescription.xml` (0: not parsed
@@ -225,6 +230,7 @@ pub struct VarInfo {
 }
 
 /// The `CoSimulation` element's attributes.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
 pub struct CoSimulation {
     /// The shared library's file stem.
@@ -254,6 +260,7 @@ pub struct CoSimulation {
 }
 
 /// `DefaultExperiment`.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct DefaultExperiment {
     /// `startTime`.
@@ -267,6 +274,7 @@ pub struct DefaultExperiment {
 }
 
 /// A parsed `modelDescription.xml`.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct ModelDescription {
     /// `fmiVersion`.

@@ -13,6 +13,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// An FMU as `savme fmu info` shows it.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Serialize)]
 pub struct Info {
     /// The `.fmu` path.

@@ -62,3 +62,8 @@ pub use search::{EliteMixture, SearchError, SearchModel};
 pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};
 pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
 pub use value::{Assignment, Value};
+
+/// The crate README's example, compiled and run as a doctest.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -112,6 +112,7 @@ impl Observation {
 }
 
 /// The class of a paired trial, with *failure* as the positive class.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum Outcome {
     /// Both runs failed.

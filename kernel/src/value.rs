@@ -17,6 +17,7 @@ use std::sync::Arc;
 /// assert_eq!(Value::from("low").to_string(), "low");
 /// assert!(Value::Int(2).same_as(&Value::Real(2.0)));
 /// ```
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Value {
@@ -255,6 +256,23 @@ impl Serialize for Assignment {
             map.serialize_entry(n, v)?;
         }
         map.end()
+    }
+}
+
+/// An object of named values (`{"ego_speed": 20.0, "road": "wet"}`).
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for Assignment {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "Assignment".into()
+    }
+
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let value = generator.subschema_for::<Value>();
+        schemars::json_schema!({
+            "description": "Values by variable name, in the space's order.",
+            "type": "object",
+            "additionalProperties": value
+        })
     }
 }
 

@@ -7,12 +7,12 @@ use savme_kernel::journal::{
 use savme_kernel::{Kernel, Observation, Phase, Run, TellError, Trial};
 
 fn obs(t: &Trial, i: u64) -> Observation {
-    let hf = Run::new(i % 3 == 0, 1.0 + (i % 5) as f64);
+    let hf = Run::new(i.is_multiple_of(3), 1.0 + (i % 5) as f64);
     match t.phase {
         Phase::Baseline => Observation::HfOnly(hf),
         _ => Observation::Paired {
             hf,
-            lf: Run::new(i % 4 == 0, 0.1 + (i % 7) as f64 / 10.0),
+            lf: Run::new(i.is_multiple_of(4), 0.1 + (i % 7) as f64 / 10.0),
         },
     }
 }

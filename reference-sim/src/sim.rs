@@ -394,6 +394,38 @@ impl DrivingSimulator {
         }
     }
 
+    /// The perception's name as the CLI and the outputs give it: `sensors` or `ideal`.
+    pub fn perception_name(&self) -> &'static str {
+        match self.perception {
+            PerceptionMode::Sensors => "sensors",
+            PerceptionMode::Ideal { .. } => "ideal",
+        }
+    }
+
+    /// The fidelity settings this simulator's perception never reads: with idealised
+    /// perception every camera and lidar setting (only `simulation_rate_hz` changes a run);
+    /// none with sensors.
+    ///
+    /// ```
+    /// use savme_sim::sim::DrivingSimulator;
+    /// assert!(DrivingSimulator::default().ignored_settings().is_empty());
+    /// let ignored = DrivingSimulator::ideal().ignored_settings();
+    /// assert_eq!(ignored.len(), 15);
+    /// assert!(!ignored.contains(&"simulation_rate_hz".to_string()));
+    /// assert!(ignored.contains(&"camera_disable_shadows".to_string()));
+    /// ```
+    pub fn ignored_settings(&self) -> Vec<String> {
+        match self.perception {
+            PerceptionMode::Sensors => Vec::new(),
+            PerceptionMode::Ideal { .. } => crate::fidelity::space(1)
+                .variables()
+                .iter()
+                .map(|v| v.name.to_string())
+                .filter(|n| n != "simulation_rate_hz")
+                .collect(),
+        }
+    }
+
     /// The run of one scenario, ready to step (what [`DrivingSimulator::run`] and the FMU
     /// export drive): the same set-up, perception and noise seed either way.
     pub fn stepper(

@@ -2,10 +2,13 @@
 //! from the campaign's trained posterior (see `savme::campaign::estimate`).
 
 use super::{usage, Failure};
-use savme::campaign::estimate::{parse_nominal, EstimateError, EstimateRun, EstimateSettings};
+use savme::campaign::estimate::{
+    parse_nominal, EstimateError, EstimateProgress, EstimateRun, EstimateSettings,
+};
 use savme::campaign::Problem;
 use savme::compose;
 use savme_kernel::estimation::Tilt;
+use std::io::IsTerminal;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -77,9 +80,67 @@ pub struct Args {
     /// Worker threads (default: one per core). Does not change the result.
     #[arg(long, value_parser = super::parse_jobs)]
     jobs: Option<usize>,
-    /// No progress lines on standard error.
+    /// Print summary.json (the estimate, its settings and costs; raw numbers) on standard
+    /// output instead of the table.
     #[arg(long)]
+    json: bool,
+    /// No progress output (a bar on a terminal, else a line about every 10 s on standard
+    /// error).
+    #[arg(long, short)]
     quiet: bool,
+}
+
+/// An estimate's progress on standard error: a bar on a terminal, else a line when it starts
+/// and about every 10 s; either way the last state as a final line (nothing with --quiet).
+struct Progress {
+    quiet: bool,
+    bar: Option<indicatif::ProgressBar>,
+    lines: Box<dyn FnMut(&EstimateProgress<'_>)>,
+    last: Option<String>,
+}
+
+impl Progress {
+    fn new(quiet: bool) -> Self {
+        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+            let bar = indicatif::ProgressBar::new(0);
+            if let Ok(style) = indicatif::ProgressStyle::with_template("[{bar:25}] {msg}") {
+                bar.set_style(style.progress_chars("=> "));
+            }
+            bar
+        });
+        Progress {
+            quiet,
+            bar,
+            lines: Box::new(compose::estimate_progress_lines(quiet)),
+            last: None,
+        }
+    }
+
+    fn show(&mut self, p: &EstimateProgress<'_>) {
+        if self.quiet {
+            return;
+        }
+        let line = p.line();
+        match &self.bar {
+            Some(bar) => {
+                bar.set_length(p.max_runs);
+                bar.set_position(p.told);
+                bar.set_message(line.clone());
+            }
+            None => (self.lines)(p),
+        }
+        self.last = Some(line);
+    }
+
+    /// The final line: where the estimate stopped.
+    fn finish(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+        if let Some(line) = self.last.take() {
+            eprintln!("{line}");
+        }
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -268,10 +329,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
         .protocol()
         .map_err(|e| Failure::Runtime(e.to_string()))?;
     let hint = resume_hint(&a);
+    let display = std::cell::RefCell::new(Progress::new(a.quiet));
     let configured = |problem: Problem| {
         let run = EstimateRun::new(place.source(), problem, settings.clone())
             .stop_on(super::signals::stop_on_signals(&hint))
-            .progress(compose::estimate_progress_lines(a.quiet))
+            .progress(|p| display.borrow_mut().show(p))
             .resume(a.resume)
             .given(given.iter().copied())
             .jobs(
@@ -295,16 +357,23 @@ pub fn run(a: Args) -> Result<(), Failure> {
             configured(Problem::from(savme_sim::problem(protocol.fidelity_bins))).run(&sim)
         }
     }
-    .map_err(|e| interrupted(e, &hint).unwrap_or_else(failure))?;
+    .map_err(|e| {
+        display.borrow_mut().finish();
+        interrupted(e, &hint).unwrap_or_else(failure)
+    })?;
+    display.borrow_mut().finish();
     for change in &outcome.changed_on_resume {
         eprintln!(
             "savme: resumed with a changed stopping rule (the runs drawn are the same): {change}"
         );
     }
+    if a.json {
+        return super::print(&outcome.summary_json()).map_err(Failure::Runtime);
+    }
     super::print(&format!(
         "{}\nwritten to {}\n",
         outcome.table_md,
-        outcome.out.display()
+        super::shown_path(&outcome.out)
     ))
     .map_err(Failure::Runtime)
 }

@@ -7,7 +7,7 @@ use super::Failure;
 use savme::campaign::log::LogLine;
 use savme::campaign::report::failures::{as_flag, found_failures, hf_runs, Filter, FoundFailure};
 use savme::campaign::{CampaignError, Protocol};
-use savme::compose::{Place, SENSORS};
+use savme::compose::{Place, IDEAL, SENSORS};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -26,8 +26,9 @@ pub struct Args {
     /// Only the failures of this scenario; repeatable.
     #[arg(long = "scenario", value_name = "NAME")]
     scenarios: Vec<String>,
-    /// One JSON object per failure and line (stage, index, id, scenario, phi, theta_lf,
-    /// lf_failure, outcome, hf_runtime, replay).
+    /// One JSON object per failure and line (format_version, stage, index, id, scenario, phi,
+    /// theta_lf, lf_failure, outcome, hf_runtime, replay, replay_unavailable; schema:
+    /// docs/schemas/failures-line.schema.json).
     #[arg(long)]
     json: bool,
 }
@@ -87,20 +88,31 @@ pub fn run(a: Args) -> Result<(), Failure> {
         scenarios: a.scenarios,
     };
     let found = found_failures(&lines, &filter);
-    // Only the bundled camera/lidar simulator is what `savme simulate` runs.
+    // `savme simulate` runs the bundled simulator, with either perception.
+    let perception = match protocol.simulator.as_str() {
+        SENSORS => Some(""),
+        IDEAL => Some(" --perception ideal"),
+        _ => None,
+    };
     let replay = |f: &FoundFailure| {
-        (protocol.simulator == SENSORS).then(|| {
+        perception.map(|p| {
             format!(
-                "savme simulate --scenario {} --phi {}",
+                "savme simulate --scenario {} --phi {}{p}",
                 f.scenario,
                 as_flag(&f.phi)
             )
         })
     };
+    let unavailable = perception.is_none().then(|| {
+        format!(
+            "the campaign ran simulator `{}`; `savme simulate` replays only the bundled driving simulator's runs ({SENSORS}, {IDEAL})",
+            protocol.simulator
+        )
+    });
     let text = if a.json {
-        json_lines(&found, replay)?
+        json_lines(&found, replay, unavailable.as_deref())?
     } else {
-        table(&found, hf_runs, &place, replay)
+        table(&found, hf_runs, &place, replay, unavailable.as_deref())
     };
     super::print(&text).map_err(Failure::Runtime)
 }
@@ -108,11 +120,17 @@ pub fn run(a: Args) -> Result<(), Failure> {
 fn json_lines(
     found: &[FoundFailure],
     replay: impl Fn(&FoundFailure) -> Option<String>,
+    unavailable: Option<&str>,
 ) -> Result<String, Failure> {
     let mut out = String::new();
     for f in found {
-        let mut v = serde_json::to_value(f).map_err(|e| Failure::Runtime(e.to_string()))?;
-        v["replay"] = replay(f).into();
+        let line = savme::json::FailureLine {
+            format_version: savme::json::FORMAT_VERSION,
+            failure: f.clone(),
+            replay: replay(f),
+            replay_unavailable: unavailable.map(str::to_string),
+        };
+        let v = serde_json::to_string(&line).map_err(|e| Failure::Runtime(e.to_string()))?;
         let _ = writeln!(out, "{v}");
     }
     Ok(out)
@@ -123,12 +141,16 @@ fn table(
     hf_runs: usize,
     place: &str,
     replay: impl Fn(&FoundFailure) -> Option<String>,
+    unavailable: Option<&str>,
 ) -> String {
     let mut out = format!(
         "{} HF failures in {} (of {hf_runs} HF runs in all its stages)\n",
         found.len(),
         place
     );
+    if let (Some(why), false) = (unavailable, found.is_empty()) {
+        let _ = writeln!(out, "(no replay commands: {why})");
+    }
     for f in found {
         let lf = match f.lf_failure {
             Some(true) => "LF failed too",

@@ -15,7 +15,8 @@ pub enum Command {
         /// The FMI version: 2 (FMI 2.0) or 3 (FMI 3.0; binaries/<arch>-<os>/).
         #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
         fmi: u8,
-        /// The simulator's shared library (default: found next to this binary).
+        /// The simulator's shared library (libsavme_sim_fmu.so) [default: $SAVME_SIM_FMU_LIBRARY,
+        /// else found beside this binary: next to it or in ../lib/savme/; see docs/INSTALL.md].
         #[arg(long)]
         library: Option<PathBuf>,
     },
@@ -56,7 +57,11 @@ pub fn run(c: Command) -> Result<(), String> {
         Command::Info { file, json } => {
             let info = savme_fmu::inspect::Info::read(&file).map_err(|e| e.to_string())?;
             let text = if json {
-                serde_json::to_string_pretty(&info).map_err(|e| e.to_string())? + "\n"
+                let doc = savme::json::FmuInfo {
+                    format_version: savme::json::FORMAT_VERSION,
+                    info,
+                };
+                serde_json::to_string_pretty(&doc).map_err(|e| e.to_string())? + "\n"
             } else {
                 info.text()
             };
@@ -79,11 +84,12 @@ fn validate(file: &Path, json: bool) -> Result<(), String> {
     }
     let shown = file.display().to_string();
     let text = if json {
-        let report = serde_json::json!({
-            "fmu": shown,
-            "valid": problems.is_empty(),
-            "problems": problems,
-        });
+        let report = savme::json::FmuValidation {
+            format_version: savme::json::FORMAT_VERSION,
+            fmu: shown.clone(),
+            valid: problems.is_empty(),
+            problems: problems.clone(),
+        };
         serde_json::to_string_pretty(&report).map_err(|e| e.to_string())? + "\n"
     } else if problems.is_empty() {
         format!("{shown}: valid — every check savme makes before a campaign passes\n")
@@ -135,15 +141,26 @@ fn library_problems(file: &Path) -> Result<Vec<String>, String> {
     )])
 }
 
-/// Where the bundled simulator's FMU library is: given, or next to the savme binary (cargo
-/// builds it there as `deps/libsavme_sim_fmu.so`).
+/// The environment variable that names the bundled simulator's FMU library.
+pub const LIBRARY_VAR: &str = "SAVME_SIM_FMU_LIBRARY";
+
+/// Where the bundled simulator's FMU library is: given (`--library`), named by
+/// `SAVME_SIM_FMU_LIBRARY`, or installed beside the savme binary — next to it (cargo builds it
+/// there as `deps/libsavme_sim_fmu.so`) or in `../lib/savme/` (the layout docs/INSTALL.md
+/// describes for an installed binary: `PREFIX/bin/savme`, `PREFIX/lib/savme/`).
 fn find_library(given: Option<&Path>) -> Result<PathBuf, String> {
-    if let Some(p) = given {
-        return if p.exists() {
+    let named = |p: &Path, by: &str| {
+        if p.is_file() {
             Ok(p.to_path_buf())
         } else {
-            Err(format!("{}: no such library", p.display()))
-        };
+            Err(format!("{}: no such library ({by})", p.display()))
+        }
+    };
+    if let Some(p) = given {
+        return named(p, "--library");
+    }
+    if let Some(p) = std::env::var_os(LIBRARY_VAR).filter(|v| !v.is_empty()) {
+        return named(Path::new(&p), LIBRARY_VAR);
     }
     let name = format!(
         "{}{}{}",
@@ -153,21 +170,28 @@ fn find_library(given: Option<&Path>) -> Result<PathBuf, String> {
     );
     let exe = std::env::current_exe().map_err(|e| e.to_string())?;
     let dir = exe.parent().unwrap_or(Path::new("."));
+    let installed = dir.parent().unwrap_or(dir).join("lib").join("savme");
     let candidates = [
         dir.join(&name),
         dir.join("deps").join(&name),
         dir.join("..").join(&name),
+        installed.join(&name),
     ];
-    candidates
-        .iter()
-        .find(|p| p.exists())
-        .cloned()
-        .ok_or_else(|| {
-            format!(
-                "{name} not found next to {} (build it with `cargo build --release -p savme-sim-fmu`, or give --library PATH)",
-                exe.display()
-            )
-        })
+    candidates.iter().find(|p| p.is_file()).cloned().ok_or_else(|| {
+        format!(
+            "the bundled simulator's FMU library {name} is not installed beside {} (looked in {}); \
+             `cargo install` installs only the binary: build the library with `cargo build --release \
+             -p savme-sim-fmu` and copy target/release/{name} to {}, or give --library PATH \
+             (or set {LIBRARY_VAR}) — docs/INSTALL.md",
+            exe.display(),
+            candidates
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            installed.display()
+        )
+    })
 }
 
 /// Writes the bundled simulator as an `.fmu` of FMI version `fmi` (2 or 3): the same library

@@ -2,6 +2,7 @@
 //! (one override chain for every campaign command), the runner flags (jobs, quiet, recording),
 //! running a campaign with its observers, and printing.
 
+pub mod completions;
 pub mod estimate;
 pub mod failures;
 pub mod fidelity;
@@ -476,7 +477,7 @@ where
 {
     let hint = match &target.store {
         Some(_) => "continue with the same --storage and --campaign and --resume".to_string(),
-        None => format!("continue with --resume {}", target.out.display()),
+        None => format!("continue with --resume {}", shown_path(&target.out)),
     };
     let target_in_database = target.store.is_some();
     let mut campaign = Campaign::new(protocol.clone(), problem.clone())
@@ -556,7 +557,7 @@ where
             &format!("seed {seed}: "),
         ))]
     };
-    let hint = format!("continue with --resume {}", target.out.display());
+    let hint = format!("continue with --resume {}", shown_path(&target.out));
     let mut repeated = Repeated::new(protocol, problem, repeat)
         .out(target.out)
         .resume(target.resume)
@@ -587,7 +588,7 @@ fn repeated_text(o: &RepeatedOutcome) -> String {
         o.runs.len(),
         replayed + ran,
         o.elapsed_seconds,
-        o.out.display()
+        shown_path(&o.out)
     );
     s
 }
@@ -638,9 +639,24 @@ pub fn summary_text(o: &CampaignOutcome, problem: &Problem) -> String {
         o.outputs
             .table
             .parent()
-            .map_or_else(|| ".".into(), |p| p.display().to_string())
+            .map_or_else(|| ".".into(), shown_path)
     );
     s
+}
+
+/// `path` as a person would write it: resolved (no `..`, no `.`, links followed) and relative
+/// to the working directory when inside it (`examples/fmu/../../out` is `out`); as given when it
+/// does not exist.
+pub fn shown_path(path: &std::path::Path) -> String {
+    let Ok(real) = path.canonicalize() else {
+        return path.display().to_string();
+    };
+    let cwd = std::env::current_dir().and_then(|d| d.canonicalize());
+    match cwd.as_ref().map(|cwd| real.strip_prefix(cwd)) {
+        Ok(Ok(rel)) if rel.as_os_str().is_empty() => ".".into(),
+        Ok(Ok(rel)) => rel.display().to_string(),
+        _ => real.display().to_string(),
+    }
 }
 
 /// Writes to stdout; a closed pipe (`savme scenarios | head`) is not an error.

@@ -117,7 +117,7 @@ fn run_estimate_stage(
     let hint = format!(
         "continue with savme run --config {} --resume {}",
         config.display(),
-        stage.out.display()
+        super::shown_path(&stage.out)
     );
     stage.stop = super::signals::stop_on_signals(&hint);
     let outcome = stage
@@ -132,7 +132,7 @@ fn run_estimate_stage(
     super::print(&format!(
         "{}\nestimate written to {}\n",
         outcome.table_md,
-        outcome.out.display()
+        super::shown_path(&outcome.out)
     ))
     .map_err(Failure::Runtime)
 }

@@ -18,11 +18,22 @@ pub struct Args {
     /// Fidelity: `hf`, or name=value,… overriding θ_HF (e.g. simulation_rate_hz=2).
     #[arg(long, default_value = "hf")]
     fidelity: String,
-    /// Print the result as JSON.
+    /// Perception of the system under test: camera + lidar (the paper's), or idealised (blind
+    /// to every fidelity setting but simulation_rate_hz; what `--perception ideal` campaigns
+    /// run).
+    #[arg(long, value_enum, default_value = "sensors")]
+    perception: Perception,
+    /// Print the result as JSON (schema: docs/schemas/simulate.schema.json).
     #[arg(long)]
     json: bool,
     #[command(flatten)]
     record: super::RecordArgs,
+}
+
+#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
+enum Perception {
+    Sensors,
+    Ideal,
 }
 
 /// Runs the simulation once — with recording on when a recording is asked for (then the HF
@@ -42,14 +53,29 @@ pub fn run(a: Args) -> Result<(), Failure> {
     scenario::phi_space(info)
         .arms_of(&phi)
         .map_err(|e| usage(format!("--phi: scenario {} ({}): {e}", info.id, info.name)))?;
+    let sim = match a.perception {
+        Perception::Sensors => DrivingSimulator::default(),
+        Perception::Ideal => DrivingSimulator::ideal(),
+    };
+    if record && a.perception == Perception::Ideal {
+        return Err(usage(
+            "--perception ideal has no sensor frames to record: record with the default perception (sensors)",
+        ));
+    }
     let r = if record {
         savme::viewer::record_run(&request, info.name, &phi, &theta).map_err(|e| e.to_string())?
     } else {
-        DrivingSimulator::default()
-            .run(info.name, &phi, &theta, false)
+        sim.run(info.name, &phi, &theta, false)
             .map_err(|e| format!("scenario {} ({}): {e}", info.id, info.name))?
     };
-    Ok(super::print(&describe(info, &phi, &theta, &r, a.json))?)
+    let run = Described {
+        info,
+        sim: &sim,
+        phi: &phi,
+        theta: &theta,
+        result: &r,
+    };
+    Ok(super::print(&if a.json { run.json() } else { run.text() })?)
 }
 
 /// Parses `name=value,name=value` into an assignment. Values read as integers, then reals,
@@ -110,41 +136,61 @@ fn parse_fidelity(text: &str) -> Result<Assignment, String> {
     Ok(theta)
 }
 
-/// Describes a run (or gives it as JSON).
-fn describe(
-    info: &scenario::ScenarioInfo,
-    phi: &Assignment,
-    theta: &Assignment,
-    r: &RunResult,
-    json: bool,
-) -> String {
-    if json {
-        let out = serde_json::json!({
-            "scenario": info.name,
-            "phi": phi,
-            "fidelity": theta,
-            "failure": r.failure,
-            "collision_time_s": r.collision_time,
-            "min_distance_m": r.min_distance,
-            "steps": r.steps,
-            "work": r.work,
-            "wall_seconds": r.wall_seconds,
-        });
-        return format!("{out}\n");
+/// A run to print.
+struct Described<'a> {
+    info: &'a scenario::ScenarioInfo,
+    sim: &'a DrivingSimulator,
+    phi: &'a Assignment,
+    theta: &'a Assignment,
+    result: &'a RunResult,
+}
+
+impl Described<'_> {
+    /// `savme simulate --json` ([`savme::json::Simulation`]).
+    fn json(&self) -> String {
+        let r = self.result;
+        let doc = savme::json::Simulation {
+            format_version: savme::json::FORMAT_VERSION,
+            scenario: self.info.name.to_string(),
+            perception: self.sim.perception_name().to_string(),
+            phi: self.phi.clone(),
+            fidelity: self.theta.clone(),
+            ignored_settings: self.sim.ignored_settings(),
+            failure: r.failure,
+            collision_time_s: r.collision_time,
+            min_distance_m: r.min_distance,
+            steps: r.steps,
+            work: r.work,
+            wall_seconds: r.wall_seconds,
+        };
+        serde_json::to_string(&doc).unwrap_or_default() + "\n"
     }
-    let outcome = match r.collision_time {
-        Some(t) => format!("COLLISION at {t:.2} s"),
-        None => format!("no collision, minimum distance {:.2} m", r.min_distance),
-    };
-    format!(
-        "scenario {} {}: {phi}\nfidelity: {theta}\noutcome: {outcome}\n\
-         cost: {:.3} ms wall-clock, {} work units ({} steps)\n",
-        info.id,
-        info.name,
-        r.wall_seconds * 1e3,
-        r.work,
-        r.steps
-    )
+
+    /// The text: scenario, perception, fidelity, outcome, cost.
+    fn text(&self) -> String {
+        let (r, info) = (self.result, self.info);
+        let outcome = match r.collision_time {
+            Some(t) => format!("COLLISION at {t:.2} s"),
+            None => format!("no collision, minimum distance {:.2} m", r.min_distance),
+        };
+        let perception = match self.sim.perception_name() {
+            "ideal" => {
+                "idealised (ground truth; ignores every fidelity setting but simulation_rate_hz)"
+            }
+            _ => "camera + lidar",
+        };
+        format!(
+            "scenario {} {}: {}\nperception: {perception}\nfidelity: {}\noutcome: {outcome}\n\
+             cost: {:.3} ms wall-clock, {} work units ({} steps)\n",
+            info.id,
+            info.name,
+            self.phi,
+            self.theta,
+            r.wall_seconds * 1e3,
+            r.work,
+            r.steps
+        )
+    }
 }
 
 #[cfg(test)]

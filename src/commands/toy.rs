@@ -37,6 +37,33 @@ pub struct Args {
     runner: RunnerArgs,
 }
 
+/// The end of `savme toy --help`: the protocol it runs without protocol flags (the quick
+/// preset on the toy scenarios), read from the preset itself.
+pub fn defaults_help() -> String {
+    match config::toy(config::TOY, &Default::default()) {
+        Ok((p, _)) => {
+            let budgets: Vec<String> = p.budgets.iter().map(f64::to_string).collect();
+            format!(
+                "Without protocol flags: the quick preset — seed {}, budgets {}; per budget {} \
+                 meta-training iterations, {} evaluation trials and {} meta-testing iterations per \
+                 prior; baselines of {} and {} trials ({} trials in all); meta-training on {}, \
+                 meta-testing on {}. Each protocol flag overrides one of these values.",
+                p.seed,
+                budgets.join(","),
+                p.train_iterations,
+                p.eval_iterations,
+                p.test_iterations,
+                p.baseline_train_iterations,
+                p.baseline_test_iterations,
+                p.total_trials(),
+                p.train_scenarios.join(", "),
+                p.test_scenarios.join(", ")
+            )
+        }
+        Err(e) => format!("(the toy preset does not build: {e})"),
+    }
+}
+
 /// The longest `--sleep-ms` a run may take: one hour (a larger value would make a run that
 /// never ends in practice; 2⁶⁴ − 1 ms is 585 million years).
 pub const MAX_SLEEP_MS: u64 = 3_600_000;

@@ -34,6 +34,10 @@ pub struct Args {
     /// resumes the campaign). The worker says so on stderr within seconds.
     #[arg(long, value_name = "SECONDS", default_value_t = 120.0)]
     grace: f64,
+    /// No progress messages (waiting for the campaign, the closing count); warnings and
+    /// errors still go to standard error.
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 pub fn run(a: Args) -> Result<(), Failure> {
@@ -74,7 +78,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         stop,
         grace: seconds("grace", a.grace)?,
     };
-    let Some(label) = simulator_label(&db, &name, &options)? else {
+    let Some(label) = simulator_label(&db, &name, &options, a.quiet)? else {
         return Err(Failure::Interrupted(format!(
             "worker stopped ({}) while waiting for campaign {name:?} to be started; {again}",
             super::signals::received_name()
@@ -107,6 +111,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
             report.runs,
             report.dropped
         )));
+    }
+    if a.quiet {
+        return Ok(());
     }
     eprintln!(
         "savme worker: campaign {name:?} finished; this worker ran {} runs ({} finished after their lease expired and were dropped)",
@@ -146,12 +153,13 @@ fn simulator_label(
     db: &savme::postgres::Database,
     name: &str,
     options: &WorkerOptions,
+    quiet: bool,
 ) -> Result<Option<String>, String> {
     let patience = options.wait_for_campaign;
     let mut s =
         super::connecting(db, || Session::connect(db, "worker")).map_err(|e| e.to_string())?;
     let start = std::time::Instant::now();
-    let mut said = false;
+    let mut said = quiet;
     loop {
         let label: Option<String> = s
             .run(|c| stored_simulator(c, name))

@@ -355,13 +355,14 @@ impl Report {
             s,
             "Evaluation: {} trials per budget with θ_LF = MAP of p_ω and φ ~ p_ψ, after {} \
              meta-training iterations on {}. Baseline: {} trials with φ uniform, \
-             high fidelity only. Cost: {}. Seed {}.\n",
+             high fidelity only. Cost: {}. Seed {}. {}\n",
             p.eval_iterations,
             p.train_iterations,
             scenarios(p.train_scenarios.len()),
             p.baseline_train_iterations,
             cost_name(p.cost),
-            p.seed
+            p.seed,
+            simulated(p)
         );
         let _ = writeln!(
             s,
@@ -418,7 +419,8 @@ impl Report {
         let _ = writeln!(
             s,
             "θ_LF* = MAP of p_ω after meta-training, per budget. Continuous settings show the \
-             representative value of the chosen bin, with the bin in brackets.\n"
+             representative value of the chosen bin, with the bin in brackets. {}\n",
+            simulated(&self.protocol)
         );
         let _ = write!(s, "| setting | θ_HF |");
         for b in &self.budgets {
@@ -435,7 +437,11 @@ impl Report {
             let hf = theta_hf
                 .get(name)
                 .map_or("–".into(), |v| format_value(var, v, false));
-            let _ = write!(s, "| {name} | {hf} |");
+            if ignored(&self.protocol, name) {
+                let _ = write!(s, "| {name} (ignored: not learned) | {hf} |");
+            } else {
+                let _ = write!(s, "| {name} | {hf} |");
+            }
             for b in &self.budgets {
                 let v = b
                     .evaluation
@@ -555,6 +561,32 @@ fn scenarios(n: usize) -> String {
     format!("{n} scenario{}", if n == 1 { "" } else { "s" })
 }
 
+/// The bundled simulator with idealised perception (`savme reproduce --perception ideal`).
+pub const IDEAL_SIMULATOR: &str = "savme-sim/ideal";
+/// The only fidelity setting idealised perception reads (the simulation rate); it ignores
+/// every camera and lidar setting.
+pub const IDEAL_READS: &str = "simulation_rate_hz";
+
+/// What ran the trials, in words: the simulator and, for the bundled one, its perception.
+fn simulated(p: &Protocol) -> String {
+    match p.simulator.as_str() {
+        IDEAL_SIMULATOR => format!(
+            "Simulator: `{IDEAL_SIMULATOR}` — idealised perception (ground truth with noise): it \
+             reads only {IDEAL_READS}, so the camera and lidar settings change nothing and their \
+             learned values are arbitrary (fidelity.md marks them)."
+        ),
+        "savme-sim/sensors" => {
+            "Simulator: `savme-sim/sensors` — camera + lidar perception (the paper's).".into()
+        }
+        other => format!("Simulator: `{other}`."),
+    }
+}
+
+/// Whether the campaign's simulator ignores fidelity setting `name`.
+fn ignored(p: &Protocol, name: &str) -> bool {
+    p.simulator == IDEAL_SIMULATOR && name != IDEAL_READS
+}
+
 fn cost_name(c: Cost) -> &'static str {
     match c {
         Cost::Wall => "measured wall-clock time",
@@ -599,6 +631,32 @@ pub fn format_seconds(s: f64) -> String {
     }
 }
 
+/// A probability as a person reads it: two significant digits (`0.081`, `0.22`, `0.00084`,
+/// `0`), and below 0.0001 in scientific notation (`2.0e-6`); the raw value is in the JSON
+/// outputs.
+///
+/// ```
+/// use savme_campaign::report::format_probability;
+/// assert_eq!(format_probability(8.065e-2), "0.081");
+/// assert_eq!(format_probability(2.164e-1), "0.22");
+/// assert_eq!(format_probability(0.0), "0");
+/// assert_eq!(format_probability(1.0), "1.0");
+/// assert_eq!(format_probability(8.4e-4), "0.00084");
+/// assert_eq!(format_probability(2.04e-6), "2.0e-6");
+/// assert_eq!(format_probability(f64::NAN), "—");
+/// ```
+pub fn format_probability(x: f64) -> String {
+    match x {
+        x if !x.is_finite() => "—".into(),
+        0.0 => "0".into(),
+        x if x.abs() < 1e-4 => format!("{x:.1e}"),
+        x => {
+            let digits = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+            format!("{x:.digits$}")
+        }
+    }
+}
+
 fn format_value(var: &savme_kernel::Variable, v: &savme_kernel::Value, with_bin: bool) -> String {
     match (v.as_f64(), var.arm_of(v).and_then(|a| var.bin(a))) {
         (Some(x), Some((lo, hi))) if with_bin => format!("{} [{}, {}]", sig(x), sig(lo), sig(hi)),
@@ -618,6 +676,35 @@ fn sig(x: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::{Protocol, Report, TABLE_III_LEGEND};
+
+    #[test]
+    fn the_perception_is_stated_and_the_settings_it_ignores_are_marked() {
+        let space = savme_kernel::Space::new(vec![
+            savme_kernel::Variable::discrete("simulation_rate_hz", [2, 10]),
+            savme_kernel::Variable::boolean("camera_disable_shadows"),
+        ])
+        .unwrap();
+        let hf = savme_kernel::Assignment::new()
+            .with("simulation_rate_hz", 10)
+            .with("camera_disable_shadows", false);
+        let ideal = Protocol::quick(super::IDEAL_SIMULATOR, vec!["a".into()], vec!["b".into()]);
+        let r = Report::from_trials(&ideal, &[]);
+        assert!(
+            r.table_md().contains("idealised perception"),
+            "{}",
+            r.table_md()
+        );
+        let f = r.fidelity_md(&space, &hf);
+        assert!(
+            f.contains("| camera_disable_shadows (ignored: not learned) |"),
+            "{f}"
+        );
+        assert!(f.contains("| simulation_rate_hz |"), "{f}");
+        let sensors = Protocol::quick("savme-sim/sensors", vec!["a".into()], vec!["b".into()]);
+        let r = Report::from_trials(&sensors, &[]);
+        assert!(r.table_md().contains("camera + lidar perception"));
+        assert!(!r.fidelity_md(&space, &hf).contains("ignored"));
+    }
 
     #[test]
     fn table_iii_says_what_its_columns_mean() {

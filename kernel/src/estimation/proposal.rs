@@ -20,6 +20,7 @@ use statrs::distribution::{Continuous, ContinuousCDF, Normal};
 /// assert_eq!(n, Nominal::Normal { mean: 12.0, sd: 2.0 });
 /// # Ok::<(), serde_json::Error>(())
 /// ```
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(
     tag = "distribution",
@@ -51,6 +52,7 @@ pub enum Nominal {
 /// [`Nominal`] as read: serde ignores `deny_unknown_fields` on a unit variant of an
 /// internally tagged enum, so `{"distribution":"uniform","sd":2}` would lose its `sd`
 /// silently; an empty struct variant refuses it.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Deserialize)]
 #[serde(tag = "distribution", rename_all = "lowercase", deny_unknown_fields)]
 enum NominalForm {
@@ -246,6 +248,7 @@ fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
 /// assert_eq!(Tilt::default(), Tilt::Posterior);
 /// assert_eq!(serde_json::to_string(&Tilt::NominalWeighted).unwrap(), "\"nominal-weighted\"");
 /// ```
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Tilt {

@@ -56,6 +56,7 @@ pub fn z95() -> f64 {
 /// assert!((i.half_width - 0.00196).abs() < 1e-5);
 /// assert!((i.relative_half_width() - 0.196).abs() < 1e-3);
 /// ```
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Interval {
     /// The estimate.
@@ -94,6 +95,7 @@ impl Interval {
 }
 
 /// The estimate of P(failure | s) for one scenario.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ScenarioEstimate {
     /// The scenario.
@@ -133,6 +135,7 @@ impl ScenarioEstimate {
 }
 
 /// The estimate of every scenario and of the p(s)-weighted total.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Estimate {
     /// One per scenario, in the estimation's scenario order.

@@ -1,4 +1,5 @@
-//! The bundled driving simulator as an FMI 2.0 co-simulation FMU.
+//! The bundled driving simulator as an FMI 2.0 and FMI 3.0 co-simulation FMU (one library
+//! exporting both C APIs; [`model_description`] and [`model_description3`]).
 //!
 //! Parameters: `scenario` (1–10), `perception` (0 camera + lidar, 1 idealised), the scenario
 //! parameters φ of all ten scenarios (each scenario reads its own), and the 16 fidelity

@@ -30,7 +30,7 @@ mod output;
 mod posterior;
 mod settings;
 
-pub use output::{EstimateLine, EstimateOutcome, StopReason};
+pub use output::{EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
 pub use settings::{
     resumed as settings_on_resume, EstimateError, EstimateSettings, MAX_RUNS, STOPPING_RULES,
 };
@@ -99,7 +99,7 @@ impl EstimateProgress<'_> {
     /// };
     /// assert_eq!(
     ///     p.line(),
-    ///     "estimate: 17000 of at most 200000 HF runs; P(failure) = 2.000e-3 ± 9.8 % from 5000 runs (400 failures); 12 s elapsed"
+    ///     "estimate: 17000 of at most 200000 HF runs; P(failure) = 0.0020 ± 9.8 % from 5000 runs (400 failures); 12 s elapsed"
     /// );
     /// ```
     pub fn line(&self) -> String {
@@ -108,8 +108,8 @@ impl EstimateProgress<'_> {
             Some((r, rounds)) => format!("cross-entropy pilot round {} of {rounds}", r + 1),
             None if e.failures == 0 => format!("no failure yet in {} runs", e.runs),
             None => format!(
-                "P(failure) = {:.3e} ± {:.1} % from {} runs ({} failures)",
-                e.total.mean,
+                "P(failure) = {} ± {:.1} % from {} runs ({} failures)",
+                crate::report::format_probability(e.total.mean),
                 100.0 * e.total.relative_half_width(),
                 e.runs,
                 e.failures

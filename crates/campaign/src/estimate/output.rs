@@ -88,6 +88,7 @@ impl EstimateLine {
 }
 
 /// Why an estimate stopped.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StopReason {
@@ -98,6 +99,7 @@ pub enum StopReason {
 }
 
 /// A finished estimate.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Serialize)]
 pub struct EstimateOutcome {
     /// The settings it ran with.
@@ -141,12 +143,24 @@ pub struct EstimateOutcome {
     pub table_md: String,
 }
 
+/// `summary.json` of an estimate: its `format_version`, then the outcome's fields.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Serialize)]
+pub struct EstimateSummary<'a> {
+    /// The layout version of savme's JSON documents (1 for now; a script checks it).
+    pub format_version: u32,
+    /// The estimate.
+    #[serde(flatten)]
+    pub outcome: &'a EstimateOutcome,
+}
+
 /// What the estimate table's columns mean, written under it (`table.md`, printed).
 pub(crate) const ESTIMATE_LEGEND: &str = "±: the 95 % interval's half-width relative to the \
 estimate (what --target-width bounds). ESS: Kish's effective sample size (Σw)²/Σw² of the \
 scenario's runs; failure ESS: the same over its failures' weights (how many equally weighted \
 failures the estimate rests on). Mean weight: the mean of w = p(φ)/q(φ), 1 in expectation (far \
-from 1: the proposal misses part of the nominal). docs/ESTIMATION.md explains the estimator.";
+from 1: the proposal misses part of the nominal). Probabilities are rounded to two significant \
+digits; summary.json holds the raw values. docs/ESTIMATION.md explains the estimator.";
 
 impl EstimateOutcome {
     #[allow(clippy::too_many_arguments)] // the parts of one outcome, assembled in one place
@@ -236,18 +250,19 @@ impl EstimateOutcome {
                 "—".into()
             }
         };
+        let p = crate::report::format_probability;
         for s in &e.scenarios {
             let i = &s.estimate;
             let _ = writeln!(
                 t,
-                "| {} | {:.3} | {} | {} | {:.3e} | [{:.3e}, {:.3e}] | {} | {:.0} | {:.1} | {:.3} |",
+                "| {} | {:.3} | {} | {} | {} | [{}, {}] | {} | {:.0} | {:.1} | {:.3} |",
                 s.scenario,
                 s.probability,
                 s.runs,
                 s.failures,
-                i.mean,
-                i.lo,
-                i.hi,
+                p(i.mean),
+                p(i.lo),
+                p(i.hi),
                 pct(i.relative_half_width()),
                 s.ess,
                 s.failure_ess,
@@ -257,12 +272,12 @@ impl EstimateOutcome {
         let i = &e.total;
         let _ = writeln!(
             t,
-            "| **total (weighted by p(s))** | 1 | {} | {} | {:.3e} | [{:.3e}, {:.3e}] | {} | | | |",
+            "| **total (weighted by p(s))** | 1 | {} | {} | {} | [{}, {}] | {} | | | |",
             e.runs,
             e.failures,
-            i.mean,
-            i.lo,
-            i.hi,
+            p(i.mean),
+            p(i.lo),
+            p(i.hi),
             pct(i.relative_half_width())
         );
         let _ = write!(
@@ -296,6 +311,15 @@ impl EstimateOutcome {
         t
     }
 
+    /// `summary.json`'s text (what `savme estimate --json` prints): an [`EstimateSummary`].
+    pub fn summary_json(&self) -> String {
+        let summary = EstimateSummary {
+            format_version: FORMAT_VERSION,
+            outcome: self,
+        };
+        serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n"
+    }
+
     /// Writes `summary.json` and `table.md` into the output directory.
     pub(crate) fn write(&self) -> Result<(), EstimateError> {
         let write = |name: &str, text: String| {
@@ -303,14 +327,7 @@ impl EstimateOutcome {
             savme_store::safe_file::write_file(&path, text.as_bytes())
                 .map_err(|e| CampaignError::io(&path, e))
         };
-        let mut summary = serde_json::to_value(self).unwrap_or_default();
-        if let Some(o) = summary.as_object_mut() {
-            o.insert("format_version".into(), FORMAT_VERSION.into());
-        }
-        write(
-            "summary.json",
-            serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
-        )?;
+        write("summary.json", self.summary_json())?;
         write(
             "table.md",
             format!(

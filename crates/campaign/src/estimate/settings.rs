@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 /// How `savme estimate` runs: which trained posterior, ε, the nominal, when to stop.
 /// Stored as `estimate.json` in the output directory; a resumed estimate keeps it.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EstimateSettings {

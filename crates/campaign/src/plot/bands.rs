@@ -75,19 +75,31 @@ fn draw_bands<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc(x_desc)
         .y_desc("found failures")
-        .x_label_formatter(&|x| tick(*x))
+        .x_label_formatter(&|x| tick(*x, x_max * k))
         .y_label_formatter(&|y| format!("{y:.0}"))
         .label_style((FONT, 14))
         .draw()
         .map_err(e)?;
+    // Every band first (light fill), then each band's edges in its own colour (where bands
+    // overlap, the edges still tell them apart), then the medians on top.
     for (s, b) in series.iter().zip(&bands) {
-        let colour = s.colour;
         let mut outline: Vec<(f64, f64)> =
             b.x.iter().zip(&b.hi).map(|(x, y)| (x * k, *y)).collect();
         outline.extend(b.x.iter().zip(&b.lo).rev().map(|(x, y)| (x * k, *y)));
         chart
-            .draw_series(std::iter::once(Polygon::new(outline, colour.mix(0.18))))
+            .draw_series(std::iter::once(Polygon::new(outline, s.colour.mix(0.12))))
             .map_err(e)?;
+    }
+    for (s, b) in series.iter().zip(&bands) {
+        for edge in [&b.lo, &b.hi] {
+            let pts: Vec<(f64, f64)> = b.x.iter().zip(edge).map(|(x, y)| (x * k, *y)).collect();
+            chart
+                .draw_series(LineSeries::new(pts, s.colour.mix(0.6).stroke_width(1)))
+                .map_err(e)?;
+        }
+    }
+    for (s, b) in series.iter().zip(&bands) {
+        let colour = s.colour;
         let median: Vec<(f64, f64)> =
             b.x.iter()
                 .zip(&b.median)
@@ -96,9 +108,11 @@ fn draw_bands<DB: DrawingBackend>(
         chart
             .draw_series(LineSeries::new(median, colour.stroke_width(2)))
             .map_err(e)?
-            .label(s.label.clone())
+            .label(format!("{}: median, min–max band", s.label))
             .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                EmptyElement::at((x, y))
+                    + Rectangle::new([(0, -6), (20, 6)], colour.mix(0.25).filled())
+                    + PathElement::new(vec![(0, 0), (20, 0)], colour.stroke_width(2))
             });
     }
     legend(&mut chart)
@@ -109,7 +123,7 @@ fn draw_bands<DB: DrawingBackend>(
 pub fn breakeven(path: &Path, p: &Protocol, runs: &[&[TrialLine]]) -> Result<(), CampaignError> {
     let n = runs.len();
     let mut series = vec![BandSeries::of(
-        format!("baseline (φ uniform, HF only), median of {n} seeds"),
+        "baseline (φ uniform, HF only)".to_string(),
         RGBColor(0, 0, 0),
         runs,
         StageKind::BaselineTrain.name(),

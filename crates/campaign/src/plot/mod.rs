@@ -48,43 +48,70 @@ fn lines_of<'a>(lines: &'a [TrialLine], label: &str) -> Vec<&'a TrialLine> {
     lines.iter().filter(|l| l.stage == label).collect()
 }
 
-/// Axis scale, label and unit for cumulative costs up to `end`.
+/// Axis scale, label and unit for cumulative costs up to `end`: the x axis is the summed
+/// cost of the simulator runs (every HF and LF run charged), not the campaign's wall time.
 fn scale(cost: Cost, end: f64) -> (f64, &'static str, &'static str) {
     match cost {
-        Cost::Wall if end < 180.0 => (1.0, "runtime (s)", "s"),
-        Cost::Wall => (1.0 / 60.0, "runtime (min)", "min"),
-        Cost::Work if end < 1e7 => (1e-3, "runtime (thousand work units)", "k work units"),
-        Cost::Work => (1e-6, "runtime (million work units)", "M work units"),
+        Cost::Wall if end < 180.0 => (1.0, "summed simulator runtime, HF + LF runs (s)", "s"),
+        Cost::Wall => (
+            1.0 / 60.0,
+            "summed simulator runtime, HF + LF runs (min)",
+            "min",
+        ),
+        Cost::Work if end < 1e7 => (
+            1e-3,
+            "summed simulator work, HF + LF runs (thousand work units)",
+            "k work units",
+        ),
+        Cost::Work => (
+            1e-6,
+            "summed simulator work, HF + LF runs (million work units)",
+            "M work units",
+        ),
     }
 }
 
-/// A runtime tick label: `20`, `2.5` (no `20.0`).
-fn tick(x: f64) -> String {
-    let s = format!("{x:.1}");
-    s.strip_suffix(".0").map_or(s.clone(), str::to_string)
+/// A runtime tick label on an axis ending at `end`: `20`, `2.5`, `0.0015` (no `20.0`, and
+/// enough decimals for an axis of milliseconds).
+fn tick(x: f64, end: f64) -> String {
+    let step = (end / 10.0).abs().max(1e-12);
+    let decimals = (1 - step.log10().floor() as i32).clamp(1, 12) as usize;
+    let s = format!("{x:.decimals$}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s.is_empty() || s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
 }
 
-/// The marker of a break-even point: a dot on the curve and its time.
+/// A break-even time as the legend gives it: seconds below three minutes of wall time,
+/// whatever the axis shows; else in the axis' unit.
+fn break_even_text(t: f64, (k, unit): (f64, &str)) -> String {
+    match unit {
+        "s" | "min" if t < 180.0 => format!("break-even {}", crate::report::format_seconds(t)),
+        _ => format!("break-even {:.1} {unit}", t * k),
+    }
+}
+
+/// The marker of a break-even point: a ringed dot on the curve (its time is in the legend, so
+/// that no label is drawn over a curve).
 fn break_even_mark<DB: DrawingBackend>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordu64>>,
     s: &Series,
-    (k, unit): (f64, &str),
+    k: f64,
 ) -> Result<(), String> {
     let Some(t) = s.break_even else {
         return Ok(());
     };
     let (x, y) = (t * k, s.curve.failures_at(t));
-    // Seconds below three minutes of wall time, whatever the axis shows.
-    let label = match unit {
-        "s" | "min" if t < 180.0 => format!("break-even {t:.1} s"),
-        _ => format!("break-even {x:.1} {unit}"),
-    };
     let colour = s.colour;
     chart
         .draw_series(std::iter::once(
             EmptyElement::at((x, y))
-                + Circle::new((0, 0), 5, colour.filled())
-                + Text::new(label, (8, 4), (FONT, 14).into_font().color(&colour)),
+                + Circle::new((0, 0), 7, WHITE.filled())
+                + Circle::new((0, 0), 7, colour.stroke_width(2))
+                + Circle::new((0, 0), 3, colour.filled()),
         ))
         .map_err(|e| e.to_string())?;
     Ok(())
@@ -120,7 +147,7 @@ fn draw_panel<DB: DrawingBackend>(
         .x_desc(x_desc)
         .y_desc("found failures")
         .y_labels(y_end.min(10) as usize + 1)
-        .x_label_formatter(&|x| tick(*x))
+        .x_label_formatter(&|x| tick(*x, x_end))
         .label_style((FONT, 14))
         .draw()
         .map_err(e)?;
@@ -140,16 +167,20 @@ fn draw_panel<DB: DrawingBackend>(
             pts.push((x, last));
         }
         let colour = s.colour;
+        let label = match s.break_even {
+            Some(t) => format!("{}, {} (ringed)", s.label, break_even_text(t, (k, unit))),
+            None => s.label.clone(),
+        };
         chart
             .draw_series(LineSeries::new(pts, colour.stroke_width(2)))
             .map_err(e)?
-            .label(s.label.clone())
+            .label(label)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
             });
     }
     for s in series {
-        break_even_mark(&mut chart, s, (k, unit))?;
+        break_even_mark(&mut chart, s, k)?;
     }
     legend(&mut chart)
 }
@@ -276,4 +307,16 @@ pub fn meta_testing(path: &Path, p: &Protocol, lines: &[TrialLine]) -> Result<()
         }
         root.present().map_err(|e| e.to_string())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn ticks_have_the_decimals_their_axis_needs() {
+        use super::tick;
+        assert_eq!(tick(20.0, 120.0), "20");
+        assert_eq!(tick(2.5, 30.0), "2.5");
+        assert_eq!(tick(0.001, 0.006), "0.001");
+        assert_eq!(tick(0.0, 0.006), "0");
+    }
 }

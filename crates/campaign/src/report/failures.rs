@@ -25,6 +25,7 @@ use savme_kernel::{Assignment, Outcome};
 use serde::Serialize;
 
 /// One HF failure.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FoundFailure {
     /// The stage label (`train@0.3`, `screen@0.3`, …).
