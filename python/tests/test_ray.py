@@ -249,3 +249,11 @@ def test_bad_executor_arguments_are_refused_with_their_name(tmp_path):
     # "local" is the default: threads in this process.
     local = savme.Campaign(p, pr, out=tmp_path / "l", executor="local").run(ray_sims.Toy("x"))
     assert local.ran == p.total_trials
+
+
+def test_without_ray_the_executor_says_how_to_install_it(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` raises ImportError
+    executor = savme.RayExecutor()
+    with pytest.raises(ImportError, match="pip install ray"):
+        savme.Campaign(small(), problem(), out=tmp_path / "n", executor=executor).run(ray_sims.Toy("x"))
+    assert not (tmp_path / "n" / "trials.jsonl").exists()
