@@ -5,7 +5,7 @@ PYTHONPATH, as a real cluster would have the simulator's package installed on ev
 `Toy` is test_campaign.py's toy: deterministic outcome and work units, so a campaign under
 `cost="work"` gives the same trials wherever its runs execute. Its `sleep` makes a run take
 time; `victim` names a directory in which the first run to arrive claims the victim's role
-(O_EXCL) and then misbehaves as `mode` says:
+(O_EXCL) — with `after=K`, the first run after K calls — and then misbehaves as `mode` says:
 
 - "hang_once": writes its pid and sleeps until killed (the test kills that Ray worker);
   any later run behaves;
@@ -27,8 +27,9 @@ from typing import Any, Dict, Optional
 
 class Toy:
     def __init__(self, role: str, sleep: float = 0.0, victim: Optional[str] = None,
-                 mode: str = "hang_once") -> None:
+                 mode: str = "hang_once", after: int = 0) -> None:
         self.role = role
+        self.after = after
         self.sleep = sleep
         self.victim = victim
         self.mode = mode
@@ -45,6 +46,11 @@ class Toy:
     def _misbehave(self, scenario: str, phi: Dict[str, Any], theta: Dict[str, Any]) -> None:
         key = json.dumps([self.role, scenario, phi, theta], sort_keys=True)
         claim = pathlib.Path(self.victim, "claim")
+        if self.after and not claim.exists():
+            with open(pathlib.Path(self.victim, "calls"), "a") as f:
+                f.write(".")
+            if pathlib.Path(self.victim, "calls").stat().st_size <= self.after:
+                return
         try:
             fd = os.open(claim, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
         except FileExistsError:

@@ -1,7 +1,8 @@
 """savme.Campaign(executor=savme.RayExecutor(...)): a campaign's runs on a real multi-node Ray
 cluster started here (a head node and a worker node, as processes on this machine) — the same
 trials as a local run under work cost, a Ray worker killed mid-run (its run re-run once, its
-trial told once), a run lost twice, a run past the timeout, a simulator that raises — and the
+trial told once), a run lost twice (the aborted campaign then resumed on Ray), a run past the
+timeout, a simulator that raises — and the
 executor contract and its bad inputs without Ray.
 
 Without Ray installed the cluster tests skip loudly; scripts/test installs Ray into the test
@@ -129,13 +130,19 @@ def test_a_killed_ray_worker_is_rerun_once_and_the_trials_equal_the_local_run(tm
 def test_a_run_whose_worker_is_lost_twice_fails_per_on_error(tmp_path, cluster):
     victim = tmp_path / "abort"
     victim.mkdir()
-    hf = ray_sims.Toy("hf", victim=str(victim), mode="die_twice")
-    lf = ray_sims.Toy("lf", victim=str(victim), mode="die_twice")
+    hf = ray_sims.Toy("hf", victim=str(victim), mode="die_twice", after=30)
+    lf = ray_sims.Toy("lf", victim=str(victim), mode="die_twice", after=30)
     executor = savme.RayExecutor()
     with pytest.raises(savme.CampaignError) as e:
         savme.Campaign(small(), problem(), out=tmp_path / "a", executor=executor).run(hf=hf, lf=lf)
     assert "lost twice" in str(e.value) and "trial" in str(e.value), e.value
     assert len((victim / "attempts").read_text().split()) == 2  # run once, re-run once
+    # The aborted campaign resumes on Ray (its simulator mended) to the local run's trials.
+    sim = ray_sims.Toy("x")
+    resumed = savme.Campaign(None, problem(), out=tmp_path / "a", resume=True,
+                             executor=savme.RayExecutor()).run(sim)
+    assert resumed.replayed > 0 and resumed.replayed + resumed.ran == small().total_trials
+    assert strip_wall(resumed.files["trials"]) == strip_wall(local_reference(tmp_path, small()).files["trials"])
     # skip: the trial is withdrawn (a failed line naming the cause) and replaced.
     victim = tmp_path / "skip"
     victim.mkdir()
