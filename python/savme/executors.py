@@ -38,7 +38,7 @@ import logging
 import os
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Deque, Dict, List, Optional, Tuple
+from typing import Any, Callable, Deque, Dict, List, Optional, Tuple, Type
 
 __all__ = ["RayExecutor"]
 
@@ -332,7 +332,7 @@ class RayExecutor:
                          f"(its worker was stopped)")))
 
 
-def _lost_errors(ray: Any) -> Tuple[type, ...]:
+def _lost_errors(ray: Any) -> Tuple[Type[BaseException], ...]:
     """Ray's errors for a run whose worker process or node went away."""
     names = ("WorkerCrashedError", "NodeDiedError", "LocalRayletDiedError", "ActorDiedError",
              "ActorUnavailableError", "ObjectLostError", "OwnerDiedError")
