@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds the savme Python package and installs it (editable) into a virtual environment with
-# pytest, mypy (for the stub check) and numpy (numpy-bool results are tested), so that `cargo test --workspace` also runs the pytest suite (tests/python_package.rs).
+# pytest, mypy (for the stub check), numpy (numpy-bool results are tested) and Ray (the Ray
+# executor's tests start a local Ray cluster: one ~80 MB wheel, ~30 s the first time), so that
+# `cargo test --workspace` also runs the pytest suite (tests/python_package.rs).
 # Run it once, and again after changing Rust code.
 #
 #   python/develop.sh            # debug build into $CARGO_TARGET_DIR/py-venv (or target/py-venv)
@@ -17,7 +19,8 @@ venv="${SAVME_PY_VENV:-$target/py-venv}"
 if ! [ -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" "mypy>=1.18" numpy
+"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" "mypy>=1.18" numpy \
+  "ray>=2.40,<3"
 if [ "${1:-}" = "--wheel" ]; then
   shift
   wheels="$target/wheels/test"

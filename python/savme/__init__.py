@@ -34,7 +34,8 @@ from ._savme import (
     Variable,
     __version__,
 )
-from . import campaign, fmu, integrations, sim
+from . import campaign, executors, fmu, integrations, sim
+from .executors import RayExecutor
 
 __all__ = [
     "Boolean",
@@ -50,6 +51,7 @@ __all__ = [
     "Posterior",
     "Problem",
     "Protocol",
+    "RayExecutor",
     "Record",
     "Space",
     "TellError",
@@ -57,6 +59,7 @@ __all__ = [
     "Variable",
     "__version__",
     "campaign",
+    "executors",
     "fmu",
     "integrations",
     "sim",

@@ -443,6 +443,7 @@ class Campaign:
         storage: Optional[str] = None,
         campaign: Optional[str] = None,
         repeat: Optional[int] = None,
+        executor: Optional[Union[Literal["local", "ray"], Any]] = None,
     ) -> Campaign:
         """repeat=N runs the protocol with seeds seed … seed+N−1, each in out/seed-<s>/, and
         writes the results over the seeds into `out` (as `savme run --repeat`).
@@ -452,7 +453,10 @@ class Campaign:
         the protocol and trials in that database instead (`savme run --storage`; the password
         from the URL, PGPASSWORD or ~/.pgpass is never shown), tables and figures still go
         to `out`. A malformed URL raises ValueError; a database that cannot be reached, or a
-        campaign another process holds, CampaignError."""
+        campaign another process holds, CampaignError. executor="ray" or
+        savme.RayExecutor(address=..., actors=..., timeout=...) runs each HF and LF run of
+        Python simulator callables on a Ray cluster (the kernel and store stay here; the
+        same trials as a local run under cost="work"); not with jobs= or repeat=."""
     def run(
         self,
         simulate: Optional[_SimulatorFn] = None,

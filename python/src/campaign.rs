@@ -4,6 +4,7 @@
 
 use crate::convert;
 use crate::errors;
+use crate::executor::{executor_of, ExecutorRunner};
 use crate::sim::{PyDriving, PyFmuSimulator};
 use crate::space::PySpace;
 use crossbeam_channel::RecvTimeoutError;
@@ -254,7 +255,7 @@ pub struct PySimulator {
     lf: Arc<Py<PyAny>>,
 }
 
-fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
+pub fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
     // The flag alone, or the first of (failure, work_units).
     let pair = out
         .cast::<PyTuple>()
@@ -358,6 +359,8 @@ enum BoundSim {
 pub struct PyCampaign {
     /// What `run` runs (cloned onto the campaign thread).
     plan: Plan,
+    /// Where the runs of Python simulators execute (None: local threads).
+    executor: Option<Arc<Py<PyAny>>>,
     bound: BoundSim,
 }
 
@@ -504,6 +507,22 @@ impl PyCampaignResult {
 }
 
 impl PyCampaign {
+    /// Runs the campaign with its runs on `executor`: started here (on the main thread) with
+    /// the simulator callables, finished here however the campaign ends.
+    fn run_executed(
+        &self,
+        py: Python<'_>,
+        sim: PySimulator,
+        executor: &Arc<Py<PyAny>>,
+    ) -> PyResult<PyCampaignResult> {
+        executor.call_method1(py, "start", (sim.hf.clone_ref(py), sim.lf.clone_ref(py)))?;
+        let result = self.run_on(py, sim);
+        let finished = executor.call_method0(py, "finish");
+        let result = result?;
+        finished?;
+        Ok(result)
+    }
+
     /// Runs the Rust campaign loop on `sim` on a thread of its own, with the GIL released
     /// (Python simulators take it back around each call). Meanwhile this (main) thread looks
     /// for signals every [`SIGNAL_CHECK`]: on Ctrl-C it asks the campaign to stop between
@@ -560,6 +579,8 @@ struct Plan {
     repeat: Option<u32>,
     /// A campaign file's `[estimate]` stage, run after the campaign.
     estimate: Option<EstimateSettings>,
+    /// The executor the runs go to instead of local threads (started by `run`).
+    executor: Option<Arc<Py<PyAny>>>,
 }
 
 impl Plan {
@@ -590,6 +611,9 @@ impl Plan {
                     let store =
                         PostgresStore::open(db, name).map_err(|e| errors::campaign(e.into()))?;
                     c = c.store(Box::new(store));
+                }
+                if let Some(executor) = &self.executor {
+                    c = c.remote(ExecutorRunner::new(executor.clone()));
                 }
                 Finished::One(c.run(sim).map_err(errors::campaign)?)
             }
@@ -631,7 +655,8 @@ impl PyCampaign {
     /// tables and figures are still written into `out`.
     #[new]
     #[pyo3(signature = (protocol, problem, *, out = None, resume = false,
-        jobs = None, progress = false, storage = None, campaign = None, repeat = None))]
+        jobs = None, progress = false, storage = None, campaign = None, repeat = None,
+        executor = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         protocol: Option<PyRef<'_, PyProtocol>>,
@@ -643,8 +668,20 @@ impl PyCampaign {
         storage: Option<&str>,
         campaign: Option<String>,
         repeat: Option<u32>,
+        executor: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let out = out.unwrap_or_else(|| PathBuf::from("savme-results"));
+        let executor = executor_of(executor)?;
+        if executor.is_some() && repeat.is_some() {
+            return Err(PyValueError::new_err(
+                "repeat runs its seeds on local threads: not with executor=",
+            ));
+        }
+        if executor.is_some() && jobs.is_some() {
+            return Err(PyValueError::new_err(
+                "jobs= sets local worker threads; with executor= the executor decides how many runs go at once (e.g. savme.RayExecutor(workers=N))",
+            ));
+        }
         let storage = storage_of(storage, campaign)?;
         let repeat = check_repeat(repeat).map_err(errors::value)?;
         if repeat.is_some() && storage.is_some() {
@@ -675,7 +712,9 @@ impl PyCampaign {
                 storage,
                 repeat,
                 estimate: None,
+                executor: executor.clone(),
             },
+            executor,
             bound: BoundSim::None,
         })
     }
@@ -707,32 +746,35 @@ impl PyCampaign {
                 "give one of: simulate, hf= and lf=, or sim=",
             ));
         }
-        if let Some(f) = simulate {
-            let f = Arc::new(f);
-            return self.run_on(
-                py,
-                PySimulator {
+        let callables = match (simulate, hf, lf) {
+            (Some(f), _, _) => {
+                let f = Arc::new(f);
+                Some(PySimulator {
                     hf: f.clone(),
                     lf: f,
-                },
-            );
-        }
-        match (hf, lf) {
-            (Some(hf), Some(lf)) => {
-                return self.run_on(
-                    py,
-                    PySimulator {
-                        hf: Arc::new(hf),
-                        lf: Arc::new(lf),
-                    },
-                )
+                })
             }
-            (None, None) => {}
+            (None, Some(hf), Some(lf)) => Some(PySimulator {
+                hf: Arc::new(hf),
+                lf: Arc::new(lf),
+            }),
+            (None, None, None) => None,
             _ => {
                 return Err(PyTypeError::new_err(
                     "give both hf= and lf= (or one simulate callable)",
                 ))
             }
+        };
+        if let Some(sim) = callables {
+            return match &self.executor {
+                Some(executor) => self.run_executed(py, sim, executor),
+                None => self.run_on(py, sim),
+            };
+        }
+        if self.executor.is_some() {
+            return Err(PyTypeError::new_err(
+                "executor= runs Python simulator callables: give run(simulate) or run(hf=..., lf=...) (sim= and campaign files' FMUs run on local threads)",
+            ));
         }
         if let Some(s) = sim {
             if let Ok(d) = s.cast::<PyDriving>() {
@@ -818,7 +860,9 @@ pub fn load_campaign(
             storage,
             repeat: c.repeat,
             estimate,
+            executor: None,
         },
+        executor: None,
         bound: BoundSim::Fmu(Box::new(c.file)),
     })
 }

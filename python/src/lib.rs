@@ -14,6 +14,7 @@ mod campaign;
 mod convert;
 mod errors;
 mod estimation;
+mod executor;
 mod kernel;
 mod sim;
 mod space;

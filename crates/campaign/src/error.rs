@@ -152,6 +152,14 @@ pub enum CampaignError {
     /// The worker threads stopped unexpectedly.
     #[error("the worker threads stopped unexpectedly")]
     WorkersGone,
+    /// The executor that runs the simulations elsewhere (e.g. on a Ray cluster) failed.
+    #[error("the executor ({executor}) failed: {message}")]
+    Executor {
+        /// Which executor.
+        executor: String,
+        /// What failed.
+        message: String,
+    },
     /// The campaign of one seed of a repeated campaign failed.
     #[error("seed {seed} ({}): {source}", dir.display())]
     Seed {

@@ -1,0 +1,176 @@
+"""A throwaway multi-node Ray cluster on this machine, for the Ray executor's tests and
+benchmark (python/tests/test_ray.py, python/bench_ray.py).
+
+`ray start --head` and one `ray start --address=…` per extra worker node, each as a child
+process (`--block`) with every file under a fresh temporary directory, free ports, no dashboard
+and a small object store. `stop()` ends them with SIGTERM (Ray drains and stops the node's
+processes), then SIGKILLs whatever is left of the processes started under that directory (found
+by the directory in their command line: ours only), and removes the directory. Nothing here
+runs `ray stop`, which would stop every Ray on the machine.
+"""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from typing import List, Optional
+
+RAY = str(pathlib.Path(sys.executable).parent / "ray")
+OBJECT_STORE_BYTES = 80 * 1024 * 1024  # Ray's minimum is ~75 MiB
+START_SECONDS = 180
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class LocalRayCluster:
+    """A head node with `head_cpus` CPUs and one worker node per entry of `worker_cpus`."""
+
+    def __init__(self, head_cpus: int = 1, worker_cpus: Optional[List[int]] = None,
+                 pythonpath: Optional[str] = None) -> None:
+        self.head_cpus = head_cpus
+        self.worker_cpus = [1] if worker_cpus is None else worker_cpus
+        self.dir = pathlib.Path(tempfile.mkdtemp(prefix="savme-ray-", dir="/tmp"))
+        self.nodes: List[subprocess.Popen] = []
+        self.address = ""
+        self.env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0")
+        self.env.pop("RAY_ADDRESS", None)
+        if pythonpath:
+            # Where the simulators' module is, as it would be installed on a real cluster's nodes.
+            self.env["PYTHONPATH"] = os.pathsep.join(
+                p for p in (pythonpath, os.environ.get("PYTHONPATH")) if p)
+
+    def _node(self, name: str, args: List[str]) -> subprocess.Popen:
+        log = open(self.dir / f"{name}.log", "wb")
+        ports = ["--dashboard-agent-listen-port", str(free_port()),
+                 "--dashboard-agent-grpc-port", str(free_port()),
+                 "--runtime-env-agent-port", str(free_port()),
+                 "--metrics-export-port", str(free_port())]
+        cmd = [RAY, "start", "--block", f"--temp-dir={self.dir}",
+               f"--object-store-memory={OBJECT_STORE_BYTES}", "--disable-usage-stats",
+               "--include-log-monitor=false",
+               *ports, *args]
+        p = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=self.env,
+                             start_new_session=True)
+        self.nodes.append(p)
+        return p
+
+    def start(self) -> "LocalRayCluster":
+        try:
+            self._start()
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _start(self) -> None:
+        head = self._node("head", ["--head", "--port", str(free_port()),
+                                   f"--num-cpus={self.head_cpus}", "--include-dashboard=false"])
+        marker = self.dir / "ray_current_cluster"
+        deadline = time.monotonic() + START_SECONDS
+        while not marker.exists() or not marker.read_text().strip():
+            self._check(head, "head", deadline)
+            time.sleep(0.2)
+        self.address = marker.read_text().strip()
+        for i, cpus in enumerate(self.worker_cpus):
+            self._node(f"worker{i}", [f"--address={self.address}", f"--num-cpus={cpus}"])
+        # `ray start --block` prints "Ray runtime started." once its node is up.
+        for i, p in enumerate(self.nodes):
+            name = "head" if i == 0 else f"worker{i - 1}"
+            while b"Ray runtime started" not in (self.dir / f"{name}.log").read_bytes():
+                self._check(p, name, deadline)
+                time.sleep(0.2)
+
+    def _check(self, p: subprocess.Popen, name: str, deadline: float) -> None:
+        if p.poll() is not None:
+            raise RuntimeError(f"the Ray {name} node exited ({p.returncode}): "
+                               f"{self.log(name)[-3000:]}")
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"the Ray {name} node did not start within {START_SECONDS} s: "
+                               f"{self.log(name)[-3000:]}")
+
+    def log(self, name: str) -> str:
+        try:
+            return (self.dir / f"{name}.log").read_text(errors="replace")
+        except OSError:
+            return ""
+
+    def pids(self) -> List[int]:
+        """The processes of this cluster: those started under its directory (its command line
+        names it) and their descendants (Ray worker processes retitle themselves `ray::…`)."""
+        procs = {}
+        for entry in pathlib.Path("/proc").iterdir():
+            if not entry.name.isdigit() or int(entry.name) == os.getpid():
+                continue
+            try:
+                cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            ppid = int(stat.rsplit(")", 1)[1].split()[1])
+            procs[int(entry.name)] = (ppid, cmdline)
+        ours = {pid for pid, (_, cmd) in procs.items() if str(self.dir) in cmd}
+        grew = True
+        while grew:
+            more = {pid for pid, (ppid, _) in procs.items() if ppid in ours} - ours
+            ours |= more
+            grew = bool(more)
+        return sorted(ours)
+
+    def worker_pids(self) -> List[int]:
+        """The Ray worker processes (children of this cluster's raylets) that are alive."""
+        raylets = set()
+        for pid in self.pids():
+            try:
+                if b"raylet/raylet" in pathlib.Path(f"/proc/{pid}/cmdline").read_bytes():
+                    raylets.add(pid)
+            except OSError:
+                pass
+        found = []
+        for pid in self.pids():
+            try:
+                stat = pathlib.Path(f"/proc/{pid}/stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) in raylets:
+                found.append(pid)
+        return found
+
+    def stop(self) -> None:
+        for p in self.nodes:
+            if p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+        deadline = time.monotonic() + 45
+        for p in self.nodes:
+            try:
+                p.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        for _ in range(3):
+            left = self.pids()
+            if not left:
+                break
+            for pid in left:
+                try:
+                    os.kill(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+            time.sleep(0.5)
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+    def __enter__(self) -> "LocalRayCluster":
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
