@@ -49,7 +49,8 @@ pub struct Args {
     #[arg(long = "scenario", value_name = "NAME")]
     scenarios: Vec<String>,
     /// A variable's nominal distribution: SCENARIO.VARIABLE=normal:MEAN,SD (truncated to the
-    /// variable's range), =weights:W1,W2,… (discrete) or =uniform (the default). Repeat.
+    /// variable's range), =lognormal:MU,SIGMA (of ln φ; truncated too), =weights:W1,W2,…
+    /// (discrete) or =uniform (the default). Repeat.
     #[arg(long = "nominal", value_name = "DECL")]
     nominals: Vec<String>,
     /// How the proposal weighs each variable's bins: by the posterior means, or also by the
