@@ -263,8 +263,9 @@ impl FmuCampaign {
         let Some(section) = &self.file.estimate else {
             return Ok(None);
         };
-        let settings =
-            EstimateSettings::from_section(section, &self.file.path).map_err(|e| e.to_string())?;
+        let settings = EstimateSettings::from_section(section, &self.file.path)
+            .map_err(|e| e.to_string())?
+            .with_declared(&self.file.nominal, &self.protocol.train_scenarios);
         let file = self.file.path.display();
         let at = |e: String| format!("{file}, line {}, [estimate]: {e}", section.line);
         if self.repeat.is_some() {

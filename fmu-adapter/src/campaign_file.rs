@@ -53,10 +53,16 @@
 //! [[scenario.phi]]
 //! name = "gap"
 //! range = [2.0, 8.0]
+//!
+//! [[scenario]]                   # φ from an OpenSCENARIO ParameterValueDistribution file:
+//! name = "cut_out"               # each parameter a φ variable bound to the FMU variable of
+//! role = "test"                  # its name, its stochastic distribution the nominal of
+//! openscenario = "cut_out_variation.xosc"  # `[estimate]` (see the `openscenario` module)
 //! ```
 
 mod bindings;
 mod estimate;
+mod openscenario;
 
 pub use estimate::EstimateSection;
 
@@ -166,6 +172,9 @@ pub struct CampaignFile {
     /// `[fmu] record`: the outputs (of both FMUs) that recorded trials show as time series
     /// (`savme run --record …`), checked to be outputs of both FMUs.
     pub record: Vec<String>,
+    /// The nominal distributions the scenarios' OpenSCENARIO files declare (`openscenario`),
+    /// by scenario then variable; `[estimate.nominal]` entries override them.
+    pub nominal: BTreeMap<String, BTreeMap<String, savme_kernel::estimation::Nominal>>,
 }
 
 /// Where one `[[scenario]]` table is in its file.
@@ -220,7 +229,7 @@ impl CampaignFile {
         let estimate = f.estimate.map(|e| estimate::section(&src, e));
         let mut origins = Origins::default();
         let fidelity = fidelity(&src, &f.fidelity, &campaign, paper, &mut origins)?;
-        let scenarios = scenarios(&src, &f.scenarios, &mut origins)?;
+        let scenarios = scenarios(&src, &f.scenarios, base, &mut origins)?;
         let fmu = f.fmu.get_ref();
         let step = step(&src, &f.fmu, &fidelity)?;
         let tolerance = tolerance(&src, fmu.tolerance.as_ref(), &fidelity)?;
@@ -276,6 +285,7 @@ impl CampaignFile {
             campaign,
             record,
             estimate,
+            nominal: scenarios.nominal,
         })
     }
 }
@@ -407,8 +417,10 @@ mod raw {
         pub role: Spanned<String>,
         #[serde(default)]
         pub fixed: BTreeMap<String, Spanned<toml::Value>>,
-        #[serde(rename = "phi")]
+        #[serde(rename = "phi", default)]
         pub phi: Vec<Spanned<VarSection>>,
+        /// A ParameterValueDistribution file whose parameters are φ (instead of `phi`).
+        pub openscenario: Option<Spanned<String>>,
     }
 }
 
@@ -729,12 +741,14 @@ struct ScenarioParts {
     test: Vec<String>,
     weights: BTreeMap<String, f64>,
     lines: Vec<ScenarioLines>,
+    nominal: BTreeMap<String, BTreeMap<String, savme_kernel::estimation::Nominal>>,
 }
 
 /// `[[scenario]]`: every scenario, at least one.
 fn scenarios(
     src: &Source,
     list: &Spanned<Vec<Spanned<raw::ScenarioSection>>>,
+    base: &Path,
     origins: &mut Origins,
 ) -> Result<ScenarioParts, ConfigError> {
     if list.get_ref().is_empty() {
@@ -785,7 +799,15 @@ fn scenarios(
             role: src.line(s.role.span()),
             weight: s.weight.as_ref().map(|w| src.line(w.span())),
         });
-        let (space, spec) = scenario(src, k, table, origins)?;
+        let (space, spec) = match &s.openscenario {
+            Some(file) => {
+                let (space, spec, nominal) =
+                    openscenario::scenario(src, k, table, file, base, origins)?;
+                parts.nominal.insert(name.clone(), nominal);
+                (space, spec)
+            }
+            None => scenario(src, k, table, origins)?,
+        };
         parts.spaces.insert(name.clone(), space);
         parts.specs.push(spec);
     }
@@ -810,23 +832,7 @@ fn scenario(
         )
     })?;
     let used = Use::Scenario(k);
-    let mut fixed = Vec::new();
-    for (name, v) in &s.fixed {
-        let fkey = format!("{key}.fixed.{name}");
-        let line = src.line(v.span());
-        let value = toml_value(v.get_ref()).ok_or_else(|| {
-            src.err(
-                Some(line),
-                Some(&fkey),
-                "expected a number, boolean or string",
-            )
-        })?;
-        origins.set(src, name, line, &fkey, used)?;
-        fixed.push(Fixed {
-            fmu_variable: name.clone(),
-            value,
-        });
-    }
+    let fixed = fixed(src, k, s, origins)?;
     let mut phi = Vec::new();
     for (j, sv) in s.phi.iter().enumerate() {
         phi.push(Binding {
@@ -841,6 +847,33 @@ fn scenario(
         fixed,
     };
     Ok((space, spec))
+}
+
+/// Scenario `k`'s fixed parameters, each remembered as set by the scenario.
+fn fixed(
+    src: &Source,
+    k: usize,
+    s: &raw::ScenarioSection,
+    origins: &mut Origins,
+) -> Result<Vec<Fixed>, ConfigError> {
+    let mut fixed = Vec::new();
+    for (name, v) in &s.fixed {
+        let fkey = format!("scenario[{k}].fixed.{name}");
+        let line = src.line(v.span());
+        let value = toml_value(v.get_ref()).ok_or_else(|| {
+            src.err(
+                Some(line),
+                Some(&fkey),
+                "expected a number, boolean or string",
+            )
+        })?;
+        origins.set(src, name, line, &fkey, Use::Scenario(k))?;
+        fixed.push(Fixed {
+            fmu_variable: name.clone(),
+            value,
+        });
+    }
+    Ok(fixed)
 }
 
 /// The variables of `[[fidelity.variable]]` or of a scenario's `[[scenario.phi]]` tables (keys

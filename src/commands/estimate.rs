@@ -214,6 +214,12 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let protocol = source
         .protocol()
         .map_err(|e| Failure::Runtime(e.to_string()))?;
+    // The nominals the campaign file's OpenSCENARIO files declare, under the flags' and
+    // the [estimate] section's.
+    let settings = match &file {
+        Some(c) => settings.with_declared(&c.file.nominal, &protocol.train_scenarios),
+        None => settings,
+    };
     let hint = resume_hint(&a);
     let configured = |problem: Problem| {
         let run = EstimateRun::new(place.source(), problem, settings.clone())
