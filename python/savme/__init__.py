@@ -34,7 +34,7 @@ from ._savme import (
     Variable,
     __version__,
 )
-from . import campaign, fmu, integrations, sim
+from . import campaign, fmu, integrations, openscenario, sim
 
 __all__ = [
     "Boolean",
@@ -59,5 +59,6 @@ __all__ = [
     "campaign",
     "fmu",
     "integrations",
+    "openscenario",
     "sim",
 ]
