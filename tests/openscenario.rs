@@ -44,13 +44,14 @@ st.add_distribution("gap", xosc.UniformDistribution(xosc.Range(10.0, 60.0)))
 xosc.ParameterValueDistribution("dry road variation", "savme test", "braking.xosc", st
     ).write_xml(f"{out}/dry_road.xosc")
 
-# The wet road: a log-normal gap and a histogram of speeds.
+# The wet road: a log-normal gap and a histogram of speeds, named as the scenario names them
+# (the campaign binds them to the FMU's variables).
 st = xosc.Stochastic(100)
 h = xosc.Histogram()
 h.add_bin(1.0, xosc.Range(8.0, 12.0))
 h.add_bin(3.0, xosc.Range(12.0, 20.0))
-st.add_distribution("speed0", h)
-st.add_distribution("gap", xosc.LogNormalDistribution(35.0, 100.0, xosc.Range(10.0, 80.0)))
+st.add_distribution("InitialSpeed", h)
+st.add_distribution("Gap", xosc.LogNormalDistribution(35.0, 100.0, xosc.Range(10.0, 80.0)))
 xosc.ParameterValueDistribution("wet road variation", "savme test", "braking.xosc", st
     ).write_xml(f"{out}/wet_road.xosc")
 
@@ -138,14 +139,14 @@ fn files_written_by_scenariogeneration_read_into_their_spaces_and_nominals() {
     let wet = read("wet_road.xosc").expect("generated");
     let n = wet.nominal();
     assert_eq!(
-        n["speed0"],
+        n["InitialSpeed"],
         Nominal::Histogram {
             edges: vec![8.0, 12.0, 20.0],
             weights: vec![1.0, 3.0]
         }
     );
-    let Nominal::LogNormal { mu, sigma } = n["gap"] else {
-        panic!("{:?}", n["gap"])
+    let Nominal::LogNormal { mu, sigma } = n["Gap"] else {
+        panic!("{:?}", n["Gap"])
     };
     let mean = (mu + sigma * sigma / 2.0).exp();
     assert!((mean - 35.0).abs() < 1e-9, "{mean}");
@@ -258,6 +259,7 @@ name = "wet_road"
 role = "train"
 fixed = {{ road = "wet" }}
 openscenario = "{files}/wet_road.xosc"
+bind = {{ InitialSpeed = "speed0", Gap = "gap" }}
 
 [[scenario]]
 name = "icy_road"
@@ -318,7 +320,7 @@ fn generated_files_drive_a_campaign_and_its_estimate() {
                     "{t}"
                 );
             }
-            "wet_road" => assert!((8.0..=20.0).contains(&phi(t, "speed0")), "{t}"),
+            "wet_road" => assert!((8.0..=20.0).contains(&phi(t, "InitialSpeed")), "{t}"),
             "dry_road" => assert!((10.0..=60.0).contains(&phi(t, "gap")), "{t}"),
             other => panic!("scenario {other}"),
         }
@@ -333,11 +335,11 @@ fn generated_files_drive_a_campaign_and_its_estimate() {
         serde_json::json!({"distribution": "normal", "mean": 16.0, "sd": 3.0})
     );
     assert_eq!(
-        settings["nominal"]["wet_road"]["gap"]["distribution"],
+        settings["nominal"]["wet_road"]["Gap"]["distribution"],
         "lognormal"
     );
     assert_eq!(
-        settings["nominal"]["wet_road"]["speed0"]["distribution"],
+        settings["nominal"]["wet_road"]["InitialSpeed"]["distribution"],
         "histogram"
     );
     let lines = json_lines(&est.join("trials.jsonl"));
@@ -403,10 +405,24 @@ fn a_bad_file_is_refused_through_the_campaign_naming_both_files() {
     assert!(!ok);
     let xosc = files.join("unbounded.xosc");
     let expected = format!(
-        "{}, line 47, key `scenario[2].openscenario`: {}, line 8, element `NormalDistribution`: a normal distribution without a <Range>",
+        "{}, line 48, key `scenario[2].openscenario`: {}, line 8, element `NormalDistribution`: a normal distribution without a <Range>",
         config.display(),
         xosc.display()
     );
     assert!(err.contains(&expected), "expected {expected}\ngot {err}");
     assert!(!dir.join("out").exists(), "nothing ran");
+    // A `bind` naming no parameter of the file.
+    let text = std::fs::read_to_string(&config)
+        .unwrap()
+        .replace("unbounded.xosc", "icy_road.xosc")
+        .replace("InitialSpeed = \"speed0\"", "Initial_Speed = \"speed0\"");
+    std::fs::write(&config, text).unwrap();
+    let (ok, _, err) = savme(&["run", "--config", config.to_str().unwrap(), "--quiet"]);
+    assert!(!ok);
+    let expected = format!(
+        "{}, line 42, key `scenario[1].bind.Initial_Speed`: `Initial_Speed` is no parameter of {} (its parameters: InitialSpeed, Gap)",
+        config.display(),
+        files.join("wet_road.xosc").display()
+    );
+    assert!(err.contains(&expected), "expected {expected}\ngot {err}");
 }

@@ -58,6 +58,7 @@
 //! name = "cut_out"               # each parameter a φ variable bound to the FMU variable of
 //! role = "test"                  # its name, its stochastic distribution the nominal of
 //! openscenario = "cut_out_variation.xosc"  # `[estimate]` (see the `openscenario` module)
+//! bind = { EgoSpeed = "ego_speed" }  # optional: a parameter's FMU variable, if named otherwise
 //! ```
 
 mod bindings;
@@ -421,6 +422,9 @@ mod raw {
         pub phi: Vec<Spanned<VarSection>>,
         /// A ParameterValueDistribution file whose parameters are φ (instead of `phi`).
         pub openscenario: Option<Spanned<String>>,
+        /// With `openscenario`: the FMU variable of a parameter whose name differs.
+        #[serde(default)]
+        pub bind: BTreeMap<String, Spanned<String>>,
     }
 }
 
@@ -806,7 +810,17 @@ fn scenarios(
                 parts.nominal.insert(name.clone(), nominal);
                 (space, spec)
             }
-            None => scenario(src, k, table, origins)?,
+            None => {
+                if let Some((name, v)) = s.bind.iter().next() {
+                    return Err(src.err(
+                        Some(src.line(v.span())),
+                        Some(&format!("{key}.bind.{name}")),
+                        "`bind` renames the parameters of an `openscenario` file: give the file, \
+                         or bind [[scenario.phi]] variables with their `fmu` key",
+                    ));
+                }
+                scenario(src, k, table, origins)?
+            }
         };
         parts.spaces.insert(name.clone(), space);
         parts.specs.push(spec);
@@ -1361,6 +1375,41 @@ range = [0.0, 1.0]
         let e = error("base", &[]);
         assert_eq!(at(&e), (Some(3), Some("fmu.hf / fmu.lf")));
         assert!(e.message.contains("nowhere.fmu"), "{e}");
+    }
+
+    #[test]
+    fn openscenario_keys_are_checked_naming_their_key() {
+        // The file and phi tables both.
+        let e = error(
+            "osc-and-phi",
+            &[("fixed = { threshold = 0.5 }", "openscenario = \"v.xosc\"")],
+        );
+        assert_eq!(at(&e), (Some(24), Some("scenario[0].phi")));
+        assert!(e.message.contains("either it or [[scenario.phi]]"), "{e}");
+        // A file that is not there: named with the key's line.
+        let e = error(
+            "osc-missing",
+            &[(
+                "fixed = { threshold = 0.5 }\n[[scenario.phi]]\nname = \"start\"\nfmu = \"x0\"\nrange = [0.0, 1.0]",
+                "openscenario = \"missing.xosc\"",
+            )],
+        );
+        assert_eq!(at(&e), (Some(23), Some("scenario[0].openscenario")));
+        assert!(e.message.contains("missing.xosc: "), "{e}");
+        // `bind` without a file.
+        let e = error(
+            "bind-alone",
+            &[(
+                "role = \"test\"",
+                "role = \"test\"\nbind = { start = \"x0\" }",
+            )],
+        );
+        assert_eq!(at(&e), (Some(32), Some("scenario[1].bind.start")));
+        assert!(
+            e.message
+                .contains("renames the parameters of an `openscenario` file"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -97,3 +97,16 @@ def test_a_program_without_parameters_to_search_is_refused(tmp_path):
     )
     with pytest.raises(ValueError, match="no parameter to search"):
         ScenicSearch(str(program), fidelity=FIDELITY, theta_hf={"timestep": 0.05}, simulate=Runs())
+
+
+def test_a_simulation_that_raises_withdraws_its_trial(tmp_path):
+    def broken(scene, theta):
+        raise RuntimeError("the simulator crashed")
+
+    s, _ = search("crossing.scenic")
+    s.simulate = broken
+    with pytest.raises(RuntimeError, match="crashed"):
+        s.step()
+    assert s.kernel.pending() == [] and s.kernel.stats()["told"] == 0
+    s.simulate = Runs()
+    assert s.step() is not None and s.kernel.stats()["told"] == 1

@@ -191,15 +191,22 @@ class ScenicSearch:
 
     def step(self) -> Optional[Record]:
         """One trial: ask, sample its scene, run it at θ_HF (and θ_LF), tell. None if Scenic
-        found no scene for the trial's φ (the trial is withdrawn, in `rejected`)."""
+        found no scene for the trial's φ (the trial is withdrawn, in `rejected`). If
+        `simulate` raises, the trial is withdrawn and the error raised."""
         trial = self.kernel.ask()
         try:
             scene = self.scene(trial.phi)
         except RejectionException:
             self.rejected.append(self.kernel.cancel(trial))
             return None
-        hf = self._run(scene, self.kernel.theta_hf)
-        lf = self._run(scene, trial.theta_lf) if trial.paired else None
+        try:
+            hf = self._run(scene, self.kernel.theta_hf)
+            lf = self._run(scene, trial.theta_lf) if trial.paired else None
+        except BaseException:
+            # A run that raised (or was interrupted) is never told: withdraw the trial so the
+            # kernel asks on as if it had not been asked.
+            self.kernel.cancel(trial)
+            raise
         record = self.kernel.tell(trial, hf=hf, lf=lf)
         self.records.append(record)
         return record

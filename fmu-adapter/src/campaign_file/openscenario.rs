@@ -5,11 +5,12 @@
 //! name = "cut_in"
 //! role = "train"
 //! openscenario = "cut_in_variation.xosc"  # relative to the campaign file
+//! bind = { EgoSpeed = "ego_speed" }       # optional: FMU variables named otherwise
 //! fixed = { scenario = 2 }                # as for any scenario
 //! ```
 //!
-//! Every parameter the file varies is a φ variable bound to the FMU variable of its name
-//! (continuous ones in 10 linear bins); its stochastic distribution is the scenario's nominal
+//! Every parameter the file varies is a φ variable bound to the FMU variable of its name, or
+//! the one `bind` gives (continuous ones in 10 linear bins); its stochastic distribution is the scenario's nominal
 //! for `[estimate]` (see `savme_openscenario` for the mapping). An error in the file names the
 //! campaign file, the key's line and the key, then the distribution file, its line and element.
 
@@ -51,13 +52,33 @@ pub(super) fn scenario(
     let space = d
         .space(BINS)
         .map_err(|e| src.err(Some(line), Some(&key), e.to_string()))?;
+    if let Some((name, v)) = s.bind.iter().find(|(n, _)| d.parameter(n).is_none()) {
+        let names: Vec<&str> = d.parameters.iter().map(|p| p.name.as_str()).collect();
+        return Err(src.err(
+            Some(src.line(v.span())),
+            Some(&format!("scenario[{k}].bind.{name}")),
+            format!(
+                "`{name}` is no parameter of {} (its parameters: {})",
+                path.display(),
+                names.join(", ")
+            ),
+        ));
+    }
     let fixed = super::fixed(src, k, s, origins)?;
     let mut phi = Vec::new();
     for p in &d.parameters {
-        origins.set(src, &p.name, line, &key, Use::Scenario(k))?;
+        let (fmu_variable, line, key) = match s.bind.get(&p.name) {
+            Some(v) => (
+                v.get_ref().clone(),
+                src.line(v.span()),
+                format!("scenario[{k}].bind.{}", p.name),
+            ),
+            None => (p.name.clone(), line, key.clone()),
+        };
+        origins.set(src, &fmu_variable, line, &key, Use::Scenario(k))?;
         phi.push(Binding {
             variable: p.name.clone(),
-            fmu_variable: p.name.clone(),
+            fmu_variable,
             labels: None,
         });
     }
