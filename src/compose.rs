@@ -240,7 +240,11 @@ impl FmuCampaign {
             return Ok(None);
         };
         let settings = EstimateSettings::from_section(section, &self.file.common.path)
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| e.to_string())?
+            .with_declared(
+                &self.file.common.scenarios.nominal,
+                &self.protocol.train_scenarios,
+            );
         let file = self.file.common.path.display();
         let at = |e: String| format!("{file}, line {}, [estimate]: {e}", section.line);
         if self.repeat.is_some() {

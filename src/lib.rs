@@ -42,6 +42,8 @@
 pub use savme_campaign as campaign;
 pub use savme_campaign::toy;
 pub use savme_kernel as kernel;
+/// OpenSCENARIO parameter value distributions as φ-spaces and nominals.
+pub use savme_openscenario as openscenario;
 /// Campaigns in PostgreSQL (crate `savme-postgres`, feature `postgres`).
 #[cfg(feature = "postgres")]
 pub use savme_postgres as postgres;

@@ -621,6 +621,41 @@ range = [0.0, 1.0]
     }
 
     #[test]
+    fn openscenario_keys_are_checked_naming_their_key() {
+        // The file and phi tables both.
+        let e = error(
+            "osc-and-phi",
+            &[("fixed = { threshold = 0.5 }", "openscenario = \"v.xosc\"")],
+        );
+        assert_eq!(at(&e), (Some(24), Some("scenario[0].phi")));
+        assert!(e.message.contains("either it or [[scenario.phi]]"), "{e}");
+        // A file that is not there: named with the key's line.
+        let e = error(
+            "osc-missing",
+            &[(
+                "fixed = { threshold = 0.5 }\n[[scenario.phi]]\nname = \"start\"\nfmu = \"x0\"\nrange = [0.0, 1.0]",
+                "openscenario = \"missing.xosc\"",
+            )],
+        );
+        assert_eq!(at(&e), (Some(23), Some("scenario[0].openscenario")));
+        assert!(e.message.contains("missing.xosc: "), "{e}");
+        // `bind` without a file.
+        let e = error(
+            "bind-alone",
+            &[(
+                "role = \"test\"",
+                "role = \"test\"\nbind = { start = \"x0\" }",
+            )],
+        );
+        assert_eq!(at(&e), (Some(32), Some("scenario[1].bind.start")));
+        assert!(
+            e.message
+                .contains("renames the parameters of an `openscenario` file"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn a_toml_syntax_error_names_its_line() {
         let e = error("syntax", &[("stop_time = 1.0", "stop_time = = 1.0")]);
         assert_eq!(at(&e), (Some(4), None));

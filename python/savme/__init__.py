@@ -34,7 +34,7 @@ from ._savme import (
     Variable,
     __version__,
 )
-from . import campaign, executors, fmu, integrations, sim
+from . import campaign, executors, fmu, integrations, openscenario, sim
 from .executors import RayExecutor
 
 __all__ = [
@@ -62,5 +62,6 @@ __all__ = [
     "executors",
     "fmu",
     "integrations",
+    "openscenario",
     "sim",
 ]

@@ -9,13 +9,15 @@ _Value = Union[bool, int, float, str]
 _Phase = Literal["train", "evaluate", "baseline", "test"]
 _EstimatorName = Literal["map", "mean"]
 _RunResult = Tuple[bool, float]
+_RunArg = Union[Tuple[bool, float], Tuple[bool, float, float]]
 """One simulation's result as (failure, runtime); runtimes finite and > 0, on a common scale."""
 
 __version__: str
 __all__ = [
     "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
     "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Estimation", "Protocol", "PROTOCOL_VALUES", "Problem",
-    "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator",
+    "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator", "ParameterVariation",
+    "read_openscenario",
 ]
 
 class TellError(ValueError):
@@ -239,10 +241,12 @@ class Kernel:
     def ask(self, n: int) -> List[Trial]:
         """Suggests the next trial in the current phase, or a list of `n` (all or none). Any
         number may be pending at once; tell them in any order."""
-    def tell(self, trial: Union[Trial, int], hf: _RunResult, lf: Optional[_RunResult] = None) -> Record:
+    def tell(self, trial: Union[Trial, int], hf: _RunArg, lf: Optional[_RunArg] = None) -> Record:
         """Ingests a trial's runs, hf=(failure, runtime) and (except for baseline trials)
-        lf=(failure, runtime); credits the bandits in the learning phases and returns the
-        record. A refused tell raises TellError naming the trial and changes nothing."""
+        lf=(failure, runtime), each optionally with a third element, the run's robustness
+        (finite; <= 0 on a failure, smaller = closer: see Record.to_dict()); credits the
+        bandits in the learning phases and returns the record. A refused tell raises
+        TellError naming the trial and changes nothing."""
     def cancel(self, trial: Union[Trial, int]) -> Trial:
         """Withdraws a pending trial (its simulation crashed); it is never told."""
     def set_phase(self, phase: _Phase) -> None:
@@ -542,3 +546,37 @@ class Simulator:
     @property
     def theta_hf(self) -> Dict[str, _Value]:
         """θ_HF."""
+
+@final
+class ParameterVariation:
+    """An OpenSCENARIO `ParameterValueDistribution` file, read and checked
+    (`savme.openscenario.read`)."""
+
+    @property
+    def path(self) -> PathLike[str]:
+        """The file."""
+    @property
+    def scenario_file(self) -> Optional[str]:
+        """`ScenarioFile filepath`: the scenario whose parameters vary, as written."""
+    @property
+    def variation(self) -> Literal["deterministic", "stochastic"]:
+        """Which kind of variation the file declares."""
+    @property
+    def number_of_test_runs(self) -> Optional[int]:
+        """`numberOfTestRuns` of a stochastic variation (None if not given)."""
+    @property
+    def names(self) -> List[str]:
+        """The varied parameters' names, in file order."""
+    def space(self, bins: int = 10) -> Space:
+        """The φ-space: one variable per parameter, continuous ones in `bins` linear bins."""
+    @property
+    def nominal(self) -> Dict[str, Dict[str, Any]]:
+        """The nominal of every parameter that is not uniform, as
+        `Kernel.estimation(nominal={scenario: this})` takes it."""
+    @property
+    def declared_at(self) -> Dict[str, Dict[str, Any]]:
+        """Where each parameter's distribution is: {name: {"element": ..., "line": ...}}."""
+
+def read_openscenario(path: Union[str, PathLike[str]]) -> ParameterVariation:
+    """Reads a `ParameterValueDistribution` file; ValueError naming the file, line and
+    element of what is wrong."""

@@ -55,7 +55,7 @@ pub fn config(
             serde_json::from_str::<BTreeMap<String, BTreeMap<String, Nominal>>>(&text).map_err(
                 |e| {
                     PyValueError::new_err(format!(
-                        "nominal: {e} (a variable's nominal is {{\"distribution\": \"uniform\"}}, {{\"distribution\": \"normal\", \"mean\": M, \"sd\": S}} or {{\"distribution\": \"weights\", \"weights\": [...]}})"
+                        "nominal: {e} (a variable's nominal is {{\"distribution\": \"uniform\"}}, {{\"distribution\": \"normal\", \"mean\": M, \"sd\": S}}, {{\"distribution\": \"lognormal\", \"mu\": M, \"sigma\": S}}, {{\"distribution\": \"histogram\", \"edges\": [...], \"weights\": [...]}} or {{\"distribution\": \"weights\", \"weights\": [...]}})"
                     ))
                 },
             )?

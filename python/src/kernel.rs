@@ -90,17 +90,25 @@ fn scenarios(arg: &Bound<'_, PyAny>) -> PyResult<Vec<Scenario>> {
 
 /// `hf=` / `lf=`: a (failure, runtime) pair.
 fn run(which: &str, id: u64, arg: &Bound<'_, PyAny>) -> PyResult<Run> {
-    let (failure, runtime): (Bound<'_, PyAny>, f64) = arg.extract().map_err(|_| {
-        PyTypeError::new_err(format!(
-            "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair, got {arg}"
-        ))
-    })?;
+    let (failure, runtime, robustness): (Bound<'_, PyAny>, f64, Option<f64>) = arg
+        .extract::<(Bound<'_, PyAny>, f64)>()
+        .map(|(f, r)| (f, r, None))
+        .or_else(|_| arg.extract::<(Bound<'_, PyAny>, f64, f64)>().map(|(f, r, m)| (f, r, Some(m))))
+        .map_err(|_| {
+            PyTypeError::new_err(format!(
+                "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair or a (failure, runtime, robustness: float) triple, got {arg}"
+            ))
+        })?;
     let failure = crate::convert::failure_flag(&failure).map_err(|kind| {
         PyTypeError::new_err(format!(
             "tell(trial {id}, {which}=…): the failure flag (first of the pair) must be a bool or a numpy bool, got {kind} {failure}"
         ))
     })?;
-    Ok(Run::new(failure, runtime))
+    let run = Run::new(failure, runtime);
+    Ok(match robustness {
+        Some(margin) => run.with_robustness(margin),
+        None => run,
+    })
 }
 
 impl PyKernel {
@@ -287,8 +295,9 @@ impl PyKernel {
     }
 
     /// Ingests trial `trial`'s runs: `hf=(failure, runtime)` and, unless it is a baseline
-    /// trial, `lf=(failure, runtime)`. Returns the record; a refused tell raises
-    /// `savme.TellError` and changes nothing.
+    /// trial, `lf=(failure, runtime)` — each optionally with a third element, the run's
+    /// robustness (finite; ≤ 0 on a failure, smaller = closer). Returns the record; a refused
+    /// tell raises `savme.TellError` and changes nothing.
     #[pyo3(signature = (trial, hf, lf = None))]
     fn tell(
         &self,

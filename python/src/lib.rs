@@ -5,7 +5,7 @@
 //! posteriors), `kernel` (the ask/tell kernel, plain or journaled), `estimation` (P(failure)
 //! by importance sampling from a kernel's posteriors), `campaign` (protocol,
 //! problem, the campaign loop on Python callables), `sim` (the bundled driving simulator
-//! and FMUs), `convert` (values
+//! and FMUs), `openscenario` (OpenSCENARIO parameter variations), `convert` (values
 //! between Rust and Python) and `errors` (Rust errors as Python exceptions).
 
 use pyo3::prelude::*;
@@ -16,6 +16,7 @@ mod errors;
 mod estimation;
 mod executor;
 mod kernel;
+mod openscenario;
 mod sim;
 mod space;
 mod trial;
@@ -46,5 +47,7 @@ fn _savme(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(campaign::load_campaign, m)?)?;
     m.add_class::<sim::PyDriving>()?;
     m.add_class::<sim::PyFmuSimulator>()?;
+    m.add_class::<openscenario::PyParameterVariation>()?;
+    m.add_function(wrap_pyfunction!(openscenario::read_openscenario, m)?)?;
     Ok(())
 }

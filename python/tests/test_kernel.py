@@ -161,6 +161,19 @@ def test_bad_tell_arguments_are_type_errors_naming_the_argument():
     assert k.stats()["told"] == 0
 
 
+def test_a_run_may_carry_its_robustness():
+    k = kernel()
+    t = k.ask()
+    r = k.tell(t, hf=(True, 1.0, -0.5), lf=(False, 0.2, 0.3))
+    paired = r.to_dict()["observation"]["paired"]
+    assert (paired["hf"]["robustness"], paired["lf"]["robustness"]) == (-0.5, 0.3)
+    t = k.ask()
+    with pytest.raises(savme.TellError, match="robustness must be a finite number"):
+        k.tell(t, hf=(True, 1.0, float("nan")), lf=(True, 0.2))
+    with pytest.raises(TypeError, match="triple"):
+        k.tell(t, hf=(True, 1.0, 2.0, 3.0), lf=(True, 0.2))
+
+
 def test_bad_spaces_and_configurations_name_the_variable_or_scenario():
     with pytest.raises(ValueError, match="log-scaled variable `view` needs 0 < lo"):
         savme.Continuous("view", 0, 100, scale="log")

@@ -52,7 +52,8 @@ pub struct Args {
     #[arg(long = "scenario", value_name = "NAME")]
     scenarios: Vec<String>,
     /// A variable's nominal distribution: SCENARIO.VARIABLE=normal:MEAN,SD (truncated to the
-    /// variable's range), =weights:W1,W2,… (discrete) or =uniform (the default). Repeat.
+    /// variable's range), =lognormal:MU,SIGMA (of ln φ; truncated too), =weights:W1,W2,…
+    /// (discrete) or =uniform (the default). Repeat.
     #[arg(long = "nominal", value_name = "DECL")]
     nominals: Vec<String>,
     /// How the proposal weighs each variable's bins: by the posterior means, or also by the
@@ -328,6 +329,14 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let protocol = source
         .protocol()
         .map_err(|e| Failure::Runtime(e.to_string()))?;
+    // The nominals the campaign file's OpenSCENARIO files declare, under the flags' and
+    // the [estimate] section's.
+    let settings = match &file {
+        Some(c) => {
+            settings.with_declared(&c.file.common.scenarios.nominal, &protocol.train_scenarios)
+        }
+        None => settings,
+    };
     let hint = resume_hint(&a);
     let display = std::cell::RefCell::new(Progress::new(a.quiet));
     let configured = |problem: Problem| {

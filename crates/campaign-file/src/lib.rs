@@ -31,11 +31,18 @@
 //! [[scenario.phi]]
 //! name = "gap"
 //! range = [2.0, 8.0]
+//!
+//! [[scenario]]                   # φ from an OpenSCENARIO ParameterValueDistribution file:
+//! name = "cut_out"               # each parameter a φ variable bound to the simulator variable
+//! role = "test"                  # of its name (or the one `bind` gives), its stochastic
+//! openscenario = "cut_out.xosc"  # distribution the nominal of `[estimate]`
+//! bind = { EgoSpeed = "ego_speed" }
 //! ```
 
 mod error;
 mod estimate;
 mod fidelity;
+mod openscenario;
 mod scenario;
 mod section;
 mod source;
@@ -127,7 +134,7 @@ impl CampaignFile {
         let campaign = section::read(src, s.campaign, base)?;
         let estimate = s.estimate.map(|e| estimate::section(src, e));
         let fidelity = fidelity::read(src, &s.fidelity, &campaign, paper)?;
-        let scenarios = scenario::read(src, &s.scenarios)?;
+        let scenarios = scenario::read(src, &s.scenarios, base)?;
         Ok(CampaignFile {
             path: path.to_path_buf(),
             campaign,

@@ -3,8 +3,10 @@
 
 use crate::variable::{binding, toml_value, variables, Named, VarSection};
 use crate::{ConfigError, Source};
+use savme_kernel::estimation::Nominal;
 use savme_kernel::{Space, Value};
 use std::collections::BTreeMap;
+use std::path::Path;
 use toml::Spanned;
 
 /// A `[[scenario]]` table as serde reads it.
@@ -17,8 +19,13 @@ pub(crate) struct ScenarioSection {
     pub role: Spanned<String>,
     #[serde(default)]
     pub fixed: BTreeMap<String, Spanned<toml::Value>>,
-    #[serde(rename = "phi")]
+    #[serde(rename = "phi", default)]
     pub phi: Vec<Spanned<VarSection>>,
+    /// A ParameterValueDistribution file whose parameters are φ (instead of `phi`).
+    pub openscenario: Option<Spanned<String>>,
+    /// The simulator variable of a parameter of the `openscenario` file, if named otherwise.
+    #[serde(default)]
+    pub bind: BTreeMap<String, Spanned<String>>,
 }
 
 /// Every scenario of the file.
@@ -37,6 +44,9 @@ pub struct Scenarios {
     pub lines: Vec<ScenarioLines>,
     /// What each scenario sets in a run, in file order.
     pub bindings: Vec<ScenarioBindings>,
+    /// The nominal distributions the scenarios' OpenSCENARIO files declare (`openscenario`),
+    /// by scenario then variable; `[estimate.nominal]` entries override them.
+    pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
 }
 
 /// Where one `[[scenario]]` table is in its file.
@@ -69,6 +79,7 @@ pub struct ScenarioBindings {
 pub(crate) fn read(
     src: &Source,
     list: &Spanned<Vec<Spanned<ScenarioSection>>>,
+    base: &Path,
 ) -> Result<Scenarios, ConfigError> {
     if list.get_ref().is_empty() {
         return Err(src.err(
@@ -116,7 +127,25 @@ pub(crate) fn read(
             role: src.line(s.role.span()),
             weight: s.weight.as_ref().map(|w| src.line(w.span())),
         });
-        let (space, bindings) = scenario(src, k, table)?;
+        let (space, bindings) = match &s.openscenario {
+            Some(file) => {
+                let (space, bindings, nominal) =
+                    crate::openscenario::scenario(src, k, table, file, base)?;
+                parts.nominal.insert(name.clone(), nominal);
+                (space, bindings)
+            }
+            None => {
+                if let Some((name, v)) = s.bind.iter().next() {
+                    return Err(src.err(
+                        Some(src.line(v.span())),
+                        Some(&format!("{key}.bind.{name}")),
+                        "`bind` renames the parameters of an `openscenario` file: give the file, \
+                         or bind [[scenario.phi]] variables with their `fmu` key",
+                    ));
+                }
+                scenario(src, k, table)?
+            }
+        };
         parts.spaces.insert(name.clone(), space);
         parts.bindings.push(bindings);
     }
@@ -139,24 +168,7 @@ fn scenario(
             format!("{e}: give at least one [[scenario.phi]] table"),
         )
     })?;
-    let mut fixed = Vec::new();
-    for (name, v) in &s.fixed {
-        let fkey = format!("{key}.fixed.{name}");
-        let line = src.line(v.span());
-        let value = toml_value(v.get_ref()).ok_or_else(|| {
-            src.err(
-                Some(line),
-                Some(&fkey),
-                "expected a number, boolean or string",
-            )
-        })?;
-        let named = Named {
-            name: name.clone(),
-            line,
-            key: fkey,
-        };
-        fixed.push((named, value));
-    }
+    let fixed = fixed(src, k, s)?;
     let phi = (s.phi.iter().enumerate())
         .map(|(j, sv)| {
             let variable = sv.get_ref().name.get_ref().clone();
@@ -172,4 +184,31 @@ fn scenario(
         phi,
     };
     Ok((space, bindings))
+}
+
+/// Scenario `k`'s fixed parameters: each simulator variable with its value.
+pub(crate) fn fixed(
+    src: &Source,
+    k: usize,
+    s: &ScenarioSection,
+) -> Result<Vec<(Named, Value)>, ConfigError> {
+    let mut fixed = Vec::new();
+    for (name, v) in &s.fixed {
+        let fkey = format!("scenario[{k}].fixed.{name}");
+        let line = src.line(v.span());
+        let value = toml_value(v.get_ref()).ok_or_else(|| {
+            src.err(
+                Some(line),
+                Some(&fkey),
+                "expected a number, boolean or string",
+            )
+        })?;
+        let named = Named {
+            name: name.clone(),
+            line,
+            key: fkey,
+        };
+        fixed.push((named, value));
+    }
+    Ok(fixed)
 }

@@ -96,6 +96,76 @@ fn nominals_of_unknown_names_or_bad_shapes_are_refused_naming_them() {
     assert!(m.contains("`lane`") && m.contains("not all 0"), "{m}");
     let m = with("cut_in", "speed", weights(vec![1.0]));
     assert!(m.contains("`speed`") && m.contains("discrete"), "{m}");
+    let lognormal = |mu, sigma| Nominal::LogNormal { mu, sigma };
+    let m = with("cut_in", "speed", lognormal(1.0, -1.0));
+    assert!(m.contains("`speed`") && m.contains("sigma > 0"), "{m}");
+    let m = with("cut_in", "lane", lognormal(1.0, 1.0));
+    assert!(
+        m.contains("`lane`") && m.contains("a lognormal needs a continuous"),
+        "{m}"
+    );
+    let histogram = |edges: Vec<f64>, weights: Vec<f64>| Nominal::Histogram { edges, weights };
+    let m = with("cut_in", "speed", histogram(vec![0.0, 1.0], vec![1.0, 1.0]));
+    assert!(m.contains("one more edge than weights"), "{m}");
+    let m = with(
+        "cut_in",
+        "speed",
+        histogram(vec![0.0, 2.0, 1.0], vec![1.0, 1.0]),
+    );
+    assert!(m.contains("strictly increasing"), "{m}");
+    let m = with("cut_in", "speed", histogram(vec![0.0, 1.0], vec![-1.0]));
+    assert!(m.contains("not all 0"), "{m}");
+    let m = with(
+        "cut_in",
+        "speed",
+        histogram(vec![1000.0, 2000.0], vec![1.0]),
+    );
+    assert!(m.contains("of its mass inside"), "{m}");
+}
+
+/// Plain Monte Carlo (ε = 1) draws from the nominal: the sample mean of a truncated
+/// log-normal and of a histogram is their mean (computed on a fine grid).
+#[test]
+fn draws_follow_the_lognormal_and_histogram_nominals() {
+    let cases = [
+        Nominal::LogNormal {
+            mu: 1.0,
+            sigma: 0.5,
+        },
+        Nominal::Histogram {
+            edges: vec![0.5, 1.0, 3.0, 6.0],
+            weights: vec![1.0, 0.0, 3.0],
+        },
+    ];
+    for nominal in cases {
+        let var = Variable::continuous("x", 0.5, 6.0, 10, Scale::Linear);
+        let (s, p) = scenario("s", vec![var], 1.0);
+        let mut c = EstimationConfig::new(1.0, 3);
+        c.nominal
+            .entry("s".into())
+            .or_default()
+            .insert("x".into(), nominal.clone());
+        let mut e = Estimation::new(&[(s, p)], &c).unwrap();
+        let n = 200_000;
+        let (mut mean, mut exact) = (0.0, 0.0);
+        for _ in 0..n {
+            let t = e.ask().expect("no refinement");
+            let x = t.phi.get("x").and_then(|v| v.as_f64()).unwrap();
+            assert!((0.5..=6.0).contains(&x), "{x}");
+            mean += x / n as f64;
+            e.tell(t.id, false).unwrap();
+        }
+        let grid = 100_000;
+        for i in 0..grid {
+            let x = 0.5 + 5.5 * (i as f64 + 0.5) / grid as f64;
+            let (_, p) = e.densities(0, &Assignment::new().with("x", x)).unwrap();
+            exact += x * p * 5.5 / grid as f64;
+        }
+        assert!(
+            (mean - exact).abs() < 0.01,
+            "{nominal:?}: {mean} vs {exact}"
+        );
+    }
 }
 
 #[test]
@@ -122,6 +192,28 @@ fn the_proposal_and_nominal_densities_integrate_to_one() {
         (
             Variable::continuous("x", 0.0, 4.0, 8, Scale::Linear),
             Some(Nominal::Normal { mean: 1.0, sd: 0.7 }),
+        ),
+        (
+            Variable::continuous("x", 0.5, 6.0, 8, Scale::Linear),
+            Some(Nominal::LogNormal {
+                mu: 1.0,
+                sigma: 0.5,
+            }),
+        ),
+        (
+            Variable::continuous("x", 0.0, 4.0, 8, Scale::Linear),
+            Some(Nominal::Histogram {
+                edges: vec![0.0, 1.0, 3.0, 4.0],
+                weights: vec![1.0, 0.0, 2.0],
+            }),
+        ),
+        (
+            // A histogram inside the variable's range: no density outside its edges.
+            Variable::continuous("x", 0.0, 4.0, 8, Scale::Linear),
+            Some(Nominal::Histogram {
+                edges: vec![1.0, 1.5, 3.0],
+                weights: vec![3.0, 1.0],
+            }),
         ),
     ];
     for (var, nominal) in cases {

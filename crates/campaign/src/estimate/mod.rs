@@ -501,8 +501,8 @@ impl Running<'_, '_> {
     }
 }
 
-/// Parses a `--nominal` declaration `SCENARIO.VARIABLE=uniform`, `=normal:MEAN,SD` or
-/// `=weights:W1,W2,…`.
+/// Parses a `--nominal` declaration `SCENARIO.VARIABLE=uniform`, `=normal:MEAN,SD`,
+/// `=lognormal:MU,SIGMA` (the mean and standard deviation of ln φ) or `=weights:W1,W2,…`.
 ///
 /// ```
 /// use savme_campaign::estimate::parse_nominal;
@@ -541,14 +541,23 @@ pub fn parse_nominal(given: &str) -> Result<(String, String, Nominal), EstimateE
             },
             _ => return Err(bad("normal takes two numbers: normal:MEAN,SD")),
         },
+        "lognormal" => match numbers()?.as_slice() {
+            [mu, sigma] => Nominal::LogNormal {
+                mu: *mu,
+                sigma: *sigma,
+            },
+            _ => {
+                return Err(bad(
+                    "lognormal takes two numbers: lognormal:MU,SIGMA (of ln φ)",
+                ))
+            }
+        },
         "weights" => Nominal::Weights {
             weights: numbers()?,
         },
-        _ => {
-            return Err(bad(
-                "the distribution is uniform, normal:MEAN,SD or weights:W1,W2,…",
-            ))
-        }
+        _ => return Err(bad(
+            "the distribution is uniform, normal:MEAN,SD, lognormal:MU,SIGMA or weights:W1,W2,…",
+        )),
     };
     Ok((scenario.to_string(), variable.to_string(), nominal))
 }

@@ -418,6 +418,49 @@ impl EstimateSettings {
         }
     }
 
+    /// These settings with the nominal distributions a campaign file's scenarios declare in
+    /// their OpenSCENARIO files (`declared`, by scenario then variable) added for the
+    /// scenarios the estimate covers (`scenarios`, or `train` — the protocol's meta-training
+    /// scenarios — when none are named). A nominal these settings already give for a variable
+    /// (`[estimate.nominal]`, `--nominal`) wins.
+    ///
+    /// ```
+    /// use savme_campaign::estimate::EstimateSettings;
+    /// use savme_kernel::estimation::Nominal;
+    /// use std::collections::BTreeMap;
+    /// let normal = Nominal::Normal { mean: 16.0, sd: 3.0 };
+    /// let declared = BTreeMap::from([
+    ///     ("dry".to_string(), BTreeMap::from([("speed".to_string(), normal.clone())])),
+    ///     ("icy".to_string(), BTreeMap::from([("speed".to_string(), normal.clone())])),
+    /// ]);
+    /// let s = EstimateSettings::default().with_declared(&declared, &["dry".to_string()]);
+    /// assert_eq!(s.nominal["dry"]["speed"], normal);
+    /// assert!(!s.nominal.contains_key("icy"), "not estimated");
+    /// ```
+    pub fn with_declared(
+        mut self,
+        declared: &BTreeMap<String, BTreeMap<String, Nominal>>,
+        train: &[String],
+    ) -> EstimateSettings {
+        let covered = if self.scenarios.is_empty() {
+            train.to_vec()
+        } else {
+            self.scenarios.clone()
+        };
+        for scenario in covered {
+            let Some(vars) = declared.get(&scenario).filter(|v| !v.is_empty()) else {
+                continue;
+            };
+            let given = self.nominal.entry(scenario).or_default();
+            for (variable, nominal) in vars {
+                given
+                    .entry(variable.clone())
+                    .or_insert_with(|| nominal.clone());
+            }
+        }
+        self
+    }
+
     /// Checks the budget against the protocol, and the nominal and the scenarios against the
     /// campaign's problem, before it runs (the posterior is not known yet: uniform ones stand
     /// in). The error names the budget, or the scenario and variable.
