@@ -34,7 +34,7 @@ from ._savme import (
     Variable,
     __version__,
 )
-from . import campaign, fmu, integrations, sim
+from . import campaign, fmu, history, integrations, sim
 
 __all__ = [
     "Boolean",
@@ -58,6 +58,7 @@ __all__ = [
     "__version__",
     "campaign",
     "fmu",
+    "history",
     "integrations",
     "sim",
 ]

@@ -10,7 +10,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ._savme import Kernel, Record, Trial
 
 
-class Trials(list):  # type: ignore[type-arg]
+class Trials(List["Record"]):
     """The told trials, in tell order: a list of `savme.Record` with a table view."""
 
     def rows(self) -> List[Dict[str, Any]]:

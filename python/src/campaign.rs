@@ -273,10 +273,10 @@ impl PySimulator {
 /// Where `e` was raised: ` (at FILE:LINE, in FUNCTION)` of its innermost frame, or nothing.
 fn raised_at(py: Python<'_>, e: &PyErr) -> String {
     let frame = (|| -> PyResult<String> {
-        let tb = e.traceback(py).ok_or_else(|| PyValueError::new_err("no traceback"))?;
-        let frames = py
-            .import("traceback")?
-            .call_method1("extract_tb", (tb,))?;
+        let tb = e
+            .traceback(py)
+            .ok_or_else(|| PyValueError::new_err("no traceback"))?;
+        let frames = py.import("traceback")?.call_method1("extract_tb", (tb,))?;
         let last = frames.get_item(-1)?;
         let (file, line, name): (String, u32, String) = (
             last.getattr("filename")?.extract()?,

@@ -297,7 +297,14 @@ impl PyKernel {
         let records = self
             .history()?
             .iter()
-            .map(|record| Bound::new(py, PyRecord { record: record.clone() }))
+            .map(|record| {
+                Bound::new(
+                    py,
+                    PyRecord {
+                        record: record.clone(),
+                    },
+                )
+            })
             .collect::<PyResult<Vec<_>>>()?;
         py.import("savme.history")?
             .getattr("Trials")?
@@ -320,14 +327,9 @@ impl PyKernel {
         catch: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let py = slf.py();
-        py.import("savme.history")?.getattr("optimize")?.call1((
-            slf,
-            objective,
-            n_trials,
-            timeout,
-            callbacks,
-            catch,
-        ))
+        py.import("savme.history")?
+            .getattr("optimize")?
+            .call1((slf, objective, n_trials, timeout, callbacks, catch))
     }
 
     /// The complete state as JSON (`Kernel.from_json` restores it exactly).

@@ -18,7 +18,10 @@ fn typed<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     let value = a.get(name).ok_or_else(|| {
         let known: Vec<&str> = a.iter().map(|(n, _)| n).collect();
-        PyKeyError::new_err(format!("{what} has no variable `{name}` (it has: {})", known.join(", ")))
+        PyKeyError::new_err(format!(
+            "{what} has no variable `{name}` (it has: {})",
+            known.join(", ")
+        ))
     })?;
     let v = convert::to_py(py, value)?;
     let is_bool = v.is_instance_of::<PyBool>();
@@ -108,10 +111,7 @@ impl PyTrial {
     /// pending trial.
     #[staticmethod]
     fn from_dict(py: Python<'_>, d: &Bound<'_, PyAny>) -> PyResult<Self> {
-        let text: String = py
-            .import("json")?
-            .call_method1("dumps", (d,))?
-            .extract()?;
+        let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
         let trial = serde_json::from_str(&text)
             .map_err(|e| PyValueError::new_err(format!("Trial.from_dict: {e}")))?;
         Ok(PyTrial { trial })
