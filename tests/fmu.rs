@@ -710,3 +710,47 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         ],
     );
 }
+
+#[test]
+fn an_estimate_with_another_campaigns_file_names_what_differs() {
+    let dir = made_dir("other-file");
+    let config = campaign_file(&dir, TINY);
+    let out = dir.join("out");
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let other_dir = dir.join("other");
+    std::fs::create_dir_all(&other_dir).unwrap();
+    let other = campaign_file(
+        &other_dir,
+        &TINY
+            .replace(
+                "name = \"lead_vehicle_brakes\"",
+                "name = \"stopped_obstacle\"",
+            )
+            .replace("fixed = { scenario = 7 }", "fixed = { scenario = 1 }"),
+    );
+    let (code, _, err) = common::run(&[
+        "estimate",
+        out.to_str().unwrap(),
+        "--config",
+        other.to_str().unwrap(),
+        "--max-runs",
+        "5",
+        "--no-target",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("this campaign file describes another campaign than")
+            && err.contains("train_scenarios [\"lead_vehicle_brakes\"] there, [\"stopped_obstacle\"] in the file")
+            && !err.contains("was not learned"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
