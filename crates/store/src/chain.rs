@@ -122,7 +122,11 @@ fn digest_of(line: &[u8]) -> Option<(usize, u64)> {
         return None;
     }
     let hex = std::str::from_utf8(&tail[6..22]).ok()?;
-    if !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+    // Lower-case only, as written: `A` for `a` would read as the same digest.
+    if !hex
+        .bytes()
+        .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b))
+    {
         return None;
     }
     Some((start, u64::from_str_radix(hex, 16).ok()?))
