@@ -34,7 +34,17 @@ def test_trials_hold_every_told_trial_with_phi_theta_runs_and_outcome():
 
 
 def test_to_pandas_gives_one_row_per_trial():
-    pandas = pytest.importorskip("pandas", reason="python/develop.sh installs pandas; CI runs this")
+    try:
+        import pandas
+    except ImportError:
+        import os
+        import sys
+
+        message = "pandas is not installed (python/develop.sh installs it): SKIPPING the DataFrame check"
+        if os.environ.get("SAVME_REQUIRE_PYTHON_PACKAGE") == "1":
+            pytest.fail(message + " — but SAVME_REQUIRE_PYTHON_PACKAGE=1 requires it")
+        print("\n*** " + message + " ***", file=sys.stderr)
+        pytest.skip(message)
     k = kernel()
     k.optimize(runs, 9)
     df = k.trials().to_pandas()
