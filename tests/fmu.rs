@@ -244,9 +244,11 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
             .lines()
             .map(|l| {
                 let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
-                // The store's format version (absent from lines written before it existed).
+                // The store's format version and checksum (absent from lines written before
+                // they existed; the checksum covers the wall-clock seconds).
                 if let Some(o) = v.as_object_mut() {
                     o.remove("v");
+                    o.remove("c");
                 }
                 for r in ["hf", "lf"] {
                     if let Some(o) = v[r].as_object_mut() {
@@ -595,6 +597,10 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
             .map(|l| {
                 let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
                 v["hf"]["wall_seconds"] = serde_json::Value::Null;
+                // The store's checksum covers the wall seconds.
+                if let Some(o) = v.as_object_mut() {
+                    o.remove("c");
+                }
                 v
             })
             .collect()
@@ -703,4 +709,48 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
             "2 pilot rounds to reuse in the estimate, but `refine_rounds` is 1",
         ],
     );
+}
+
+#[test]
+fn an_estimate_with_another_campaigns_file_names_what_differs() {
+    let dir = made_dir("other-file");
+    let config = campaign_file(&dir, TINY);
+    let out = dir.join("out");
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let other_dir = dir.join("other");
+    std::fs::create_dir_all(&other_dir).unwrap();
+    let other = campaign_file(
+        &other_dir,
+        &TINY
+            .replace(
+                "name = \"lead_vehicle_brakes\"",
+                "name = \"stopped_obstacle\"",
+            )
+            .replace("fixed = { scenario = 7 }", "fixed = { scenario = 1 }"),
+    );
+    let (code, _, err) = common::run(&[
+        "estimate",
+        out.to_str().unwrap(),
+        "--config",
+        other.to_str().unwrap(),
+        "--max-runs",
+        "5",
+        "--no-target",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("this campaign file describes another campaign than")
+            && err.contains("train_scenarios [\"lead_vehicle_brakes\"] there, [\"stopped_obstacle\"] in the file")
+            && !err.contains("was not learned"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -483,3 +483,111 @@ fn extreme_budgets_and_strengths_make_compact_stage_names() {
     assert!(stages.iter().all(|s| s.len() < 40), "{stages:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Line `n` (1-based) of `file` with `from` replaced by `to` (the rest of the file as is).
+fn edit_line(file: &Path, n: usize, from: &str, to: &str) -> String {
+    let text = std::fs::read_to_string(file).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    assert!(lines[n - 1].contains(from), "line {n}: {}", lines[n - 1]);
+    lines[n - 1] = lines[n - 1].replacen(from, to, 1);
+    let edited = lines.join("\n") + "\n";
+    std::fs::write(file, &edited).unwrap();
+    edited
+}
+
+#[test]
+fn an_edited_told_line_is_refused_on_resume_naming_it_and_a_torn_tail_still_recovers() {
+    let dir = temp_dir("edited-store");
+    let (code, err) = reproduce(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let trials = dir.join("trials.jsonl");
+    let good = std::fs::read_to_string(&trials).unwrap();
+    let lines: Vec<&str> = good.lines().collect();
+    // A baseline trial's HF failure flag, flipped in place (its line keeps its checksum): no
+    // field tells it apart from a real trial, the checksum does.
+    // (Not line 1: without its checksum, a first line reads as one an earlier savme wrote, and
+    // the chain then fails at line 2, which says so.)
+    let n = 2 + lines[1..]
+        .iter()
+        .position(|l| l.contains("\"stage\":\"baseline-train\"") && l.contains("\"failure\":false"))
+        .unwrap();
+    let edited = edit_line(&trials, n, "\"failure\":false", "\"failure\":true");
+    let (code, err) = resume(&dir);
+    assert_ne!(code, Some(0), "an edited failure flag was accepted");
+    let at = format!("{}, line {n}: its checksum", trials.display());
+    assert!(
+        err.contains(&at) && err.contains("was changed after savme wrote it"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&trials).unwrap(), edited, "changed");
+    // The checksum removed from the edited line: refused too.
+    let cut = edited.lines().nth(n - 1).unwrap();
+    let without = format!("{}}}", &cut[..cut.find(",\"c\":").unwrap()]);
+    edit_line(&trials, n, cut, &without);
+    let (code, err) = resume(&dir);
+    assert_ne!(code, Some(0));
+    assert!(
+        err.contains(&format!("line {n}: this line has no checksum")),
+        "{err}"
+    );
+    // Restored, with a torn tail (a process killed mid-write): resumes, the tail dropped.
+    std::fs::write(&trials, good.clone() + "{\"v\":1,\"stage\":\"test-le").unwrap();
+    let (code, err) = resume(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(std::fs::read_to_string(&trials).unwrap(), good);
+    // A store written before the checksums (every `"c"` gone): still resumes (compatibility).
+    let old: String = good
+        .lines()
+        .map(|l| format!("{}}}\n", &l[..l.find(",\"c\":").unwrap()]))
+        .collect();
+    std::fs::write(&trials, &old).unwrap();
+    let (code, err) = resume(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_file_given_as_a_campaign_and_a_negative_seed_are_named_as_such() {
+    let home = made_dir("not-a-campaign");
+    let file = home.join("afile");
+    std::fs::write(&file, "notes\n").unwrap();
+    let journal = home.join("j.jsonl");
+    std::fs::write(&journal, "{\"v\":1,\"event\":\"start\"}\n").unwrap();
+    let f = file.display().to_string();
+    let j = journal.display().to_string();
+    for (args, extra) in [
+        (vec!["estimate", &f], ""),
+        (vec!["failures", &f], ""),
+        (vec!["failures", &j], "this file is a savme serve journal"),
+        (vec!["reproduce", "--resume", &f], ""),
+    ] {
+        let (code, _, err) = run(&args);
+        assert_ne!(code, Some(0), "{args:?}");
+        let named = format!(
+            "{} is a file, not a campaign directory",
+            args[args.len() - 1]
+        );
+        assert!(
+            err.contains(&named) && err.contains(extra),
+            "{args:?}: {err}"
+        );
+        assert!(
+            !err.contains("choose another output directory"),
+            "{args:?}: {err}"
+        );
+    }
+    let (code, _, err) = run(&[
+        "toy",
+        "--out",
+        &home.join("x").display().to_string(),
+        "--seed",
+        "-1",
+    ]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("invalid value '-1' for '--seed <SEED>': a seed is a whole number from 0 to 18446744073709551615 (not negative)")
+            && !err.contains("-- -1"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&home);
+}

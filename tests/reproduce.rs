@@ -461,7 +461,32 @@ fn bad_input_is_refused_before_any_simulation() {
     std::fs::write(good.join("trials.jsonl"), body).unwrap();
     let (ok, _, err) = resume(&good);
     assert!(!ok);
-    assert!(err.contains("does not match the protocol"), "{err}");
+    assert!(
+        err.contains("trials.jsonl, line 21: field `scenario` is parking_pull_out_edited"),
+        "{err}"
+    );
+    // A φ edited: named by file, line and variable.
+    let mut edited: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let (name, x) = edited[20]["phi"]
+        .as_object()
+        .and_then(|o| o.iter().find(|(_, v)| v.is_f64()))
+        .map(|(k, v)| (k.clone(), v.as_f64().unwrap()))
+        .unwrap();
+    edited[20]["phi"][&name] = Value::from(x + 0.5);
+    let body: String = edited.iter().map(|v| v.to_string() + "\n").collect();
+    std::fs::write(good.join("trials.jsonl"), body).unwrap();
+    let (ok, _, err) = resume(&good);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!(
+            "trials.jsonl, line 21: field `phi.{name}` is {}",
+            x + 0.5
+        )),
+        "{err}"
+    );
     for d in [dir, done, good] {
         let _ = std::fs::remove_dir_all(d);
     }

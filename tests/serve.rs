@@ -467,3 +467,44 @@ fn sigint_and_sigterm_stop_a_server_between_requests_and_say_how_to_continue() {
     assert!(err.contains("nothing was journaled"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn an_edited_journal_line_is_refused_naming_it() {
+    let dir = made_dir("edited-journal");
+    let config = write_config(&dir);
+    let journal = dir.join("j.jsonl");
+    let j = journal.to_str().unwrap();
+    let mut s = Server::start(&["--config", config.to_str().unwrap(), "--journal", j]);
+    drive(&mut s, 5);
+    drop(s.stdin);
+    assert!(s.child.wait().unwrap().success());
+    let good = std::fs::read_to_string(&journal).unwrap();
+    let (n, line) = good
+        .lines()
+        .enumerate()
+        .find(|(_, l)| l.contains("\"event\":\"tell\"") && l.contains("\"failure\":false"))
+        .unwrap();
+    let refused = |text: &str, said: &str| {
+        std::fs::write(&journal, text).unwrap();
+        let o = Command::new(EXE)
+            .args(["serve", "--journal", j])
+            .stdin(Stdio::null())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success());
+        assert!(
+            err.contains(&format!("{j}, line {}: {said}", n + 1)),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&journal).unwrap(), text, "changed");
+    };
+    // A told HF failure flag flipped in place: the replay recomputes the record and names the
+    // line (the checksum would too).
+    let flipped = line.replacen("\"failure\":false", "\"failure\":true", 1);
+    refused(&good.replacen(line, &flipped, 1), "replay diverged");
+    // A change no replay sees (the same JSON written otherwise): the checksum names it.
+    let respaced = line.replacen("\"event\":", "\"event\": ", 1);
+    refused(&good.replacen(line, &respaced, 1), "its checksum");
+    let _ = std::fs::remove_dir_all(&dir);
+}

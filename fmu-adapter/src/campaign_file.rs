@@ -127,6 +127,11 @@ impl FmuCampaignFile {
         step_count(&src, &f.fmu, &step, stop_time, &common.fidelity)?;
         let failure = failure(&src, &f.failure, &mut origins)?;
         let cost = cost_source(&src, fmu.cost.as_ref(), &mut origins);
+        let timeout = timeout(&src, fmu.timeout_s.as_ref())?;
+        no_empty_path(&src, "fmu.hf", &fmu.hf)?;
+        if let Some(lf) = &fmu.lf {
+            no_empty_path(&src, "fmu.lf", lf)?;
+        }
         let hf = resolve(base, fmu.hf.get_ref());
         let lf = fmu
             .lf
@@ -157,7 +162,6 @@ impl FmuCampaignFile {
         if !isolate {
             bindings::load_fmus(&src, &init, &f.fmu)?;
         }
-        let timeout = timeout(&src, fmu.timeout_s.as_ref())?;
         Ok(FmuCampaignFile {
             common,
             label: format!("fmu:{}|{}", init.hf.display(), init.lf.display()),
@@ -508,7 +512,20 @@ fn cost_source(src: &Source, cost: Option<&Spanned<String>>, origins: &mut Origi
     }
 }
 
-/// `[fmu] timeout_s`: positive, default 60 s.
+/// An FMU path that is empty (`hf = ""`) is refused at its key (it resolved to the file's
+/// own directory: "No such file or directory" without a name).
+fn no_empty_path(src: &Source, key: &str, path: &Spanned<String>) -> Result<(), ConfigError> {
+    if path.get_ref().trim().is_empty() {
+        return Err(src.err(
+            Some(src.line(path.span())),
+            Some(key),
+            "is empty: give the path of an FMU (.fmu), relative to this file or absolute",
+        ));
+    }
+    Ok(())
+}
+
+/// `[fmu] timeout_s`: a finite number of seconds > 0, default 60 s.
 fn timeout(src: &Source, t: Option<&Spanned<f64>>) -> Result<Duration, ConfigError> {
     let Some(t) = t else {
         return Ok(Duration::from_secs(60));
@@ -516,12 +533,12 @@ fn timeout(src: &Source, t: Option<&Spanned<f64>>) -> Result<Duration, ConfigErr
     let s = *t.get_ref();
     Duration::try_from_secs_f64(s)
         .ok()
-        .filter(|_| s > 0.0)
+        .filter(|_| s > 0.0 && s.is_finite())
         .ok_or_else(|| {
             src.err(
                 Some(src.line(t.span())),
                 Some("fmu.timeout_s"),
-                "must be positive",
+                format!("must be a finite number of seconds > 0, got {s}"),
             )
         })
 }
@@ -611,6 +628,29 @@ range = [0.0, 1.0]
 
     fn at(e: &ConfigError) -> (Option<usize>, Option<&str>) {
         (e.line, e.key.as_deref())
+    }
+
+    #[test]
+    fn an_empty_fmu_path_and_an_infinite_timeout_are_named_at_their_key() {
+        let e = error("empty-hf", &[("hf = \"nowhere.fmu\"", "hf = \"\"")]);
+        assert_eq!(e.key.as_deref(), Some("fmu.hf"), "{e}");
+        assert!(
+            e.to_string().contains("is empty: give the path of an FMU"),
+            "{e}"
+        );
+        let e = error(
+            "inf-timeout",
+            &[(
+                "hf = \"nowhere.fmu\"",
+                "hf = \"nowhere.fmu\"\ntimeout_s = inf",
+            )],
+        );
+        assert_eq!(e.key.as_deref(), Some("fmu.timeout_s"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("must be a finite number of seconds > 0, got inf"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -34,7 +34,7 @@ from ._savme import (
     Variable,
     __version__,
 )
-from . import campaign, executors, fmu, integrations, openscenario, sim
+from . import campaign, executors, fmu, history, integrations, openscenario, sim
 from .executors import RayExecutor
 
 __all__ = [
@@ -61,6 +61,7 @@ __all__ = [
     "campaign",
     "executors",
     "fmu",
+    "history",
     "integrations",
     "openscenario",
     "sim",

@@ -1,10 +1,16 @@
 """Type stubs for savme's Rust extension module (re-exported by the `savme` package)."""
 
 from os import PathLike
-from typing import Any, Callable, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union, final, overload
+from typing import (Any, Callable, Dict, Iterable, List, Literal, Mapping, Optional, Sequence, Tuple, Type,
+                    TypeVar, Union, final, overload)
+
+from .history import Trials
 
 _Value = Union[bool, int, float, str]
 """A variable's value: a bool, int, float or str."""
+
+_V = TypeVar("_V", bool, int, float, str)
+"""The kind asked of a value by `Trial.phi_as` / `Trial.theta_as`."""
 
 _Phase = Literal["train", "evaluate", "baseline", "test"]
 _EstimatorName = Literal["map", "mean"]
@@ -118,6 +124,15 @@ class Trial:
         """True when the trial needs both runs (every phase but baseline)."""
     def to_dict(self) -> Dict[str, Any]:
         """The trial as a dict (the JSON of `savme serve`'s trials)."""
+    @staticmethod
+    def from_dict(d: Mapping[str, Any]) -> Trial:
+        """A trial from `to_dict()` output; ValueError names the field that is wrong."""
+    def phi_as(self, name: str, kind: Type[_V]) -> _V:
+        """φ's variable `name` as `kind` (bool, int, float or str), typed for a type checker:
+        `trial.phi_as("gap_m", float) < 15`. An int is given as a float; any other mismatch
+        raises TypeError naming the variable, an unknown name KeyError."""
+    def theta_as(self, name: str, kind: Type[_V]) -> _V:
+        """θ_LF's setting `name` as `kind`, as `phi_as`; ValueError for a baseline trial."""
 
 @final
 class Record:
@@ -229,7 +244,32 @@ class Kernel:
         (a crash mid-write) is dropped with a RuntimeWarning."""
     @staticmethod
     def from_json(snapshot: str) -> Kernel:
-        """A kernel restored from `to_json()` output (not journaled)."""
+        """A kernel restored from `to_json()` output (not journaled; `trials()` starts empty —
+        a pickled kernel keeps its history)."""
+    @staticmethod
+    def _restore(snapshot: str, history: str) -> Kernel:
+        """What unpickling calls: a kernel from its snapshot and history."""
+    def __reduce__(self) -> Tuple[Callable[[str, str], Kernel], Tuple[str, str]]:
+        """Pickling (and copy.deepcopy) of an unjournaled kernel, with its history; a
+        journaled kernel raises TypeError (its journal has one writer)."""
+    def trials(self) -> Trials:
+        """The told trials in tell order (each a Record with φ, θ_LF, both runs' failures and
+        runtimes, the outcome); `.to_pandas()` gives a DataFrame when pandas is installed."""
+    def optimize(
+        self,
+        objective: Callable[[Trial], Tuple[_RunResult, Optional[_RunResult]]],
+        n_trials: int,
+        *,
+        timeout: Optional[float] = None,
+        callbacks: Optional[Iterable[Callable[[Kernel, Record], Any]]] = None,
+        catch: Optional[Sequence[Type[BaseException]]] = None,
+    ) -> Trials:
+        """Asks, runs and tells `n_trials` trials (fewer once `timeout` seconds passed), as
+        Optuna's `study.optimize`: `objective(trial)` returns `(hf, lf)`, each a
+        (failure, runtime) pair, `lf` None for a baseline trial. An exception of a type in
+        `catch` cancels the trial and goes on; any other cancels it and is raised. Each
+        callback is called as `callback(kernel, record)` after each tell. Returns the
+        records told."""
     def to_json(self) -> str:
         """The complete state (configuration, posteriors, pending trials, random stream)."""
     def config_json(self) -> str:

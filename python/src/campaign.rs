@@ -253,6 +253,40 @@ impl PyProblem {
 pub struct PySimulator {
     hf: Arc<Py<PyAny>>,
     lf: Arc<Py<PyAny>>,
+    /// The first exception a callable raised: the campaign's error is chained to it
+    /// (`raise CampaignError(...) from exc`), so that its traceback is kept.
+    raised: Raised,
+}
+
+/// The first exception a Python simulator raised, shared by its clones (one per worker).
+pub type Raised = Arc<std::sync::Mutex<Option<PyErr>>>;
+
+impl PySimulator {
+    fn new(hf: Arc<Py<PyAny>>, lf: Arc<Py<PyAny>>) -> PySimulator {
+        PySimulator {
+            hf,
+            lf,
+            raised: Raised::default(),
+        }
+    }
+}
+
+/// Where `e` was raised: ` (at FILE:LINE, in FUNCTION)` of its innermost frame, or nothing.
+fn raised_at(py: Python<'_>, e: &PyErr) -> String {
+    let frame = (|| -> PyResult<String> {
+        let tb = e
+            .traceback(py)
+            .ok_or_else(|| PyValueError::new_err("no traceback"))?;
+        let frames = py.import("traceback")?.call_method1("extract_tb", (tb,))?;
+        let last = frames.get_item(-1)?;
+        let (file, line, name): (String, u32, String) = (
+            last.getattr("filename")?.extract()?,
+            last.getattr("lineno")?.extract()?,
+            last.getattr("name")?.extract()?,
+        );
+        Ok(format!(" (at {file}:{line}, in {name})"))
+    })();
+    frame.unwrap_or_default()
 }
 
 pub fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
@@ -304,8 +338,14 @@ impl Simulator for PySimulator {
             let start = Instant::now();
             let out = f.call1(py, args);
             let wall = start.elapsed().as_secs_f64();
-            let out =
-                out.map_err(|e| SimError::Failed(format!("the `{name}` simulator raised {e}")))?;
+            let out = out.map_err(|e| {
+                let message = format!("the `{name}` simulator raised {e}{}", raised_at(py, &e));
+                let mut first = self.raised.lock().unwrap_or_else(|p| p.into_inner());
+                if first.is_none() {
+                    *first = Some(e);
+                }
+                SimError::Failed(message)
+            })?;
             sim_result(out.bind(py), wall)
                 .map_err(|m| SimError::Failed(format!("the `{name}` simulator: {m}")))
         })
@@ -516,7 +556,7 @@ impl PyCampaign {
         executor: &Arc<Py<PyAny>>,
     ) -> PyResult<PyCampaignResult> {
         executor.call_method1(py, "start", (sim.hf.clone_ref(py), sim.lf.clone_ref(py)))?;
-        let result = self.run_on(py, sim);
+        let result = self.run_python(py, sim);
         let finished = executor.call_method0(py, "finish");
         let result = result?;
         finished?;
@@ -529,6 +569,40 @@ impl PyCampaign {
     /// trials, waits for the runs in flight, and raises the `KeyboardInterrupt` — every told
     /// trial is stored, so `resume=True` continues from there.
     fn run_on<S: Simulator + Clone + Send + 'static>(
+        &self,
+        py: Python<'_>,
+        sim: S,
+    ) -> PyResult<PyCampaignResult> {
+        self.run_raising(py, sim, None)
+    }
+
+    /// [`PyCampaign::run_on`] a Python simulator: a campaign that failed on an exception it
+    /// raised is chained to that exception (its `__cause__`, with the traceback).
+    fn run_python(&self, py: Python<'_>, sim: PySimulator) -> PyResult<PyCampaignResult> {
+        let raised = sim.raised.clone();
+        self.run_raising(py, sim, Some(raised))
+    }
+
+    fn run_raising<S: Simulator + Clone + Send + 'static>(
+        &self,
+        py: Python<'_>,
+        sim: S,
+        raised: Option<Raised>,
+    ) -> PyResult<PyCampaignResult> {
+        let outcome = self.run_thread(py, sim);
+        let (Err(e), Some(raised)) = (&outcome, raised) else {
+            return outcome;
+        };
+        let cause = raised.lock().unwrap_or_else(|p| p.into_inner()).take();
+        if let Some(cause) = cause {
+            if e.to_string().contains("simulator raised") {
+                e.set_cause(py, Some(cause));
+            }
+        }
+        outcome
+    }
+
+    fn run_thread<S: Simulator + Clone + Send + 'static>(
         &self,
         py: Python<'_>,
         sim: S,
@@ -749,15 +823,9 @@ impl PyCampaign {
         let callables = match (simulate, hf, lf) {
             (Some(f), _, _) => {
                 let f = Arc::new(f);
-                Some(PySimulator {
-                    hf: f.clone(),
-                    lf: f,
-                })
+                Some(PySimulator::new(f.clone(), f))
             }
-            (None, Some(hf), Some(lf)) => Some(PySimulator {
-                hf: Arc::new(hf),
-                lf: Arc::new(lf),
-            }),
+            (None, Some(hf), Some(lf)) => Some(PySimulator::new(Arc::new(hf), Arc::new(lf))),
             (None, None, None) => None,
             _ => {
                 return Err(PyTypeError::new_err(
@@ -768,7 +836,7 @@ impl PyCampaign {
         if let Some(sim) = callables {
             return match &self.executor {
                 Some(executor) => self.run_executed(py, sim, executor),
-                None => self.run_on(py, sim),
+                None => self.run_python(py, sim),
             };
         }
         if self.executor.is_some() {

@@ -32,12 +32,24 @@ create_exception!(
 
 /// A campaign error: a bad protocol field or campaign file line is a `ValueError`, anything
 /// else a `savme.CampaignError`.
+/// The messages that name a command-line flag are said in Python's words (`resume=True`,
+/// `out=`, `campaign=`).
 pub fn campaign(e: savme::campaign::CampaignError) -> PyErr {
     use savme::campaign::CampaignError as E;
     match e {
         E::Protocol { .. } | E::File(_) | E::UnknownScenario { .. } => {
             PyValueError::new_err(e.to_string())
         }
+        E::OutputExists { path } => CampaignError::new_err(format!(
+            "{} already holds a campaign; resume it with resume=True (protocol=None takes its protocol), or choose another out=",
+            path.display()
+        )),
+        E::CampaignExists { store } => CampaignError::new_err(format!(
+            "{store} already holds a campaign; resume it with resume=True, or give another campaign= name"
+        )),
+        E::NothingToResumeIn { store } => CampaignError::new_err(format!(
+            "{store}: no campaign to resume (none was started under this name) — start it with resume=False"
+        )),
         _ => CampaignError::new_err(e.to_string()),
     }
 }

@@ -13,7 +13,7 @@ use savme::campaign::store::{journal, JsonlStore};
 use savme::serve::Session;
 use savme_kernel::{
     Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Phase, PriorCounts, Run, Scenario,
-    Space,
+    Space, TrialRecord,
 };
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -24,6 +24,8 @@ pub struct PyKernel {
     /// None once closed.
     session: Mutex<Option<Session>>,
     journal: Option<PathBuf>,
+    /// The records of the trials told, in tell order (`trials()`): a resumed journal's first.
+    history: Mutex<Vec<TrialRecord>>,
 }
 
 pub fn parse_phase(phase: &str) -> PyResult<Phase> {
@@ -126,6 +128,7 @@ impl PyKernel {
     }
 
     fn open(py: Python<'_>, config: Option<KernelConfig>, path: Option<PathBuf>) -> PyResult<Self> {
+        let mut history = Vec::new();
         let session = match &path {
             None => {
                 let config = config.ok_or_else(|| PyValueError::new_err("no configuration"))?;
@@ -144,13 +147,28 @@ impl PyKernel {
                     let category = py.get_type::<pyo3::exceptions::PyRuntimeWarning>();
                     PyErr::warn(py, &category, &std::ffi::CString::new(msg)?, 1)?;
                 }
+                history = opened.records;
                 Session::Journaled(opened.kernel)
             }
         };
         Ok(PyKernel {
             session: Mutex::new(Some(session)),
             journal: path,
+            history: Mutex::new(history),
         })
+    }
+
+    /// A plain (not journaled) kernel from a snapshot, with its history.
+    fn plain(kernel: Kernel, history: Vec<TrialRecord>) -> Self {
+        PyKernel {
+            session: Mutex::new(Some(Session::Plain(kernel))),
+            journal: None,
+            history: Mutex::new(history),
+        }
+    }
+
+    fn history(&self) -> PyResult<MutexGuard<'_, Vec<TrialRecord>>> {
+        self.history.lock().map_err(|_| errors::poisoned())
     }
 
     /// The id of `trial` (a Trial or an id). A Trial that is not this kernel's pending trial
@@ -245,14 +263,81 @@ impl PyKernel {
         PyKernel::open(py, None, Some(journal))
     }
 
-    /// A kernel restored from `to_json()` output (not journaled).
+    /// A kernel restored from `to_json()` output (not journaled; its `trials()` history
+    /// starts empty — a pickled kernel keeps it).
     #[staticmethod]
     fn from_json(snapshot: &str) -> PyResult<Self> {
         let kernel = Kernel::from_json(snapshot).map_err(errors::value)?;
-        Ok(PyKernel {
-            session: Mutex::new(Some(Session::Plain(kernel))),
-            journal: None,
-        })
+        Ok(PyKernel::plain(kernel, Vec::new()))
+    }
+
+    /// A kernel from `__reduce__`'s state: its snapshot and its history (JSON).
+    #[staticmethod]
+    fn _restore(snapshot: &str, history: &str) -> PyResult<Self> {
+        let kernel = Kernel::from_json(snapshot).map_err(errors::value)?;
+        let history = serde_json::from_str(history).map_err(errors::value)?;
+        Ok(PyKernel::plain(kernel, history))
+    }
+
+    /// Pickling (and `copy.deepcopy`): a plain kernel is restored exactly, with its history
+    /// (through `to_json`). A journaled kernel is refused: its journal has one writer;
+    /// `Kernel.resume(path)` reopens it in another process.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String, String))> {
+        let me = slf.get();
+        if let Some(path) = &me.journal {
+            return Err(PyTypeError::new_err(format!(
+                "a Kernel journaled to {} cannot be pickled (its journal has one writer): \
+                 close() it and Kernel.resume({:?}) in the other process, or pickle \
+                 Kernel.from_json(kernel.to_json()) for an unjournaled copy",
+                path.display(),
+                path.display().to_string()
+            )));
+        }
+        let snapshot = me.to_json()?;
+        let history = serde_json::to_string(&*me.history()?).map_err(errors::value)?;
+        Ok((slf.get_type().getattr("_restore")?, (snapshot, history)))
+    }
+
+    /// The told trials in tell order, each a `Record` (φ, θ_LF, the runs with their
+    /// failures and runtimes, the outcome): a list with `.to_pandas()` (a DataFrame, one row
+    /// per trial) when pandas is installed. A resumed journal's trials come first.
+    fn trials<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let records = self
+            .history()?
+            .iter()
+            .map(|record| {
+                Bound::new(
+                    py,
+                    PyRecord {
+                        record: record.clone(),
+                    },
+                )
+            })
+            .collect::<PyResult<Vec<_>>>()?;
+        py.import("savme.history")?
+            .getattr("Trials")?
+            .call1((PyList::new(py, records)?,))
+    }
+
+    /// Asks, runs and tells `n_trials` trials (fewer if `timeout` seconds pass first), as
+    /// Optuna's `study.optimize`: `objective(trial)` returns `(hf, lf)` — each a
+    /// `(failure, runtime)` pair, `lf` None for a baseline trial. An exception of a type in
+    /// `catch` cancels the trial and goes on; any other cancels it and is raised. Each of
+    /// `callbacks` is called as `callback(kernel, record)` after each tell. Returns the
+    /// records told.
+    #[pyo3(signature = (objective, n_trials, *, timeout = None, callbacks = None, catch = None))]
+    fn optimize<'py>(
+        slf: &Bound<'py, Self>,
+        objective: &Bound<'py, PyAny>,
+        n_trials: i64,
+        timeout: Option<f64>,
+        callbacks: Option<&Bound<'py, PyAny>>,
+        catch: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        py.import("savme.history")?
+            .getattr("optimize")?
+            .call1((slf, objective, n_trials, timeout, callbacks, catch))
     }
 
     /// The complete state as JSON (`Kernel.from_json` restores it exactly).
@@ -315,6 +400,7 @@ impl PyKernel {
             None => Observation::HfOnly(hf),
         };
         let record = self.with(|s| s.tell(id, observation).map_err(errors::session))?;
+        self.history()?.push(record.clone());
         Ok(PyRecord { record })
     }
 

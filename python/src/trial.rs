@@ -2,9 +2,55 @@
 
 use crate::convert;
 use crate::errors;
+use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyString};
-use savme_kernel::{Posterior, Run, Trial, TrialRecord};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString, PyType};
+use savme_kernel::{Assignment, Posterior, Run, Trial, TrialRecord};
+
+/// The value of variable `name` of `a` (`what`: "phi" or "theta_lf") as a `kind` (bool, int,
+/// float or str): an int is taken as a float, nothing else is converted.
+fn typed<'py>(
+    py: Python<'py>,
+    a: &Assignment,
+    what: &str,
+    name: &str,
+    kind: &Bound<'py, PyType>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let value = a.get(name).ok_or_else(|| {
+        let known: Vec<&str> = a.iter().map(|(n, _)| n).collect();
+        PyKeyError::new_err(format!(
+            "{what} has no variable `{name}` (it has: {})",
+            known.join(", ")
+        ))
+    })?;
+    let v = convert::to_py(py, value)?;
+    let is_bool = v.is_instance_of::<PyBool>();
+    let ok = if kind.is(py.get_type::<PyFloat>()) {
+        if (v.is_instance_of::<PyInt>() || v.is_instance_of::<PyFloat>()) && !is_bool {
+            return Ok(PyFloat::new(py, v.extract::<f64>()?).into_any());
+        }
+        false
+    } else if kind.is(py.get_type::<PyInt>()) {
+        v.is_instance_of::<PyInt>() && !is_bool
+    } else if kind.is(py.get_type::<PyBool>()) {
+        is_bool
+    } else if kind.is(py.get_type::<PyString>()) {
+        v.is_instance_of::<PyString>()
+    } else {
+        return Err(PyTypeError::new_err(format!(
+            "{what}[{name:?}]: the kind must be bool, int, float or str, got {kind}"
+        )));
+    };
+    if ok {
+        Ok(v)
+    } else {
+        Err(PyTypeError::new_err(format!(
+            "{what}[{name:?}] is {} {v}, not a {}",
+            v.get_type().name()?,
+            kind.name()?
+        )))
+    }
+}
 
 /// A suggested trial: run `scenario` with `phi` on the high-fidelity simulator and, unless
 /// this is a baseline trial, on the learned-fidelity one with `theta_lf`.
@@ -58,6 +104,46 @@ impl PyTrial {
     /// The trial as a dict (the JSON of `savme serve`'s trials).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         convert::json_to_py(py, &self.trial)
+    }
+
+    /// A trial from `to_dict()` output (or a trial of `savme serve`'s JSON); ValueError says
+    /// which field is wrong. Telling it to a kernel still requires it to be that kernel's
+    /// pending trial.
+    #[staticmethod]
+    fn from_dict(py: Python<'_>, d: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
+        let trial = serde_json::from_str(&text)
+            .map_err(|e| PyValueError::new_err(format!("Trial.from_dict: {e}")))?;
+        Ok(PyTrial { trial })
+    }
+
+    /// φ's variable `name` as a `kind` (bool, int, float or str), for code a type checker
+    /// reads: `trial.phi_as("gap_m", float) < 15`. An int is given as a float; any other
+    /// mismatch raises TypeError naming the variable, an unknown name KeyError.
+    fn phi_as<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+        kind: &Bound<'py, PyType>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        typed(py, &self.trial.phi, "phi", name, kind)
+    }
+
+    /// θ_LF's setting `name` as a `kind`, as [`phi_as`](PyTrial::phi_as); a baseline trial
+    /// (no θ_LF) raises ValueError.
+    fn theta_as<'py>(
+        &self,
+        py: Python<'py>,
+        name: &str,
+        kind: &Bound<'py, PyType>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let theta = self.trial.theta_lf.as_ref().ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "trial {} is a baseline trial: it has no theta_lf (only the HF run)",
+                self.trial.id
+            ))
+        })?;
+        typed(py, theta, "theta_lf", name, kind)
     }
 
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {

@@ -41,10 +41,12 @@ def toy(scenario, phi, theta):
 
 
 def strip_wall(path):
-    """The trial lines without the measured wall-clock seconds."""
+    """The trial lines without the measured wall-clock seconds (and the store's checksum,
+    which covers them)."""
     lines = []
     for line in path.read_text().splitlines():
         d = json.loads(line)
+        d.pop("c", None)
         for run in ("hf", "lf"):
             if isinstance(d.get(run), dict):
                 d[run].pop("wall_seconds", None)
@@ -227,3 +229,23 @@ def test_fmu_campaign_files_load_and_simulate(savme_bin, tmp_path):
     with pytest.raises(KeyError, match="unknown scenario `nope`"):
         sim.simulate("nope", {})
     assert scenario in sim.scenarios
+
+
+def test_a_simulators_exception_is_chained_with_its_file_and_line(tmp_path):
+    def broken(scenario, phi, theta):
+        return phi["no_such_variable"] > 1  # raises KeyError here
+
+    with pytest.raises(savme.CampaignError) as e:
+        savme.Campaign(protocol(), problem(), out=tmp_path / "b", jobs=1).run(broken)
+    cause = e.value.__cause__
+    assert isinstance(cause, KeyError) and cause.__traceback__ is not None
+    assert "test_campaign.py:" in str(e.value) and "in broken" in str(e.value), str(e.value)
+
+
+def test_python_errors_speak_python_not_command_line_flags(tmp_path):
+    savme.Campaign(protocol(), problem(), out=tmp_path / "c", jobs=1).run(toy)
+    with pytest.raises(savme.CampaignError) as e:
+        savme.Campaign(protocol(), problem(), out=tmp_path / "c", jobs=1).run(toy)
+    assert "resume=True" in str(e.value) and "--" not in str(e.value), str(e.value)
+    with pytest.raises(ValueError, match=r"`train_iterations`: .*-5"):
+        savme.Protocol(["a"], ["b"], train_iterations=-5)

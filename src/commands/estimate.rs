@@ -282,6 +282,47 @@ pub fn interrupted(e: EstimateError, hint: &str) -> Result<Failure, EstimateErro
     }
 }
 
+/// Refuses a campaign file that describes another campaign than the one estimated (another
+/// simulator or other scenarios), naming what differs — rather than blaming a scenario later.
+fn same_campaign(
+    file: &std::path::Path,
+    theirs: &savme::campaign::Protocol,
+    ours: &savme::campaign::Protocol,
+    campaign: &str,
+) -> Result<(), Failure> {
+    let mut differs = Vec::new();
+    if theirs.simulator != ours.simulator {
+        differs.push(format!(
+            "simulator {:?} there, {:?} in the file",
+            ours.simulator, theirs.simulator
+        ));
+    }
+    for (what, a, b) in [
+        (
+            "train_scenarios",
+            &ours.train_scenarios,
+            &theirs.train_scenarios,
+        ),
+        (
+            "test_scenarios",
+            &ours.test_scenarios,
+            &theirs.test_scenarios,
+        ),
+    ] {
+        if a != b {
+            differs.push(format!("{what} {a:?} there, {b:?} in the file"));
+        }
+    }
+    if differs.is_empty() {
+        return Ok(());
+    }
+    Err(usage(format!(
+        "--config {}: this campaign file describes another campaign than {campaign} ({}); give the campaign file the campaign was run with",
+        file.display(),
+        differs.join("; ")
+    )))
+}
+
 /// A usage error (exit 2) for what the flags said wrong, a runtime error otherwise.
 fn failure(e: EstimateError) -> Failure {
     match e {
@@ -329,6 +370,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let protocol = source
         .protocol()
         .map_err(|e| Failure::Runtime(e.to_string()))?;
+    if let (Some(c), Some(path)) = (&file, &a.config) {
+        same_campaign(path, &c.protocol, &protocol, &source.location())?;
+    }
     // The nominals the campaign file's OpenSCENARIO files declare, under the flags' and
     // the [estimate] section's.
     let settings = match &file {

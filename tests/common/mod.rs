@@ -74,12 +74,13 @@ pub fn trial_lines(dir: &Path) -> Vec<Value> {
         .collect()
 }
 
-/// Trial lines without their store version and wall-clock seconds (the only fields that
-/// differ between runs of a work-cost campaign).
+/// Trial lines without their store version, checksum and wall-clock seconds (the only fields
+/// that differ between runs of a work-cost campaign; the checksum covers the seconds).
 pub fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
     for v in &mut t {
         if let Some(o) = v.as_object_mut() {
             o.remove("v");
+            o.remove("c");
         }
         for run in ["hf", "lf"] {
             if let Some(r) = v[run].as_object_mut() {

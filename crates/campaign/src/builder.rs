@@ -5,14 +5,15 @@ use super::executor::{self, RemoteRunner, Runner, StageContext};
 use super::kernels::StageKernels;
 use super::log::{self, LogLine, TrialLine};
 use super::outputs::{self, Outputs};
-use super::store::{JsonlStore, Loaded, TrialStore};
+use super::store::{EditedLine, JsonlStore, Loaded, StoreError, TrialStore};
 use super::{CampaignError, CampaignOutcome, Observer, Problem, Protocol, Report, Stop};
 use savme_kernel::Simulator;
 use std::path::PathBuf;
 use std::time::Instant;
 
 /// Stored lines with their line numbers in the store.
-type NumberedLines = Vec<(u64, LogLine)>;
+/// The stored lines with their line numbers, and the first edited one ([`Loaded::edited`]).
+type NumberedLines = (Vec<(u64, LogLine)>, Option<EditedLine>);
 
 /// A campaign to run: the protocol (what runs), the problem (what is searched), where results
 /// go, how many workers, which trial store, and who watches.
@@ -147,7 +148,7 @@ impl<'o> Campaign<'o> {
         p.validate()?;
         let mut kernels = StageKernels::new(p, &self.problem)?;
         let files = Outputs::in_dir(&self.out);
-        let (mut store, logged) = self.open_store(&files, custom_store)?;
+        let (mut store, (logged, edited)) = self.open_store(&files, custom_store)?;
         let numbers: Vec<u64> = logged.iter().map(|(n, _)| *n).collect();
         let logged: Vec<LogLine> = logged.into_iter().map(|(_, l)| l).collect();
         let location = store.location();
@@ -180,6 +181,7 @@ impl<'o> Campaign<'o> {
                     store: store.as_mut(),
                     on_error: p.on_error,
                     stop: &self.stop,
+                    edited: edited.as_ref(),
                     screen: (stage.kind == super::StageKind::Screen).then(|| executor::Audit {
                         seed: p.kernel_seed(&format!("audit:{}", stage.label())),
                         fraction: p.audit_fraction,
@@ -204,6 +206,15 @@ impl<'o> Campaign<'o> {
                 run_all(remote.as_mut())?;
                 remote.finish()?;
             }
+        }
+        // Every stored line was replayed, the edited one refused there; this is a safety net.
+        if let Some(e) = &edited {
+            return Err(StoreError::BadLine {
+                store: location,
+                line: e.line,
+                message: e.message.clone(),
+            }
+            .into());
         }
         drop(store);
         self.write_outcome(files, &logged, &all_lines, clock)
@@ -355,11 +366,12 @@ impl<'o> Campaign<'o> {
 
 /// The stored lines as trial lines with their line numbers.
 fn numbered(loaded: &Loaded, location: &str) -> Result<NumberedLines, CampaignError> {
-    loaded
+    let lines = loaded
         .lines
         .iter()
         .map(|l| LogLine::from_stored(l, location).map(|x| (l.line, x)))
-        .collect()
+        .collect::<Result<_, _>>()?;
+    Ok((lines, loaded.edited.clone()))
 }
 
 /// The top-level fields in which `saved` and `given` differ, each with both values

@@ -85,6 +85,12 @@ pub enum CampaignError {
         /// The file in its way: the output directory itself or one above it.
         file: PathBuf,
     },
+    /// A campaign to read (to resume, estimate, list its failures) given as a file.
+    #[error("{} is a file, not a campaign directory: give the directory that savme reproduce, run or toy wrote (it holds protocol.json and trials.jsonl){}", path.display(), journal_hint(path))]
+    NotACampaign {
+        /// The file given.
+        path: PathBuf,
+    },
     /// `--resume` on a directory without a campaign.
     #[error("{}: no protocol.json — is this a savme output directory?", path.display())]
     NothingToResume {
@@ -192,6 +198,20 @@ pub struct SimulationError {
 
 /// The message of [`CampaignError::NotADirectory`]: names the file, and the output directory
 /// when the file is further up its path.
+/// For a file given as a campaign: what it may be instead (a `savme serve` journal).
+fn journal_hint(path: &Path) -> &'static str {
+    let first = std::fs::read(path).ok().and_then(|b| {
+        let line = b.split(|&c| c == b'\n').next()?.to_vec();
+        String::from_utf8(line).ok()
+    });
+    match first {
+        Some(l) if l.contains("\"event\":\"start\"") => {
+            "; this file is a savme serve journal (reopen it with savme serve --journal FILE)"
+        }
+        _ => "",
+    }
+}
+
 fn not_a_directory(path: &Path, file: &Path) -> String {
     if path == file {
         format!(

@@ -271,11 +271,14 @@ pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<(u64, LogLine)>, Camp
         });
     }
     let name = path.display().to_string();
-    JsonlStore::read(&path)?
+    let loaded = JsonlStore::read(&path)?;
+    let lines = loaded
         .lines
         .iter()
         .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
-        .collect()
+        .collect::<Result<_, CampaignError>>()?;
+    loaded.refuse_edits(&name)?;
+    Ok(lines)
 }
 
 #[cfg(test)]

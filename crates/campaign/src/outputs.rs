@@ -45,6 +45,11 @@ impl Outputs {
 
 /// Reads the protocol of the campaign in `dir` (for `--resume`).
 pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
+    if dir.is_file() {
+        return Err(CampaignError::NotACampaign {
+            path: dir.to_path_buf(),
+        });
+    }
     usable_dir(dir)?;
     let path = Outputs::in_dir(dir).protocol;
     let text = match std::fs::read_to_string(&path) {

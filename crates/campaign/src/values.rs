@@ -168,7 +168,8 @@ macro_rules! protocol_values {
 
 protocol_values! {
     /// Master seed; every kernel's seed is derived from it and the stage's name.
-    seed: u64, flag = "seed", aliases = [], stages = "all", to = protocol;
+    seed: u64, flag = "seed", aliases = [], stages = "all", to = protocol,
+        cli(allow_negative_numbers = true, value_parser = parse_seed);
     /// Cost of a run: measured wall-clock time, or deterministic work units (the same seed
     /// gives the same campaign).
     cost: Cost, flag = "cost", aliases = [], stages = "all", to = protocol, cli(value_enum);
@@ -229,6 +230,22 @@ protocol_values! {
         to = command, cli(value_name = "N");
 }
 
+/// Parses `--seed`: a whole number from 0 to 2⁶⁴ − 1, a negative one named as such (clap's
+/// own message for `-1` was a tip to write `-- -1`, which a seed cannot be).
+pub fn parse_seed(s: &str) -> Result<u64, String> {
+    s.trim().parse().map_err(|_| {
+        format!(
+            "a seed is a whole number from 0 to {}{}",
+            u64::MAX,
+            if s.trim_start().starts_with('-') {
+                " (not negative)"
+            } else {
+                ""
+            }
+        )
+    })
+}
+
 impl Overrides {
     /// True when any value was given.
     pub fn any(&self) -> bool {
@@ -246,7 +263,12 @@ impl Overrides {
         known: &str,
     ) -> Result<(), CampaignError> {
         self.apply_fields(p);
-        if let (Some(alpha), 0) = (self.audit_fraction, p.screen_iterations) {
+        // (A value outside [0, 1] is refused as such by the validation.)
+        let in_range = |a: f64| (0.0..=1.0).contains(&a);
+        if let (Some(alpha), 0) = (
+            self.audit_fraction.filter(|&a| in_range(a)),
+            p.screen_iterations,
+        ) {
             return Err(CampaignError::Protocol {
                 field: "audit_fraction".into(),
                 message: format!(

@@ -88,6 +88,8 @@ pub struct OpenedJournal {
     pub resumed: Option<(u64, Vec<Trial>)>,
     /// An incomplete last line that was dropped.
     pub torn: Option<TornTail>,
+    /// The records of the trials told so far, in tell order (empty for a new journal).
+    pub records: Vec<savme_kernel::TrialRecord>,
 }
 
 /// Opens the journal in `store`: replays it if it holds events (`config`, if given, must be
@@ -135,9 +137,13 @@ pub fn open(
             kernel,
             resumed: None,
             torn: loaded.torn,
+            records: Vec::new(),
         });
     }
     let mut replayer = Replayer::new();
+    // An edited line is refused after the replay, so that a line that is no event, or an
+    // event the kernel refuses, is named as such first.
+    let edited = loaded.refuse_edits(&location);
     for l in loaded.lines {
         let bad = |message: String| JournalError::Line {
             store: location.clone(),
@@ -152,6 +158,7 @@ pub fn open(
         line: 1,
         message: e.to_string(),
     })?;
+    edited?;
     if config.is_some_and(|c| &c != replay.kernel.config()) {
         return Err(JournalError::OtherConfig { store: location });
     }
@@ -161,5 +168,6 @@ pub fn open(
         kernel: Journaled::resume(replay.kernel, JournalSink { store }),
         resumed: Some((told, pending)),
         torn: loaded.torn,
+        records: replay.records,
     })
 }

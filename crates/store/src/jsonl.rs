@@ -1,7 +1,11 @@
 //! [`JsonlStore`]: a JSON-lines file, one store line per text line, with a `.lock` file beside
 //! it.
 
-use super::{decode, encode, Loaded, StoreError, StoreLock, StoredLine, TornTail, TrialStore};
+use super::chain::Chain;
+use super::{
+    encode_sealed, EditedLine, LineReader, Loaded, StoreError, StoreLock, StoredLine, TornTail,
+    TrialStore,
+};
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -18,6 +22,10 @@ pub struct JsonlStore {
     end: u64,
     /// The file holds bytes after `end` (a torn tail) still to be cut off.
     torn_bytes: u64,
+    /// The digest chain after the last complete line (None: not read yet).
+    chain: Option<Chain>,
+    /// The first line changed after it was written: nothing is appended to such a store.
+    edited: Option<EditedLine>,
     _lock: StoreLock,
 }
 
@@ -47,6 +55,8 @@ impl JsonlStore {
             file,
             end,
             torn_bytes: len - end,
+            chain: None,
+            edited: None,
             _lock: lock,
         })
     }
@@ -74,18 +84,22 @@ impl JsonlStore {
         let end = bytes.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         let mut loaded = Loaded::default();
         let mut line = 0u64;
+        let mut reader = LineReader::default();
         for text in bytes[..end].split(|&b| b == b'\n') {
             line += 1;
             if text.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
-            let value = decode(text).map_err(|message| StoreError::BadLine {
-                store: location.clone(),
-                line,
-                message,
-            })?;
+            let value = reader
+                .read(line, text)
+                .map_err(|message| StoreError::BadLine {
+                    store: location.clone(),
+                    line,
+                    message,
+                })?;
             loaded.lines.push(StoredLine { line, value });
         }
+        loaded.edited = reader.edited;
         if end < bytes.len() {
             loaded.torn = Some(TornTail {
                 line,
@@ -176,6 +190,7 @@ impl TrialStore for JsonlStore {
         let mut loaded = Loaded::default();
         let mut buf = Vec::new();
         let mut line = 0u64;
+        let mut lines = LineReader::default();
         loop {
             buf.clear();
             let n = reader
@@ -189,13 +204,18 @@ impl TrialStore for JsonlStore {
             if text.iter().all(u8::is_ascii_whitespace) {
                 continue;
             }
-            let value = decode(text).map_err(|message| StoreError::BadLine {
-                store: self.location(),
-                line,
-                message,
-            })?;
+            let value = lines
+                .read(line, text)
+                .map_err(|message| StoreError::BadLine {
+                    store: self.location(),
+                    line,
+                    message,
+                })?;
             loaded.lines.push(StoredLine { line, value });
         }
+        self.chain = Some(lines.chain);
+        self.edited.clone_from(&lines.edited);
+        loaded.edited = lines.edited;
         if self.torn_bytes > 0 {
             loaded.torn = Some(TornTail {
                 line: line + 1,
@@ -207,12 +227,26 @@ impl TrialStore for JsonlStore {
     }
 
     fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
+        if self.chain.is_none() {
+            // The chain continues after the stored lines (read, and checked, once).
+            self.load()?;
+        }
+        if let Some(e) = &self.edited {
+            return Err(StoreError::BadLine {
+                store: self.location(),
+                line: e.line,
+                message: e.message.clone(),
+            });
+        }
+        let mut chain = self.chain.unwrap_or_default();
         let mut bytes = Vec::new();
         for object in objects {
-            encode(object, &mut bytes).map_err(|message| StoreError::BadLine {
-                store: self.location(),
-                line: 0,
-                message,
+            encode_sealed(object, &mut chain, &mut bytes).map_err(|message| {
+                StoreError::BadLine {
+                    store: self.location(),
+                    line: 0,
+                    message,
+                }
             })?;
         }
         self.cut_torn_tail()?;
@@ -220,6 +254,7 @@ impl TrialStore for JsonlStore {
         match written {
             Ok(()) => {
                 self.end += bytes.len() as u64;
+                self.chain = Some(chain);
                 Ok(())
             }
             // A partial write (e.g. a full disk) must not stay: cut back to where it began.
@@ -267,7 +302,7 @@ mod tests {
             .collect();
         assert_eq!(got, [(1, 0), (2, 1), (3, 2), (4, 3), (5, 4)]);
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.starts_with("{\"v\":1,\"i\":0}\n"), "{text}");
+        assert!(text.starts_with("{\"v\":1,\"i\":0,\"c\":\""), "{text}");
     }
 
     #[test]
@@ -278,7 +313,7 @@ mod tests {
         s.append(&json!({"i": 1})).unwrap();
         drop(s);
         let mut f = OpenOptions::new().append(true).open(&path).unwrap();
-        f.write_all(b"{\"v\":1,\"i\":2,\"hal").unwrap();
+        f.write_all(b"{\"v\":1,\"i\":2,\"hal").unwrap(); // 17 bytes
         drop(f);
         // Appending before loading also cuts the tail first.
         let mut s = JsonlStore::open(&path).unwrap();
@@ -289,7 +324,13 @@ mod tests {
         drop(s);
         let text = std::fs::read_to_string(&path).unwrap();
         assert_eq!(text.lines().count(), 3);
-        assert!(text.ends_with("{\"v\":1,\"i\":2}\n"), "{text}");
+        assert!(
+            text.lines()
+                .last()
+                .unwrap()
+                .starts_with("{\"v\":1,\"i\":2,\"c\":"),
+            "{text}"
+        );
     }
 
     #[test]
@@ -308,6 +349,89 @@ mod tests {
         std::fs::write(&path, raw).unwrap();
         let e = JsonlStore::open(&path).unwrap().load().unwrap_err();
         assert!(e.to_string().contains("line 2: not UTF-8"), "{e}");
+    }
+
+    #[test]
+    fn an_edited_line_is_refused_naming_it_and_a_torn_tail_still_recovers() {
+        let path = temp("edited");
+        let mut s = JsonlStore::open(&path).unwrap();
+        for i in 0..4 {
+            s.append(&json!({"i": i, "hf": {"failure": i == 2}}))
+                .unwrap();
+        }
+        drop(s);
+        let good = std::fs::read_to_string(&path).unwrap();
+        // The failure flag of line 2 edited (false → true on lines 1 and 2, then line 1 put
+        // back).
+        let edited = good.replacen("\"failure\":false", "\"failure\":true", 2);
+        let edited = edited.replacen("\"failure\":true", "\"failure\":false", 1);
+        std::fs::write(&path, &edited).unwrap();
+        let loaded = JsonlStore::open(&path).unwrap().load().unwrap();
+        // Read as it is now (a reader may say what is wrong with it), and refused.
+        assert_eq!(
+            loaded.lines[1].value,
+            json!({"i": 1, "hf": {"failure": true}})
+        );
+        let shown = path.display().to_string();
+        let e = loaded.refuse_edits(&shown).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("{shown}, line 2: its checksum")),
+            "{e}"
+        );
+        // Appending to an edited store is refused, and changes nothing.
+        let mut s = JsonlStore::open(&path).unwrap();
+        assert!(s.append(&json!({"i": 9})).is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), edited);
+        drop(s);
+        // A digest removed from an edited line: refused too.
+        let mut lines: Vec<String> = good.lines().map(String::from).collect();
+        let cut = lines[2].find(",\"c\":").unwrap();
+        lines[2] = format!("{}}}", &lines[2][..cut]).replace("true", "false");
+        std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+        let loaded = JsonlStore::open(&path).unwrap().load().unwrap();
+        let e = loaded.refuse_edits("s").unwrap_err().to_string();
+        assert!(e.contains("line 3: this line has no checksum"), "{e}");
+        // Unchanged lines and a torn tail: the tail dropped, the chain continues.
+        std::fs::write(&path, good.clone() + "{\"v\":1,\"i\":4,\"h").unwrap();
+        let mut s = JsonlStore::open(&path).unwrap();
+        let loaded = s.load().unwrap();
+        assert_eq!((loaded.lines.len(), loaded.torn.is_some()), (4, true));
+        assert_eq!(
+            loaded.lines[2].value,
+            json!({"i": 2, "hf": {"failure": true}})
+        );
+        s.append(&json!({"i": 4})).unwrap();
+        drop(s);
+        let loaded = JsonlStore::read(&path).unwrap();
+        assert_eq!(loaded.lines.len(), 5);
+    }
+
+    #[test]
+    fn a_store_without_checksums_still_loads_and_continues_with_them() {
+        let path = temp("old");
+        std::fs::write(&path, "{\"v\":1,\"i\":0}\n{\"i\":1}\n").unwrap();
+        let mut s = JsonlStore::open(&path).unwrap();
+        assert_eq!(s.load().unwrap().lines.len(), 2);
+        s.append(&json!({"i": 2})).unwrap();
+        drop(s);
+        let loaded = JsonlStore::read(&path).unwrap();
+        let got: Vec<i64> = loaded
+            .lines
+            .iter()
+            .map(|l| l.value["i"].as_i64().unwrap())
+            .collect();
+        assert_eq!(got, [0, 1, 2]);
+        // An old line edited after the chain began: found at the first line with a digest.
+        let text = std::fs::read_to_string(&path)
+            .unwrap()
+            .replace("\"i\":1}", "\"i\":7}");
+        std::fs::write(&path, text).unwrap();
+        let loaded = JsonlStore::read(&path).unwrap();
+        let e = loaded.refuse_edits("s").unwrap_err().to_string();
+        assert!(
+            e.contains("line 3: its checksum") && e.contains("one of lines 1–2"),
+            "{e}"
+        );
     }
 
     #[test]

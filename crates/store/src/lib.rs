@@ -12,7 +12,10 @@
 //!   operating system whole; a process killed mid-write leaves at most one incomplete last line,
 //!   which [`TrialStore::load`] reports ([`Loaded::torn`]) and drops, and later appends go after
 //!   the last complete line;
-//! - **versioned lines**: every line carries the store format version (`"v"`), checked on load.
+//! - **versioned lines**: every line carries the store format version (`"v"`), checked on load;
+//! - **edits are found** ([`JsonlStore`]): every line ends with a digest chained over the lines
+//!   before it ([`chain`]); a complete line changed after it was written is refused on load,
+//!   naming the line.
 //!
 //! ```
 //! use savme_store::{JsonlStore, TrialStore};
@@ -30,6 +33,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod chain;
 pub mod journal;
 mod jsonl;
 mod lock;
@@ -69,6 +73,42 @@ pub struct Loaded {
     pub lines: Vec<StoredLine>,
     /// The incomplete last line that was dropped, if any.
     pub torn: Option<TornTail>,
+    /// The first complete line changed after it was written (its checksum does not match, or
+    /// it lost its checksum: [`chain`]), if any. Its line is in [`Loaded::lines`] as it reads
+    /// now, so that a reader that can say which field is wrong (a campaign's replay) says so
+    /// first; every reader then calls [`Loaded::refuse_edits`].
+    pub edited: Option<EditedLine>,
+}
+
+/// A line changed after savme wrote it ([`Loaded::edited`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EditedLine {
+    /// 1-based line.
+    pub line: u64,
+    /// What is wrong and what to do.
+    pub message: String,
+}
+
+impl Loaded {
+    /// An error naming `store` and the first edited line, if a line was edited.
+    ///
+    /// ```
+    /// use savme_store::{EditedLine, Loaded};
+    /// let mut loaded = Loaded::default();
+    /// assert!(loaded.refuse_edits("t.jsonl").is_ok());
+    /// loaded.edited = Some(EditedLine { line: 3, message: "changed".into() });
+    /// assert_eq!(loaded.refuse_edits("t.jsonl").unwrap_err().to_string(), "t.jsonl, line 3: changed");
+    /// ```
+    pub fn refuse_edits(&self, store: &str) -> Result<(), StoreError> {
+        match &self.edited {
+            Some(e) => Err(StoreError::BadLine {
+                store: store.to_string(),
+                line: e.line,
+                message: e.message.clone(),
+            }),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Why a store could not be opened, read or written. Every variant names the store.
@@ -232,6 +272,93 @@ impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
 
     fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
         (**self).save_protocol(protocol)
+    }
+}
+
+/// A serialised object as a line: `{"v":FORMAT,` followed by the object's own keys, then the
+/// digest `"c"` that `chain` gives it, appended to `out`.
+pub(crate) fn encode_sealed(
+    object: &str,
+    chain: &mut chain::Chain,
+    out: &mut Vec<u8>,
+) -> Result<(), String> {
+    let mut line = Vec::new();
+    encode(object, &mut line)?;
+    line.truncate(line.len() - 2); // `}\n`
+    chain.seal(&mut line);
+    out.extend_from_slice(&line);
+    out.push(b'\n');
+    Ok(())
+}
+
+/// Reads a store's complete lines in order, checking the digest chain ([`chain`]).
+#[derive(Debug, Default)]
+pub(crate) struct LineReader {
+    pub(crate) chain: chain::Chain,
+    /// The last line with a digest, and whether the previous non-blank line had one.
+    last_sealed: Option<u64>,
+    previous_sealed: bool,
+    previous: Option<u64>,
+    /// The first line whose checksum failed.
+    pub(crate) edited: Option<EditedLine>,
+}
+
+impl LineReader {
+    /// Line `line` (1-based; its text without the newline) as its object; the error says
+    /// what is wrong (the caller names the store and line). A line whose checksum fails is
+    /// read all the same and kept in [`LineReader::edited`] (the first one).
+    pub(crate) fn read(&mut self, line: u64, text: &[u8]) -> Result<Value, String> {
+        let checked = self.chain.check(text);
+        let body = match checked {
+            chain::ChainCheck::Sealed { body } | chain::ChainCheck::Mismatch { body } => body,
+            _ => text.len(),
+        };
+        if let Err(message) = self.checked(line, checked) {
+            self.edited.get_or_insert(EditedLine { line, message });
+        }
+        if body == text.len() {
+            return decode(text);
+        }
+        let mut object = text[..body].to_vec();
+        object.push(b'}');
+        decode(&object)
+    }
+
+    /// What the chain says of line `line`.
+    fn checked(&mut self, line: u64, checked: chain::ChainCheck) -> Result<(), String> {
+        use chain::ChainCheck;
+        let previous = self.previous.replace(line);
+        let previous_sealed = std::mem::replace(
+            &mut self.previous_sealed,
+            matches!(
+                checked,
+                ChainCheck::Sealed { .. } | ChainCheck::Mismatch { .. }
+            ),
+        );
+        match checked {
+            ChainCheck::Sealed { .. } => {
+                self.last_sealed = Some(line);
+                Ok(())
+            }
+            ChainCheck::Unsealed => Ok(()),
+            ChainCheck::Missing => Err(format!(
+                "this line has no checksum (`\"c\"`), but line {} before it has one: savme ends every line it writes with one, so this line was changed or added after savme wrote the file; restore it (or cut the store back to line {})",
+                self.last_sealed.unwrap_or(0),
+                line - 1
+            )),
+            ChainCheck::Mismatch { .. } => {
+                let what = match (previous_sealed, previous) {
+                    (true, _) | (false, None) => "this line was changed after savme wrote it".to_string(),
+                    (false, Some(p)) => format!(
+                        "this line, or one of lines 1–{p} before it (written without checksums by an earlier savme), was changed after savme wrote it"
+                    ),
+                };
+                Err(format!(
+                    "its checksum (`\"c\"`) does not match: {what}. A told trial cannot be recomputed, so savme refuses to resume from an edited store; restore the line (from a copy), or cut the store back to line {} and resume to run the rest again",
+                    line - 1
+                ))
+            }
+        }
     }
 }
 

@@ -339,6 +339,7 @@ fn replay(
 ) -> Result<Vec<EstimateLine>, EstimateError> {
     let name = store.path().display().to_string();
     let loaded = store.load().map_err(CampaignError::from)?;
+    let edited = loaded.edited.clone();
     let mut lines = Vec::with_capacity(loaded.lines.len());
     for stored in loaded.lines {
         let diverged = |message: String| EstimateError::Diverged {
@@ -354,6 +355,14 @@ fn replay(
         line.check(&asked).map_err(diverged)?;
         estimation.tell(asked.id, line.hf.failure)?;
         lines.push(line);
+    }
+    // Checked after the lines (their check names the field that differs, if one does).
+    if let Some(e) = edited {
+        return Err(EstimateError::Diverged {
+            store: name,
+            line: e.line,
+            message: e.message,
+        });
     }
     Ok(lines)
 }

@@ -10,7 +10,7 @@ pub use local::{with_pool, Pool};
 
 use super::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
 use super::protocol::{OnError, Stage};
-use super::store::TrialStore;
+use super::store::{EditedLine, StoreError, TrialStore};
 use super::CampaignError;
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
 use std::collections::VecDeque;
@@ -140,6 +140,9 @@ pub struct StageContext<'a> {
     pub screen: Option<Audit>,
     /// Checked before each wait for a finished run.
     pub stop: &'a crate::Stop,
+    /// The first stored line changed after it was written (its checksum fails), if any: it
+    /// is refused when it is replayed, after the checks that can name the changed field.
+    pub edited: Option<&'a EditedLine>,
 }
 
 /// Runs (or replays) one stage on `kernel` until it has told `stage.iterations` trials; calls
@@ -213,7 +216,10 @@ impl StageRun<'_, '_, '_> {
             .screen
             .map(|a| savme_kernel::screening::audited(a.seed, index, a.fraction));
         match &logged {
-            Some((_, l)) => check_logged(l, &trial, &self.label, index)?,
+            Some((number, l)) => {
+                let at = (self.cx.store.location(), *number);
+                check_logged(l, &trial, &self.label, index, at)?
+            }
             None => {
                 if audit.is_none() {
                     let theta_hf = self.theta_hf.clone();
@@ -263,6 +269,7 @@ impl StageRun<'_, '_, '_> {
             let Some(slot) = self.queue.pop_front() else {
                 break;
             };
+            let number = slot.logged.as_ref().map(|(n, _)| *n);
             let line = tell(
                 self.kernel,
                 slot,
@@ -271,6 +278,14 @@ impl StageRun<'_, '_, '_> {
                 self.cx.cost,
                 self.cx.store,
             )?;
+            if let Some(e) = self.cx.edited.filter(|e| Some(e.line) == number) {
+                return Err(StoreError::BadLine {
+                    store: self.cx.store.location(),
+                    line: e.line,
+                    message: e.message.clone(),
+                }
+                .into());
+            }
             match &line {
                 LogLine::Trial(_) | LogLine::Screen(_) => progress(&line, self.kernel),
                 LogLine::Failed(f) => {
@@ -355,31 +370,72 @@ fn simulation_error(
     }))
 }
 
-/// A logged trial must be the one the protocol asks for now.
-fn check_logged(l: &LogLine, t: &Trial, label: &str, index: u64) -> Result<(), CampaignError> {
+/// A logged trial must be the one the protocol asks for now; the error names the store, the
+/// line `at` and the first field that differs (a φ or θ by its variable).
+fn check_logged(
+    l: &LogLine,
+    t: &Trial,
+    label: &str,
+    index: u64,
+    at: (String, u64),
+) -> Result<(), CampaignError> {
     let (stage, i, id, scenario, phi, theta) = match l {
         LogLine::Trial(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
         LogLine::Failed(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
         LogLine::Screen(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
     };
-    let same = stage == label
-        && i == index
-        && id == t.id
-        && *scenario == *t.scenario
-        && *phi == t.phi
-        && *theta == t.theta_lf;
-    if same {
-        Ok(())
-    } else {
-        Err(CampaignError::Diverged {
-            stage: label.into(),
-            index,
-            message: format!(
-                "the log has trial {id} ({stage} {scenario}, {phi}) where the protocol asks trial {} ({} {})",
-                t.id, t.scenario, t.phi
-            ),
+    let show = |v: &dyn std::fmt::Display| v.to_string();
+    let differs: Option<(String, String, String)> = if stage != label {
+        Some(("stage".into(), show(stage), label.into()))
+    } else if i != index {
+        Some(("index".into(), show(&i), show(&index)))
+    } else if id != t.id {
+        Some(("id".into(), show(&id), show(&t.id)))
+    } else if **scenario != *t.scenario {
+        Some(("scenario".into(), show(scenario), t.scenario.to_string()))
+    } else if *phi != t.phi {
+        Some(assignment_difference("phi", phi, &t.phi))
+    } else if *theta != t.theta_lf {
+        Some(match (theta, &t.theta_lf) {
+            (Some(a), Some(b)) => assignment_difference("theta_lf", a, b),
+            (a, b) => ("theta_lf".into(), format!("{a:?}"), format!("{b:?}")),
         })
+    } else {
+        None
+    };
+    match differs {
+        None => Ok(()),
+        Some((field, logged, asked)) => Err(CampaignError::Log {
+            store: at.0,
+            line: at.1 as usize,
+            message: format!(
+                "field `{field}` is {logged}, but the protocol asks {asked} here ({label} trial {index}): the line was edited, or written by another campaign"
+            ),
+        }),
     }
+}
+
+/// The first variable in which two assignments differ: (`field.variable`, logged, asked).
+fn assignment_difference(
+    field: &str,
+    logged: &Assignment,
+    asked: &Assignment,
+) -> (String, String, String) {
+    let none = || "(none)".to_string();
+    let names: std::collections::BTreeSet<&str> = logged
+        .iter()
+        .chain(asked.iter())
+        .map(|(name, _)| name)
+        .collect();
+    for name in names {
+        let (a, b) = (logged.get(name), asked.get(name));
+        if a != b {
+            let a = a.map_or_else(none, |v| v.to_string());
+            let b = b.map_or_else(none, |v| v.to_string());
+            return (format!("{field}.{name}"), a, b);
+        }
+    }
+    (field.into(), logged.to_string(), asked.to_string())
 }
 
 /// Tells the kernel a trial whose runs are in: its logged line on resume (checked against
