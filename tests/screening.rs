@@ -128,8 +128,9 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
     for (f, v) in listed.iter().zip(hf_failed) {
         assert_eq!((&f["index"], &f["phi"]), (&v["index"], &v["phi"]));
         assert_eq!(f["lf_failure"], v["lf"]["failure"]);
-        // Idealised perception: `savme simulate` (camera + lidar) would not replay it.
-        assert!(f["replay"].is_null(), "{f}");
+        // Idealised perception: replayed by `savme simulate --perception ideal`.
+        let replay = f["replay"].as_str().unwrap_or_default();
+        assert!(replay.ends_with(" --perception ideal"), "{f}");
     }
 
     // The same campaign with one job, and a resumed one cut inside the screening stage.

@@ -644,13 +644,32 @@ pub fn summary_text(o: &CampaignOutcome, problem: &Problem) -> String {
     s
 }
 
-/// `path` as a person would write it: resolved (no `..`, no `.`, links followed) and relative
-/// to the working directory when inside it (`examples/fmu/../../out` is `out`); as given when it
-/// does not exist.
+/// `path` as a person would write it: resolved (no `..`, no `.`, links followed — for a path
+/// not created yet, its longest existing ancestor) and relative to the working directory when
+/// inside it (`examples/fmu/../../out` is `out`).
 pub fn shown_path(path: &std::path::Path) -> String {
-    let Ok(real) = path.canonicalize() else {
+    let mut missing = Vec::new();
+    let mut existing = path;
+    let real = loop {
+        if let Ok(real) = existing.canonicalize() {
+            break Some(real);
+        }
+        match (existing.file_name(), existing.parent()) {
+            (Some(name), Some(parent)) => {
+                missing.push(name.to_os_string());
+                existing = if parent.as_os_str().is_empty() {
+                    std::path::Path::new(".")
+                } else {
+                    parent
+                };
+            }
+            _ => break None,
+        }
+    };
+    let Some(mut real) = real else {
         return path.display().to_string();
     };
+    real.extend(missing.iter().rev());
     let cwd = std::env::current_dir().and_then(|d| d.canonicalize());
     match cwd.as_ref().map(|cwd| real.strip_prefix(cwd)) {
         Ok(Ok(rel)) if rel.as_os_str().is_empty() => ".".into(),
@@ -687,6 +706,21 @@ pub fn resume_dir(
 #[cfg(test)]
 mod tests {
     use super::say_if_slow;
+
+    #[test]
+    fn shown_paths_are_resolved_and_relative_to_the_working_directory() {
+        use super::shown_path;
+        // cargo runs unit tests in the package's directory.
+        assert_eq!(shown_path("src/../Cargo.toml".as_ref()), "Cargo.toml");
+        assert_eq!(shown_path("src/..".as_ref()), ".");
+        let base = std::env::temp_dir().join(format!("savme-shown-{}", std::process::id()));
+        std::fs::create_dir_all(base.join("sub")).unwrap();
+        let real = base.canonicalize().unwrap();
+        // Not created yet: its existing ancestor resolved, the rest appended.
+        let shown = shown_path(&base.join("sub/../out/leaf"));
+        let _ = std::fs::remove_dir_all(&base);
+        assert_eq!(shown, real.join("out/leaf").display().to_string());
+    }
     use std::sync::atomic::{AtomicBool, Ordering};
     use std::time::{Duration, Instant};
 
