@@ -120,6 +120,20 @@ fn measure(mut cmd: Command) -> (f64, f64) {
     }
 }
 
+/// The seconds from campaign `name`'s first queued run to its last stored trial (the campaign
+/// itself, without the process's start and the output files).
+fn span(server: &pg::Server, name: &str) -> f64 {
+    let mut c = server.client_of("bench");
+    c.query_one(
+        "SELECT extract(epoch FROM (SELECT max(t.stored_at) FROM savme.trials t WHERE t.campaign_id = c.id)
+                                - (SELECT min(r.queued_at) FROM savme.runs r WHERE r.campaign_id = c.id))::float8
+           FROM savme.campaigns c WHERE c.name = $1",
+        &[&name],
+    )
+    .unwrap()
+    .get(0)
+}
+
 /// A remote campaign `name` with one worker process of `threads` threads started first;
 /// returns the coordinator's (wall, CPU) seconds.
 fn remote(url: &str, name: &str, out: &Path, flags: &[&str], threads: usize) -> (f64, f64) {
@@ -215,32 +229,42 @@ fn main() {
         std::env::temp_dir().join(format!("savme-bench-dist-{}", std::process::id()));
     let threads = [1usize, 4, 16, 64];
     println!("\nsavme, window {WINDOW}, median of {reps}; one `savme worker --jobs N` process");
-    println!("| N threads | null: trials/s | coordinator CPU ms/trial | 20 ms sleep: trials/s | vs 1 thread |");
+    println!("(trials/s: of the coordinator process's wall time / of the campaign's span in the database, first run queued to last trial stored)");
+    println!("| N threads | null: trials/s (process / span) | coordinator CPU ms/trial | 20 ms sleep: trials/s (process / span) | vs 1 thread (span) |");
     println!("|---|---|---|---|---|");
     let mut one = 0.0;
     for (k, &n) in threads.iter().enumerate() {
-        let mut null = Vec::new();
-        let mut sleep = Vec::new();
+        let (mut null, mut null_span) = (Vec::new(), Vec::new());
+        let (mut sleep, mut sleep_span) = (Vec::new(), Vec::new());
         for rep in 0..reps {
-            null.push(remote(&url, &format!("null-{n}-{rep}"), &out, NULL, n));
-            sleep.push(remote(&url, &format!("sleep-{n}-{rep}"), &out, SLEEPING, n).0);
+            let name = format!("null-{n}-{rep}");
+            null.push(remote(&url, &name, &out, NULL, n));
+            null_span.push(span(&server, &name));
+            let name = format!("sleep-{n}-{rep}");
+            sleep.push(remote(&url, &name, &out, SLEEPING, n).0);
+            sleep_span.push(span(&server, &name));
         }
         let wall = median(null.iter().map(|x| x.0).collect());
         let cpu = median(null.iter().map(|x| x.1).collect());
-        let s = SLEEPING_TRIALS / median(sleep);
+        let s = SLEEPING_TRIALS / median(sleep_span);
         if k == 0 {
             one = s;
         }
         println!(
-            "| {n} | {:.0} | {:.3} | {s:.1} | {:.2}× |",
+            "| {n} | {:.0} / {:.0} | {:.3} | {:.1} / {s:.1} | {:.2}× |",
             NULL_TRIALS / wall,
+            NULL_TRIALS / median(null_span),
             cpu / NULL_TRIALS * 1e3,
+            SLEEPING_TRIALS / median(sleep),
             s / one
         );
     }
     if let Some(python) = optuna_python() {
+        // Its own database on the same server (Optuna's tables would otherwise land in the
+        // schema named after the user, `savme`, beside savme's own `trials`).
+        server.create_db("optuna");
         let sa = format!(
-            "postgresql+psycopg2://{}:{}@127.0.0.1:{}/bench",
+            "postgresql+psycopg2://{}:{}@127.0.0.1:{}/optuna",
             pg::USER,
             pg::PASSWORD,
             server.port()

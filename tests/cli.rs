@@ -340,3 +340,39 @@ fn a_campaign_file_no_adapter_reads_is_refused_naming_the_adapters() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn more_jobs_than_the_window_keeps_busy_are_warned_about() {
+    let dir = std::env::temp_dir().join(format!("savme-cli-window-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let tiny = [
+        "toy",
+        "--null",
+        "--cost",
+        "work",
+        "--iterations",
+        "2",
+        "--eval-iterations",
+        "1",
+        "--test-iterations",
+        "1",
+        "--baseline-iterations",
+        "2",
+        "--baseline-test-iterations",
+        "1",
+        "--window",
+        "2",
+    ];
+    let out = dir.to_str().unwrap();
+    let (ok, _, err) = savme(&[&tiny[..], &["--jobs", "5", "--out", out]].concat());
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("--jobs 5 but a window of 2 trials keeps at most 4 runs in flight: 1 threads will be idle; --window 5"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let (ok, _, err) = savme(&[&tiny[..], &["--jobs", "4", "--out", out]].concat());
+    assert!(ok, "{err}");
+    assert!(!err.contains("WARNING"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -412,7 +412,8 @@ fn a_coordinator_without_workers_says_so_with_a_command_that_pastes() {
     );
     assert!(!said.contains(common::postgres::PASSWORD), "{said}");
     // Pasted into a shell (the password from the environment), it runs the campaign.
-    let pasted = command.replacen("savme", EXE, 1);
+    // (With more threads than the campaign's window keeps busy: it says so.)
+    let pasted = format!("{} --jobs 9", command.replacen("savme", EXE, 1));
     let w = Command::new("sh")
         .args(["-c", &pasted])
         .env("PGPASSWORD", common::postgres::PASSWORD)
@@ -424,6 +425,11 @@ fn a_coordinator_without_workers_says_so_with_a_command_that_pastes() {
     finish(coordinator, "the coordinator");
     let t = finish(w, "the pasted worker");
     assert!(t.contains("finished"), "{t}");
+    assert!(
+        t.contains("has a window of 4 trials, so at most 8 runs are in flight")
+            && t.contains("1 of this worker's 9 threads will always be idle"),
+        "{t}"
+    );
     let _ = std::fs::remove_dir_all(out);
 }
 

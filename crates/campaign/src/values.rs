@@ -207,8 +207,9 @@ protocol_values! {
         to = protocol;
     /// Trials in flight at once: asked, not yet told (at most 2 runs each). Keeps up to about
     /// 2 × window jobs or `savme worker` threads busy; set it to the number of threads that run
-    /// the campaign. Changes the trials slightly (the number of jobs does not): a larger window
-    /// learns from fewer told trials per ask (docs/DISTRIBUTED.md, "The window").
+    /// the campaign. Changes the trials (the number of jobs does not): a window that is a large
+    /// share of a stage's iterations finds fewer failures per cost (docs/DISTRIBUTED.md, "The
+    /// window").
     window: usize, flag = "window", aliases = [], stages = "all", to = protocol;
     /// Meta-testing prior-strength ablation: strengths to compare, comma-separated (0 = the
     /// uniform prior), e.g. 0,0.1,0.3,1.
