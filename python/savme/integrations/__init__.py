@@ -22,7 +22,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Dict, List, Optional, Tuple, Union
 
-from ._savme import Kernel, Record, Trial
+from .._savme import Kernel, Record, Trial
 
 Result = Union[float, bool, Tuple[float, float], Dict[str, float]]
 
