@@ -140,6 +140,11 @@ def rates(runs, sp):
     return 1e6 * len(fails) / work, 1e6 * len(cells) / work, len(runs)
 
 
+def record(path, method, seed, row):
+    with open(path, "a") as f:
+        f.write(json.dumps({"method": method, "seed": seed, "row": list(row)}) + "\n")
+
+
 def fmt(xs):
     return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}" if len(xs) > 1 else f"{xs[0]:.2f}"
 
@@ -147,7 +152,9 @@ def fmt(xs):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scenarios", nargs="+", default=["merge", "roundabout"])
-    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--seeds", type=int, default=2, help="seeds 1..N")
+    ap.add_argument("--report", action="store_true", help="only the table of the rows in --out")
+    ap.add_argument("--seed-list", type=int, nargs="+", help="these seeds instead (e.g. one per process)")
     ap.add_argument("--iterations", type=int, default=30, help="savme's search trials")
     ap.add_argument("--screen-iterations", type=int, default=30, help="savme's deployed trials")
     ap.add_argument("--budget", type=float, default=0.3)
@@ -159,14 +166,15 @@ def main():
     sp = spaces(args.scenarios)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    rows = {}
-    for seed in range(1, args.seeds + 1):
+    seeds = [] if args.report else args.seed_list or list(range(1, args.seeds + 1))
+    done = out / "rows.jsonl"  # one line per (method, seed): several processes may add to it
+    for seed in seeds:
         t0 = time.perf_counter()
         search, deployed = savme_seed(args, seed, out / f"savme-seed-{seed}")
         sw, dw = sum(r[3] for r in search), sum(r[3] for r in deployed)
         f, c, n = rates(search, sp)
         confirmed = 1e6 * sum(r[2] for r in deployed) / max(dw, 1)
-        rows.setdefault("savme", []).append((f, c, confirmed, n, sw, dw, 0.0))
+        record(done, "savme", seed, (f, c, confirmed, n, sw, dw, 0.0))
         print(f"seed {seed}: savme {n} trials, search {sw} wu, deployed {dw} wu "
               f"({time.perf_counter() - t0:.0f} s)", flush=True)
         for method in args.peers:
@@ -174,11 +182,17 @@ def main():
             s_runs, d_runs, overhead = peer_seed(method, seed, sp, sw, dw)
             f, c, n = rates(s_runs, sp)
             confirmed = 1e6 * sum(r[2] for r in d_runs) / max(sum(r[3] for r in d_runs), 1)
-            rows.setdefault(method, []).append(
-                (f, c, confirmed, n, sw, dw, 1e3 * overhead / max(len(s_runs) + len(d_runs), 1)))
+            record(done, method, seed, (f, c, confirmed, n, sw, dw,
+                                        1e3 * overhead / max(len(s_runs) + len(d_runs), 1)))
             print(f"seed {seed}: {method} {n} HF runs ({time.perf_counter() - t0:.0f} s)", flush=True)
+    rows = {}
+    for line in done.read_text().splitlines():
+        r = json.loads(line)
+        rows.setdefault(r["method"], {})[r["seed"]] = r["row"]
+    rows = {m: [by_seed[s] for s in sorted(by_seed)] for m, by_seed in rows.items()}
     lines = [
-        f"highway-env scenarios {', '.join(args.scenarios)}; seeds 1–{args.seeds}; savme "
+        f"highway-env scenarios {', '.join(args.scenarios)}; seeds: {len(rows['savme'])} "
+        f"(rows of {done}); savme "
         f"{args.iterations} search + {args.screen_iterations} deployed trials at budget {args.budget}; "
         "per 10⁶ work units, mean ± sd over seeds",
         "",

@@ -21,7 +21,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="savme-highway-env")
     ap.add_argument("--resume", action="store_true", help="continue the campaign in --out")
-    ap.add_argument("--iterations", type=int, default=60,
+    ap.add_argument("--iterations", type=int, default=40,
                     help="meta-training iterations (evaluation n/4, meta-testing n/2, "
                          "baselines n+n/4 and 3n/4, as the quick preset's proportions)")
     ap.add_argument("--budgets", type=float, nargs="+", default=[0.3],

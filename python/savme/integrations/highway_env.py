@@ -34,7 +34,7 @@ import importlib
 import math
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Set, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 from .._savme import Continuous, Discrete, Problem, Space, Variable
 
@@ -331,14 +331,13 @@ class _Traffic:
 
     def __init__(self, env: Any, phi: Dict[str, float], keep: int) -> None:
         self.env, self.phi, self.keep = env, phi, keep
-        self.seen: Set[int] = set()
 
     def apply(self, first: bool) -> None:
         road, ego = self.env.road, self.env.vehicle
         for v in road.vehicles:
-            if v is ego or id(v) in self.seen:
+            if v is ego or getattr(v, "_savme_phi", False):
                 continue
-            self.seen.add(id(v))
+            v._savme_phi = True  # (not an id() set: ids of removed vehicles are reused)
             v.TIME_WANTED = self.phi["time_gap"]
             v.POLITENESS = self.phi["politeness"]
             if "others_speed" in self.phi and hasattr(v, "target_speed"):
