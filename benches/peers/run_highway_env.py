@@ -49,7 +49,7 @@ def ensure_venv() -> None:
     except ImportError:
         pass
     py = VENV / "bin" / "python"
-    if Path(sys.executable).resolve() == py.resolve():
+    if Path(sys.prefix).resolve() == VENV.resolve():  # (its python is a link to python3)
         sys.exit(f"{py}: highway-env, verifai or savme is missing; delete {VENV} and rerun")
     wheels = sorted((REPO / "target" / "wheels" / "test").glob("savme-*.whl"))
     if not wheels:
@@ -193,7 +193,7 @@ def main():
     lines = [
         f"highway-env scenarios {', '.join(args.scenarios)}; seeds: {len(rows['savme'])} "
         f"(rows of {done}); savme "
-        f"{args.iterations} search + {args.screen_iterations} deployed trials at budget {args.budget}; "
+        f"{rows['savme'][0][3]} search trials (deployed: --screen-iterations) at budget {args.budget}; "
         "per 10⁶ work units, mean ± sd over seeds",
         "",
         "| method | HF failures, search | distinct failing cells, search | confirmed failures, deployed "
