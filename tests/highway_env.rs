@@ -18,7 +18,14 @@ fn repo() -> PathBuf {
 /// The venv's python: $SAVME_HIGHWAY_PYTHON, else `highway-venv` in the target directory.
 fn python() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("SAVME_HIGHWAY_PYTHON") {
-        return Some(PathBuf::from(p));
+        let p = PathBuf::from(p);
+        assert!(
+            p.is_file(),
+            "SAVME_HIGHWAY_PYTHON={}: no such file (a venv's bin/python, as \
+             scripts/highway-env-venv makes in target/highway-venv)",
+            p.display()
+        );
+        return Some(p);
     }
     // The test binary is <target>/debug/deps/highway_env-…
     let exe = std::env::current_exe().ok()?;
