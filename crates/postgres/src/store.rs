@@ -397,7 +397,7 @@ impl TrialStore for PostgresStore {
 
     /// Stores the lines in one transaction — at once, or, in a campaign whose runs go through
     /// the work queue, at the coordinator's next wait, in one transaction with its queue
-    /// update ([`Locked`]).
+    /// update (`Locked`).
     fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
         let mut rows = Vec::with_capacity(objects.len());
         for text in objects {
