@@ -685,10 +685,26 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
         train.len()
     );
     // The posterior grid: arm names and means, θ_HF and the MAP outlined; φ-bins per scenario.
-    let cells = c.text("/posterior/train_0_3/fidelity/cells/labels");
+    let cells = &c.texts["/posterior/train_0_3/fidelity/cells/labels"];
     assert!(
-        cells.contains("high\n") && cells.contains("true\n"),
-        "{cells}"
+        cells.iter().any(|l| l == "high") && cells.iter().any(|l| l == "true"),
+        "{cells:?}"
+    );
+    let means = &c.texts["/posterior/train_0_3/fidelity/cells/means"];
+    assert!(
+        means.len() >= cells.len()
+            && means
+                .iter()
+                .all(|m| m.parse::<f64>().is_ok_and(|m| (0.0..=1.0).contains(&m))),
+        "{means:?}"
+    );
+    assert!(
+        c.texts
+            .iter()
+            .filter(|(e, _)| e.starts_with("/posterior") || e.starts_with("/campaign/key"))
+            .flat_map(|(_, t)| t)
+            .all(|t| !t.contains('\n')),
+        "the viewer shows a label's first line only"
     );
     assert!(c
         .text("/posterior/train_0_3/fidelity/names")
@@ -958,7 +974,7 @@ fn an_fmu_campaign_records_the_listed_outputs_of_hf_and_lf_per_trial() {
             }
             assert!(
                 s.text(&format!("/{run}/events"))
-                    .contains("`min_distance` starts at 1e6, a placeholder"),
+                    .contains("`min_distance` starts at placeholder 1e6: plotted from"),
                 "{}",
                 s.text(&format!("/{run}/events"))
             );

@@ -34,7 +34,7 @@ const CELL: (f32, f32) = (10.0, 6.0);
 const KEY_CELLS: usize = 7;
 /// Width of the column of row names left of a grid, in cells (a label is centred on its box,
 /// so a name never reaches into the grid, and the view, which frames the boxes, never crops it).
-const NAME_CELLS: f32 = 3.0;
+const NAME_CELLS: f32 = 4.0;
 
 /// The box of a row's name: `NAME_CELLS` cells wide, left of the grid's first column, at `y`.
 fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
@@ -410,18 +410,13 @@ fn arm_name(space: &Space, var: usize, arm: usize) -> String {
     }
 }
 
-/// A row's name: the variable's name, and for a continuous variable its range (the cells are
-/// its bins, in order).
-fn row_name(space: &Space, var: usize, name: &str) -> String {
+/// A row's name: the variable's name, and for a continuous φ variable its range (the cells
+/// are its bins, in order). One line: the viewer shows a label's first line only.
+fn row_name(space: &Space, var: usize, name: &str, phi: bool) -> String {
     match &space.variables()[var].domain {
-        Domain::Continuous { lo, hi, .. } => format!("{name}\n{lo}–{hi}"),
-        Domain::Discrete { .. } => name.to_string(),
+        Domain::Continuous { lo, hi, .. } if phi => format!("{name} {lo}–{hi}"),
+        _ => name.to_string(),
     }
-}
-
-/// A cell's label: the arm's name over its posterior mean.
-fn cell_label(space: &Space, var: usize, arm: usize, mean: f64) -> String {
-    format!("{}\n{mean:.2}", arm_name(space, var, arm))
 }
 
 /// The key row under a grid: the colour scale (posterior mean 0 to 1), and what the white and
@@ -444,7 +439,7 @@ fn log_key(
             .with_draw_order(1.0),
     )
     .map_err(err)?;
-    let mut labels: Vec<String> = steps.iter().map(|t| format!("mean\n{t}")).collect();
+    let mut labels: Vec<String> = steps.iter().map(|t| t.to_string()).collect();
     let (mut lmins, mut lsizes, mut colours) = (mins, sizes, vec![rgb(palette::REFERENCE); 5]);
     let mut outline = |k: usize, name: &str, c: rerun::Color| -> Result<(), RecordError> {
         let min = (k as f32 * w, y);
@@ -469,6 +464,11 @@ fn log_key(
         outline(5, "θ_HF", rerun::Color::from_rgb(255, 255, 255))?;
     }
     outline(6, "MAP", rerun::Color::from_rgb(255, 0, 255))?;
+    let (min, size) = name_box(y);
+    lmins.push(min);
+    lsizes.push(size);
+    colours.push(rgb(palette::REFERENCE));
+    labels.push("key: posterior mean".into());
     log_labels(
         rec,
         format!("{path}/key/labels"),
@@ -494,18 +494,19 @@ fn log_grid(
     let (mut mins, mut sizes, mut colours, mut labels) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut name_mins, mut name_sizes, mut names) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut hf_mins, mut map_mins) = (Vec::new(), Vec::new());
+    let (mut hf_mins, mut map_mins, mut means) = (Vec::new(), Vec::new(), Vec::new());
     for (i, arms) in p.arms().iter().enumerate() {
         let y = y0 + i as f32 * h;
         let (min, size) = name_box(y);
         name_mins.push(min);
         name_sizes.push(size);
-        names.push(row_name(space, i, &p.names()[i]));
+        names.push(row_name(space, i, &p.names()[i], highlight.is_none()));
         for (a, arm) in arms.iter().enumerate() {
             mins.push((a as f32 * w, y));
             sizes.push((w * 0.95, h * 0.9));
             colours.push(heat(arm.mean()));
-            labels.push(cell_label(space, i, a, arm.mean()));
+            labels.push(arm_name(space, i, a));
+            means.push(format!("{:.2}", arm.mean()));
         }
         if let Some(hf) = highlight.and_then(|hl| hl.get(i)) {
             hf_mins.push((*hf as f32 * w, y));
@@ -522,6 +523,15 @@ fn log_grid(
             .with_draw_order(1.0),
     )
     .map_err(err)?;
+    // Two one-line labels per cell: the arm's name at the top, its mean below.
+    let lower: Vec<(f32, f32)> = mins.iter().map(|(x, y)| (*x, y + h * 0.4)).collect();
+    log_labels(
+        rec,
+        format!("{path}/cells/means"),
+        (lower, sizes.clone()),
+        colours.clone(),
+        means,
+    )?;
     log_labels(
         rec,
         format!("{path}/cells/labels"),

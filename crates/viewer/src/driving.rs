@@ -327,7 +327,7 @@ fn log_closest_approach(
         ),
         None => (
             format!(
-                "{}: no collision; closest approach {:.2} m at {:.2} s",
+                "{}: passes, closest approach {:.2} m at {:.2} s",
                 run.label(),
                 r.min_distance,
                 c.time

@@ -168,7 +168,7 @@ impl TrialFrames for FmuFrames {
                 rec.log(
                     format!("{}/events", run.path()),
                     &rerun::TextLog::new(format!(
-                        "{}: `{name}` starts at {:e}, a placeholder: not plotted before {until:.2} s",
+                        "{}: `{name}` starts at placeholder {:e}: plotted from {until:.2} s",
                         run.label(),
                         values[0]
                     ))

@@ -13,7 +13,7 @@
 
 use super::campaign::{grid_bounds, CampaignPlan};
 use super::error::{err, RecordError};
-use rerun::blueprint::components::PanelState;
+use rerun::blueprint::components::{PanelState, PlayState};
 use rerun::blueprint::{
     Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Grid, Horizontal,
     SelectionPanel, Spatial2DView, Spatial3DView, Tabs, TextDocumentView, TextLogView, TimePanel,
@@ -335,9 +335,12 @@ pub fn campaign(plan: &CampaignPlan) -> Layout {
     Layout {
         blueprint: Blueprint::new(root)
             // The time panel folded, to give the views the room.
+            // Following: the cursor at the end of the runtime timeline, where every curve is
+            // whole and every grid shows its stage's final posterior.
             .with_time_panel(
                 TimePanel::new()
                     .with_timeline("runtime")
+                    .with_play_state(PlayState::Following)
                     .with_state(PanelState::Collapsed),
             )
             .with_blueprint_panel(BlueprintPanel::new().with_state(PanelState::Collapsed))

@@ -55,9 +55,10 @@ pub fn stage_colours(protocol: &Protocol) -> BTreeMap<String, Color> {
     out
 }
 
-/// Dark blue (0) to yellow (1): a posterior mean.
+/// Light blue (0) to yellow (1): a posterior mean (as a grid cell's outline and text, so even
+/// the low end stays readable on the viewer's dark background).
 pub fn heat(t: f64) -> Color {
     let t = t.clamp(0.0, 1.0) as f32;
     let lerp = |a: f32, b: f32| (a + (b - a) * t) as u8;
-    Color::from_rgb(lerp(30.0, 250.0), lerp(40.0, 220.0), lerp(110.0, 40.0))
+    Color::from_rgb(lerp(100.0, 250.0), lerp(150.0, 220.0), lerp(255.0, 40.0))
 }
