@@ -763,6 +763,60 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
     );
 }
 
+// Idealised perception has no camera: the camera view says so instead of staying black, and
+// the trial still has its 3D scene and plots.
+#[test]
+fn an_ideal_perception_trial_says_it_has_no_camera() {
+    let dir = made_dir("ideal");
+    let rrd = dir.join("ideal.rrd");
+    let o = Command::new(EXE)
+        .args([
+            "reproduce",
+            "--quiet",
+            "--perception",
+            "ideal",
+            "--budgets",
+            "0.3",
+            "--iterations",
+            "3",
+            "--eval-iterations",
+            "1",
+            "--test-iterations",
+            "1",
+            "--baseline-iterations",
+            "1",
+            "--baseline-test-iterations",
+            "1",
+            "--screen-iterations",
+            "0",
+            "--cost",
+            "work",
+            "--record-every",
+            "2",
+            "--record-failures",
+            "0",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .arg("--record")
+        .arg(&rrd)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stores = load(&rrd);
+    let trials: Vec<&Store> = stores
+        .iter()
+        .filter(|s| !s.blueprint && s.app != savme::viewer::CAMPAIGN_APP)
+        .collect();
+    assert!(!trials.is_empty());
+    for s in trials {
+        let note = s.text("/hf/ego/camera/note");
+        assert!(note.contains("no camera in this perception mode"), "{note}");
+        assert!(!s.has("/hf/ego/camera/image"), "no camera images");
+        assert!(s.has("/hf/ego") && s.has("/plots/distance/hf"));
+    }
+}
+
 #[test]
 fn ctrl_c_still_closes_the_recording() {
     let dir = made_dir("sigint");
