@@ -385,8 +385,8 @@ impl CampaignView {
             s,
             "\n**{} trial recordings** (every {}-th trial, plus up to {} informative ones, spread over \
              the stages and the outcome classes FN, FP, TP and baseline HF failures). Each is a \
-             recording of its own: open the left panel (the sidebar button at the top left) and \
-             pick it under *Sources*, by its name:\n",
+             recording of its own: open the left panel (the first of the three panel buttons at the \
+             top right) and pick it under *Sources*, by its name:\n",
             recorded.len(),
             opts.every,
             opts.failure_cap
