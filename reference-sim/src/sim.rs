@@ -54,6 +54,23 @@ pub struct RunResult {
     /// Every step's camera image, lidar cloud and detection, when asked for (sensor perception
     /// only).
     pub sensor_frames: Option<Vec<SensorFrame>>,
+    /// Where [`RunResult::min_distance`] was measured (the swept contact check's sample, which
+    /// may fall between two steps; the collision itself on a collision), when recording.
+    pub closest: Option<Closest>,
+}
+
+/// The closest approach of a run: the sample of the swept contact check at which the bodies
+/// were nearest (see [`RunResult::closest`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Closest {
+    /// Time, s.
+    pub time: f64,
+    /// Distance between the bodies there, metres (0 on a collision).
+    pub distance: f64,
+    /// The ego there.
+    pub ego: VehicleState,
+    /// The intruder there.
+    pub intruder: VehicleState,
 }
 
 fn intruder_at(setup: &Setup, t: f64) -> VehicleState {
@@ -88,6 +105,7 @@ pub struct Stepper<P: Perception> {
     planner: Planner,
     trajectory: Option<Vec<Frame>>,
     min_distance: f64,
+    closest: Option<Closest>,
     collision_time: Option<f64>,
     checks: u64,
     taken: u64,
@@ -131,6 +149,7 @@ impl<P: Perception> Stepper<P> {
             planner: Planner::default(),
             trajectory: record.then(Vec::new),
             min_distance: f64::INFINITY,
+            closest: None,
             collision_time: None,
             checks: 0,
             taken: 0,
@@ -302,13 +321,30 @@ impl<P: Perception> Stepper<P> {
                 continue;
             }
             let d = vehicle::distance(&e, &i);
+            let time = t + dt * f;
+            if d < self.min_distance && self.trajectory.is_some() {
+                self.closest = Some(Closest {
+                    time,
+                    distance: d,
+                    ego: e,
+                    intruder: i,
+                });
+            }
             self.min_distance = self.min_distance.min(d);
             if d <= 0.0 || vehicle::collide(&e, &i) {
                 self.min_distance = 0.0;
-                self.collision_time = Some(t + dt * f);
+                if self.trajectory.is_some() {
+                    self.closest = Some(Closest {
+                        time,
+                        distance: 0.0,
+                        ego: e,
+                        intruder: i,
+                    });
+                }
+                self.collision_time = Some(time);
                 if let Some(tr) = self.trajectory.as_mut() {
                     tr.push(Frame {
-                        time: t + dt * f,
+                        time,
                         ego: e,
                         intruder: i,
                         braking,
@@ -335,6 +371,7 @@ impl<P: Perception> Stepper<P> {
             wall_seconds: self.busy_seconds,
             trajectory: self.trajectory.take(),
             sensor_frames: None,
+            closest: self.closest,
         }
     }
 }

@@ -7,31 +7,60 @@
 //!   the HF failures its confirmations and audits found, on the LF + HF runtime);
 //! - `/campaign/fidelity_success/<stage>`: the share of paired trials so far whose θ_LF was a
 //!   fidelity success (Table II: TP or TN at a cost ratio within the budget);
-//! - `/campaign/cost_ratio/<stage>`: each paired trial's t_LF / t_HF;
+//! - `/campaign/cost_ratio/<stage>`: each paired trial's t_LF / t_HF, and
+//!   `/campaign/cost_ratio/budget_<b>` the budget it is judged against;
+//! - `/campaign/key`: the stages' colours (one per stage, the same on every plot: see
+//!   `super::palette`), the key the plots share instead of legends over their data;
 //! - `/posterior/<stage>/fidelity`: every fidelity setting's arms as a grid of cells (name,
-//!   posterior mean as colour and text) with θ_HF outlined white and the MAP outlined magenta;
-//! - `/posterior/<stage>/scenarios`: the same for each scenario's φ-bins;
-//! - `/campaign/summary`: what was recorded, and why.
+//!   posterior mean as colour and text) with θ_HF outlined white and the MAP outlined magenta,
+//!   and a key row below (the colour scale, the two outlines);
+//! - `/posterior/<stage>/scenarios/<scenario>`: the same for each scenario's φ-bins (one view
+//!   each);
+//! - `/campaign/summary`: what was recorded, why, and how to open a trial.
 
+use super::palette::{self, heat, rgb};
 use super::stream::{err, RecordError, RecordOptions};
 use rerun::RecordingStream;
 use savme_campaign::log::{ScreenLine, TrialLine};
-use savme_campaign::Stage;
 use savme_campaign::{Problem, Protocol};
-use savme_kernel::{Estimator, Kernel, Posterior, Space, Value};
+use savme_campaign::{Stage, StageKind};
+use savme_kernel::{Domain, Estimator, Kernel, Posterior, Space, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-/// Cell size of the posterior grids (2D view units; tall enough for a label inside).
-const CELL: (f32, f32) = (10.0, 4.0);
+/// Cell size of the posterior grids (2D view units; tall enough for two lines of label).
+const CELL: (f32, f32) = (10.0, 6.0);
+/// Columns the key row under a grid takes: five steps of the colour scale, θ_HF, MAP.
+const KEY_CELLS: usize = 7;
 /// Width of the column of row names left of a grid, in cells (a label is centred on its box,
 /// so a name never reaches into the grid, and the view, which frames the boxes, never crops it).
-const NAME_CELLS: f32 = 3.0;
+const NAME_CELLS: f32 = 4.0;
 
 /// The box of a row's name: `NAME_CELLS` cells wide, left of the grid's first column, at `y`.
 fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
     let (w, h) = CELL;
     ((-(NAME_CELLS + 0.1) * w, y), (NAME_CELLS * w, h * 0.9))
+}
+
+/// The part of the 2D plane a grid of `space` takes (with its names and key row), as
+/// `[x_min, x_max, y_min, y_max]`: what its view shows, with a margin, so that no cell, name or
+/// key is cropped.
+pub fn grid_bounds(space: &Space) -> [f32; 4] {
+    let (w, h) = CELL;
+    let cols = space
+        .variables()
+        .iter()
+        .map(|v| v.arms())
+        .max()
+        .unwrap_or(1)
+        .max(KEY_CELLS) as f32;
+    let rows = space.variables().len() as f32;
+    [
+        -(NAME_CELLS + 0.4) * w,
+        (cols + 0.3) * w,
+        -0.4 * h,
+        (rows + 2.0) * h,
+    ]
 }
 
 /// Boxes as (mins, sizes).
@@ -68,6 +97,27 @@ struct StageTally {
     trials: u64,
 }
 
+/// A learning stage's tab of posterior grids: its entity label, its label, and the scenarios
+/// it learns φ-bins of.
+#[derive(Debug, Clone)]
+pub struct LearningTab {
+    /// The stage's entity-path label (`train_0_3`).
+    pub entity: String,
+    /// The stage's label (`train@0.3`).
+    pub label: String,
+    /// Its scenarios with their spaces.
+    pub scenarios: Vec<(String, Space)>,
+}
+
+/// What the campaign layout needs to know before the first trial.
+#[derive(Debug, Clone)]
+pub struct CampaignPlan {
+    /// The fidelity space (the θ grid's extent).
+    pub fidelity: Space,
+    /// One tab per learning stage.
+    pub learning: Vec<LearningTab>,
+}
+
 /// The campaign view's state.
 #[derive(Debug)]
 pub struct CampaignView {
@@ -75,6 +125,8 @@ pub struct CampaignView {
     theta_hf_arms: Vec<usize>,
     scenarios: BTreeMap<String, Space>,
     stages: BTreeMap<String, StageTally>,
+    colours: BTreeMap<String, rerun::Color>,
+    budgets_logged: BTreeMap<String, bool>,
 }
 
 /// A stage label as an entity-path part: `train@0.3` → `train_0_3`.
@@ -83,8 +135,8 @@ pub fn entity_label(label: &str) -> String {
 }
 
 impl CampaignView {
-    /// The view of a campaign on `problem`.
-    pub fn new(problem: &Problem) -> Self {
+    /// The view of a campaign running `protocol` on `problem`.
+    pub fn new(problem: &Problem, protocol: &Protocol) -> Self {
         CampaignView {
             fidelity: problem.fidelity.clone(),
             theta_hf_arms: problem
@@ -93,17 +145,78 @@ impl CampaignView {
                 .unwrap_or_default(),
             scenarios: problem.scenarios.clone(),
             stages: BTreeMap::new(),
+            colours: palette::stage_colours(protocol),
+            budgets_logged: BTreeMap::new(),
         }
     }
 
-    /// The entity labels of the stages that learn (one tab of posterior grids each).
-    pub fn learning_labels(protocol: &Protocol) -> Vec<String> {
-        protocol
+    /// What the layout needs: the fidelity space, and the learning stages (one tab of
+    /// posterior grids each) with their scenarios.
+    pub fn plan(problem: &Problem, protocol: &Protocol) -> CampaignPlan {
+        let learning = protocol
             .stages()
             .iter()
             .filter(|s| s.phase().learns())
-            .map(|s| entity_label(&s.label()))
-            .collect()
+            .map(|s| {
+                let names = match s.kind {
+                    StageKind::TestLearned | StageKind::TestUniform | StageKind::BaselineTest => {
+                        &protocol.test_scenarios
+                    }
+                    _ => &protocol.train_scenarios,
+                };
+                LearningTab {
+                    entity: entity_label(&s.label()),
+                    label: s.label(),
+                    scenarios: names
+                        .iter()
+                        .filter_map(|n| Some((n.clone(), problem.scenarios.get(n)?.clone())))
+                        .collect(),
+                }
+            })
+            .collect();
+        CampaignPlan {
+            fidelity: problem.fidelity.clone(),
+            learning,
+        }
+    }
+
+    /// The colour of stage `label` (the same on every plot).
+    fn colour(&self, label: &str) -> rerun::Color {
+        self.colours
+            .get(label)
+            .copied()
+            .unwrap_or_else(|| rgb(palette::REFERENCE))
+    }
+
+    /// The stage key: one swatch per stage in its colour, labelled, four to a row.
+    pub fn log_key(&self, rec: &RecordingStream) -> Result<(), RecordError> {
+        let (w, h) = (16.0f32, 2.2f32);
+        let (mut mins, mut sizes, mut colours, mut labels) = (vec![], vec![], vec![], vec![]);
+        for (k, (label, c)) in self.colours.iter().enumerate() {
+            let (col, row) = ((k % 4) as f32, (k / 4) as f32);
+            mins.push((col * w * 1.05, row * h * 1.15));
+            sizes.push((w, h));
+            colours.push(*c);
+            labels.push(label.clone());
+        }
+        rec.log_static(
+            "campaign/key/swatches",
+            &rerun::Boxes2D::from_mins_and_sizes(mins.clone(), sizes.clone())
+                .with_colors(colours.clone())
+                .with_radii([0.3f32])
+                .with_draw_order(1.0),
+        )
+        .map_err(err)?;
+        let flat: Vec<(f32, f32)> = sizes.iter().map(|(w, _)| (*w, 0.01)).collect();
+        rec.log_static(
+            "campaign/key/names",
+            &rerun::Boxes2D::from_mins_and_sizes(mins, flat)
+                .with_colors(colours)
+                .with_labels(labels)
+                .with_show_labels(true)
+                .with_draw_order(2.0),
+        )
+        .map_err(err)
     }
 
     /// Logs a told trial (`n`: campaign-wide index).
@@ -135,25 +248,50 @@ impl CampaignView {
             )
             .map_err(err)?;
             if t.paired == 1 {
+                let c = self.colour(&stage.label());
                 rec.log_static(
                     format!("campaign/cost_ratio/{label}"),
                     &rerun::SeriesPoints::new()
                         .with_names([stage.label()])
+                        .with_colors([c])
                         .with_marker_sizes([2.0f32]),
                 )
                 .map_err(err)?;
                 rec.log_static(
                     format!("campaign/fidelity_success/{label}"),
-                    &rerun::SeriesLines::new().with_names([stage.label()]),
+                    &rerun::SeriesLines::new()
+                        .with_names([stage.label()])
+                        .with_colors([c]),
                 )
                 .map_err(err)?;
             }
+            self.log_budget(rec, budget)?;
         }
         let last = line.index + 1 == stage.iterations;
         if stage.phase().learns() && (line.index.is_multiple_of(10) || last) {
             self.log_posteriors(rec, &label, kernel)?;
         }
         Ok(())
+    }
+
+    /// The budget a paired trial's cost ratio is judged against, as a line on the cost plot
+    /// (at the trial's time on the timelines: a flat line over every stage at that budget).
+    fn log_budget(&mut self, rec: &RecordingStream, budget: f64) -> Result<(), RecordError> {
+        let path = format!(
+            "campaign/cost_ratio/budget_{}",
+            entity_label(&budget.to_string())
+        );
+        if !self.budgets_logged.contains_key(&path) {
+            rec.log_static(
+                path.clone(),
+                &rerun::SeriesLines::new()
+                    .with_names([format!("budget {budget}")])
+                    .with_colors([rgb(palette::REFERENCE)]),
+            )
+            .map_err(err)?;
+            self.budgets_logged.insert(path.clone(), true);
+        }
+        rec.log(path, &rerun::Scalars::single(budget)).map_err(err)
     }
 
     /// Records screening trial number `n` of the campaign: its HF failure (a confirmed LF
@@ -191,7 +329,9 @@ impl CampaignView {
         if tally.trials == 1 {
             rec.log_static(
                 format!("campaign/found_failures/{label}"),
-                &rerun::SeriesLines::new().with_names([stage.label()]),
+                &rerun::SeriesLines::new()
+                    .with_names([stage.label()])
+                    .with_colors([self.colour(&stage.label())]),
             )
             .map_err(err)?;
         }
@@ -217,20 +357,10 @@ impl CampaignView {
             Some(&self.theta_hf_arms),
             0.0,
         )?;
-        let mut y = 0.0;
         for (name, space) in &self.scenarios {
             if let Some(p) = kernel.scenario_posterior(name) {
                 let path = format!("posterior/{label}/scenarios/{name}");
-                let (min, size) = name_box(y - CELL.1);
-                log_labels(
-                    rec,
-                    format!("{path}/title"),
-                    (vec![min], vec![size]),
-                    vec![rerun::Color::from_rgb(240, 240, 240)],
-                    vec![format!("scenario {name}")],
-                )?;
-                log_grid(rec, &path, space, p, None, y)?;
-                y += (space.variables().len() as f32 + 2.0) * CELL.1;
+                log_grid(rec, &path, space, p, None, 0.0)?;
             }
         }
         Ok(())
@@ -253,8 +383,10 @@ impl CampaignView {
         }
         let _ = writeln!(
             s,
-            "\n**{} trial recordings** (every {}-th trial, plus up to {} informative ones: FN and FP \
-             first, then TP, then baseline HF failures). Pick one under *Recordings*:\n",
+            "\n**{} trial recordings** (every {}-th trial, plus up to {} informative ones, spread over \
+             the stages and the outcome classes FN, FP, TP and baseline HF failures). Each is a \
+             recording of its own: open the left panel (the first of the three panel buttons at the \
+             top right) and pick it under *Sources*, by its name:\n",
             recorded.len(),
             opts.every,
             opts.failure_cap
@@ -278,14 +410,76 @@ fn arm_name(space: &Space, var: usize, arm: usize) -> String {
     }
 }
 
-/// Dark blue (0) to yellow (1).
-fn heat(t: f64) -> rerun::Color {
-    let t = t.clamp(0.0, 1.0) as f32;
-    let lerp = |a: f32, b: f32| (a + (b - a) * t) as u8;
-    rerun::Color::from_rgb(lerp(30.0, 250.0), lerp(40.0, 220.0), lerp(110.0, 40.0))
+/// A row's name: the variable's name, and for a continuous φ variable its range (the cells
+/// are its bins, in order). One line: the viewer shows a label's first line only.
+fn row_name(space: &Space, var: usize, name: &str, phi: bool) -> String {
+    match &space.variables()[var].domain {
+        Domain::Continuous { lo, hi, .. } if phi => format!("{name} {lo}–{hi}"),
+        _ => name.to_string(),
+    }
 }
 
-/// One posterior as a grid: a row per variable (its name on the left), a cell per arm.
+/// The key row under a grid: the colour scale (posterior mean 0 to 1), and what the white and
+/// magenta outlines mean.
+fn log_key(
+    rec: &RecordingStream,
+    path: &str,
+    rows: usize,
+    theta_hf: bool,
+) -> Result<(), RecordError> {
+    let (w, h) = CELL;
+    let y = (rows as f32 + 0.4) * h;
+    let steps = [0.0, 0.25, 0.5, 0.75, 1.0];
+    let mins: Vec<(f32, f32)> = (0..steps.len()).map(|k| (k as f32 * w, y)).collect();
+    let sizes = vec![(w * 0.95, h * 0.9); steps.len()];
+    rec.log_static(
+        format!("{path}/key/scale"),
+        &rerun::Boxes2D::from_mins_and_sizes(mins.clone(), sizes.clone())
+            .with_colors(steps.iter().map(|t| heat(*t)).collect::<Vec<_>>())
+            .with_draw_order(1.0),
+    )
+    .map_err(err)?;
+    let mut labels: Vec<String> = steps.iter().map(|t| t.to_string()).collect();
+    let (mut lmins, mut lsizes, mut colours) = (mins, sizes, vec![rgb(palette::REFERENCE); 5]);
+    let mut outline = |k: usize, name: &str, c: rerun::Color| -> Result<(), RecordError> {
+        let min = (k as f32 * w, y);
+        rec.log_static(
+            format!(
+                "{path}/key/{}",
+                name.replace('θ', "theta").replace(' ', "_")
+            ),
+            &rerun::Boxes2D::from_mins_and_sizes([min], [(w * 0.95, h * 0.9)])
+                .with_colors([c])
+                .with_radii([0.3f32])
+                .with_draw_order(2.0),
+        )
+        .map_err(err)?;
+        lmins.push(min);
+        lsizes.push((w * 0.95, h * 0.9));
+        colours.push(c);
+        labels.push(name.to_string());
+        Ok(())
+    };
+    if theta_hf {
+        outline(5, "θ_HF", rerun::Color::from_rgb(255, 255, 255))?;
+    }
+    outline(6, "MAP", rerun::Color::from_rgb(255, 0, 255))?;
+    let (min, size) = name_box(y);
+    lmins.push(min);
+    lsizes.push(size);
+    colours.push(rgb(palette::REFERENCE));
+    labels.push("key: posterior mean".into());
+    log_labels(
+        rec,
+        format!("{path}/key/labels"),
+        (lmins, lsizes),
+        colours,
+        labels,
+    )
+}
+
+/// One posterior as a grid: a row per variable (its name on the left), a cell per arm, the key
+/// row below.
 // Long because it lays out four entities (cells, names, θ_HF and MAP outlines) in one pass.
 fn log_grid(
     rec: &RecordingStream,
@@ -300,19 +494,19 @@ fn log_grid(
     let (mut mins, mut sizes, mut colours, mut labels) =
         (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut name_mins, mut name_sizes, mut names) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut hf_mins, mut map_mins) = (Vec::new(), Vec::new());
+    let (mut hf_mins, mut map_mins, mut means) = (Vec::new(), Vec::new(), Vec::new());
     for (i, arms) in p.arms().iter().enumerate() {
         let y = y0 + i as f32 * h;
         let (min, size) = name_box(y);
         name_mins.push(min);
         name_sizes.push(size);
-        names.push(p.names()[i].clone());
+        names.push(row_name(space, i, &p.names()[i], highlight.is_none()));
         for (a, arm) in arms.iter().enumerate() {
-            let x = a as f32 * w;
-            mins.push((x, y));
+            mins.push((a as f32 * w, y));
             sizes.push((w * 0.95, h * 0.9));
             colours.push(heat(arm.mean()));
-            labels.push(format!("{} {:.2}", arm_name(space, i, a), arm.mean()));
+            labels.push(arm_name(space, i, a));
+            means.push(format!("{:.2}", arm.mean()));
         }
         if let Some(hf) = highlight.and_then(|hl| hl.get(i)) {
             hf_mins.push((*hf as f32 * w, y));
@@ -321,6 +515,7 @@ fn log_grid(
             map_mins.push((f32::from(*m) * w + 0.3, y + 0.2));
         }
     }
+    let rows = names.len();
     rec.log(
         format!("{path}/cells"),
         &rerun::Boxes2D::from_mins_and_sizes(mins.clone(), sizes.clone())
@@ -328,6 +523,15 @@ fn log_grid(
             .with_draw_order(1.0),
     )
     .map_err(err)?;
+    // Two one-line labels per cell: the arm's name at the top, its mean below.
+    let lower: Vec<(f32, f32)> = mins.iter().map(|(x, y)| (*x, y + h * 0.4)).collect();
+    log_labels(
+        rec,
+        format!("{path}/cells/means"),
+        (lower, sizes.clone()),
+        colours.clone(),
+        means,
+    )?;
     log_labels(
         rec,
         format!("{path}/cells/labels"),
@@ -335,7 +539,7 @@ fn log_grid(
         colours,
         labels,
     )?;
-    let grey = vec![rerun::Color::from_rgb(150, 150, 150); names.len()];
+    let grey = vec![rgb(palette::REFERENCE); names.len()];
     log_labels(
         rec,
         format!("{path}/names"),
@@ -370,5 +574,5 @@ fn log_grid(
         )
         .map_err(err)?;
     }
-    Ok(())
+    log_key(rec, path, rows, highlight.is_some())
 }

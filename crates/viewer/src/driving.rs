@@ -3,18 +3,23 @@
 //! transforms over `sim_time` with their bodies below them, the camera as a pinhole on the ego
 //! (JPEG image, detector box with its class label), the lidar cloud coloured by range, planned
 //! paths and trajectories, the planner's prediction, the closest approach or collision (a 3D
-//! marker and a warning in `/{run}/events`); and the time series `/plots/clearance/{run}`
-//! (with `/plots/clearance/threshold`), `/plots/speed/{run}`, `/plots/braking/{run}`.
+//! marker and a warning in `/{run}/events`); and the time series `/plots/distance/{run}` —
+//! the distance between the bodies, the quantity the failure (a collision: 0 m, drawn as
+//! `/plots/distance/collision`) is judged on, at every step and at the run's closest approach
+//! (the swept contact check's sample, which may fall between steps), so that its minimum is
+//! the run's reported closest approach — `/plots/speed/{run}`, `/plots/braking/{run}`. With
+//! idealised perception there is no camera: its view says so (`/{run}/ego/camera/note`).
 
 use super::layout::{self, Layout};
+use super::palette::{self, rgb};
 use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::RecordingStream;
 use savme_kernel::Assignment;
 use savme_sim::camera::{FOCAL, HEIGHT, WIDTH};
 use savme_sim::perception::SensorFrame;
 use savme_sim::scenario;
-use savme_sim::sim::{DrivingSimulator, Frame, RunResult};
-use savme_sim::vehicle::{VehicleState, LENGTH};
+use savme_sim::sim::{Closest, DrivingSimulator, Frame, PerceptionMode, RunResult};
+use savme_sim::vehicle::{self, VehicleState};
 use savme_sim::world::{ObjectShape, World};
 
 /// Where the camera sits on the ego (as `SensorPerception` mounts it): 1.2 m ahead of the
@@ -45,16 +50,12 @@ impl DrivingFrames {
     }
 }
 
+/// A run's ego and intruder colours (named in the 3D views' titles; the ego's is the run's
+/// colour on the plots).
 fn colour(run: RunSide) -> [rerun::Color; 2] {
     match run {
-        RunSide::Hf => [
-            rerun::Color::from_rgb(220, 40, 40),
-            rerun::Color::from_rgb(230, 110, 20),
-        ],
-        RunSide::Lf => [
-            rerun::Color::from_rgb(40, 120, 230),
-            rerun::Color::from_rgb(150, 60, 210),
-        ],
+        RunSide::Hf => [rgb(palette::HF), rerun::Color::from_rgb(240, 150, 30)],
+        RunSide::Lf => [rgb(palette::LF), rerun::Color::from_rgb(170, 80, 220)],
     }
 }
 
@@ -84,43 +85,31 @@ fn log_scenery(
     .map_err(err)
 }
 
-/// The static parts of a run: bodies, the camera's pinhole, the series' names and colours,
-/// the planned paths.
+/// The static parts of a run: bodies, the camera's pinhole (or, with idealised perception, a
+/// note that there is no camera), the series' names and colours, the planned paths.
 fn log_static_parts(
     rec: &RecordingStream,
     run: RunSide,
     info: &'static scenario::ScenarioInfo,
     phi: &Assignment,
+    camera: bool,
 ) -> Result<(), RecordError> {
     let base = run.path();
     let [ego_colour, intruder_colour] = colour(run);
     let h = savme_sim::vehicle::body().half_extents;
+    // Unlabelled: the view's title names the colours (labels at the bodies' centres stack on
+    // each other as the vehicles close in).
     for (name, c) in [("ego", ego_colour), ("intruder", intruder_colour)] {
         rec.log_static(
             format!("{base}/{name}/body"),
             &rerun::Boxes3D::from_centers_and_half_sizes([(0.0, 0.0, h.z)], [(h.x, h.y, h.z)])
                 .with_colors([c])
-                .with_fill_mode(rerun::FillMode::Solid)
-                .with_labels([format!("{} {name}", run.label())]),
+                .with_fill_mode(rerun::FillMode::Solid),
         )
         .map_err(err)?;
     }
-    rec.log_static(
-        format!("{base}/ego/camera"),
-        &rerun::Transform3D::from_translation(CAMERA_MOUNT),
-    )
-    .map_err(err)?;
-    rec.log_static(
-        format!("{base}/ego/camera"),
-        &rerun::Pinhole::from_focal_length_and_resolution(
-            [FOCAL, FOCAL],
-            [WIDTH as f32, HEIGHT as f32],
-        )
-        .with_camera_xyz(rerun::components::ViewCoordinates::FLU)
-        .with_image_plane_distance(4.0),
-    )
-    .map_err(err)?;
-    for plot in ["clearance", "speed", "braking"] {
+    log_camera(rec, base, camera)?;
+    for plot in ["distance", "speed", "braking"] {
         let mut style = rerun::SeriesLines::new()
             .with_names([run.label()])
             .with_colors([ego_colour]);
@@ -135,10 +124,10 @@ fn log_static_parts(
     }
     if run == RunSide::Hf {
         rec.log_static(
-            "plots/clearance/threshold",
+            "plots/distance/collision",
             &rerun::SeriesLines::new()
-                .with_names(["braking threshold"])
-                .with_colors([rerun::Color::from_rgb(200, 200, 200)]),
+                .with_names(["collision (the failure): 0 m"])
+                .with_colors([rgb(palette::REFERENCE)]),
         )
         .map_err(err)?;
     }
@@ -164,6 +153,39 @@ fn log_static_parts(
     Ok(())
 }
 
+/// The camera on the ego: its mount and pinhole, or — with idealised perception, which has no
+/// camera — a note in the camera's view saying so.
+fn log_camera(rec: &RecordingStream, base: &str, camera: bool) -> Result<(), RecordError> {
+    if !camera {
+        return rec
+            .log_static(
+                format!("{base}/ego/camera/note"),
+                &rerun::Boxes2D::from_mins_and_sizes([(0.0, 0.0)], [(WIDTH as f32, 0.01)])
+                    .with_colors([rgb(palette::REFERENCE)])
+                    .with_labels([
+                        "no camera in this perception mode (idealised perception: ground truth + noise)",
+                    ])
+                    .with_show_labels(true),
+            )
+            .map_err(err);
+    }
+    rec.log_static(
+        format!("{base}/ego/camera"),
+        &rerun::Transform3D::from_translation(CAMERA_MOUNT),
+    )
+    .map_err(err)?;
+    rec.log_static(
+        format!("{base}/ego/camera"),
+        &rerun::Pinhole::from_focal_length_and_resolution(
+            [FOCAL, FOCAL],
+            [WIDTH as f32, HEIGHT as f32],
+        )
+        .with_camera_xyz(rerun::components::ViewCoordinates::FLU)
+        .with_image_plane_distance(2.0),
+    )
+    .map_err(err)
+}
+
 /// A vehicle's pose as the transform of its entity.
 fn pose(v: &VehicleState) -> rerun::Transform3D {
     let c = v.center();
@@ -174,33 +196,47 @@ fn pose(v: &VehicleState) -> rerun::Transform3D {
     )
 }
 
-/// The SUT's clearance: centre distance minus one body length.
-fn clearance(f: &Frame) -> f64 {
-    (f.ego.center() - f.intruder.center()).norm() - LENGTH
+/// The distance between the bodies (what the failure is judged on: a collision is 0 m) at
+/// every step, and at the closest approach where it falls between steps: (time, metres), in
+/// time order.
+pub fn body_distance(frames: &[Frame], closest: Option<&Closest>) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = frames
+        .iter()
+        .map(|f| (f.time, vehicle::distance(&f.ego, &f.intruder)))
+        .collect();
+    if let Some(c) = closest {
+        let k = out.partition_point(|(t, _)| *t < c.time);
+        match out.get_mut(k) {
+            Some(p) if p.0 == c.time => p.1 = c.distance,
+            _ => out.insert(k, (c.time, c.distance)),
+        }
+    }
+    out
 }
 
 /// Every step on `sim_time`: poses, the time series, the planner's prediction, the perceived
 /// obstacle.
-fn log_frames(rec: &RecordingStream, run: RunSide, frames: &[Frame]) -> Result<(), RecordError> {
+fn log_frames(
+    rec: &RecordingStream,
+    run: RunSide,
+    frames: &[Frame],
+    closest: Option<&Closest>,
+) -> Result<(), RecordError> {
     let base = run.path();
-    let threshold = savme_sim::sut::Planner::default().threshold;
+    for (t, d) in body_distance(frames, closest) {
+        rec.set_duration_secs("sim_time", t);
+        rec.log(format!("plots/distance/{base}"), &rerun::Scalars::single(d))
+            .map_err(err)?;
+        if run == RunSide::Hf {
+            rec.log("plots/distance/collision", &rerun::Scalars::single(0.0))
+                .map_err(err)?;
+        }
+    }
     for f in frames {
         rec.set_duration_secs("sim_time", f.time);
         rec.log(format!("{base}/ego"), &pose(&f.ego)).map_err(err)?;
         rec.log(format!("{base}/intruder"), &pose(&f.intruder))
             .map_err(err)?;
-        rec.log(
-            format!("plots/clearance/{base}"),
-            &rerun::Scalars::single(clearance(f)),
-        )
-        .map_err(err)?;
-        if run == RunSide::Hf {
-            rec.log(
-                "plots/clearance/threshold",
-                &rerun::Scalars::single(threshold),
-            )
-            .map_err(err)?;
-        }
         rec.log(
             format!("plots/speed/{base}"),
             &rerun::Scalars::single(f.ego.speed),
@@ -272,38 +308,37 @@ fn log_prediction(rec: &RecordingStream, base: &str, f: &Frame) -> Result<(), Re
     .map_err(err)
 }
 
-/// The collision, or else the closest approach: a marker in 3D and a warning in the events.
+/// The collision, or else the closest approach: a marker in 3D between the bodies where they
+/// were nearest, with one label above it, and a warning in the events.
 fn log_closest_approach(
     rec: &RecordingStream,
     run: RunSide,
-    frames: &[Frame],
     r: &RunResult,
 ) -> Result<(), RecordError> {
     let base = run.path();
-    let d = |f: &Frame| (f.ego.center() - f.intruder.center()).norm();
-    let Some(f) = frames.iter().min_by(|a, b| d(a).total_cmp(&d(b))) else {
+    let Some(c) = r.closest.as_ref() else {
         return Ok(());
     };
-    let (time, text, marker) = match r.collision_time {
+    let (text, label, marker) = match r.collision_time {
         Some(t) => (
-            t,
             format!("{}: collision at {t:.2} s", run.label()),
+            format!("collision at {t:.2} s"),
             rerun::Color::from_rgb(255, 30, 30),
         ),
         None => (
-            f.time,
             format!(
-                "{}: closest approach {:.2} m at {:.2} s, no collision",
+                "{}: passes, closest approach {:.2} m at {:.2} s",
                 run.label(),
                 r.min_distance,
-                f.time
+                c.time
             ),
+            format!("closest {:.2} m", r.min_distance),
             rerun::Color::from_rgb(250, 220, 0),
         ),
     };
-    rec.set_duration_secs("sim_time", time);
-    let (a, b) = (f.ego.center(), f.intruder.center());
-    let mid = ((a.x + b.x) as f32 / 2.0, (a.y + b.y) as f32 / 2.0, 2.5f32);
+    rec.set_duration_secs("sim_time", c.time);
+    let (a, b) = (c.ego.center(), c.intruder.center());
+    let mid = ((a.x + b.x) as f32 / 2.0, (a.y + b.y) as f32 / 2.0);
     rec.log(
         format!("{base}/closest_approach"),
         &rerun::LineStrips3D::new([[
@@ -316,10 +351,10 @@ fn log_closest_approach(
     .map_err(err)?;
     rec.log(
         format!("{base}/closest_approach/marker"),
-        &rerun::Points3D::new([mid])
+        &rerun::Points3D::new([(mid.0, mid.1, 4.0f32)])
             .with_colors([marker])
-            .with_radii([0.6f32])
-            .with_labels([text.clone()]),
+            .with_radii([0.5f32])
+            .with_labels([label]),
     )
     .map_err(err)?;
     rec.log(
@@ -443,14 +478,15 @@ impl TrialFrames for DrivingFrames {
             return Ok(None);
         };
         let r = self.sim.run(info.name, phi, theta, true).map_err(err)?;
-        log_static_parts(rec, run, info, phi)?;
+        let camera = self.sim.perception == PerceptionMode::Sensors;
+        log_static_parts(rec, run, info, phi, camera)?;
         let frames: &[Frame] = r.trajectory.as_deref().unwrap_or(&[]);
-        log_frames(rec, run, frames)?;
+        log_frames(rec, run, frames, r.closest.as_ref())?;
         for sf in r.sensor_frames.as_deref().unwrap_or(&[]) {
             rec.set_duration_secs("sim_time", sf.time);
             log_sensors(rec, run, sf, ego_at(frames, sf.time))?;
         }
-        log_closest_approach(rec, run, frames, &r)?;
+        log_closest_approach(rec, run, &r)?;
         let summary = RunSummary {
             failure: r.failure,
             collision_time: r.collision_time,

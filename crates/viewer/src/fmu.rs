@@ -5,9 +5,15 @@
 //! HF and LF in it, as the trial view plots the bundled simulator's clearance); for a threshold
 //! failure on a recorded output, the threshold as `/plots/<output>/threshold`; the first
 //! failure (or its absence) in `/{hf,lf}/events`. Laid out by [`super::layout::fmu_trial`].
+//!
+//! An output that starts at a sentinel (a magnitude of at least [`SENTINEL`], e.g. a
+//! `min_distance` of 1e6 before anything was measured) would stretch its plot's axis so that
+//! every real value sits at zero: its leading sentinel points are left out of the plot, and
+//! the events say so.
 
 use super::layout::plot_path;
 use super::layout::{self, Layout};
+use super::palette::{self, rgb};
 use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::{EntityPath, RecordingStream, TimeColumn};
 use savme_fmu::{Crossing, Failure, FmuBackend};
@@ -15,6 +21,27 @@ use savme_kernel::{Assignment, Role};
 
 /// The application id of FMU trial recordings (their own layout: one plot per output).
 pub const FMU_APP: &str = "savme-fmu-trial";
+
+/// Values of at least this magnitude at the start of an output are placeholders, not plotted.
+pub const SENTINEL: f64 = 1e6;
+
+/// How many leading points of `values` are sentinels (0 when every point is one: then there is
+/// nothing else to show).
+///
+/// ```
+/// use savme_viewer::leading_sentinels;
+/// assert_eq!(leading_sentinels(&[1e6, 1e6, 3.0, 2.0]), 2);
+/// assert_eq!(leading_sentinels(&[4.0, 1e6]), 0);
+/// assert_eq!(leading_sentinels(&[1e6, 1e6]), 0);
+/// ```
+pub fn leading_sentinels(values: &[f64]) -> usize {
+    let k = values.iter().take_while(|v| v.abs() >= SENTINEL).count();
+    if k == values.len() {
+        0
+    } else {
+        k
+    }
+}
 
 /// Re-runs an FMU campaign's trials recording the outputs `record`.
 #[derive(Debug, Clone)]
@@ -26,8 +53,8 @@ pub struct FmuFrames {
 
 fn colour(run: RunSide) -> rerun::Color {
     match run {
-        RunSide::Hf => rerun::Color::from_rgb(220, 40, 40),
-        RunSide::Lf => rerun::Color::from_rgb(40, 120, 230),
+        RunSide::Hf => rgb(palette::HF),
+        RunSide::Lf => rgb(palette::LF),
     }
 }
 
@@ -134,10 +161,28 @@ impl TrialFrames for FmuFrames {
                     .with_colors([colour(run)]),
             )
             .map_err(err)?;
+            let skip = leading_sentinels(values);
+            if skip > 0 {
+                let until = trace.times.get(skip).copied().unwrap_or(0.0);
+                rec.set_duration_secs("sim_time", 0.0);
+                rec.log(
+                    format!("{}/events", run.path()),
+                    &rerun::TextLog::new(format!(
+                        "{}: `{name}` starts at placeholder {:e}: plotted from {until:.2} s",
+                        run.label(),
+                        values[0]
+                    ))
+                    .with_level(rerun::TextLogLevel::INFO),
+                )
+                .map_err(err)?;
+            }
             rec.send_columns(
                 path,
-                [times()],
-                rerun::Scalars::new(values.iter().copied())
+                [TimeColumn::new_duration_secs(
+                    "sim_time",
+                    trace.times.iter().skip(skip).copied(),
+                )],
+                rerun::Scalars::new(values.iter().skip(skip).copied())
                     .columns_of_unit_batches()
                     .map_err(err)?,
             )

@@ -14,7 +14,8 @@
 //!   to offer frames);
 //! - `fmu`: an FMU campaign's frames: the outputs its file lists under `[fmu] record`, as time
 //!   series per trial;
-//! - `layout`: the blueprints both recordings open with.
+//! - `layout`: the blueprints both recordings open with;
+//! - `palette`: the colours every view shares (one per stage kind, HF red, LF blue).
 
 #[cfg(feature = "rerun")]
 mod campaign;
@@ -26,6 +27,8 @@ mod error;
 mod fmu;
 #[cfg(feature = "rerun")]
 pub mod layout;
+#[cfg(feature = "rerun")]
+mod palette;
 #[cfg(feature = "rerun")]
 mod recorder;
 #[cfg(feature = "rerun")]
@@ -40,9 +43,11 @@ pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
 pub use error::RecordError;
 #[cfg(feature = "rerun")]
-pub use fmu::{FmuFrames, FMU_APP};
+pub use fmu::{leading_sentinels, FmuFrames, FMU_APP, SENTINEL};
 #[cfg(feature = "rerun")]
 pub use layout::plot_path;
+#[cfg(feature = "rerun")]
+pub use palette::{kind_colour, stage_colours};
 #[cfg(feature = "rerun")]
 pub use recorder::{Recorder, CAMPAIGN_APP};
 /// The rerun SDK this crate records with (to read recordings back with the same version).
@@ -217,15 +222,14 @@ pub fn record_run(
         let sink = sink(req).ok_or_else(|| CampaignError::Recording("no sink".into()))?;
         let theta_hf = savme_sim::fidelity::theta_hf();
         let paired = *theta != theta_hf;
-        let t = trial::TrialRecording::on(
-            stream::open(
-                &sink,
-                trial::app(paired),
-                &format!("simulate {scenario}"),
-                layout::trial(paired),
-            )
-            .map_err(rec)?,
-        );
+        let (stream, _) = stream::open(
+            &sink,
+            trial::app(paired),
+            &format!("simulate {scenario}"),
+            layout::trial(paired),
+        )
+        .map_err(rec)?;
+        let t = trial::TrialRecording::on(stream);
         let mut frames = DrivingFrames::default();
         let (hf, lf) = t
             .record(

@@ -5,74 +5,111 @@
 //! stage, trial, scenario and outcome (the trial view — see `trial`).
 //!
 //! Which trials get frames: every `every`-th told trial as it is told, and — when the campaign
-//! ends — up to `failure_cap` of the informative ones: FN and FP of the learning and evaluation
-//! stages first (alternately, in campaign order), then TP, and HF failures of the baselines
-//! (which have no LF run) only while no other remains. Frames are re-runs of the same
-//! deterministic runs with recording on.
+//! ends — up to `failure_cap` of the informative ones, spread over the stages and the outcome
+//! classes (FN, FP, TP, and HF failures of the baselines, which have no LF run): the first
+//! trial of each (stage, class) in turn — first the first stage that has each class, in the
+//! order FN, FP, TP, baseline failure, then the second stage that has each, … — then the
+//! second trial of each, and so on (see [`Candidates::choose`]). Frames are re-runs of the same
+//! deterministic runs with recording on. When the campaign ends the campaign's blueprint is
+//! activated again, last in the file, so that a viewer opens on the campaign view.
 
 use super::campaign::CampaignView;
 use super::layout;
 use super::stream::{close, open, RecordError, RecordOptions, TrialFrames};
 use super::trial::{self, TrialRecording};
+use rerun::external::re_log_types::BlueprintActivationCommand;
 use rerun::RecordingStream;
 use savme_campaign::log::{ScreenLine, TrialLine};
-use savme_campaign::{CampaignError, Observer, Problem, Protocol, Stage};
+use savme_campaign::{CampaignError, Cost, Observer, Problem, Protocol, Stage};
 use savme_kernel::{Kernel, Outcome};
 use std::collections::BTreeSet;
 
 /// The application id of campaign recordings (the viewer keeps one layout per application).
 pub const CAMPAIGN_APP: &str = "savme-campaign";
 
-/// How informative a trial's frames are: lower goes first.
-fn priority(line: &TrialLine) -> Option<u8> {
+/// The outcome classes whose trials are worth frames, in the order they are picked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+enum Class {
+    Fn,
+    Fp,
+    Tp,
+    /// An HF failure of a baseline (no LF run).
+    HfFailure,
+}
+
+fn class(line: &TrialLine) -> Option<Class> {
     match line.outcome {
-        Some(Outcome::FN) | Some(Outcome::FP) => Some(0),
-        Some(Outcome::TP) => Some(1),
-        None if line.hf.failure => Some(2),
+        Some(Outcome::FN) => Some(Class::Fn),
+        Some(Outcome::FP) => Some(Class::Fp),
+        Some(Outcome::TP) => Some(Class::Tp),
+        None if line.hf.failure => Some(Class::HfFailure),
         _ => None,
     }
 }
 
-/// The informative trials kept for frames, bounded per class.
+/// Trials kept for frames, with their campaign-wide told index.
+type Kept = Vec<(u64, TrialLine)>;
+
+/// The informative trials kept for frames: per (stage, class), in campaign order, at most
+/// `cap` each.
 #[derive(Debug, Default)]
 struct Candidates {
-    fn_: Vec<(u64, TrialLine)>,
-    fp: Vec<(u64, TrialLine)>,
-    tp: Vec<(u64, TrialLine)>,
-    baseline: Vec<(u64, TrialLine)>,
+    buckets: Vec<((String, Class), Kept)>,
 }
 
 impl Candidates {
     fn offer(&mut self, n: u64, line: &TrialLine, cap: usize) {
-        let list = match (priority(line), line.outcome) {
-            (Some(0), Some(Outcome::FN)) => &mut self.fn_,
-            (Some(0), _) => &mut self.fp,
-            (Some(1), _) => &mut self.tp,
-            (Some(2), _) => &mut self.baseline,
-            _ => return,
+        let Some(c) = class(line) else {
+            return;
         };
+        let key = (line.stage.clone(), c);
+        let k = match self.buckets.iter().position(|(k, _)| *k == key) {
+            Some(k) => k,
+            None => {
+                self.buckets.push((key, Vec::new()));
+                self.buckets.len() - 1
+            }
+        };
+        let list = &mut self.buckets[k].1;
         if list.len() < cap {
             list.push((n, line.clone()));
         }
     }
 
-    /// Up to `cap` trials not in `done`: FN and FP alternately, then TP, then baselines.
-    fn choose(self, cap: usize, done: &BTreeSet<u64>) -> Vec<(u64, TrialLine)> {
-        let fresh = |v: Vec<(u64, TrialLine)>| -> Vec<(u64, TrialLine)> {
-            v.into_iter().filter(|(n, _)| !done.contains(n)).collect()
-        };
-        let (mut fns, mut fps) = (fresh(self.fn_).into_iter(), fresh(self.fp).into_iter());
-        let mut out = Vec::new();
-        loop {
-            let (a, b) = (fns.next(), fps.next());
-            if a.is_none() && b.is_none() {
-                break;
-            }
-            out.extend(a);
-            out.extend(b);
+    /// Up to `cap` trials not in `done`, spread over stages and classes: round `r` takes the
+    /// `r`-th trial of every (stage, class), visiting them by (the stage's rank among the
+    /// stages that have this class, class).
+    fn choose(self, cap: usize, done: &BTreeSet<u64>) -> Kept {
+        let mut seen: Vec<(Class, usize)> = Vec::new();
+        let mut order: Vec<((usize, Class), Kept)> = Vec::new();
+        for ((_, c), list) in self.buckets {
+            let rank = match seen.iter_mut().find(|(k, _)| *k == c) {
+                Some((_, r)) => {
+                    *r += 1;
+                    *r
+                }
+                None => {
+                    seen.push((c, 0));
+                    0
+                }
+            };
+            let fresh: Kept = list
+                .into_iter()
+                .filter(|(n, _)| !done.contains(n))
+                .collect();
+            order.push(((rank, c), fresh));
         }
-        out.extend(fresh(self.tp));
-        out.extend(fresh(self.baseline));
+        order.sort_by_key(|(k, _)| *k);
+        let mut out = Vec::new();
+        let rounds = order.iter().map(|(_, l)| l.len()).max().unwrap_or(0);
+        for r in 0..rounds {
+            for (_, list) in &order {
+                if out.len() == cap {
+                    return out;
+                }
+                out.extend(list.get(r).cloned());
+            }
+        }
         out.truncate(cap);
         out
     }
@@ -82,6 +119,8 @@ impl Candidates {
 /// and by the Ctrl-C handler), so the file always gets its footer.
 pub struct Recorder {
     rec: RecordingStream,
+    activation: BlueprintActivationCommand,
+    cost: Cost,
     opts: RecordOptions,
     told: u64,
     recorded: BTreeSet<u64>,
@@ -110,21 +149,25 @@ impl Recorder {
         protocol: &Protocol,
         problem: Problem,
     ) -> Result<Recorder, RecordError> {
-        let rec = open(
+        let (rec, activation) = open(
             &opts.sink,
             CAMPAIGN_APP,
             &format!("campaign (seed {})", protocol.seed),
-            layout::campaign(&CampaignView::learning_labels(protocol)),
+            layout::campaign(&CampaignView::plan(&problem, protocol)),
         )?;
+        let view = CampaignView::new(&problem, protocol);
+        view.log_key(&rec)?;
         Ok(Recorder {
             rec,
+            activation,
+            cost: protocol.cost,
             opts,
             told: 0,
             recorded: BTreeSet::new(),
             names: Vec::new(),
             candidates: Candidates::default(),
             frames,
-            view: CampaignView::new(&problem),
+            view,
             problem,
             finished: false,
         })
@@ -152,7 +195,11 @@ impl Recorder {
             line.theta_lf.as_ref(),
         )?;
         if runs.is_some() {
-            t.outcome(&trial::campaign_markdown(line, &self.problem.theta_hf))?;
+            t.outcome(&trial::campaign_markdown(
+                line,
+                &self.problem.theta_hf,
+                self.cost,
+            ))?;
             self.recorded.insert(n);
             self.names.push(name);
         }
@@ -179,6 +226,8 @@ impl Recorder {
             "campaign/summary",
             &rerun::TextDocument::from_markdown(summary),
         );
+        // Last in the file: a viewer opens on the campaign view, not on the last trial.
+        layout::activate(&self.rec, self.activation.clone());
         close(&self.rec, &self.opts.sink).map_err(|e| CampaignError::Recording(e.0))
     }
 }

@@ -6,6 +6,7 @@
 
 pub(crate) use super::error::{err, RecordError};
 use super::layout::Layout;
+use rerun::external::re_log_types::BlueprintActivationCommand;
 use rerun::RecordingStream;
 use savme_kernel::Assignment;
 use std::path::PathBuf;
@@ -141,13 +142,14 @@ fn probe(url: &str) -> Result<(), RecordError> {
     )))
 }
 
-/// Opens `sink` as a recording of application `app` named `name`, laid out by `layout`.
+/// Opens `sink` as a recording of application `app` named `name`, laid out by `layout`;
+/// returns the stream and its blueprint's activation (see `super::layout::activate`).
 pub fn open(
     sink: &Sink,
     app: &'static str,
     name: &str,
     layout: Layout,
-) -> Result<RecordingStream, RecordError> {
+) -> Result<(RecordingStream, BlueprintActivationCommand), RecordError> {
     let builder = rerun::RecordingStreamBuilder::new(app).recording_name(name);
     let rec = match sink {
         Sink::File(path) => builder
@@ -163,7 +165,7 @@ pub fn open(
         }
     };
     quiet_clocks(&rec);
-    layout.send(&rec)?;
+    let activation = layout.send(&rec)?;
     // Ctrl-C: flush and close the sink (the file gets its footer), then exit like SIGINT.
     let on_interrupt = rec.clone();
     let _ = ctrlc::set_handler(move || {
@@ -171,7 +173,7 @@ pub fn open(
         on_interrupt.disconnect();
         std::process::exit(130);
     });
-    Ok(rec)
+    Ok((rec, activation))
 }
 
 /// Our timelines only: no wall-clock `log_time` or `log_tick` on the data.

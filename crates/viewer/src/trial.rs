@@ -6,6 +6,7 @@ use super::layout;
 use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::RecordingStream;
 use savme_campaign::log::TrialLine;
+use savme_campaign::Cost;
 use savme_kernel::{Assignment, Outcome, Value};
 use std::fmt::Write as _;
 
@@ -154,7 +155,18 @@ pub fn theta_difference(theta: &Assignment, theta_hf: &Assignment) -> String {
 fn run_text(r: &RunSummary) -> String {
     match r.collision_time {
         Some(t) => format!("**collision** at {t:.2} s"),
-        None => format!("no collision (min distance {:.2} m)", r.min_distance),
+        None => format!(
+            "no collision (closest approach {:.2} m between the bodies)",
+            r.min_distance
+        ),
+    }
+}
+
+/// What a cost ratio is a ratio of.
+fn cost_unit(cost: Cost) -> &'static str {
+    match cost {
+        Cost::Work => "work units",
+        Cost::Wall => "wall time",
     }
 }
 
@@ -166,8 +178,9 @@ fn failed(f: bool) -> &'static str {
     }
 }
 
-/// The outcome of a campaign trial: its line (the campaign's measured runtimes and outcome).
-pub fn campaign_markdown(line: &TrialLine, theta_hf: &Assignment) -> String {
+/// The outcome of a campaign trial: its line (the campaign's measured runtimes and outcome);
+/// `cost` is what the campaign's cost ratios measure.
+pub fn campaign_markdown(line: &TrialLine, theta_hf: &Assignment, cost: Cost) -> String {
     let mut s = format!(
         "## {} — {}\n\n{} · trial #{}\n\n",
         outcome_label(line.outcome, line.hf.failure),
@@ -177,20 +190,21 @@ pub fn campaign_markdown(line: &TrialLine, theta_hf: &Assignment) -> String {
     );
     let _ = writeln!(
         s,
-        "- **HF**: {} · {:.1} ms",
+        "- **HF**: {} · {:.1} ms wall",
         failed(line.hf.failure),
         line.hf.wall_seconds * 1e3
     );
     if let Some(l) = &line.lf {
         let _ = writeln!(
             s,
-            "- **LF**: {} · {:.1} ms",
+            "- **LF**: {} · {:.1} ms wall",
             failed(l.failure),
             l.wall_seconds * 1e3
         );
     }
     if let Some(r) = line.cost_ratio {
-        let _ = writeln!(s, "- cost ratio t_LF / t_HF: **{r:.3}**");
+        let unit = cost_unit(cost);
+        let _ = writeln!(s, "- cost ratio t_LF / t_HF ({unit}): **{r:.3}**");
     }
     let _ = writeln!(s, "\n**φ**: {}", all(&line.phi));
     if let Some(t) = &line.theta_lf {
@@ -217,14 +231,14 @@ pub fn run_markdown(
     let mut s = format!("## {head} — {scenario}\n\n");
     let _ = writeln!(
         s,
-        "- **HF**: {} · {:.1} ms",
+        "- **HF**: {} · {:.1} ms wall",
         run_text(hf),
         hf.wall_seconds * 1e3
     );
     if let Some((l, _, _)) = lf {
         let _ = writeln!(
             s,
-            "- **LF**: {} · {:.1} ms",
+            "- **LF**: {} · {:.1} ms wall",
             run_text(l),
             l.wall_seconds * 1e3
         );
