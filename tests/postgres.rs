@@ -122,7 +122,7 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
         .query_one("SELECT max(version) FROM savme.schema_version", &[])
         .unwrap()
         .get(0);
-    assert_eq!(v, 1);
+    assert_eq!(v, 2);
 
     // The three queries of docs/DISTRIBUTED.md give what the trial lines say.
     let trials = file_trials(&dir);

@@ -71,7 +71,7 @@ class FalsificationSampler:
         self.failure_below = failure_below
         self._queue: List[Sample] = []
         self._handed: Dict[Tuple[int, str], float] = {}
-        self._runs: Dict[int, Dict[str, Tuple[bool, float]]] = {}
+        self._runs: Dict[int, Dict[str, Tuple[Any, ...]]] = {}
         self.records: List[Record] = []
         """Every told trial's record, in tell order."""
 
@@ -96,7 +96,12 @@ class FalsificationSampler:
         """Whether robustness `rho` violates the specification."""
         return rho < self.threshold if self.failure_below else rho > self.threshold
 
-    def _run(self, sample: Sample, result: Result, elapsed: float) -> Tuple[bool, float]:
+    def margin(self, rho: float) -> float:
+        """ρ as savme's robustness: how far it is from the threshold on the passing side
+        (negative: failed), so the kernel's elite search can learn from near-misses."""
+        return rho - self.threshold if self.failure_below else self.threshold - rho
+
+    def _run(self, sample: Sample, result: Result, elapsed: float) -> Tuple[Any, ...]:
         where = f"update(trial {sample.trial.id}, {sample.role})"
         runtime: Optional[float] = None
         value: Any = result
@@ -113,17 +118,22 @@ class FalsificationSampler:
                 )
             value = result.get("rho", result.get("failure"))
             runtime = result.get("runtime")
+        margin: Optional[float] = None
         if isinstance(value, bool):
             failure = value
         elif isinstance(value, (int, float)):
             if math.isnan(value):
                 raise ValueError(f"{where}: the robustness value is NaN")
             failure = self.is_failure(float(value))
+            if math.isfinite(value):
+                margin = self.margin(float(value))
         else:
             raise TypeError(f"{where}: expected a robustness value (float) or a failure flag, got {value!r}")
         if runtime is None:
             runtime = max(elapsed, 1e-9)
-        return failure, float(runtime)
+        if margin is None:
+            return failure, float(runtime)
+        return failure, float(runtime), margin
 
     def update(self, sample: Sample, result: Result) -> Optional[Record]:
         """Reports a sample's result. Returns the trial's record once all its runs are in

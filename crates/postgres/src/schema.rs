@@ -10,14 +10,15 @@
 use postgres::Client;
 
 /// The schema version this savme writes.
-pub const VERSION: i32 = 1;
+pub const VERSION: i32 = 2;
 
 /// The advisory-lock class of savme's locks (`pg_try_advisory_lock(CLASS, campaign id)`):
 /// "sv" in ASCII.
 pub const LOCK_CLASS: i32 = 0x7376;
 
 /// The migrations, in order: migration `i` brings the schema to version `i + 1`.
-const MIGRATIONS: &[&str] = &[r#"
+const MIGRATIONS: &[&str] = &[
+    r#"
 CREATE SCHEMA IF NOT EXISTS savme;
 
 -- One row per campaign (or `savme serve` journal), identified by its name.
@@ -93,7 +94,13 @@ CREATE TABLE savme.runs (
     UNIQUE (campaign_id, stage, trial_id, role)
 );
 CREATE INDEX runs_open ON savme.runs (campaign_id, id) WHERE state IN ('queued', 'running');
-"#];
+"#,
+    r#"
+-- Version 2: a run's robustness (how close it came to failing), when the simulator reports
+-- one; the trial lines keep it in `body`.
+ALTER TABLE savme.runs ADD COLUMN robustness double precision;
+"#,
+];
 
 /// Why the schema cannot be used.
 #[derive(Debug)]
