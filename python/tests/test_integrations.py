@@ -49,8 +49,16 @@ def test_the_threshold_turns_robustness_into_failure_flags():
     sampler.update(hf, (0.5, 1.0))      # 0.5 < 1: failure
     r = sampler.update(lf, (1.5, 0.1))  # 1.5 ≥ 1: no failure
     assert r.hf[0] is True and r.lf[0] is False and r.outcome == "FN"
+    # ρ reaches the kernel as its margin from the threshold (negative: failed).
+    assert (r.hf_robustness, r.lf_robustness) == (-0.5, 0.5)
     above = FalsificationSampler(kernel(), threshold=10.0, failure_below=False)
     assert above.is_failure(11.0) and not above.is_failure(9.0)
+    assert above.margin(11.0) == -1.0
+    # A failure flag carries no robustness.
+    flags = FalsificationSampler(kernel())
+    hf, lf = flags.next_sample(), flags.next_sample()
+    flags.update(hf, {"failure": True, "runtime": 1.0})
+    assert flags.update(lf, (0.3, 0.1)).hf_robustness is None
 
 
 def test_a_falsification_loop_learns_where_it_fails_and_which_fidelity_agrees():
