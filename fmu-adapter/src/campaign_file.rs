@@ -30,6 +30,8 @@
 //!
 //! [failure]
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
+//!                                #   (a threshold also gives each run a robustness: its
+//!                                #   smallest margin to the threshold, ≤ 0 = failed)
 //!
 //! [campaign]                     # optional; every key optional (see CampaignSection)
 //! budgets = [0.3]
