@@ -8,6 +8,7 @@
 //! | `{"op":"ask"}` or `{"op":"ask","n":4}` | `{"ok":true,"trials":[…]}` |
 //! | `{"op":"tell","id":3,"observation":{"paired":{"hf":{"failure":true,"runtime":1.2},"lf":{"failure":true,"runtime":0.3}}}}` | `{"ok":true,"record":{…}}` |
 //! | `{"op":"tell","id":4,"observation":{"hf_only":{"failure":false,"runtime":1.1}}}` | (baseline trials) |
+//! | a run may carry `"robustness":0.4` (how close it came to failing, `≤ 0` failed) next to `failure` | learned from by the elite search (the configuration's `"search":{"model":"elite_mixture",…}`), journaled with the tell |
 //! | `{"op":"cancel","id":5}` | `{"ok":true,"trial":{…}}` |
 //! | `{"op":"phase","phase":"evaluate"}` (train, evaluate, baseline, test) | `{"ok":true}` |
 //! | `{"op":"estimate"}` or `{"op":"estimate","estimator":"mean"}` | `{"ok":true,"theta_lf":{…},"evidence":n,"learned":bool}` |

@@ -508,3 +508,80 @@ fn an_edited_journal_line_is_refused_naming_it() {
     refused(&good.replacen(line, &respaced, 1), "its checksum");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// [`observation`] with each run's robustness: how far the speed is from its failure limit.
+fn observation_with_robustness(trial: &Value) -> Value {
+    let speed = trial["phi"]["ego_speed"].as_f64().unwrap();
+    let hf = json!({"failure": speed > 28.0, "runtime": 1.0, "robustness": 28.0 - speed});
+    let lf = json!({"failure": speed > 27.0, "runtime": 0.25, "robustness": 27.0 - speed});
+    json!({"paired": {"hf": hf, "lf": lf}})
+}
+
+#[test]
+fn the_elite_search_learns_from_told_robustness_and_resumes_from_its_journal_exactly() {
+    // A serve configuration with `"search": {"model": "elite_mixture"}` and tells that carry a
+    // robustness: every told value is journaled and echoed, and a restarted server (journal
+    // replay, archive rebuilt from the tells) asks what an uninterrupted one asks.
+    let dir = made_dir("elite");
+    let out = Command::new(EXE).arg("example-config").output().unwrap();
+    let mut config: Value = serde_json::from_slice(&out.stdout).unwrap();
+    config["search"] = json!({"model": "elite_mixture", "near_miss": 0.3});
+    let path = dir.join("elite.json");
+    std::fs::write(&path, config.to_string()).unwrap();
+    let cfg = path.to_str().unwrap();
+    let drive_rho = |s: &mut Server, n: usize| -> Vec<Value> {
+        (0..n)
+            .map(|_| {
+                let t = s.call(json!({"op": "ask"}))["trials"][0].clone();
+                let obs = observation_with_robustness(&t);
+                let r = s.call(json!({"op": "tell", "id": t["id"], "observation": obs}));
+                assert_eq!(r["ok"], true, "{r}");
+                let told = &r["record"]["observation"]["paired"]["hf"]["robustness"];
+                assert_eq!(told, &obs["paired"]["hf"]["robustness"], "{r}");
+                t
+            })
+            .collect()
+    };
+    let whole = dir.join("whole.jsonl");
+    let mut a = Server::start(&["--config", cfg, "--journal", whole.to_str().unwrap()]);
+    let mut expected = drive_rho(&mut a, 40);
+    expected.push(a.call(json!({"op": "ask"}))["trials"][0].clone());
+    drop(a.stdin);
+    assert!(a.child.wait().unwrap().success());
+    let journal = std::fs::read_to_string(&whole).unwrap();
+    assert_eq!(
+        journal.matches("\"robustness\"").count(),
+        80,
+        "HF and LF of 40 tells"
+    );
+
+    let split = dir.join("split.jsonl");
+    let mut b = Server::start(&["--config", cfg, "--journal", split.to_str().unwrap()]);
+    let mut got = drive_rho(&mut b, 25);
+    b.child.kill().unwrap();
+    b.child.wait().unwrap();
+    let mut c = Server::start(&["--journal", split.to_str().unwrap()]);
+    got.extend(drive_rho(&mut c, 15));
+    got.push(c.call(json!({"op": "ask"}))["trials"][0].clone());
+    assert_eq!(got, expected);
+
+    // A robustness that is not a number is refused, naming the field; nothing changes.
+    let t = c.call(json!({"op": "ask"}))["trials"][0].clone();
+    let bad = json!({"paired": {"hf": {"failure": false, "runtime": 1.0, "robustness": "close"},
+                                "lf": {"failure": false, "runtime": 0.2}}});
+    let r = c.call(json!({"op": "tell", "id": t["id"], "observation": bad}));
+    assert_eq!(r["ok"], false, "{r}");
+    assert!(
+        r["error"].as_str().unwrap().contains("robustness")
+            || r["error"].as_str().unwrap().contains("invalid type"),
+        "{r}"
+    );
+    let stats = c.call(json!({"op": "stats"}));
+    assert!(
+        stats["pending"].as_array().unwrap().contains(&t["id"]),
+        "{stats}"
+    );
+    drop(c.stdin);
+    assert!(c.child.wait().unwrap().success());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -31,6 +31,8 @@
 //!
 //! [failure]
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
+//!                                #   (a threshold also gives each run a robustness: its
+//!                                #   smallest margin to the threshold, ≤ 0 = failed)
 //!
 //! # … and the campaign's sections: [campaign], [estimate], [fidelity], [[scenario]]
 //! # (see savme_campaign_file), every savme variable bound to the FMU variable of its name

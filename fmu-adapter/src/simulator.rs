@@ -355,14 +355,16 @@ impl FmuSimulator {
         }
     }
 
-    fn failed(&self, inst: &mut Instance, plan: &Plan) -> Result<bool, FmuError> {
+    /// Whether the failure signal says failed now, and — for a threshold — its margin: how far
+    /// the output is from the threshold on the passing side (`≤ 0` = failed).
+    fn failed(&self, inst: &mut Instance, plan: &Plan) -> Result<(bool, Option<f64>), FmuError> {
         Ok(match &self.spec.failure {
-            Failure::Boolean { .. } => inst.boolean(plan.failure.vr)?,
+            Failure::Boolean { .. } => (inst.boolean(plan.failure.vr)?, None),
             Failure::Threshold { when, value, .. } => {
                 let x = inst.number(&plan.failure)?;
                 match when {
-                    Crossing::Above => x >= *value,
-                    Crossing::Below => x <= *value,
+                    Crossing::Above => (x >= *value, Some(*value - x)),
+                    Crossing::Below => (x <= *value, Some(x - *value)),
                 }
             }
         })
@@ -430,11 +432,11 @@ impl FmuSimulator {
             // end every later run at once, judged on its initial state).
             self.instances[k] = Some(inst);
         }
-        Ok(SimResult::new(
-            ran.failure,
-            clock.elapsed().as_secs_f64(),
-            ran.work,
-        ))
+        let result = SimResult::new(ran.failure, clock.elapsed().as_secs_f64(), ran.work);
+        Ok(match ran.robustness {
+            Some(r) => result.with_robustness(r),
+            None => result,
+        })
     }
 
     /// One run on `inst`, from set-up to terminate in the order FMI prescribes: its verdict,
@@ -508,7 +510,7 @@ impl FmuSimulator {
         mut tracer: Option<&mut Tracer>,
     ) -> Result<Ran, FmuError> {
         let (stop, stop_on_failure) = (self.spec.stop_time, self.spec.stop_on_failure);
-        let mut failure = self.failed(inst, plan)?;
+        let (mut failure, mut margin) = self.failed(inst, plan)?;
         let (mut t, mut n, mut k) = (start, 0u64, 0u64);
         if let Some(tr) = tracer.as_deref_mut() {
             tr.sample(inst, t, failure)?;
@@ -542,7 +544,9 @@ impl FmuSimulator {
             if close(t, goal) {
                 n += 1;
             }
-            failure |= self.failed(inst, plan)?;
+            let (failed, m) = self.failed(inst, plan)?;
+            failure |= failed;
+            margin = min_margin(margin, m);
             if let Some(tr) = tracer.as_deref_mut() {
                 tr.sample(inst, t, failure)?;
             }
@@ -554,6 +558,7 @@ impl FmuSimulator {
             failure,
             work: Some(k),
             stopped,
+            robustness: margin,
         })
     }
 }
@@ -564,6 +569,17 @@ struct Ran {
     work: Option<u64>,
     /// The FMU asked to end the simulation.
     stopped: bool,
+    /// The smallest margin of a threshold failure signal over the communication points
+    /// (`≤ 0` = failed); none for a Boolean signal.
+    robustness: Option<f64>,
+}
+
+/// The smaller of two margins (a NaN reading leaves the other).
+fn min_margin(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(x), Some(y)) => Some(x.min(y)),
+        (x, y) => x.or(y),
+    }
 }
 
 /// `a` and `b` equal within a relative 1e-9 (Python's `math.isclose`, as FMPy compares

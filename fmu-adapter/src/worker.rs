@@ -109,6 +109,9 @@ pub enum WorkerResponse {
         wall_seconds: f64,
         /// Work units.
         work: Option<u64>,
+        /// The run's robustness (a threshold failure signal's smallest margin).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        robustness: Option<f64>,
         /// The recorded outputs, when the request asked for some.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         trace: Option<Trace>,
@@ -172,6 +175,7 @@ pub fn serve(input: impl BufRead, mut output: impl Write) -> std::io::Result<()>
                         failure: res.failure,
                         wall_seconds: res.wall_seconds,
                         work: res.work,
+                        robustness: res.robustness,
                         trace,
                     },
                     Err(e) => WorkerResponse::Error(e.to_string()),
@@ -450,10 +454,16 @@ impl IsolatedSimulator {
                 failure,
                 wall_seconds,
                 work,
+                robustness,
                 trace,
             }) => {
                 self.worker = Some(w);
-                Ok((SimResult::new(failure, wall_seconds, work), trace))
+                let result = SimResult::new(failure, wall_seconds, work);
+                let result = match robustness {
+                    Some(r) => result.with_robustness(r),
+                    None => result,
+                };
+                Ok((result, trace))
             }
             Ok(WorkerResponse::Error(e)) => {
                 self.worker = Some(w);

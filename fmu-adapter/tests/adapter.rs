@@ -151,6 +151,8 @@ fn a_threshold_on_a_real_output_and_a_step_size_from_a_rate() {
     // x = 4·t ≥ 0.75 first at the step ending t = 0.25 (x = 1.0).
     assert!(r.failure);
     assert_eq!(r.work, Some(1));
+    // The robustness is the smallest margin to the threshold: 0.75 − 1.0 at the failure.
+    assert_eq!(r.robustness, Some(-0.25));
     let mut below = spec(0, true);
     below.failure = Failure::Threshold {
         variable: "x".into(),
@@ -158,7 +160,19 @@ fn a_threshold_on_a_real_output_and_a_step_size_from_a_rate() {
         value: -1.0,
     };
     let mut sim = simulator(&fmu, below).unwrap();
-    assert!(!sim.run(Role::High, "grow", &phi, &theta).unwrap().failure);
+    let r = sim.run(Role::High, "grow", &phi, &theta).unwrap();
+    assert!(!r.failure);
+    // x ≥ 0 throughout: the closest it came to −1 was x = 0 at the start.
+    assert_eq!(r.robustness, Some(1.0));
+    // A Boolean failure signal has no margin.
+    let mut boolean = simulator(&fmu, spec(0, true)).unwrap();
+    assert_eq!(
+        boolean
+            .run(Role::High, "grow", &phi, &theta)
+            .unwrap()
+            .robustness,
+        None
+    );
 }
 
 #[test]

@@ -19,7 +19,7 @@ pub enum Phase {
     #[default]
     Train,
     /// Evaluation: θ_LF greedy (MAP, or the configured estimator), φ drawn from p_ψ by Thompson
-    /// sampling; nothing updated.
+    /// sampling (with [`SearchModel::EliteMixture`]: from its proposal); nothing updated.
     Evaluate,
     /// Baseline: φ uniform over the arms (and uniform / log-uniform inside a bin), high fidelity
     /// only; nothing updated.
@@ -587,7 +587,13 @@ impl Kernel {
                         .map(|v| rng.random_range(0..v.arms()) as u16),
                 );
             }
-            (Phase::Train | Phase::Test, SearchModel::EliteMixture(m), Some(archive)) => {
+            // Evaluation (and LF screening, which asks what evaluation asks) deploys what the
+            // search learned: the elite proposal of the frozen archive.
+            (
+                Phase::Train | Phase::Test | Phase::Evaluate,
+                SearchModel::EliteMixture(m),
+                Some(archive),
+            ) => {
                 return archive.propose(m, &st.scenarios[s], space, rng, arms);
             }
             _ => st.scenarios[s].thompson(rng, arms),

@@ -24,6 +24,9 @@ pub struct SimResult {
     pub wall_seconds: f64,
     /// Deterministic work units, if the simulator counts them.
     pub work: Option<u64>,
+    /// How close the run came to failing (finite; `≤ 0` = failed, smaller = closer), if the
+    /// simulator measures it: passed on to [`Run::robustness`].
+    pub robustness: Option<f64>,
 }
 
 impl SimResult {
@@ -33,7 +36,24 @@ impl SimResult {
             failure,
             wall_seconds,
             work,
+            robustness: None,
         }
+    }
+
+    /// The same result with a robustness margin (see [`Run::robustness`]); a non-finite
+    /// margin is dropped (the run then reports none), so a simulator cannot make its trial
+    /// untellable by it.
+    ///
+    /// ```
+    /// use savme_kernel::{CostMeasure, SimResult};
+    /// let r = SimResult::new(false, 0.02, Some(400)).with_robustness(1.5);
+    /// assert_eq!(r.run(CostMeasure::Work)?.robustness, Some(1.5));
+    /// assert_eq!(SimResult::new(false, 0.02, None).with_robustness(f64::INFINITY).robustness, None);
+    /// # Ok::<(), savme_kernel::SimError>(())
+    /// ```
+    pub fn with_robustness(mut self, margin: f64) -> Self {
+        self.robustness = margin.is_finite().then_some(margin);
+        self
     }
 
     /// The run as the kernel sees it, with its cost measured as asked.
@@ -50,7 +70,11 @@ impl SimResult {
             CostMeasure::Wall => self.wall_seconds,
             CostMeasure::Work => self.work.ok_or(SimError::NoWorkCount)? as f64,
         };
-        Ok(Run::new(self.failure, runtime))
+        let run = Run::new(self.failure, runtime);
+        Ok(match self.robustness {
+            Some(r) => run.with_robustness(r),
+            None => run,
+        })
     }
 }
 

@@ -160,6 +160,12 @@ class Record:
     @property
     def lf(self) -> Optional[_RunResult]:
         """The LF run as (failure, runtime); None for a baseline trial."""
+    @property
+    def hf_robustness(self) -> Optional[float]:
+        """The HF run's robustness, if it was told one."""
+    @property
+    def lf_robustness(self) -> Optional[float]:
+        """The LF run's robustness, if it was told one."""
     def to_dict(self) -> Dict[str, Any]:
         """The record as a dict (the JSON of `savme serve`'s records and journal tells)."""
 
@@ -219,6 +225,7 @@ class Kernel:
         fidelity_prior: Optional[Posterior] = None,
         prior_strength: float = 1.0,
         journal: Optional[Union[str, PathLike[str]]] = None,
+        search: Union[Literal["bins", "elite"], Mapping[str, float], None] = None,
     ) -> Kernel:
         """Builds a kernel in the "train" phase.
 
@@ -229,7 +236,10 @@ class Kernel:
         prior: base Beta prior counts (successes, losses) of every arm, default (1, 1);
         fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
         kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
-        journal: a journal file, created or resumed (it must hold the same configuration).
+        journal: a journal file, created or resumed (it must hold the same configuration);
+        search: how train and test draw φ — "bins" (default, the paper's independent bins),
+        "elite" (a joint proposal around failures, paired with the same fidelity bandit), or
+        a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at defaults).
 
         Raises ValueError naming the variable or scenario at fault, JournalError for a journal
         that cannot be used."""
@@ -281,12 +291,21 @@ class Kernel:
     def ask(self, n: int) -> List[Trial]:
         """Suggests the next trial in the current phase, or a list of `n` (all or none). Any
         number may be pending at once; tell them in any order."""
-    def tell(self, trial: Union[Trial, int], hf: _RunArg, lf: Optional[_RunArg] = None) -> Record:
+    def tell(
+        self,
+        trial: Union[Trial, int],
+        hf: Union[_RunResult, Tuple[bool, float, float]],
+        lf: Optional[Union[_RunResult, Tuple[bool, float, float]]] = None,
+        *,
+        robustness: Optional[float] = None,
+        lf_robustness: Optional[float] = None,
+    ) -> Record:
         """Ingests a trial's runs, hf=(failure, runtime) and (except for baseline trials)
-        lf=(failure, runtime), each optionally with a third element, the run's robustness
-        (finite; <= 0 on a failure, smaller = closer: see Record.to_dict()); credits the
-        bandits in the learning phases and returns the record. A refused tell raises
-        TellError naming the trial and changes nothing."""
+        lf=(failure, runtime); credits the bandits in the learning phases and returns the
+        record. A run may carry its robustness (how close it came to failing; ≤ 0 failed) as
+        a third element or as robustness= (HF) / lf_robustness= (LF); the elite search
+        learns from it, the paper's bins ignore it. A refused tell (also a non-finite
+        robustness) raises TellError naming the trial and changes nothing."""
     def cancel(self, trial: Union[Trial, int]) -> Trial:
         """Withdraws a pending trial (its simulation crashed); it is never told."""
     def set_phase(self, phase: _Phase) -> None:
@@ -370,8 +389,13 @@ class Estimation:
     def round(self) -> Optional[int]:
         """The refinement round under way (None: none, or it is over)."""
 
-_SimulatorFn = Callable[[str, Dict[str, _Value], Dict[str, _Value]], Union[bool, Tuple[bool, int]]]
-"""A Python simulator: (scenario, phi, theta) -> failure, or (failure, work_units)."""
+_SimulatorFn = Callable[
+    [str, Dict[str, _Value], Dict[str, _Value]],
+    Union[bool, Tuple[bool, int], Tuple[bool, Optional[int], float]],
+]
+"""A Python simulator: (scenario, phi, theta) -> failure, (failure, work_units), or
+(failure, work_units or None, robustness) — robustness: how close the run came to failing
+(≤ 0 failed), stored with the trial and learned from by the elite search."""
 
 PROTOCOL_VALUES: List[Dict[str, Any]]
 """Every protocol value as declared once in savme: name (the keyword of Protocol, the

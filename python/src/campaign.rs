@@ -247,7 +247,7 @@ impl PyProblem {
 
 /// Python callables as the campaign's simulator: `hf(scenario, phi, theta)` and
 /// `lf(scenario, phi, theta)` (the same callable for both is fine). Each returns the failure
-/// flag, or `(failure, work_units)`; the wall time of the call is measured here. The GIL is
+/// flag, `(failure, work_units)`, or `(failure, work_units or None, robustness)`; the wall time of the call is measured here. The GIL is
 /// taken only around the call.
 #[derive(Clone)]
 pub struct PySimulator {
@@ -290,21 +290,31 @@ fn raised_at(py: Python<'_>, e: &PyErr) -> String {
 }
 
 pub fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
-    // The flag alone, or the first of (failure, work_units).
-    let pair = out
-        .cast::<PyTuple>()
-        .ok()
-        .and_then(|t| t.extract::<(Bound<'_, PyAny>, u64)>().ok());
-    let (flag, work) = match pair {
-        Some((flag, work)) => (flag, Some(work)),
-        None => (out.clone(), None),
+    // The flag alone, the first of (failure, work_units), or of (failure, work_units or None,
+    // robustness).
+    let tuple = out.cast::<PyTuple>().ok();
+    let pair = tuple.and_then(|t| t.extract::<(Bound<'_, PyAny>, u64)>().ok());
+    let triple = tuple.and_then(|t| t.extract::<(Bound<'_, PyAny>, Option<u64>, f64)>().ok());
+    let (flag, work, robustness) = match (pair, triple) {
+        (Some((flag, work)), _) => (flag, Some(work), None),
+        (None, Some((flag, work, rho))) => (flag, work, Some(rho)),
+        (None, None) => (out.clone(), None, None),
     };
     let kind = match crate::convert::failure_flag(&flag) {
-        Ok(failure) => return Ok(SimResult::new(failure, wall, work)),
+        Ok(failure) => {
+            let result = SimResult::new(failure, wall, work);
+            return match robustness {
+                Some(rho) if !rho.is_finite() => Err(format!(
+                    "a simulator's robustness must be a finite number, got {rho}"
+                )),
+                Some(rho) => Ok(result.with_robustness(rho)),
+                None => Ok(result),
+            };
+        }
         Err(kind) => kind,
     };
     Err(format!(
-        "a simulator must return the failure flag (bool or numpy bool) or (failure, work_units), got {kind} {flag}"
+        "a simulator must return the failure flag (bool or numpy bool), (failure, work_units) or (failure, work_units or None, robustness), got {kind} {flag}"
     ))
 }
 

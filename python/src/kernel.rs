@@ -12,8 +12,8 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use savme::campaign::store::{journal, JsonlStore};
 use savme::serve::Session;
 use savme_kernel::{
-    Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Phase, PriorCounts, Run, Scenario,
-    Space, TrialRecord,
+    EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Phase, PriorCounts,
+    Run, Scenario, SearchModel, Space, TrialRecord,
 };
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -90,25 +90,80 @@ fn scenarios(arg: &Bound<'_, PyAny>) -> PyResult<Vec<Scenario>> {
         .collect()
 }
 
-/// `hf=` / `lf=`: a (failure, runtime) pair.
-fn run(which: &str, id: u64, arg: &Bound<'_, PyAny>) -> PyResult<Run> {
-    let (failure, runtime, robustness): (Bound<'_, PyAny>, f64, Option<f64>) = arg
-        .extract::<(Bound<'_, PyAny>, f64)>()
-        .map(|(f, r)| (f, r, None))
-        .or_else(|_| arg.extract::<(Bound<'_, PyAny>, f64, f64)>().map(|(f, r, m)| (f, r, Some(m))))
+/// `search=`: "bins" (the paper's), "elite", or a dict of [`EliteMixture`] parameters (the
+/// elite mixture with those, the others at their defaults).
+fn search_model(arg: Option<&Bound<'_, PyAny>>) -> PyResult<SearchModel> {
+    let Some(arg) = arg else {
+        return Ok(SearchModel::IndependentBins);
+    };
+    if let Ok(name) = arg.extract::<String>() {
+        return match name.as_str() {
+            "bins" => Ok(SearchModel::IndependentBins),
+            "elite" => Ok(SearchModel::EliteMixture(EliteMixture::default())),
+            other => Err(PyValueError::new_err(format!(
+                "search = {other:?}: give \"bins\", \"elite\" or a dict of elite-mixture parameters"
+            ))),
+        };
+    }
+    let params = arg
+        .extract::<std::collections::BTreeMap<String, f64>>()
         .map_err(|_| {
             PyTypeError::new_err(format!(
-                "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair or a (failure, runtime, robustness: float) triple, got {arg}"
+                "search: give \"bins\", \"elite\" or a dict {{parameter: number}} of the elite mixture, got {arg}"
             ))
         })?;
+    let json = serde_json::Value::Object(
+        params
+            .into_iter()
+            .map(|(k, v)| {
+                // Integer parameters (tries, archive, near_miss_until) take whole numbers.
+                let n = if v.fract() == 0.0 && (0.0..9e15).contains(&v) {
+                    serde_json::Value::from(v as u64)
+                } else {
+                    serde_json::Value::from(v)
+                };
+                (k, n)
+            })
+            .collect(),
+    );
+    let m: EliteMixture =
+        serde_json::from_value(json).map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
+    m.validate()
+        .map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
+    Ok(SearchModel::EliteMixture(m))
+}
+
+/// `hf=` / `lf=`: a (failure, runtime) pair, or a (failure, runtime, robustness) triple;
+/// `robustness` (the keyword, if given) is the run's robustness instead.
+fn run(which: &str, id: u64, arg: &Bound<'_, PyAny>, robustness: Option<f64>) -> PyResult<Run> {
+    let bad = || {
+        PyTypeError::new_err(format!(
+            "tell(trial {id}, {which}=…): expected a (failure: bool, runtime: float) pair or a (failure, runtime, robustness: float) triple, got {arg}"
+        ))
+    };
+    let (failure, runtime, third): (Bound<'_, PyAny>, f64, Option<f64>) =
+        match arg.extract::<(Bound<'_, PyAny>, f64)>() {
+            Ok((f, r)) => (f, r, None),
+            Err(_) => {
+                let (f, r, rho) = arg
+                    .extract::<(Bound<'_, PyAny>, f64, f64)>()
+                    .map_err(|_| bad())?;
+                (f, r, Some(rho))
+            }
+        };
+    if let (Some(a), Some(b)) = (third, robustness) {
+        return Err(PyValueError::new_err(format!(
+            "tell(trial {id}): the {which} robustness is given twice ({a} in the triple, {b} as a keyword); give it once"
+        )));
+    }
     let failure = crate::convert::failure_flag(&failure).map_err(|kind| {
         PyTypeError::new_err(format!(
             "tell(trial {id}, {which}=…): the failure flag (first of the pair) must be a bool or a numpy bool, got {kind} {failure}"
         ))
     })?;
     let run = Run::new(failure, runtime);
-    Ok(match robustness {
-        Some(margin) => run.with_robustness(margin),
+    Ok(match third.or(robustness) {
+        Some(rho) => run.with_robustness(rho),
         None => run,
     })
 }
@@ -197,7 +252,7 @@ impl PyKernel {
 impl PyKernel {
     #[new]
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
-        prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None))]
+        prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -211,6 +266,7 @@ impl PyKernel {
         fidelity_prior: Option<PyRef<'_, PyPosterior>>,
         prior_strength: f64,
         journal: Option<PathBuf>,
+        search: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         if fidelity_prior.is_none() && prior_strength != 1.0 {
             return Err(PyValueError::new_err(format!(
@@ -234,7 +290,7 @@ impl PyKernel {
                 posterior: p.posterior.clone(),
                 strength: prior_strength,
             }),
-            search: Default::default(),
+            search: search_model(search)?,
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal)
@@ -380,23 +436,31 @@ impl PyKernel {
     }
 
     /// Ingests trial `trial`'s runs: `hf=(failure, runtime)` and, unless it is a baseline
-    /// trial, `lf=(failure, runtime)` — each optionally with a third element, the run's
-    /// robustness (finite; ≤ 0 on a failure, smaller = closer). Returns the record; a refused
-    /// tell raises `savme.TellError` and changes nothing.
-    #[pyo3(signature = (trial, hf, lf = None))]
+    /// trial, `lf=(failure, runtime)`. Each run may carry its robustness (how close it came
+    /// to failing: `≤ 0` failed, smaller = closer) as a third element, or as the keywords
+    /// `robustness=` (HF) and `lf_robustness=` (LF). Returns the record; a refused tell
+    /// raises `savme.TellError` and changes nothing.
+    #[pyo3(signature = (trial, hf, lf = None, *, robustness = None, lf_robustness = None))]
     fn tell(
         &self,
         trial: &Bound<'_, PyAny>,
         hf: &Bound<'_, PyAny>,
         lf: Option<&Bound<'_, PyAny>>,
+        robustness: Option<f64>,
+        lf_robustness: Option<f64>,
     ) -> PyResult<PyRecord> {
         let id = self.trial_id(trial)?;
-        let hf = run("hf", id, hf)?;
+        let hf = run("hf", id, hf, robustness)?;
         let observation = match lf {
             Some(lf) => Observation::Paired {
                 hf,
-                lf: run("lf", id, lf)?,
+                lf: run("lf", id, lf, lf_robustness)?,
             },
+            None if lf_robustness.is_some() => {
+                return Err(PyValueError::new_err(format!(
+                    "tell(trial {id}): lf_robustness without an lf run"
+                )))
+            }
             None => Observation::HfOnly(hf),
         };
         let record = self.with(|s| s.tell(id, observation).map_err(errors::session))?;

@@ -228,6 +228,18 @@ impl PyRecord {
         self.record.observation.lf().map(run_tuple)
     }
 
+    /// The HF run's robustness, if it was told one.
+    #[getter]
+    fn hf_robustness(&self) -> Option<f64> {
+        self.record.observation.hf().robustness
+    }
+
+    /// The LF run's robustness, if it was told one (None for a baseline trial).
+    #[getter]
+    fn lf_robustness(&self) -> Option<f64> {
+        self.record.observation.lf().and_then(|r| r.robustness)
+    }
+
     /// The record as a dict (the JSON of `savme serve`'s records and of journal tell lines).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         convert::json_to_py(py, &self.record)

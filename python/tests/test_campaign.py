@@ -155,7 +155,7 @@ def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path)
 
 
 def test_bad_simulator_results_and_bad_protocols_are_named(tmp_path):
-    with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool or numpy bool\) or \(failure, work_units\), got float 0.5"):
+    with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool or numpy bool\), \(failure, work_units\) or \(failure, work_units or None, robustness\), got float 0.5"):
         savme.Campaign(protocol(), problem(), out=tmp_path / "x", jobs=1).run(lambda s, phi, th: 0.5)
     # 0/1 is not a failure flag (truthiness would hide a simulator returning a count or a distance).
     with pytest.raises(savme.CampaignError, match=r"got int 1"):
@@ -177,6 +177,26 @@ def test_bad_simulator_results_and_bad_protocols_are_named(tmp_path):
     savme.Campaign(protocol(), problem(), out=tmp_path / "done", jobs=1).run(toy)
     with pytest.raises(savme.CampaignError):
         savme.Campaign(protocol(), problem(), out=tmp_path / "done", jobs=1).run(toy)
+
+
+def test_a_simulator_reports_robustness_the_trials_keep_it_and_the_elite_search_uses_it(tmp_path):
+    def margin(scenario, phi, theta):
+        """The toy's outcome with its robustness: the gap left after braking, metres."""
+        fails, work = toy(scenario, phi, theta)
+        late = 10.0 / theta["rate_hz"] * phi["speed"] * 0.05
+        return fails, work, phi["gap"] - phi["speed"] ** 2 / 14.0 - late
+
+    p = protocol(search="elite")
+    result = savme.Campaign(p, problem(), out=tmp_path / "e", jobs=2).run(margin)
+    lines = [json.loads(line) for line in result.files["trials"].read_text().splitlines()]
+    for d in lines:
+        assert isinstance(d["hf"]["robustness"], float)
+        assert (d["hf"]["robustness"] <= 0) == d["hf"]["failure"], d
+    # Deterministic from the seed, whatever the number of workers.
+    again = savme.Campaign(p, problem(), out=tmp_path / "f", jobs=1).run(margin)
+    assert strip_wall(result.files["trials"]) == strip_wall(again.files["trials"])
+    with pytest.raises(savme.CampaignError, match="HF run: .*robustness must be a finite number, got NaN"):
+        savme.Campaign(p, problem(), out=tmp_path / "g", jobs=1).run(lambda s, phi, th: (False, 3, float("nan")))
 
 
 def test_the_bundled_driving_simulator_from_python(tmp_path):

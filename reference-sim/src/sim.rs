@@ -545,6 +545,7 @@ impl Simulator for DrivingSimulator {
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
         let r = DrivingSimulator::run(self, scenario, phi, fidelity, false)?;
-        Ok(SimResult::new(r.failure, r.wall_seconds, Some(r.work)))
+        // Robustness: the run's smallest clearance in metres (0 at a collision).
+        Ok(SimResult::new(r.failure, r.wall_seconds, Some(r.work)).with_robustness(r.min_distance))
     }
 }

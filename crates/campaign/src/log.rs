@@ -22,6 +22,11 @@ pub struct RunLine {
     pub wall_seconds: f64,
     /// Work units, if the simulator counts them.
     pub work: Option<u64>,
+    /// How close the run came to failing, if the simulator measures it (the kernel's
+    /// [`savme_kernel::Run::robustness`]); left out of the line when absent, so trial stores
+    /// written before it existed read the same.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robustness: Option<f64>,
 }
 
 impl RunLine {
@@ -32,12 +37,17 @@ impl RunLine {
             runtime,
             wall_seconds: r.wall_seconds,
             work: r.work,
+            robustness: r.robustness,
         }
     }
 
     /// The kernel's view of the run.
     pub fn run(&self) -> savme_kernel::Run {
-        savme_kernel::Run::new(self.failure, self.runtime)
+        let run = savme_kernel::Run::new(self.failure, self.runtime);
+        match self.robustness {
+            Some(r) => run.with_robustness(r),
+            None => run,
+        }
     }
 }
 

@@ -407,6 +407,7 @@ mod tests {
             runtime: 1.0,
             wall_seconds: 0.1,
             work: None,
+            robustness: None,
         }
     }
 

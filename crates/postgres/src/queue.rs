@@ -114,7 +114,7 @@ pub struct Finished {
 /// The finished runs among `ids`.
 pub fn finished(c: &mut Conn<'_>, ids: &[i64]) -> Result<Vec<Finished>, postgres::Error> {
     let statement = c.prepared(
-        "SELECT id, state, failure, wall_seconds, work, error FROM savme.runs
+        "SELECT id, state, failure, wall_seconds, work, error, robustness FROM savme.runs
           WHERE id = ANY($1) AND state IN ('done', 'failed')",
     )?;
     let rows = c.query(&statement, &[&ids])?;
@@ -124,11 +124,15 @@ pub fn finished(c: &mut Conn<'_>, ids: &[i64]) -> Result<Vec<Finished>, postgres
             let state: &str = r.get(1);
             let result = if state == "done" {
                 let work: Option<i64> = r.get(4);
-                Ok(SimResult::new(
+                let result = SimResult::new(
                     r.get::<_, Option<bool>>(2).unwrap_or(false),
                     r.get::<_, Option<f64>>(3).unwrap_or(0.0),
                     work.map(|w| w as u64),
-                ))
+                );
+                Ok(match r.get::<_, Option<f64>>(6) {
+                    Some(rho) => result.with_robustness(rho),
+                    None => result,
+                })
             } else {
                 Err(SimError::Failed(
                     r.get::<_, Option<String>>(5).unwrap_or_default(),
@@ -281,6 +285,7 @@ pub fn finish_and_claim(
         Err(SimError::Failed(m)) => ("failed", None, None, None, Some(m.clone())),
         Err(e) => ("failed", None, None, None, Some(e.to_string())),
     };
+    let robustness = result.as_ref().ok().and_then(|r| r.robustness);
     // The finished row is still `running` in the statement's snapshot (and excluded), so the
     // claim takes another. `note` runs only because the final SELECT reads it.
     static SQL: OnceLock<String> = OnceLock::new();
@@ -288,7 +293,8 @@ pub fn finish_and_claim(
         format!(
             "WITH fin AS (
                 UPDATE savme.runs SET state = $5, failure = $6, wall_seconds = $7, work = $8,
-                       error = $9, finished_at = clock_timestamp(), lease_until = NULL
+                       error = $9, robustness = $11, finished_at = clock_timestamp(),
+                       lease_until = NULL
                  WHERE id = $4 AND worker = $2 AND state = 'running'
                 RETURNING id),
              note AS (SELECT pg_notify($10, id::text) FROM fin),
@@ -311,6 +317,7 @@ pub fn finish_and_claim(
             &work,
             &error,
             &done_channel(campaign),
+            &robustness,
         ],
     )?;
     Ok((row.get::<_, i64>(0) == 1, claimed(&row, 1)))

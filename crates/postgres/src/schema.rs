@@ -10,7 +10,7 @@
 use postgres::Client;
 
 /// The schema version this savme writes.
-pub const VERSION: i32 = 2;
+pub const VERSION: i32 = 3;
 
 /// The advisory-lock class of savme's locks (`pg_try_advisory_lock(CLASS, campaign id)`):
 /// "sv" in ASCII.
@@ -129,6 +129,11 @@ CREATE POLICY by_campaign ON savme.runs
   WITH CHECK (savme.is_coordinator() OR campaign_id IN (SELECT savme.worker_campaigns()));
 CREATE POLICY by_role ON savme.campaign_workers
   USING (savme.is_coordinator() OR pg_has_role((SELECT oid FROM pg_roles WHERE rolname = role), 'MEMBER'));
+"#,
+    r#"
+-- Version 3: a run's robustness (how close it came to failing), when the simulator reports
+-- one; the trial lines keep it in `body`.
+ALTER TABLE savme.runs ADD COLUMN robustness double precision;
 "#,
 ];
 

@@ -92,6 +92,7 @@ mod tests {
             runtime,
             wall_seconds: runtime,
             work: None,
+            robustness: None,
         }
     }
 
