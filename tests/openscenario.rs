@@ -377,14 +377,9 @@ fn generated_files_drive_a_campaign_and_its_estimate() {
         serde_json::from_str(&std::fs::read_to_string(again.join("estimate.json")).unwrap())
             .unwrap();
     assert_eq!(again_settings["nominal"], settings["nominal"]);
-    // The same trials (the wall-clock seconds aside).
-    let without_wall = |mut lines: Vec<serde_json::Value>| {
-        for l in &mut lines {
-            l["hf"].as_object_mut().unwrap().remove("wall_seconds");
-        }
-        lines
-    };
-    assert!(without_wall(json_lines(&again.join("trials.jsonl"))) == without_wall(lines));
+    // The same trials (the wall-clock seconds and the checksum over them aside).
+    let again_lines = common::without_wall(json_lines(&again.join("trials.jsonl")));
+    assert!(again_lines == common::without_wall(lines));
 }
 
 #[test]
