@@ -79,7 +79,10 @@ def test_the_readmes_python_and_the_examples_type_check(tmp_path):
             files.append(str(f))
     assert len(files) >= 3, files
     files += sorted(str(p) for p in (repo / "examples" / "python").glob("*.py"))
-    out = subprocess.run([sys.executable, "-m", "mypy", "--no-incremental", *files],
+    # The tools some snippets drive (VerifAI, Ray, …) are optional and not in this venv: their
+    # imports are unchecked (Any); savme's own API is checked against the stubs.
+    out = subprocess.run([sys.executable, "-m", "mypy", "--no-incremental",
+                          "--ignore-missing-imports", *files],
                          capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0, out.stdout + out.stderr
     # The old way of the README's snippet, an unchecked dict value in arithmetic, is an error
