@@ -408,13 +408,14 @@ fn bad_input_is_refused_before_any_simulation() {
         "{err}"
     );
     assert!(!err.contains("os error"), "{err}");
-    // The same for --resume, and for a file further up the path.
+    // For --resume the file is named as what it is not: a campaign directory to continue.
     let (ok, _, err) = resume(&file);
     assert!(!ok);
     assert!(
-        err.contains(&format!("{} is a file, not a directory", file.display())),
+        err.contains(&format!("{} is a file, not a campaign directory", file.display())),
         "{err}"
     );
+    // A file further up an output path.
     let (ok, _, err) = reproduce(&file.join("out").join("deeper"), &[]);
     assert!(!ok);
     assert!(
