@@ -412,7 +412,10 @@ fn bad_input_is_refused_before_any_simulation() {
     let (ok, _, err) = resume(&file);
     assert!(!ok);
     assert!(
-        err.contains(&format!("{} is a file, not a campaign directory", file.display())),
+        err.contains(&format!(
+            "{} is a file, not a campaign directory",
+            file.display()
+        )),
         "{err}"
     );
     // A file further up an output path.
