@@ -302,7 +302,12 @@ fn run_settings_are_checked() {
             (Some(8), Some("fmu.timeout_s")),
             "{t}"
         );
-        assert_eq!(e.message, "must be positive");
+        assert!(
+            e.message
+                .starts_with("must be a finite number of seconds > 0, got "),
+            "{t}: {}",
+            e.message
+        );
     }
 }
 
