@@ -612,24 +612,9 @@ pub fn format_cost(c: Cost, v: f64) -> String {
     }
 }
 
-/// A duration for people: `2.5 min` from two minutes on, `1.5 s`, `12.3 ms`, `4.2 µs`, `0 s` —
-/// never `0.0 s` for a time below a second.
-///
-/// ```
-/// use savme_campaign::report::format_seconds;
-/// assert_eq!(format_seconds(0.0042), "4.2 ms");
-/// assert_eq!(format_seconds(3.1e-6), "3.1 µs");
-/// assert_eq!(format_seconds(41.25), "41.2 s");
-/// ```
-pub fn format_seconds(s: f64) -> String {
-    match s {
-        s if s >= 120.0 => format!("{:.1} min", s / 60.0),
-        s if s >= 1.0 => format!("{s:.1} s"),
-        s if s >= 1e-3 => format!("{:.1} ms", s * 1e3),
-        s if s > 0.0 => format!("{:.1} µs", s * 1e6),
-        _ => "0 s".into(),
-    }
-}
+/// A duration for people (`2.5 min`, `1.5 s`, `12.3 ms`, `4.2 µs`, `0 s`): the figures' own
+/// (savme-plot's), so that tables, progress lines and figures say durations alike.
+pub use savme_plot::format_seconds;
 
 /// A probability as a person reads it: two significant digits (`0.081`, `0.22`, `0.00084`,
 /// `0`), and below 0.0001 in scientific notation (`2.0e-6`); the raw value is in the JSON
