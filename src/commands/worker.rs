@@ -46,18 +46,6 @@ pub fn run(a: Args) -> Result<(), Failure> {
             "savme worker needs --storage URL (or --storage-file FILE) and --campaign NAME",
         ));
     };
-    if a.jobs == 0 {
-        return Err(usage("--jobs: must be at least 1"));
-    }
-    let seconds = |flag: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(Duration::from_secs_f64(v))
-        } else {
-            Err(usage(format!(
-                "--{flag}: {v} is not a positive number of seconds"
-            )))
-        }
-    };
     let again = format!(
         "start it again with: savme worker {}{}",
         a.storage.flags(&db),
@@ -66,18 +54,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
             None => String::new(),
         }
     );
-    let (lease, wait_for_campaign) = (seconds("lease", a.lease)?, seconds("wait", a.wait)?);
-    let stop = super::signals::stop_on_signals_saying(
-        "stopping after the runs in flight (their results are written; the campaign goes on with the other workers); a second signal quits at once (its runs are taken over when their lease expires)",
-        &again,
-    );
-    let options = WorkerOptions {
-        jobs: a.jobs,
-        lease,
-        wait_for_campaign,
-        stop,
-        grace: seconds("grace", a.grace)?,
-    };
+    let options = options(&a, &again)?;
     let Some(label) = simulator_label(&db, &name, &options, a.quiet)? else {
         return Err(Failure::Interrupted(format!(
             "worker stopped ({}) while waiting for campaign {name:?} to be started; {again}",
@@ -120,6 +97,36 @@ pub fn run(a: Args) -> Result<(), Failure> {
         report.runs, report.dropped
     );
     Ok(())
+}
+
+/// The worker's options from the flags (each duration a positive number of seconds); Ctrl-C
+/// and SIGTERM stop it between runs (`again`: how to start it again).
+fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
+    if a.jobs == 0 {
+        return Err(usage("--jobs: must be at least 1"));
+    }
+    let seconds = |flag: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(Duration::from_secs_f64(v))
+        } else {
+            Err(usage(format!(
+                "--{flag}: {v} is not a positive number of seconds"
+            )))
+        }
+    };
+    let (lease, wait_for_campaign) = (seconds("lease", a.lease)?, seconds("wait", a.wait)?);
+    let grace = seconds("grace", a.grace)?;
+    let stop = super::signals::stop_on_signals_saying(
+        "stopping after the runs in flight (their results are written; the campaign goes on with the other workers); a second signal quits at once (its runs are taken over when their lease expires)",
+        again,
+    );
+    Ok(WorkerOptions {
+        jobs: a.jobs,
+        lease,
+        wait_for_campaign,
+        stop,
+        grace,
+    })
 }
 
 /// The FMU simulator of campaign `name` (simulator `label`) from its campaign file on this
