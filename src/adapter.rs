@@ -86,15 +86,6 @@ impl std::fmt::Debug for AnySimulator {
 }
 
 impl Simulator for AnySimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        self.0.dyn_simulate(None, scenario, phi, fidelity)
-    }
-
     fn simulate_as(
         &mut self,
         role: Role,
@@ -102,7 +93,7 @@ impl Simulator for AnySimulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        self.0.dyn_simulate(Some(role), scenario, phi, fidelity)
+        self.0.dyn_simulate(role, scenario, phi, fidelity)
     }
 }
 
@@ -110,7 +101,7 @@ impl Simulator for AnySimulator {
 trait DynSimulator: Send {
     fn dyn_simulate(
         &mut self,
-        role: Option<Role>,
+        role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
@@ -121,15 +112,12 @@ trait DynSimulator: Send {
 impl<S: Simulator + Clone + Send + 'static> DynSimulator for S {
     fn dyn_simulate(
         &mut self,
-        role: Option<Role>,
+        role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        match role {
-            Some(role) => self.simulate_as(role, scenario, phi, fidelity),
-            None => self.simulate(scenario, phi, fidelity),
-        }
+        self.simulate_as(role, scenario, phi, fidelity)
     }
 
     fn box_clone(&self) -> Box<dyn DynSimulator> {
@@ -265,7 +253,7 @@ mod tests {
         let mut boxed = simulator_of_label(TOY).expect("toy");
         let mut copy = boxed.clone();
         let want = direct
-            .simulate("stopped_obstacle", &phi, &theta)
+            .simulate_as(Role::High, "stopped_obstacle", &phi, &theta)
             .expect("runs");
         for sim in [&mut boxed, &mut copy] {
             let got = sim

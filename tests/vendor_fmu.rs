@@ -391,14 +391,9 @@ fn fmpy_compare(python: &str, fmi: u8) {
                 ],
             }],
         };
-        let mut sim = FmuSimulator::new(
-            file.clone(),
-            file.clone(),
-            spec,
-            None,
-            &|_| Some(phi.clone()),
-            None,
-        )
+        let mut sim = FmuSimulator::new(file.clone(), file.clone(), spec, None, &|_| {
+            Some(phi.clone())
+        })
         .unwrap();
         let local = sim
             .run(
