@@ -18,7 +18,6 @@ use savme::campaign::store::{StoreError, TrialStore};
 use savme::campaign::{Campaign, Problem, ProgressLines, Protocol, Repeated, Stop};
 use savme::compose;
 use savme::postgres::{check_name, Database, PostgresStore};
-use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_kernel::Simulator;
 use savme_sim::sim::DrivingSimulator;
 use std::path::PathBuf;
@@ -67,8 +66,9 @@ fn stored_protocol(db: &Database, name: &str) -> PyResult<Protocol> {
 /// The simulator bound to a campaign loaded from a campaign file.
 enum BoundSim {
     None,
-    /// The checked campaign file; its FMU back end is made for each run.
-    Fmu(Box<FmuCampaignFile>),
+    /// The campaign file as its adapter read and checked it; its simulator is made for each
+    /// run.
+    File(Box<dyn savme::adapter::FileSimulator>),
 }
 
 /// A campaign: a protocol, a problem, an output directory.
@@ -392,7 +392,7 @@ impl PyCampaign {
             ));
         }
         match &self.bound {
-            BoundSim::Fmu(file) => self.run_on(py, crate::sim::fmu_backend(file)?),
+            BoundSim::File(file) => self.run_on(py, crate::sim::file_simulator(file.as_ref())?),
             BoundSim::None => Err(PyTypeError::new_err(
                 "give the simulator: run(simulate), run(hf=..., lf=...) or run(sim=...)",
             )),
@@ -445,11 +445,12 @@ pub fn load_campaign(
     campaign: Option<String>,
 ) -> PyResult<PyCampaign> {
     let storage = storage_of(storage, campaign)?;
-    let c = compose::fmu_file(&path, &Overrides::default()).map_err(errors::campaign)?;
-    // Open the FMUs now, so that a campaign that cannot run fails here.
-    crate::sim::fmu_backend(&c.file)?;
+    let c = compose::campaign_file(&path, &Overrides::default()).map_err(errors::campaign)?;
+    // Build the simulator now (for FMUs: open them), so that a campaign that cannot run fails
+    // here.
+    crate::sim::file_simulator(c.file.as_ref())?;
     let out = out
-        .or(c.file.common.campaign.out.clone())
+        .or(c.file.common().campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let estimate = c.estimate_settings().map_err(errors::campaign_message)?;
     Ok(PyCampaign {
@@ -466,6 +467,6 @@ pub fn load_campaign(
             executor: None,
         },
         executor: None,
-        bound: BoundSim::Fmu(Box::new(c.file)),
+        bound: BoundSim::File(c.file),
     })
 }

@@ -337,11 +337,11 @@ fn failure(e: EstimateError) -> Failure {
 }
 
 /// The campaign file of `--config` (its protocol, problem and `[estimate]` section).
-fn campaign_file(a: &Args) -> Result<Option<compose::FmuCampaign>, Failure> {
+fn campaign_file(a: &Args) -> Result<Option<compose::FileCampaign>, Failure> {
     a.config
         .as_ref()
         .map(|path| {
-            compose::fmu_file(path, &Default::default())
+            compose::campaign_file(path, &Default::default())
                 .map_err(|e| Failure::Runtime(e.to_string()))
         })
         .transpose()
@@ -350,11 +350,11 @@ fn campaign_file(a: &Args) -> Result<Option<compose::FmuCampaign>, Failure> {
 /// The settings (defaults ← the file's `[estimate]` ← the flags) and the keys given.
 fn settings_of(
     a: &Args,
-    file: Option<&compose::FmuCampaign>,
+    file: Option<&compose::FileCampaign>,
 ) -> Result<(EstimateSettings, Vec<&'static str>), Failure> {
-    let section = file.and_then(|c| c.file.common.estimate.as_ref().map(|e| (c, e)));
+    let section = file.and_then(|c| c.file.common().estimate.as_ref().map(|e| (c, e)));
     let base = match section {
-        Some((c, section)) => EstimateSettings::from_section(section, &c.file.common.path)
+        Some((c, section)) => EstimateSettings::from_section(section, &c.file.common().path)
             .map_err(|e| Failure::Runtime(e.to_string()))?,
         None => EstimateSettings::default(),
     };
@@ -406,9 +406,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
     // The nominals the campaign file's OpenSCENARIO files declare, under the flags' and
     // the [estimate] section's.
     let settings = match &file {
-        Some(c) => {
-            settings.with_declared(&c.file.common.scenarios.nominal, &protocol.train_scenarios)
-        }
+        Some(c) => settings.with_declared(
+            &c.file.common().scenarios.nominal,
+            &protocol.train_scenarios,
+        ),
         None => settings,
     };
     let hint = resume_hint(&a);
@@ -429,7 +430,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
         }
     };
     let outcome = match file {
-        Some(c) => configured(c.problem).run(&super::run::fmu_backend(&c.file)?),
+        Some(c) => {
+            let sim = c.file.simulator(&super::run::worker_command)?;
+            configured(c.problem).run(&sim)
+        }
         None => {
             let sim = compose::bundled_simulator(&protocol).map_err(|_| {
                 usage(format!(

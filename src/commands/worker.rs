@@ -4,10 +4,10 @@
 
 use super::{usage, Failure};
 use savme::adapter::simulator_of_label;
+use savme::adapter::AnySimulator;
 use savme::compose;
 use savme::postgres::worker::{work, Unavailable, WorkerOptions};
 use savme::postgres::{stored_simulator, Session};
-use savme_fmu::FmuBackend;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -63,7 +63,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let report = match (simulator_of_label(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
-        (None, Some(file)) => match fmu_simulator(file, &name, &label)? {
+        (None, Some(file)) => match file_simulator(file, &name, &label)? {
             Ok(backend) => work(&db, &name, &backend, &options),
             Err(reason) => {
                 eprintln!(
@@ -129,18 +129,18 @@ fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
     })
 }
 
-/// The FMU simulator of campaign `name` (simulator `label`) from its campaign file on this
-/// host; `Ok(Err(reason))` if this host cannot build it (the file's FMUs are missing or do not
+/// The simulator of campaign `name` (simulator `label`) from its campaign file on this host
+/// (for FMUs: the file's FMUs resolved here); `Ok(Err(reason))` if this host cannot build it (the file's FMUs are missing or do not
 /// load here), an error if the file is not there or describes another simulator.
-fn fmu_simulator(
+fn file_simulator(
     file: &Path,
     name: &str,
     label: &str,
-) -> Result<Result<FmuBackend, String>, Failure> {
+) -> Result<Result<AnySimulator, String>, Failure> {
     if let Err(e) = std::fs::metadata(file) {
         return Err(usage(format!("--config {}: {e}", file.display())));
     }
-    let c = match compose::fmu_file(file, &Default::default()) {
+    let c = match compose::campaign_file(file, &Default::default()) {
         Ok(c) => c,
         Err(e) => return Ok(Err(e.to_string())),
     };
@@ -151,7 +151,7 @@ fn fmu_simulator(
             c.protocol.simulator
         )));
     }
-    Ok(super::run::fmu_backend(&c.file))
+    Ok(c.file.simulator(&super::run::worker_command))
 }
 
 /// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it
