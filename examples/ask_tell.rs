@@ -9,7 +9,7 @@
 //! ```
 use savme::kernel::metrics::{break_even, speedup, Accounting, FailureCurve, Summary};
 use savme::kernel::{
-    CostMeasure, Estimator, Kernel, Observation, Phase, Simulator, Trial, TrialRecord,
+    CostMeasure, Estimator, Kernel, Observation, Phase, Role, Simulator, Trial, TrialRecord,
 };
 use savme::toy::{self, ToySimulator};
 use std::error::Error;
@@ -73,13 +73,15 @@ fn run(
     cost: CostMeasure,
 ) -> Result<Observation, Box<dyn Error>> {
     let hf = sim
-        .simulate(&t.scenario, &t.phi, kernel.theta_hf())?
+        .simulate_as(Role::High, &t.scenario, &t.phi, kernel.theta_hf())?
         .run(cost)?;
     Ok(match &t.theta_lf {
         None => Observation::HfOnly(hf),
         Some(theta) => Observation::Paired {
             hf,
-            lf: sim.simulate(&t.scenario, &t.phi, theta)?.run(cost)?,
+            lf: sim
+                .simulate_as(Role::Learned, &t.scenario, &t.phi, theta)?
+                .run(cost)?,
         },
     })
 }

@@ -1,8 +1,10 @@
 //! Simulator adapters: how savme builds the simulator a campaign names. Each adapter registers
 //! itself in [`ADAPTERS`] with its name, the protocol labels it builds a simulator from (what a
 //! `savme worker`, `savme toy` and `--resume` need: the label alone) and the campaign-file
-//! sections it reads (an FMU campaign's `[fmu]` and `[failure]`). A new adapter is one type
-//! implementing [`Adapter`] and one entry in [`ADAPTERS`]; nothing else lists simulators.
+//! sections it reads (an FMU campaign's `[fmu]` and `[failure]`). An adapter that reads
+//! campaign files builds their simulator itself ([`Adapter::read_file`] → a [`FileSimulator`]),
+//! so that the composition layer reads any adapter's file the same way. A new adapter is one
+//! type implementing [`Adapter`] and one entry in [`ADAPTERS`]; nothing else lists simulators.
 //!
 //! ```
 //! use savme::adapter::{adapter_of_label, simulator_of_label};
@@ -17,8 +19,13 @@
 
 use savme_campaign::config::{NULL, TOY};
 use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
-use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
+use savme_campaign::CampaignError;
+use savme_campaign_file::CampaignFile;
+use savme_fmu::campaign_file::FmuCampaignFile;
+use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator, Space};
 use savme_sim::sim::DrivingSimulator;
+use std::any::Any;
+use std::path::Path;
 
 /// A simulator adapter: a kind of simulator savme can build.
 pub trait Adapter: Sync {
@@ -29,11 +36,59 @@ pub trait Adapter: Sync {
     /// The simulator a protocol's `label` names, if this adapter builds it from the label
     /// alone (None: not its label, or it needs a campaign file).
     fn simulator(&self, label: &str) -> Option<AnySimulator>;
+    /// Reads and checks the campaign file at `path`, which has this adapter's sections
+    /// ([`Adapter::file_sections`]): its campaign part (`[campaign]`, `[estimate]`, the fidelity
+    /// space — the bundled simulator's table from `paper` where the file asks — and the
+    /// scenarios) and the simulator it names. Errors name the file, line and key. The default:
+    /// this adapter reads no campaign file.
+    fn read_file(
+        &self,
+        path: &Path,
+        paper: Paper<'_>,
+    ) -> Result<Box<dyn FileSimulator>, CampaignError> {
+        let _ = paper;
+        Err(CampaignError::File(savme_campaign_file::ConfigError {
+            file: path.display().to_string(),
+            line: None,
+            key: None,
+            message: format!(
+                "the {} simulator adapter reads no campaign file",
+                self.name()
+            ),
+        }))
+    }
     /// The top-level sections of a campaign file this adapter reads (none: it reads no
     /// campaign file).
     fn file_sections(&self) -> &'static [&'static str] {
         &[]
     }
+}
+
+/// The paper's fidelity table for `bins` bins per continuous setting (space and θ_HF): what a
+/// campaign file's `[fidelity] paper = true` stands for.
+pub type Paper<'a> = &'a dyn Fn(u32) -> (Space, Assignment);
+
+/// A campaign file as the adapter whose sections it has read and checked it: the campaign's
+/// part and the simulator it names. Front ends ask it for the simulator; nothing above the
+/// adapter knows which kind of simulator it is.
+pub trait FileSimulator: std::fmt::Debug + Send + Sync {
+    /// The campaign's part of the file.
+    fn common(&self) -> &CampaignFile;
+    /// The protocol's simulator label for this file's simulator.
+    fn label(&self) -> &str;
+    /// Whether a failed simulation withdraws its trial (`on_error = "skip"`) instead of
+    /// stopping the campaign.
+    fn skip_failed_runs(&self) -> bool;
+    /// The simulator, ready to run. `worker` gives the command of a worker process, for an
+    /// adapter that runs simulations in other processes (asked only then).
+    fn simulator(
+        &self,
+        worker: &dyn Fn() -> Result<Vec<String>, String>,
+    ) -> Result<AnySimulator, String>;
+    /// The adapter's own reading of the file (to set an option only it has).
+    fn as_any_mut(&mut self) -> &mut dyn Any;
+    /// The same, owned.
+    fn into_any(self: Box<Self>) -> Box<dyn Any>;
 }
 
 /// Every adapter savme has, in the order they are asked.
@@ -86,15 +141,6 @@ impl std::fmt::Debug for AnySimulator {
 }
 
 impl Simulator for AnySimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        self.0.dyn_simulate(None, scenario, phi, fidelity)
-    }
-
     fn simulate_as(
         &mut self,
         role: Role,
@@ -102,7 +148,7 @@ impl Simulator for AnySimulator {
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        self.0.dyn_simulate(Some(role), scenario, phi, fidelity)
+        self.0.dyn_simulate(role, scenario, phi, fidelity)
     }
 }
 
@@ -110,7 +156,7 @@ impl Simulator for AnySimulator {
 trait DynSimulator: Send {
     fn dyn_simulate(
         &mut self,
-        role: Option<Role>,
+        role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
@@ -121,15 +167,12 @@ trait DynSimulator: Send {
 impl<S: Simulator + Clone + Send + 'static> DynSimulator for S {
     fn dyn_simulate(
         &mut self,
-        role: Option<Role>,
+        role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
-        match role {
-            Some(role) => self.simulate_as(role, scenario, phi, fidelity),
-            None => self.simulate(scenario, phi, fidelity),
-        }
+        self.simulate_as(role, scenario, phi, fidelity)
     }
 
     fn box_clone(&self) -> Box<dyn DynSimulator> {
@@ -200,7 +243,7 @@ impl Adapter for Null {
 }
 
 /// FMUs named by a campaign file (`[fmu]`, `[failure]`): built from the file
-/// ([`crate::compose::fmu_file`]), never from a label alone.
+/// ([`Adapter::read_file`]: a checked `FmuCampaignFile`), never from a label alone.
 struct Fmu;
 
 impl Adapter for Fmu {
@@ -215,6 +258,41 @@ impl Adapter for Fmu {
     }
     fn file_sections(&self) -> &'static [&'static str] {
         &savme_fmu::campaign_file::SECTIONS
+    }
+    fn read_file(
+        &self,
+        path: &Path,
+        paper: Paper<'_>,
+    ) -> Result<Box<dyn FileSimulator>, CampaignError> {
+        Ok(Box::new(FmuCampaignFile::load(path, paper)?))
+    }
+}
+
+impl FileSimulator for FmuCampaignFile {
+    fn common(&self) -> &CampaignFile {
+        &self.common
+    }
+    fn label(&self) -> &str {
+        &self.label
+    }
+    fn skip_failed_runs(&self) -> bool {
+        self.skip_failed_runs
+    }
+    /// The FMU back end: in this process, or (`[fmu] isolate`) in `worker` processes.
+    fn simulator(
+        &self,
+        worker: &dyn Fn() -> Result<Vec<String>, String>,
+    ) -> Result<AnySimulator, String> {
+        let worker = if self.isolate { Some(worker()?) } else { None };
+        let backend = savme_fmu::FmuBackend::new(&self.init, worker, self.timeout)
+            .map_err(|e| format!("{}: {e}", self.common.path.display()))?;
+        Ok(AnySimulator::new(backend))
+    }
+    fn as_any_mut(&mut self) -> &mut dyn Any {
+        self
+    }
+    fn into_any(self: Box<Self>) -> Box<dyn Any> {
+        self
     }
 }
 
@@ -258,6 +336,21 @@ mod tests {
     }
 
     #[test]
+    fn an_adapter_without_campaign_files_refuses_one_naming_itself_and_the_file() {
+        let paper = |bins| {
+            (
+                savme_sim::fidelity::space(bins),
+                savme_sim::fidelity::theta_hf(),
+            )
+        };
+        let e = Toy
+            .read_file(Path::new("c.toml"), &paper)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("c.toml") && e.contains("savme-toy"), "{e}");
+    }
+
+    #[test]
     fn a_boxed_simulator_keeps_its_behaviour_and_its_clones_are_independent() {
         let (_, theta) = savme_campaign::toy::fidelity();
         let phi = Assignment::new().with("gap", 20.0).with("ego_speed", 15.0);
@@ -265,7 +358,7 @@ mod tests {
         let mut boxed = simulator_of_label(TOY).expect("toy");
         let mut copy = boxed.clone();
         let want = direct
-            .simulate("stopped_obstacle", &phi, &theta)
+            .simulate_as(Role::High, "stopped_obstacle", &phi, &theta)
             .expect("runs");
         for sim in [&mut boxed, &mut copy] {
             let got = sim

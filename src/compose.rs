@@ -9,7 +9,6 @@ use savme_campaign::estimate::{
 };
 use savme_campaign::{CampaignError, OnError, Problem, Protocol};
 use savme_campaign_file::{CampaignFile, ConfigError};
-use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_kernel::Simulator;
 use savme_sim::sim::DrivingSimulator;
 use std::io::Write;
@@ -73,25 +72,25 @@ pub fn bundled_simulator(p: &Protocol) -> Result<DrivingSimulator, CampaignError
     }
 }
 
-/// A campaign on FMUs: its protocol and problem, and the checked campaign file (FMU paths,
-/// bindings, isolation, output directory).
+/// A campaign from a campaign file: its protocol and problem, and the file as its simulator
+/// adapter read and checked it (for FMUs: the FMU paths, bindings, isolation).
 #[derive(Debug)]
-pub struct FmuCampaign {
+pub struct FileCampaign {
     /// The protocol: the paper's, the file's `[campaign]` section, then the flags.
     pub protocol: Protocol,
     /// The fidelity space with θ_HF and the scenario spaces of the file.
     pub problem: Problem,
-    /// The file as read and checked against its FMUs.
-    pub file: FmuCampaignFile,
+    /// The file as its adapter read and checked it (the simulator it names: `file.simulator`).
+    pub file: Box<dyn crate::adapter::FileSimulator>,
     /// The number of seeds (`repeat`: the file's, then the flags'; None: one campaign).
     pub repeat: Option<u32>,
 }
 
-/// Reads and checks the campaign file at `path` (with the bundled simulator's fidelity table
-/// for `[fidelity] paper = true`), then builds its protocol: the paper's, the file's
-/// `[campaign]` section, then `flags`, validated. An error in a value the file gave names the
-/// file, line and key; one in a flag names the protocol field.
-pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignError> {
+/// Reads and checks the campaign file at `path` through the adapter whose sections it has
+/// (with the bundled simulator's fidelity table for `[fidelity] paper = true`), then builds its
+/// protocol: the paper's, the file's `[campaign]` section, then `flags`, validated. An error in
+/// a value the file gave names the file, line and key; one in a flag names the protocol field.
+pub fn campaign_file(path: &Path, flags: &Overrides) -> Result<FileCampaign, CampaignError> {
     let paper = |bins| {
         (
             savme_sim::fidelity::space(bins),
@@ -101,16 +100,19 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
     if flags.fidelity_bins.is_some() {
         return Err(CampaignError::Protocol {
             field: "fidelity_bins".into(),
-            message: "an FMU campaign's fidelity space comes from its file: set `[campaign] fidelity_bins` there".into(),
+            message: "a campaign file's fidelity space comes from the file: set `[campaign] fidelity_bins` there".into(),
         });
     }
-    file_adapter(path)?;
-    let file = FmuCampaignFile::load(path, &paper)?;
-    let common = &file.common;
+    let file = file_adapter(path)?.read_file(path, &paper)?;
+    let common = file.common();
     let scenarios = &common.scenarios;
-    let mut p = Protocol::paper(&file.label, scenarios.train.clone(), scenarios.test.clone());
+    let mut p = Protocol::paper(
+        file.label(),
+        scenarios.train.clone(),
+        scenarios.test.clone(),
+    );
     p.weights = scenarios.weights.clone();
-    p.on_error = if file.skip_failed_runs {
+    p.on_error = if file.skip_failed_runs() {
         OnError::Skip
     } else {
         OnError::Abort
@@ -132,7 +134,7 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
         theta_hf: common.fidelity.theta_hf.clone(),
         scenarios: scenarios.spaces.clone(),
     };
-    Ok(FmuCampaign {
+    Ok(FileCampaign {
         protocol: p,
         problem,
         repeat: overrides.repeat,
@@ -140,9 +142,9 @@ pub fn fmu_file(path: &Path, flags: &Overrides) -> Result<FmuCampaign, CampaignE
     })
 }
 
-/// The adapter that reads the campaign file at `path` (by the sections it has): the FMU
-/// adapter, the only one that reads campaign files today. A file with no adapter's sections is
-/// refused naming the adapters and their sections.
+/// The adapter that reads the campaign file at `path` (by the sections it has; the FMU adapter
+/// is the only one that reads campaign files today). A file with no adapter's sections, or with
+/// more than one's, is refused naming the adapters and their sections.
 fn file_adapter(path: &Path) -> Result<&'static dyn crate::adapter::Adapter, CampaignError> {
     let src = savme_campaign_file::Source::read(path)?;
     let top: std::collections::BTreeMap<String, toml::Value> = src.parse()?;
@@ -231,21 +233,21 @@ fn bad_weight(file: &CampaignFile, message: String) -> (String, Option<usize>, S
     }
 }
 
-impl FmuCampaign {
+impl FileCampaign {
     /// The settings of the file's `[estimate]` section (None: the file has none), checked
     /// against the campaign before it runs; refused with `repeat` (the estimate reads one
     /// campaign). Errors name the file, line and key.
     pub fn estimate_settings(&self) -> Result<Option<EstimateSettings>, String> {
-        let Some(section) = &self.file.common.estimate else {
+        let Some(section) = &self.file.common().estimate else {
             return Ok(None);
         };
-        let settings = EstimateSettings::from_section(section, &self.file.common.path)
+        let settings = EstimateSettings::from_section(section, &self.file.common().path)
             .map_err(|e| e.to_string())?
             .with_declared(
-                &self.file.common.scenarios.nominal,
+                &self.file.common().scenarios.nominal,
                 &self.protocol.train_scenarios,
             );
-        let file = self.file.common.path.display();
+        let file = self.file.common().path.display();
         let at = |e: String| format!("{file}, line {}, [estimate]: {e}", section.line);
         if self.repeat.is_some() {
             return Err(at(

@@ -18,7 +18,7 @@
 //! and a tell:
 //!
 //! ```
-//! use savme::kernel::{Estimator, Observation, Run, Simulator};
+//! use savme::kernel::{Estimator, Observation, Role, Run, Simulator};
 //! use savme::toy::{kernel_builder, ToySimulator};
 //!
 //! let mut kernel = kernel_builder().budget(0.3).seed(1).build()?;
@@ -26,8 +26,8 @@
 //! for _ in 0..20 {
 //!     let trial = kernel.ask();
 //!     let theta_lf = trial.theta_lf.clone().expect("meta-training pairs HF with LF");
-//!     let hf = sim.simulate(&trial.scenario, &trial.phi, kernel.theta_hf())?;
-//!     let lf = sim.simulate(&trial.scenario, &trial.phi, &theta_lf)?;
+//!     let hf = sim.simulate_as(Role::High, &trial.scenario, &trial.phi, kernel.theta_hf())?;
+//!     let lf = sim.simulate_as(Role::Learned, &trial.scenario, &trial.phi, &theta_lf)?;
 //!     let (hf, lf) = (Run::new(hf.failure, hf.wall_seconds), Run::new(lf.failure, lf.wall_seconds));
 //!     kernel.tell(trial.id, Observation::Paired { hf, lf })?;
 //! }

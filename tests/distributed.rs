@@ -5,63 +5,16 @@
 //! come.
 mod common;
 
-use common::campaign::{db_trials, file_trials, finish, query_i64, text, wait_until, worker};
+use common::campaign::{
+    db_trials, file_trials, finish, query_i64, text, toy_coordinator, toy_local, wait_until,
+    worker, Distributed, TOY,
+};
 use common::postgres::Server;
-use common::{temp_dir, EXE};
+use common::{send, temp_dir, EXE};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::Duration;
-
-/// A small toy protocol, work-unit cost.
-const TOY: &[&str] = &[
-    "--iterations",
-    "6",
-    "--eval-iterations",
-    "2",
-    "--test-iterations",
-    "3",
-    "--baseline-iterations",
-    "4",
-    "--baseline-test-iterations",
-    "2",
-    "--cost",
-    "work",
-    "--seed",
-    "5",
-    "--quiet",
-];
-
-/// `savme toy` locally into `out` (the reference), with `extra` flags.
-fn toy_local(out: &Path, extra: &[&str]) -> Vec<Value> {
-    let o = Command::new(EXE)
-        .args(["toy", "--out"])
-        .arg(out)
-        .args(TOY)
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", text(&o));
-    file_trials(out)
-}
-
-/// The coordinator of a toy campaign in the database, its runs done by workers.
-fn toy_coordinator(url: &str, name: &str, out: &Path, extra: &[&str]) -> Command {
-    let mut c = Command::new(EXE);
-    c.args([
-        "toy",
-        "--storage",
-        url,
-        "--campaign",
-        name,
-        "--remote",
-        "--out",
-    ])
-    .arg(out)
-    .args(TOY)
-    .args(extra);
-    c
-}
 
 #[test]
 fn one_or_three_workers_give_the_trials_of_the_local_run() {
@@ -178,20 +131,13 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
 
 #[test]
 fn a_worker_killed_mid_run_loses_its_lease_and_another_reruns_the_run_once() {
-    let Some(server) = Server::start("killworker") else {
+    let Some(dist) = Distributed::set_up("killworker", 150) else {
         return;
     };
-    let url = server.create_db("killworker");
-    let local = temp_dir("killworker-local");
-    let expected = toy_local(&local, &["--sleep-ms", "150"]);
-    let out = temp_dir("killworker-out");
-    let coordinator = toy_coordinator(&url, "k", &out, &["--sleep-ms", "150"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let (url, expected) = (dist.url.clone(), dist.expected.clone());
+    let coordinator = dist.coordinator("k", Stdio::piped());
     let mut doomed = worker(&url, "k", &["--lease", "1"]);
-    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let mut client = dist.client();
     let held_by = format!(
         "SELECT count(*) FROM savme.runs WHERE state = 'running' AND worker LIKE 'savme worker pid {} %'",
         doomed.id()
@@ -232,27 +178,18 @@ fn a_worker_killed_mid_run_loses_its_lease_and_another_reruns_the_run_once() {
         orphaned > 0,
         "the worker was killed between runs (timing); rerun"
     );
-    for d in [local, out] {
-        let _ = std::fs::remove_dir_all(d);
-    }
+    dist.clean();
 }
 
 #[test]
 fn a_killed_coordinator_resumes_using_the_runs_workers_finished_meanwhile() {
-    let Some(server) = Server::start("killcoord") else {
+    let Some(dist) = Distributed::set_up("killcoord", 60) else {
         return;
     };
-    let url = server.create_db("killcoord");
-    let local = temp_dir("killcoord-local");
-    let expected = toy_local(&local, &["--sleep-ms", "60"]);
-    let out = temp_dir("killcoord-out");
+    let (url, expected, out) = (dist.url.clone(), dist.expected.clone(), dist.out.clone());
     let w = worker(&url, "c", &["--jobs", "2"]);
-    let mut coordinator = toy_coordinator(&url, "c", &out, &["--sleep-ms", "60"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let mut coordinator = dist.coordinator("c", Stdio::null());
+    let mut client = dist.client();
     // Killed twice mid-campaign (the second time after a resume): each time the stored lines
     // are exactly the first lines of the local run — a batch is committed whole or not at all.
     for (round, at) in [(0, 4), (1, 9)] {
@@ -327,36 +264,27 @@ fn a_killed_coordinator_resumes_using_the_runs_workers_finished_meanwhile() {
             "SELECT count(*) FROM savme.runs WHERE state = 'done'"
         ) > done_before
     );
-    for d in [local, out] {
-        let _ = std::fs::remove_dir_all(d);
-    }
+    dist.clean();
 }
 
 #[test]
 fn a_database_restart_mid_campaign_loses_nothing() {
-    let Some(mut server) = Server::start("restart") else {
+    let Some(mut dist) = Distributed::set_up("restart", 40) else {
         return;
     };
-    let url = server.create_db("restart");
-    let local = temp_dir("restart-local");
-    let expected = toy_local(&local, &["--sleep-ms", "40"]);
-    let out = temp_dir("restart-out");
+    let (url, expected) = (dist.url.clone(), dist.expected.clone());
     // Leases long enough to outlast the restart: no run changes hands, so none is dropped.
     let w = worker(&url, "r", &["--jobs", "2", "--lease", "30"]);
-    let coordinator = toy_coordinator(&url, "r", &out, &["--sleep-ms", "40"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let coordinator = dist.coordinator("r", Stdio::piped());
     {
         let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
         wait_until("trials to be stored", Duration::from_secs(60), || {
             query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 5
         });
     }
-    server.stop();
+    dist.server.stop();
     std::thread::sleep(Duration::from_millis(1500));
-    server.restart();
+    dist.server.restart();
     let said = finish(coordinator, "the coordinator");
     assert!(said.contains("connection lost"), "{said}");
     assert!(!said.contains(common::postgres::PASSWORD), "{said}");
@@ -368,9 +296,7 @@ fn a_database_restart_mid_campaign_loses_nothing() {
     );
     let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
     assert_eq!(db_trials(&mut client, "r"), expected);
-    for d in [local, out] {
-        let _ = std::fs::remove_dir_all(d);
-    }
+    dist.clean();
 }
 
 #[test]
@@ -692,20 +618,13 @@ fn a_worker_says_at_once_when_its_campaign_runs_without_remote_and_stops_after_i
 
 #[test]
 fn a_worker_whose_coordinator_was_killed_stops_after_its_grace_naming_the_resume_command() {
-    let Some(server) = Server::start("graceful") else {
+    let Some(dist) = Distributed::set_up("graceful", 100) else {
         return;
     };
-    let url = server.create_db("graceful");
-    let local = temp_dir("graceful-local");
-    let expected = toy_local(&local, &["--sleep-ms", "100"]);
-    let out = temp_dir("graceful-out");
+    let (url, expected) = (dist.url.clone(), dist.expected.clone());
     let w = worker(&url, "g", &["--grace", "5"]);
-    let mut coordinator = toy_coordinator(&url, "g", &out, &["--sleep-ms", "100"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let mut coordinator = dist.coordinator("g", Stdio::null());
+    let mut client = dist.client();
     wait_until("trials to be stored", Duration::from_secs(60), || {
         query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 3
     });
@@ -744,9 +663,7 @@ fn a_worker_whose_coordinator_was_killed_stops_after_its_grace_naming_the_resume
     assert!(resumed.status.success(), "{}", text(&resumed));
     finish(w, "the second worker");
     assert_eq!(db_trials(&mut client, "g"), expected);
-    for d in [local, out] {
-        let _ = std::fs::remove_dir_all(d);
-    }
+    dist.clean();
 }
 
 #[test]
@@ -886,31 +803,15 @@ fn a_coordinator_whose_database_stays_down_says_it_gave_up_and_how_to_resume() {
     let _ = std::fs::remove_dir_all(out);
 }
 
-/// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell or a scheduler does.
-fn send(child: &Child, signal: &str) {
-    let sent = Command::new("kill")
-        .args([&format!("-{signal}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-}
-
 #[cfg(unix)]
 #[test]
 fn sigint_and_sigterm_stop_a_worker_between_runs_and_nothing_is_lost() {
-    let Some(server) = Server::start("sigworker") else {
+    let Some(dist) = Distributed::set_up("sigworker", 100) else {
         return;
     };
-    let url = server.create_db("sigworker");
-    let local = temp_dir("sigworker-local");
-    let expected = toy_local(&local, &["--sleep-ms", "100"]);
-    let out = temp_dir("sigworker-out");
-    let coordinator = toy_coordinator(&url, "s", &out, &["--sleep-ms", "100"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let (url, expected) = (dist.url.clone(), dist.expected.clone());
+    let coordinator = dist.coordinator("s", Stdio::piped());
+    let mut client = dist.client();
     let done = "SELECT count(*) FROM savme.runs WHERE state = 'done'";
     // A worker waiting for a campaign that does not exist yet stops too.
     let waiting = worker(&url, "not-yet", &["--wait", "60"]);
@@ -960,7 +861,5 @@ fn sigint_and_sigterm_stop_a_worker_between_runs_and_nothing_is_lost() {
         expected,
         "no run lost or repeated"
     );
-    for d in [local, out] {
-        let _ = std::fs::remove_dir_all(d);
-    }
+    dist.clean();
 }

@@ -186,37 +186,10 @@ fn files_written_by_scenariogeneration_read_into_their_spaces_and_nominals() {
     assert!(e.starts_with(&at) && e.contains("without a <Range>"), "{e}");
 }
 
-/// Compiles the braking example (`$CC`, else `cc`) and packs `braking.fmu` into `dir`.
-fn braking_fmu(dir: &Path) -> PathBuf {
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fmu/braking");
-    let lib = dir.join(format!("braking.{}", std::env::consts::DLL_EXTENSION));
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-    let status = Command::new(&cc)
-        .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
-        .arg(&lib)
-        .arg(example.join("braking.c"))
-        .arg("-lm")
-        .status()
-        .unwrap_or_else(|e| panic!("the C compiler `{cc}` (set CC): {e}"));
-    assert!(status.success(), "compiling braking.c failed");
-    let xml = std::fs::read_to_string(example.join("modelDescription.xml")).unwrap();
-    let friction = std::fs::read(example.join("resources/friction.txt")).unwrap();
-    let out = dir.join("braking.fmu");
-    savme_fmi_export::pack_with(
-        &xml,
-        "braking",
-        &lib,
-        &[("resources/friction.txt", &friction)],
-        &out,
-    )
-    .unwrap();
-    out
-}
-
 /// A braking campaign whose scenarios come from the generated files (the test scenario from
 /// `icy`), with an `[estimate]` section.
 fn campaign(dir: &Path, files: &Path, icy: &str) -> PathBuf {
-    let fmu = braking_fmu(dir);
+    let fmu = common::braking::pack(dir, &common::braking::model_description());
     let text = format!(
         r#"[fmu]
 hf = "{fmu}"

@@ -2,7 +2,7 @@
 //! values, checked on the real binary (docs/RELIABILITY.md).
 mod common;
 
-use common::{made_dir, run, temp_dir, trial_lines, TINY_PROTOCOL};
+use common::{made_dir, run, send, temp_dir, trial_lines, TINY_PROTOCOL};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -249,15 +249,6 @@ fn start_and_wait(args: &[String], file: &Path, lines: usize) -> std::process::C
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
     child
-}
-
-/// Sends `signal` (`INT`, `TERM`) with kill(1), as a shell, `timeout` or a scheduler does.
-fn send(child: &std::process::Child, signal: &str) {
-    let sent = Command::new("kill")
-        .args([&format!("-{signal}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
 }
 
 fn stopped(child: std::process::Child) -> (Option<i32>, String) {

@@ -1,72 +1,12 @@
 //! `savme serve` as a harness in another language sees it: a child process speaking JSON lines.
 mod common;
 
-use common::{made_dir, EXE};
+use common::serve::{drive, observation, write_config, Server};
+use common::{made_dir, send, EXE};
 use serde_json::{json, Value};
-use std::io::{BufRead, BufReader, Write};
-use std::path::{Path, PathBuf};
-use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
-
-fn write_config(dir: &Path) -> PathBuf {
-    let out = Command::new(EXE).arg("example-config").output().unwrap();
-    assert!(out.status.success());
-    let path = dir.join("kernel.json");
-    std::fs::write(&path, out.stdout).unwrap();
-    path
-}
-
-struct Server {
-    child: Child,
-    stdin: ChildStdin,
-    stdout: BufReader<ChildStdout>,
-}
-
-impl Server {
-    fn start(args: &[&str]) -> Server {
-        let mut child = Command::new(EXE)
-            .arg("serve")
-            .args(args)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap();
-        let stdin = child.stdin.take().unwrap();
-        let stdout = BufReader::new(child.stdout.take().unwrap());
-        Server {
-            child,
-            stdin,
-            stdout,
-        }
-    }
-
-    fn call(&mut self, request: Value) -> Value {
-        writeln!(self.stdin, "{request}").unwrap();
-        self.stdin.flush().unwrap();
-        let mut line = String::new();
-        self.stdout.read_line(&mut line).unwrap();
-        serde_json::from_str(&line).unwrap()
-    }
-}
-
-fn observation(trial: &Value) -> Value {
-    let speed = trial["phi"]["ego_speed"].as_f64().unwrap();
-    let hf = json!({"failure": speed > 28.0, "runtime": 1.0});
-    let lf = json!({"failure": speed > 27.0, "runtime": 0.25});
-    json!({"paired": {"hf": hf, "lf": lf}})
-}
-
-/// Asks and tells `n` trials; returns the trials.
-fn drive(s: &mut Server, n: usize) -> Vec<Value> {
-    (0..n)
-        .map(|_| {
-            let t = s.call(json!({"op": "ask"}))["trials"][0].clone();
-            let r = s.call(json!({"op": "tell", "id": t["id"], "observation": observation(&t)}));
-            assert_eq!(r["ok"], true, "{r}");
-            t
-        })
-        .collect()
-}
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
 
 #[test]
 fn a_killed_server_resumes_from_its_journal_without_loss_or_repeats() {
@@ -76,15 +16,7 @@ fn a_killed_server_resumes_from_its_journal_without_loss_or_repeats() {
 
     // Reference: one uninterrupted run of 30 trials.
     let whole_journal = dir.join("whole.jsonl");
-    let mut whole = Server::start(&[
-        "--config",
-        config,
-        "--journal",
-        whole_journal.to_str().unwrap(),
-    ]);
-    let reference = drive(&mut whole, 30);
-    drop(whole.stdin);
-    assert!(whole.child.wait().unwrap().success());
+    let reference = Server::uninterrupted(config, &whole_journal, 30);
 
     // The same, killed (SIGKILL) after 12 trials and one pending ask, then resumed.
     let journal = dir.join("run.jsonl");
@@ -376,14 +308,6 @@ fn a_full_disk_leaves_no_partial_line_and_the_server_goes_on_when_space_returns(
 
 /// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell or a scheduler does.
 #[cfg(unix)]
-fn send(child: &Child, signal: &str) {
-    let sent = Command::new("kill")
-        .args([&format!("-{signal}"), &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(sent.success());
-}
-
 #[cfg(unix)]
 #[test]
 fn sigint_and_sigterm_stop_a_server_between_requests_and_say_how_to_continue() {
@@ -392,32 +316,11 @@ fn sigint_and_sigterm_stop_a_server_between_requests_and_say_how_to_continue() {
     let config = config.to_str().unwrap();
     // Reference: 20 trials without a stop.
     let whole_journal = dir.join("whole.jsonl");
-    let mut whole = Server::start(&[
-        "--config",
-        config,
-        "--journal",
-        whole_journal.to_str().unwrap(),
-    ]);
-    let reference = drive(&mut whole, 20);
-    drop(whole.stdin);
-    assert!(whole.child.wait().unwrap().success());
+    let reference = Server::uninterrupted(config, &whole_journal, 20);
     for (signal, status) in [("INT", 130), ("TERM", 143)] {
         let journal = dir.join(format!("{signal}.jsonl"));
         let j = journal.to_str().unwrap();
-        let mut first = Command::new(EXE)
-            .args(["serve", "--config", config, "--journal", j])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        let stdin = first.stdin.take().unwrap();
-        let stdout = BufReader::new(first.stdout.take().unwrap());
-        let mut s = Server {
-            child: first,
-            stdin,
-            stdout,
-        };
+        let mut s = Server::start_with(&["--config", config, "--journal", j], Stdio::piped());
         let mut seen = drive(&mut s, 8);
         let pending = s.call(json!({"op": "ask"}))["trials"][0].clone();
         // The server waits for its next request, its stdin still open: the signal ends it.

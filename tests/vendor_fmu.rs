@@ -4,57 +4,10 @@
 //! `savme fmu info` / `validate`.
 mod common;
 
+use common::braking::{braking3_library, example, model_description, pack, pack3};
 use common::{fmpy_python, made_dir, savme};
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::OnceLock;
-
-fn example() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fmu/braking")
-}
-
-/// Compiles `examples/fmu/braking/<source>` (`$CC`, else `cc`) into `dir`.
-fn compile(source: &str, dir: &str) -> PathBuf {
-    let lib = made_dir(dir).join(format!("braking.{}", std::env::consts::DLL_EXTENSION));
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
-    let status = Command::new(&cc)
-        .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
-        .arg(&lib)
-        .arg(example().join(source))
-        .arg("-lm")
-        .status()
-        .unwrap_or_else(|e| panic!("the C compiler `{cc}` (set CC): {e}"));
-    assert!(status.success(), "compiling {source} failed");
-    lib
-}
-
-/// The braking example's shared library, compiled once from `braking.c`.
-fn braking_library() -> &'static Path {
-    static LIB: OnceLock<PathBuf> = OnceLock::new();
-    LIB.get_or_init(|| compile("braking.c", "braking-lib"))
-}
-
-/// The FMI 3.0 braking example's shared library, compiled once from `braking3.c`.
-fn braking3_library() -> &'static Path {
-    static LIB: OnceLock<PathBuf> = OnceLock::new();
-    LIB.get_or_init(|| compile("braking3.c", "braking3-lib"))
-}
-
-/// `braking3.fmu` (FMI 3.0) in `dir`, with its resources.
-fn pack3(dir: &Path) -> PathBuf {
-    let out = dir.join("braking3.fmu");
-    let xml = std::fs::read_to_string(example().join("modelDescription3.xml")).unwrap();
-    let friction = std::fs::read(example().join("resources/friction.txt")).unwrap();
-    savme_fmi_export::pack_with(
-        &xml,
-        "braking",
-        braking3_library(),
-        &[("resources/friction.txt", &friction)],
-        &out,
-    )
-    .unwrap();
-    out
-}
 
 /// The packed FMU of FMI version `fmi` in `dir`.
 fn pack_version(dir: &Path, fmi: u8) -> PathBuf {
@@ -63,25 +16,6 @@ fn pack_version(dir: &Path, fmi: u8) -> PathBuf {
     } else {
         pack(dir, &model_description())
     }
-}
-
-/// `braking.fmu` in `dir` with `xml` as its model description (and its resources).
-fn pack(dir: &Path, xml: &str) -> PathBuf {
-    let out = dir.join("braking.fmu");
-    let friction = std::fs::read(example().join("resources/friction.txt")).unwrap();
-    savme_fmi_export::pack_with(
-        xml,
-        "braking",
-        braking_library(),
-        &[("resources/friction.txt", &friction)],
-        &out,
-    )
-    .unwrap();
-    out
-}
-
-fn model_description() -> String {
-    std::fs::read_to_string(example().join("modelDescription.xml")).unwrap()
 }
 
 /// `dir` with the packed FMU and the example campaign file.
@@ -391,14 +325,9 @@ fn fmpy_compare(python: &str, fmi: u8) {
                 ],
             }],
         };
-        let mut sim = FmuSimulator::new(
-            file.clone(),
-            file.clone(),
-            spec,
-            None,
-            &|_| Some(phi.clone()),
-            None,
-        )
+        let mut sim = FmuSimulator::new(file.clone(), file.clone(), spec, None, &|_| {
+            Some(phi.clone())
+        })
         .unwrap();
         let local = sim
             .run(

@@ -102,14 +102,9 @@ fn bench_version(g: &mut criterion::BenchmarkGroup<'_, criterion::measurement::W
             fixed: vec![],
         }],
     };
-    let mut sim = FmuSimulator::new(
-        file.clone(),
-        file,
-        spec,
-        Some(&fidelity),
-        &|_| Some(phi.clone()),
-        None,
-    )
+    let mut sim = FmuSimulator::new(file.clone(), file, spec, Some(&fidelity), &|_| {
+        Some(phi.clone())
+    })
     .expect("simulator");
     let p = Assignment::new().with("start", 0.0);
     let t = Assignment::new().with("rate", 0.1);

@@ -75,18 +75,6 @@ impl FmuBackend {
 }
 
 impl Simulator for FmuBackend {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        match self {
-            FmuBackend::InProcess(s) => s.simulate(scenario, phi, fidelity),
-            FmuBackend::Isolated(s) => s.simulate(scenario, phi, fidelity),
-        }
-    }
-
     fn simulate_as(
         &mut self,
         role: Role,

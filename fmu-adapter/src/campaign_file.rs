@@ -155,7 +155,6 @@ impl FmuCampaignFile {
             },
             fidelity: Some(common.fidelity.space.clone()),
             phi: common.scenarios.spaces.clone(),
-            theta_hf: Some(common.fidelity.theta_hf.clone()),
         };
         let (hf, lf) = bindings::check_fmus(&src, &init, &f.fmu, &origins)?;
         let record = bindings::check_record(&src, &hf, &lf, fmu.record.as_ref())?;

@@ -254,7 +254,6 @@ pub struct FmuSimulator {
     files: [Arc<FmuFile>; 2],
     plans: Arc<[Plan; 2]>,
     spec: Arc<RunSpec>,
-    theta_hf: Option<Assignment>,
     instances: [Option<Instance>; 2],
 }
 
@@ -264,7 +263,6 @@ impl Clone for FmuSimulator {
             files: self.files.clone(),
             plans: self.plans.clone(),
             spec: self.spec.clone(),
-            theta_hf: self.theta_hf.clone(),
             instances: [None, None],
         }
     }
@@ -282,21 +280,20 @@ impl std::fmt::Debug for FmuSimulator {
 impl FmuSimulator {
     /// Checks every binding and output of `spec` against both FMUs (types, causalities) and
     /// builds the simulator. `fidelity` and `phi` give the savme variables' domains for the
-    /// type checks; `theta_hf` lets [`Simulator::simulate`] (which has no role) pick the FMU.
+    /// type checks. Each run names its role ([`Simulator::simulate_as`]): HF runs the `hf` FMU,
+    /// LF runs the `lf` one.
     pub fn new(
         hf: Arc<FmuFile>,
         lf: Arc<FmuFile>,
         spec: RunSpec,
         fidelity: Option<&Space>,
         phi: &dyn Fn(&str) -> Option<Space>,
-        theta_hf: Option<Assignment>,
     ) -> Result<FmuSimulator, FmuError> {
         let plans = plans(&hf, &lf, &spec, fidelity, phi)?;
         Ok(FmuSimulator {
             files: [hf, lf],
             plans: Arc::new(plans),
             spec: Arc::new(spec),
-            theta_hf,
             instances: [None, None],
         })
     }
@@ -677,36 +674,7 @@ fn positive(fidelity: &Assignment, var: &str, what: &str) -> Result<f64, FmuErro
     }
 }
 
-/// The role of a run asked without one ([`Simulator::simulate`]): HF when `fidelity` is θ_HF,
-/// else LF — the same in this process and in a worker. Every campaign path asks with the role
-/// ([`Simulator::simulate_as`]); this is for callers that drive the simulator by hand.
-///
-/// ```
-/// use savme_fmu::simulator::role_of;
-/// use savme_kernel::{Assignment, Role};
-/// let hf = Assignment::new().with("rate", 10);
-/// assert_eq!(role_of(Some(&hf), &hf), Role::High);
-/// assert_eq!(role_of(Some(&hf), &Assignment::new().with("rate", 2)), Role::Learned);
-/// ```
-pub fn role_of(theta_hf: Option<&Assignment>, fidelity: &Assignment) -> Role {
-    if theta_hf == Some(fidelity) {
-        Role::High
-    } else {
-        Role::Learned
-    }
-}
-
 impl Simulator for FmuSimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        let role = role_of(self.theta_hf.as_ref(), fidelity);
-        self.simulate_as(role, scenario, phi, fidelity)
-    }
-
     fn simulate_as(
         &mut self,
         role: Role,

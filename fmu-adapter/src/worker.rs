@@ -31,8 +31,6 @@ pub struct WorkerInit {
     pub fidelity: Option<Space>,
     /// The scenario spaces.
     pub phi: BTreeMap<String, Space>,
-    /// θ_HF.
-    pub theta_hf: Option<Assignment>,
 }
 
 impl WorkerInit {
@@ -65,14 +63,9 @@ impl WorkerInit {
 
     fn simulator_telling(&self, loading: &mut dyn FnMut(&Path)) -> Result<FmuSimulator, FmuError> {
         let (hf, lf) = self.open_telling(loading)?;
-        FmuSimulator::new(
-            hf,
-            lf,
-            self.spec.clone(),
-            self.fidelity.as_ref(),
-            &|name| self.phi.get(name).cloned(),
-            self.theta_hf.clone(),
-        )
+        FmuSimulator::new(hf, lf, self.spec.clone(), self.fidelity.as_ref(), &|name| {
+            self.phi.get(name).cloned()
+        })
     }
 }
 
@@ -233,8 +226,6 @@ pub struct IsolatedSimulator {
     fmu: Arc<String>,
     timeout: Duration,
     worker: Option<Worker>,
-    /// θ_HF: what a run without a role is judged by ([`crate::simulator::role_of`]).
-    theta_hf: Option<Arc<Assignment>>,
 }
 
 impl Clone for IsolatedSimulator {
@@ -245,7 +236,6 @@ impl Clone for IsolatedSimulator {
             fmu: self.fmu.clone(),
             timeout: self.timeout,
             worker: None,
-            theta_hf: self.theta_hf.clone(),
         }
     }
 }
@@ -271,7 +261,6 @@ impl IsolatedSimulator {
         }
         let text = serde_json::to_string(init).map_err(|e| FmuError::Spec(e.to_string()))?;
         Ok(IsolatedSimulator {
-            theta_hf: init.theta_hf.clone().map(Arc::new),
             command: Arc::new(command),
             init: Arc::new(text),
             fmu: Arc::new(if init.hf == init.lf {
@@ -383,16 +372,6 @@ impl IsolatedSimulator {
 }
 
 impl Simulator for IsolatedSimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        let role = crate::simulator::role_of(self.theta_hf.as_deref(), fidelity);
-        self.simulate_as(role, scenario, phi, fidelity)
-    }
-
     fn simulate_as(
         &mut self,
         role: Role,

@@ -86,14 +86,9 @@ fn spec(fixed_fault: i32, stop_on_failure: bool) -> RunSpec {
 fn simulator(fmu: &Path, spec: RunSpec) -> Result<FmuSimulator, FmuError> {
     let file = Arc::new(FmuFile::open(fmu)?);
     let (fidelity, phi) = spaces();
-    FmuSimulator::new(
-        file.clone(),
-        file,
-        spec,
-        Some(&fidelity),
-        &|_| Some(phi.clone()),
-        None,
-    )
+    FmuSimulator::new(file.clone(), file, spec, Some(&fidelity), &|_| {
+        Some(phi.clone())
+    })
 }
 
 fn args(start: f64, rate: f64) -> (Assignment, Assignment) {
@@ -370,7 +365,6 @@ mod isolation {
             spec: spec(fault, true),
             fidelity: Some(fidelity),
             phi: [("grow".to_string(), phi)].into_iter().collect(),
-            theta_hf: None,
         };
         IsolatedSimulator::new(
             vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()],
@@ -391,6 +385,79 @@ mod isolation {
             let a = local.run(Role::High, "grow", &phi, &theta).unwrap();
             let b = iso.simulate_as(Role::High, "grow", &phi, &theta).unwrap();
             assert_eq!((a.failure, a.work), (b.failure, b.work));
+        }
+    }
+
+    /// The test-kit FMU whose description swaps the names of `x0` and `threshold`: setting
+    /// `x0` sets its threshold, so the same φ and θ give another outcome than the test kit's.
+    fn swapped(dir: &Path) -> PathBuf {
+        let xml = savme_fmu_testkit::model_description()
+            .replace("name=\"x0\"", "name=\"@\"")
+            .replace("name=\"threshold\"", "name=\"x0\"")
+            .replace("name=\"@\"", "name=\"threshold\"");
+        pack_xml(dir, "swapped.fmu", &xml)
+    }
+
+    /// Issue 24 item 4: a pair whose HF and LF FMU files differ runs each run on its role's
+    /// file, in this process and in a worker alike — with the same θ for both runs, so that
+    /// nothing but the role can tell them apart.
+    #[test]
+    fn in_process_and_isolated_pairs_run_each_role_on_its_own_fmu() {
+        let dir = temp_dir("iso-roles");
+        let (hf, lf) = (testkit(&dir), swapped(&dir));
+        let (fidelity, phi) = spaces();
+        let open = |p: &Path| Arc::new(FmuFile::open(p).unwrap());
+        let pair = FmuSimulator::new(
+            open(&hf),
+            open(&lf),
+            spec(0, true),
+            Some(&fidelity),
+            &|_| Some(phi.clone()),
+        )
+        .unwrap();
+        let init = WorkerInit {
+            hf: hf.clone(),
+            lf: lf.clone(),
+            spec: spec(0, true),
+            fidelity: Some(fidelity.clone()),
+            phi: [("grow".to_string(), phi.clone())].into_iter().collect(),
+        };
+        let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
+        let isolated = IsolatedSimulator::new(worker, &init, Duration::from_secs(20)).unwrap();
+        let mut backends = [
+            savme_fmu::FmuBackend::InProcess(pair),
+            savme_fmu::FmuBackend::Isolated(isolated),
+        ];
+        // Each file alone, as the HF FMU of a one-file simulator: what each role must give.
+        let mut hf_alone = simulator(&hf, spec(0, true)).unwrap();
+        let mut lf_alone = simulator(&lf, spec(0, true)).unwrap();
+        for (start, rate) in [(0.1, 1.0), (0.3, 0.5), (0.05, 2.0)] {
+            let (phi, theta) = args(start, rate);
+            let want_hf = hf_alone.run(Role::High, "grow", &phi, &theta).unwrap();
+            let want_lf = lf_alone.run(Role::High, "grow", &phi, &theta).unwrap();
+            assert_ne!(
+                want_hf.work, want_lf.work,
+                "the two files differ at {start}, {rate}"
+            );
+            for backend in &mut backends {
+                let got_hf = backend
+                    .simulate_as(Role::High, "grow", &phi, &theta)
+                    .unwrap();
+                let got_lf = backend
+                    .simulate_as(Role::Learned, "grow", &phi, &theta)
+                    .unwrap();
+                let what = format!("{backend:?} at {start}, {rate}");
+                assert_eq!(
+                    (got_hf.failure, got_hf.work),
+                    (want_hf.failure, want_hf.work),
+                    "HF: {what}"
+                );
+                assert_eq!(
+                    (got_lf.failure, got_lf.work),
+                    (want_lf.failure, want_lf.work),
+                    "LF: {what}"
+                );
+            }
         }
     }
 
@@ -448,7 +515,6 @@ mod isolation {
                 spec: spec(fault, true),
                 fidelity: Some(fidelity.clone()),
                 phi: [("grow".to_string(), phi.clone())].into_iter().collect(),
-                theta_hf: None,
             };
             let script = format!(
                 "echo $$ >> '{}'; exec '{}'",
@@ -497,7 +563,10 @@ mod isolation {
         let dir = temp_dir("iso-bad");
         let mut iso = isolated(&dir.join("absent.fmu"), 0, Duration::from_secs(20));
         let (phi, theta) = args(0.0, 0.1);
-        let e = iso.simulate("grow", &phi, &theta).unwrap_err().to_string();
+        let e = iso
+            .simulate_as(Role::High, "grow", &phi, &theta)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("absent.fmu"), "{e}");
     }
 

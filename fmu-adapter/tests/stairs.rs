@@ -90,7 +90,7 @@ fn in_process(fmu: &Path, spec: RunSpec) -> FmuBackend {
     let file = Arc::new(FmuFile::open(fmu).unwrap());
     let phi = phi_space();
     FmuBackend::InProcess(
-        FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None).unwrap(),
+        FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone())).unwrap(),
     )
 }
 
@@ -101,7 +101,6 @@ fn isolated(fmu: &Path, spec: RunSpec) -> FmuBackend {
         spec,
         fidelity: None,
         phi: [("s".to_string(), phi_space())].into_iter().collect(),
-        theta_hf: None,
     };
     let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
     FmuBackend::new(&init, Some(worker), Duration::from_secs(60)).unwrap()
@@ -293,14 +292,9 @@ fn a_fixed_step_fmu_refuses_a_step_that_does_not_divide_the_stop_time() {
         let file = Arc::new(FmuFile::open(&fmu).unwrap());
         let phi = phi_space();
         let build = |spec: RunSpec, theta: Option<&Space>| {
-            FmuSimulator::new(
-                file.clone(),
-                file.clone(),
-                spec,
-                theta,
-                &|_| Some(phi.clone()),
-                None,
-            )
+            FmuSimulator::new(file.clone(), file.clone(), spec, theta, &|_| {
+                Some(phi.clone())
+            })
         };
         let e = build(Case::new(&[], 0.3, 10.0).spec(CostSource::Wall), None)
             .map(|_| ())
@@ -465,7 +459,7 @@ fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
     spec.scenarios[0].phi[0].fmu_variable = "m".into();
     let file = Arc::new(FmuFile::open(&fmu).unwrap());
     let phi = phi_space();
-    let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None)
+    let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()))
         .map(|_| ())
         .unwrap_err()
         .to_string();
@@ -625,14 +619,9 @@ fn uint64_values_above_i64_and_integer_variables_from_ranges() {
         savme_kernel::Variable::discrete("seed", [1e19, 1.2e19]),
     ])
     .unwrap();
-    let mut sim = FmuSimulator::new(
-        file.clone(),
-        file.clone(),
-        spec.clone(),
-        None,
-        &|_| Some(phi.clone()),
-        None,
-    )
+    let mut sim = FmuSimulator::new(file.clone(), file.clone(), spec.clone(), None, &|_| {
+        Some(phi.clone())
+    })
     .unwrap();
     let values = Assignment::new()
         .with("threshold", 2.0)
@@ -648,17 +637,10 @@ fn uint64_values_above_i64_and_integer_variables_from_ranges() {
         savme_kernel::Variable::continuous("seed", 0.0, 100.0, 4, Scale::Linear),
     ])
     .unwrap();
-    let e = FmuSimulator::new(
-        file.clone(),
-        file,
-        spec,
-        None,
-        &|_| Some(ranged.clone()),
-        None,
-    )
-    .map(|_| ())
-    .unwrap_err()
-    .to_string();
+    let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(ranged.clone()))
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
     assert!(
         e.ends_with("variable `seed` is Integer, expected a Real for `seed`, which ranges continuously: give an Integer variable its values as a list (`values = [1, 2, 3]`, not `range`)"),
         "{e}"
@@ -744,7 +726,7 @@ fn start_values_of_outputs_and_the_default_start_time() {
         spec.scenarios[0].phi[0].fmu_variable = "steps".into();
         let file = Arc::new(FmuFile::open(&fmu).unwrap());
         let phi = phi_space();
-        let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None)
+        let e = FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()))
             .map(|_| ())
             .unwrap_err()
             .to_string();
@@ -758,7 +740,6 @@ fn start_values_of_outputs_and_the_default_start_time() {
             Case::new(&[], 0.1, 4.0).spec(CostSource::Wall),
             None,
             &|_| Some(phi.clone()),
-            None,
         )
         .map(|_| ())
         .unwrap_err()
@@ -788,14 +769,9 @@ fn a_kernel_on_work_takes_runs_that_fail_at_initialisation() {
         let fmu = stairs(&dir, fmi);
         let file = Arc::new(FmuFile::open(&fmu).unwrap());
         let phi = phi_space();
-        let local = FmuSimulator::new(
-            file.clone(),
-            file,
-            spec.clone(),
-            Some(&fidelity),
-            &|_| Some(phi.clone()),
-            None,
-        )
+        let local = FmuSimulator::new(file.clone(), file, spec.clone(), Some(&fidelity), &|_| {
+            Some(phi.clone())
+        })
         .unwrap();
         let init = WorkerInit {
             hf: fmu.clone(),
@@ -803,7 +779,6 @@ fn a_kernel_on_work_takes_runs_that_fail_at_initialisation() {
             spec: spec.clone(),
             fidelity: Some(fidelity.clone()),
             phi: [("s".to_string(), phi_space())].into_iter().collect(),
-            theta_hf: None,
         };
         let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
         let iso = FmuBackend::new(&init, Some(worker), Duration::from_secs(60)).unwrap();

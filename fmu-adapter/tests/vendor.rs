@@ -75,7 +75,7 @@ fn phi_space() -> Space {
 fn simulator(fmu: &Path, spec: RunSpec) -> Result<FmuSimulator, FmuError> {
     let file = Arc::new(FmuFile::open(fmu)?);
     let phi = phi_space();
-    FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()), None)
+    FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone()))
 }
 
 fn run(sim: &mut FmuSimulator, v: f64) -> Result<savme_kernel::SimResult, FmuError> {
@@ -169,8 +169,9 @@ fn a_stop_request_ends_the_run_at_the_last_completed_point() {
             assert_eq!(r.work, Some(10), "ten completed steps");
         }
         // Through the kernel's Simulator interface too (what a campaign calls): a result, no error.
-        let r = savme_kernel::Simulator::simulate(
+        let r = savme_kernel::Simulator::simulate_as(
             &mut short,
+            Role::High,
             "brake",
             &Assignment::new().with("v", 20.0),
             &Assignment::new(),
@@ -228,7 +229,6 @@ fn fmu_log_prints_every_message() {
                 },
                 fidelity: None,
                 phi: [("brake".to_string(), phi_space())].into_iter().collect(),
-                theta_hf: None,
             };
             let request = savme_fmu::worker::WorkerRequest {
                 role: savme_kernel::Role::High,
@@ -289,7 +289,6 @@ fn the_step_size_and_the_tolerance_can_be_the_fidelity() {
             },
             Some(&theta_space),
             &|_| Some(phi.clone()),
-            None,
         )
         .unwrap();
         let mut at = |v: f64, h: f64, tol: f64| {
@@ -334,14 +333,9 @@ fn values_outside_the_declared_bounds_are_refused_before_any_run() {
         let fmu = braking(&dir, fmi, true);
         let file = Arc::new(FmuFile::open(&fmu).unwrap());
         let build = |spec: RunSpec, phi: Space, theta: Option<Space>| {
-            FmuSimulator::new(
-                file.clone(),
-                file.clone(),
-                spec,
-                theta.as_ref(),
-                &|_| Some(phi.clone()),
-                None,
-            )
+            FmuSimulator::new(file.clone(), file.clone(), spec, theta.as_ref(), &|_| {
+                Some(phi.clone())
+            })
             .map(|_| ())
             .unwrap_err()
             .to_string()
@@ -436,7 +430,7 @@ fn enumerations_are_set_by_item_name_or_value() {
             labels: Some(vec!["dry".into(), "ice".into()]),
         });
         let mut sim =
-            FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()), None).unwrap();
+            FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone())).unwrap();
         for (surface, failure) in [("dry", false), ("ice", true)] {
             let phi = Assignment::new().with("v", 10.0).with("surface", surface);
             let r = sim
@@ -524,7 +518,6 @@ fn an_fmu_instantiable_once_per_process_runs_isolated_only() {
         spec: spec(Vec::new()),
         fidelity: None,
         phi: [("brake".to_string(), phi_space())].into_iter().collect(),
-        theta_hf: None,
     };
     let e = FmuBackend::new(&init, None, std::time::Duration::from_secs(30)).unwrap_err();
     assert!(
@@ -767,7 +760,7 @@ fn the_fmi3_model_description_reads_like_fmi2() {
         labels: None,
     }];
     let file = Arc::new(three);
-    let e = FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()), None)
+    let e = FmuSimulator::new(file.clone(), file, s, None, &|_| Some(phi.clone()))
         .map(|_| ())
         .unwrap_err()
         .to_string();

@@ -162,24 +162,14 @@ impl Role {
 /// that stateful back-ends (an FMU instance) fit; a campaign running trials in parallel makes
 /// one simulator per worker.
 pub trait Simulator {
-    /// Runs one simulation.
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError>;
-
-    /// Runs one simulation as the HF or the LF run of a trial. Simulators whose HF and LF runs
-    /// are different programs (two FMUs) override this; the default ignores the role.
+    /// Runs one simulation as the HF or the LF run of a trial (`role`): a simulator whose HF
+    /// and LF runs are different programs (two FMUs) runs the role's one; one program for both
+    /// may ignore it. The role is always explicit — never guessed from θ.
     fn simulate_as(
         &mut self,
         role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        let _ = role;
-        self.simulate(scenario, phi, fidelity)
-    }
+    ) -> Result<SimResult, SimError>;
 }

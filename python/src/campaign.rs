@@ -1,366 +1,32 @@
-//! `savme.Protocol`, `savme.Problem` and `savme.Campaign`: the paper's protocol run by the one
+//! `savme.Campaign` and `savme.campaign.load`: the paper's protocol run by the one
 //! Rust campaign loop (`savme::campaign::Campaign`), on Python callables or the bundled and
 //! FMU simulators — the same outputs, store and resume as `savme run`.
 
-use crate::convert;
+use crate::callables::{PySimulator, Raised};
 use crate::errors;
 use crate::executor::{executor_of, ExecutorRunner};
+use crate::problem::PyProblem;
+use crate::protocol::PyProtocol;
+use crate::result::{Finished, PyCampaignResult};
 use crate::sim::{PyDriving, PyFmuSimulator};
-use crate::space::PySpace;
 use crossbeam_channel::RecvTimeoutError;
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyTuple};
 use savme::campaign::config::{check_repeat, Overrides};
-use savme::campaign::estimate::{EstimateOutcome, EstimateSettings};
+use savme::campaign::estimate::EstimateSettings;
 use savme::campaign::store::{StoreError, TrialStore};
-use savme::campaign::{
-    Campaign, CampaignOutcome, OnError, Problem, ProgressLines, Protocol, Repeated,
-    RepeatedOutcome, Stop,
-};
+use savme::campaign::{Campaign, Problem, ProgressLines, Protocol, Repeated, Stop};
 use savme::compose;
 use savme::postgres::{check_name, Database, PostgresStore};
-use savme_fmu::campaign_file::FmuCampaignFile;
-use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
+use savme_kernel::Simulator;
 use savme_sim::sim::DrivingSimulator;
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// How often a running campaign looks for Ctrl-C (Python's signal handlers run only on the
 /// main thread, when it holds the GIL).
 const SIGNAL_CHECK: Duration = Duration::from_millis(50);
-
-/// What the campaign's protocol is: stages, iterations, budgets, seeds, scenarios.
-#[pyclass(name = "Protocol", module = "savme", frozen)]
-#[derive(Clone)]
-pub struct PyProtocol {
-    pub protocol: Protocol,
-}
-
-/// `savme.PROTOCOL_VALUES`: every protocol value as declared once (name — the keyword of
-/// `Protocol`, the `[campaign]` key —, the `savme` flag, help text, the stages it changes).
-pub fn protocol_values(py: Python<'_>) -> PyResult<Bound<'_, PyAny>> {
-    let values: Vec<serde_json::Value> = savme::campaign::values::VALUES
-        .iter()
-        .map(|v| {
-            serde_json::json!({
-                "name": v.name,
-                "flag": format!("--{}", v.flag),
-                "help": v.help.trim(),
-                "stages": v.stages,
-                "in_protocol": v.in_protocol,
-            })
-        })
-        .collect();
-    convert::json_to_py(py, &values)
-}
-
-/// Protocol values given as keyword arguments, read by the names every front end shares
-/// ([`savme::campaign::values`]); `None` means "not given".
-pub fn overrides(values: Option<&Bound<'_, PyDict>>) -> PyResult<Overrides> {
-    let Some(values) = values else {
-        return Ok(Overrides::default());
-    };
-    let json = values.py().import("json")?;
-    let mut entries = Vec::new();
-    for (k, v) in values.iter() {
-        if v.is_none() {
-            continue;
-        }
-        let key: String = k.extract()?;
-        let text: String = json
-            .call_method1("dumps", (&v,))
-            .and_then(|t| t.extract())
-            .map_err(|e| PyTypeError::new_err(format!("{key}: {e}")))?;
-        let value: serde_json::Value = serde_json::from_str(&text).map_err(errors::value)?;
-        entries.push((key, value));
-    }
-    Overrides::from_entries(entries).map_err(|e| {
-        if e.message.starts_with("not a protocol value") {
-            PyTypeError::new_err(format!("unexpected keyword argument {e}"))
-        } else {
-            PyValueError::new_err(e.to_string())
-        }
-    })
-}
-
-fn on_error(name: &str) -> PyResult<OnError> {
-    match name {
-        "abort" => Ok(OnError::Abort),
-        "skip" => Ok(OnError::Skip),
-        other => Err(PyValueError::new_err(format!(
-            "on_error must be \"abort\" or \"skip\", got {other:?}"
-        ))),
-    }
-}
-
-#[pymethods]
-impl PyProtocol {
-    /// The paper's protocol (or the quick preset) for the given scenarios, with any protocol
-    /// value given by its name (`seed`, `budgets`, `train_iterations`, …: the names of
-    /// `savme.PROTOCOL_VALUES`, the same as `savme run`'s flags and a campaign file's
-    /// `[campaign]` keys); validated (a ValueError names the value).
-    #[new]
-    #[pyo3(signature = (train_scenarios, test_scenarios, *, preset = "paper", simulator = "python",
-        weights = None, on_error = None, **values))]
-    fn new(
-        train_scenarios: Vec<String>,
-        test_scenarios: Vec<String>,
-        preset: &str,
-        simulator: &str,
-        weights: Option<BTreeMap<String, f64>>,
-        on_error: Option<&str>,
-        values: Option<&Bound<'_, PyDict>>,
-    ) -> PyResult<Self> {
-        let mut p = match preset {
-            "paper" => Protocol::paper(simulator, train_scenarios, test_scenarios),
-            "quick" => Protocol::quick(simulator, train_scenarios, test_scenarios),
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "preset must be \"paper\" or \"quick\", got {other:?}"
-                )))
-            }
-        };
-        let o = overrides(values)?;
-        if o.repeat.is_some() {
-            return Err(PyValueError::new_err(
-                "repeat: not part of a protocol; give it to Campaign(..., repeat=N)",
-            ));
-        }
-        let lookup = |k: &str| Some(k.to_string());
-        o.apply(&mut p, &lookup, "").map_err(errors::value)?;
-        if let Some(w) = weights {
-            p.weights = w;
-        }
-        if let Some(e) = on_error {
-            p.on_error = self::on_error(e)?;
-        }
-        p.validate().map_err(errors::value)?;
-        Ok(PyProtocol { protocol: p })
-    }
-
-    /// The protocol as JSON (`protocol.json` of a campaign directory).
-    fn to_json(&self) -> PyResult<String> {
-        serde_json::to_string_pretty(&self.protocol).map_err(errors::value)
-    }
-
-    /// The protocol as a dict.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        convert::json_to_py(py, &self.protocol)
-    }
-
-    /// The protocol saved in a campaign directory (`protocol.json`).
-    #[staticmethod]
-    fn load(out: PathBuf) -> PyResult<Self> {
-        let protocol = savme::campaign::load_protocol(&out).map_err(errors::campaign)?;
-        Ok(PyProtocol { protocol })
-    }
-
-    /// How many trials the campaign runs in all.
-    #[getter]
-    fn total_trials(&self) -> u64 {
-        self.protocol.total_trials()
-    }
-
-    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
-        other
-            .cast::<PyProtocol>()
-            .is_ok_and(|o| o.get().protocol == self.protocol)
-    }
-
-    fn __repr__(&self) -> String {
-        let p = &self.protocol;
-        format!(
-            "Protocol(simulator={:?}, seed={}, budgets={:?}, trials={})",
-            p.simulator,
-            p.seed,
-            p.budgets,
-            p.total_trials()
-        )
-    }
-}
-
-/// What a campaign searches: the fidelity space with θ_HF, and each scenario's φ-space.
-#[pyclass(name = "Problem", module = "savme", frozen)]
-#[derive(Clone)]
-pub struct PyProblem {
-    pub problem: Problem,
-}
-
-#[pymethods]
-impl PyProblem {
-    #[new]
-    #[pyo3(signature = (*, fidelity, theta_hf, scenarios))]
-    fn new(
-        fidelity: PyRef<'_, PySpace>,
-        theta_hf: &Bound<'_, PyDict>,
-        scenarios: &Bound<'_, PyDict>,
-    ) -> PyResult<Self> {
-        let mut by_name = BTreeMap::new();
-        for (k, v) in scenarios.iter() {
-            let name: String = k.extract()?;
-            let space = v.cast::<PySpace>().map_err(|_| {
-                PyTypeError::new_err(format!("scenarios: scenario `{name}` needs a savme.Space"))
-            })?;
-            by_name.insert(name, space.get().space.clone());
-        }
-        let theta_hf = convert::assignment("theta_hf", theta_hf, &fidelity.space)?;
-        fidelity
-            .space
-            .arms_of(&theta_hf)
-            .map_err(|e| PyValueError::new_err(format!("high-fidelity settings θ_HF: {e}")))?;
-        Ok(PyProblem {
-            problem: Problem {
-                fidelity: fidelity.space.clone(),
-                theta_hf,
-                scenarios: by_name,
-            },
-        })
-    }
-
-    /// The bundled driving simulator's problem: Table I with `bins` per continuous setting,
-    /// θ_HF and the ten scenarios.
-    #[staticmethod]
-    #[pyo3(signature = (bins = 10))]
-    fn driving(bins: u32) -> Self {
-        PyProblem {
-            problem: Problem::from(savme_sim::problem(bins)),
-        }
-    }
-
-    /// The scenarios' names.
-    #[getter]
-    fn scenarios(&self) -> Vec<String> {
-        self.problem.scenarios.keys().cloned().collect()
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "Problem(fidelity={} settings, scenarios={:?})",
-            self.problem.fidelity.len(),
-            self.scenarios()
-        )
-    }
-}
-
-/// Python callables as the campaign's simulator: `hf(scenario, phi, theta)` and
-/// `lf(scenario, phi, theta)` (the same callable for both is fine). Each returns the failure
-/// flag, `(failure, work_units)`, or `(failure, work_units or None, robustness)`; the wall time of the call is measured here. The GIL is
-/// taken only around the call.
-#[derive(Clone)]
-pub struct PySimulator {
-    hf: Arc<Py<PyAny>>,
-    lf: Arc<Py<PyAny>>,
-    /// The first exception a callable raised: the campaign's error is chained to it
-    /// (`raise CampaignError(...) from exc`), so that its traceback is kept.
-    raised: Raised,
-}
-
-/// The first exception a Python simulator raised, shared by its clones (one per worker).
-pub type Raised = Arc<std::sync::Mutex<Option<PyErr>>>;
-
-impl PySimulator {
-    fn new(hf: Arc<Py<PyAny>>, lf: Arc<Py<PyAny>>) -> PySimulator {
-        PySimulator {
-            hf,
-            lf,
-            raised: Raised::default(),
-        }
-    }
-}
-
-/// Where `e` was raised: ` (at FILE:LINE, in FUNCTION)` of its innermost frame, or nothing.
-fn raised_at(py: Python<'_>, e: &PyErr) -> String {
-    let frame = (|| -> PyResult<String> {
-        let tb = e
-            .traceback(py)
-            .ok_or_else(|| PyValueError::new_err("no traceback"))?;
-        let frames = py.import("traceback")?.call_method1("extract_tb", (tb,))?;
-        let last = frames.get_item(-1)?;
-        let (file, line, name): (String, u32, String) = (
-            last.getattr("filename")?.extract()?,
-            last.getattr("lineno")?.extract()?,
-            last.getattr("name")?.extract()?,
-        );
-        Ok(format!(" (at {file}:{line}, in {name})"))
-    })();
-    frame.unwrap_or_default()
-}
-
-pub fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
-    // The flag alone, the first of (failure, work_units), or of (failure, work_units or None,
-    // robustness).
-    let tuple = out.cast::<PyTuple>().ok();
-    let pair = tuple.and_then(|t| t.extract::<(Bound<'_, PyAny>, u64)>().ok());
-    let triple = tuple.and_then(|t| t.extract::<(Bound<'_, PyAny>, Option<u64>, f64)>().ok());
-    let (flag, work, robustness) = match (pair, triple) {
-        (Some((flag, work)), _) => (flag, Some(work), None),
-        (None, Some((flag, work, rho))) => (flag, work, Some(rho)),
-        (None, None) => (out.clone(), None, None),
-    };
-    let kind = match crate::convert::failure_flag(&flag) {
-        Ok(failure) => {
-            let result = SimResult::new(failure, wall, work);
-            return match robustness {
-                Some(rho) if !rho.is_finite() => Err(format!(
-                    "a simulator's robustness must be a finite number, got {rho}"
-                )),
-                Some(rho) => Ok(result.with_robustness(rho)),
-                None => Ok(result),
-            };
-        }
-        Err(kind) => kind,
-    };
-    Err(format!(
-        "a simulator must return the failure flag (bool or numpy bool), (failure, work_units) or (failure, work_units or None, robustness), got {kind} {flag}"
-    ))
-}
-
-impl Simulator for PySimulator {
-    fn simulate(
-        &mut self,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        self.simulate_as(Role::High, scenario, phi, fidelity)
-    }
-
-    fn simulate_as(
-        &mut self,
-        role: Role,
-        scenario: &str,
-        phi: &Assignment,
-        fidelity: &Assignment,
-    ) -> Result<SimResult, SimError> {
-        let (f, name) = match role {
-            Role::High => (&self.hf, "hf"),
-            Role::Learned => (&self.lf, "lf"),
-        };
-        Python::attach(|py| {
-            let args = (
-                scenario,
-                convert::dict(py, phi).map_err(|e| SimError::Failed(e.to_string()))?,
-                convert::dict(py, fidelity).map_err(|e| SimError::Failed(e.to_string()))?,
-            );
-            let start = Instant::now();
-            let out = f.call1(py, args);
-            let wall = start.elapsed().as_secs_f64();
-            let out = out.map_err(|e| {
-                let message = format!("the `{name}` simulator raised {e}{}", raised_at(py, &e));
-                let mut first = self.raised.lock().unwrap_or_else(|p| p.into_inner());
-                if first.is_none() {
-                    *first = Some(e);
-                }
-                SimError::Failed(message)
-            })?;
-            sim_result(out.bind(py), wall)
-                .map_err(|m| SimError::Failed(format!("the `{name}` simulator: {m}")))
-        })
-    }
-}
 
 /// The database of `storage=` with the campaign's name (both or neither).
 fn storage_of(
@@ -400,8 +66,9 @@ fn stored_protocol(db: &Database, name: &str) -> PyResult<Protocol> {
 /// The simulator bound to a campaign loaded from a campaign file.
 enum BoundSim {
     None,
-    /// The checked campaign file; its FMU back end is made for each run.
-    Fmu(Box<FmuCampaignFile>),
+    /// The campaign file as its adapter read and checked it; its simulator is made for each
+    /// run.
+    File(Box<dyn savme::adapter::FileSimulator>),
 }
 
 /// A campaign: a protocol, a problem, an output directory.
@@ -412,148 +79,6 @@ pub struct PyCampaign {
     /// Where the runs of Python simulators execute (None: local threads).
     executor: Option<Arc<Py<PyAny>>>,
     bound: BoundSim,
-}
-
-/// What the campaign thread finished: one campaign, or one per seed.
-enum Finished {
-    One(CampaignOutcome),
-    Seeds(RepeatedOutcome),
-}
-
-/// What a finished campaign returns.
-#[pyclass(name = "CampaignResult", module = "savme", frozen)]
-pub struct PyCampaignResult {
-    finished: Finished,
-    estimate: Option<EstimateOutcome>,
-}
-
-impl PyCampaignResult {
-    /// Each seed's campaign (one without `repeat`).
-    fn outcomes(&self) -> Vec<&CampaignOutcome> {
-        match &self.finished {
-            Finished::One(o) => vec![o],
-            Finished::Seeds(r) => r.runs.iter().collect(),
-        }
-    }
-}
-
-#[pymethods]
-impl PyCampaignResult {
-    /// The campaign directory.
-    #[getter]
-    fn out(&self) -> PathBuf {
-        match &self.finished {
-            Finished::One(o) => o
-                .outputs
-                .protocol
-                .parent()
-                .map(PathBuf::from)
-                .unwrap_or_default(),
-            Finished::Seeds(r) => r.out.clone(),
-        }
-    }
-
-    /// The report as a dict (what `summary.json` holds under "report").
-    #[getter]
-    fn report<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        match &self.finished {
-            Finished::One(o) => convert::json_to_py(py, &o.report),
-            Finished::Seeds(r) => convert::json_to_py(py, &r.report),
-        }
-    }
-
-    /// Table III as Markdown (`table.md`; over the seeds with `repeat`).
-    #[getter]
-    fn table_md(&self) -> String {
-        match &self.finished {
-            Finished::One(o) => o.report.table_md(),
-            Finished::Seeds(r) => r.report.table_md(),
-        }
-    }
-
-    /// Each seed's result, in seed order (`repeat`; one result without it).
-    #[getter]
-    fn runs(&self) -> Vec<PyCampaignResult> {
-        self.outcomes()
-            .into_iter()
-            .map(|o| PyCampaignResult {
-                finished: Finished::One(o.clone()),
-                estimate: None,
-            })
-            .collect()
-    }
-
-    /// The `[estimate]` stage's result (a campaign file with one): its summary as a dict
-    /// (`summary.json`), None otherwise.
-    #[getter]
-    fn estimate<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
-        self.estimate
-            .as_ref()
-            .map(|e| convert::json_to_py(py, e))
-            .transpose()
-    }
-
-    /// The files written: protocol, trials, table, fidelity, summary, breakeven, meta_testing.
-    #[getter]
-    fn files<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        let Finished::One(one) = &self.finished else {
-            let out = self.out();
-            for (k, f) in [
-                ("table", "table.md"),
-                ("summary", "summary.json"),
-                ("breakeven", "breakeven.png"),
-                ("meta_testing", "meta_testing.png"),
-            ] {
-                d.set_item(k, out.join(f))?;
-            }
-            return Ok(d);
-        };
-        let o = &one.outputs;
-        for (k, v) in [
-            ("protocol", &o.protocol),
-            ("trials", &o.trials),
-            ("table", &o.table),
-            ("fidelity", &o.fidelity),
-            ("summary", &o.summary),
-            ("breakeven", &o.breakeven),
-            ("meta_testing", &o.meta_testing),
-        ] {
-            d.set_item(k, v)?;
-        }
-        Ok(d)
-    }
-
-    /// Trials replayed from `trials.jsonl` (a resumed campaign).
-    #[getter]
-    fn replayed(&self) -> u64 {
-        self.outcomes().iter().map(|o| o.replayed).sum()
-    }
-
-    /// Trials run by this call.
-    #[getter]
-    fn ran(&self) -> u64 {
-        self.outcomes().iter().map(|o| o.ran).sum()
-    }
-
-    /// Wall-clock seconds this call took.
-    #[getter]
-    fn elapsed_seconds(&self) -> f64 {
-        match &self.finished {
-            Finished::One(o) => o.elapsed_seconds,
-            Finished::Seeds(r) => r.elapsed_seconds,
-        }
-    }
-
-    fn __repr__(&self) -> String {
-        format!(
-            "CampaignResult(out={:?}, ran={}, replayed={}, elapsed_seconds={:.1})",
-            self.out().display().to_string(),
-            self.ran(),
-            self.replayed(),
-            self.elapsed_seconds()
-        )
-    }
 }
 
 impl PyCampaign {
@@ -867,7 +392,7 @@ impl PyCampaign {
             ));
         }
         match &self.bound {
-            BoundSim::Fmu(file) => self.run_on(py, crate::sim::fmu_backend(file)?),
+            BoundSim::File(file) => self.run_on(py, crate::sim::file_simulator(file.as_ref())?),
             BoundSim::None => Err(PyTypeError::new_err(
                 "give the simulator: run(simulate), run(hf=..., lf=...) or run(sim=...)",
             )),
@@ -920,11 +445,12 @@ pub fn load_campaign(
     campaign: Option<String>,
 ) -> PyResult<PyCampaign> {
     let storage = storage_of(storage, campaign)?;
-    let c = compose::fmu_file(&path, &Overrides::default()).map_err(errors::campaign)?;
-    // Open the FMUs now, so that a campaign that cannot run fails here.
-    crate::sim::fmu_backend(&c.file)?;
+    let c = compose::campaign_file(&path, &Overrides::default()).map_err(errors::campaign)?;
+    // Build the simulator now (for FMUs: open them), so that a campaign that cannot run fails
+    // here.
+    crate::sim::file_simulator(c.file.as_ref())?;
     let out = out
-        .or(c.file.common.campaign.out.clone())
+        .or(c.file.common().campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let estimate = c.estimate_settings().map_err(errors::campaign_message)?;
     Ok(PyCampaign {
@@ -941,6 +467,6 @@ pub fn load_campaign(
             executor: None,
         },
         executor: None,
-        bound: BoundSim::Fmu(Box::new(c.file)),
+        bound: BoundSim::File(c.file),
     })
 }

@@ -14,7 +14,7 @@
 //!   `("error", message)` (the run could not finish: timed out, its worker lost twice, …);
 //! - `finish()`: after the campaign (also after an error or Ctrl-C): cancel what is left.
 
-use crate::campaign::sim_result;
+use crate::callables::sim_result;
 use crate::convert;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;

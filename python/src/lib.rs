@@ -3,13 +3,15 @@
 //!
 //! One module per concept: `space` (spaces and variables), `trial` (trials, records,
 //! posteriors), `kernel` (the ask/tell kernel, plain or journaled), `estimation` (P(failure)
-//! by importance sampling from a kernel's posteriors), `campaign` (protocol,
-//! problem, the campaign loop on Python callables), `sim` (the bundled driving simulator
+//! by importance sampling from a kernel's posteriors), `protocol`, `problem`,
+//! `campaign` (the campaign loop), `callables` (Python callables as its simulator), `result`
+//! (what it returns), `sim` (the bundled driving simulator
 //! and FMUs), `openscenario` (OpenSCENARIO parameter variations), `convert` (values
 //! between Rust and Python) and `errors` (Rust errors as Python exceptions).
 
 use pyo3::prelude::*;
 
+mod callables;
 mod campaign;
 mod convert;
 mod errors;
@@ -17,6 +19,9 @@ mod estimation;
 mod executor;
 mod kernel;
 mod openscenario;
+mod problem;
+mod protocol;
+mod result;
 mod sim;
 mod space;
 mod trial;
@@ -39,11 +44,11 @@ fn _savme(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<kernel::PyKernel>()?;
     m.add_class::<estimation::PyEstimation>()?;
     m.add("CampaignError", py.get_type::<errors::CampaignError>())?;
-    m.add_class::<campaign::PyProtocol>()?;
-    m.add("PROTOCOL_VALUES", campaign::protocol_values(py)?)?;
-    m.add_class::<campaign::PyProblem>()?;
+    m.add_class::<protocol::PyProtocol>()?;
+    m.add("PROTOCOL_VALUES", protocol::protocol_values(py)?)?;
+    m.add_class::<problem::PyProblem>()?;
     m.add_class::<campaign::PyCampaign>()?;
-    m.add_class::<campaign::PyCampaignResult>()?;
+    m.add_class::<result::PyCampaignResult>()?;
     m.add_function(wrap_pyfunction!(campaign::load_campaign, m)?)?;
     m.add_class::<sim::PyDriving>()?;
     m.add_class::<sim::PyFmuSimulator>()?;

@@ -8,6 +8,7 @@ use crate::space::PySpace;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use savme::adapter::{AnySimulator, FileSimulator};
 use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_fmu::FmuBackend;
 use savme_kernel::{Assignment, Role, SimResult, Simulator, Space};
@@ -155,13 +156,24 @@ impl PyDriving {
     }
 }
 
-/// The FMU back end of a checked campaign file: in this process, or (`isolate = true`) in
-/// worker processes started as `$SAVME_FMU_WORKER`, else `savme-fmu-worker` on the PATH.
+/// The worker process of a simulator that isolates its runs (`[fmu] isolate = true`):
+/// `$SAVME_FMU_WORKER`, else `savme-fmu-worker` on the PATH.
+fn worker_command() -> Result<Vec<String>, String> {
+    let command = std::env::var("SAVME_FMU_WORKER").unwrap_or_else(|_| "savme-fmu-worker".into());
+    Ok(command.split_whitespace().map(String::from).collect())
+}
+
+/// The simulator of a checked campaign file (for FMUs: in this process, or in worker
+/// processes, see [`worker_command`]).
+pub fn file_simulator(file: &dyn FileSimulator) -> PyResult<AnySimulator> {
+    file.simulator(&worker_command)
+        .map_err(PyRuntimeError::new_err)
+}
+
+/// The FMU back end of a checked FMU campaign file.
 pub fn fmu_backend(file: &FmuCampaignFile) -> PyResult<FmuBackend> {
     let worker = if file.isolate {
-        let command =
-            std::env::var("SAVME_FMU_WORKER").unwrap_or_else(|_| "savme-fmu-worker".into());
-        Some(command.split_whitespace().map(String::from).collect())
+        Some(worker_command().map_err(PyRuntimeError::new_err)?)
     } else {
         None
     };
@@ -188,8 +200,15 @@ impl PyFmuSimulator {
     /// Reads and checks the campaign file at `path` (errors name its file, line and key).
     #[new]
     fn new(path: PathBuf) -> PyResult<Self> {
-        let c = savme::compose::fmu_file(&path, &Default::default()).map_err(errors::campaign)?;
-        Ok(PyFmuSimulator { path, file: c.file })
+        let c =
+            savme::compose::campaign_file(&path, &Default::default()).map_err(errors::campaign)?;
+        let Ok(file) = c.file.into_any().downcast::<FmuCampaignFile>() else {
+            return Err(PyValueError::new_err(format!(
+                "{}: not an FMU campaign file (no [fmu] section)",
+                path.display()
+            )));
+        };
+        Ok(PyFmuSimulator { path, file: *file })
     }
 
     /// Runs scenario `scenario` with `phi` under `theta` (default θ_HF) on the HF FMU, or the

@@ -7,7 +7,7 @@ use crate::scenario::{self, ScenarioInfo, Setup};
 use crate::settings::Settings;
 use crate::sut::{IdealPerception, Perception, Planner, Sensing};
 use crate::vehicle::{self, VehicleState};
-use savme_kernel::{Assignment, SimError, SimResult, Simulator};
+use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use std::time::Instant;
 
 /// Deceleration of the ego's emergency braking (a constant braking force), m/s².
@@ -538,8 +538,9 @@ impl Perception for Perceiver {
 }
 
 impl Simulator for DrivingSimulator {
-    fn simulate(
+    fn simulate_as(
         &mut self,
+        _role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,

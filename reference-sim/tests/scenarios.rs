@@ -1,6 +1,6 @@
 //! The ten scenarios under θ_HF: failures exist, runs are deterministic, bad φ is named, and the
 //! simulation rate changes both the work done and the outcome.
-use savme_kernel::{Assignment, Kernel, Phase, SimError, Simulator};
+use savme_kernel::{Assignment, Kernel, Phase, Role, SimError, Simulator};
 use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
@@ -96,7 +96,9 @@ fn bad_phi_and_fidelity_are_named() {
     let good = samples(info.name, phi_space(info), 1).remove(0);
     let hf = fidelity::theta_hf();
     let mut err = |phi: &Assignment, theta: &Assignment| {
-        sim.simulate(info.name, phi, theta).unwrap_err().to_string()
+        sim.simulate_as(Role::High, info.name, phi, theta)
+            .unwrap_err()
+            .to_string()
     };
     let e = err(&good.clone().with("bogus", 1.0), &hf);
     assert!(e.contains("bogus") && e.contains("lead_decel"), "{e}");
@@ -113,7 +115,7 @@ fn bad_phi_and_fidelity_are_named() {
     let e = err(&good, &hf.clone().with("warp_drive", true));
     assert!(e.contains("warp_drive"), "{e}");
     assert!(matches!(
-        sim.simulate("11", &good, &hf),
+        sim.simulate_as(Role::High, "11", &good, &hf),
         Err(SimError::UnknownScenario(_))
     ));
 }

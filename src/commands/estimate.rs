@@ -3,7 +3,7 @@
 
 use super::{usage, Failure};
 use savme::campaign::estimate::{
-    parse_nominal, EstimateError, EstimateProgress, EstimateRun, EstimateSettings,
+    parse_nominal, EstimateError, EstimateOutcome, EstimateProgress, EstimateRun, EstimateSettings,
 };
 use savme::campaign::Problem;
 use savme::compose;
@@ -336,36 +336,66 @@ fn failure(e: EstimateError) -> Failure {
     }
 }
 
-pub fn run(a: Args) -> Result<(), Failure> {
-    let file = match &a.config {
-        Some(path) => Some(
-            compose::fmu_file(path, &Default::default())
-                .map_err(|e| Failure::Runtime(e.to_string()))?,
-        ),
-        None => None,
-    };
-    let base = match file
+/// The campaign file of `--config` (its protocol, problem and `[estimate]` section).
+fn campaign_file(a: &Args) -> Result<Option<compose::FileCampaign>, Failure> {
+    a.config
         .as_ref()
-        .and_then(|c| c.file.common.estimate.as_ref().map(|e| (c, e)))
-    {
-        Some((c, section)) => EstimateSettings::from_section(section, &c.file.common.path)
+        .map(|path| {
+            compose::campaign_file(path, &Default::default())
+                .map_err(|e| Failure::Runtime(e.to_string()))
+        })
+        .transpose()
+}
+
+/// The settings (defaults ← the file's `[estimate]` ← the flags) and the keys given.
+fn settings_of(
+    a: &Args,
+    file: Option<&compose::FileCampaign>,
+) -> Result<(EstimateSettings, Vec<&'static str>), Failure> {
+    let section = file.and_then(|c| c.file.common().estimate.as_ref().map(|e| (c, e)));
+    let base = match section {
+        Some((c, section)) => EstimateSettings::from_section(section, &c.file.common().path)
             .map_err(|e| Failure::Runtime(e.to_string()))?,
         None => EstimateSettings::default(),
     };
     let settings = a.settings(base).map_err(failure)?;
-    let given = a.given(file.as_ref().and_then(|c| c.file.common.estimate.as_ref()));
-    let place = match (&a.dir, a.store.database()?) {
-        (Some(_), Some(_)) => {
-            return Err(usage("give the campaign directory or --storage, not both"))
-        }
-        (None, None) => {
-            return Err(usage(
-                "give the campaign directory (or --storage URL --campaign NAME)",
-            ))
-        }
-        (Some(dir), None) => compose::Place::Dir(dir.clone()),
-        (None, Some((db, name))) => compose::Place::Database(Box::new(db), name),
-    };
+    Ok((settings, a.given(section.map(|(_, e)| e))))
+}
+
+/// The campaign to read: a directory or a database's campaign.
+fn place_of(a: &Args) -> Result<compose::Place, Failure> {
+    match (&a.dir, a.store.database()?) {
+        (Some(_), Some(_)) => Err(usage("give the campaign directory or --storage, not both")),
+        (None, None) => Err(usage(
+            "give the campaign directory (or --storage URL --campaign NAME)",
+        )),
+        (Some(dir), None) => Ok(compose::Place::Dir(dir.clone())),
+        (None, Some((db, name))) => Ok(compose::Place::Database(Box::new(db), name)),
+    }
+}
+
+/// Prints the outcome: the changed stopping rules, then the table (or `--json`).
+fn print_outcome(a: &Args, outcome: &EstimateOutcome) -> Result<(), Failure> {
+    for change in &outcome.changed_on_resume {
+        eprintln!(
+            "savme: resumed with a changed stopping rule (the runs drawn are the same): {change}"
+        );
+    }
+    if a.json {
+        return super::print(&outcome.summary_json()).map_err(Failure::Runtime);
+    }
+    super::print(&format!(
+        "{}\nwritten to {}\n",
+        outcome.table_md,
+        super::shown_path(&outcome.out)
+    ))
+    .map_err(Failure::Runtime)
+}
+
+pub fn run(a: Args) -> Result<(), Failure> {
+    let file = campaign_file(&a)?;
+    let (settings, given) = settings_of(&a, file.as_ref())?;
+    let place = place_of(&a)?;
     let source = place.source();
     let protocol = source
         .protocol()
@@ -376,9 +406,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
     // The nominals the campaign file's OpenSCENARIO files declare, under the flags' and
     // the [estimate] section's.
     let settings = match &file {
-        Some(c) => {
-            settings.with_declared(&c.file.common.scenarios.nominal, &protocol.train_scenarios)
-        }
+        Some(c) => settings.with_declared(
+            &c.file.common().scenarios.nominal,
+            &protocol.train_scenarios,
+        ),
         None => settings,
     };
     let hint = resume_hint(&a);
@@ -399,7 +430,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
         }
     };
     let outcome = match file {
-        Some(c) => configured(c.problem).run(&super::run::fmu_backend(&c.file)?),
+        Some(c) => {
+            let sim = c.file.simulator(&super::run::worker_command)?;
+            configured(c.problem).run(&sim)
+        }
         None => {
             let sim = compose::bundled_simulator(&protocol).map_err(|_| {
                 usage(format!(
@@ -415,18 +449,5 @@ pub fn run(a: Args) -> Result<(), Failure> {
         interrupted(e, &hint).unwrap_or_else(failure)
     })?;
     display.borrow_mut().finish();
-    for change in &outcome.changed_on_resume {
-        eprintln!(
-            "savme: resumed with a changed stopping rule (the runs drawn are the same): {change}"
-        );
-    }
-    if a.json {
-        return super::print(&outcome.summary_json()).map_err(Failure::Runtime);
-    }
-    super::print(&format!(
-        "{}\nwritten to {}\n",
-        outcome.table_md,
-        super::shown_path(&outcome.out)
-    ))
-    .map_err(Failure::Runtime)
+    print_outcome(&a, &outcome)
 }

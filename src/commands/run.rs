@@ -4,10 +4,11 @@ use super::{
     config_failure, resume_dir, run_campaign, run_repeated, usage, CampaignStorageArgs, Failure,
     ProtocolArgs, RunnerArgs, Target,
 };
+use savme::adapter::AnySimulator;
 use savme::campaign::store::TrialStore;
 use savme::compose;
 use savme::viewer::Frames;
-use savme_fmu::FmuBackend;
+use savme_fmu::campaign_file::FmuCampaignFile;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -47,11 +48,16 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if resume.is_some() && overrides.any() {
         return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
     }
-    let mut c = compose::fmu_file(&config, &overrides).map_err(config_failure)?;
-    c.file.init.spec.fmu_log |= a.fmu_log;
+    let mut c = compose::campaign_file(&config, &overrides).map_err(config_failure)?;
+    if a.fmu_log {
+        let Some(fmu) = c.file.as_any_mut().downcast_mut::<FmuCampaignFile>() else {
+            return Err(usage("--fmu-log: the campaign file names no FMU"));
+        };
+        fmu.init.spec.fmu_log = true;
+    }
     let out = a
         .out
-        .or(c.file.common.campaign.out.clone())
+        .or(c.file.common().campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let target = Target {
         out: match &resume {
@@ -62,7 +68,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
         remote,
     };
-    let backend = fmu_backend(&c.file)?;
+    let backend = c.file.simulator(&worker_command)?;
     let repeat = c.repeat;
     let estimate = c.estimate_settings().map_err(Failure::Runtime)?;
     // Where the [estimate] stage reads the campaign: its database, or its directory.
@@ -74,16 +80,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
     let out = target.out.clone();
-    // Recorded trials show the outputs `[fmu] record` lists (else the campaign view only).
-    let frames = if c.file.record.is_empty() {
-        Frames::None
-    } else {
-        Frames::Fmu {
-            backend: Box::new(backend.clone()),
-            record: c.file.record.clone(),
-            failure: c.file.init.spec.failure.clone(),
-        }
-    };
+    let frames = frames(c.file)?;
     run_campaign(
         c.protocol,
         c.problem.clone(),
@@ -112,7 +109,7 @@ fn run_estimate_stage(
     mut stage: compose::EstimateStage,
     config: &std::path::Path,
     quiet: bool,
-    backend: &FmuBackend,
+    backend: &AnySimulator,
 ) -> Result<(), Failure> {
     let hint = format!(
         "continue with savme run --config {} --resume {}",
@@ -137,15 +134,34 @@ fn run_estimate_stage(
     .map_err(Failure::Runtime)
 }
 
-/// The FMU simulator of a campaign file (isolated in `savme fmu-worker` processes if the
-/// file asks).
-pub fn fmu_backend(file: &savme_fmu::campaign_file::FmuCampaignFile) -> Result<FmuBackend, String> {
-    let worker = if file.isolate {
-        let exe = std::env::current_exe()
-            .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
-        Some(vec![exe.display().to_string(), "fmu-worker".into()])
+/// The worker process of a campaign file's simulator that isolates its runs: `savme
+/// fmu-worker` of this binary.
+pub fn worker_command() -> Result<Vec<String>, String> {
+    let exe = std::env::current_exe()
+        .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
+    Ok(vec![exe.display().to_string(), "fmu-worker".into()])
+}
+
+/// What recorded trials show: for an FMU campaign, the outputs `[fmu] record` lists (re-run on
+/// an FMU back end of its own); else the campaign view only. (`viewer::Frames` is still a
+/// closed enum: the FMU case is named here until the adapters give their frames.)
+fn frames(file: Box<dyn savme::adapter::FileSimulator>) -> Result<Frames, String> {
+    let Ok(fmu) = file.into_any().downcast::<FmuCampaignFile>() else {
+        return Ok(Frames::None);
+    };
+    if fmu.record.is_empty() {
+        return Ok(Frames::None);
+    }
+    let worker = if fmu.isolate {
+        Some(worker_command()?)
     } else {
         None
     };
-    FmuBackend::new(&file.init, worker, file.timeout).map_err(|e| e.to_string())
+    let backend =
+        savme_fmu::FmuBackend::new(&fmu.init, worker, fmu.timeout).map_err(|e| e.to_string())?;
+    Ok(Frames::Fmu {
+        backend: Box::new(backend),
+        record: fmu.record,
+        failure: fmu.init.spec.failure,
+    })
 }

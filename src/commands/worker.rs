@@ -4,10 +4,10 @@
 
 use super::{usage, Failure};
 use savme::adapter::simulator_of_label;
+use savme::adapter::AnySimulator;
 use savme::compose;
 use savme::postgres::worker::{work, Unavailable, WorkerOptions};
 use savme::postgres::{stored_simulator, Session};
-use savme_fmu::FmuBackend;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -46,18 +46,6 @@ pub fn run(a: Args) -> Result<(), Failure> {
             "savme worker needs --storage URL (or --storage-file FILE) and --campaign NAME",
         ));
     };
-    if a.jobs == 0 {
-        return Err(usage("--jobs: must be at least 1"));
-    }
-    let seconds = |flag: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(Duration::from_secs_f64(v))
-        } else {
-            Err(usage(format!(
-                "--{flag}: {v} is not a positive number of seconds"
-            )))
-        }
-    };
     let again = format!(
         "start it again with: savme worker {}{}",
         a.storage.flags(&db),
@@ -66,18 +54,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
             None => String::new(),
         }
     );
-    let (lease, wait_for_campaign) = (seconds("lease", a.lease)?, seconds("wait", a.wait)?);
-    let stop = super::signals::stop_on_signals_saying(
-        "stopping after the runs in flight (their results are written; the campaign goes on with the other workers); a second signal quits at once (its runs are taken over when their lease expires)",
-        &again,
-    );
-    let options = WorkerOptions {
-        jobs: a.jobs,
-        lease,
-        wait_for_campaign,
-        stop,
-        grace: seconds("grace", a.grace)?,
-    };
+    let options = options(&a, &again)?;
     let Some(label) = simulator_label(&db, &name, &options, a.quiet)? else {
         return Err(Failure::Interrupted(format!(
             "worker stopped ({}) while waiting for campaign {name:?} to be started; {again}",
@@ -86,7 +63,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let report = match (simulator_of_label(&label), &a.config) {
         (Some(sim), _) => work(&db, &name, &sim, &options),
-        (None, Some(file)) => match fmu_simulator(file, &name, &label)? {
+        (None, Some(file)) => match file_simulator(file, &name, &label)? {
             Ok(backend) => work(&db, &name, &backend, &options),
             Err(reason) => {
                 eprintln!(
@@ -122,18 +99,48 @@ pub fn run(a: Args) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The FMU simulator of campaign `name` (simulator `label`) from its campaign file on this
-/// host; `Ok(Err(reason))` if this host cannot build it (the file's FMUs are missing or do not
+/// The worker's options from the flags (each duration a positive number of seconds); Ctrl-C
+/// and SIGTERM stop it between runs (`again`: how to start it again).
+fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
+    if a.jobs == 0 {
+        return Err(usage("--jobs: must be at least 1"));
+    }
+    let seconds = |flag: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(Duration::from_secs_f64(v))
+        } else {
+            Err(usage(format!(
+                "--{flag}: {v} is not a positive number of seconds"
+            )))
+        }
+    };
+    let (lease, wait_for_campaign) = (seconds("lease", a.lease)?, seconds("wait", a.wait)?);
+    let grace = seconds("grace", a.grace)?;
+    let stop = super::signals::stop_on_signals_saying(
+        "stopping after the runs in flight (their results are written; the campaign goes on with the other workers); a second signal quits at once (its runs are taken over when their lease expires)",
+        again,
+    );
+    Ok(WorkerOptions {
+        jobs: a.jobs,
+        lease,
+        wait_for_campaign,
+        stop,
+        grace,
+    })
+}
+
+/// The simulator of campaign `name` (simulator `label`) from its campaign file on this host
+/// (for FMUs: the file's FMUs resolved here); `Ok(Err(reason))` if this host cannot build it (the file's FMUs are missing or do not
 /// load here), an error if the file is not there or describes another simulator.
-fn fmu_simulator(
+fn file_simulator(
     file: &Path,
     name: &str,
     label: &str,
-) -> Result<Result<FmuBackend, String>, Failure> {
+) -> Result<Result<AnySimulator, String>, Failure> {
     if let Err(e) = std::fs::metadata(file) {
         return Err(usage(format!("--config {}: {e}", file.display())));
     }
-    let c = match compose::fmu_file(file, &Default::default()) {
+    let c = match compose::campaign_file(file, &Default::default()) {
         Ok(c) => c,
         Err(e) => return Ok(Err(e.to_string())),
     };
@@ -144,7 +151,7 @@ fn fmu_simulator(
             c.protocol.simulator
         )));
     }
-    Ok(super::run::fmu_backend(&c.file))
+    Ok(c.file.simulator(&super::run::worker_command))
 }
 
 /// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it

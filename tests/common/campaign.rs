@@ -1,15 +1,16 @@
 //! Campaign helpers of the PostgreSQL tests (`tests/postgres.rs`, `tests/distributed.rs`):
 //! process output, trial lines from a directory or the database
 //! (without the measured wall-clock seconds, which differ run to run), `savme worker`
-//! processes.
+//! processes, and the set-up of a distributed toy campaign ([`Distributed`]).
 #![allow(dead_code)]
 
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use super::{trial_lines, without_wall, EXE};
+use super::postgres::Server;
+use super::{temp_dir, trial_lines, without_wall, EXE};
 
 /// stdout then stderr.
 pub fn text(o: &Output) -> String {
@@ -81,5 +82,115 @@ pub fn wait_until(what: &str, limit: Duration, mut ok: impl FnMut() -> bool) {
     while !ok() {
         assert!(start.elapsed() < limit, "timed out waiting for {what}");
         std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A small toy protocol, work-unit cost (`tests/distributed.rs`).
+pub const TOY: &[&str] = &[
+    "--iterations",
+    "6",
+    "--eval-iterations",
+    "2",
+    "--test-iterations",
+    "3",
+    "--baseline-iterations",
+    "4",
+    "--baseline-test-iterations",
+    "2",
+    "--cost",
+    "work",
+    "--seed",
+    "5",
+    "--quiet",
+];
+
+/// `savme toy` locally into `out` (the reference), with `extra` flags.
+pub fn toy_local(out: &Path, extra: &[&str]) -> Vec<Value> {
+    let o = Command::new(EXE)
+        .args(["toy", "--out"])
+        .arg(out)
+        .args(TOY)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    file_trials(out)
+}
+
+/// The coordinator of a toy campaign in the database, its runs done by workers.
+pub fn toy_coordinator(url: &str, name: &str, out: &Path, extra: &[&str]) -> Command {
+    let mut c = Command::new(EXE);
+    c.args([
+        "toy",
+        "--storage",
+        url,
+        "--campaign",
+        name,
+        "--remote",
+        "--out",
+    ])
+    .arg(out)
+    .args(TOY)
+    .args(extra);
+    c
+}
+
+/// A toy campaign to distribute, each run sleeping `sleep_ms`: a database on a PostgreSQL
+/// server of its own, the reference run of the same protocol made locally (`expected`, its
+/// trial lines, in `local`) and the coordinator's output directory.
+pub struct Distributed {
+    /// The server (dropped: stopped).
+    pub server: Server,
+    /// The database's URL.
+    pub url: String,
+    /// The local run's directory.
+    pub local: PathBuf,
+    /// Its trial lines, without the wall-clock seconds.
+    pub expected: Vec<Value>,
+    /// The coordinator's output directory.
+    pub out: PathBuf,
+    sleep: String,
+}
+
+impl Distributed {
+    /// Starts the server (None where PostgreSQL cannot run: `Server::start` says so loudly)
+    /// and runs the reference campaign; `name` names the server, database and directories.
+    pub fn set_up(name: &str, sleep_ms: u32) -> Option<Distributed> {
+        let server = Server::start(name)?;
+        let url = server.create_db(name);
+        let local = temp_dir(&format!("{name}-local"));
+        let sleep = sleep_ms.to_string();
+        let expected = toy_local(&local, &["--sleep-ms", &sleep]);
+        let out = temp_dir(&format!("{name}-out"));
+        Some(Distributed {
+            server,
+            url,
+            local,
+            expected,
+            out,
+            sleep,
+        })
+    }
+
+    /// The coordinator of campaign `campaign` (the same protocol, runs left to workers),
+    /// started with its standard output discarded and standard error to `stderr`.
+    pub fn coordinator(&self, campaign: &str, stderr: Stdio) -> Child {
+        toy_coordinator(&self.url, campaign, &self.out, &["--sleep-ms", &self.sleep])
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .unwrap()
+    }
+
+    /// A client of the database.
+    pub fn client(&self) -> postgres::Client {
+        postgres::Client::connect(&self.url, postgres::NoTls).unwrap()
+    }
+
+    /// Removes both directories.
+    pub fn clean(&self) {
+        for d in [&self.local, &self.out] {
+            let _ = std::fs::remove_dir_all(d);
+        }
     }
 }

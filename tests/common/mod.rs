@@ -1,8 +1,10 @@
 //! Helpers shared by the integration tests (each test file takes what it needs).
 #![allow(dead_code)]
 
+pub mod braking;
 pub mod campaign;
 pub mod postgres;
+pub mod serve;
 
 use serde_json::Value;
 use std::ffi::OsStr;
@@ -136,4 +138,14 @@ pub fn fmpy_python() -> Option<String> {
             None
         }
     }
+}
+
+/// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell, `timeout` or a
+/// scheduler does.
+pub fn send(child: &std::process::Child, signal: &str) {
+    let sent = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(sent.success());
 }

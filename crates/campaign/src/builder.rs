@@ -157,56 +157,24 @@ impl<'o> Campaign<'o> {
         for o in observers.iter_mut() {
             o.start(p);
         }
-        let stages = p.stages();
-        let mut all_lines: Vec<LogLine> = Vec::new();
-        let mut run_all = |runner: &mut dyn Runner| -> Result<(), CampaignError> {
-            let mut first = 0;
-            for (stage, logged) in stages.iter().zip(&by_stage) {
-                let logged_lines = &numbers[first..first + logged.len()];
-                first += logged.len();
-                let replayed = logged.iter().filter(|l| l.is_told()).count() as u64;
-                for o in observers.iter_mut() {
-                    o.stage(stage);
-                    if replayed > 0 {
-                        o.replaying(stage, replayed);
-                    }
-                }
-                let kernel = kernels.for_stage(stage)?;
-                let cx = StageContext {
-                    stage,
-                    logged,
-                    logged_lines,
-                    window: p.window,
-                    cost: p.cost.measure(),
-                    store: store.as_mut(),
-                    on_error: p.on_error,
-                    stop: &self.stop,
-                    edited: edited.as_ref(),
-                    screen: (stage.kind == super::StageKind::Screen).then(|| executor::Audit {
-                        seed: p.kernel_seed(&format!("audit:{}", stage.label())),
-                        fraction: p.audit_fraction,
-                    }),
-                };
-                let lines = executor::run_stage(runner, kernel, cx, |line, kernel| {
-                    for o in observers.iter_mut() {
-                        match line {
-                            LogLine::Trial(t) => o.trial(stage, t, kernel),
-                            LogLine::Screen(s) => o.screened(stage, s, kernel),
-                            LogLine::Failed(_) => {}
-                        }
-                    }
-                })?;
-                all_lines.extend(lines);
-            }
-            Ok(())
+        let mut stages = Stages {
+            protocol: p,
+            by_stage: &by_stage,
+            numbers: &numbers,
+            kernels: &mut kernels,
+            store: store.as_mut(),
+            observers,
+            stop: &self.stop,
+            edited: edited.as_ref(),
         };
-        match self.remote.take() {
-            None => executor::with_pool(sim, self.jobs, |pool| run_all(pool))?,
+        let all_lines = match self.remote.take() {
+            None => executor::with_pool(sim, self.jobs, |pool| stages.run(pool))?,
             Some(mut remote) => {
-                run_all(remote.as_mut())?;
+                let lines = stages.run(remote.as_mut())?;
                 remote.finish()?;
+                lines
             }
-        }
+        };
         // Every stored line was replayed, the edited one refused there; this is a safety net.
         if let Some(e) = &edited {
             return Err(StoreError::BadLine {
@@ -392,4 +360,66 @@ fn protocol_differences(saved: &Protocol, given: &Protocol) -> String {
         })
         .collect();
     diffs.join("; ")
+}
+
+/// The stages of a campaign run one after the other on one runner, with what they share.
+struct Stages<'a, 'o> {
+    protocol: &'a Protocol,
+    /// Each stage's stored lines (replayed, not run), in stage order.
+    by_stage: &'a [&'a [LogLine]],
+    /// The stored lines' numbers in the store, in the same order.
+    numbers: &'a [u64],
+    kernels: &'a mut StageKernels<'a>,
+    store: &'a mut dyn TrialStore,
+    observers: &'a mut [Box<dyn Observer + 'o>],
+    stop: &'a Stop,
+    edited: Option<&'a EditedLine>,
+}
+
+impl Stages<'_, '_> {
+    /// Runs (or replays) every stage on `runner`; returns every stage's lines.
+    fn run(&mut self, runner: &mut dyn Runner) -> Result<Vec<LogLine>, CampaignError> {
+        let p = self.protocol;
+        let mut all_lines = Vec::new();
+        let mut first = 0;
+        for (stage, logged) in p.stages().iter().zip(self.by_stage) {
+            let logged_lines = &self.numbers[first..first + logged.len()];
+            first += logged.len();
+            let replayed = logged.iter().filter(|l| l.is_told()).count() as u64;
+            for o in self.observers.iter_mut() {
+                o.stage(stage);
+                if replayed > 0 {
+                    o.replaying(stage, replayed);
+                }
+            }
+            let kernel = self.kernels.for_stage(stage)?;
+            let cx = StageContext {
+                stage,
+                logged,
+                logged_lines,
+                window: p.window,
+                cost: p.cost.measure(),
+                store: &mut *self.store,
+                on_error: p.on_error,
+                stop: self.stop,
+                edited: self.edited,
+                screen: (stage.kind == super::StageKind::Screen).then(|| executor::Audit {
+                    seed: p.kernel_seed(&format!("audit:{}", stage.label())),
+                    fraction: p.audit_fraction,
+                }),
+            };
+            let observers = &mut *self.observers;
+            let lines = executor::run_stage(runner, kernel, cx, |line, kernel| {
+                for o in observers.iter_mut() {
+                    match line {
+                        LogLine::Trial(t) => o.trial(stage, t, kernel),
+                        LogLine::Screen(s) => o.screened(stage, s, kernel),
+                        LogLine::Failed(_) => {}
+                    }
+                }
+            })?;
+            all_lines.extend(lines);
+        }
+        Ok(all_lines)
+    }
 }

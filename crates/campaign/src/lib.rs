@@ -10,7 +10,8 @@
 //!   [`log`]: what a trial line holds;
 //! - [`observer`]: progress displays and other watchers; [`Stop`]: asking a running campaign
 //!   to stop between trials (it resumes where it stopped);
-//! - [`report`], [`plot`], [`outputs`]: tables, figures and files computed from the trials.
+//! - [`report`], [`figures`] (drawn by savme-plot), [`outputs`]: tables, figures and files
+//!   computed from the trials.
 //!
 //! ```no_run
 //! use savme_campaign::{Campaign, Problem, Protocol};
@@ -31,11 +32,11 @@ pub mod config;
 mod error;
 pub mod estimate;
 pub mod executor;
+pub mod figures;
 mod kernels;
 pub mod log;
 pub mod observer;
 pub mod outputs;
-pub mod plot;
 pub mod protocol;
 mod repeat;
 pub mod report;

@@ -2,7 +2,7 @@
 //! written at the end — `table.md`, `fidelity.md`, `summary.json` and the figures.
 
 use super::log::TrialLine;
-use super::{plot, CampaignError, Problem, Protocol, Report};
+use super::{figures, CampaignError, Problem, Protocol, Report};
 use std::path::{Path, PathBuf};
 
 /// The layout version of the files a campaign writes (defined with the protocol, which
@@ -153,8 +153,8 @@ pub(crate) fn write(
         &files.summary,
         serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
     )?;
-    plot::breakeven(&files.breakeven, &report.protocol, lines)?;
-    plot::meta_testing(&files.meta_testing, &report.protocol, lines)?;
+    figures::breakeven(&files.breakeven, &report.protocol, lines)?;
+    figures::meta_testing(&files.meta_testing, &report.protocol, lines)?;
     Ok(())
 }
 
@@ -188,7 +188,7 @@ pub(crate) fn write_repeated(
         &out.join("summary.json"),
         serde_json::to_string_pretty(&summary).unwrap_or_default() + "\n",
     )?;
-    plot::bands::breakeven(&out.join("breakeven.png"), &report.protocol, runs)?;
-    plot::bands::meta_testing(&out.join("meta_testing.png"), &report.protocol, runs)?;
+    figures::breakeven_bands(&out.join("breakeven.png"), &report.protocol, runs)?;
+    figures::meta_testing_bands(&out.join("meta_testing.png"), &report.protocol, runs)?;
     Ok(())
 }

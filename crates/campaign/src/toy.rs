@@ -24,7 +24,7 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;
 use savme_kernel::{
-    Assignment, KernelBuilder, Scale, SimError, SimResult, Simulator, Space, Variable,
+    Assignment, KernelBuilder, Role, Scale, SimError, SimResult, Simulator, Space, Variable,
 };
 use std::time::Instant;
 
@@ -235,8 +235,9 @@ fn collides(s: &Scenario, f: &Fidelity, rng: &mut Pcg64, normal: &Normal<f64>) -
 }
 
 impl Simulator for ToySimulator {
-    fn simulate(
+    fn simulate_as(
         &mut self,
+        _role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
@@ -268,15 +269,16 @@ pub struct Sleeping<S> {
 }
 
 impl<S: Simulator> Simulator for Sleeping<S> {
-    fn simulate(
+    fn simulate_as(
         &mut self,
+        role: Role,
         scenario: &str,
         phi: &Assignment,
         fidelity: &Assignment,
     ) -> Result<SimResult, SimError> {
         let start = Instant::now();
         std::thread::sleep(self.sleep);
-        let mut r = self.inner.simulate(scenario, phi, fidelity)?;
+        let mut r = self.inner.simulate_as(role, scenario, phi, fidelity)?;
         r.wall_seconds = start.elapsed().as_secs_f64();
         Ok(r)
     }
@@ -288,8 +290,9 @@ impl<S: Simulator> Simulator for Sleeping<S> {
 pub struct NullSimulator;
 
 impl Simulator for NullSimulator {
-    fn simulate(
+    fn simulate_as(
         &mut self,
+        _role: Role,
         _scenario: &str,
         _phi: &Assignment,
         _fidelity: &Assignment,
@@ -303,7 +306,9 @@ mod tests {
     use super::*;
 
     fn run(scenario: &str, phi: &Assignment, theta: &Assignment) -> SimResult {
-        ToySimulator.simulate(scenario, phi, theta).unwrap()
+        ToySimulator
+            .simulate_as(Role::High, scenario, phi, theta)
+            .unwrap()
     }
 
     #[test]
@@ -355,15 +360,17 @@ mod tests {
         let (_, hf) = fidelity();
         let phi = Assignment::new().with("ego_speed", 10.0);
         let e = ToySimulator
-            .simulate("stopped_obstacle", &phi, &hf)
+            .simulate_as(Role::High, "stopped_obstacle", &phi, &hf)
             .unwrap_err();
         assert!(e.to_string().contains("gap"), "{e}");
-        let e = ToySimulator.simulate("nope", &phi, &hf).unwrap_err();
+        let e = ToySimulator
+            .simulate_as(Role::High, "nope", &phi, &hf)
+            .unwrap_err();
         assert!(matches!(e, SimError::UnknownScenario(_)));
         let bad = hf.clone().with("integrator", "leapfrog");
         let full = phi.with("gap", 50.0);
         let e = ToySimulator
-            .simulate("stopped_obstacle", &full, &bad)
+            .simulate_as(Role::High, "stopped_obstacle", &full, &bad)
             .unwrap_err();
         assert!(e.to_string().contains("integrator"), "{e}");
     }

@@ -26,7 +26,7 @@ use crate::{
 };
 use savme_campaign::executor::simulate;
 use savme_campaign::Stop;
-use savme_kernel::{Assignment, SimError, SimResult, Simulator};
+use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use savme_store::StoreError;
 use std::collections::HashSet;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -71,9 +71,9 @@ impl Default for WorkerOptions {
 ///
 /// ```
 /// use savme_postgres::worker::Unavailable;
-/// use savme_kernel::{Assignment, Simulator};
+/// use savme_kernel::{Assignment, Role, Simulator};
 /// let mut sim = Unavailable::new("cannot open /opt/fmus/car.fmu".into(), std::time::Duration::ZERO);
-/// let e = sim.simulate("s", &Assignment::new(), &Assignment::new()).unwrap_err();
+/// let e = sim.simulate_as(Role::High, "s", &Assignment::new(), &Assignment::new()).unwrap_err();
 /// assert!(e.to_string().contains("cannot open /opt/fmus/car.fmu"));
 /// ```
 #[derive(Debug, Clone)]
@@ -97,8 +97,9 @@ impl Unavailable {
 }
 
 impl Simulator for Unavailable {
-    fn simulate(
+    fn simulate_as(
         &mut self,
+        _role: Role,
         _scenario: &str,
         _phi: &Assignment,
         _fidelity: &Assignment,

@@ -288,6 +288,87 @@ struct Pilot {
     failed: BTreeMap<u64, (usize, f64, Vec<usize>)>,
 }
 
+/// ε in (0, 1], and a refinement with rounds and runs, reusing at most its rounds.
+fn check_settings(config: &EstimationConfig) -> Result<(), EstimationError> {
+    let eps = config.epsilon;
+    if !(eps > 0.0 && eps <= 1.0) {
+        return Err(EstimationError::BadEpsilon(eps));
+    }
+    if let Some(Refine {
+        rounds,
+        runs,
+        reuse,
+    }) = config.refine
+    {
+        if rounds == 0 || runs == 0 {
+            return Err(EstimationError::BadRefine { rounds, runs });
+        }
+        if reuse > rounds {
+            return Err(EstimationError::BadReuse { reuse, rounds });
+        }
+    }
+    Ok(())
+}
+
+/// Every scenario and variable a declared nominal names exists (`names`: the scenarios').
+fn check_nominal_names(
+    scenarios: &[(Scenario, Posterior)],
+    config: &EstimationConfig,
+    names: &[Arc<str>],
+) -> Result<(), EstimationError> {
+    for (scenario, vars) in &config.nominal {
+        let Some((s, _)) = scenarios.iter().find(|(s, _)| &*s.name == scenario) else {
+            return Err(EstimationError::UnknownScenario {
+                scenario: scenario.clone(),
+                known: names.join(", "),
+            });
+        };
+        for variable in vars.keys() {
+            if s.space.variable(variable).is_none() {
+                let known: Vec<&str> = s.space.variables().iter().map(|v| &*v.name).collect();
+                return Err(EstimationError::UnknownVariable {
+                    scenario: scenario.clone(),
+                    variable: variable.clone(),
+                    known: known.join(", "),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Scenario `s`'s frozen proposal: its posterior mixed with its nominal (declared per
+/// variable, else uniform on the variable's scale).
+fn proposal_of(
+    s: &Scenario,
+    posterior: &Posterior,
+    config: &EstimationConfig,
+) -> Result<Proposal, EstimationError> {
+    posterior
+        .check_fits(&s.space)
+        .map_err(|e| EstimationError::Posterior {
+            scenario: s.name.to_string(),
+            message: e.to_string(),
+        })?;
+    let declared = config.nominal.get(&*s.name);
+    let nominal = s
+        .space
+        .variables()
+        .iter()
+        .map(|v| {
+            let n = declared.and_then(|d| d.get(&*v.name)).cloned();
+            NominalOf::new(&n.unwrap_or_default(), &s.name, v)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Proposal::new(
+        &s.space,
+        posterior,
+        nominal,
+        config.epsilon,
+        config.tilt,
+    ))
+}
+
 impl Estimation {
     /// Freezes a proposal for each scenario from its posterior p_ψ(φ | s). Errors name the
     /// bad ε, scenario or variable.
@@ -295,71 +376,16 @@ impl Estimation {
         scenarios: &[(Scenario, Posterior)],
         config: &EstimationConfig,
     ) -> Result<Estimation, EstimationError> {
-        let eps = config.epsilon;
-        if !(eps > 0.0 && eps <= 1.0) {
-            return Err(EstimationError::BadEpsilon(eps));
-        }
-        if let Some(Refine {
-            rounds,
-            runs,
-            reuse,
-        }) = config.refine
-        {
-            if rounds == 0 || runs == 0 {
-                return Err(EstimationError::BadRefine { rounds, runs });
-            }
-            if reuse > rounds {
-                return Err(EstimationError::BadReuse { reuse, rounds });
-            }
-        }
+        check_settings(config)?;
         if scenarios.is_empty() {
             return Err(EstimationError::NoScenarios);
         }
         let names: Vec<Arc<str>> = scenarios.iter().map(|(s, _)| s.name.clone()).collect();
-        for (scenario, vars) in &config.nominal {
-            let Some((s, _)) = scenarios.iter().find(|(s, _)| &*s.name == scenario) else {
-                return Err(EstimationError::UnknownScenario {
-                    scenario: scenario.clone(),
-                    known: names.join(", "),
-                });
-            };
-            for variable in vars.keys() {
-                if s.space.variable(variable).is_none() {
-                    let known: Vec<&str> = s.space.variables().iter().map(|v| &*v.name).collect();
-                    return Err(EstimationError::UnknownVariable {
-                        scenario: scenario.clone(),
-                        variable: variable.clone(),
-                        known: known.join(", "),
-                    });
-                }
-            }
-        }
-        let mut proposals = Vec::with_capacity(scenarios.len());
-        for (s, posterior) in scenarios {
-            posterior
-                .check_fits(&s.space)
-                .map_err(|e| EstimationError::Posterior {
-                    scenario: s.name.to_string(),
-                    message: e.to_string(),
-                })?;
-            let declared = config.nominal.get(&*s.name);
-            let nominal = s
-                .space
-                .variables()
-                .iter()
-                .map(|v| {
-                    let n = declared.and_then(|d| d.get(&*v.name)).cloned();
-                    NominalOf::new(&n.unwrap_or_default(), &s.name, v)
-                })
-                .collect::<Result<Vec<_>, _>>()?;
-            proposals.push(Proposal::new(
-                &s.space,
-                posterior,
-                nominal,
-                eps,
-                config.tilt,
-            ));
-        }
+        check_nominal_names(scenarios, config, &names)?;
+        let proposals = scenarios
+            .iter()
+            .map(|(s, posterior)| proposal_of(s, posterior, config))
+            .collect::<Result<Vec<_>, _>>()?;
         let total: f64 = scenarios.iter().map(|(s, _)| s.weight).sum();
         let pilot = config.refine.map(|refine| Pilot {
             refine,

@@ -122,6 +122,36 @@ impl EstimateProgress<'_> {
     }
 }
 
+/// What [`EstimateRun::run`] checked and built before running anything.
+struct Prepared {
+    protocol: Protocol,
+    out: PathBuf,
+    settings: EstimateSettings,
+    /// The stopping rules changed on resume, in words.
+    changed: Vec<String>,
+    trained: posterior::Trained,
+    estimation: Estimation,
+}
+
+/// A resumed estimate must be allowed at least the runs it already holds.
+fn fits_max_runs(
+    replayed: u64,
+    settings: &EstimateSettings,
+    out: &Path,
+) -> Result<(), EstimateError> {
+    if replayed <= settings.max_runs {
+        return Ok(());
+    }
+    Err(EstimateError::Setting {
+        key: "max_runs".into(),
+        message: format!(
+            "{} already holds {replayed} runs; a resumed estimate needs max_runs ≥ {replayed}, got {}",
+            out.display(),
+            settings.max_runs
+        ),
+    })
+}
+
 impl<'p> EstimateRun<'p> {
     /// An estimate of `campaign` (a directory: [`DirSource`](crate::source::DirSource); or
     /// any [`CampaignSource`]), whose problem is `problem`, with `settings` (one worker).
@@ -209,27 +239,14 @@ impl<'p> EstimateRun<'p> {
     where
         S: Simulator + Clone + Send,
     {
-        let protocol = self.campaign.protocol()?;
-        let out = self.out_dir(&protocol)?;
-        super::outputs::usable_dir(&out)?;
-        let (settings, changed) = self.settings_for(&out)?;
-        settings.validate()?;
-        let problem = self.problem.clone();
-        let budget = settings.budget.unwrap_or(protocol.budgets[0]);
-        let lines = self.campaign.lines()?;
-        let (location, at) = (self.campaign.location(), self.campaign.lines_location());
-        let trained = posterior::trained(
-            &location,
-            (&at, &lines),
-            &protocol,
-            &problem,
-            budget,
-            &settings,
-        )?;
-        let config = settings.config(settings.seed.unwrap_or_else(|| {
-            protocol.kernel_seed(&format!("estimate@{}", crate::protocol::Compact(budget)))
-        }));
-        let mut estimation = Estimation::new(&trained.scenarios, &config)?;
+        let Prepared {
+            protocol,
+            out,
+            settings,
+            changed,
+            trained,
+            mut estimation,
+        } = self.prepare()?;
         if !self.resume {
             create(&out, &settings)?;
         }
@@ -237,16 +254,7 @@ impl<'p> EstimateRun<'p> {
         let started = std::time::Instant::now();
         let mut lines = replay(&mut store, &mut estimation)?;
         let replayed = lines.len() as u64;
-        if replayed > settings.max_runs {
-            return Err(EstimateError::Setting {
-                key: "max_runs".into(),
-                message: format!(
-                    "{} already holds {replayed} runs; a resumed estimate needs max_runs ≥ {replayed}, got {}",
-                    out.display(),
-                    settings.max_runs
-                ),
-            });
-        }
+        fits_max_runs(replayed, &settings, &out)?;
         if !changed.is_empty() {
             create(&out, &settings)?;
         }
@@ -258,8 +266,7 @@ impl<'p> EstimateRun<'p> {
             rounds: settings.refine_rounds,
         };
         report.call(&estimation);
-        let reason = stop_reason(&estimation, &settings);
-        let reason = match reason {
+        let reason = match stop_reason(&estimation, &settings) {
             Some(r) => r,
             None => {
                 let mut run = Running {
@@ -268,7 +275,7 @@ impl<'p> EstimateRun<'p> {
                     store: &mut store,
                     lines: &mut lines,
                     cost: protocol.cost.measure(),
-                    theta_hf: &problem.theta_hf,
+                    theta_hf: &self.problem.theta_hf,
                     report: &mut report,
                     stop: &self.stop,
                 };
@@ -276,7 +283,7 @@ impl<'p> EstimateRun<'p> {
             }
         };
         drop(store);
-        let outcome = output::EstimateOutcome::new(
+        let mut outcome = output::EstimateOutcome::new(
             &estimation,
             &settings,
             &trained,
@@ -286,10 +293,42 @@ impl<'p> EstimateRun<'p> {
             started.elapsed().as_secs_f64(),
             out,
         );
-        let mut outcome = outcome;
         outcome.changed_on_resume = changed;
         outcome.write()?;
         Ok(outcome)
+    }
+
+    /// Everything checked before a run: the campaign's protocol, the output directory, the
+    /// settings (stored ones on resume), the trained posteriors and the estimation.
+    fn prepare(&self) -> Result<Prepared, EstimateError> {
+        let protocol = self.campaign.protocol()?;
+        let out = self.out_dir(&protocol)?;
+        super::outputs::usable_dir(&out)?;
+        let (settings, changed) = self.settings_for(&out)?;
+        settings.validate()?;
+        let budget = settings.budget.unwrap_or(protocol.budgets[0]);
+        let lines = self.campaign.lines()?;
+        let (location, at) = (self.campaign.location(), self.campaign.lines_location());
+        let trained = posterior::trained(
+            &location,
+            (&at, &lines),
+            &protocol,
+            &self.problem,
+            budget,
+            &settings,
+        )?;
+        let config = settings.config(settings.seed.unwrap_or_else(|| {
+            protocol.kernel_seed(&format!("estimate@{}", crate::protocol::Compact(budget)))
+        }));
+        let estimation = Estimation::new(&trained.scenarios, &config)?;
+        Ok(Prepared {
+            protocol,
+            out,
+            settings,
+            changed,
+            trained,
+            estimation,
+        })
     }
 
     /// The settings to run with: the stored ones on resume (with the given stopping rules

@@ -20,51 +20,31 @@ pub(crate) struct Trained {
     pub scenario_runs: u64,
 }
 
+/// The trial lines of a campaign with the name of their store (for errors).
+type Lines<'a> = (&'a str, &'a [(u64, crate::log::LogLine)]);
+
+/// Per scenario, the stage that taught it and how many trials that stage tells.
+type Stages = BTreeMap<String, (String, u64)>;
+
 /// Rebuilds the posteriors at `budget` from the campaign's `trials.jsonl`: every learning
 /// trial's logged scenario credit, on the kernels' uniform prior (exactly the kernel's update).
 pub(crate) fn trained(
     campaign: &str,
-    (lines_store, lines): (&str, &[(u64, crate::log::LogLine)]),
+    lines: Lines<'_>,
     protocol: &Protocol,
     problem: &Problem,
     budget: f64,
     settings: &EstimateSettings,
 ) -> Result<Trained, EstimateError> {
-    if !protocol.budgets.contains(&budget) {
-        let known: Vec<String> = protocol.budgets.iter().map(f64::to_string).collect();
-        return Err(EstimateError::UnknownBudget {
-            budget,
-            known: known.join(", "),
-        });
-    }
-    let train = format!("train@{}", Compact(budget));
-    let test = format!("test-learned@{}", Compact(budget));
-    let learned_in = |name: &str| {
-        if protocol.train_scenarios.iter().any(|s| s == name) {
-            Some((train.clone(), protocol.train_iterations))
-        } else if protocol.test_scenarios.iter().any(|s| s == name) {
-            Some((test.clone(), protocol.test_iterations))
-        } else {
-            None
-        }
-    };
     let names = if settings.scenarios.is_empty() {
         protocol.train_scenarios.clone()
     } else {
         settings.scenarios.clone()
     };
-    let mut stages = BTreeMap::new();
-    for name in &names {
-        let stage = learned_in(name).ok_or_else(|| EstimateError::UnknownScenario {
-            name: name.clone(),
-            known: [&protocol.train_scenarios[..], &protocol.test_scenarios[..]]
-                .concat()
-                .join(", "),
-        })?;
-        stages.insert(name.clone(), stage);
-    }
+    let stages = learning_stages(protocol, budget, &names)?;
     let told_in = |stage: &str| {
         lines
+            .1
             .iter()
             .filter(|(_, l)| l.stage() == stage && l.is_told())
             .count() as u64
@@ -83,27 +63,7 @@ pub(crate) fn trained(
     let mut scenarios = untrained(&names, protocol, problem)?;
     let mut scenario_runs = 0;
     for (scenario, posterior) in &mut scenarios {
-        let (name, space) = (&*scenario.name, &scenario.space);
-        let stage = &stages[name].0;
-        for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
-            if &t.stage != stage || t.scenario != name {
-                continue;
-            }
-            scenario_runs += 1;
-            if let Some(ok) = t.credit.scenario {
-                let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
-                    store: lines_store.to_string(),
-                    line: line as usize,
-                    message: format!(
-                        "{stage} trial {}: φ outside the scenario (a campaign file other than \
-                         the campaign's?): {e}",
-                        t.index
-                    ),
-                })?;
-                let arms: Vec<u16> = arms.iter().map(|&a| a as u16).collect();
-                posterior.update(&arms, ok);
-            }
-        }
+        scenario_runs += learn(scenario, posterior, &stages[&*scenario.name].0, lines)?;
     }
     let used: std::collections::BTreeSet<&String> = stages.values().map(|(s, _)| s).collect();
     Ok(Trained {
@@ -112,6 +72,77 @@ pub(crate) fn trained(
         stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
         scenarios,
     })
+}
+
+/// The stage that taught each of `names` at `budget` (`train@b` for a meta-training scenario,
+/// `test-learned@b` for a meta-testing one) and its iterations; an unknown budget or scenario
+/// is refused, listing the known ones.
+fn learning_stages(
+    protocol: &Protocol,
+    budget: f64,
+    names: &[String],
+) -> Result<Stages, EstimateError> {
+    if !protocol.budgets.contains(&budget) {
+        let known: Vec<String> = protocol.budgets.iter().map(f64::to_string).collect();
+        return Err(EstimateError::UnknownBudget {
+            budget,
+            known: known.join(", "),
+        });
+    }
+    let train = format!("train@{}", Compact(budget));
+    let test = format!("test-learned@{}", Compact(budget));
+    let learned_in = |name: &str| {
+        if protocol.train_scenarios.iter().any(|s| s == name) {
+            Some((train.clone(), protocol.train_iterations))
+        } else if protocol.test_scenarios.iter().any(|s| s == name) {
+            Some((test.clone(), protocol.test_iterations))
+        } else {
+            None
+        }
+    };
+    let mut stages = BTreeMap::new();
+    for name in names {
+        let stage = learned_in(name).ok_or_else(|| EstimateError::UnknownScenario {
+            name: name.clone(),
+            known: [&protocol.train_scenarios[..], &protocol.test_scenarios[..]]
+                .concat()
+                .join(", "),
+        })?;
+        stages.insert(name.clone(), stage);
+    }
+    Ok(stages)
+}
+
+/// Updates `posterior` with the scenario credit of every trial of `scenario` in `stage`;
+/// returns how many trials of it the stage told.
+fn learn(
+    scenario: &Scenario,
+    posterior: &mut Posterior,
+    stage: &str,
+    (store, lines): Lines<'_>,
+) -> Result<u64, EstimateError> {
+    let (name, space) = (&*scenario.name, &scenario.space);
+    let mut runs = 0;
+    for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
+        if t.stage != stage || t.scenario != name {
+            continue;
+        }
+        runs += 1;
+        if let Some(ok) = t.credit.scenario {
+            let arms = space.arms_of(&t.phi).map_err(|e| CampaignError::Log {
+                store: store.to_string(),
+                line: line as usize,
+                message: format!(
+                    "{stage} trial {}: φ outside the scenario (a campaign file other than \
+                     the campaign's?): {e}",
+                    t.index
+                ),
+            })?;
+            let arms: Vec<u16> = arms.iter().map(|&a| a as u16).collect();
+            posterior.update(&arms, ok);
+        }
+    }
+    Ok(runs)
 }
 
 /// The scenarios `names` with their weights p(s) and posteriors at the kernels' uniform prior

@@ -2,6 +2,7 @@
 //! values, the Wilson score interval on a binomial proportion, and quantile bands of curves.
 //! The distributions come from `statrs`.
 
+use savme_plot::Band;
 use serde::Serialize;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
@@ -129,37 +130,29 @@ pub fn quantile(values: &[f64], q: f64) -> Option<f64> {
     Some(v[i] + frac * (next - v[i]))
 }
 
-/// Per-point median and range of several curves sampled on a common grid: for each grid
-/// point the median, minimum and maximum over the curves.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Band {
-    /// The grid.
-    pub x: Vec<f64>,
-    /// Median over the curves at each grid point.
-    pub median: Vec<f64>,
-    /// Smallest value.
-    pub lo: Vec<f64>,
-    /// Largest value.
-    pub hi: Vec<f64>,
-}
-
-impl Band {
-    /// The band of `curves` (each a function of x) on `grid`.
-    pub fn of(grid: &[f64], curves: &[&dyn Fn(f64) -> f64]) -> Band {
-        let mut b = Band {
-            x: grid.to_vec(),
-            median: Vec::with_capacity(grid.len()),
-            lo: Vec::with_capacity(grid.len()),
-            hi: Vec::with_capacity(grid.len()),
-        };
-        for &x in grid {
-            let ys: Vec<f64> = curves.iter().map(|c| c(x)).collect();
-            b.median.push(quantile(&ys, 0.5).unwrap_or(0.0));
-            b.lo.push(quantile(&ys, 0.0).unwrap_or(0.0));
-            b.hi.push(quantile(&ys, 1.0).unwrap_or(0.0));
-        }
-        b
+/// The median, minimum and maximum of several curves (each a function of x) at each point of
+/// `grid`: what a repeated campaign's figures draw (savme-plot's [`Band`]).
+///
+/// ```
+/// use savme_campaign::report::intervals::band;
+/// let (a, b, c) = (|x: f64| x, |x: f64| 2.0 * x, |x: f64| 4.0 * x);
+/// let band = band(&[0.0, 1.0], &[&a, &b, &c]);
+/// assert_eq!((band.median[1], band.lo[1], band.hi[1]), (2.0, 1.0, 4.0));
+/// ```
+pub fn band(grid: &[f64], curves: &[&dyn Fn(f64) -> f64]) -> Band {
+    let mut b = Band {
+        x: grid.to_vec(),
+        median: Vec::with_capacity(grid.len()),
+        lo: Vec::with_capacity(grid.len()),
+        hi: Vec::with_capacity(grid.len()),
+    };
+    for &x in grid {
+        let ys: Vec<f64> = curves.iter().map(|c| c(x)).collect();
+        b.median.push(quantile(&ys, 0.5).unwrap_or(0.0));
+        b.lo.push(quantile(&ys, 0.0).unwrap_or(0.0));
+        b.hi.push(quantile(&ys, 1.0).unwrap_or(0.0));
     }
+    b
 }
 
 #[cfg(test)]
@@ -209,7 +202,7 @@ mod tests {
     #[test]
     fn a_band_holds_the_median_and_range_of_its_curves() {
         let (a, b, c) = (|x: f64| x, |x: f64| 2.0 * x, |x: f64| 4.0 * x);
-        let band = Band::of(&[0.0, 1.0, 2.0], &[&a, &b, &c]);
+        let band = band(&[0.0, 1.0, 2.0], &[&a, &b, &c]);
         assert_eq!(band.median, [0.0, 2.0, 4.0]);
         assert_eq!(band.lo, [0.0, 1.0, 2.0]);
         assert_eq!(band.hi, [0.0, 4.0, 8.0]);

@@ -3,7 +3,8 @@
 //! beside it, and binomial (Wilson) intervals on the TP-rate and the baseline failure rate.
 
 use super::intervals::Interval;
-use super::{cost_name, scenarios, Report};
+use super::text::{cost_name, scenarios};
+use super::Report;
 use crate::protocol::Protocol;
 use serde::Serialize;
 use std::fmt::Write as _;

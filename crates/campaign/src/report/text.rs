@@ -1,0 +1,398 @@
+//! What a report says in words: Table III (`table.md`), Table IV (`fidelity.md`), the
+//! findings printed at the end of a campaign, and how costs, durations and probabilities are
+//! written for people.
+
+use super::{intervals, Report};
+use crate::protocol::{Cost, Protocol};
+use savme_kernel::{Assignment, Space};
+use std::fmt::Write as _;
+
+impl Report {
+    /// Table III: baseline and each budget's TP-rate, mean LF cost and speedup (Markdown),
+    /// followed by [`TABLE_III_LEGEND`].
+    pub fn table_md(&self) -> String {
+        let p = &self.protocol;
+        let mut s = String::new();
+        let _ = writeln!(s, "# Meta-training results (the paper's Table III)\n");
+        let _ = writeln!(
+            s,
+            "Evaluation: {} trials per budget with θ_LF = MAP of p_ω and φ ~ p_ψ, after {} \
+             meta-training iterations on {}. Baseline: {} trials with φ uniform, \
+             high fidelity only. Cost: {}. Seed {}. {}\n",
+            p.eval_iterations,
+            p.train_iterations,
+            scenarios(p.train_scenarios.len()),
+            p.baseline_train_iterations,
+            cost_name(p.cost),
+            p.seed,
+            simulated(p)
+        );
+        let _ = writeln!(
+            s,
+            "| C_budget | TP-rate | mean LF cost | speedup | TP-rate 95 % interval (Wilson) |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|");
+        let wilson = |k: u64, n: u64| match intervals::Interval::wilson(k, n) {
+            Some(intervals::Interval {
+                lo: Some(lo),
+                hi: Some(hi),
+                ..
+            }) => format!("[{lo:.2}, {hi:.2}]"),
+            _ => "–".into(),
+        };
+        match &self.baseline_train {
+            Some(b) => {
+                let _ = writeln!(
+                    s,
+                    "| baseline | {:.2} | 1.00 | 1.00 | {} |",
+                    b.failure_rate,
+                    wilson(b.failures, b.trials)
+                );
+            }
+            None => {
+                let _ = writeln!(s, "| baseline | – | – | – | – |");
+            }
+        }
+        for b in &self.budgets {
+            match &b.evaluation {
+                Some(e) => {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {:.2} | {:.2} | {} | {} |",
+                        b.budget,
+                        e.tp_rate,
+                        e.mean_lf_cost,
+                        e.speedup.map_or("–".into(), |x| format!("{x:.2}")),
+                        wilson(e.tp, e.trials)
+                    );
+                }
+                None => {
+                    let _ = writeln!(s, "| {} | – | – | – | – |", b.budget);
+                }
+            }
+        }
+        let _ = writeln!(s, "\n{TABLE_III_LEGEND}");
+        s
+    }
+
+    /// Table IV: the learned fidelity setting per budget next to θ_HF (Markdown).
+    pub fn fidelity_md(&self, space: &Space, theta_hf: &Assignment) -> String {
+        let mut s = String::new();
+        let _ = writeln!(s, "# Learned fidelity settings (the paper's Table IV)\n");
+        let _ = writeln!(
+            s,
+            "θ_LF* = MAP of p_ω after meta-training, per budget. Continuous settings show the \
+             representative value of the chosen bin, with the bin in brackets. {}\n",
+            simulated(&self.protocol)
+        );
+        let _ = write!(s, "| setting | θ_HF |");
+        for b in &self.budgets {
+            let _ = write!(s, " C_budget = {} |", b.budget);
+        }
+        let _ = writeln!(s);
+        let _ = write!(s, "|---|---|");
+        for _ in &self.budgets {
+            let _ = write!(s, "---|");
+        }
+        let _ = writeln!(s);
+        for var in space.variables() {
+            let name: &str = &var.name;
+            let hf = theta_hf
+                .get(name)
+                .map_or("–".into(), |v| format_value(var, v, false));
+            if ignored(&self.protocol, name) {
+                let _ = write!(s, "| {name} (ignored: not learned) | {hf} |");
+            } else {
+                let _ = write!(s, "| {name} | {hf} |");
+            }
+            for b in &self.budgets {
+                let v = b
+                    .evaluation
+                    .as_ref()
+                    .and_then(|e| e.theta_star.as_ref())
+                    .and_then(|t| t.get(name))
+                    .map_or("–".into(), |v| format_value(var, v, true));
+                let _ = write!(s, " {v} |");
+            }
+            let _ = writeln!(s);
+        }
+        s
+    }
+
+    /// The human summary printed at the end: break-even times, meta-testing gains, the
+    /// screening stage and the prior-strength ablation.
+    pub fn findings_text(&self) -> String {
+        let mut s = String::new();
+        self.break_even_text(&mut s);
+        self.meta_testing_text(&mut s);
+        self.screening_text(&mut s);
+        self.ablation_text(&mut s);
+        s
+    }
+
+    fn break_even_text(&self, s: &mut String) {
+        let _ = writeln!(
+            s,
+            "Break-even (meta-training vs baseline, every run charged):"
+        );
+        for b in &self.budgets {
+            let text = match b.training.as_ref().map(|t| t.break_even) {
+                Some(Some(t)) => format!("after {}", format_cost(self.protocol.cost, t)),
+                Some(None) => "not reached within the common runtime".into(),
+                None => "not run".into(),
+            };
+            let _ = writeln!(s, "  C_budget = {}: {text}", b.budget);
+        }
+    }
+
+    fn meta_testing_text(&self, s: &mut String) {
+        let p = &self.protocol;
+        let _ = writeln!(
+            s,
+            "Meta-testing (scenarios {}), failures found by the same runtime, learned vs uniform \
+             fidelity prior vs baseline:",
+            p.test_scenarios.join(", ")
+        );
+        for b in &self.budgets {
+            let Some(m) = &b.meta_testing else {
+                let _ = writeln!(s, "  C_budget = {}: not run", b.budget);
+                continue;
+            };
+            for (what, f) in [
+                ("every run charged", &m.all_runs),
+                ("LF runs only (TP)", &m.lf_only),
+                ("LF screening, HF confirms (TP)", &m.screened),
+            ] {
+                let _ = writeln!(
+                    s,
+                    "  C_budget = {}, {what}: {} vs {} vs {} by {} — {} over the uniform prior, {} over the baseline",
+                    b.budget,
+                    f.learned,
+                    f.uniform,
+                    f.baseline,
+                    format_cost(p.cost, f.horizon),
+                    percent(f.gain_vs_uniform),
+                    percent(f.gain_vs_baseline)
+                );
+            }
+        }
+    }
+
+    fn screening_text(&self, s: &mut String) {
+        for b in &self.budgets {
+            if let Some(x) = &b.screening {
+                let times = |v: Option<f64>| v.map_or("n/a".into(), |v| format!("{v:.2} ×"));
+                let _ = writeln!(
+                    s,
+                    "LF screening with HF confirmation, C_budget = {}: {} confirmed of {} LF failures in {} trials ({}); {} vs the paired evaluation, {} vs the baseline; audit {} of {} LF passes (α = {}): miss rate {}",
+                    b.budget,
+                    x.counts.confirmed,
+                    x.counts.lf_failures,
+                    x.counts.trials,
+                    format_cost(self.protocol.cost, x.counts.runtime()),
+                    times(x.vs_paired),
+                    times(x.vs_baseline),
+                    x.counts.audit_misses,
+                    x.counts.audited,
+                    x.audit_fraction,
+                    x.miss_rate.map_or("n/a".into(), |i| i.show(3)),
+                );
+            }
+        }
+    }
+
+    fn ablation_text(&self, s: &mut String) {
+        let ablations: Vec<_> = self
+            .budgets
+            .iter()
+            .filter_map(|b| b.ablation.as_ref().map(|a| (b.budget, a)))
+            .collect();
+        if !ablations.is_empty() {
+            let _ = writeln!(
+                s,
+                "Prior-strength ablation (failures by the common runtime, every run charged; gain over strength 0 = uniform prior):"
+            );
+        }
+        for (budget, a) in ablations {
+            let rows: Vec<String> = a
+                .rows
+                .iter()
+                .map(|r| {
+                    let gain = percent(r.gain_all_runs);
+                    format!("{}: {} ({gain})", r.strength, r.all_runs)
+                })
+                .collect();
+            let _ = writeln!(s, "  C_budget = {budget}: {}", rows.join(", "));
+        }
+    }
+}
+
+/// A gain as a signed percentage (`+59 %`), `n/a` when there is none.
+fn percent(g: Option<f64>) -> String {
+    g.map_or("n/a".into(), |g| format!("{:+.0} %", 100.0 * g))
+}
+
+/// What Table III's columns mean, written under it (`table.md`, the printed table) so that
+/// its numbers can be read without the paper or the code.
+pub const TABLE_III_LEGEND: &str = "TP-rate: the share of evaluation trials whose HF and LF \
+runs both fail (for the baseline: its HF failure rate). Mean LF cost: the LF run's cost over \
+its HF run's, averaged over the evaluation trials. Speedup = (TP-rate / mean LF cost) / \
+baseline failure rate (the paper's definition): how many times more failures per unit of \
+runtime the learned fidelity alone finds than the HF-only baseline.";
+
+/// "1 scenario", "8 scenarios".
+pub(super) fn scenarios(n: usize) -> String {
+    format!("{n} scenario{}", if n == 1 { "" } else { "s" })
+}
+
+/// The bundled simulator with idealised perception (`savme reproduce --perception ideal`).
+pub const IDEAL_SIMULATOR: &str = "savme-sim/ideal";
+/// The only fidelity setting idealised perception reads (the simulation rate); it ignores
+/// every camera and lidar setting.
+pub const IDEAL_READS: &str = "simulation_rate_hz";
+
+/// What ran the trials, in words: the simulator and, for the bundled one, its perception.
+fn simulated(p: &Protocol) -> String {
+    match p.simulator.as_str() {
+        IDEAL_SIMULATOR => format!(
+            "Simulator: `{IDEAL_SIMULATOR}` — idealised perception (ground truth with noise): it \
+             reads only {IDEAL_READS}, so the camera and lidar settings change nothing and their \
+             learned values are arbitrary (fidelity.md marks them)."
+        ),
+        "savme-sim/sensors" => {
+            "Simulator: `savme-sim/sensors` — camera + lidar perception (the paper's).".into()
+        }
+        other => format!("Simulator: `{other}`."),
+    }
+}
+
+/// Whether the campaign's simulator ignores fidelity setting `name`.
+fn ignored(p: &Protocol, name: &str) -> bool {
+    p.simulator == IDEAL_SIMULATOR && name != IDEAL_READS
+}
+
+pub(super) fn cost_name(c: Cost) -> &'static str {
+    match c {
+        Cost::Wall => "measured wall-clock time",
+        Cost::Work => "deterministic work units",
+    }
+}
+
+/// A cumulative cost for people: minutes, seconds, milliseconds or microseconds for
+/// wall-clock; work units, thousands or millions of them.
+///
+/// ```
+/// use savme_campaign::report::format_cost;
+/// use savme_campaign::Cost;
+/// assert_eq!(format_cost(Cost::Wall, 0.0123), "12.3 ms");
+/// assert_eq!(format_cost(Cost::Work, 800.0), "800 work units");
+/// ```
+pub fn format_cost(c: Cost, v: f64) -> String {
+    match c {
+        Cost::Wall => format_seconds(v),
+        Cost::Work if v >= 1e7 => format!("{:.1} M work units", v / 1e6),
+        Cost::Work if v >= 1e4 => format!("{:.0} k work units", v / 1e3),
+        Cost::Work => format!("{v:.0} work units"),
+    }
+}
+
+/// A duration for people (`2.5 min`, `1.5 s`, `12.3 ms`, `4.2 µs`, `0 s`): the figures' own
+/// (savme-plot's), so that tables, progress lines and figures say durations alike.
+pub use savme_plot::format_seconds;
+
+/// A probability as a person reads it: two significant digits (`0.081`, `0.22`, `0.00084`,
+/// `0`), and below 0.0001 in scientific notation (`2.0e-6`); the raw value is in the JSON
+/// outputs.
+///
+/// ```
+/// use savme_campaign::report::format_probability;
+/// assert_eq!(format_probability(8.065e-2), "0.081");
+/// assert_eq!(format_probability(2.164e-1), "0.22");
+/// assert_eq!(format_probability(0.0), "0");
+/// assert_eq!(format_probability(1.0), "1.0");
+/// assert_eq!(format_probability(8.4e-4), "0.00084");
+/// assert_eq!(format_probability(2.04e-6), "2.0e-6");
+/// assert_eq!(format_probability(f64::NAN), "—");
+/// ```
+pub fn format_probability(x: f64) -> String {
+    match x {
+        x if !x.is_finite() => "—".into(),
+        0.0 => "0".into(),
+        x if x.abs() < 1e-4 => format!("{x:.1e}"),
+        x => {
+            let digits = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+            format!("{x:.digits$}")
+        }
+    }
+}
+
+fn format_value(var: &savme_kernel::Variable, v: &savme_kernel::Value, with_bin: bool) -> String {
+    match (v.as_f64(), var.arm_of(v).and_then(|a| var.bin(a))) {
+        (Some(x), Some((lo, hi))) if with_bin => format!("{} [{}, {}]", sig(x), sig(lo), sig(hi)),
+        _ => v.to_string(),
+    }
+}
+
+/// Three significant digits.
+fn sig(x: f64) -> String {
+    if x == 0.0 {
+        return "0".into();
+    }
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Protocol, Report, TABLE_III_LEGEND};
+
+    #[test]
+    fn the_perception_is_stated_and_the_settings_it_ignores_are_marked() {
+        let space = savme_kernel::Space::new(vec![
+            savme_kernel::Variable::discrete("simulation_rate_hz", [2, 10]),
+            savme_kernel::Variable::boolean("camera_disable_shadows"),
+        ])
+        .unwrap();
+        let hf = savme_kernel::Assignment::new()
+            .with("simulation_rate_hz", 10)
+            .with("camera_disable_shadows", false);
+        let ideal = Protocol::quick(super::IDEAL_SIMULATOR, vec!["a".into()], vec!["b".into()]);
+        let r = Report::from_trials(&ideal, &[]);
+        assert!(
+            r.table_md().contains("idealised perception"),
+            "{}",
+            r.table_md()
+        );
+        let f = r.fidelity_md(&space, &hf);
+        assert!(
+            f.contains("| camera_disable_shadows (ignored: not learned) |"),
+            "{f}"
+        );
+        assert!(f.contains("| simulation_rate_hz |"), "{f}");
+        let sensors = Protocol::quick("savme-sim/sensors", vec!["a".into()], vec!["b".into()]);
+        let r = Report::from_trials(&sensors, &[]);
+        assert!(r.table_md().contains("camera + lidar perception"));
+        assert!(!r.fidelity_md(&space, &hf).contains("ignored"));
+    }
+
+    #[test]
+    fn table_iii_says_what_its_columns_mean() {
+        let p = Protocol::quick("toy", vec!["a".into()], vec!["b".into()]);
+        let table = Report::from_trials(&p, &[]).table_md();
+        let header = table
+            .lines()
+            .position(|l| l.starts_with("| C_budget | TP-rate | mean LF cost | speedup |"));
+        let legend = table.lines().position(|l| l == TABLE_III_LEGEND);
+        assert!(
+            matches!((header, legend), (Some(h), Some(l)) if h < l),
+            "{table}"
+        );
+        for column in [
+            "TP-rate:",
+            "Mean LF cost:",
+            "Speedup = (TP-rate / mean LF cost)",
+        ] {
+            assert!(TABLE_III_LEGEND.contains(column), "{column}");
+        }
+    }
+}
