@@ -717,9 +717,13 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
         .rows
         .keys()
         .any(|e| e.starts_with("/posterior/train_0_3/scenarios/") && e.ends_with("/cells")));
-    assert!(c
-        .text("/campaign/summary")
-        .contains(&format!("**{} trial recordings**", expected.len())));
+    let summary = c.text("/campaign/summary");
+    assert!(summary.contains(&format!("**{} trial recordings**", expected.len())));
+    // Stages by their readable names, not their entity paths.
+    assert!(
+        summary.contains("| meta-training, budget 0.3 |") && !summary.contains("train_0_3"),
+        "{summary}"
+    );
     assert_views(
         blueprint(&stores, savme::viewer::CAMPAIGN_APP),
         &[

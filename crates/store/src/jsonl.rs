@@ -3,8 +3,8 @@
 
 use super::chain::Chain;
 use super::{
-    encode_sealed, EditedLine, LineReader, Loaded, StoreError, StoreLock, StoredLine, TornTail,
-    TrialStore,
+    encode_sealed, EditedLine, LineReader, Loaded, Record, StoreError, StoreLock, StoredLine,
+    TornTail, TrialStore,
 };
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
@@ -226,7 +226,7 @@ impl TrialStore for JsonlStore {
         Ok(loaded)
     }
 
-    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
+    fn append_all(&mut self, records: &[&dyn Record]) -> Result<(), StoreError> {
         if self.chain.is_none() {
             // The chain continues after the stored lines (read, and checked, once).
             self.load()?;
@@ -240,8 +240,8 @@ impl TrialStore for JsonlStore {
         }
         let mut chain = self.chain.unwrap_or_default();
         let mut bytes = Vec::new();
-        for object in objects {
-            encode_sealed(object, &mut chain, &mut bytes).map_err(|message| {
+        for record in records {
+            encode_sealed(*record, &mut chain, &mut bytes).map_err(|message| {
                 StoreError::BadLine {
                     store: self.location(),
                     line: 0,

@@ -1,7 +1,7 @@
 //! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
 
 use super::{EstimateError, EstimateSettings};
-use crate::protocol::Compact;
+use crate::protocol::{StageId, StageKind};
 use crate::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -37,13 +37,13 @@ pub(crate) fn trained(
             known: known.join(", "),
         });
     }
-    let train = format!("train@{}", Compact(budget));
-    let test = format!("test-learned@{}", Compact(budget));
+    let train = StageId::new(StageKind::Train, Some(budget));
+    let test = StageId::new(StageKind::TestLearned, Some(budget));
     let learned_in = |name: &str| {
         if protocol.train_scenarios.iter().any(|s| s == name) {
-            Some((train.clone(), protocol.train_iterations))
+            Some((train, protocol.train_iterations))
         } else if protocol.test_scenarios.iter().any(|s| s == name) {
-            Some((test.clone(), protocol.test_iterations))
+            Some((test, protocol.test_iterations))
         } else {
             None
         }
@@ -63,10 +63,10 @@ pub(crate) fn trained(
         })?;
         stages.insert(name.clone(), stage);
     }
-    let told_in = |stage: &str| {
+    let told_in = |stage: &StageId| {
         lines
             .iter()
-            .filter(|(_, l)| l.stage() == stage && l.is_told())
+            .filter(|(_, l)| l.stage() == *stage && l.is_told())
             .count() as u64
     };
     for (stage, needed) in stages.values() {
@@ -74,7 +74,7 @@ pub(crate) fn trained(
         if told < *needed {
             return Err(EstimateError::NotTrained {
                 campaign: campaign.to_string(),
-                stage: stage.clone(),
+                stage: stage.to_string(),
                 told,
                 needed: *needed,
             });
@@ -86,7 +86,7 @@ pub(crate) fn trained(
         let (name, space) = (&*scenario.name, &scenario.space);
         let stage = &stages[name].0;
         for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
-            if &t.stage != stage || t.scenario != name {
+            if t.stage != *stage || t.scenario != name {
                 continue;
             }
             scenario_runs += 1;
@@ -105,11 +105,19 @@ pub(crate) fn trained(
             }
         }
     }
-    let used: std::collections::BTreeSet<&String> = stages.values().map(|(s, _)| s).collect();
+    let mut used: Vec<StageId> = Vec::new();
+    for (s, _) in stages.values() {
+        if !used.contains(s) {
+            used.push(*s);
+        }
+    }
     Ok(Trained {
-        stage_runs: used.iter().map(|s| told_in(s)).sum(),
+        stage_runs: used.iter().map(told_in).sum(),
         scenario_runs,
-        stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
+        stages: stages
+            .into_iter()
+            .map(|(n, (s, _))| (n, s.to_string()))
+            .collect(),
         scenarios,
     })
 }

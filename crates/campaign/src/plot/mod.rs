@@ -45,7 +45,8 @@ const PALETTE: [RGBColor; 6] = [
 ];
 
 fn lines_of<'a>(lines: &'a [TrialLine], label: &str) -> Vec<&'a TrialLine> {
-    lines.iter().filter(|l| l.stage == label).collect()
+    let id = label.parse::<crate::StageId>().ok();
+    lines.iter().filter(|l| Some(l.stage) == id).collect()
 }
 
 /// Axis scale, label and unit for cumulative costs up to `end`: the x axis is the summed

@@ -62,8 +62,8 @@ pub fn at_budget(p: &Protocol, lines: &[TrialLine], b: f64) -> Option<Ablation> 
         .prior_strengths
         .iter()
         .map(|&s| {
-            let label = stage_label(p, b, s);
-            lines.iter().filter(|l| l.stage == label).collect()
+            let id = stage_label(p, b, s).parse::<crate::StageId>().ok();
+            lines.iter().filter(|l| Some(l.stage) == id).collect()
         })
         .collect();
     if stages.iter().any(Vec::is_empty) {
