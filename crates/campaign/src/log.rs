@@ -218,6 +218,9 @@ pub enum LineKind {
 impl LineKind {
     /// The kind of the stored object `value` (see [`LineKind`]); the error says what is wrong.
     pub fn of(value: &serde_json::Value) -> Result<LineKind, String> {
+        if value.get("protocol").is_some() {
+            return Err("a protocol record, which only a store's first line may be".into());
+        }
         if value.get("error").is_some() {
             return Ok(LineKind::Failed);
         }
@@ -251,6 +254,69 @@ impl LogLine {
         };
         parsed.map_err(|e| bad(e.to_string()))
     }
+}
+
+/// The first record of a campaign's store: the protocol the campaign runs, so that the store
+/// alone resumes it (beside a directory's store, `protocol.json` is a copy for people). Stored
+/// as `{"v":1,"protocol":{…},"c":"…"}`; a store written before it existed begins with a
+/// trial, and its protocol is in `protocol.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProtocolLine {
+    /// The protocol.
+    pub protocol: Protocol,
+}
+
+impl ProtocolLine {
+    /// The protocol of `line` if it is a protocol record (a store's first line), checked as
+    /// `protocol.json` is; the error names the store, the line and the field.
+    pub fn of(line: &StoredLine, store: &str) -> Result<Option<Protocol>, CampaignError> {
+        if line.value.get("protocol").is_none() {
+            return Ok(None);
+        }
+        let bad = |message: String| CampaignError::Log {
+            store: store.to_string(),
+            line: line.line as usize,
+            message,
+        };
+        let record: ProtocolLine =
+            serde_json::from_value(line.value.clone()).map_err(|e| bad(e.to_string()))?;
+        let p = record.protocol;
+        if p.format_version != super::protocol::FORMAT_VERSION {
+            return Err(bad(format!(
+                "protocol.format_version {}: this savme reads version {}",
+                p.format_version,
+                super::protocol::FORMAT_VERSION
+            )));
+        }
+        match p.validate() {
+            Ok(()) => Ok(Some(p)),
+            Err(CampaignError::Protocol { field, message }) => {
+                Err(bad(format!("`protocol.{field}`: {message}")))
+            }
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// A store's protocol record (its first line, when the store has one) and its trial lines
+/// with their line numbers.
+pub type StoredCampaign = (Option<Protocol>, Vec<(u64, LogLine)>);
+
+/// A store's lines as its protocol record and its trial lines ([`StoredCampaign`]).
+pub fn read_stored(lines: &[StoredLine], store: &str) -> Result<StoredCampaign, CampaignError> {
+    let (protocol, rest) = match lines.split_first() {
+        Some((first, rest)) => match ProtocolLine::of(first, store)? {
+            Some(p) => (Some(p), rest),
+            None => (None, lines),
+        },
+        None => (None, lines),
+    };
+    let trials = rest
+        .iter()
+        .map(|l| Ok((l.line, LogLine::from_stored(l, store)?)))
+        .collect::<Result<_, CampaignError>>()?;
+    Ok((protocol, trials))
 }
 
 /// Splits the logged lines into the protocol's stages (a prefix of each, in order); only the
@@ -317,11 +383,7 @@ pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<(u64, LogLine)>, Camp
     }
     let name = path.display().to_string();
     let loaded = JsonlStore::read(&path)?;
-    let lines = loaded
-        .lines
-        .iter()
-        .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
-        .collect::<Result<_, CampaignError>>()?;
+    let (_, lines) = read_stored(&loaded.lines, &name)?;
     loaded.refuse_edits(&name)?;
     Ok(lines)
 }

@@ -109,6 +109,45 @@ impl JsonlStore {
         Ok(loaded)
     }
 
+    /// The first complete line of the store at `path` (None: the file has none, or does not
+    /// exist), read without its lock and checked as [`JsonlStore::read`] checks it (a
+    /// changed line is refused, naming it). What a campaign keeps there: its protocol.
+    pub fn read_first(path: &Path) -> Result<Option<StoredLine>, StoreError> {
+        let location = path.display().to_string();
+        let file = match File::open(path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(StoreError::io(location, e)),
+        };
+        let mut reader = BufReader::new(file);
+        let mut lines = LineReader::default();
+        let mut buf = Vec::new();
+        let mut line = 0u64;
+        loop {
+            buf.clear();
+            let n = reader
+                .read_until(b'\n', &mut buf)
+                .map_err(|e| StoreError::io(location.clone(), e))?;
+            line += 1;
+            let Some(text) = buf.strip_suffix(b"\n") else {
+                return Ok(None); // no complete line (n == 0: the end)
+            };
+            if n == 0 || text.iter().all(u8::is_ascii_whitespace) {
+                continue;
+            }
+            let bad = |message| StoreError::BadLine {
+                store: location.clone(),
+                line,
+                message,
+            };
+            let value = lines.read(line, text).map_err(bad)?;
+            if let Some(e) = lines.edited {
+                return Err(bad(e.message));
+            }
+            return Ok(Some(StoredLine { line, value }));
+        }
+    }
+
     /// Cuts a torn tail off, so that the next line starts after the last complete one.
     fn cut_torn_tail(&mut self) -> Result<(), StoreError> {
         if self.torn_bytes > 0 {
@@ -432,6 +471,30 @@ mod tests {
             e.contains("line 3: its checksum") && e.contains("one of lines 1–2"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_first_line_is_read_alone_and_checked() {
+        let path = temp("first");
+        assert_eq!(JsonlStore::read_first(&path).unwrap(), None);
+        std::fs::write(&path, "{\"v\":1,\"a\":").unwrap();
+        assert_eq!(JsonlStore::read_first(&path).unwrap(), None); // torn: no complete line
+        std::fs::write(&path, "").unwrap();
+        let mut s = JsonlStore::open(&path).unwrap();
+        s.append(&json!({"protocol": {"seed": 7}})).unwrap();
+        s.append(&json!({"i": 1})).unwrap();
+        drop(s);
+        let first = JsonlStore::read_first(&path).unwrap().unwrap();
+        assert_eq!(
+            (first.line, first.value),
+            (1, json!({"protocol": {"seed": 7}}))
+        );
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, text.replacen("7", "8", 1)).unwrap();
+        let e = JsonlStore::read_first(&path).unwrap_err().to_string();
+        assert!(e.contains("line 1: its checksum"), "{e}");
+        std::fs::write(&path, "\n{\"a\":1}\n").unwrap();
+        assert_eq!(JsonlStore::read_first(&path).unwrap().unwrap().line, 2);
     }
 
     #[test]
