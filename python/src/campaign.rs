@@ -13,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use savme::campaign::config::{check_repeat, Overrides};
 use savme::campaign::estimate::{EstimateOutcome, EstimateSettings};
-use savme::campaign::store::{StoreError, TrialStore};
+use savme::campaign::store::{ProtocolKeeper, StoreError, TrialStore};
 use savme::campaign::{
     Campaign, CampaignOutcome, OnError, Problem, ProgressLines, Protocol, Repeated,
     RepeatedOutcome, Stop,

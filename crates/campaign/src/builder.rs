@@ -265,8 +265,12 @@ impl<'o> Campaign<'o> {
         custom: Option<Box<dyn TrialStore>>,
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
         outputs::usable_dir(&self.out)?;
+        let mut custom = custom;
+        let keeps = custom
+            .as_mut()
+            .is_some_and(|s| s.protocol_keeper().is_some());
         match custom {
-            Some(store) if store.keeps_protocol() => self.open_keeping_store(store),
+            Some(store) if keeps => self.open_keeping_store(store),
             custom => self.open_beside_protocol_file(files, custom),
         }
     }
@@ -280,7 +284,10 @@ impl<'o> Campaign<'o> {
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
         std::fs::create_dir_all(&self.out).map_err(|e| CampaignError::io(&self.out, e))?;
         let location = store.location();
-        let saved = store.load_protocol()?;
+        let saved = match store.protocol_keeper() {
+            Some(keeper) => keeper.load_protocol()?,
+            None => None,
+        };
         let loaded = store.load()?;
         match (self.resume, saved) {
             (true, None) => return Err(CampaignError::NothingToResumeIn { store: location }),
@@ -309,7 +316,9 @@ impl<'o> Campaign<'o> {
                         field: "protocol".into(),
                         message: e.to_string(),
                     })?;
-                store.save_protocol(&value)?;
+                if let Some(keeper) = store.protocol_keeper() {
+                    keeper.save_protocol(&value)?;
+                }
             }
         }
         let lines = numbered(&loaded, &location)?;

@@ -28,7 +28,7 @@ use crate::locked::Locked;
 use crate::Database;
 use postgres::{Client, GenericClient, Statement};
 use savme_campaign::log::{LogLine, RunLine, TrialLine};
-use savme_store::{Loaded, Record, StoreError, StoredLine, TrialStore, FORMAT};
+use savme_store::{Loaded, ProtocolKeeper, Record, StoreError, StoredLine, TrialStore, FORMAT};
 use serde_json::Value;
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -457,10 +457,13 @@ impl TrialStore for PostgresStore {
         self.lock().append(rows)
     }
 
-    fn keeps_protocol(&self) -> bool {
-        true
+    fn protocol_keeper(&mut self) -> Option<&mut dyn ProtocolKeeper> {
+        Some(self)
     }
+}
 
+/// The protocol lives in the campaign's row (`savme.campaigns.protocol`).
+impl ProtocolKeeper for PostgresStore {
     fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
         let text: Option<String> = self
             .lock()

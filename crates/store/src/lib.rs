@@ -278,22 +278,22 @@ pub trait TrialStore: Send {
         self.append_all(&[record])
     }
 
-    /// Whether the store keeps the campaign's protocol itself (a database does). A store that
-    /// does not (a JSON-lines file) leaves it to the campaign's `protocol.json`.
-    fn keeps_protocol(&self) -> bool {
-        false
+    /// The store's [`ProtocolKeeper`] capability, if it keeps a campaign's protocol apart from
+    /// its lines (a database does, in its campaign row). Default: none — a campaign then
+    /// stores its protocol as the store's first record.
+    fn protocol_keeper(&mut self) -> Option<&mut dyn ProtocolKeeper> {
+        None
     }
+}
 
-    /// The protocol the store keeps, if it keeps one and has been given one.
-    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
-        Ok(None)
-    }
+/// An optional capability of a [`TrialStore`] ([`TrialStore::protocol_keeper`]): it keeps the
+/// campaign's protocol apart from its lines.
+pub trait ProtocolKeeper {
+    /// The protocol kept, if the store has been given one.
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError>;
 
-    /// Keeps `protocol` (a store that [`keeps_protocol`](TrialStore::keeps_protocol); the
-    /// others ignore it).
-    fn save_protocol(&mut self, _protocol: &Value) -> Result<(), StoreError> {
-        Ok(())
-    }
+    /// Keeps `protocol`.
+    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError>;
 }
 
 impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
@@ -309,16 +309,8 @@ impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
         (**self).append_all(records)
     }
 
-    fn keeps_protocol(&self) -> bool {
-        (**self).keeps_protocol()
-    }
-
-    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
-        (**self).load_protocol()
-    }
-
-    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
-        (**self).save_protocol(protocol)
+    fn protocol_keeper(&mut self) -> Option<&mut dyn ProtocolKeeper> {
+        (**self).protocol_keeper()
     }
 }
 
