@@ -660,14 +660,20 @@ mod tests {
         fn load(&mut self) -> Result<savme_store::Loaded, StoreError> {
             Ok(Default::default())
         }
-        fn append_json(&mut self, lines: &[String]) -> Result<(), StoreError> {
-            if self.lines.len() + lines.len() > self.room {
+        fn append_all(&mut self, records: &[&dyn savme_store::Record]) -> Result<(), StoreError> {
+            if self.lines.len() + records.len() > self.room {
                 return Err(StoreError::io(
                     "full",
                     std::io::Error::other("no space left"),
                 ));
             }
-            self.lines.extend(lines.iter().cloned());
+            for r in records {
+                let object = r
+                    .object()
+                    .map_err(|e| StoreError::io("full", std::io::Error::other(e)))?;
+                self.lines
+                    .push(String::from_utf8_lossy(&object).into_owned());
+            }
             Ok(())
         }
     }

@@ -507,7 +507,8 @@ fn estimating_before_training_is_refused_naming_the_stage() {
     let c = campaign();
     std::fs::copy(c.join("protocol.json"), dir.join("protocol.json")).unwrap();
     let text = std::fs::read_to_string(c.join("trials.jsonl")).unwrap();
-    let cut: Vec<&str> = text.lines().take(51).collect(); // baseline-train + 50 of train@0.3
+    // The protocol record, baseline-train and 50 of train@0.3.
+    let cut: Vec<&str> = text.lines().take(52).collect();
     std::fs::write(dir.join("trials.jsonl"), cut.join("\n") + "\n").unwrap();
     let d = dir.display().to_string();
     let (code, _, err) = run(&["estimate", &d]);

@@ -226,7 +226,9 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
             "{stdout}"
         );
         let trials = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
-        assert_eq!(trials.lines().count(), 6 + 8 + 4 + 4 + 2 * 4, "{name}");
+        // The protocol record, then the trials.
+        assert!(trials.starts_with("{\"v\":1,\"protocol\":"), "{name}");
+        assert_eq!(trials.lines().count(), 1 + 6 + 8 + 4 + 4 + 2 * 4, "{name}");
         for f in [
             "table.md",
             "fidelity.md",
@@ -242,6 +244,8 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
         std::fs::read_to_string(path)
             .unwrap()
             .lines()
+            // Not the protocol record a campaign's store begins with (the fixture predates it).
+            .filter(|l| !l.starts_with("{\"v\":1,\"protocol\":"))
             .map(|l| {
                 let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
                 // The store's format version and checksum (absent from lines written before

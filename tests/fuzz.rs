@@ -284,7 +284,7 @@ proptest! {
             .collect();
         {
             let mut store = JsonlStore::open(&path).unwrap();
-            store.append_all(&lines).unwrap();
+            store.append_all(&savme::campaign::store::records(&lines)).unwrap();
         }
         // Garbage after the last complete line: a torn write, without a newline.
         let tail: Vec<u8> = tail.into_iter().filter(|&b| b != b'\n').collect();
@@ -322,7 +322,7 @@ proptest! {
         prop_assume!(lines.len() >= 2);
         {
             let mut store = JsonlStore::open(&path).unwrap();
-            store.append_all(&lines).unwrap();
+            store.append_all(&savme::campaign::store::records(&lines)).unwrap();
         }
         let mut bytes = std::fs::read(&path).unwrap();
         // One byte of a complete line changed (not a newline, and not into one).

@@ -718,3 +718,72 @@ fn an_edited_protocol_json_is_checked_naming_its_line_and_field_not_a_panic() {
         let _ = std::fs::remove_dir_all(dir);
     }
 }
+
+#[test]
+fn the_protocol_is_the_stores_first_record_and_old_stores_without_it_still_resume() {
+    let full = temp_dir("record-full");
+    assert!(reproduce(&full, &["--jobs", "2"]).0);
+    let expected = without_wall(trial_lines(&full));
+    let text = std::fs::read_to_string(full.join("trials.jsonl")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    // Line 1 is the protocol, sealed into the checksum chain; protocol.json is its copy.
+    let first: Value = serde_json::from_str(lines[0]).unwrap();
+    let copy: Value =
+        serde_json::from_str(&std::fs::read_to_string(full.join("protocol.json")).unwrap())
+            .unwrap();
+    assert_eq!((&first["v"], &first["protocol"]), (&Value::from(1), &copy));
+    assert!(first["c"].is_string(), "{first}");
+    assert_eq!(lines.len(), 1 + TINY_TRIALS);
+
+    // Without protocol.json, a campaign cut after 20 trials resumes from its store alone.
+    let cut = temp_dir("record-cut");
+    std::fs::create_dir_all(&cut).unwrap();
+    std::fs::write(cut.join("trials.jsonl"), lines[..21].join("\n") + "\n").unwrap();
+    let (ok, out, err) = resume(&cut);
+    assert!(ok, "{err}");
+    assert!(out.contains("(20 replayed from the trial store"), "{out}");
+    assert_eq!(without_wall(trial_lines(&cut)), expected);
+    assert!(!cut.join("protocol.json").exists());
+
+    // A store written before the protocol was kept in it (no protocol record, no checksums)
+    // resumes with its protocol.json, and stays without the record.
+    let old = temp_dir("record-old");
+    std::fs::create_dir_all(&old).unwrap();
+    std::fs::copy(full.join("protocol.json"), old.join("protocol.json")).unwrap();
+    let unsealed: String = lines[1..21]
+        .iter()
+        .map(|l| {
+            let mut v: Value = serde_json::from_str(l).unwrap();
+            v.as_object_mut().unwrap().remove("c");
+            v.to_string() + "\n"
+        })
+        .collect();
+    std::fs::write(old.join("trials.jsonl"), &unsealed).unwrap();
+    let (ok, out, err) = resume(&old);
+    assert!(ok, "{err}");
+    assert!(out.contains("(20 replayed from the trial store"), "{out}");
+    assert_eq!(without_wall(trial_lines(&old)), expected);
+    let resumed = std::fs::read_to_string(old.join("trials.jsonl")).unwrap();
+    assert!(resumed.starts_with(&unsealed), "the old lines changed");
+
+    // An edited protocol record is refused, naming the line and the field.
+    let bad = temp_dir("record-bad");
+    std::fs::create_dir_all(&bad).unwrap();
+    let mut edited: Value = first.clone();
+    edited["protocol"]["fidelity_bins"] = Value::from(0);
+    edited.as_object_mut().unwrap().remove("c");
+    let body = std::iter::once(edited.to_string())
+        .chain(lines[1..5].iter().map(|l| l.to_string()))
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(bad.join("trials.jsonl"), body + "\n").unwrap();
+    let (ok, _, err) = resume(&bad);
+    assert!(!ok);
+    assert!(
+        err.contains("trials.jsonl, line 1: `protocol.fidelity_bins`: 0 is not between 1"),
+        "{err}"
+    );
+    for d in [full, cut, old, bad] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

@@ -172,7 +172,10 @@ fn screening_confirms_every_lf_failure_audits_a_fraction_and_reports_what_it_ran
         .position(|v| v["screen"] == "audit")
         .expect("an audited trial");
     let mut bad: Vec<String> = text.iter().map(|s| s.to_string()).collect();
+    // Trial k is on line k + 2: the store begins with the protocol record.
+    let k = k + 1;
     let mut v: Value = serde_json::from_str(&bad[k]).unwrap();
+    assert_eq!(v["screen"], "audit");
     v["screen"] = "pass".into();
     v["hf"] = Value::Null;
     v["outcome"] = Value::Null;

@@ -59,6 +59,8 @@ fn step_size_campaign(fmi: u8) {
     assert!(ok, "{err}");
     assert!(stdout.contains("| step | 0.01 |"), "{stdout}");
     let trials = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+    // The protocol record, then the trials.
+    let (_, trials) = trials.split_once('\n').unwrap();
     assert_eq!(trials.lines().count(), 120 + 120 + 40 + 3 * 60);
     let mut steps = std::collections::BTreeSet::new();
     for line in trials.lines() {

@@ -14,7 +14,7 @@ use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use savme::campaign::config::{check_repeat, Overrides};
 use savme::campaign::estimate::EstimateSettings;
-use savme::campaign::store::{StoreError, TrialStore};
+use savme::campaign::store::{ProtocolKeeper, StoreError, TrialStore};
 use savme::campaign::{Campaign, Problem, ProgressLines, Protocol, Repeated, Stop};
 use savme::compose;
 use savme::postgres::{check_name, Database, PostgresStore};

@@ -40,12 +40,16 @@ def toy(scenario, phi, theta):
     return fails, int(theta["rate_hz"] * 10)
 
 
+def trial_records(path):
+    """The trial lines of a campaign's store (without the protocol record it begins with)."""
+    return [d for d in map(json.loads, path.read_text().splitlines()) if "protocol" not in d]
+
+
 def strip_wall(path):
     """The trial lines without the measured wall-clock seconds (and the store's checksum,
     which covers them)."""
     lines = []
-    for line in path.read_text().splitlines():
-        d = json.loads(line)
+    for d in trial_records(path):
         d.pop("c", None)
         for run in ("hf", "lf"):
             if isinstance(d.get(run), dict):
@@ -60,7 +64,7 @@ def test_a_campaign_on_a_python_simulator_writes_savme_runs_outputs(tmp_path):
     assert result.ran == p.total_trials and result.replayed == 0
     for name in ("protocol", "trials", "table", "fidelity", "summary", "breakeven", "meta_testing"):
         assert result.files[name].exists(), name
-    assert len(result.files["trials"].read_text().splitlines()) == p.total_trials
+    assert len(trial_records(result.files["trials"])) == p.total_trials
     summary = json.loads(result.files["summary"].read_text())
     assert "TP-rate" in result.table_md and result.report["protocol"]["simulator"] == "python-toy"
     assert summary["report"]["budgets"][0]["budget"] == 0.3
@@ -98,7 +102,7 @@ def test_a_raising_simulator_stops_the_campaign_naming_the_trial_and_it_resumes(
     with pytest.raises(savme.CampaignError, match="RuntimeError: license server unreachable") as e:
         savme.Campaign(p, problem(), out=tmp_path / "r", jobs=1).run(flaky)
     assert "trial" in str(e.value)
-    stored = len((tmp_path / "r" / "trials.jsonl").read_text().splitlines())
+    stored = len(trial_records(tmp_path / "r" / "trials.jsonl"))
     assert 0 < stored < p.total_trials
     result = savme.Campaign(None, problem(), out=tmp_path / "r", resume=True, jobs=1).run(toy)
     assert result.replayed == stored and result.ran == p.total_trials - stored
@@ -146,7 +150,7 @@ def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path)
     assert "KeyboardInterrupt" in stderr, stderr
     assert "the campaign finished" not in stdout
     p = protocol()
-    stored = len(trials.read_text().splitlines())
+    stored = len(trial_records(trials))
     assert 10 <= stored < p.total_trials, stored
     result = savme.Campaign(None, problem(), out=out, resume=True, jobs=1).run(toy)
     assert result.replayed == stored and result.ran == p.total_trials - stored
@@ -188,7 +192,7 @@ def test_a_simulator_reports_robustness_the_trials_keep_it_and_the_elite_search_
 
     p = protocol(search="elite")
     result = savme.Campaign(p, problem(), out=tmp_path / "e", jobs=2).run(margin)
-    lines = [json.loads(line) for line in result.files["trials"].read_text().splitlines()]
+    lines = trial_records(result.files["trials"])
     for d in lines:
         assert isinstance(d["hf"]["robustness"], float)
         assert (d["hf"]["robustness"] <= 0) == d["hf"]["failure"], d

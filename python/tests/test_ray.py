@@ -69,7 +69,9 @@ def small(**kw):
 
 
 def lines(path):
-    return [json.loads(l) for l in pathlib.Path(path).read_text().splitlines()]
+    # (without the protocol record a campaign's store begins with)
+    records = [json.loads(l) for l in pathlib.Path(path).read_text().splitlines()]
+    return [d for d in records if "protocol" not in d]
 
 
 def told_once(path):

@@ -17,7 +17,7 @@ pub mod toy;
 pub mod worker;
 
 use savme::campaign::config::Overrides;
-use savme::campaign::store::TrialStore;
+use savme::campaign::store::{ProtocolKeeper, TrialStore};
 use savme::campaign::{
     Campaign, CampaignOutcome, Observer, Problem, ProgressBars, ProgressLines, Protocol, Repeated,
     RepeatedOutcome,

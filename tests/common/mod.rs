@@ -67,12 +67,14 @@ pub fn resume(dir: &Path) -> (bool, String, String) {
     ])
 }
 
-/// The lines of `dir/trials.jsonl`, as stored.
+/// The trial lines of `dir/trials.jsonl`, as stored (without the protocol record that a
+/// campaign's store begins with).
 pub fn trial_lines(dir: &Path) -> Vec<Value> {
     std::fs::read_to_string(dir.join("trials.jsonl"))
         .expect("trials.jsonl")
         .lines()
-        .map(|l| serde_json::from_str(l).expect("a JSON trial line"))
+        .map(|l| serde_json::from_str::<Value>(l).expect("a JSON trial line"))
+        .filter(|v| v.get("protocol").is_none())
         .collect()
 }
 

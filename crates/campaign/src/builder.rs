@@ -233,8 +233,12 @@ impl<'o> Campaign<'o> {
         custom: Option<Box<dyn TrialStore>>,
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
         outputs::usable_dir(&self.out)?;
+        let mut custom = custom;
+        let keeps = custom
+            .as_mut()
+            .is_some_and(|s| s.protocol_keeper().is_some());
         match custom {
-            Some(store) if store.keeps_protocol() => self.open_keeping_store(store),
+            Some(store) if keeps => self.open_keeping_store(store),
             custom => self.open_beside_protocol_file(files, custom),
         }
     }
@@ -248,7 +252,10 @@ impl<'o> Campaign<'o> {
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
         std::fs::create_dir_all(&self.out).map_err(|e| CampaignError::io(&self.out, e))?;
         let location = store.location();
-        let saved = store.load_protocol()?;
+        let saved = match store.protocol_keeper() {
+            Some(keeper) => keeper.load_protocol()?,
+            None => None,
+        };
         let loaded = store.load()?;
         match (self.resume, saved) {
             (true, None) => return Err(CampaignError::NothingToResumeIn { store: location }),
@@ -277,32 +284,29 @@ impl<'o> Campaign<'o> {
                         field: "protocol".into(),
                         message: e.to_string(),
                     })?;
-                store.save_protocol(&value)?;
+                if let Some(keeper) = store.protocol_keeper() {
+                    keeper.save_protocol(&value)?;
+                }
             }
         }
         let lines = numbered(&loaded, &location)?;
         Ok((store, lines))
     }
 
-    /// Opens a store beside `protocol.json` in the output directory (the JSON-lines default,
-    /// or a custom store that does not keep the protocol).
+    /// Opens a store that does not keep the protocol itself (the JSON-lines default, or a
+    /// custom one): a new campaign appends the protocol as the store's first record and
+    /// writes `protocol.json`, a copy for people; a resumed one checks the store's first
+    /// record — or, in a store written before the protocol was kept there, `protocol.json`.
     fn open_beside_protocol_file(
         &self,
         files: &Outputs,
         custom: Option<Box<dyn TrialStore>>,
     ) -> Result<(Box<dyn TrialStore>, NumberedLines), CampaignError> {
-        if self.resume {
-            let saved = outputs::load_protocol(&self.out)?;
-            if saved != self.protocol {
-                return Err(CampaignError::Protocol {
-                    field: "protocol.json".into(),
-                    message: format!(
-                        "differs from the protocol given to resume: {}",
-                        protocol_differences(&saved, &self.protocol)
-                    ),
-                });
-            }
-        } else {
+        if self.resume && custom.is_none() {
+            // Before the store is opened (and created): a directory without a campaign.
+            self.check_saved(outputs::load_protocol(&self.out)?, "trials.jsonl")?;
+        }
+        if !self.resume {
             std::fs::create_dir_all(&self.out).map_err(|e| CampaignError::io(&self.out, e))?;
         }
         let default_store_exists = files.protocol.exists() || files.trials.exists();
@@ -319,26 +323,48 @@ impl<'o> Campaign<'o> {
             None => Box::new(JsonlStore::open(&files.trials)?),
         };
         let loaded = store.load()?;
-        if !self.resume && (files.protocol.exists() || !loaded.lines.is_empty()) {
-            return Err(CampaignError::OutputExists {
-                path: self.out.clone(),
-            });
-        }
-        if !self.resume {
+        let location = store.location();
+        let (saved, lines) = log::read_stored(&loaded.lines, &location)?;
+        if self.resume {
+            let saved = match saved {
+                Some(p) => p,
+                None => outputs::load_protocol_file(&self.out)?,
+            };
+            self.check_saved(saved, &location)?;
+        } else {
+            if files.protocol.exists() || !loaded.lines.is_empty() {
+                return Err(CampaignError::OutputExists {
+                    path: self.out.clone(),
+                });
+            }
+            store.append(&log::ProtocolLine {
+                protocol: self.protocol.clone(),
+            })?;
             outputs::save_protocol(&self.protocol, files)?;
         }
-        let lines = numbered(&loaded, &store.location())?;
-        Ok((store, lines))
+        Ok((store, (lines, loaded.edited.clone())))
+    }
+
+    /// Refuses to resume a campaign whose stored protocol (`saved`, kept in `store`) is not
+    /// the one given.
+    fn check_saved(&self, saved: Protocol, store: &str) -> Result<(), CampaignError> {
+        if saved == self.protocol {
+            return Ok(());
+        }
+        Err(CampaignError::Protocol {
+            field: store.into(),
+            message: format!(
+                "differs from the protocol given to resume: {}",
+                protocol_differences(&saved, &self.protocol)
+            ),
+        })
     }
 }
 
-/// The stored lines as trial lines with their line numbers.
+/// The stored lines as trial lines with their line numbers (a database keeps the protocol
+/// apart: none of its lines is a protocol record).
 fn numbered(loaded: &Loaded, location: &str) -> Result<NumberedLines, CampaignError> {
-    let lines = loaded
-        .lines
-        .iter()
-        .map(|l| LogLine::from_stored(l, location).map(|x| (l.line, x)))
-        .collect::<Result<_, _>>()?;
+    let (_, lines) = log::read_stored(&loaded.lines, location)?;
     Ok((lines, loaded.edited.clone()))
 }
 

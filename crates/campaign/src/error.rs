@@ -92,7 +92,7 @@ pub enum CampaignError {
         path: PathBuf,
     },
     /// `--resume` on a directory without a campaign.
-    #[error("{}: no protocol.json — is this a savme output directory?", path.display())]
+    #[error("{}: no campaign here (no trials.jsonl beginning with its protocol, no protocol.json) — is this a savme output directory?", path.display())]
     NothingToResume {
         /// The directory.
         path: PathBuf,

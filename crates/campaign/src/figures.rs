@@ -20,7 +20,8 @@ const BASELINE: &str = "baseline (φ uniform, HF only)";
 const GRID: usize = 200;
 
 fn lines_of<'a>(lines: &'a [TrialLine], label: &str) -> Vec<&'a TrialLine> {
-    lines.iter().filter(|l| l.stage == label).collect()
+    let id = label.parse::<crate::StageId>().ok();
+    lines.iter().filter(|l| Some(l.stage) == id).collect()
 }
 
 /// Draws a figure into `path` through a fresh file savme created (the PNG encoder opens the

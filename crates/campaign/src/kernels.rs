@@ -3,7 +3,7 @@
 //! uniform fidelity prior). All are configured before the first run, so that a configuration
 //! error comes before any simulation.
 
-use super::protocol::{Compact, Protocol, Stage, StageKind};
+use super::protocol::{Compact, Protocol, Stage, StageId, StageKind};
 use super::{CampaignError, Problem};
 use savme_kernel::{Kernel, KernelBuilder, Space};
 
@@ -55,20 +55,25 @@ impl<'a> StageKernels<'a> {
             kernels: Vec::new(),
             test: None,
         };
-        let mut kernels = vec![k.builder(&train, 1.0, "baseline-train").build()?];
+        let seed_of = |kind, budget| StageId::new(kind, budget).to_string();
+        let baseline = seed_of(StageKind::BaselineTrain, None);
+        let mut kernels = vec![k.builder(&train, 1.0, &baseline).build()?];
         for &b in &protocol.budgets {
             kernels.push(
-                k.builder(&train, b, &format!("train@{}", Compact(b)))
+                k.builder(&train, b, &seed_of(StageKind::Train, Some(b)))
                     .build()?,
             );
         }
-        kernels.push(k.builder(&k.test_spaces, 1.0, "baseline-test").build()?);
+        let baseline = seed_of(StageKind::BaselineTest, None);
+        kernels.push(k.builder(&k.test_spaces, 1.0, &baseline).build()?);
         k.kernels = kernels;
         // The meta-testing kernels are built per stage; build one now to check them too.
         k.test_kernel(StageKind::TestUniform, protocol.budgets[0], None)?;
         Ok(k)
     }
 
+    /// A kernel builder seeded by `label`: a stage's label (a [`StageId`] written out), or
+    /// `test@B` for the meta-testing kernels of budget B.
     fn builder(&self, scenarios: &[(String, Space)], budget: f64, label: &str) -> KernelBuilder {
         let p = self.protocol;
         let mut b = Kernel::builder(self.problem.fidelity.clone(), self.problem.theta_hf.clone())

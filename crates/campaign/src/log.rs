@@ -4,6 +4,7 @@
 //! process dies before storing is asked and run again on resume. It is the campaign's journal:
 //! `--resume` replays it.
 
+use super::protocol::{StageId, StageKind};
 use super::store::JsonlStore;
 use super::store::StoredLine;
 use super::{CampaignError, Protocol};
@@ -55,8 +56,8 @@ impl RunLine {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrialLine {
-    /// The stage label, e.g. `train@0.3` (see [`super::Stage::label`]).
-    pub stage: String,
+    /// The stage, stored as its label, e.g. `train@0.3` (see [`StageId`]).
+    pub stage: StageId,
     /// Position of the trial within its stage, from 0.
     pub index: u64,
     /// The kernel's trial id.
@@ -100,8 +101,8 @@ impl TrialLine {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FailedLine {
-    /// The stage label.
-    pub stage: String,
+    /// The stage, stored as its label.
+    pub stage: StageId,
     /// Position of the trial within its stage (failed ones included), from 0.
     pub index: u64,
     /// The kernel's trial id.
@@ -121,8 +122,8 @@ pub struct FailedLine {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ScreenLine {
-    /// The stage label, e.g. `screen@0.3`.
-    pub stage: String,
+    /// The stage, stored as its label, e.g. `screen@0.3`.
+    pub stage: StageId,
     /// Position of the trial within its stage, from 0.
     pub index: u64,
     /// The kernel's trial id.
@@ -146,7 +147,8 @@ pub struct ScreenLine {
 }
 
 /// A line of `trials.jsonl`: a told trial, a screened one, or a withdrawn one.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Stored as its own line's fields (no tag: [`LineKind`] says how a stored line is read).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(untagged)]
 pub enum LogLine {
     /// A told trial.
@@ -158,12 +160,21 @@ pub enum LogLine {
 }
 
 impl LogLine {
-    /// The stage label.
-    pub fn stage(&self) -> &str {
+    /// The stage.
+    pub fn stage(&self) -> StageId {
         match self {
-            LogLine::Trial(t) => &t.stage,
-            LogLine::Failed(f) => &f.stage,
-            LogLine::Screen(s) => &s.stage,
+            LogLine::Trial(t) => t.stage,
+            LogLine::Failed(f) => f.stage,
+            LogLine::Screen(s) => s.stage,
+        }
+    }
+
+    /// Its kind.
+    pub fn kind(&self) -> LineKind {
+        match self {
+            LogLine::Trial(_) => LineKind::Trial,
+            LogLine::Failed(_) => LineKind::Failed,
+            LogLine::Screen(_) => LineKind::Screen,
         }
     }
 
@@ -189,30 +200,123 @@ impl LogLine {
     }
 }
 
-impl LogLine {
-    /// A stored line back as a trial line; the error names the store, the line and what is
-    /// wrong (a line with an `error` key is a withdrawn trial, any other a told one).
-    pub fn from_stored(line: &StoredLine, store: &str) -> Result<LogLine, CampaignError> {
-        let failed = line.value.get("error").is_some();
-        let parsed = if failed {
-            serde_json::from_value(line.value.clone()).map(LogLine::Failed)
-        } else if line.value.get("screen").is_some() {
-            serde_json::from_value(line.value.clone()).map(LogLine::Screen)
-        } else {
-            serde_json::from_value(line.value.clone()).map(LogLine::Trial)
-        };
-        parsed.map_err(|e| CampaignError::Log {
-            store: store.to_string(),
-            line: line.line as usize,
-            message: e.to_string(),
+/// What a stored line is. The JSON-lines format has no kind field (lines are stored as savme
+/// always wrote them), so the kind is read from what defines it, in this one place: a
+/// withdrawn trial is the line that records its `error`; otherwise the line's stage says
+/// whether it is a screened trial (a `screen@…` stage) or a told one. A line whose fields do
+/// not fit its kind is refused, naming the field.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LineKind {
+    /// A told trial ([`TrialLine`]).
+    Trial,
+    /// A withdrawn trial ([`FailedLine`]).
+    Failed,
+    /// A trial of a screening stage ([`ScreenLine`]).
+    Screen,
+}
+
+impl LineKind {
+    /// The kind of the stored object `value` (see [`LineKind`]); the error says what is wrong.
+    pub fn of(value: &serde_json::Value) -> Result<LineKind, String> {
+        if value.get("protocol").is_some() {
+            return Err("a protocol record, which only a store's first line may be".into());
+        }
+        if value.get("error").is_some() {
+            return Ok(LineKind::Failed);
+        }
+        let stage = value
+            .get("stage")
+            .ok_or("missing field `stage`")?
+            .as_str()
+            .ok_or("field `stage` is not a string")?;
+        let stage: StageId = stage.parse().map_err(|e| format!("field `stage`: {e}"))?;
+        Ok(match stage.kind {
+            StageKind::Screen => LineKind::Screen,
+            _ => LineKind::Trial,
         })
     }
+}
 
-    /// The line as the store keeps it (a JSON object's text).
-    pub fn to_json(&self) -> String {
-        // Serialising these plain structs cannot fail (string keys, no custom serialisers).
-        serde_json::to_string(self).unwrap_or_default()
+impl LogLine {
+    /// A stored line back as a trial line of its kind ([`LineKind::of`]); the error names the
+    /// store, the line and what is wrong.
+    pub fn from_stored(line: &StoredLine, store: &str) -> Result<LogLine, CampaignError> {
+        let bad = |message: String| CampaignError::Log {
+            store: store.to_string(),
+            line: line.line as usize,
+            message,
+        };
+        let value = line.value.clone();
+        let parsed = match LineKind::of(&line.value).map_err(bad)? {
+            LineKind::Failed => serde_json::from_value(value).map(LogLine::Failed),
+            LineKind::Screen => serde_json::from_value(value).map(LogLine::Screen),
+            LineKind::Trial => serde_json::from_value(value).map(LogLine::Trial),
+        };
+        parsed.map_err(|e| bad(e.to_string()))
     }
+}
+
+/// The first record of a campaign's store: the protocol the campaign runs, so that the store
+/// alone resumes it (beside a directory's store, `protocol.json` is a copy for people). Stored
+/// as `{"v":1,"protocol":{…},"c":"…"}`; a store written before it existed begins with a
+/// trial, and its protocol is in `protocol.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProtocolLine {
+    /// The protocol.
+    pub protocol: Protocol,
+}
+
+impl ProtocolLine {
+    /// The protocol of `line` if it is a protocol record (a store's first line), checked as
+    /// `protocol.json` is; the error names the store, the line and the field.
+    pub fn of(line: &StoredLine, store: &str) -> Result<Option<Protocol>, CampaignError> {
+        if line.value.get("protocol").is_none() {
+            return Ok(None);
+        }
+        let bad = |message: String| CampaignError::Log {
+            store: store.to_string(),
+            line: line.line as usize,
+            message,
+        };
+        let record: ProtocolLine =
+            serde_json::from_value(line.value.clone()).map_err(|e| bad(e.to_string()))?;
+        let p = record.protocol;
+        if p.format_version != super::protocol::FORMAT_VERSION {
+            return Err(bad(format!(
+                "protocol.format_version {}: this savme reads version {}",
+                p.format_version,
+                super::protocol::FORMAT_VERSION
+            )));
+        }
+        match p.validate() {
+            Ok(()) => Ok(Some(p)),
+            Err(CampaignError::Protocol { field, message }) => {
+                Err(bad(format!("`protocol.{field}`: {message}")))
+            }
+            Err(e) => Err(e),
+        }
+    }
+}
+
+/// A store's protocol record (its first line, when the store has one) and its trial lines
+/// with their line numbers.
+pub type StoredCampaign = (Option<Protocol>, Vec<(u64, LogLine)>);
+
+/// A store's lines as its protocol record and its trial lines ([`StoredCampaign`]).
+pub fn read_stored(lines: &[StoredLine], store: &str) -> Result<StoredCampaign, CampaignError> {
+    let (protocol, rest) = match lines.split_first() {
+        Some((first, rest)) => match ProtocolLine::of(first, store)? {
+            Some(p) => (Some(p), rest),
+            None => (None, lines),
+        },
+        None => (None, lines),
+    };
+    let trials = rest
+        .iter()
+        .map(|l| Ok((l.line, LogLine::from_stored(l, store)?)))
+        .collect::<Result<_, CampaignError>>()?;
+    Ok((protocol, trials))
 }
 
 /// Splits the logged lines into the protocol's stages (a prefix of each, in order); only the
@@ -232,11 +336,8 @@ pub fn split_by_stage<'a>(
     let mut out = Vec::new();
     let mut at = 0usize;
     for stage in p.stages() {
-        let label = stage.label();
-        let n = lines[at..]
-            .iter()
-            .take_while(|l| l.stage() == label)
-            .count();
+        let (id, label) = (stage.id(), stage.label());
+        let n = lines[at..].iter().take_while(|l| l.stage() == id).count();
         let told = lines[at..at + n].iter().filter(|l| l.is_told()).count();
         if told as u64 > stage.iterations {
             return Err(bad(
@@ -282,11 +383,7 @@ pub fn read_dir_lines(dir: &std::path::Path) -> Result<Vec<(u64, LogLine)>, Camp
     }
     let name = path.display().to_string();
     let loaded = JsonlStore::read(&path)?;
-    let lines = loaded
-        .lines
-        .iter()
-        .map(|l| Ok((l.line, LogLine::from_stored(l, &name)?)))
-        .collect::<Result<_, CampaignError>>()?;
+    let (_, lines) = read_stored(&loaded.lines, &name)?;
     loaded.refuse_edits(&name)?;
     Ok(lines)
 }
@@ -313,5 +410,48 @@ mod tests {
         let failed = r#"{"stage":"train@0.3","index":0,"id":0,"scenario":"s","phi":{},"theta_lf":null,"error":"boom","eror":1}"#;
         let e = LogLine::from_stored(&line(failed), "t.jsonl").unwrap_err();
         assert!(e.to_string().contains("unknown field `eror`"), "{e}");
+        // A bad stage label is refused naming the line and the field, saying what is wrong.
+        for (label, reason) in [
+            ("train@0.30", "savme writes it `train@0.3`"),
+            ("trian@0.3", "`trian` is not a stage kind"),
+        ] {
+            let text = good.replacen("train@0.3", label, 1);
+            let e = LogLine::from_stored(&line(&text), "t.jsonl").unwrap_err();
+            let e = e.to_string();
+            assert!(
+                e.starts_with(&format!(
+                    "t.jsonl, line 7: field `stage`: `{label}` is not a stage label"
+                )) && e.contains(reason),
+                "{e}"
+            );
+        }
+        let e = LogLine::from_stored(&line(r#"{"index":0}"#), "t.jsonl").unwrap_err();
+        assert!(
+            e.to_string().contains("line 7: missing field `stage`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_lines_kind_comes_from_its_stage_and_its_error() {
+        let kind = |text: &str| LineKind::of(&serde_json::from_str(text).unwrap());
+        assert_eq!(kind(r#"{"stage":"train@0.3"}"#), Ok(LineKind::Trial));
+        assert_eq!(kind(r#"{"stage":"screen@0.3"}"#), Ok(LineKind::Screen));
+        assert_eq!(
+            kind(r#"{"stage":"screen@0.3","error":"x"}"#),
+            Ok(LineKind::Failed)
+        );
+        // A trial line with a `screen` key is a told trial with an unknown field, not a
+        // screened trial.
+        let told = r#"{"stage":"evaluate@0.3","screen":"pass"}"#;
+        assert_eq!(kind(told), Ok(LineKind::Trial));
+        let line = StoredLine {
+            line: 3,
+            value: serde_json::from_str(told).unwrap(),
+        };
+        let e = LogLine::from_stored(&line, "t.jsonl")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 3: unknown field `screen`"), "{e}");
     }
 }

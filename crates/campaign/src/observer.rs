@@ -399,6 +399,7 @@ impl<W: Write> Observer for ProgressLines<W> {
 mod tests {
     use super::*;
     use crate::log::RunLine;
+    use crate::{StageId, StageKind};
     use savme_kernel::{Assignment, Credit, Phase};
 
     fn run(failure: bool) -> RunLine {
@@ -413,7 +414,7 @@ mod tests {
 
     fn line(failure: bool) -> TrialLine {
         TrialLine {
-            stage: "baseline".into(),
+            stage: StageId::new(StageKind::BaselineTrain, None),
             index: 0,
             id: 0,
             phase: Phase::Baseline,
@@ -495,7 +496,7 @@ mod tests {
 
     fn screen_line(hf_failure: Option<bool>) -> ScreenLine {
         ScreenLine {
-            stage: "screen@0.3".into(),
+            stage: StageId::new(StageKind::Screen, Some(0.3)),
             index: 0,
             id: 0,
             budget: Some(0.3),

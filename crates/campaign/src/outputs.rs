@@ -43,7 +43,9 @@ impl Outputs {
     }
 }
 
-/// Reads the protocol of the campaign in `dir` (for `--resume`).
+/// Reads the protocol of the campaign in `dir` (for `--resume`): the first record of its
+/// `trials.jsonl`, or, for a store written before the protocol was kept there,
+/// `protocol.json`. Errors name the file, the line and the field.
 pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
     if dir.is_file() {
         return Err(CampaignError::NotACampaign {
@@ -51,6 +53,20 @@ pub fn load_protocol(dir: &Path) -> Result<Protocol, CampaignError> {
         });
     }
     usable_dir(dir)?;
+    let trials = Outputs::in_dir(dir).trials;
+    let first = super::store::JsonlStore::read_first(&trials)?;
+    if let Some(first) = first {
+        let shown = trials.display().to_string();
+        if let Some(p) = super::log::ProtocolLine::of(&first, &shown)? {
+            return Ok(p);
+        }
+    }
+    load_protocol_file(dir)
+}
+
+/// Reads `dir/protocol.json` (the protocol of a store written before the protocol was its
+/// first record).
+pub(crate) fn load_protocol_file(dir: &Path) -> Result<Protocol, CampaignError> {
     let path = Outputs::in_dir(dir).protocol;
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,

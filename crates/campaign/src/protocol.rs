@@ -2,6 +2,7 @@
 //! iterations, with which budgets and seeds.
 
 use super::CampaignError;
+pub use crate::stage::{BadStageLabel, Compact, Stage, StageId, StageKind};
 use serde::{Deserialize, Serialize};
 
 /// How a run's cost is measured (serialisable twin of [`savme_kernel::CostMeasure`]).
@@ -407,111 +408,6 @@ impl Protocol {
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
-    }
-}
-
-/// What a stage does.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum StageKind {
-    /// Uniform φ on the meta-training scenarios, HF only.
-    BaselineTrain,
-    /// Meta-training at a budget.
-    Train,
-    /// Evaluation of the meta-training posterior at a budget.
-    Evaluate,
-    /// LF screening with HF confirmation of the meta-training posterior at a budget.
-    Screen,
-    /// Uniform φ on the meta-testing scenarios, HF only.
-    BaselineTest,
-    /// Meta-testing with the meta-training posterior as the fidelity prior.
-    TestLearned,
-    /// Meta-testing with a uniform fidelity prior.
-    TestUniform,
-}
-
-impl StageKind {
-    /// The kebab-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            StageKind::BaselineTrain => "baseline-train",
-            StageKind::Train => "train",
-            StageKind::Evaluate => "evaluate",
-            StageKind::Screen => "screen",
-            StageKind::BaselineTest => "baseline-test",
-            StageKind::TestLearned => "test-learned",
-            StageKind::TestUniform => "test-uniform",
-        }
-    }
-}
-
-/// One stage of the protocol.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Stage {
-    /// What it does.
-    pub kind: StageKind,
-    /// Its budget (None for the baselines).
-    pub budget: Option<f64>,
-    /// Trials it runs.
-    pub iterations: u64,
-    /// The fidelity prior's strength of a prior-strength ablation stage (None: the protocol's
-    /// `prior_strength` for `test-learned`, nothing for the others).
-    pub strength: Option<f64>,
-}
-
-/// A budget or strength as it appears in stage labels, directory names and messages: as Rust
-/// prints it (`0.3`, `0.05`) when that is at most [`Compact::MAX_PLAIN`] characters, else in
-/// scientific notation (`1e-300`, not 300 zeros). Labels of every budget shorter than that are
-/// unchanged, so the kernels' seeds (derived from the labels) and stored campaigns are too.
-///
-/// ```
-/// use savme_campaign::protocol::Compact;
-/// assert_eq!(Compact(0.3).to_string(), "0.3");
-/// assert_eq!(Compact(1e-300).to_string(), "1e-300");
-/// assert_eq!(Compact(1e300).to_string(), "1e300");
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Compact(pub f64);
-
-impl Compact {
-    /// The longest plain rendering kept as is.
-    pub const MAX_PLAIN: usize = 20;
-}
-
-impl std::fmt::Display for Compact {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let plain = self.0.to_string();
-        if plain.len() <= Self::MAX_PLAIN {
-            f.write_str(&plain)
-        } else {
-            write!(f, "{:e}", self.0)
-        }
-    }
-}
-
-impl Stage {
-    /// The kernel phase its trials are asked in.
-    pub fn phase(&self) -> savme_kernel::Phase {
-        use savme_kernel::Phase;
-        match self.kind {
-            StageKind::BaselineTrain | StageKind::BaselineTest => Phase::Baseline,
-            StageKind::Train => Phase::Train,
-            StageKind::Evaluate | StageKind::Screen => Phase::Evaluate,
-            StageKind::TestLearned | StageKind::TestUniform => Phase::Test,
-        }
-    }
-
-    /// Its label in `trials.jsonl` and progress bars, e.g. `train@0.3`, or
-    /// `test-learned-s0.1@0.3` for a prior-strength ablation stage.
-    pub fn label(&self) -> String {
-        let kind = match self.strength {
-            Some(s) => format!("{}-s{}", self.kind.name(), Compact(s)),
-            None => self.kind.name().into(),
-        };
-        match self.budget {
-            Some(b) => format!("{kind}@{}", Compact(b)),
-            None => kind,
-        }
     }
 }
 

@@ -144,8 +144,8 @@ pub struct Report {
 }
 
 fn stage_lines<'a>(lines: &'a [TrialLine], stage: &Stage) -> Vec<&'a TrialLine> {
-    let label = stage.label();
-    lines.iter().filter(|l| l.stage == label).collect()
+    let id = stage.id();
+    lines.iter().filter(|l| l.stage == id).collect()
 }
 
 fn stage_of(p: &Protocol, kind: StageKind, budget: Option<f64>) -> Stage {
@@ -345,9 +345,8 @@ impl Report {
         let p = &self.protocol;
         let base = stage_lines(trials, &stage_of(p, StageKind::BaselineTrain, None));
         for b in &mut self.budgets {
-            let label = stage_of(p, StageKind::Screen, Some(b.budget)).label();
-            let lines: Vec<&log::ScreenLine> =
-                screened.iter().filter(|l| l.stage == label).collect();
+            let id = stage_of(p, StageKind::Screen, Some(b.budget)).id();
+            let lines: Vec<&log::ScreenLine> = screened.iter().filter(|l| l.stage == id).collect();
             let eval = stage_lines(trials, &stage_of(p, StageKind::Evaluate, Some(b.budget)));
             b.screening = screening::report(&lines, &eval, &base, p.audit_fraction);
         }

@@ -27,7 +27,8 @@
 use crate::locked::Locked;
 use crate::Database;
 use postgres::{Client, GenericClient, Statement};
-use savme_store::{Loaded, StoreError, StoredLine, TrialStore, FORMAT};
+use savme_campaign::log::{LogLine, RunLine, TrialLine};
+use savme_store::{Loaded, ProtocolKeeper, Record, StoreError, StoredLine, TrialStore, FORMAT};
 use serde_json::Value;
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -251,7 +252,9 @@ pub fn read_campaign(db: &Database, name: &str) -> Result<(Option<Value>, Loaded
     Ok((protocol_of(&location, text)?, lines_of(&location, &rows)?))
 }
 
-/// A line's fields as the typed columns of `savme.trials`.
+/// A line's fields as the typed columns of `savme.trials`, read from the typed record (a
+/// campaign's [`LogLine`]); any other record (a journal's event) fills none.
+#[derive(Default)]
 pub(crate) struct Columns {
     stage: Option<String>,
     idx: Option<i64>,
@@ -278,40 +281,79 @@ struct RunColumns {
     work: Option<i64>,
 }
 
+impl RunColumns {
+    fn of(run: Option<&RunLine>) -> RunColumns {
+        run.map_or_else(RunColumns::default, |r| RunColumns {
+            failure: Some(r.failure),
+            runtime: Some(r.runtime),
+            wall_seconds: Some(r.wall_seconds),
+            work: r.work.and_then(|w| i64::try_from(w).ok()),
+        })
+    }
+}
+
+/// A value's JSON text (an assignment for a `jsonb` column), or its name (a unit variant such
+/// as a phase or an outcome, as the line stores it).
+fn json<T: serde::Serialize>(value: &T) -> Option<String> {
+    serde_json::to_string(value).ok()
+}
+
+fn name<T: serde::Serialize>(value: &T) -> Option<String> {
+    match serde_json::to_value(value).ok()? {
+        Value::String(s) => Some(s),
+        _ => None,
+    }
+}
+
 impl Columns {
-    fn of(v: &Value) -> Columns {
-        let s = |k: &str| v.get(k).and_then(Value::as_str).map(str::to_string);
-        let i = |k: &str| v.get(k).and_then(Value::as_i64);
-        let object = |k: &str| v.get(k).filter(|x| x.is_object()).map(Value::to_string);
-        let run = |k: &str| {
-            v.get(k).map_or_else(RunColumns::default, |r| RunColumns {
-                failure: r.get("failure").and_then(Value::as_bool),
-                runtime: r.get("runtime").and_then(Value::as_f64),
-                wall_seconds: r.get("wall_seconds").and_then(Value::as_f64),
-                work: r.get("work").and_then(Value::as_i64),
-            })
-        };
-        let credit = |k: &str| {
-            v.get("credit")
-                .and_then(|c| c.get(k))
-                .and_then(Value::as_bool)
-        };
+    /// The columns of `record`: a trial line's fields, or none for any other record.
+    fn of(record: &dyn Record) -> Columns {
+        match record.as_any().downcast_ref::<LogLine>() {
+            Some(LogLine::Trial(t)) => Columns::of_trial(t),
+            Some(LogLine::Failed(f)) => Columns {
+                stage: Some(f.stage.to_string()),
+                idx: i64::try_from(f.index).ok(),
+                trial_id: i64::try_from(f.id).ok(),
+                scenario: Some(f.scenario.clone()),
+                phi: json(&f.phi),
+                theta_lf: f.theta_lf.as_ref().and_then(json),
+                error: Some(f.error.clone()),
+                ..Columns::default()
+            },
+            Some(LogLine::Screen(s)) => Columns {
+                stage: Some(s.stage.to_string()),
+                idx: i64::try_from(s.index).ok(),
+                trial_id: i64::try_from(s.id).ok(),
+                budget: s.budget,
+                scenario: Some(s.scenario.clone()),
+                phi: json(&s.phi),
+                theta_lf: s.theta_lf.as_ref().and_then(json),
+                hf: RunColumns::of(s.hf.as_ref()),
+                lf: RunColumns::of(Some(&s.lf)),
+                outcome: s.outcome.as_ref().and_then(name),
+                ..Columns::default()
+            },
+            None => Columns::default(),
+        }
+    }
+
+    fn of_trial(t: &TrialLine) -> Columns {
         Columns {
-            stage: s("stage"),
-            idx: i("index"),
-            trial_id: i("id"),
-            phase: s("phase"),
-            budget: v.get("budget").and_then(Value::as_f64),
-            scenario: s("scenario"),
-            phi: object("phi"),
-            theta_lf: object("theta_lf"),
-            hf: run("hf"),
-            lf: run("lf"),
-            cost_ratio: v.get("cost_ratio").and_then(Value::as_f64),
-            outcome: s("outcome"),
-            credit_fidelity: credit("fidelity"),
-            credit_scenario: credit("scenario"),
-            error: s("error"),
+            stage: Some(t.stage.to_string()),
+            idx: i64::try_from(t.index).ok(),
+            trial_id: i64::try_from(t.id).ok(),
+            phase: name(&t.phase),
+            budget: t.budget,
+            scenario: Some(t.scenario.clone()),
+            phi: json(&t.phi),
+            theta_lf: t.theta_lf.as_ref().and_then(json),
+            hf: RunColumns::of(Some(&t.hf)),
+            lf: RunColumns::of(t.lf.as_ref()),
+            cost_ratio: t.cost_ratio,
+            outcome: t.outcome.as_ref().and_then(name),
+            credit_fidelity: t.credit.fidelity,
+            credit_scenario: t.credit.scenario,
+            error: None,
         }
     }
 }
@@ -398,31 +440,30 @@ impl TrialStore for PostgresStore {
     /// Stores the lines in one transaction — at once, or, in a campaign whose runs go through
     /// the work queue, at the coordinator's next wait, in one transaction with its queue
     /// update (`Locked`).
-    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
-        let mut rows = Vec::with_capacity(objects.len());
-        for text in objects {
-            let value: Value = serde_json::from_str(text).map_err(|e| StoreError::BadLine {
+    fn append_all(&mut self, records: &[&dyn Record]) -> Result<(), StoreError> {
+        let mut rows = Vec::with_capacity(records.len());
+        for record in records {
+            let object = record.object().map_err(|message| StoreError::BadLine {
                 store: self.location.clone(),
                 line: 0,
-                message: format!("not JSON: {e}"),
+                message,
             })?;
-            if value.as_object().is_none_or(|m| m.contains_key("v")) {
-                return Err(StoreError::BadLine {
-                    store: self.location.clone(),
-                    line: 0,
-                    message: "a store line must be a JSON object without a `v` key".into(),
-                });
-            }
-            let columns = Columns::of(&value);
-            rows.push((text.trim().to_string(), columns));
+            let mut body = String::with_capacity(object.len() + 2);
+            body.push('{');
+            body.push_str(&String::from_utf8_lossy(&object));
+            body.push('}');
+            rows.push((body, Columns::of(*record)));
         }
         self.lock().append(rows)
     }
 
-    fn keeps_protocol(&self) -> bool {
-        true
+    fn protocol_keeper(&mut self) -> Option<&mut dyn ProtocolKeeper> {
+        Some(self)
     }
+}
 
+/// The protocol lives in the campaign's row (`savme.campaigns.protocol`).
+impl ProtocolKeeper for PostgresStore {
     fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
         let text: Option<String> = self
             .lock()

@@ -27,16 +27,7 @@ impl Sink for JournalSink {
     }
 
     fn record_all(&mut self, events: &[Event]) -> Result<(), StoreError> {
-        let texts = events
-            .iter()
-            .map(serde_json::to_string)
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|e| StoreError::BadLine {
-                store: self.store.location(),
-                line: 0,
-                message: e.to_string(),
-            })?;
-        self.store.append_json(&texts)
+        self.store.append_all(&crate::records(events))
     }
 }
 

@@ -3,8 +3,8 @@
 
 use super::chain::Chain;
 use super::{
-    encode_sealed, EditedLine, LineReader, Loaded, StoreError, StoreLock, StoredLine, TornTail,
-    TrialStore,
+    encode_sealed, EditedLine, LineReader, Loaded, Record, StoreError, StoreLock, StoredLine,
+    TornTail, TrialStore,
 };
 use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
@@ -107,6 +107,45 @@ impl JsonlStore {
             });
         }
         Ok(loaded)
+    }
+
+    /// The first complete line of the store at `path` (None: the file has none, or does not
+    /// exist), read without its lock and checked as [`JsonlStore::read`] checks it (a
+    /// changed line is refused, naming it). What a campaign keeps there: its protocol.
+    pub fn read_first(path: &Path) -> Result<Option<StoredLine>, StoreError> {
+        let location = path.display().to_string();
+        let file = match File::open(path) {
+            Ok(f) => f,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(StoreError::io(location, e)),
+        };
+        let mut reader = BufReader::new(file);
+        let mut lines = LineReader::default();
+        let mut buf = Vec::new();
+        let mut line = 0u64;
+        loop {
+            buf.clear();
+            let n = reader
+                .read_until(b'\n', &mut buf)
+                .map_err(|e| StoreError::io(location.clone(), e))?;
+            line += 1;
+            let Some(text) = buf.strip_suffix(b"\n") else {
+                return Ok(None); // no complete line (n == 0: the end)
+            };
+            if n == 0 || text.iter().all(u8::is_ascii_whitespace) {
+                continue;
+            }
+            let bad = |message| StoreError::BadLine {
+                store: location.clone(),
+                line,
+                message,
+            };
+            let value = lines.read(line, text).map_err(bad)?;
+            if let Some(e) = lines.edited {
+                return Err(bad(e.message));
+            }
+            return Ok(Some(StoredLine { line, value }));
+        }
     }
 
     /// Cuts a torn tail off, so that the next line starts after the last complete one.
@@ -226,7 +265,7 @@ impl TrialStore for JsonlStore {
         Ok(loaded)
     }
 
-    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
+    fn append_all(&mut self, records: &[&dyn Record]) -> Result<(), StoreError> {
         if self.chain.is_none() {
             // The chain continues after the stored lines (read, and checked, once).
             self.load()?;
@@ -240,8 +279,8 @@ impl TrialStore for JsonlStore {
         }
         let mut chain = self.chain.unwrap_or_default();
         let mut bytes = Vec::new();
-        for object in objects {
-            encode_sealed(object, &mut chain, &mut bytes).map_err(|message| {
+        for record in records {
+            encode_sealed(*record, &mut chain, &mut bytes).map_err(|message| {
                 StoreError::BadLine {
                     store: self.location(),
                     line: 0,
@@ -432,6 +471,30 @@ mod tests {
             e.contains("line 3: its checksum") && e.contains("one of lines 1–2"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_first_line_is_read_alone_and_checked() {
+        let path = temp("first");
+        assert_eq!(JsonlStore::read_first(&path).unwrap(), None);
+        std::fs::write(&path, "{\"v\":1,\"a\":").unwrap();
+        assert_eq!(JsonlStore::read_first(&path).unwrap(), None); // torn: no complete line
+        std::fs::write(&path, "").unwrap();
+        let mut s = JsonlStore::open(&path).unwrap();
+        s.append(&json!({"protocol": {"seed": 7}})).unwrap();
+        s.append(&json!({"i": 1})).unwrap();
+        drop(s);
+        let first = JsonlStore::read_first(&path).unwrap().unwrap();
+        assert_eq!(
+            (first.line, first.value),
+            (1, json!({"protocol": {"seed": 7}}))
+        );
+        let text = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, text.replacen("7", "8", 1)).unwrap();
+        let e = JsonlStore::read_first(&path).unwrap_err().to_string();
+        assert!(e.contains("line 1: its checksum"), "{e}");
+        std::fs::write(&path, "\n{\"a\":1}\n").unwrap();
+        assert_eq!(JsonlStore::read_first(&path).unwrap().unwrap().line, 2);
     }
 
     #[test]

@@ -48,6 +48,68 @@ use serde_json::Value;
 /// existed (no `"v"`) are read as version 1, the format they have.
 pub const FORMAT: u64 = 1;
 
+/// What a store appends: any serialisable value whose JSON is an object (a campaign's trial
+/// line, an estimate's line, a kernel's journal event). The store serialises it once, when it
+/// writes it; a store that files records of types it knows in columns (a database) sees the
+/// record's type through [`Record::as_any`] and reads its fields, never its text.
+///
+/// ```
+/// use savme_store::Record;
+/// #[derive(serde::Serialize)]
+/// struct Seen { stage: &'static str, index: u64 }
+/// let record: &dyn Record = &Seen { stage: "train@0.3", index: 0 };
+/// assert_eq!(record.object()?, br#""stage":"train@0.3","index":0"#);
+/// assert!(record.as_any().downcast_ref::<Seen>().is_some());
+/// # Ok::<(), String>(())
+/// ```
+pub trait Record: std::any::Any {
+    /// The record's keys and values: its JSON object without the braces (empty for `{}`).
+    /// The error says why it is no store line (not an object, a `v` key of its own, not
+    /// serialisable).
+    fn object(&self) -> Result<Vec<u8>, String>;
+
+    /// The record itself, for a store that reads the fields of the types it knows.
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+impl<T: serde::Serialize + std::any::Any> Record for T {
+    fn object(&self) -> Result<Vec<u8>, String> {
+        if let Some(Value::Object(map)) = (self as &dyn std::any::Any).downcast_ref::<Value>() {
+            if map.contains_key("v") {
+                return Err("a store line must be a JSON object without a `v` key".into());
+            }
+        }
+        let text =
+            serde_json::to_vec(self).map_err(|e| format!("not serialisable as JSON: {e}"))?;
+        match text.strip_prefix(b"{").and_then(|t| t.strip_suffix(b"}")) {
+            Some(inner) => Ok(inner.to_vec()),
+            None => Err("a store line must be a JSON object".into()),
+        }
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// `items` as records, for [`TrialStore::append_all`].
+///
+/// ```
+/// use savme_store::{records, JsonlStore, TrialStore};
+/// # let dir = std::env::temp_dir().join(format!("savme-records-doc-{}", std::process::id()));
+/// # std::fs::create_dir_all(&dir)?;
+/// # let _ = std::fs::remove_file(dir.join("t.jsonl"));
+/// let mut store = JsonlStore::open(&dir.join("t.jsonl"))?;
+/// let lines = [serde_json::json!({"i": 0}), serde_json::json!({"i": 1})];
+/// store.append_all(&records(&lines))?;
+/// assert_eq!(store.load()?.lines.len(), 2);
+/// # drop(store); std::fs::remove_dir_all(&dir)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub fn records<T: Record>(items: &[T]) -> Vec<&dyn Record> {
+    items.iter().map(|r| r as &dyn Record).collect()
+}
+
 /// One complete line read back.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StoredLine {
@@ -203,50 +265,35 @@ pub trait TrialStore: Send {
     /// reported); later appends go after the last complete line.
     fn load(&mut self) -> Result<Loaded, StoreError>;
 
-    /// Appends serialised JSON objects (each the text of one object, without a top-level `v`
-    /// key, which the store adds) as lines, all or none, durably (handed whole to the
-    /// operating system) before returning. On an error nothing was appended. (One exception,
-    /// documented where it is made: a PostgreSQL store whose campaign runs through its work
-    /// queue commits the lines with the queue's next batch, in one transaction.)
-    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError>;
+    /// Appends records as lines, all or none, durably (handed whole to the operating system)
+    /// before returning. The store serialises each record once ([`Record`]), adding the
+    /// format version (`"v"`, first) and, in a JSON-lines file, the chained digest (`"c"`,
+    /// last). On an error nothing was appended. (One exception, documented where it is made: a
+    /// PostgreSQL store whose campaign runs through its work queue commits the lines with the
+    /// queue's next batch, in one transaction.)
+    fn append_all(&mut self, records: &[&dyn Record]) -> Result<(), StoreError>;
 
-    /// Appends JSON objects as lines, all or none ([`TrialStore::append_json`]).
-    fn append_all(&mut self, lines: &[Value]) -> Result<(), StoreError> {
-        let texts = lines
-            .iter()
-            .map(|v| match v {
-                Value::Object(m) if !m.contains_key("v") => Ok(v.to_string()),
-                _ => Err(StoreError::BadLine {
-                    store: self.location(),
-                    line: 0,
-                    message: "a store line must be a JSON object without a `v` key".into(),
-                }),
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        self.append_json(&texts)
+    /// Appends one record as a line ([`TrialStore::append_all`] of one).
+    fn append(&mut self, record: &dyn Record) -> Result<(), StoreError> {
+        self.append_all(&[record])
     }
 
-    /// Appends one JSON object as a line ([`TrialStore::append_all`] of one).
-    fn append(&mut self, line: &Value) -> Result<(), StoreError> {
-        self.append_all(std::slice::from_ref(line))
+    /// The store's [`ProtocolKeeper`] capability, if it keeps a campaign's protocol apart from
+    /// its lines (a database does, in its campaign row). Default: none — a campaign then
+    /// stores its protocol as the store's first record.
+    fn protocol_keeper(&mut self) -> Option<&mut dyn ProtocolKeeper> {
+        None
     }
+}
 
-    /// Whether the store keeps the campaign's protocol itself (a database does). A store that
-    /// does not (a JSON-lines file) leaves it to the campaign's `protocol.json`.
-    fn keeps_protocol(&self) -> bool {
-        false
-    }
+/// An optional capability of a [`TrialStore`] ([`TrialStore::protocol_keeper`]): it keeps the
+/// campaign's protocol apart from its lines.
+pub trait ProtocolKeeper {
+    /// The protocol kept, if the store has been given one.
+    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError>;
 
-    /// The protocol the store keeps, if it keeps one and has been given one.
-    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
-        Ok(None)
-    }
-
-    /// Keeps `protocol` (a store that [`keeps_protocol`](TrialStore::keeps_protocol); the
-    /// others ignore it).
-    fn save_protocol(&mut self, _protocol: &Value) -> Result<(), StoreError> {
-        Ok(())
-    }
+    /// Keeps `protocol`.
+    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError>;
 }
 
 impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
@@ -258,32 +305,24 @@ impl<T: TrialStore + ?Sized> TrialStore for Box<T> {
         (**self).load()
     }
 
-    fn append_json(&mut self, objects: &[String]) -> Result<(), StoreError> {
-        (**self).append_json(objects)
+    fn append_all(&mut self, records: &[&dyn Record]) -> Result<(), StoreError> {
+        (**self).append_all(records)
     }
 
-    fn keeps_protocol(&self) -> bool {
-        (**self).keeps_protocol()
-    }
-
-    fn load_protocol(&mut self) -> Result<Option<Value>, StoreError> {
-        (**self).load_protocol()
-    }
-
-    fn save_protocol(&mut self, protocol: &Value) -> Result<(), StoreError> {
-        (**self).save_protocol(protocol)
+    fn protocol_keeper(&mut self) -> Option<&mut dyn ProtocolKeeper> {
+        (**self).protocol_keeper()
     }
 }
 
-/// A serialised object as a line: `{"v":FORMAT,` followed by the object's own keys, then the
-/// digest `"c"` that `chain` gives it, appended to `out`.
+/// A record as a line: `{"v":FORMAT,` followed by the record's own keys, then the digest
+/// `"c"` that `chain` gives it, appended to `out`.
 pub(crate) fn encode_sealed(
-    object: &str,
+    record: &dyn Record,
     chain: &mut chain::Chain,
     out: &mut Vec<u8>,
 ) -> Result<(), String> {
     let mut line = Vec::new();
-    encode(object, &mut line)?;
+    encode(record, &mut line)?;
     line.truncate(line.len() - 2); // `}\n`
     chain.seal(&mut line);
     out.extend_from_slice(&line);
@@ -362,22 +401,14 @@ impl LineReader {
     }
 }
 
-/// A serialised object as a line: `{"v":FORMAT,` followed by the object's own keys, appended
-/// to `out`.
-pub(crate) fn encode(object: &str, out: &mut Vec<u8>) -> Result<(), String> {
-    let body = object.trim();
-    let inner = body
-        .strip_prefix('{')
-        .and_then(|b| b.strip_suffix('}'))
-        .ok_or("a store line must be a JSON object")?;
-    if inner.contains('\n') {
-        return Err("a store line must be one line of JSON".into());
-    }
+/// A record as a line: `{"v":FORMAT,` followed by the record's own keys, appended to `out`.
+pub(crate) fn encode(record: &dyn Record, out: &mut Vec<u8>) -> Result<(), String> {
+    let object = record.object()?;
     out.extend_from_slice(format!("{{\"v\":{FORMAT}").as_bytes());
-    if !inner.trim().is_empty() {
+    if !object.is_empty() {
         out.push(b',');
     }
-    out.extend_from_slice(inner.as_bytes());
+    out.extend_from_slice(&object);
     out.extend_from_slice(b"}\n");
     Ok(())
 }
@@ -411,19 +442,23 @@ mod tests {
     fn lines_carry_the_format_version_first_and_round_trip() {
         let v = json!({"stage": "train@0.3", "x": [1.5, null]});
         let mut line = Vec::new();
-        encode(&v.to_string(), &mut line).unwrap();
+        encode(&v, &mut line).unwrap();
         assert!(line.starts_with(b"{\"v\":1,\"stage\""));
         assert_eq!(decode(&line[..line.len() - 1]).unwrap(), v);
         let mut empty = Vec::new();
-        encode("{}", &mut empty).unwrap();
+        encode(&json!({}), &mut empty).unwrap();
         assert_eq!(empty, b"{\"v\":1}\n");
         assert_eq!(decode(b"{\"a\":1}").unwrap(), json!({"a": 1}));
     }
 
     #[test]
     fn bad_lines_say_what_is_wrong() {
-        assert!(encode("[1]", &mut Vec::new()).is_err());
-        assert!(encode("{\"a\":\n1}", &mut Vec::new()).is_err());
+        assert!(encode(&json!([1]), &mut Vec::new()).is_err());
+        assert!(encode(&json!({"v": 2}), &mut Vec::new()).is_err());
+        // A string with a newline is escaped: the line stays one line.
+        let mut line = Vec::new();
+        encode(&json!({"a": "x\ny"}), &mut line).unwrap();
+        assert_eq!(line, b"{\"v\":1,\"a\":\"x\\ny\"}\n");
         let cases: [(&[u8], &str); 4] = [
             (b"{\"v\":2,\"a\":1}", "version 2 is not supported"),
             (b"[1,2]", "not a JSON object"),

@@ -90,6 +90,8 @@ fn log_labels(
 
 #[derive(Debug, Default, Clone)]
 struct StageTally {
+    /// The stage's readable name ([`savme_campaign::StageId::title`]).
+    title: String,
     runtime: f64,
     found: u64,
     paired: u64,
@@ -320,6 +322,9 @@ impl CampaignView {
     ) -> Result<String, RecordError> {
         let label = entity_label(&stage.label());
         let t = self.stages.entry(label.clone()).or_default();
+        if t.title.is_empty() {
+            t.title = stage.id().title();
+        }
         t.trials += 1;
         t.runtime += runtime;
         t.found += u64::from(failure);
@@ -369,7 +374,7 @@ impl CampaignView {
     /// The campaign's summary document: the recorded trials and the selection rule.
     pub fn summary_markdown(&self, recorded: &[String], opts: &RecordOptions) -> String {
         let mut s = String::from("## Campaign\n\n| stage | trials | HF failures | fidelity success | runtime |\n|---|---|---|---|---|\n");
-        for (label, t) in &self.stages {
+        for t in self.stages.values() {
             let rate = if t.paired > 0 {
                 format!("{:.0} %", 100.0 * t.successes as f64 / t.paired as f64)
             } else {
@@ -377,8 +382,8 @@ impl CampaignView {
             };
             let _ = writeln!(
                 s,
-                "| {label} | {} | {} | {rate} | {:.1} s |",
-                t.trials, t.found, t.runtime
+                "| {} | {} | {} | {rate} | {:.1} s |",
+                t.title, t.trials, t.found, t.runtime
             );
         }
         let _ = writeln!(

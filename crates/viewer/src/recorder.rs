@@ -54,7 +54,7 @@ type Kept = Vec<(u64, TrialLine)>;
 /// `cap` each.
 #[derive(Debug, Default)]
 struct Candidates {
-    buckets: Vec<((String, Class), Kept)>,
+    buckets: Vec<((savme_campaign::StageId, Class), Kept)>,
 }
 
 impl Candidates {
@@ -62,7 +62,7 @@ impl Candidates {
         let Some(c) = class(line) else {
             return;
         };
-        let key = (line.stage.clone(), c);
+        let key = (line.stage, c);
         let k = match self.buckets.iter().position(|(k, _)| *k == key) {
             Some(k) => k,
             None => {

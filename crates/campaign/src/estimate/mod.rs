@@ -538,10 +538,7 @@ impl Running<'_, '_> {
         };
         let run = r.run(self.cost).map_err(|e| simulation(e.to_string()))?;
         let line = EstimateLine::new(t, RunLine::new(r, run.runtime));
-        let json = serde_json::to_string(&line).map_err(|e| simulation(e.to_string()))?;
-        self.store
-            .append_json(&[json])
-            .map_err(CampaignError::from)?;
+        self.store.append(&line).map_err(CampaignError::from)?;
         self.estimation.tell(t.id, r.failure)?;
         self.lines.push(line);
         self.report.call(self.estimation);

@@ -1,7 +1,7 @@
 //! The trained posteriors p_ψ(φ | s) of a finished campaign, rebuilt from its trial lines.
 
 use super::{EstimateError, EstimateSettings};
-use crate::protocol::Compact;
+use crate::protocol::{StageId, StageKind};
 use crate::{CampaignError, Problem, Protocol};
 use savme_kernel::{Posterior, PriorCounts, Scenario};
 use std::collections::BTreeMap;
@@ -24,7 +24,7 @@ pub(crate) struct Trained {
 type Lines<'a> = (&'a str, &'a [(u64, crate::log::LogLine)]);
 
 /// Per scenario, the stage that taught it and how many trials that stage tells.
-type Stages = BTreeMap<String, (String, u64)>;
+type Stages = BTreeMap<String, (StageId, u64)>;
 
 /// Rebuilds the posteriors at `budget` from the campaign's `trials.jsonl`: every learning
 /// trial's logged scenario credit, on the kernels' uniform prior (exactly the kernel's update).
@@ -42,11 +42,11 @@ pub(crate) fn trained(
         settings.scenarios.clone()
     };
     let stages = learning_stages(protocol, budget, &names)?;
-    let told_in = |stage: &str| {
+    let told_in = |stage: &StageId| {
         lines
             .1
             .iter()
-            .filter(|(_, l)| l.stage() == stage && l.is_told())
+            .filter(|(_, l)| l.stage() == *stage && l.is_told())
             .count() as u64
     };
     for (stage, needed) in stages.values() {
@@ -54,7 +54,7 @@ pub(crate) fn trained(
         if told < *needed {
             return Err(EstimateError::NotTrained {
                 campaign: campaign.to_string(),
-                stage: stage.clone(),
+                stage: stage.to_string(),
                 told,
                 needed: *needed,
             });
@@ -65,11 +65,19 @@ pub(crate) fn trained(
     for (scenario, posterior) in &mut scenarios {
         scenario_runs += learn(scenario, posterior, &stages[&*scenario.name].0, lines)?;
     }
-    let used: std::collections::BTreeSet<&String> = stages.values().map(|(s, _)| s).collect();
+    let mut used: Vec<StageId> = Vec::new();
+    for (s, _) in stages.values() {
+        if !used.contains(s) {
+            used.push(*s);
+        }
+    }
     Ok(Trained {
-        stage_runs: used.iter().map(|s| told_in(s)).sum(),
+        stage_runs: used.iter().map(told_in).sum(),
         scenario_runs,
-        stages: stages.into_iter().map(|(n, (s, _))| (n, s)).collect(),
+        stages: stages
+            .into_iter()
+            .map(|(n, (s, _))| (n, s.to_string()))
+            .collect(),
         scenarios,
     })
 }
@@ -89,13 +97,13 @@ fn learning_stages(
             known: known.join(", "),
         });
     }
-    let train = format!("train@{}", Compact(budget));
-    let test = format!("test-learned@{}", Compact(budget));
+    let train = StageId::new(StageKind::Train, Some(budget));
+    let test = StageId::new(StageKind::TestLearned, Some(budget));
     let learned_in = |name: &str| {
         if protocol.train_scenarios.iter().any(|s| s == name) {
-            Some((train.clone(), protocol.train_iterations))
+            Some((train, protocol.train_iterations))
         } else if protocol.test_scenarios.iter().any(|s| s == name) {
-            Some((test.clone(), protocol.test_iterations))
+            Some((test, protocol.test_iterations))
         } else {
             None
         }
@@ -118,13 +126,13 @@ fn learning_stages(
 fn learn(
     scenario: &Scenario,
     posterior: &mut Posterior,
-    stage: &str,
+    stage: &StageId,
     (store, lines): Lines<'_>,
 ) -> Result<u64, EstimateError> {
     let (name, space) = (&*scenario.name, &scenario.space);
     let mut runs = 0;
     for (line, t) in lines.iter().filter_map(|(n, l)| Some((*n, l.trial()?))) {
-        if t.stage != stage || t.scenario != name {
+        if t.stage != *stage || t.scenario != name {
             continue;
         }
         runs += 1;

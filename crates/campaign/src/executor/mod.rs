@@ -9,7 +9,7 @@ pub mod local;
 pub use local::{with_pool, Pool};
 
 use super::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
-use super::protocol::{OnError, Stage};
+use super::protocol::{OnError, Stage, StageId};
 use super::store::{EditedLine, StoreError, TrialStore};
 use super::CampaignError;
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
@@ -218,7 +218,7 @@ impl StageRun<'_, '_, '_> {
         match &logged {
             Some((number, l)) => {
                 let at = (self.cx.store.location(), *number);
-                check_logged(l, &trial, &self.label, index, at)?
+                check_logged(l, &trial, self.cx.stage.id(), index, at)?
             }
             None => {
                 if audit.is_none() {
@@ -375,7 +375,7 @@ fn simulation_error(
 fn check_logged(
     l: &LogLine,
     t: &Trial,
-    label: &str,
+    expected: StageId,
     index: u64,
     at: (String, u64),
 ) -> Result<(), CampaignError> {
@@ -385,8 +385,8 @@ fn check_logged(
         LogLine::Screen(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
     };
     let show = |v: &dyn std::fmt::Display| v.to_string();
-    let differs: Option<(String, String, String)> = if stage != label {
-        Some(("stage".into(), show(stage), label.into()))
+    let differs: Option<(String, String, String)> = if *stage != expected {
+        Some(("stage".into(), show(stage), show(&expected)))
     } else if i != index {
         Some(("index".into(), show(&i), show(&index)))
     } else if id != t.id {
@@ -409,7 +409,7 @@ fn check_logged(
             store: at.0,
             line: at.1 as usize,
             message: format!(
-                "field `{field}` is {logged}, but the protocol asks {asked} here ({label} trial {index}): the line was edited, or written by another campaign"
+                "field `{field}` is {logged}, but the protocol asks {asked} here ({expected} trial {index}): the line was edited, or written by another campaign"
             ),
         }),
     }
@@ -564,7 +564,7 @@ impl TellCx<'_> {
         let line = if let Some(error) = slot.error {
             self.withdraw(kernel)?;
             LogLine::Failed(FailedLine {
-                stage: label.into(),
+                stage: stage.id(),
                 index: slot.index,
                 id: slot.trial.id,
                 scenario: slot.trial.scenario.to_string(),
@@ -586,7 +586,7 @@ impl TellCx<'_> {
             line.credit = record.credit;
             LogLine::Trial(line)
         };
-        store.append_json(&[line.to_json()])?;
+        store.append(&line)?;
         Ok(line)
     }
 }
@@ -642,7 +642,7 @@ fn screen_line(
     };
     let outcome = hf.map(|h| savme_kernel::Outcome::classify(h.failure, lf.failure));
     Ok(ScreenLine {
-        stage: label.into(),
+        stage: stage.id(),
         index: slot.index,
         id: slot.trial.id,
         budget: stage.budget,
@@ -694,7 +694,7 @@ fn trial_line(
         None => None,
     };
     Ok(TrialLine {
-        stage: label.into(),
+        stage: stage.id(),
         index: slot.index,
         id: slot.trial.id,
         phase: slot.trial.phase,

@@ -3,7 +3,7 @@
 //! other listed strength its own stage), the failures found by a common runtime horizon.
 
 use super::{curve_as, paired_stats, stage_lines, TrialLine};
-use crate::protocol::{Protocol, Stage, StageKind};
+use crate::protocol::{Protocol, Stage, StageId, StageKind};
 use savme_kernel::metrics::Accounting;
 use serde::Serialize;
 
@@ -35,8 +35,8 @@ pub struct Ablation {
     pub rows: Vec<StrengthRow>,
 }
 
-/// The stage label of meta-testing with prior strength `s` at budget `b`.
-pub fn stage_label(p: &Protocol, b: f64, s: f64) -> String {
+/// The stage of meta-testing with prior strength `s` at budget `b`.
+pub fn stage_id(p: &Protocol, b: f64, s: f64) -> StageId {
     let (kind, strength) = if s == 0.0 {
         (StageKind::TestUniform, None)
     } else if s == p.prior_strength {
@@ -44,13 +44,11 @@ pub fn stage_label(p: &Protocol, b: f64, s: f64) -> String {
     } else {
         (StageKind::TestLearned, Some(s))
     };
-    Stage {
+    StageId {
         kind,
         budget: Some(b),
-        iterations: 0,
         strength,
     }
-    .label()
 }
 
 /// The ablation at budget `b` (None without `prior_strengths`, or before every stage ran).
@@ -62,8 +60,8 @@ pub fn at_budget(p: &Protocol, lines: &[TrialLine], b: f64) -> Option<Ablation> 
         .prior_strengths
         .iter()
         .map(|&s| {
-            let label = stage_label(p, b, s);
-            lines.iter().filter(|l| l.stage == label).collect()
+            let id = stage_id(p, b, s);
+            lines.iter().filter(|l| l.stage == id).collect()
         })
         .collect();
     if stages.iter().any(Vec::is_empty) {

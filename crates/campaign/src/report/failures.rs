@@ -71,7 +71,7 @@ pub fn found_failures(lines: &[LogLine], filter: &Filter) -> Vec<FoundFailure> {
         .iter()
         .filter_map(|line| match line {
             LogLine::Trial(t) if t.hf.failure => Some(FoundFailure {
-                stage: t.stage.clone(),
+                stage: t.stage.to_string(),
                 index: t.index,
                 id: t.id,
                 scenario: t.scenario.clone(),
@@ -85,7 +85,7 @@ pub fn found_failures(lines: &[LogLine], filter: &Filter) -> Vec<FoundFailure> {
                 s.hf.as_ref()
                     .filter(|hf| hf.failure)
                     .map(|hf| FoundFailure {
-                        stage: s.stage.clone(),
+                        stage: s.stage.to_string(),
                         index: s.index,
                         id: s.id,
                         scenario: s.scenario.clone(),

@@ -98,7 +98,7 @@ mod tests {
 
     fn screen(lf: RunLine, hf: Option<RunLine>, screen: Screen) -> ScreenLine {
         ScreenLine {
-            stage: "screen@0.3".into(),
+            stage: crate::StageId::new(crate::StageKind::Screen, Some(0.3)),
             index: 0,
             id: 0,
             budget: Some(0.3),
@@ -114,7 +114,7 @@ mod tests {
 
     fn paired(hf: RunLine, lf: Option<RunLine>) -> TrialLine {
         TrialLine {
-            stage: "evaluate@0.3".into(),
+            stage: crate::StageId::new(crate::StageKind::Evaluate, Some(0.3)),
             index: 0,
             id: 0,
             phase: savme_kernel::Phase::Evaluate,
