@@ -8,9 +8,10 @@ under the nominal, logged as an estimate with ε = 1 (every weight 1), e.g.
         --epsilon 1 --target 0.000001 --max-runs 150000 --jobs 1 \\
         --nominal lead_vehicle_brakes.ego_speed=normal:12,2
 
-then fits the joint proposal's family — a mixture of K components, each a product of normals
-truncated to [0, 1] on every variable's unit position, as the kernel's joint proposal
-(kernel/src/estimation/joint.rs; EM with an sd floor of 0.02 added in quadrature) — to HALF of
+then fits the joint proposal's family — a mixture of K components, each a product over the
+variables of 10-bin histograms with the nominal's shape inside a bin, as the kernel's joint
+proposal (kernel/src/estimation/joint.rs, joint_fit.rs: weighted EM from a k-means++ start,
+each component's bins (1 − smoothing) × the fit + smoothing × the nominal's) — to HALF of
 the Monte Carlo failures (an oracle: the zero-variance density's own samples, no pilot) and
 evaluates the defensive mixture q = (1 − ε)·mixture + ε·p on the OTHER half: relative variance
 E_p[w | failure]/P − 1 with w = p/q, and the gain over plain Monte Carlo ((1 − P)/P)/relvar.
@@ -35,7 +36,6 @@ RANGES = {
     "brake_time": (0.5, 4.0),
 }
 NAMES = list(RANGES)
-SD_FLOOR = 0.02
 
 
 def unit(phi):
