@@ -545,6 +545,27 @@ mod tests {
             "{}",
             err(5)
         );
+        // A joint proposal: refused without pilot rounds; with them, a tell carries the
+        // run's robustness (one JSON cannot hold as a finite number is refused).
+        let input = "{\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1,\"joint\":{\"components\":2}}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1,\"refine\":{\"rounds\":1,\"runs\":4},\"joint\":{\"components\":2}}\n\
+                     {\"op\":\"estimation_ask\"}\n\
+                     {\"op\":\"estimation_tell\",\"id\":0,\"failure\":false,\"robustness\":1e999}\n\
+                     {\"op\":\"estimation_tell\",\"id\":0,\"failure\":false,\"robustness\":0.5}\n";
+        let r = run(&mut s, input);
+        let err = |i: usize| r[i]["error"].as_str().unwrap_or("").to_string();
+        assert!(
+            err(0)
+                .contains("joint: the joint proposal is fitted by the cross-entropy pilot rounds"),
+            "{}",
+            err(0)
+        );
+        assert_eq!(
+            (r[1]["ok"].clone(), r[2]["trial"]["id"].clone()),
+            (json!(true), json!(0))
+        );
+        assert!(!err(3).is_empty(), "{}", r[3]);
+        assert_eq!(r[4]["ok"], true, "{}", r[4]);
     }
 
     #[test]
