@@ -15,8 +15,13 @@
 //!     [--train-iterations 200] [--mc-runs 20000] [--target 0.1] [--max-runs 200000]
 //!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
 //!     [--refine-rounds 0 --refine-runs 0 --refine-reuse 0] [--noise-sd 0.1] [--jobs 2] [--seed 1]
-//!     [--mc-seed 12648430]
+//!     [--mc-seed 12648430] [--proposal joint --joint-components 8] [--estimate-seed N]
 //! ```
+//!
+//! `--proposal joint` makes the pilot rounds fit a joint proposal (a mixture over the whole
+//! of φ; docs/ESTIMATION.md) instead of refitting each variable's bins. `--estimate-seed`
+//! sets the estimate's own seed (default: derived from the campaign's `--seed`), so several
+//! estimates can share one trained campaign.
 //!
 //! `--noise-sd` is the idealised perception's position noise in metres (0.1, the bundled
 //! `--perception ideal`, by default; 0 makes the failure a deterministic function of φ
@@ -25,7 +30,7 @@ use rand::{RngExt, SeedableRng};
 use savme::campaign::estimate::{parse_nominal, EstimateRun, EstimateSettings};
 use savme::campaign::{Campaign, Cost, Problem, Protocol};
 use savme::compose;
-use savme_kernel::estimation::{z95, Nominal, Tilt};
+use savme_kernel::estimation::{z95, Nominal, ProposalKind, Tilt};
 use savme_kernel::{Assignment, Domain, Role, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use statrs::distribution::{ContinuousCDF, Normal};
@@ -50,6 +55,9 @@ struct Options {
     mc_seed: u64,
     jobs: usize,
     seed: u64,
+    proposal: ProposalKind,
+    joint_components: Option<u32>,
+    estimate_seed: Option<u64>,
 }
 
 fn options() -> Result<Options, String> {
@@ -70,6 +78,9 @@ fn options() -> Result<Options, String> {
         mc_seed: 0xC0FFEE,
         jobs: 2,
         seed: 1,
+        proposal: ProposalKind::Product,
+        joint_components: None,
+        estimate_seed: None,
     };
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
@@ -94,6 +105,12 @@ fn options() -> Result<Options, String> {
                     .map_err(|e| format!("--tilt: {e}"))?
             }
             "--seed" => o.seed = num(&value)? as u64,
+            "--estimate-seed" => o.estimate_seed = Some(num(&value)? as u64),
+            "--joint-components" => o.joint_components = Some(num(&value)? as u32),
+            "--proposal" => {
+                o.proposal = serde_json::from_value(serde_json::Value::String(value))
+                    .map_err(|e| format!("--proposal: {e}"))?
+            }
             "--nominal" => {
                 let (_, variable, n) = parse_nominal(&value).map_err(|e| e.to_string())?;
                 o.nominal.insert(variable, n);
@@ -142,6 +159,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         refine_rounds: o.refine_rounds,
         refine_runs: o.refine_runs,
         refine_reuse: o.refine_reuse,
+        proposal: o.proposal,
+        joint_components: o.joint_components,
+        seed: o.estimate_seed,
         ..EstimateSettings::default()
     };
     let t1 = Instant::now();
@@ -169,6 +189,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "refine_rounds": o.refine_rounds,
         "refine_runs": o.refine_runs,
         "refine_reuse": o.refine_reuse,
+        "proposal": o.proposal,
+        "joint_components": o.joint_components,
+        "estimate_seed": o.estimate_seed,
         "noise_sd": o.noise_sd,
         "train_iterations": o.train_iterations,
         "importance_sampling": {

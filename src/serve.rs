@@ -17,7 +17,7 @@
 //! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
 //! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine` = `{"rounds","runs","reuse"}`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
 //! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}`, or `"trial":null` while a refinement round waits for its outcomes |
-//! | `{"op":"estimation_tell","id":0,"failure":true}` | `{"ok":true}` |
+//! | `{"op":"estimation_tell","id":0,"failure":true}` (also `"robustness":0.4`: a joint proposal's pilot aims at the near-misses) | `{"ok":true}` |
 //! | `{"op":"estimation_result"}` | `{"ok":true,"estimate":{"total":{"mean","lo","hi",…},…},"told":n,"round":r}` |
 //!
 //! A bad request — not UTF-8, not JSON, an unknown key, a refused tell — gets
@@ -68,6 +68,8 @@ enum Request {
     EstimationTell {
         id: u64,
         failure: bool,
+        #[serde(default)]
+        robustness: Option<f64>,
     },
     EstimationResult {},
 }
@@ -223,9 +225,13 @@ impl Session {
                 let trial = running(estimation)?.ask();
                 Ok(json!({"ok": true, "trial": trial}))
             }
-            Request::EstimationTell { id, failure } => {
+            Request::EstimationTell {
+                id,
+                failure,
+                robustness,
+            } => {
                 running(estimation)?
-                    .tell(id, failure)
+                    .tell_run(id, failure, robustness)
                     .map_err(SessionError::Estimation)?;
                 Ok(json!({"ok": true}))
             }
@@ -539,6 +545,27 @@ mod tests {
             "{}",
             err(5)
         );
+        // A joint proposal: refused without pilot rounds; with them, a tell carries the
+        // run's robustness (one JSON cannot hold as a finite number is refused).
+        let input = "{\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1,\"joint\":{\"components\":2}}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":1,\"refine\":{\"rounds\":1,\"runs\":4},\"joint\":{\"components\":2}}\n\
+                     {\"op\":\"estimation_ask\"}\n\
+                     {\"op\":\"estimation_tell\",\"id\":0,\"failure\":false,\"robustness\":1e999}\n\
+                     {\"op\":\"estimation_tell\",\"id\":0,\"failure\":false,\"robustness\":0.5}\n";
+        let r = run(&mut s, input);
+        let err = |i: usize| r[i]["error"].as_str().unwrap_or("").to_string();
+        assert!(
+            err(0)
+                .contains("joint: the joint proposal is fitted by the cross-entropy pilot rounds"),
+            "{}",
+            err(0)
+        );
+        assert_eq!(
+            (r[1]["ok"].clone(), r[2]["trial"]["id"].clone()),
+            (json!(true), json!(0))
+        );
+        assert!(!err(3).is_empty(), "{}", r[3]);
+        assert_eq!(r[4]["ok"], true, "{}", r[4]);
     }
 
     #[test]

@@ -305,6 +305,57 @@ fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
     );
 }
 
+/// A joint proposal (3 pilot rounds of 400 runs, the declared rare nominal): `--jobs 1` and a
+/// killed-and-resumed `--jobs 2` give the same lines; after the pilot the draws are the
+/// fitted mixture's, not the product proposal's; the settings and the table say so; a
+/// resume that changes `proposal` is refused naming it.
+#[test]
+fn a_joint_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
+    let args = [
+        "--max-runs",
+        "1800",
+        "--no-target",
+        "--refine-rounds",
+        "3",
+        "--refine-runs",
+        "400",
+        "--nominal",
+        "lead_vehicle_brakes.ego_speed=normal:12,2",
+        "--proposal",
+        "joint",
+        "--joint-components",
+        "4",
+    ];
+    let (one, killed) = one_job_and_killed("joint", &args, 200);
+    let s = summary(&killed);
+    assert_eq!(s["settings"]["proposal"], "joint");
+    assert_eq!(s["settings"]["joint_components"], 4);
+    assert_eq!(
+        (s["pilot_hf_runs"].as_u64(), s["estimate"]["runs"].as_u64()),
+        (Some(1200), Some(600))
+    );
+    // The first round is the product proposal's (the same draws as without --proposal); the
+    // estimate's draws are not.
+    let product = temp_dir("joint-product");
+    let (code, _, err) = estimate(&product, &args[..9]);
+    assert_eq!(code, Some(0), "{err}");
+    let (j, p) = (trial_lines(&one), trial_lines(&product));
+    let phi = |l: &Value| l["phi"].to_string();
+    assert!((0..400).all(|i| phi(&j[i]) == phi(&p[i])));
+    assert!((1200..1800).all(|i| phi(&j[i]) != phi(&p[i])));
+    let table = std::fs::read_to_string(killed.join("table.md")).unwrap();
+    assert!(
+        table.contains("Joint proposal: after each round a mixture of at most 4 components"),
+        "{table}"
+    );
+    let (code, _, err) = estimate(&killed, &["--resume", "--proposal", "product"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("the estimate was started with `proposal` = \"joint\", and this resume gives \"product\""),
+        "{err}"
+    );
+}
+
 /// Runs the estimate with `args` once with `--jobs 1`, and once with `--jobs 2` killed
 /// (SIGKILL) after ≥ 200 stored lines and resumed; asserts the two agree line by line.
 fn one_job_and_killed(name: &str, args: &[&str], kill_at: usize) -> (PathBuf, PathBuf) {
@@ -465,6 +516,27 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
                 "3",
             ],
             "`refine_reuse`: 3 pilot rounds to reuse in the estimate, but `refine_rounds` is 2",
+        ),
+        (
+            &["--proposal", "joint"],
+            "`proposal`: the joint proposal is fitted by the cross-entropy pilot rounds: give `refine_rounds` and `refine_runs` too",
+        ),
+        (
+            &["--joint-components", "3"],
+            "`joint_components`: 3 components need `proposal` = \"joint\"",
+        ),
+        (
+            &[
+                "--proposal",
+                "joint",
+                "--refine-rounds",
+                "2",
+                "--refine-runs",
+                "5",
+                "--joint-components",
+                "65",
+            ],
+            "`joint_components`: must lie in 1..=64, got 65",
         ),
     ];
     for (args, message) in cases {

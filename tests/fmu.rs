@@ -713,6 +713,29 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
             "2 pilot rounds to reuse in the estimate, but `refine_rounds` is 1",
         ],
     );
+    let joint = "\n[estimate]\nproposal = \"joint\"\n";
+    let line = format!("line {}, key `estimate.proposal`", TINY.lines().count() + 3);
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + joint),
+        &[
+            &line,
+            "the joint proposal is fitted by the cross-entropy pilot rounds",
+        ],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\njoint_components = 3\n"),
+        &[
+            "key `estimate.joint_components`",
+            "3 components need `proposal` = \"joint\"",
+        ],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\nproposal = \"diagonal\"\n"),
+        &["unknown variant `diagonal`, expected `product` or `joint`"],
+    );
 }
 
 #[test]

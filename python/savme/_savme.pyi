@@ -327,13 +327,16 @@ class Kernel:
         tilt: Literal["posterior", "nominal-weighted"] = "posterior",
         refine: Optional[Tuple[int, int]] = None,
         refine_reuse: int = 0,
+        joint_components: Optional[int] = None,
     ) -> Estimation:
         """An importance-sampling estimation of P(failure) under the nominal distribution
         from the current φ posteriors (docs/ESTIMATION.md): `epsilon` is the nominal's share
         of the proposal; `nominal` maps scenario → variable → {"distribution": "normal",
         "mean": M, "sd": S} (or "uniform", or "weights" with "weights": [...]) for variables
-        that are not uniform; `refine=(rounds, runs)` adds cross-entropy pilot rounds, and
-        `refine_reuse=k` counts the last k of them in the estimate too.
+        that are not uniform; `refine=(rounds, runs)` adds cross-entropy pilot rounds,
+        `refine_reuse=k` counts the last k of them in the estimate too, and
+        `joint_components=K` (with `refine`) makes the pilot fit a joint proposal — a mixture
+        of at most K components over the whole of φ — instead of per-variable bins.
         ValueError names ε, the refinement, the scenario or the variable. The kernel is not
         changed."""
     def fidelity_posterior(self) -> Posterior:
@@ -377,8 +380,9 @@ class Estimation:
         """The next trial: {"id", "scenario", "scenario_index", "phi", "q", "p", "weight",
         "round"} ("round": the refinement round, None for a trial of the estimate); None
         while a refinement round waits for the outcomes of the trials it asked."""
-    def tell(self, id: int, failure: bool) -> None:
-        """The HF outcome of trial `id` (savme.TellError if it is not pending)."""
+    def tell(self, id: int, failure: bool, *, robustness: Optional[float] = None) -> None:
+        """The HF outcome of trial `id` (savme.TellError if it is not pending), with the
+        run's robustness if any (a joint proposal's pilot aims at the near-misses)."""
     def estimate(self) -> Dict[str, Any]:
         """{"total": {"mean", "std_error", "half_width", "lo", "hi"}, "runs", "failures",
         "scenarios": [...]} from the trials after the refinement."""

@@ -7,7 +7,9 @@ use crate::errors;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use savme_kernel::estimation::{Estimation, EstimationConfig, Nominal, Refine, Tilt};
+use savme_kernel::estimation::{
+    Estimation, EstimationConfig, Joint, Nominal, Refine, Tilt, MAX_COMPONENTS,
+};
 use savme_kernel::Kernel;
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -21,6 +23,8 @@ pub struct PyEstimation {
 }
 
 /// The kernel's `estimation(...)` arguments as a configuration; errors name the argument.
+// Python keyword arguments, one parameter each.
+#[allow(clippy::too_many_arguments)]
 pub fn config(
     py: Python<'_>,
     epsilon: f64,
@@ -29,11 +33,25 @@ pub fn config(
     tilt: &str,
     refine: Option<(u32, u64)>,
     refine_reuse: u32,
+    joint_components: Option<u32>,
 ) -> PyResult<EstimationConfig> {
     if refine.is_none() && refine_reuse > 0 {
         return Err(PyValueError::new_err(format!(
             "refine_reuse: {refine_reuse} pilot rounds to reuse, but no refine=(rounds, runs)"
         )));
+    }
+    match (joint_components, refine) {
+        (Some(k), _) if k == 0 || k > MAX_COMPONENTS => {
+            return Err(PyValueError::new_err(format!(
+                "joint_components: must lie in 1..={MAX_COMPONENTS}, got {k}"
+            )))
+        }
+        (Some(_), None) => {
+            return Err(PyValueError::new_err(
+                "joint_components: the joint proposal is fitted by the cross-entropy pilot rounds: give refine=(rounds, runs) too",
+            ))
+        }
+        _ => {}
     }
     // The kernel's own names for the tilts (its serde form), so there is one list of them.
     let tilt: Tilt =
@@ -71,6 +89,7 @@ pub fn config(
             runs,
             reuse: refine_reuse,
         }),
+        joint: joint_components.map(|components| Joint { components }),
     })
 }
 
@@ -103,10 +122,12 @@ impl PyEstimation {
         trial.map(|t| convert::json_to_py(py, &t)).transpose()
     }
 
-    /// Takes the HF outcome of trial `id` (`savme.TellError` for a trial not pending).
-    fn tell(&self, id: u64, failure: bool) -> PyResult<()> {
+    /// Takes the HF outcome of trial `id` (`savme.TellError` for a trial not pending), with
+    /// the run's robustness if it has one (a joint proposal's pilot aims at near-misses).
+    #[pyo3(signature = (id, failure, *, robustness = None))]
+    fn tell(&self, id: u64, failure: bool, robustness: Option<f64>) -> PyResult<()> {
         self.with(|e| {
-            e.tell(id, failure)
+            e.tell_run(id, failure, robustness)
                 .map_err(|e| errors::TellError::new_err(e.to_string()))
         })
     }

@@ -508,9 +508,11 @@ impl PyKernel {
     /// share of the proposal, `nominal` maps scenario → variable → `{"distribution":
     /// "normal", "mean": M, "sd": S}` (or `"uniform"`, or `"weights"` with `"weights": [...]`)
     /// for the variables that are not uniform, `tilt` is "posterior" or "nominal-weighted",
-    /// `refine=(rounds, runs)` adds cross-entropy pilot rounds, and `refine_reuse=k` counts
-    /// the last k of them in the estimate too. The kernel is not changed.
-    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0))]
+    /// `refine=(rounds, runs)` adds cross-entropy pilot rounds, `refine_reuse=k` counts
+    /// the last k of them in the estimate too, and `joint_components=K` makes the pilot fit a
+    /// joint proposal (a mixture of at most K components over the whole of φ) instead of
+    /// refitting each variable's bins. The kernel is not changed.
+    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0, joint_components = None))]
     // Python keyword arguments, one parameter each.
     #[allow(clippy::too_many_arguments)]
     fn estimation(
@@ -522,8 +524,18 @@ impl PyKernel {
         tilt: &str,
         refine: Option<(u32, u64)>,
         refine_reuse: u32,
+        joint_components: Option<u32>,
     ) -> PyResult<PyEstimation> {
-        let config = estimation::config(py, epsilon, seed, nominal, tilt, refine, refine_reuse)?;
+        let config = estimation::config(
+            py,
+            epsilon,
+            seed,
+            nominal,
+            tilt,
+            refine,
+            refine_reuse,
+            joint_components,
+        )?;
         self.with(|s| PyEstimation::of(s.kernel(), &config))
     }
 

@@ -370,6 +370,33 @@ def test_reused_refinement_rounds_count_in_the_estimate():
     assert abs(e["total"]["mean"] - sum(terms) / len(terms)) < 1e-12
 
 
+def test_a_joint_estimation_fits_a_mixture_from_failures_and_robustness():
+    k = trained_kernel()
+    est = k.estimation(epsilon=0.1, seed=2, refine=(2, 100), joint_components=3)
+    same = k.estimation(epsilon=0.1, seed=2, refine=(2, 100), joint_components=3)
+    product = k.estimation(epsilon=0.1, seed=2, refine=(2, 100))
+    first = []
+    while est.told < 400:
+        t, u = est.ask(), same.ask()
+        assert t == u, "the same seed and outcomes give the same draws"
+        first.append(t["phi"])
+        gap = t["phi"]["gap_m"]
+        assert abs(t["weight"] - t["p"] / t["q"]) < 1e-12 and t["weight"] <= 10.0 + 1e-9
+        for e in (est, same):
+            e.tell(t["id"], gap < 15.0, robustness=gap - 15.0)
+    drawn = []
+    while product.told < 400:
+        t = product.ask()
+        drawn.append(t["phi"])
+        product.tell(t["id"], t["phi"]["gap_m"] < 15.0)
+    assert first[:100] == drawn[:100], "the first round is the product proposal's"
+    assert first[200:] != drawn[200:], "after the pilot the joint proposal draws"
+    assert est.estimate()["runs"] == 200
+    with pytest.raises(savme.TellError, match="robustness must be a finite number, got NaN"):
+        t = est.ask()
+        est.tell(t["id"], False, robustness=float("nan"))
+
+
 def test_bad_estimation_arguments_name_what_is_wrong():
     k = trained_kernel()
     with pytest.raises(ValueError, match=r"epsilon .* must lie in \(0, 1\], got 0"):
@@ -388,6 +415,10 @@ def test_bad_estimation_arguments_name_what_is_wrong():
         k.estimation(nominal=[1, 2])
     with pytest.raises(ValueError, match='tilt: unknown tilt "sideways"'):
         k.estimation(tilt="sideways")
+    with pytest.raises(ValueError, match=r"joint_components: the joint proposal is fitted by the cross-entropy pilot rounds: give refine=\(rounds, runs\) too"):
+        k.estimation(joint_components=4)
+    with pytest.raises(ValueError, match=r"joint_components: must lie in 1..=64, got 0"):
+        k.estimation(refine=(2, 10), joint_components=0)
 
 
 def test_extreme_but_finite_ranges_are_refused_naming_the_variable():

@@ -7,7 +7,7 @@ use savme::campaign::estimate::{
 };
 use savme::campaign::Problem;
 use savme::compose;
-use savme_kernel::estimation::Tilt;
+use savme_kernel::estimation::{ProposalKind, Tilt};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -74,6 +74,14 @@ pub struct Args {
     /// rounds' proposals are close to the final one) [default: 0].
     #[arg(long)]
     refine_reuse: Option<u32>,
+    /// What the pilot rounds fit: each variable's bins (product), or a mixture over the whole
+    /// of φ fitted to the pilot's weighted failures and near-misses (joint; needs
+    /// --refine-rounds) [default: product].
+    #[arg(long, value_enum)]
+    proposal: Option<ProposalArg>,
+    /// The most mixture components of a joint proposal (with --proposal joint) [default: 8].
+    #[arg(long)]
+    joint_components: Option<u32>,
     /// The campaign file of an FMU campaign (savme run): its problem and HF simulator. Its
     /// `[estimate]` section, if any, gives the settings; flags given here override its keys.
     #[arg(long, value_name = "FILE")]
@@ -145,6 +153,12 @@ impl Progress {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+enum ProposalArg {
+    Product,
+    Joint,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 enum TiltArg {
     Posterior,
     NominalWeighted,
@@ -177,6 +191,13 @@ impl Args {
         s.refine_rounds = self.refine_rounds.unwrap_or(s.refine_rounds);
         s.refine_runs = self.refine_runs.unwrap_or(s.refine_runs);
         s.refine_reuse = self.refine_reuse.unwrap_or(s.refine_reuse);
+        if let Some(p) = self.proposal {
+            s.proposal = match p {
+                ProposalArg::Product => ProposalKind::Product,
+                ProposalArg::Joint => ProposalKind::Joint,
+            };
+        }
+        s.joint_components = self.joint_components.or(s.joint_components);
         // A flag overrides the file's declaration of its variable; a second flag for the
         // same variable is refused rather than silently winning.
         let mut given = std::collections::BTreeSet::new();
@@ -245,6 +266,12 @@ impl Args {
             "refine_reuse",
             self.refine_reuse.is_some(),
             s.refine_reuse.is_some(),
+        );
+        add("proposal", self.proposal.is_some(), s.proposal.is_some());
+        add(
+            "joint_components",
+            self.joint_components.is_some(),
+            s.joint_components.is_some(),
         );
         names
     }

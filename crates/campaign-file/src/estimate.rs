@@ -11,13 +11,17 @@
 //! seed = 7
 //! scenarios = ["cut_in"] # default: every meta-training scenario
 //! tilt = "posterior"     # or "nominal-weighted"
+//! refine_rounds = 3      # cross-entropy pilot rounds …
+//! refine_runs = 2000     # … of this many HF runs
+//! proposal = "joint"     # or "product" (the default): what the pilot fits
+//! joint_components = 8   # the joint proposal's most mixture components
 //! [estimate.nominal.cut_in]
 //! gap = { distribution = "normal", mean = 5.0, sd = 1.0 }
 //! lane = { distribution = "weights", weights = [4, 2, 1] }
 //! ```
 
 use crate::Source;
-use savme_kernel::estimation::{Nominal, Tilt};
+use savme_kernel::estimation::{Nominal, ProposalKind, Tilt};
 use std::collections::BTreeMap;
 use toml::Spanned;
 
@@ -41,6 +45,8 @@ pub(crate) mod raw {
         pub refine_rounds: Option<Spanned<u32>>,
         pub refine_runs: Option<Spanned<u64>>,
         pub refine_reuse: Option<Spanned<u32>>,
+        pub proposal: Option<Spanned<super::ProposalKind>>,
+        pub joint_components: Option<Spanned<u32>>,
         #[serde(default)]
         pub nominal: BTreeMap<String, BTreeMap<String, Spanned<Nominal>>>,
     }
@@ -72,6 +78,10 @@ pub struct EstimateSection {
     pub refine_runs: Option<u64>,
     /// `refine_reuse`: how many of the last pilot rounds also count toward the estimate.
     pub refine_reuse: Option<u32>,
+    /// `proposal`: `"product"` or `"joint"`.
+    pub proposal: Option<ProposalKind>,
+    /// `joint_components`: the joint proposal's most mixture components.
+    pub joint_components: Option<u32>,
     /// `[estimate.nominal.<scenario>] <variable> = { distribution = … }`.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
     /// The 1-based line of the `[estimate]` table.
@@ -116,6 +126,8 @@ pub(crate) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> Estimat
         refine_rounds: field!(refine_rounds),
         refine_runs: field!(refine_runs),
         refine_reuse: field!(refine_reuse),
+        proposal: field!(proposal),
+        joint_components: field!(joint_components),
         nominal: BTreeMap::new(),
         line,
         lines: BTreeMap::new(),

@@ -68,160 +68,32 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+mod config;
+mod joint;
+mod joint_fit;
 mod proposal;
 mod statistic;
 
+pub use config::{
+    EstimationConfig, EstimationError, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
+    MAX_COMPONENTS, REFINE_SMOOTHING,
+};
 pub use proposal::{Nominal, Tilt};
 pub use statistic::{z95, Estimate, Interval, ScenarioEstimate};
 
 use crate::kernel::{Kernel, Scenario};
 use crate::posterior::Posterior;
 use crate::value::Assignment;
-use proposal::{NominalOf, Proposal};
+use config::check_config;
+use joint::Mixture;
+use joint_fit::{JointPilot, PilotPoint};
+use proposal::{Densities, NominalOf, Proposal};
 use rand::SeedableRng;
 use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
 use statistic::Sums;
 use std::collections::BTreeMap;
 use std::sync::Arc;
-
-/// How an estimation is set up: ε, the seed of its draws, and the nominal distribution of
-/// any variable that is not uniform (by scenario, then variable).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct EstimationConfig {
-    /// The defensive share ε of the nominal in the proposal, in (0, 1]; ε = 1 is plain Monte
-    /// Carlo under the nominal.
-    pub epsilon: f64,
-    /// Seed of the proposal's draws.
-    pub seed: u64,
-    /// Non-uniform nominals: `nominal[scenario][variable]`.
-    #[serde(default)]
-    pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
-    /// How p̂_ψ weighs the bins (default: by the posterior means alone).
-    #[serde(default)]
-    pub tilt: Tilt,
-    /// Cross-entropy refinement of the proposal before the estimate (None: the proposal is
-    /// the posterior's, as built).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub refine: Option<Refine>,
-}
-
-/// Cross-entropy pilot rounds that refit the proposal before the estimate.
-///
-/// ```
-/// use savme_kernel::estimation::Refine;
-/// let r: Refine = serde_json::from_str(r#"{"rounds":3,"runs":1000}"#)?;
-/// assert_eq!(r, Refine { rounds: 3, runs: 1000, reuse: 0 });
-/// let r: Refine = serde_json::from_str(r#"{"rounds":3,"runs":1000,"reuse":1}"#)?;
-/// assert_eq!(r.reuse, 1);
-/// # Ok::<(), serde_json::Error>(())
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Refine {
-    /// Pilot rounds, ≥ 1; each refits every scenario's proposal once.
-    pub rounds: u32,
-    /// HF runs per round over all scenarios (shared by p(s)), ≥ 1.
-    pub runs: u64,
-    /// How many of the last pilot rounds also count toward the estimate, 0 ..= `rounds`
-    /// (0: none, the estimate uses only the final proposal's trials). A reused trial keeps
-    /// the weight p/q of the proposal it was drawn from — fixed before its round began — so
-    /// the estimate stays unbiased; see the module docs for its interval.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub reuse: u32,
-}
-
-fn is_zero(n: &u32) -> bool {
-    *n == 0
-}
-
-/// How far a refit moves the bin probabilities toward the pilot's weighted failures. Larger
-/// values chase the few heaviest failures of an early round and collapse onto them: on the
-/// rare benchmark setting (docs/BENCHMARKS.md) 0.7 was 0.2–0.4× plain Monte Carlo, 0.2–0.5
-/// were 3.1–3.6×.
-pub const REFINE_SMOOTHING: f64 = 0.3;
-
-impl EstimationConfig {
-    /// ε and a seed, every variable's nominal uniform.
-    pub fn new(epsilon: f64, seed: u64) -> Self {
-        EstimationConfig {
-            epsilon,
-            seed,
-            nominal: BTreeMap::new(),
-            tilt: Tilt::Posterior,
-            refine: None,
-        }
-    }
-}
-
-/// Why an estimation cannot be built or a tell was refused. Nothing changes on an error.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum EstimationError {
-    /// ε outside (0, 1].
-    #[error("epsilon (the nominal's share of the proposal) must lie in (0, 1], got {0}")]
-    BadEpsilon(f64),
-    /// A refinement with no rounds or no runs per round.
-    #[error("refine needs at least 1 round of at least 1 run, got {rounds} rounds of {runs} runs")]
-    BadRefine {
-        /// Rounds given.
-        rounds: u32,
-        /// Runs per round given.
-        runs: u64,
-    },
-    /// More pilot rounds to reuse in the estimate than there are.
-    #[error(
-        "refine reuse: {reuse} rounds to reuse in the estimate, but only {rounds} pilot rounds"
-    )]
-    BadReuse {
-        /// Rounds to reuse given.
-        reuse: u32,
-        /// Pilot rounds given.
-        rounds: u32,
-    },
-    /// No scenario to estimate.
-    #[error("no scenarios to estimate")]
-    NoScenarios,
-    /// A nominal declared for a scenario the estimation does not have.
-    #[error("nominal declared for unknown scenario `{scenario}` (known: {known})")]
-    UnknownScenario {
-        /// The name given.
-        scenario: String,
-        /// The scenarios there are.
-        known: String,
-    },
-    /// A nominal declared for a variable the scenario does not have.
-    #[error("nominal declared for unknown variable `{variable}` of scenario `{scenario}` (its variables: {known})")]
-    UnknownVariable {
-        /// The scenario.
-        scenario: String,
-        /// The name given.
-        variable: String,
-        /// The variables there are.
-        known: String,
-    },
-    /// A nominal that does not fit its variable (or has bad parameters).
-    #[error("nominal of variable `{variable}` of scenario `{scenario}`: {message}")]
-    BadNominal {
-        /// The scenario.
-        scenario: String,
-        /// The variable.
-        variable: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// A posterior that does not fit its scenario's space.
-    #[error("scenario `{scenario}`: the posterior does not fit its space: {message}")]
-    Posterior {
-        /// The scenario.
-        scenario: String,
-        /// What is wrong.
-        message: String,
-    },
-    /// A tell for a trial that was never asked, or was told already.
-    #[error("estimation trial {0} is not pending (never asked, or told already)")]
-    NotPending(u64),
-}
 
 /// One trial of an estimation: run the HF simulator on `scenario` with `phi`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -253,6 +125,9 @@ pub struct Estimation {
     names: Vec<Arc<str>>,
     probabilities: Vec<f64>,
     proposals: Vec<Proposal>,
+    /// The fitted joint proposals' mixtures (None: the scenario draws from its product
+    /// proposal).
+    mixtures: Vec<Option<Mixture>>,
     rng: Rng64,
     next_id: u64,
     asked: Vec<u64>,
@@ -286,28 +161,8 @@ struct Pilot {
     /// order at the round's end so that the sums, to the last bit, do not depend on the
     /// order of the tells.
     failed: BTreeMap<u64, (usize, f64, Vec<usize>)>,
-}
-
-/// ε in (0, 1], and a refinement with rounds and runs, reusing at most its rounds.
-fn check_settings(config: &EstimationConfig) -> Result<(), EstimationError> {
-    let eps = config.epsilon;
-    if !(eps > 0.0 && eps <= 1.0) {
-        return Err(EstimationError::BadEpsilon(eps));
-    }
-    if let Some(Refine {
-        rounds,
-        runs,
-        reuse,
-    }) = config.refine
-    {
-        if rounds == 0 || runs == 0 {
-            return Err(EstimationError::BadRefine { rounds, runs });
-        }
-        if reuse > rounds {
-            return Err(EstimationError::BadReuse { reuse, rounds });
-        }
-    }
-    Ok(())
+    /// The joint proposal's pilot (None: the product proposal is refitted).
+    joint: Option<JointPilot>,
 }
 
 /// Every scenario and variable a declared nominal names exists (`names`: the scenarios').
@@ -376,7 +231,7 @@ impl Estimation {
         scenarios: &[(Scenario, Posterior)],
         config: &EstimationConfig,
     ) -> Result<Estimation, EstimationError> {
-        check_settings(config)?;
+        check_config(config)?;
         if scenarios.is_empty() {
             return Err(EstimationError::NoScenarios);
         }
@@ -394,10 +249,14 @@ impl Estimation {
             told: 0,
             mass: empty_mass(scenarios),
             failed: BTreeMap::new(),
+            joint: config
+                .joint
+                .map(|j| JointPilot::new(j.components as usize, config.seed, scenarios.len())),
         });
         Ok(Estimation {
             probabilities: scenarios.iter().map(|(s, _)| s.weight / total).collect(),
             names,
+            mixtures: vec![None; proposals.len()],
             proposals,
             rng: Rng64::seed_from_u64(config.seed),
             next_id: 0,
@@ -426,10 +285,25 @@ impl Estimation {
         self.proposals.get(index).map(Proposal::bins)
     }
 
-    /// q(φ) and p(φ) of `phi` for scenario `index` (None for an unknown index).
+    /// q(φ) and p(φ) of `phi` for scenario `index` under its current proposal (None for an
+    /// unknown index).
     pub fn densities(&self, index: usize, phi: &Assignment) -> Option<(f64, f64)> {
-        let d = self.proposals.get(index)?.densities(phi);
+        let d = self.densities_of(index, phi)?;
         Some((d.q, d.p))
+    }
+
+    fn densities_of(&self, index: usize, phi: &Assignment) -> Option<Densities> {
+        let base = self.proposals.get(index)?;
+        Some(match &self.mixtures[index] {
+            Some(m) => joint::densities(m, base, phi),
+            None => base.densities(phi),
+        })
+    }
+
+    /// Whether scenario `index` draws from a fitted joint proposal (a mixture over the whole
+    /// of φ) rather than its product proposal.
+    pub fn is_joint(&self, index: usize) -> bool {
+        self.mixtures.get(index).is_some_and(Option::is_some)
     }
 
     /// The next trial: the scenario furthest behind its share p(s) (ties: the first), φ ~ q.
@@ -450,8 +324,14 @@ impl Estimation {
                 behind(a).total_cmp(&behind(b))
             })
             .unwrap_or(0);
-        let phi = self.proposals[s].draw(&mut self.rng);
-        let d = self.proposals[s].densities(&phi);
+        let (phi, d) = match &self.mixtures[s] {
+            Some(m) => joint::draw(m, &self.proposals[s], &mut self.rng),
+            None => {
+                let phi = self.proposals[s].draw(&mut self.rng);
+                let d = self.proposals[s].densities(&phi);
+                (phi, d)
+            }
+        };
         let weight = d.p / d.q;
         let trial = EstimationTrial {
             id: self.next_id,
@@ -483,6 +363,21 @@ impl Estimation {
     /// Takes the HF outcome of trial `id`. The last outcome of a refinement round refits the
     /// proposals.
     pub fn tell(&mut self, id: u64, failure: bool) -> Result<(), EstimationError> {
+        self.tell_run(id, failure, None)
+    }
+
+    /// [`Estimation::tell`] with the run's robustness (how close it came to failing, ≤ 0
+    /// failed; finite), which a joint proposal's pilot uses to aim its early rounds at the
+    /// near-misses. The estimate itself uses the failure only.
+    pub fn tell_run(
+        &mut self,
+        id: u64,
+        failure: bool,
+        robustness: Option<f64>,
+    ) -> Result<(), EstimationError> {
+        if let Some(r) = robustness.filter(|r| !r.is_finite()) {
+            return Err(EstimationError::BadRobustness { id, robustness: r });
+        }
         let t = self
             .pending
             .remove(&id)
@@ -497,7 +392,15 @@ impl Estimation {
         if round + pilot.refine.reuse >= pilot.refine.rounds {
             self.sums[s].add(t.weight, failure);
         }
-        if failure {
+        if let Some(j) = pilot.joint.as_mut() {
+            let point = PilotPoint {
+                point: arms,
+                weight: t.weight,
+                failure,
+                robustness,
+            };
+            j.told(id, s, point);
+        } else if failure {
             pilot.failed.insert(id, (s, t.weight, arms));
         }
         pilot.told += 1;
@@ -513,6 +416,15 @@ impl Estimation {
         let Some(mut pilot) = self.pilot.take() else {
             return;
         };
+        if let Some(j) = pilot.joint.as_mut() {
+            let bins: Vec<_> = self.proposals.iter().map(Proposal::nominal_bins).collect();
+            let fitted = j.end_round(pilot.round, &bins);
+            for (m, f) in self.mixtures.iter_mut().zip(fitted) {
+                if f.is_some() {
+                    *m = f;
+                }
+            }
+        }
         for (s, weight, arms) in std::mem::take(&mut pilot.failed).into_values() {
             for (m, arm) in pilot.mass[s].iter_mut().zip(arms) {
                 m[arm] += weight;
@@ -595,5 +507,7 @@ impl Kernel {
     }
 }
 
+#[cfg(test)]
+mod joint_tests;
 #[cfg(test)]
 mod tests;

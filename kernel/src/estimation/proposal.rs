@@ -328,7 +328,7 @@ impl NominalOf {
     }
 
     /// The nominal's probability of bin (or value) `arm` of `var`.
-    fn bin_mass(&self, var: &Variable, arm: usize) -> f64 {
+    pub(crate) fn bin_mass(&self, var: &Variable, arm: usize) -> f64 {
         match (self, var.bin(arm)) {
             (NominalOf::Weights(w), _) => w[arm],
             (NominalOf::Truncated { shape, mass, .. }, Some((a, b))) => {
@@ -341,7 +341,12 @@ impl NominalOf {
 
     /// Draws from the nominal restricted to bin (or value) `arm` of `var`: uniform or
     /// log-uniform inside the bin for a uniform nominal, the truncated distribution otherwise.
-    fn draw_in_bin<R: Rng + ?Sized>(&self, var: &Variable, arm: usize, rng: &mut R) -> Value {
+    pub(crate) fn draw_in_bin<R: Rng + ?Sized>(
+        &self,
+        var: &Variable,
+        arm: usize,
+        rng: &mut R,
+    ) -> Value {
         match (self, var.bin(arm)) {
             (NominalOf::Truncated { shape, .. }, Some((a, b))) => {
                 let (ca, cb) = (shape.cdf(a), shape.cdf(b));
@@ -354,7 +359,7 @@ impl NominalOf {
 
     /// The density of `x` under the nominal restricted to its bin `arm` (0 for a bin the
     /// nominal gives no mass).
-    fn density_in_bin(&self, var: &Variable, arm: usize, x: &Value) -> f64 {
+    pub(crate) fn density_in_bin(&self, var: &Variable, arm: usize, x: &Value) -> f64 {
         let mass = self.bin_mass(var, arm);
         if mass > 0.0 {
             self.density(var, x) / mass
@@ -470,7 +475,7 @@ impl Nominal {
 
 /// Index drawn from normalised probabilities `p` (the last index of positive probability
 /// takes rounding leftovers, so an index of probability 0 is never drawn).
-fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
+pub(crate) fn categorical<R: Rng + ?Sized>(p: &[f64], rng: &mut R) -> usize {
     let u: f64 = rng.random();
     let mut acc = 0.0;
     for (i, w) in p.iter().enumerate() {
@@ -531,7 +536,7 @@ enum InBin {
 /// Bins whose nominal probability is below this get no share of a refitted p̂_ψ: a truncated
 /// normal cannot be drawn accurately there, and p(φ) is negligible (the defensive component
 /// still covers them).
-const MIN_BIN_MASS: f64 = 1e-12;
+pub(crate) const MIN_BIN_MASS: f64 = 1e-12;
 
 /// The densities of one φ.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -647,8 +652,50 @@ impl Proposal {
             .collect()
     }
 
+    /// The space, the defensive share ε, and a draw from the nominal alone (for the joint
+    /// proposal, [`super::joint`], which keeps this proposal's nominal and ε).
+    pub(crate) fn space(&self) -> &Space {
+        &self.space
+    }
+
+    pub(crate) fn epsilon(&self) -> f64 {
+        self.epsilon
+    }
+
+    /// The nominal of each variable, in the space's order.
+    pub(crate) fn nominals(&self) -> &[NominalOf] {
+        &self.nominal
+    }
+
+    /// Per variable, the nominal's probability of each bin (or value); 0 for a bin below
+    /// [`MIN_BIN_MASS`], which a fitted proposal never draws.
+    pub(crate) fn nominal_bins(&self) -> Vec<Vec<f64>> {
+        self.space
+            .variables()
+            .iter()
+            .zip(&self.nominal)
+            .map(|(var, n)| {
+                (0..var.arms())
+                    .map(|k| {
+                        Some(n.bin_mass(var, k))
+                            .filter(|m| *m >= MIN_BIN_MASS)
+                            .unwrap_or(0.0)
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    pub(crate) fn draw_nominal<R: Rng + ?Sized>(&self, rng: &mut R) -> Assignment {
+        let mut phi = Assignment::new();
+        for (var, n) in self.space.variables().iter().zip(&self.nominal) {
+            phi.set(&var.name, n.draw(var, rng));
+        }
+        phi
+    }
+
     /// The density of `phi` under the nominal p.
-    fn nominal(&self, phi: &Assignment) -> f64 {
+    pub(crate) fn nominal(&self, phi: &Assignment) -> f64 {
         let mut d = 1.0;
         for (var, n) in self.space.variables().iter().zip(&self.nominal) {
             match phi.get(&var.name) {

@@ -392,7 +392,7 @@ fn replay(
             .ask()
             .ok_or_else(|| diverged("the refinement round waits for outcomes here".into()))?;
         line.check(&asked).map_err(diverged)?;
-        estimation.tell(asked.id, line.hf.failure)?;
+        estimation.tell_run(asked.id, line.hf.failure, line.hf.robustness)?;
         lines.push(line);
     }
     // Checked after the lines (their check names the field that differs, if one does).
@@ -537,9 +537,15 @@ impl Running<'_, '_> {
             message,
         };
         let run = r.run(self.cost).map_err(|e| simulation(e.to_string()))?;
+        // Refused before the line is stored, so a resume does not meet it again.
+        if let Some(x) = r.robustness.filter(|x| !x.is_finite()) {
+            return Err(simulation(format!(
+                "the HF run's robustness must be a finite number, got {x}"
+            )));
+        }
         let line = EstimateLine::new(t, RunLine::new(r, run.runtime));
         self.store.append(&line).map_err(CampaignError::from)?;
-        self.estimation.tell(t.id, r.failure)?;
+        self.estimation.tell_run(t.id, r.failure, r.robustness)?;
         self.lines.push(line);
         self.report.call(self.estimation);
         Ok(())

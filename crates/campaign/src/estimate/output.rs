@@ -108,7 +108,9 @@ pub struct EstimateOutcome {
     pub estimate: Estimate,
     /// Why it stopped.
     pub stopped: StopReason,
-    /// The proposal's learned part: per scenario, per variable, each bin's probability.
+    /// The proposal's learned part: per scenario, per variable, each bin's probability (of
+    /// the product proposal; with `proposal` = `joint` the first pilot round drew from these
+    /// bins, and the later rounds and the estimate from the fitted mixture).
     pub proposal: BTreeMap<String, BTreeMap<String, Vec<f64>>>,
     /// The campaign stage each scenario's posterior was learned in.
     pub learned_in: BTreeMap<String, String>,
@@ -306,6 +308,13 @@ impl EstimateOutcome {
                 "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); {used}.",
                 r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
             );
+            if let Some(j) = self.settings.config(0).joint {
+                let _ = writeln!(
+                    t,
+                    "Joint proposal: after each round a mixture of at most {} components over the whole of φ is fitted to the pilot's weighted failures (or, while there are fewer than 100, its failures and closest near-misses by robustness).",
+                    j.components
+                );
+            }
         }
         let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
         t

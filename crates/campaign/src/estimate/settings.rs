@@ -1,7 +1,9 @@
 //! What an estimate runs with ([`EstimateSettings`]) and why it may not run ([`EstimateError`]).
 
 use crate::CampaignError;
-use savme_kernel::estimation::{EstimationError, Nominal, Refine, Tilt};
+use savme_kernel::estimation::{
+    EstimationError, Joint, Nominal, ProposalKind, Refine, Tilt, DEFAULT_COMPONENTS, MAX_COMPONENTS,
+};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -48,10 +50,36 @@ pub struct EstimateSettings {
     /// own round's weight (0: none; at most `refine_rounds`).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub refine_reuse: u32,
+    /// The proposal the pilot rounds fit: `product` (each variable's bins; default) or
+    /// `joint` (a mixture over the whole of φ, fitted to the pilot's weighted failures and
+    /// near-misses; needs `refine_rounds`).
+    #[serde(default, skip_serializing_if = "is_product")]
+    pub proposal: ProposalKind,
+    /// The most mixture components of a joint proposal (default 8; only with `proposal` =
+    /// `joint`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub joint_components: Option<u32>,
 }
 
 fn is_zero(n: &u32) -> bool {
     *n == 0
+}
+
+fn is_product(p: &ProposalKind) -> bool {
+    *p == ProposalKind::Product
+}
+
+/// The settings left out of `estimate.json` at their default (so that older files read the
+/// same).
+const SKIPPED_AT_DEFAULT: &[&str] = &["refine_reuse", "proposal", "joint_components"];
+
+/// The stored value of a setting left out of `estimate.json` because it has its default.
+fn absent(name: &str) -> serde_json::Value {
+    match name {
+        "proposal" => serde_json::Value::from("product"),
+        "joint_components" => serde_json::Value::Null,
+        _ => serde_json::Value::from(0),
+    }
 }
 
 /// The most HF runs one estimate may make.
@@ -72,6 +100,8 @@ impl Default for EstimateSettings {
             refine_rounds: 0,
             refine_runs: 0,
             refine_reuse: 0,
+            proposal: ProposalKind::Product,
+            joint_components: None,
         }
     }
 }
@@ -108,14 +138,19 @@ pub fn resumed(
         Ok(serde_json::Value::Object(m)) => m,
         _ => serde_json::Map::new(),
     };
-    let (mut merged, wanted) = (as_map(&stored), as_map(wanted));
-    let zero = serde_json::Value::from(0); // refine_reuse is left out when 0
+    let (mut merged, mut wanted) = (as_map(&stored), as_map(wanted));
+    // Settings left out of the JSON at their default are compared as that default.
+    for name in SKIPPED_AT_DEFAULT {
+        if !wanted.contains_key(*name) {
+            wanted.insert(name.to_string(), absent(name));
+        }
+    }
     let mut changed = Vec::new();
     for (name, value) in &wanted {
         if given.is_some_and(|g| !g.iter().any(|n| n == name)) {
             continue;
         }
-        let was = merged.get(name).unwrap_or(&zero).clone();
+        let was = merged.get(name).cloned().unwrap_or_else(|| absent(name));
         if was == *value {
             continue;
         }
@@ -152,6 +187,9 @@ impl EstimateSettings {
             nominal: self.nominal.clone(),
             tilt: self.tilt,
             refine: self.refine(),
+            joint: (self.proposal == ProposalKind::Joint).then(|| Joint {
+                components: self.joint_components.unwrap_or(DEFAULT_COMPONENTS),
+            }),
         }
     }
 
@@ -220,6 +258,27 @@ impl EstimateSettings {
                 message,
             })
         };
+        match (self.proposal, self.joint_components) {
+            (ProposalKind::Product, Some(k)) => {
+                return bad(
+                    "joint_components",
+                    format!("{k} components need `proposal` = \"joint\" (the product proposal has none)"),
+                )
+            }
+            (_, Some(k)) if k == 0 || k > MAX_COMPONENTS => {
+                return bad(
+                    "joint_components",
+                    format!("must lie in 1..={MAX_COMPONENTS}, got {k}"),
+                )
+            }
+            (ProposalKind::Joint, _) if self.refine_rounds == 0 => {
+                return bad(
+                    "proposal",
+                    "the joint proposal is fitted by the cross-entropy pilot rounds: give `refine_rounds` and `refine_runs` too".into(),
+                )
+            }
+            _ => {}
+        }
         if self.refine_reuse > self.refine_rounds {
             return bad(
                 "refine_reuse",
@@ -395,6 +454,8 @@ impl EstimateSettings {
             refine_rounds: section.refine_rounds.unwrap_or(0),
             refine_runs: section.refine_runs.unwrap_or(0),
             refine_reuse: section.refine_reuse.unwrap_or(0),
+            proposal: section.proposal.unwrap_or_default(),
+            joint_components: section.joint_components,
         };
         let error = |key: String, message: String| savme_campaign_file::ConfigError {
             file: file.display().to_string(),
