@@ -28,6 +28,9 @@
 
 mod output;
 mod posterior;
+mod running;
+
+use running::{replay, stop_reason, Reporter, Running};
 mod settings;
 
 pub use output::{EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
@@ -35,17 +38,13 @@ pub use settings::{
     resumed as settings_on_resume, EstimateError, EstimateSettings, MAX_RUNS, STOPPING_RULES,
 };
 
-use super::executor::{with_pool, Runner, Task};
-use super::store::{JsonlStore, TrialStore};
+use super::executor::with_pool;
+use super::store::JsonlStore;
 use super::{CampaignError, Problem, Protocol};
-use crate::log::RunLine;
 use crate::source::CampaignSource;
-use savme_kernel::estimation::{Estimation, EstimationTrial, Nominal};
-use savme_kernel::Role;
+use savme_kernel::estimation::{Estimation, Nominal};
 use savme_kernel::Simulator;
-use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 /// An estimate to run on a finished campaign.
 pub struct EstimateRun<'p> {
@@ -368,188 +367,6 @@ fn create(out: &Path, settings: &EstimateSettings) -> Result<(), EstimateError> 
     savme_store::safe_file::write_file(&path, (json + "\n").as_bytes())
         .map_err(|e| CampaignError::io(&path, e))?;
     Ok(())
-}
-
-/// Replays the stored trials: each must be what the estimation asks again; its failure is
-/// told. A torn last line (a killed process) was cut by the store.
-fn replay(
-    store: &mut JsonlStore,
-    estimation: &mut Estimation,
-) -> Result<Vec<EstimateLine>, EstimateError> {
-    let name = store.path().display().to_string();
-    let loaded = store.load().map_err(CampaignError::from)?;
-    let edited = loaded.edited.clone();
-    let mut lines = Vec::with_capacity(loaded.lines.len());
-    for stored in loaded.lines {
-        let diverged = |message: String| EstimateError::Diverged {
-            store: name.clone(),
-            line: stored.line,
-            message,
-        };
-        let line: EstimateLine =
-            serde_json::from_value(stored.value.clone()).map_err(|e| diverged(e.to_string()))?;
-        let asked = estimation
-            .ask()
-            .ok_or_else(|| diverged("the refinement round waits for outcomes here".into()))?;
-        line.check(&asked).map_err(diverged)?;
-        estimation.tell_run(asked.id, line.hf.failure, line.hf.robustness)?;
-        lines.push(line);
-    }
-    // Checked after the lines (their check names the field that differs, if one does).
-    if let Some(e) = edited {
-        return Err(EstimateError::Diverged {
-            store: name,
-            line: e.line,
-            message: e.message,
-        });
-    }
-    Ok(lines)
-}
-
-/// Why the estimate is done, if it is.
-fn stop_reason(e: &Estimation, s: &EstimateSettings) -> Option<StopReason> {
-    let est = e.estimate();
-    let reached = s
-        .target_width
-        .is_some_and(|w| est.failures >= s.min_failures && est.total.relative_half_width() <= w);
-    if reached {
-        Some(StopReason::TargetWidth)
-    } else if e.told() >= s.max_runs {
-        Some(StopReason::MaxRuns)
-    } else {
-        None
-    }
-}
-
-/// Calls the progress callback, if any.
-struct Reporter<'p> {
-    callback: Option<ProgressFn<'p>>,
-    started: std::time::Instant,
-    replayed: u64,
-    max_runs: u64,
-    rounds: u32,
-}
-
-impl Reporter<'_> {
-    fn call(&mut self, e: &Estimation) {
-        let Some(callback) = &mut self.callback else {
-            return;
-        };
-        let estimate = e.estimate();
-        callback(&EstimateProgress {
-            told: e.told(),
-            replayed: self.replayed,
-            max_runs: self.max_runs,
-            round: e.round().map(|r| (r, self.rounds)),
-            estimate: &estimate,
-            elapsed_seconds: self.started.elapsed().as_secs_f64(),
-        });
-    }
-}
-
-/// The run loop's state.
-struct Running<'a, 'p> {
-    estimation: &'a mut Estimation,
-    settings: &'a EstimateSettings,
-    store: &'a mut JsonlStore,
-    lines: &'a mut Vec<EstimateLine>,
-    cost: savme_kernel::CostMeasure,
-    theta_hf: &'a savme_kernel::Assignment,
-    report: &'a mut Reporter<'p>,
-    stop: &'a super::Stop,
-}
-
-impl Running<'_, '_> {
-    /// Keeps up to `window` HF runs in flight, tells them in ask order, stores each line,
-    /// and stops at the first tell after which the stopping rule holds (runs still in flight
-    /// then are dropped: they are not part of the estimate, whatever `jobs` is).
-    fn run(&mut self, pool: &mut impl Runner, window: usize) -> Result<StopReason, EstimateError> {
-        let stage: Arc<str> = Arc::from("estimate");
-        let mut flight: VecDeque<(EstimationTrial, Option<savme_kernel::SimResult>)> =
-            VecDeque::new();
-        let mut asked = self.lines.len() as u64;
-        loop {
-            while flight.len() < window
-                && asked < self.settings.max_runs
-                && !self.stop.is_requested()
-            {
-                // None: a refinement round waits for its outcomes before the refit.
-                let Some(t) = self.estimation.ask() else {
-                    break;
-                };
-                pool.submit(Task {
-                    stage: stage.clone(),
-                    trial: t.id,
-                    which: Role::High,
-                    scenario: t.scenario.clone(),
-                    phi: t.phi.clone(),
-                    fidelity: self.theta_hf.clone(),
-                })?;
-                flight.push_back((t, None));
-                asked += 1;
-            }
-            while flight.front().is_some_and(|(_, r)| r.is_some()) {
-                let Some((t, Some(r))) = flight.pop_front() else {
-                    break;
-                };
-                self.tell(&t, &r)?;
-                if let Some(reason) = stop_reason(self.estimation, self.settings) {
-                    return Ok(reason);
-                }
-            }
-            if flight.is_empty() {
-                if self.stop.is_requested() {
-                    return Err(EstimateError::Stopped {
-                        told: self.estimation.told(),
-                        store: self.store.path().to_path_buf(),
-                    });
-                }
-                // Everything asked was told and the rule did not stop: ask more.
-                continue;
-            }
-            let done = pool.next_done()?;
-            let slot = flight.iter_mut().find(|(t, _)| t.id == done.trial);
-            if let Some((t, slot)) = slot {
-                match done.result {
-                    Ok(r) => *slot = Some(r),
-                    Err(e) => {
-                        return Err(EstimateError::Simulation {
-                            trial: t.id,
-                            scenario: t.scenario.to_string(),
-                            phi: t.phi.to_string(),
-                            message: e.to_string(),
-                        })
-                    }
-                }
-            }
-        }
-    }
-
-    fn tell(
-        &mut self,
-        t: &EstimationTrial,
-        r: &savme_kernel::SimResult,
-    ) -> Result<(), EstimateError> {
-        let simulation = |message: String| EstimateError::Simulation {
-            trial: t.id,
-            scenario: t.scenario.to_string(),
-            phi: t.phi.to_string(),
-            message,
-        };
-        let run = r.run(self.cost).map_err(|e| simulation(e.to_string()))?;
-        // Refused before the line is stored, so a resume does not meet it again.
-        if let Some(x) = r.robustness.filter(|x| !x.is_finite()) {
-            return Err(simulation(format!(
-                "the HF run's robustness must be a finite number, got {x}"
-            )));
-        }
-        let line = EstimateLine::new(t, RunLine::new(r, run.runtime));
-        self.store.append(&line).map_err(CampaignError::from)?;
-        self.estimation.tell_run(t.id, r.failure, r.robustness)?;
-        self.lines.push(line);
-        self.report.call(self.estimation);
-        Ok(())
-    }
 }
 
 /// Parses a `--nominal` declaration `SCENARIO.VARIABLE=uniform`, `=normal:MEAN,SD`,
