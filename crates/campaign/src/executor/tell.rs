@@ -1,0 +1,366 @@
+//! Turning a stage's finished trial into a kernel tell and a stored line: the runs told (or
+//! the trial withdrawn when a run failed), a screened trial's line, and on resume the logged
+//! line checked against what the kernel asks and credits again.
+
+use super::Slot;
+use crate::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
+use crate::protocol::{Stage, StageId};
+use crate::store::TrialStore;
+use crate::CampaignError;
+use savme_kernel::{Assignment, CostMeasure, Kernel, SimError, SimResult, Trial};
+
+pub(super) fn simulation_error(
+    label: &str,
+    trial: &Trial,
+    run: &'static str,
+    source: SimError,
+) -> CampaignError {
+    CampaignError::Simulation(Box::new(crate::error::SimulationError {
+        stage: label.into(),
+        trial: trial.id,
+        scenario: trial.scenario.to_string(),
+        phi: trial.phi.to_string(),
+        run,
+        source,
+    }))
+}
+
+/// A logged trial must be the one the protocol asks for now; the error names the store, the
+/// line `at` and the first field that differs (a φ or θ by its variable).
+pub(super) fn check_logged(
+    l: &LogLine,
+    t: &Trial,
+    expected: StageId,
+    index: u64,
+    at: (String, u64),
+) -> Result<(), CampaignError> {
+    let (stage, i, id, scenario, phi, theta) = match l {
+        LogLine::Trial(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
+        LogLine::Failed(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
+        LogLine::Screen(l) => (&l.stage, l.index, l.id, &l.scenario, &l.phi, &l.theta_lf),
+    };
+    let show = |v: &dyn std::fmt::Display| v.to_string();
+    let differs: Option<(String, String, String)> = if *stage != expected {
+        Some(("stage".into(), show(stage), show(&expected)))
+    } else if i != index {
+        Some(("index".into(), show(&i), show(&index)))
+    } else if id != t.id {
+        Some(("id".into(), show(&id), show(&t.id)))
+    } else if **scenario != *t.scenario {
+        Some(("scenario".into(), show(scenario), t.scenario.to_string()))
+    } else if *phi != t.phi {
+        Some(assignment_difference("phi", phi, &t.phi))
+    } else if *theta != t.theta_lf {
+        Some(match (theta, &t.theta_lf) {
+            (Some(a), Some(b)) => assignment_difference("theta_lf", a, b),
+            (a, b) => ("theta_lf".into(), format!("{a:?}"), format!("{b:?}")),
+        })
+    } else {
+        None
+    };
+    match differs {
+        None => Ok(()),
+        Some((field, logged, asked)) => Err(CampaignError::Log {
+            store: at.0,
+            line: at.1 as usize,
+            message: format!(
+                "field `{field}` is {logged}, but the protocol asks {asked} here ({expected} trial {index}): the line was edited, or written by another campaign"
+            ),
+        }),
+    }
+}
+
+/// The first variable in which two assignments differ: (`field.variable`, logged, asked).
+fn assignment_difference(
+    field: &str,
+    logged: &Assignment,
+    asked: &Assignment,
+) -> (String, String, String) {
+    let none = || "(none)".to_string();
+    let names: std::collections::BTreeSet<&str> = logged
+        .iter()
+        .chain(asked.iter())
+        .map(|(name, _)| name)
+        .collect();
+    for name in names {
+        let (a, b) = (logged.get(name), asked.get(name));
+        if a != b {
+            let a = a.map_or_else(none, |v| v.to_string());
+            let b = b.map_or_else(none, |v| v.to_string());
+            return (format!("{field}.{name}"), a, b);
+        }
+    }
+    (field.into(), logged.to_string(), asked.to_string())
+}
+
+/// Tells the kernel a trial whose runs are in: its logged line on resume (checked against
+/// what the kernel credits), a withdrawal if a run failed, else its runs — storing the line
+/// (with the kernel's outcome and credit) before the next trial is told.
+pub(super) fn tell(
+    kernel: &mut Kernel,
+    mut slot: Slot,
+    label: &str,
+    stage: &Stage,
+    cost: CostMeasure,
+    store: &mut dyn TrialStore,
+) -> Result<LogLine, CampaignError> {
+    let cx = TellCx {
+        label,
+        stage,
+        cost,
+        index: slot.index,
+        id: slot.trial.id,
+    };
+    match slot.logged.take() {
+        Some((number, logged)) => cx.replay(kernel, &slot, number, logged, store),
+        None => cx.tell_ran(kernel, slot, store),
+    }
+}
+
+/// What telling one trial of a stage needs to know.
+struct TellCx<'a> {
+    label: &'a str,
+    stage: &'a Stage,
+    cost: CostMeasure,
+    index: u64,
+    id: u64,
+}
+
+impl TellCx<'_> {
+    fn diverged(&self, message: String) -> CampaignError {
+        CampaignError::Diverged {
+            stage: self.label.into(),
+            index: self.index,
+            message,
+        }
+    }
+
+    fn untellable(&self, e: savme_kernel::TellError) -> CampaignError {
+        CampaignError::Untellable {
+            stage: self.label.into(),
+            index: self.index,
+            message: e.to_string(),
+        }
+    }
+
+    fn withdraw(&self, kernel: &mut Kernel) -> Result<(), CampaignError> {
+        kernel
+            .cancel(self.id)
+            .map(|_| ())
+            .map_err(|e| self.diverged(format!("the failed trial cannot be withdrawn: {e}")))
+    }
+
+    /// A stored line replayed on resume: told as logged, and refused (naming the store line
+    /// and field) where replaying the trial gives something else.
+    fn replay(
+        &self,
+        kernel: &mut Kernel,
+        slot: &Slot,
+        number: u64,
+        logged: LogLine,
+        store: &mut dyn TrialStore,
+    ) -> Result<LogLine, CampaignError> {
+        let tampered = |field: &str, logged: String, computed: String| {
+            CampaignError::Log {
+            store: store.location(),
+            line: number as usize,
+            message: format!(
+                "field `{field}` is {logged} but replaying the trial gives {computed}: the line was edited, or written by another campaign"
+            ),
+        }
+        };
+        let cannot_tell = |e| self.diverged(format!("the logged outcome cannot be told: {e}"));
+        match logged {
+            LogLine::Failed(f) => {
+                self.withdraw(kernel)?;
+                Ok(LogLine::Failed(f))
+            }
+            LogLine::Screen(l) => {
+                let expected =
+                    savme_kernel::screening::decide(l.lf.failure, slot.audit == Some(true));
+                let hf_expected = expected != savme_kernel::screening::Screen::Pass;
+                if slot.audit.is_none() || l.screen != expected || l.hf.is_some() != hf_expected {
+                    return Err(tampered(
+                        "screen",
+                        format!("{:?} (HF run: {})", l.screen, l.hf.is_some()),
+                        format!("{expected:?}"),
+                    ));
+                }
+                tell_screened(kernel, self.id, &l.lf, l.hf.as_ref()).map_err(cannot_tell)?;
+                Ok(LogLine::Screen(l))
+            }
+            LogLine::Trial(l) => {
+                check_costs(&l, self.cost, &tampered)?;
+                let record = kernel.tell(self.id, l.observation()).map_err(cannot_tell)?;
+                let show = |v: &dyn std::fmt::Debug| format!("{v:?}");
+                let checks = [
+                    ("phase", show(&l.phase), show(&slot.trial.phase)),
+                    ("budget", show(&l.budget), show(&self.stage.budget)),
+                    ("outcome", show(&l.outcome), show(&record.outcome)),
+                    ("cost_ratio", show(&l.cost_ratio), show(&record.cost_ratio)),
+                    ("credit", show(&l.credit), show(&record.credit)),
+                ];
+                match checks.into_iter().find(|(_, a, b)| a != b) {
+                    Some((field, logged, computed)) => Err(tampered(field, logged, computed)),
+                    None => Ok(LogLine::Trial(l)),
+                }
+            }
+        }
+    }
+
+    /// A trial this process ran: withdrawn if a run failed, else told; its line stored.
+    fn tell_ran(
+        &self,
+        kernel: &mut Kernel,
+        slot: Slot,
+        store: &mut dyn TrialStore,
+    ) -> Result<LogLine, CampaignError> {
+        let (label, stage, cost) = (self.label, self.stage, self.cost);
+        let line = if let Some(error) = slot.error {
+            self.withdraw(kernel)?;
+            LogLine::Failed(FailedLine {
+                stage: stage.id(),
+                index: slot.index,
+                id: slot.trial.id,
+                scenario: slot.trial.scenario.to_string(),
+                phi: slot.trial.phi.clone(),
+                theta_lf: slot.trial.theta_lf.clone(),
+                error,
+            })
+        } else if let Some(audit) = slot.audit {
+            let l = screen_line(&slot, audit, label, stage, cost)?;
+            tell_screened(kernel, self.id, &l.lf, l.hf.as_ref()).map_err(|e| self.untellable(e))?;
+            LogLine::Screen(l)
+        } else {
+            let mut line = trial_line(&slot, label, stage, cost)?;
+            let record = kernel
+                .tell(self.id, line.observation())
+                .map_err(|e| self.untellable(e))?;
+            line.cost_ratio = record.cost_ratio;
+            line.outcome = record.outcome;
+            line.credit = record.credit;
+            LogLine::Trial(line)
+        };
+        store.append(&line)?;
+        Ok(line)
+    }
+}
+
+/// The line of a run of `slot`'s trial, with the protocol's cost.
+fn run_line(
+    r: &SimResult,
+    which: &'static str,
+    slot: &Slot,
+    label: &str,
+    cost: CostMeasure,
+) -> Result<RunLine, CampaignError> {
+    let run = r
+        .run(cost)
+        .map_err(|source| simulation_error(label, &slot.trial, which, source))?;
+    Ok(RunLine::new(r, run.runtime))
+}
+
+/// Tells the kernel a screened trial: paired when HF ran, LF alone otherwise.
+fn tell_screened(
+    kernel: &mut Kernel,
+    id: u64,
+    lf: &RunLine,
+    hf: Option<&RunLine>,
+) -> Result<(), savme_kernel::TellError> {
+    match hf {
+        Some(hf) => kernel
+            .tell(
+                id,
+                savme_kernel::Observation::Paired {
+                    hf: hf.run(),
+                    lf: lf.run(),
+                },
+            )
+            .map(|_| ()),
+        None => kernel.tell_unconfirmed(id, lf.run()).map(|_| ()),
+    }
+}
+
+/// The line of a screened trial whose runs are in.
+fn screen_line(
+    slot: &Slot,
+    audit: bool,
+    label: &str,
+    stage: &Stage,
+    cost: CostMeasure,
+) -> Result<ScreenLine, CampaignError> {
+    let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
+    let lf = run_line(slot.lf.as_ref().ok_or(CampaignError::WorkersGone)?, "LF")?;
+    let hf = match &slot.hf {
+        Some(r) => Some(run_line(r, "HF")?),
+        None => None,
+    };
+    let outcome = hf.map(|h| savme_kernel::Outcome::classify(h.failure, lf.failure));
+    Ok(ScreenLine {
+        stage: stage.id(),
+        index: slot.index,
+        id: slot.trial.id,
+        budget: stage.budget,
+        scenario: slot.trial.scenario.to_string(),
+        phi: slot.trial.phi.clone(),
+        theta_lf: slot.trial.theta_lf.clone(),
+        screen: savme_kernel::screening::decide(lf.failure, audit),
+        lf,
+        hf,
+        outcome,
+    })
+}
+
+/// A stored trial's costs must be what the protocol's cost measure gives: its work units, or
+/// its measured wall-clock seconds.
+fn check_costs(
+    l: &TrialLine,
+    cost: CostMeasure,
+    tampered: &dyn Fn(&str, String, String) -> CampaignError,
+) -> Result<(), CampaignError> {
+    for (name, run) in [("hf", Some(&l.hf)), ("lf", l.lf.as_ref())] {
+        let Some(run) = run else { continue };
+        let expected = match cost {
+            CostMeasure::Work => run.work.map(|w| w as f64),
+            CostMeasure::Wall => Some(run.wall_seconds),
+        };
+        if expected != Some(run.runtime) {
+            return Err(tampered(
+                &format!("{name}.runtime"),
+                run.runtime.to_string(),
+                expected.map_or("no cost".into(), |e| e.to_string()),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The line of a trial whose runs are in (before the kernel's assessment).
+fn trial_line(
+    slot: &Slot,
+    label: &str,
+    stage: &Stage,
+    cost: CostMeasure,
+) -> Result<TrialLine, CampaignError> {
+    let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
+    let hf = run_line(slot.hf.as_ref().ok_or(CampaignError::WorkersGone)?, "HF")?;
+    let lf = match &slot.lf {
+        Some(r) => Some(run_line(r, "LF")?),
+        None => None,
+    };
+    Ok(TrialLine {
+        stage: stage.id(),
+        index: slot.index,
+        id: slot.trial.id,
+        phase: slot.trial.phase,
+        budget: stage.budget,
+        scenario: slot.trial.scenario.to_string(),
+        phi: slot.trial.phi.clone(),
+        theta_lf: slot.trial.theta_lf.clone(),
+        hf,
+        lf,
+        cost_ratio: None,
+        outcome: None,
+        credit: Default::default(),
+    })
+}
