@@ -282,6 +282,15 @@ impl EstimateOutcome {
             p(i.hi),
             pct(i.relative_half_width())
         );
+        t += &self.table_notes();
+        t
+    }
+
+    /// The lines under the table: where the proposal was learned, the refinement and the
+    /// joint proposal if any, then [`ESTIMATE_LEGEND`].
+    fn table_notes(&self) -> String {
+        use std::fmt::Write;
+        let mut t = String::new();
         let _ = write!(
             t,
             "\nThe proposal was learned in {} ({} trials, {} of them in these scenarios).\n",
