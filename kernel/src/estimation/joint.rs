@@ -13,7 +13,8 @@
 //! a joint cell the weight p/q is constant, as with the product proposal's refit, and bins the
 //! nominal gives (almost) no mass get none ([`super::proposal::MIN_BIN_MASS`]).
 
-use super::proposal::{categorical, Densities, Proposal};
+use super::nominal::categorical;
+use super::proposal::{Densities, Proposal};
 use crate::space::Space;
 use crate::value::Assignment;
 use rand::{Rng, RngExt};

@@ -1,7 +1,7 @@
 //! Tests of the joint proposal ([`super::joint`], [`super::joint_fit`]).
 
 use super::joint::Mixture;
-use super::proposal::{self, Proposal};
+use super::proposal::Proposal;
 use super::*;
 use crate::space::{Scale, Space, Variable};
 use crate::PriorCounts;
@@ -79,8 +79,8 @@ fn a_component_density_is_the_bin_probability_times_the_nominal_in_the_bin() {
     .unwrap();
     let normal = Nominal::Normal { mean: 3.0, sd: 1.0 };
     let nominal = vec![
-        proposal::NominalOf::new(&normal, "s", &space.variables()[0]).unwrap(),
-        proposal::NominalOf::new(&Nominal::Uniform, "s", &space.variables()[1]).unwrap(),
+        super::nominal::NominalOf::new(&normal, "s", &space.variables()[0]).unwrap(),
+        super::nominal::NominalOf::new(&Nominal::Uniform, "s", &space.variables()[1]).unwrap(),
     ];
     let posterior = Posterior::new(&space, PriorCounts::UNIFORM).unwrap();
     let base = Proposal::new(&space, &posterior, nominal, 0.1, Tilt::Posterior);

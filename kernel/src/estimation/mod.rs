@@ -71,6 +71,7 @@
 mod config;
 mod joint;
 mod joint_fit;
+mod nominal;
 mod proposal;
 mod statistic;
 
@@ -78,7 +79,8 @@ pub use config::{
     EstimationConfig, EstimationError, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
     MAX_COMPONENTS, REFINE_SMOOTHING,
 };
-pub use proposal::{Nominal, Tilt};
+pub use nominal::Nominal;
+pub use proposal::Tilt;
 pub use statistic::{z95, Estimate, Interval, ScenarioEstimate};
 
 use crate::kernel::{Kernel, Scenario};
@@ -87,7 +89,8 @@ use crate::value::Assignment;
 use config::check_config;
 use joint::Mixture;
 use joint_fit::{JointPilot, PilotPoint};
-use proposal::{Densities, NominalOf, Proposal};
+use nominal::NominalOf;
+use proposal::{Densities, Proposal};
 use rand::SeedableRng;
 use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
