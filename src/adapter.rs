@@ -19,6 +19,7 @@ use savme_campaign::config::{NULL, TOY};
 use savme_campaign::toy::{NullSimulator, Sleeping, ToySimulator};
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use savme_sim::sim::DrivingSimulator;
+use savme_viewer::Frames;
 
 /// A simulator adapter: a kind of simulator savme can build.
 pub trait Adapter: Sync {
@@ -34,6 +35,12 @@ pub trait Adapter: Sync {
     fn file_sections(&self) -> &'static [&'static str] {
         &[]
     }
+    /// What a recorded trial of the simulator `label` names shows in the rerun viewer
+    /// (default: nothing but its outcome). A simulator offers frames by implementing
+    /// `savme_viewer::TrialFrames` and returning it with `Frames::new` (feature `rerun`).
+    fn frames(&self, _label: &str) -> Frames {
+        Frames::none()
+    }
 }
 
 /// Every adapter savme has, in the order they are asked.
@@ -43,6 +50,12 @@ pub static ADAPTERS: &[&dyn Adapter] = &[&Bundled, &Toy, &Null, &Fmu];
 /// label alone.
 pub fn simulator_of_label(label: &str) -> Option<AnySimulator> {
     ADAPTERS.iter().find_map(|a| a.simulator(label))
+}
+
+/// The frames recorded trials of a protocol's `label` show (none for a label no adapter
+/// builds alone: an FMU campaign's frames come from its file).
+pub fn frames_of_label(label: &str) -> Frames {
+    adapter_of_label(label).map_or_else(Frames::none, |a| a.frames(label))
 }
 
 /// The adapter that builds a protocol's label's simulator from the label alone.
@@ -152,6 +165,13 @@ impl Adapter for Bundled {
             crate::compose::SENSORS => Some(AnySimulator::new(DrivingSimulator::default())),
             crate::compose::IDEAL => Some(AnySimulator::new(DrivingSimulator::ideal())),
             _ => None,
+        }
+    }
+    fn frames(&self, label: &str) -> Frames {
+        match label {
+            crate::compose::SENSORS => Frames::driving(DrivingSimulator::default()),
+            crate::compose::IDEAL => Frames::driving(DrivingSimulator::ideal()),
+            _ => Frames::none(),
         }
     }
 }

@@ -76,13 +76,13 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let out = target.out.clone();
     // Recorded trials show the outputs `[fmu] record` lists (else the campaign view only).
     let frames = if c.file.record.is_empty() {
-        Frames::None
+        Frames::none()
     } else {
-        Frames::Fmu {
-            backend: Box::new(backend.clone()),
-            record: c.file.record.clone(),
-            failure: c.file.init.spec.failure.clone(),
-        }
+        Frames::fmu(
+            backend.clone(),
+            c.file.record.clone(),
+            c.file.init.spec.failure.clone(),
+        )
     };
     run_campaign(
         c.protocol,
