@@ -264,6 +264,17 @@ mod tests {
     }
 
     #[test]
+    fn the_bundled_adapter_offers_its_trial_view_the_others_none() {
+        for label in [crate::compose::SENSORS, crate::compose::IDEAL] {
+            // In a build without `rerun`, nothing is recorded, so no frames at all.
+            assert_eq!(frames_of_label(label).is_none(), !cfg!(feature = "rerun"));
+        }
+        for label in [TOY, NULL, "fmu:a.fmu|b.fmu"] {
+            assert!(frames_of_label(label).is_none(), "{label}");
+        }
+    }
+
+    #[test]
     fn names_are_unique_and_the_fmu_adapter_reads_its_sections() {
         let mut names: Vec<&str> = ADAPTERS.iter().map(|a| a.name()).collect();
         names.sort();
