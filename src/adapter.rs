@@ -26,6 +26,7 @@ use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator, Space};
 use savme_sim::sim::DrivingSimulator;
 use std::any::Any;
 use std::path::Path;
+use savme_viewer::Frames;
 
 /// A simulator adapter: a kind of simulator savme can build.
 pub trait Adapter: Sync {
@@ -61,6 +62,12 @@ pub trait Adapter: Sync {
     /// campaign file).
     fn file_sections(&self) -> &'static [&'static str] {
         &[]
+    }
+    /// What a recorded trial of the simulator `label` names shows in the rerun viewer
+    /// (default: nothing but its outcome). A simulator offers frames by implementing
+    /// `savme_viewer::TrialFrames` and returning it with `Frames::new` (feature `rerun`).
+    fn frames(&self, _label: &str) -> Frames {
+        Frames::none()
     }
 }
 
@@ -98,6 +105,12 @@ pub static ADAPTERS: &[&dyn Adapter] = &[&Bundled, &Toy, &Null, &Fmu];
 /// label alone.
 pub fn simulator_of_label(label: &str) -> Option<AnySimulator> {
     ADAPTERS.iter().find_map(|a| a.simulator(label))
+}
+
+/// The frames recorded trials of a protocol's `label` show (none for a label no adapter
+/// builds alone: an FMU campaign's frames come from its file).
+pub fn frames_of_label(label: &str) -> Frames {
+    adapter_of_label(label).map_or_else(Frames::none, |a| a.frames(label))
 }
 
 /// The adapter that builds a protocol's label's simulator from the label alone.
@@ -195,6 +208,13 @@ impl Adapter for Bundled {
             crate::compose::SENSORS => Some(AnySimulator::new(DrivingSimulator::default())),
             crate::compose::IDEAL => Some(AnySimulator::new(DrivingSimulator::ideal())),
             _ => None,
+        }
+    }
+    fn frames(&self, label: &str) -> Frames {
+        match label {
+            crate::compose::SENSORS => Frames::driving(DrivingSimulator::default()),
+            crate::compose::IDEAL => Frames::driving(DrivingSimulator::ideal()),
+            _ => Frames::none(),
         }
     }
 }
@@ -318,6 +338,17 @@ mod tests {
         }
         for label in ["fmu:a.fmu|b.fmu", "savme-toy/sleep=xms", "savme-sim", ""] {
             assert!(simulator_of_label(label).is_none(), "{label}");
+        }
+    }
+
+    #[test]
+    fn the_bundled_adapter_offers_its_trial_view_the_others_none() {
+        for label in [crate::compose::SENSORS, crate::compose::IDEAL] {
+            // In a build without `rerun`, nothing is recorded, so no frames at all.
+            assert_eq!(frames_of_label(label).is_none(), !cfg!(feature = "rerun"));
+        }
+        for label in [TOY, NULL, "fmu:a.fmu|b.fmu"] {
+            assert!(frames_of_label(label).is_none(), "{label}");
         }
     }
 

@@ -148,18 +148,58 @@ fn last_activated_app(path: &Path) -> String {
     last.expect("no blueprint activated")
 }
 
+/// A store of application `app`; `CAMPAIGN_APP` stands for any campaign's own application.
+fn of_app(s: &Store, app: &str) -> bool {
+    s.app == app || (app == savme::viewer::CAMPAIGN_APP && savme::viewer::is_campaign_app(&s.app))
+}
+
 fn recordings<'a>(stores: &'a [Store], app: &str) -> Vec<&'a Store> {
     stores
         .iter()
-        .filter(|s| !s.blueprint && s.app == app)
+        .filter(|s| !s.blueprint && of_app(s, app))
         .collect()
 }
 
 fn blueprint<'a>(stores: &'a [Store], app: &str) -> &'a Store {
     stores
         .iter()
-        .find(|s| s.blueprint && s.app == app)
+        .find(|s| s.blueprint && of_app(s, app))
         .unwrap_or_else(|| panic!("no blueprint for {app}"))
+}
+
+/// A message of an .rrd file, in file (= stream) order.
+#[derive(Debug, PartialEq)]
+enum Msg {
+    /// A recording's first message (`SetStoreInfo`): a viewer selects it.
+    NewRecording(String),
+    /// Data of a recording (not a blueprint): its recording id.
+    Data(String),
+    /// A blueprint activation, by application.
+    Activate(String),
+}
+
+fn messages(path: &Path) -> Vec<Msg> {
+    use rerun::external::re_log_encoding::DecoderApp;
+    use rerun::external::re_log_types::LogMsg;
+    let f = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut out = Vec::new();
+    for msg in DecoderApp::decode_eager(f).unwrap() {
+        let msg = msg.unwrap();
+        let id = msg.store_id().clone();
+        match msg {
+            LogMsg::SetStoreInfo(_) if !id.is_blueprint() => {
+                out.push(Msg::NewRecording(id.recording_id().to_string()));
+            }
+            LogMsg::ArrowMsg(..) if !id.is_blueprint() => {
+                out.push(Msg::Data(id.recording_id().to_string()));
+            }
+            LogMsg::BlueprintActivationCommand(c) => {
+                out.push(Msg::Activate(c.blueprint_id.application_id().to_string()));
+            }
+            _ => {}
+        }
+    }
+    out
 }
 
 fn assert_views(bp: &Store, views: &[&str]) {
@@ -567,6 +607,47 @@ fn campaign(dir: &Path, every: &str, failures: &str) -> (PathBuf, Vec<serde_json
 }
 
 // Long because it checks every part of one recorded campaign, which is slow to produce.
+/// What a live viewer (rerun 0.36, `--connect`) needs to end on this campaign's view, read
+/// from the message order (a file holds the stream as it was sent). It selects each new
+/// recording once it has read the batch holding the recording's first message, and an
+/// activation switches to its application's earliest recording. So: the campaign has an
+/// application of its own; the campaign is activated again after each trial recorded as it
+/// was told (every 17th here); and the trials recorded at the end are all opened before any
+/// of them gets data, so that their frames lie between the last new recording and the final
+/// activation (then they cannot share a batch).
+fn opens_on_the_campaign_when_live(rrd: &Path, recorded: &BTreeSet<usize>) {
+    let msgs = messages(rrd);
+    let campaign = |m: &Msg| matches!(m, Msg::Activate(a) if savme::viewer::is_campaign_app(a));
+    let activations = msgs.iter().filter(|m| campaign(m)).count();
+    let told = recorded.iter().filter(|n| *n % 17 == 0).count();
+    assert!(told >= 1, "a trial recorded as it was told");
+    assert_eq!(
+        activations,
+        1 + told + 1,
+        "at the start, after each told trial, at the end"
+    );
+    let last_new = msgs
+        .iter()
+        .rposition(|m| matches!(m, Msg::NewRecording(_)))
+        .unwrap();
+    let last_act = msgs.iter().rposition(campaign).unwrap();
+    assert!(last_act > last_new);
+    let Some(Msg::NewRecording(campaign_id)) = msgs.first() else {
+        panic!("the campaign recording comes first: {:?}", msgs.first());
+    };
+    let filled: BTreeSet<&str> = msgs[last_new..last_act]
+        .iter()
+        .filter_map(|m| match m {
+            Msg::Data(id) if id != campaign_id => Some(id.as_str()),
+            _ => None,
+        })
+        .collect();
+    let at_end = recorded.len() - told;
+    assert!(at_end >= 2, "{at_end} trials recorded at the end");
+    // Every trial recorded at the end gets its data after the last new recording.
+    assert_eq!(filled.len(), at_end, "{filled:?}");
+}
+
 #[test]
 fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() {
     let dir = made_dir("campaign");
@@ -584,7 +665,7 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
     );
     let mut names: Vec<String> = stores
         .iter()
-        .filter(|s| !s.blueprint && s.app != savme::viewer::CAMPAIGN_APP)
+        .filter(|s| !s.blueprint && !savme::viewer::is_campaign_app(&s.app))
         .flat_map(|s| s.names.clone())
         .collect();
     names.sort();
@@ -612,7 +693,8 @@ fn a_campaign_records_its_view_and_the_informative_trials_each_as_a_recording() 
         .collect();
     assert!(stages.len() >= 2, "one stage only: {stages:?}");
     // The file opens on the campaign view: its blueprint is the last one activated.
-    assert_eq!(last_activated_app(&rrd), savme::viewer::CAMPAIGN_APP);
+    assert!(savme::viewer::is_campaign_app(&last_activated_app(&rrd)));
+    opens_on_the_campaign_when_live(&rrd, &expected);
     for s in stores
         .iter()
         .filter(|s| !s.blueprint && s.app == savme::viewer::PAIRED_APP)
@@ -811,7 +893,7 @@ fn an_ideal_perception_trial_says_it_has_no_camera() {
     let stores = load(&rrd);
     let trials: Vec<&Store> = stores
         .iter()
-        .filter(|s| !s.blueprint && s.app != savme::viewer::CAMPAIGN_APP)
+        .filter(|s| !s.blueprint && !savme::viewer::is_campaign_app(&s.app))
         .collect();
     assert!(!trials.is_empty());
     for s in trials {
@@ -1067,4 +1149,106 @@ fn an_fmu_campaign_records_the_listed_outputs_of_hf_and_lf_per_trial() {
         paired >= 2 && failing >= 1,
         "{paired} paired, {failing} failing runs"
     );
+}
+
+/// A simulator's frames from outside the viewer crate (issue 24's open seam): the toy
+/// simulator re-run as the campaign ran it, its work per run as a plot in its own layout.
+struct ToyFrames;
+
+impl savme::viewer::TrialFrames for ToyFrames {
+    fn layout(&self, _paired: bool) -> (&'static str, savme::viewer::layout::Layout) {
+        let plot =
+            rerun::blueprint::TimeSeriesView::new("Toy work units: HF and LF").with_origin("/work");
+        (
+            "toy-trial",
+            savme::viewer::layout::Layout::new(rerun::blueprint::Blueprint::new(plot)),
+        )
+    }
+
+    fn record_scene(
+        &mut self,
+        _: &rerun::RecordingStream,
+        scenario: &str,
+    ) -> Result<bool, savme::viewer::RecordError> {
+        Ok(savme::toy::SCENARIOS.contains(&scenario))
+    }
+
+    fn record_run(
+        &mut self,
+        rec: &rerun::RecordingStream,
+        run: savme::viewer::RunSide,
+        scenario: &str,
+        phi: &savme::kernel::Assignment,
+        theta: &savme::kernel::Assignment,
+    ) -> Result<Option<savme::viewer::RunSummary>, savme::viewer::RecordError> {
+        use savme::kernel::{Role, Simulator};
+        let role = match run {
+            savme::viewer::RunSide::Hf => Role::High,
+            savme::viewer::RunSide::Lf => Role::Learned,
+        };
+        let bad = |e: &dyn std::fmt::Display| savme::viewer::RecordError::new(e.to_string());
+        let r = savme::toy::ToySimulator
+            .simulate_as(role, scenario, phi, theta)
+            .map_err(|e| bad(&e))?;
+        let work = r.work.unwrap_or(0);
+        rec.set_duration_secs("sim_time", 0.0);
+        rec.log(
+            format!("work/{}", run.path()),
+            &rerun::Scalars::single(work as f64),
+        )
+        .map_err(|e| bad(&e))?;
+        Ok(Some(savme::viewer::RunSummary {
+            failure: r.failure,
+            collision_time: None,
+            min_distance: f64::NAN,
+            steps: 1,
+            wall_seconds: r.wall_seconds,
+            work: r.work,
+        }))
+    }
+}
+
+#[test]
+fn a_simulator_outside_the_viewer_crate_offers_its_own_frames() {
+    use savme::campaign::config::{toy, Overrides, TOY};
+    let dir = made_dir("record-seam");
+    let rrd = dir.join("toy.rrd");
+    let (protocol, problem) = toy(TOY, &Overrides::default()).expect("the toy protocol");
+    let req = savme::viewer::RecordRequest {
+        file: Some(rrd.clone()),
+        every: 0,
+        failures: 3,
+        ..Default::default()
+    };
+    let frames = savme::viewer::Frames::new(ToyFrames);
+    let observer = savme::viewer::start(&req, frames, &protocol, &problem)
+        .expect("recording starts")
+        .expect("a recording was asked for");
+    savme::campaign::Campaign::new(protocol, problem)
+        .out(dir.join("out"))
+        .jobs(2)
+        .boxed_observer(observer)
+        .run(&savme::toy::ToySimulator)
+        .expect("the toy campaign runs");
+    let stores = load(&rrd);
+    let trials = recordings(&stores, "toy-trial");
+    assert_eq!(trials.len(), 3, "3 informative trials get frames");
+    let mut paired = 0;
+    for t in &trials {
+        // Each run re-run and logged by the toy's frames, beside the recorder's outcome.
+        let outcome = t.text("/outcome");
+        let has_lf = outcome.contains("**LF**");
+        paired += usize::from(has_lf);
+        assert!(t.has("/work/hf"), "{:?}", t.rows);
+        assert_eq!(t.has("/work/lf"), has_lf, "{outcome}\n{:?}", t.rows);
+        let work = t.scalars["/work/hf"][0];
+        assert!(work > 0.0, "HF work {work}");
+    }
+    assert!(paired > 0, "no paired trial among the recorded ones");
+    assert_views(
+        blueprint(&stores, "toy-trial"),
+        &["Toy work units: HF and LF"],
+    );
+    assert!(savme::viewer::is_campaign_app(&last_activated_app(&rrd)));
+    std::fs::remove_dir_all(&dir).ok();
 }

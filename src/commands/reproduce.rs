@@ -7,7 +7,6 @@ use super::{
 use savme::campaign::store::TrialStore;
 use savme::campaign::{load_protocol, load_repeat, Cost, Problem, Protocol};
 use savme::compose::{self, Preset};
-use savme::viewer::Frames;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -136,14 +135,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(n) = repeat {
         return run_repeated(protocol, problem, n, target, &a.runner, &sim);
     }
-    run_campaign(
-        protocol,
-        problem,
-        target,
-        &a.runner,
-        Frames::Driving(sim),
-        &sim,
-    )
+    // Recorded trials show what the simulator's adapter offers (the bundled trial view).
+    let frames = savme::adapter::frames_of_label(&protocol.simulator);
+    run_campaign(protocol, problem, target, &a.runner, frames, &sim)
 }
 
 const DEFAULT_OUT: &str = "savme-results";

@@ -147,10 +147,10 @@ pub fn worker_command() -> Result<Vec<String>, String> {
 /// closed enum: the FMU case is named here until the adapters give their frames.)
 fn frames(file: Box<dyn savme::adapter::FileSimulator>) -> Result<Frames, String> {
     let Ok(fmu) = file.into_any().downcast::<FmuCampaignFile>() else {
-        return Ok(Frames::None);
+        return Ok(Frames::none());
     };
     if fmu.record.is_empty() {
-        return Ok(Frames::None);
+        return Ok(Frames::none());
     }
     let worker = if fmu.isolate {
         Some(worker_command()?)
@@ -159,9 +159,5 @@ fn frames(file: Box<dyn savme::adapter::FileSimulator>) -> Result<Frames, String
     };
     let backend =
         savme_fmu::FmuBackend::new(&fmu.init, worker, fmu.timeout).map_err(|e| e.to_string())?;
-    Ok(Frames::Fmu {
-        backend: Box::new(backend),
-        record: fmu.record,
-        failure: fmu.init.spec.failure,
-    })
+    Ok(Frames::fmu(backend, fmu.record, fmu.init.spec.failure))
 }

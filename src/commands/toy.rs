@@ -11,7 +11,6 @@ use savme::adapter::simulator_of_label;
 use savme::campaign::config::{self, toy_label, NULL};
 use savme::campaign::store::TrialStore;
 use savme::campaign::{load_protocol, load_repeat, Cost};
-use savme::viewer::Frames;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -134,5 +133,6 @@ pub fn run(a: Args) -> Result<(), Failure> {
     if let Some(n) = repeat {
         return run_repeated(protocol, problem, n, target, &a.runner, &sim);
     }
-    run_campaign(protocol, problem, target, &a.runner, Frames::None, &sim)
+    let frames = savme::adapter::frames_of_label(&protocol.simulator);
+    run_campaign(protocol, problem, target, &a.runner, frames, &sim)
 }

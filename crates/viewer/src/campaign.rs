@@ -68,7 +68,7 @@ type BoxList = (Vec<(f32, f32)>, Vec<(f32, f32)>);
 
 /// Labels shown inside boxes `mins` + `sizes`: the viewer draws a 2D box's label just below
 /// the box, so each label hangs from a flat box along the top edge of its box (`path`, in the
-/// box's colour).
+/// box's colour; its outline drawn 0 wide, so that it draws no line through the label above).
 fn log_labels(
     rec: &RecordingStream,
     path: String,
@@ -81,6 +81,7 @@ fn log_labels(
         path,
         &rerun::Boxes2D::from_mins_and_sizes(boxes.0, flat)
             .with_colors(colours)
+            .with_radii([0.0f32])
             .with_labels(labels)
             .with_show_labels(true)
             .with_draw_order(4.0),

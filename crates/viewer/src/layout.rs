@@ -350,6 +350,15 @@ pub fn campaign(plan: &CampaignPlan) -> Layout {
 }
 
 impl Layout {
+    /// A layout of `blueprint` as it is (e.g. a simulator's own trial view, see
+    /// [`super::TrialFrames`]).
+    pub fn new(blueprint: Blueprint) -> Self {
+        Layout {
+            blueprint,
+            props: Vec::new(),
+        }
+    }
+
     /// Sends the layout to `rec` as its application's active and default blueprint; returns
     /// the activation, to send again (with [`activate`]) to bring this application's view back
     /// to the front.

@@ -49,7 +49,7 @@ pub use layout::plot_path;
 #[cfg(feature = "rerun")]
 pub use palette::{kind_colour, stage_colours};
 #[cfg(feature = "rerun")]
-pub use recorder::{Recorder, CAMPAIGN_APP};
+pub use recorder::{campaign_app, is_campaign_app, Recorder, CAMPAIGN_APP};
 /// The rerun SDK this crate records with (to read recordings back with the same version).
 #[cfg(feature = "rerun")]
 pub use rerun;
@@ -116,24 +116,91 @@ impl RecordRequest {
     }
 }
 
-/// The simulator whose frames a recording shows.
-#[derive(Debug, Clone)]
-pub enum Frames {
-    /// The bundled driving simulator (re-run with recording on).
-    Driving(DrivingSimulator),
-    /// An FMU campaign's simulator, re-run reading the outputs `record` (`[fmu] record`) at
+/// What a recorded trial shows besides its outcome: the frames a simulator adapter offers for
+/// the viewer. An open seam: a simulator offers frames by implementing `TrialFrames` (in its
+/// own crate) and handing it over with `Frames::new` (feature `rerun`); the bundled driving simulator and FMU
+/// campaigns use [`Frames::driving`] and [`Frames::fmu`]; [`Frames::none`] records the
+/// campaign view and the outcomes only. In a build without the `rerun` feature every `Frames`
+/// is empty (nothing is recorded there).
+///
+/// ```
+/// use savme_viewer::Frames;
+/// assert!(Frames::none().is_none());
+/// let bundled = Frames::driving(savme_sim::sim::DrivingSimulator::default());
+/// assert_eq!(bundled.is_none(), !cfg!(feature = "rerun"));
+/// ```
+pub struct Frames {
+    #[cfg(feature = "rerun")]
+    inner: Option<Box<dyn TrialFrames>>,
+}
+
+impl Frames {
+    /// No frames: the learning view and the outcomes only.
+    pub fn none() -> Self {
+        Frames {
+            #[cfg(feature = "rerun")]
+            inner: None,
+        }
+    }
+
+    /// The frames `frames` logs — any simulator's (see `TrialFrames` for an example).
+    #[cfg(feature = "rerun")]
+    pub fn new(frames: impl TrialFrames + 'static) -> Self {
+        Frames {
+            inner: Some(Box::new(frames)),
+        }
+    }
+
+    /// The bundled driving simulator's trial view (`DrivingFrames`: cameras, 3D, plots),
+    /// from re-runs of `sim` with recording on.
+    pub fn driving(sim: DrivingSimulator) -> Self {
+        #[cfg(feature = "rerun")]
+        {
+            Frames::new(DrivingFrames::new(sim))
+        }
+        #[cfg(not(feature = "rerun"))]
+        {
+            let _ = sim;
+            Frames::none()
+        }
+    }
+
+    /// An FMU campaign's frames (`FmuFrames`): re-runs of `backend` (as the campaign runs
+    /// it, in this process or in workers) reading the outputs `record` (`[fmu] record`) at
     /// every communication point; `failure` is the campaign's failure signal.
-    Fmu {
-        /// The simulator as the campaign runs it (in this process or in workers; boxed: it
-        /// is large beside the other variants).
-        backend: Box<FmuBackend>,
-        /// The outputs to show.
-        record: Vec<String>,
-        /// The failure signal.
-        failure: Failure,
-    },
-    /// None: the learning view and the outcomes only (e.g. FMUs).
-    None,
+    pub fn fmu(backend: FmuBackend, record: Vec<String>, failure: Failure) -> Self {
+        #[cfg(feature = "rerun")]
+        {
+            Frames::new(FmuFrames::new(backend, record, failure))
+        }
+        #[cfg(not(feature = "rerun"))]
+        {
+            let _ = (backend, record, failure);
+            Frames::none()
+        }
+    }
+
+    /// True when there are no frames to record.
+    pub fn is_none(&self) -> bool {
+        #[cfg(feature = "rerun")]
+        {
+            self.inner.is_none()
+        }
+        #[cfg(not(feature = "rerun"))]
+        {
+            true
+        }
+    }
+}
+
+impl std::fmt::Debug for Frames {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.is_none() {
+            "Frames(none)"
+        } else {
+            "Frames(..)"
+        })
+    }
 }
 
 fn asked_twice() -> CampaignError {
@@ -192,16 +259,7 @@ fn recorder(
         every: req.every,
         failure_cap: req.failures,
     };
-    let frames: Option<Box<dyn TrialFrames>> = match frames {
-        Frames::Driving(sim) => Some(Box::new(DrivingFrames::new(sim))),
-        Frames::Fmu {
-            backend,
-            record,
-            failure,
-        } => Some(Box::new(FmuFrames::new(*backend, record, failure))),
-        Frames::None => None,
-    };
-    Recorder::start(opts, frames, protocol, problem.clone())
+    Recorder::start(opts, frames.inner, protocol, problem.clone())
         .map(Some)
         .map_err(|e| CampaignError::Recording(e.to_string()))
 }

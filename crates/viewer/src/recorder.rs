@@ -10,8 +10,10 @@
 //! trial of each (stage, class) in turn — first the first stage that has each class, in the
 //! order FN, FP, TP, baseline failure, then the second stage that has each, … — then the
 //! second trial of each, and so on (see [`Candidates::choose`]). Frames are re-runs of the same
-//! deterministic runs with recording on. When the campaign ends the campaign's blueprint is
-//! activated again, last in the file, so that a viewer opens on the campaign view.
+//! deterministic runs with recording on. The campaign's blueprint is activated again after
+//! each trial recorded as it is told and, when the campaign ends, last in the file or stream,
+//! so that a viewer — opening the file, or watching live — shows the campaign view; each
+//! campaign is its own application ([`campaign_app`]), so that it is this campaign's view.
 
 use super::campaign::CampaignView;
 use super::layout;
@@ -24,8 +26,54 @@ use savme_campaign::{CampaignError, Cost, Observer, Problem, Protocol, Stage};
 use savme_kernel::{Kernel, Outcome};
 use std::collections::BTreeSet;
 
-/// The application id of campaign recordings (the viewer keeps one layout per application).
+/// The start of every campaign recording's application id (see [`campaign_app`]).
 pub const CAMPAIGN_APP: &str = "savme-campaign";
+
+/// The application id of a campaign recording started at `unix_seconds`: [`CAMPAIGN_APP`], the
+/// seed and the UTC start time, e.g. `savme-campaign - seed 1 - 2026-11-26 12:44:01 UTC` (an
+/// application id allows letters, digits, spaces and `_-[]:` only).
+///
+/// Each campaign is its own application, because the viewer keeps one active layout per
+/// application and, when a layout is activated, switches to that application's *earliest*
+/// recording: with one id for every campaign, a second campaign streamed into a running
+/// viewer (or a second file opened beside the first) would bring back the first campaign, and
+/// show it with the second one's stages and scenarios. It is also the name the viewer's
+/// *Sources* panel lists the campaign under.
+///
+/// ```
+/// use savme_viewer::{campaign_app, is_campaign_app};
+/// let app = campaign_app(1, 1_795_697_041);
+/// assert_eq!(app, "savme-campaign - seed 1 - 2026-11-26 12:44:01 UTC");
+/// assert!(is_campaign_app(&app) && !is_campaign_app("savme-trial"));
+/// ```
+pub fn campaign_app(seed: u64, unix_seconds: u64) -> String {
+    let (days, secs) = (unix_seconds / 86_400, unix_seconds % 86_400);
+    let (y, m, d) = civil_date(days);
+    format!(
+        "{CAMPAIGN_APP} - seed {seed} - {y:04}-{m:02}-{d:02} {:02}:{:02}:{:02} UTC",
+        secs / 3600,
+        secs / 60 % 60,
+        secs % 60
+    )
+}
+
+/// True for a campaign recording's application id (one made by [`campaign_app`]).
+pub fn is_campaign_app(app: &str) -> bool {
+    app == CAMPAIGN_APP || app.starts_with(&format!("{CAMPAIGN_APP} - "))
+}
+
+/// The proleptic Gregorian date of `days` since 1970-01-01 (H. Hinnant's `civil_from_days`).
+fn civil_date(days: u64) -> (u64, u64, u64) {
+    let z = days + 719_468;
+    let era = z / 146_097;
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    (yoe + era * 400 + u64::from(m <= 2), m, d)
+}
 
 /// The outcome classes whose trials are worth frames, in the order they are picked.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -149,9 +197,12 @@ impl Recorder {
         protocol: &Protocol,
         problem: Problem,
     ) -> Result<Recorder, RecordError> {
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs());
         let (rec, activation) = open(
             &opts.sink,
-            CAMPAIGN_APP,
+            &campaign_app(protocol.seed, now),
             &format!("campaign (seed {})", protocol.seed),
             layout::campaign(&CampaignView::plan(&problem, protocol)),
         )?;
@@ -181,12 +232,34 @@ impl Recorder {
     /// Records one trial as its own recording (in the same sink), named by stage, trial,
     /// scenario and outcome.
     pub fn record_trial(&mut self, n: u64, line: &TrialLine) -> Result<(), RecordError> {
-        let Some(frames) = self.frames.as_mut() else {
-            return Ok(());
+        match self.open_trial(line)? {
+            Some(t) => self.fill_trial(n, line, t),
+            None => Ok(()),
+        }
+    }
+
+    /// Opens `line`'s trial recording in the sink (its store and layout reach the viewer now);
+    /// None without frames.
+    fn open_trial(&self, line: &TrialLine) -> Result<Option<TrialRecording>, RecordError> {
+        let Some(frames) = self.frames.as_ref() else {
+            return Ok(None);
         };
         let name = trial::name(line);
-        let t =
-            TrialRecording::forwarded(&self.rec, &name, frames.layout(line.theta_lf.is_some()))?;
+        TrialRecording::forwarded(&self.rec, &name, frames.layout(line.theta_lf.is_some()))
+            .map(Some)
+    }
+
+    /// Runs and logs `line`'s trial into its opened recording `t`, then closes it.
+    fn fill_trial(
+        &mut self,
+        n: u64,
+        line: &TrialLine,
+        t: TrialRecording,
+    ) -> Result<(), RecordError> {
+        let Some(frames) = self.frames.as_mut() else {
+            return t.close();
+        };
+        let name = trial::name(line);
         let runs = t.record(
             frames.as_mut(),
             &line.scenario,
@@ -213,12 +286,23 @@ impl Recorder {
         self.finished = true;
         let chosen = std::mem::take(&mut self.candidates)
             .choose(self.opts.failure_cap as usize, &self.recorded);
+        // Every chosen trial's recording is opened before any is filled. A viewer selects a
+        // new recording when its first message arrives, but only once it has read the batch
+        // of messages that holds it (rerun 0.36: a deferred selection), so a campaign
+        // activation in the same batch as the last trial's first message loses to it and a
+        // live viewer (`--connect`, `--spawn`) stays on that trial. Opened first, all the
+        // trials' frames lie between the last new recording and the activation.
+        let mut opened = Vec::new();
         for (n, line) in chosen {
-            if let Err(e) = self.record_trial(n, &line) {
-                eprintln!(
-                    "savme: recording trial {} of {}: {e}",
-                    line.index, line.stage
-                );
+            match self.open_trial(&line) {
+                Ok(Some(t)) => opened.push((n, line, t)),
+                Ok(None) => {}
+                Err(e) => trial_error(&line, &e),
+            }
+        }
+        for (n, line, t) in opened {
+            if let Err(e) = self.fill_trial(n, &line, t) {
+                trial_error(&line, &e);
             }
         }
         let summary = self.view.summary_markdown(&self.names, &self.opts);
@@ -226,7 +310,8 @@ impl Recorder {
             "campaign/summary",
             &rerun::TextDocument::from_markdown(summary),
         );
-        // Last in the file: a viewer opens on the campaign view, not on the last trial.
+        // Last in the file or stream: a viewer opens on the campaign view (the earliest, and
+        // only, recording of this campaign's application), not on the last trial.
         layout::activate(&self.rec, self.activation.clone());
         close(&self.rec, &self.opts.sink).map_err(|e| CampaignError::Recording(e.0))
     }
@@ -254,16 +339,23 @@ impl Observer for Recorder {
         }
         if self.opts.every > 0 && n.is_multiple_of(self.opts.every) {
             if let Err(e) = self.record_trial(n, line) {
-                eprintln!(
-                    "savme: recording trial {} of {}: {e}",
-                    line.index, line.stage
-                );
+                trial_error(line, &e);
             }
+            // A live viewer selected the trial's new recording: back to the campaign view,
+            // which goes on (the trial stays listed under the viewer's *Sources*).
+            layout::activate(&self.rec, self.activation.clone());
         } else {
             self.candidates
                 .offer(n, line, self.opts.failure_cap as usize);
         }
     }
+}
+
+fn trial_error(line: &TrialLine, e: &RecordError) {
+    eprintln!(
+        "savme: recording trial {} of {}: {e}",
+        line.index, line.stage
+    );
 }
 
 impl Drop for Recorder {

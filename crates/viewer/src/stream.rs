@@ -61,6 +61,62 @@ pub struct RunSummary {
 /// trial view), and an FMU campaign's simulator when its file lists outputs to record
 /// ([`super::FmuFrames`]: one plot per output); without frames a campaign gets its campaign
 /// view only.
+///
+/// It is the seam through which any simulator shows its runs: implement it in the simulator's
+/// own crate (nothing in this crate lists simulators) and hand it to a recording with
+/// [`super::Frames::new`]. For example, a simulator whose run is a closing gap, shown as one
+/// plot of the gap over time in its own layout:
+///
+/// ```
+/// use savme_kernel::Assignment;
+/// use savme_viewer::layout::Layout;
+/// use savme_viewer::rerun::{self, blueprint, RecordingStream};
+/// use savme_viewer::{Frames, RecordError, RunSide, RunSummary, TrialFrames};
+///
+/// struct GapFrames;
+///
+/// impl TrialFrames for GapFrames {
+///     fn layout(&self, _paired: bool) -> (&'static str, Layout) {
+///         let plot = blueprint::TimeSeriesView::new("Gap (m): HF and LF").with_origin("/gap");
+///         ("gap-trial", Layout::new(blueprint::Blueprint::new(plot)))
+///     }
+///     fn record_scene(&mut self, _: &RecordingStream, _: &str) -> Result<bool, RecordError> {
+///         Ok(true)
+///     }
+///     fn record_run(
+///         &mut self,
+///         rec: &RecordingStream,
+///         run: RunSide,
+///         _scenario: &str,
+///         phi: &Assignment,
+///         _theta: &Assignment,
+///     ) -> Result<Option<RunSummary>, RecordError> {
+///         let gap0 = phi.get_f64("gap").ok_or_else(|| RecordError::new("φ has no `gap`"))?;
+///         let gaps: Vec<f64> = (0..=10).map(|k| gap0 - f64::from(k)).collect();
+///         let times = (0..=10).map(|k| f64::from(k) * 0.1);
+///         rec.send_columns(
+///             format!("gap/{}", run.path()),
+///             [rerun::TimeColumn::new_duration_secs("sim_time", times)],
+///             rerun::Scalars::new(gaps.iter().copied())
+///                 .columns_of_unit_batches()
+///                 .map_err(|e| RecordError::new(e.to_string()))?,
+///         )
+///         .map_err(|e| RecordError::new(e.to_string()))?;
+///         let min = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+///         Ok(Some(RunSummary {
+///             failure: min <= 0.0,
+///             collision_time: None,
+///             min_distance: min,
+///             steps: 10,
+///             wall_seconds: 0.0,
+///             work: Some(10),
+///         }))
+///     }
+/// }
+///
+/// let frames = Frames::new(GapFrames); // for `savme_viewer::start`
+/// assert!(!frames.is_none());
+/// ```
 pub trait TrialFrames: Send {
     /// The application id and layout of its trial recordings (`paired`: with an LF run).
     fn layout(&self, paired: bool) -> (&'static str, Layout);
@@ -146,10 +202,12 @@ fn probe(url: &str) -> Result<(), RecordError> {
 /// returns the stream and its blueprint's activation (see `super::layout::activate`).
 pub fn open(
     sink: &Sink,
-    app: &'static str,
+    app: &str,
     name: &str,
     layout: Layout,
 ) -> Result<(RecordingStream, BlueprintActivationCommand), RecordError> {
+    let app = rerun::external::re_log_types::ApplicationId::try_new(app)
+        .map_err(|e| RecordError(format!("application id `{app}`: {e}")))?;
     let builder = rerun::RecordingStreamBuilder::new(app).recording_name(name);
     let rec = match sink {
         Sink::File(path) => builder
