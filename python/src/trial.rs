@@ -95,10 +95,11 @@ impl PyTrial {
             .transpose()
     }
 
-    /// True when the trial needs both runs (every phase but baseline).
+    /// True when the trial needs both runs: it has a θ_LF (every phase but baseline, unless
+    /// the kernel's pairing left a learning trial HF only).
     #[getter]
     fn paired(&self) -> bool {
-        self.trial.phase.is_paired()
+        self.trial.theta_lf.is_some()
     }
 
     /// The trial as a dict (the JSON of `savme serve`'s trials).
