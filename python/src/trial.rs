@@ -140,8 +140,8 @@ impl PyTrial {
     ) -> PyResult<Bound<'py, PyAny>> {
         let theta = self.trial.theta_lf.as_ref().ok_or_else(|| {
             PyValueError::new_err(format!(
-                "trial {} is a baseline trial: it has no theta_lf (only the HF run)",
-                self.trial.id
+                "trial {} is a {} trial without theta_lf (only the HF run)",
+                self.trial.id, self.trial.phase
             ))
         })?;
         typed(py, theta, "theta_lf", name, kind)
