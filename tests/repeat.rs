@@ -255,3 +255,69 @@ fn the_toy_runs_repeat_seeds_too_and_resumes_them() {
     assert_eq!(before, after);
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn a_resumed_elite_campaign_keeps_its_stored_search_and_pairing_parameters() {
+    // protocol.json stores the elite parameters and the pairing, so a resume draws the same
+    // trials even if the defaults change meanwhile (explore 0.3 is not the default: a resume
+    // with the defaults would ask other trials).
+    let dir = temp_dir("elite");
+    let search = [
+        "--search",
+        "elite",
+        "--elite",
+        "explore=0.3,tries=4",
+        "--pair-fraction",
+        "0.5",
+        "--pair-settle",
+        "1",
+    ];
+    let (ok, _, err) = reproduce(&dir, &search);
+    assert!(ok, "{err}");
+    let protocol = json(&dir.join("protocol.json"));
+    assert_eq!(protocol["elite"]["explore"], 0.3);
+    assert_eq!(protocol["elite"]["tries"], 4);
+    assert_eq!(
+        protocol["elite"]["bandwidth"], 0.06,
+        "the defaults of the day are stored"
+    );
+    assert_eq!(
+        (
+            protocol["pair_fraction"].clone(),
+            protocol["pair_settle"].clone()
+        ),
+        (0.5.into(), 1.into())
+    );
+    let full = file_trials(&dir);
+    let train: Vec<&Value> = full.iter().filter(|t| t["stage"] == "train@0.3").collect();
+    let unpaired = train.iter().filter(|t| t["theta_lf"].is_null()).count();
+    assert!(
+        unpaired > 0 && unpaired < train.len(),
+        "{unpaired} of {}",
+        train.len()
+    );
+    assert!(train
+        .iter()
+        .all(|t| t["theta_lf"].is_null() == t["lf"].is_null()));
+    // Cut the store to its first 20 lines (a killed campaign) and resume.
+    let text = std::fs::read_to_string(dir.join("trials.jsonl")).unwrap();
+    let head: String = text.lines().take(20).map(|l| format!("{l}\n")).collect();
+    std::fs::write(dir.join("trials.jsonl"), head).unwrap();
+    let (ok, _, err) = resume(&dir);
+    assert!(ok, "{err}");
+    assert_eq!(file_trials(&dir), full);
+    // Idle or bad values are refused naming the flag's value.
+    let bad = temp_dir("elite-bad");
+    let (ok, _, err) = reproduce(&bad, &["--elite", "explore=0.3"]);
+    assert!(
+        !ok && err.contains("`elite`") && err.contains("search = elite"),
+        "{err}"
+    );
+    let (ok, _, err) = reproduce(&bad, &["--pair-fraction", "1.5"]);
+    assert!(
+        !ok && err.contains("`pair_fraction`: 1.5 is outside (0, 1]"),
+        "{err}"
+    );
+    assert!(!bad.exists());
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -1,9 +1,11 @@
 //! The ask/tell kernel: suggests trials, ingests their outcomes, learns p_ψ(φ | s) and p_ω(θ_LF).
 
 use crate::outcome::{Credit, Observation, Outcome, Run};
+use crate::pairing::{Pairing, PairingError};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
 use crate::search::{Archive, SearchError, SearchModel};
 use crate::space::{Space, SpaceError};
+use crate::validation::validate_config;
 use crate::value::Assignment;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64 as Rng64;
@@ -135,6 +137,9 @@ pub struct KernelConfig {
     /// the field out of the serialised configuration).
     #[serde(default, skip_serializing_if = "SearchModel::is_independent_bins")]
     pub search: SearchModel,
+    /// Which learning trials also run LF (default: every one, the paper's; then left out).
+    #[serde(default, skip_serializing_if = "Pairing::is_default")]
+    pub pairing: Pairing,
 }
 
 /// Why a kernel cannot be built or restored.
@@ -186,6 +191,9 @@ pub enum ConfigError {
     /// The search model's parameters are out of range.
     #[error("search model: {0}")]
     Search(SearchError),
+    /// The pairing's parameters are out of range.
+    #[error("{0}")]
+    Pairing(PairingError),
 }
 
 /// Why a tell (or a cancel) was refused. A refused tell leaves the kernel unchanged.
@@ -205,8 +213,9 @@ pub enum TellError {
         /// Its phase.
         phase: Phase,
     },
-    /// A paired observation for a baseline (HF-only) trial.
-    #[error("trial {id} is a baseline trial and takes the HF run only")]
+    /// A paired observation for a trial without θ_LF (a baseline trial, or a learning trial
+    /// the [`Pairing`] left unpaired).
+    #[error("trial {id} has no θ_LF and takes the HF run only")]
     ExpectedHfOnly {
         /// The trial.
         id: u64,
@@ -391,6 +400,13 @@ impl KernelBuilder {
         self
     }
 
+    /// Sets which learning trials also run LF (default [`Pairing::default`]: all, the
+    /// paper's).
+    pub fn pairing(mut self, pairing: Pairing) -> Self {
+        self.config.pairing = pairing;
+        self
+    }
+
     /// Validates the configuration and builds the kernel.
     pub fn build(self) -> Result<Kernel, ConfigError> {
         Kernel::new(self.config)
@@ -411,6 +427,7 @@ impl Kernel {
                 estimator: Estimator::Map,
                 fidelity_prior: None,
                 search: SearchModel::IndependentBins,
+                pairing: Pairing::default(),
             },
         }
     }
@@ -557,8 +574,11 @@ impl Kernel {
                 Some(st.config.fidelity.representatives(&arms[n_phi..]))
             }
             Phase::Train | Phase::Test => {
-                st.fidelity.thompson(rng, &mut arms);
-                Some(st.config.fidelity.draw(&arms[n_phi..], rng))
+                let c = &st.config;
+                c.pairing.pairs(&st.fidelity, rng).then(|| {
+                    st.fidelity.thompson(rng, &mut arms);
+                    c.fidelity.draw(&arms[n_phi..], rng)
+                })
             }
         };
         Pending {
@@ -640,7 +660,7 @@ impl Kernel {
                 })
             }
         };
-        match (phase.is_paired(), observation) {
+        match (pending.trial.theta_lf.is_some(), observation) {
             (true, Observation::HfOnly(_)) => return Err(TellError::ExpectedPaired { id, phase }),
             (false, Observation::Paired { .. }) => return Err(TellError::ExpectedHfOnly { id }),
             _ => {}
@@ -666,6 +686,11 @@ impl Kernel {
             (true, Some(o), Some(r)) => Credit {
                 fidelity: Some(o.fidelity_success(r, self.state.config.budget)),
                 scenario: Some(o.scenario_success()),
+            },
+            // An unpaired learning trial: the HF run credits the φ search alone.
+            (true, None, None) => Credit {
+                fidelity: None,
+                scenario: Some(observation.hf().failure),
             },
             _ => Credit::default(),
         };
@@ -814,10 +839,10 @@ impl Kernel {
             if !arms_ok(&sc.space, phi_arms) {
                 return Err(bad("φ arms do not fit the scenario"));
             }
-            let paired = t.phase.is_paired();
-            if paired != t.theta_lf.is_some()
-                || (paired && !arms_ok(&cfg.fidelity, theta_arms))
-                || (!paired && !theta_arms.is_empty())
+            let paired = t.theta_lf.is_some();
+            let may_skip = t.phase.learns() && !cfg.pairing.is_always();
+            if (paired && !(t.phase.is_paired() && arms_ok(&cfg.fidelity, theta_arms)))
+                || (!paired && (t.phase.is_paired() && !may_skip || !theta_arms.is_empty()))
             {
                 return Err(bad("θ_LF does not fit its phase or the fidelity space"));
             }
@@ -944,61 +969,4 @@ fn check_archives(snapshot: &Snapshot) -> Result<(), ConfigError> {
             .map_err(|e| ConfigError::State(format!("scenario `{}`: {e}", s.name)))?;
     }
     Ok(())
-}
-
-/// Validates a configuration; returns the cumulative normalised scenario weights.
-fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError> {
-    if c.scenarios.is_empty() {
-        return Err(ConfigError::NoScenarios);
-    }
-    for (i, s) in c.scenarios.iter().enumerate() {
-        if s.name.trim().is_empty() {
-            return Err(ConfigError::EmptyScenarioName { index: i });
-        }
-        if c.scenarios[..i].iter().any(|t| t.name == s.name) {
-            return Err(ConfigError::DuplicateScenario(s.name.to_string()));
-        }
-        if !(s.weight.is_finite() && s.weight > 0.0) {
-            return Err(ConfigError::BadWeight {
-                scenario: s.name.to_string(),
-                weight: s.weight,
-            });
-        }
-        // Spaces built by `Space::new` or deserialised are valid; re-check to name the scenario.
-        Space::new(s.space.variables().to_vec()).map_err(|source| ConfigError::ScenarioSpace {
-            scenario: s.name.to_string(),
-            source,
-        })?;
-    }
-    Space::new(c.fidelity.variables().to_vec()).map_err(ConfigError::FidelitySpace)?;
-    c.fidelity
-        .arms_of(&c.theta_hf)
-        .map_err(ConfigError::ThetaHf)?;
-    if !(c.budget > 0.0 && c.budget <= 1.0) {
-        return Err(ConfigError::BadBudget(c.budget));
-    }
-    c.prior.validate().map_err(ConfigError::Prior)?;
-    c.search.validate().map_err(ConfigError::Search)?;
-    if let Some(fp) = &c.fidelity_prior {
-        fp.posterior
-            .check_fits(&c.fidelity)
-            .map_err(ConfigError::Prior)?;
-        if !(fp.strength.is_finite() && fp.strength > 0.0) {
-            return Err(ConfigError::Prior(PosteriorError::BadStrength(fp.strength)));
-        }
-    }
-    let total: f64 = c.scenarios.iter().map(|s| s.weight).sum();
-    let mut acc = 0.0;
-    let mut cumulative: Vec<f64> = c
-        .scenarios
-        .iter()
-        .map(|s| {
-            acc += s.weight / total;
-            acc
-        })
-        .collect();
-    if let Some(last) = cumulative.last_mut() {
-        *last = 1.0;
-    }
-    Ok(cumulative)
 }

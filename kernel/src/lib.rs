@@ -44,12 +44,14 @@ pub mod journal;
 mod kernel;
 pub mod metrics;
 mod outcome;
+mod pairing;
 mod posterior;
 mod sampler;
 pub mod screening;
 mod search;
 mod simulator;
 mod space;
+mod validation;
 mod value;
 
 pub use kernel::{
@@ -57,6 +59,7 @@ pub use kernel::{
     RestoreError, Scenario, Snapshot, TellError, Trial, TrialRecord,
 };
 pub use outcome::{Credit, Observation, Outcome, Run};
+pub use pairing::{Pairing, PairingError};
 pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
 pub use search::{EliteMixture, SearchError, SearchModel};
 pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};

@@ -226,6 +226,8 @@ class Kernel:
         prior_strength: float = 1.0,
         journal: Optional[Union[str, PathLike[str]]] = None,
         search: Union[Literal["bins", "elite"], Mapping[str, float], None] = None,
+        pair_fraction: float = 1.0,
+        pair_settle: int = 30,
     ) -> Kernel:
         """Builds a kernel in the "train" phase.
 
@@ -239,7 +241,10 @@ class Kernel:
         journal: a journal file, created or resumed (it must hold the same configuration);
         search: how train and test draw φ — "bins" (default, the paper's independent bins),
         "elite" (a joint proposal around failures, paired with the same fidelity bandit), or
-        a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at defaults).
+        a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at defaults);
+        pair_fraction, pair_settle: once the greedy arm of every fidelity variable holds
+        pair_settle observations, only this share of the learning trials is paired; the others
+        have no theta_lf (`trial.paired` is False) and are told with the HF run alone.
 
         Raises ValueError naming the variable or scenario at fault, JournalError for a journal
         that cannot be used."""
@@ -433,6 +438,9 @@ class Protocol:
         screen_iterations: Optional[int] = None,
         audit_fraction: Optional[float] = None,
         search: Optional[Literal["bins", "elite"]] = None,
+        elite: Optional[Mapping[str, float]] = None,
+        pair_fraction: Optional[float] = None,
+        pair_settle: Optional[int] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:

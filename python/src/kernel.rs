@@ -12,8 +12,8 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use savme::campaign::store::{journal, JsonlStore};
 use savme::serve::Session;
 use savme_kernel::{
-    EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Phase, PriorCounts,
-    Run, Scenario, SearchModel, Space, TrialRecord,
+    EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Pairing, Phase,
+    PriorCounts, Run, Scenario, SearchModel, Space, TrialRecord,
 };
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -252,7 +252,8 @@ impl PyKernel {
 impl PyKernel {
     #[new]
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
-        prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None))]
+        prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
+        pair_fraction = 1.0, pair_settle = 30))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -267,7 +268,19 @@ impl PyKernel {
         prior_strength: f64,
         journal: Option<PathBuf>,
         search: Option<&Bound<'_, PyAny>>,
+        pair_fraction: f64,
+        pair_settle: u64,
     ) -> PyResult<Self> {
+        let pairing = Pairing {
+            fraction: pair_fraction,
+            settle: pair_settle,
+        };
+        pairing.validate().map_err(|e| {
+            PyValueError::new_err(format!(
+                "pair_fraction = {pair_fraction} is outside {}",
+                e.range
+            ))
+        })?;
         if fidelity_prior.is_none() && prior_strength != 1.0 {
             return Err(PyValueError::new_err(format!(
                 "prior_strength = {prior_strength} without fidelity_prior: it weighs a transferred \
@@ -291,6 +304,7 @@ impl PyKernel {
                 strength: prior_strength,
             }),
             search: search_model(search)?,
+            pairing,
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal)

@@ -95,10 +95,11 @@ impl PyTrial {
             .transpose()
     }
 
-    /// True when the trial needs both runs (every phase but baseline).
+    /// True when the trial needs both runs: it has a θ_LF (every phase but baseline, unless
+    /// the kernel's pairing left a learning trial HF only).
     #[getter]
     fn paired(&self) -> bool {
-        self.trial.phase.is_paired()
+        self.trial.theta_lf.is_some()
     }
 
     /// The trial as a dict (the JSON of `savme serve`'s trials).
@@ -139,8 +140,8 @@ impl PyTrial {
     ) -> PyResult<Bound<'py, PyAny>> {
         let theta = self.trial.theta_lf.as_ref().ok_or_else(|| {
             PyValueError::new_err(format!(
-                "trial {} is a baseline trial: it has no theta_lf (only the HF run)",
-                self.trial.id
+                "trial {} is a {} trial without theta_lf (only the HF run)",
+                self.trial.id, self.trial.phase
             ))
         })?;
         typed(py, theta, "theta_lf", name, kind)

@@ -1,5 +1,7 @@
 """The kernel API: construction, bad arguments, ask/tell, phases, snapshots, prior transfer."""
 
+import json
+
 import pytest
 
 import savme
@@ -110,7 +112,7 @@ def test_phases_evaluate_baseline_test():
     k.set_phase("baseline")
     b = k.ask()
     assert b.phase == "baseline" and b.theta_lf is None and not b.paired
-    with pytest.raises(savme.TellError, match=f"trial {b.id} is a baseline trial"):
+    with pytest.raises(savme.TellError, match=f"trial {b.id} has no θ_LF and takes the HF run only"):
         k.tell(b, hf=(True, 1.0), lf=(True, 0.1))
     assert k.tell(b, hf=(False, 1.0)).outcome is None
     k.set_phase("test")
@@ -546,3 +548,27 @@ def test_the_search_is_chosen_by_name_or_parameters_and_is_deterministic():
             kernel(search=bad)
     with pytest.raises(TypeError, match="search: give"):
         kernel(search=3)
+
+
+def test_pairing_a_fraction_leaves_settled_learning_trials_hf_only():
+    # Once the fidelity posterior has settled (pair_settle observations on the arm with the
+    # highest mean of every variable), about pair_fraction of the train trials are paired.
+    k = kernel(pair_fraction=0.25, pair_settle=5)
+    assert json.loads(k.config_json())["pairing"] == {"fraction": 0.25, "settle": 5}
+    paired = []
+    for _ in range(400):
+        t = k.ask()
+        hf, lf = runs(t)
+        paired.append(t.paired)
+        if not t.paired:
+            assert t.theta_lf is None
+            with pytest.raises(savme.TellError, match=f"trial {t.id} has no θ_LF"):
+                k.tell(t, hf=hf, lf=(False, 0.2))
+        r = k.tell(t, hf=hf, lf=lf)
+        if not t.paired:
+            assert r.credit == {"fidelity": None, "scenario": hf[0]}
+    assert all(paired[:5]) and 60 < sum(paired) < 200, sum(paired)
+    assert '"pairing"' not in kernel().config_json()
+    for bad in (0.0, 1.5, float("nan")):
+        with pytest.raises(ValueError, match=r"pair_fraction = .* is outside \(0, 1\]"):
+            kernel(pair_fraction=bad)

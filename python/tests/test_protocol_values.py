@@ -32,14 +32,26 @@ SAMPLES = {
     "screen_iterations": 7,
     "audit_fraction": 0.2,
     "search": "elite",
+    # Every parameter: the protocol stores them all (those not given at their defaults).
+    "elite": {"explore": 0.2, "bandwidth": 0.06, "jump": 0.1, "near_miss": 0.0,
+              "near_miss_weight": 0.5, "near_miss_until": 20, "spread": 1.0, "tries": 8,
+              "archive": 4096},
+    "pair_fraction": 0.25,
+    "pair_settle": 12,
     "repeat": 2,
 }
 
-# Values that mean something only with another one (audit_fraction audits the screening).
-COMPANIONS = {"audit_fraction": {"screen_iterations": 7}}
+# Values that mean something only with another one (audit_fraction audits the screening, the
+# elite parameters the elite search, pair_settle a pairing of fewer than every trial).
+COMPANIONS = {"audit_fraction": {"screen_iterations": 7}, "elite": {"search": "elite"},
+              "pair_settle": {"pair_fraction": 0.5}}
+# Values that set another one: the elite search stores its default parameters.
+DERIVED = {"search": {"elite"}}
 
 
 def toml_value(v):
+    if isinstance(v, dict):  # an inline table
+        return "{" + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + "}"
     return json.dumps(v)  # numbers, strings and lists of them are the same in TOML
 
 
@@ -68,7 +80,7 @@ def test_each_value_is_a_protocol_keyword_with_the_papers_default():
         with_ = COMPANIONS.get(name, {})
         given = savme.Protocol(["a"], ["b"], **{name: SAMPLES[name]}, **with_).to_dict()
         assert given[name] == SAMPLES[name], name
-        changed = {name, *with_}
+        changed = {name, *with_, *DERIVED.get(name, ())}
         assert {k: x for k, x in given.items() if k not in changed} == {
             k: x for k, x in paper.items() if k not in changed}
         # None is "not given": the paper's default.

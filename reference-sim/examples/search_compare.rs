@@ -14,7 +14,7 @@
 //! `bins` and `elite[+key=value…][+binary]` (default `bins,elite`; `+binary` tells no
 //! robustness, so the elites are failures only); `test` searches the meta-testing scenarios
 //! (9–10) instead of the eight meta-training ones.
-use savme_kernel::{EliteMixture, Kernel, Observation, Run, SearchModel};
+use savme_kernel::{EliteMixture, Kernel, Observation, Pairing, Run, SearchModel, Trial};
 use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
@@ -25,6 +25,8 @@ use std::sync::{Arc, Mutex};
 #[derive(Debug, Default, Clone)]
 struct Tally {
     trials: u64,
+    /// Trials with an LF run.
+    paired: u64,
     work: u64,
     failures: u64,
     /// Distinct failing (scenario, joint cell).
@@ -33,20 +35,32 @@ struct Tally {
     per_scenario: BTreeMap<usize, (u64, u64)>,
 }
 
-/// `bins`, or `elite` with optional `+key=value` parameters of [`EliteMixture`] and `+binary`
-/// (tell no robustness), e.g. `elite+explore=0.1+tries=8`.
-fn model(spec: &str) -> Result<SearchModel, String> {
+/// How one row searches: the kernel's search model and pairing, and the campaign's window.
+struct Spec {
+    model: SearchModel,
+    pairing: Pairing,
+    window: usize,
+}
+
+/// `bins` or `elite`, with optional `+key=value` parameters of [`EliteMixture`], of the
+/// [`Pairing`] (`pair=FRACTION`, `settle=N`), `window=N` (trials in flight, told in ask order,
+/// as a campaign's window) and `+binary` (tell no robustness), e.g. `elite+tries=8+pair=0.25`.
+fn model(spec: &str) -> Result<Spec, String> {
     let mut parts = spec.split('+');
-    match parts.next() {
-        Some("bins") => return Ok(SearchModel::IndependentBins),
-        Some("elite") => {}
+    let elite = match parts.next() {
+        Some("bins") => false,
+        Some("elite") => true,
         _ => return Err(format!("model `{spec}`: use bins or elite[+key=value…]")),
-    }
+    };
     let mut m = EliteMixture::default();
+    let (mut pairing, mut window) = (Pairing::default(), 1usize);
     for p in parts.filter(|p| *p != "binary") {
         let (key, value) = p.split_once('=').ok_or(format!("`{p}`: use key=value"))?;
         let x: f64 = value.parse().map_err(|e| format!("`{p}`: {e}"))?;
         match key {
+            "pair" => pairing.fraction = x,
+            "settle" => pairing.settle = x as u64,
+            "window" => window = (x as usize).max(1),
             "explore" => m.explore = x,
             "bandwidth" => m.bandwidth = x,
             "jump" => m.jump = x,
@@ -59,7 +73,17 @@ fn model(spec: &str) -> Result<SearchModel, String> {
         }
     }
     m.validate().map_err(|e| e.to_string())?;
-    Ok(SearchModel::EliteMixture(m))
+    pairing.validate().map_err(|e| e.to_string())?;
+    let model = if elite {
+        SearchModel::EliteMixture(m)
+    } else {
+        SearchModel::IndependentBins
+    };
+    Ok(Spec {
+        model,
+        pairing,
+        window,
+    })
 }
 
 fn search(
@@ -69,10 +93,12 @@ fn search(
     train: bool,
 ) -> Result<Tally, Box<dyn std::error::Error>> {
     let training: Vec<_> = SCENARIOS.iter().filter(|s| s.training() == train).collect();
+    let spec = model(name)?;
     let mut b = Kernel::builder(fidelity::space(10), fidelity::theta_hf())
         .budget(0.3)
         .seed(seed)
-        .search(model(name)?);
+        .search(spec.model)
+        .pairing(spec.pairing);
     for info in &training {
         b = b.scenario(info.name, phi_space(info), 1.0);
     }
@@ -80,11 +106,14 @@ fn search(
     let sim = DrivingSimulator::default();
     let robust = !name.split('+').any(|p| p == "binary");
     let mut t = Tally::default();
+    let mut window: std::collections::VecDeque<Trial> = (0..spec.window).map(|_| k.ask()).collect();
     while t.work < budget {
-        let trial = k.ask();
-        let theta_lf = trial.theta_lf.clone().ok_or("a train trial has θ_LF")?;
+        let trial = window.pop_front().ok_or("empty window")?;
         let hf = sim.run(&trial.scenario, &trial.phi, k.theta_hf(), false)?;
-        let lf = sim.run(&trial.scenario, &trial.phi, &theta_lf, false)?;
+        let lf = match &trial.theta_lf {
+            Some(theta) => Some(sim.run(&trial.scenario, &trial.phi, theta, false)?),
+            None => None,
+        };
         let run = |r: &savme_sim::sim::RunResult| {
             let run = Run::new(r.failure, r.work.max(1) as f64);
             let rho = if r.failure { -1.0 } else { r.min_distance };
@@ -94,15 +123,18 @@ fn search(
                 run
             }
         };
-        k.tell(
-            trial.id,
-            Observation::Paired {
+        let observation = match &lf {
+            Some(lf) => Observation::Paired {
                 hf: run(&hf),
-                lf: run(&lf),
+                lf: run(lf),
             },
-        )?;
+            None => Observation::HfOnly(run(&hf)),
+        };
+        k.tell(trial.id, observation)?;
+        window.push_back(k.ask());
         t.trials += 1;
-        t.work += hf.work + lf.work;
+        t.paired += u64::from(lf.is_some());
+        t.work += hf.work + lf.map_or(0, |l| l.work);
         let e = t.per_scenario.entry(trial.scenario_index).or_default();
         e.0 += 1;
         if hf.failure {
@@ -160,8 +192,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 match search(&m, seed, budget, train) {
                     Ok(t) => {
                         eprintln!(
-                            "{m} seed {seed}: {} trials, {} HF failures, {} cells",
+                            "{m} seed {seed}: {} trials ({} paired), {} HF failures, {} cells",
                             t.trials,
+                            t.paired,
                             t.failures,
                             t.cells.len()
                         );

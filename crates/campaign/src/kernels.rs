@@ -79,7 +79,8 @@ impl<'a> StageKernels<'a> {
         let mut b = Kernel::builder(self.problem.fidelity.clone(), self.problem.theta_hf.clone())
             .budget(budget)
             .seed(p.kernel_seed(label))
-            .search(p.search.model());
+            .search(p.search.model(p.elite))
+            .pairing(p.pairing());
         for (name, space) in scenarios {
             b = b.scenario(name, space.clone(), p.weight(name));
         }

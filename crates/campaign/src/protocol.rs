@@ -3,6 +3,7 @@
 
 use super::CampaignError;
 pub use crate::stage::{BadStageLabel, Compact, Stage, StageId, StageKind};
+use savme_kernel::{EliteMixture, Pairing};
 use serde::{Deserialize, Serialize};
 
 /// How a run's cost is measured (serialisable twin of [`savme_kernel::CostMeasure`]).
@@ -48,17 +49,18 @@ pub enum Search {
     /// The paper's independent Beta–Bernoulli bins per φ variable.
     #[default]
     Bins,
-    /// A joint proposal per scenario around the failures found (the kernel's `EliteMixture`
-    /// with its default parameters), mixed with the bins for exploration.
+    /// A joint proposal per scenario around the failures found (the kernel's `EliteMixture`,
+    /// with the protocol's `elite` parameters), mixed with the bins for exploration.
     Elite,
 }
 
 impl Search {
-    /// The kernel's search model.
-    pub fn model(self) -> savme_kernel::SearchModel {
+    /// The kernel's search model: the bins, or the elite mixture with `elite` (None: the
+    /// kernel's current defaults — a protocol.json written before the parameters were stored).
+    pub fn model(self, elite: Option<EliteMixture>) -> savme_kernel::SearchModel {
         match self {
             Search::Bins => savme_kernel::SearchModel::IndependentBins,
-            Search::Elite => savme_kernel::SearchModel::EliteMixture(Default::default()),
+            Search::Elite => savme_kernel::SearchModel::EliteMixture(elite.unwrap_or_default()),
         }
     }
 
@@ -135,6 +137,34 @@ pub struct Protocol {
     /// written when it is the default, so older protocol.json files read the same).
     #[serde(default, skip_serializing_if = "Search::is_bins")]
     pub search: Search,
+    /// The elite search's parameters. A front end (flags, campaign file, Python) that selects
+    /// `search = "elite"` stores the defaults of the day here, so a resumed campaign keeps its
+    /// parameters when the defaults change. None: the kernel's defaults (and not written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub elite: Option<EliteMixture>,
+    /// Share of the learning trials that also run LF once θ_LF* has settled (the kernel's
+    /// [`Pairing`]); 1, the paper's, pairs every trial (and is not written).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub pair_fraction: f64,
+    /// Observations the greedy fidelity arm needs before θ_LF* counts as settled.
+    #[serde(default = "default_settle", skip_serializing_if = "is_default_settle")]
+    pub pair_settle: u64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+fn is_one(x: &f64) -> bool {
+    *x == 1.0
+}
+
+fn default_settle() -> u64 {
+    Pairing::default().settle
+}
+
+fn is_default_settle(n: &u64) -> bool {
+    *n == default_settle()
 }
 
 fn is_zero(n: &u64) -> bool {
@@ -196,6 +226,9 @@ impl Protocol {
             screen_iterations: 0,
             audit_fraction: default_audit_fraction(),
             search: Search::Bins,
+            elite: None,
+            pair_fraction: 1.0,
+            pair_settle: default_settle(),
         }
     }
 
@@ -334,7 +367,30 @@ impl Protocol {
                 format!("{} is outside [0, 1]", self.audit_fraction),
             );
         }
-        Ok(())
+        self.check_search()
+    }
+
+    /// The elite parameters and the pairing.
+    fn check_search(&self) -> Result<(), CampaignError> {
+        if let Some(m) = &self.elite {
+            if let Err(e) = m.validate() {
+                return bad("elite", e.to_string());
+            }
+        }
+        self.pairing().validate().or_else(|e| {
+            bad(
+                "pair_fraction",
+                format!("{} is outside {}", e.value, e.range),
+            )
+        })
+    }
+
+    /// The kernel's pairing of learning trials.
+    pub fn pairing(&self) -> Pairing {
+        Pairing {
+            fraction: self.pair_fraction,
+            settle: self.pair_settle,
+        }
     }
 
     /// The weight of scenario `name` in p(s).

@@ -26,6 +26,7 @@
 //! ```
 
 use super::{CampaignError, Cost, Protocol, Search};
+use savme_kernel::EliteMixture;
 use serde::Deserialize;
 
 /// One protocol value as declared.
@@ -61,6 +62,11 @@ macro_rules! apply_value {
             $p.$name = v.clone();
         }
     };
+    (optional, $p:ident, $o:ident, $name:ident) => {
+        if let Some(v) = &$o.$name {
+            $p.$name = Some(v.clone());
+        }
+    };
     (scenarios, $p:ident, $o:ident, $name:ident) => {};
     (command, $p:ident, $o:ident, $name:ident) => {};
 }
@@ -70,6 +76,9 @@ macro_rules! in_protocol {
         true
     };
     (scenarios) => {
+        true
+    };
+    (optional) => {
         true
     };
     (command) => {
@@ -225,6 +234,19 @@ protocol_values! {
     /// a joint proposal around the failures found (`elite`).
     search: Search, flag = "search", aliases = [], stages = "train, test-*", to = protocol,
         cli(value_enum);
+    /// The elite search's parameters, e.g. `explore=0.1,tries=8` (a table in a campaign file,
+    /// a dict in Python); the others keep their defaults, and all are stored with the campaign.
+    /// Only with search = elite.
+    elite: EliteMixture, flag = "elite", aliases = [], stages = "train, test-*",
+        to = optional, cli(value_parser = parse_elite, value_name = "KEY=VALUE,…");
+    /// Share of the learning trials that also run LF once θ_LF* has settled, in (0, 1]; the
+    /// others run HF only and still teach the φ search (1: every trial, the paper's).
+    pair_fraction: f64, flag = "pair-fraction", aliases = [], stages = "train, test-*",
+        to = protocol, cli(value_name = "F");
+    /// Observations the greedy arm of every fidelity variable needs before θ_LF* counts as
+    /// settled and `pair_fraction` applies.
+    pair_settle: u64, flag = "pair-settle", aliases = [], stages = "train, test-*",
+        to = protocol, cli(value_name = "N");
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -244,6 +266,39 @@ pub fn parse_seed(s: &str) -> Result<u64, String> {
                 ""
             }
         )
+    })
+}
+
+/// Parses `--elite`: `key=value` pairs of the elite mixture's parameters, comma-separated;
+/// an unknown key or a value out of range is named.
+pub fn parse_elite(s: &str) -> Result<EliteMixture, String> {
+    let mut map = serde_json::Map::new();
+    for pair in s.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (key, value) = pair
+            .split_once('=')
+            .ok_or_else(|| format!("`{pair}`: give key=value, e.g. explore=0.1,tries=8"))?;
+        let value = value.trim();
+        let number = match value.parse::<u64>() {
+            Ok(n) => serde_json::Value::from(n),
+            Err(_) => value
+                .parse::<f64>()
+                .ok()
+                .and_then(|x| serde_json::Number::from_f64(x).map(Into::into))
+                .ok_or_else(|| format!("`{key}`: `{value}` is not a number"))?,
+        };
+        map.insert(key.trim().to_string(), number);
+    }
+    let m: EliteMixture =
+        serde_json::from_value(map.into()).map_err(|e| format!("elite parameters: {e}"))?;
+    m.validate().map_err(|e| e.to_string())?;
+    Ok(m)
+}
+
+/// Refuses a value given where it would do nothing.
+fn idle(field: &str, message: String) -> Result<(), CampaignError> {
+    Err(CampaignError::Protocol {
+        field: field.into(),
+        message,
     })
 }
 
@@ -288,6 +343,7 @@ impl Overrides {
                 })
                 .collect()
         };
+        self.settle_search(p)?;
         if let Some(v) = &self.train_scenarios {
             p.train_scenarios = names(v)?;
         }
@@ -298,12 +354,35 @@ impl Overrides {
     }
 }
 
+impl Overrides {
+    /// Stores the elite parameters of an elite search (the defaults of the day unless given),
+    /// and refuses elite parameters without the elite search and a `pair_settle` with every
+    /// trial paired (they would do nothing).
+    fn settle_search(&self, p: &mut Protocol) -> Result<(), CampaignError> {
+        if p.search == Search::Elite {
+            p.elite.get_or_insert_with(EliteMixture::default);
+        } else if self.elite.is_some() {
+            return idle(
+                "elite",
+                "the elite parameters would do nothing: the search is the paper's bins; give search = elite too, or leave elite out".into(),
+            );
+        }
+        if let (Some(n), true) = (self.pair_settle, p.pair_fraction == 1.0) {
+            return idle(
+                "pair_settle",
+                format!("{n} would do nothing: every learning trial is paired (pair_fraction is 1); give pair_fraction too, or leave pair_settle out"),
+            );
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use clap::CommandFactory;
 
-    #[derive(clap::Parser)]
+    #[derive(Debug, clap::Parser)]
     struct Cli {
         #[command(flatten)]
         values: Overrides,
@@ -318,6 +397,9 @@ mod tests {
             prior_strengths: vec![0.0, 0.5],
             screen_iterations: 3,
             search: Search::Elite,
+            elite: Some(EliteMixture::default()),
+            pair_fraction: 0.5,
+            pair_settle: 5,
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -384,6 +466,76 @@ mod tests {
     }
 
     #[test]
+    fn an_elite_search_stores_its_parameters_and_idle_values_are_refused() {
+        let known = |s: &str| Some(s.to_string());
+        let paper = || Protocol::paper("sim", vec!["a".into()], vec!["b".into()]);
+        let mut p = paper();
+        let elite = Overrides::from_entries([("search", serde_json::json!("elite"))]).unwrap();
+        elite.apply(&mut p, &known, "").unwrap();
+        assert_eq!(p.elite, Some(EliteMixture::default()));
+        let json = serde_json::to_string(&p).unwrap();
+        assert!(json.contains(r#""elite":{"explore":0.05"#), "{json}");
+        // Given as a partial table: the rest are the defaults.
+        let mut p = paper();
+        let tuned = Overrides::from_entries([
+            ("search", serde_json::json!("elite")),
+            ("elite", serde_json::json!({"explore": 0.3})),
+        ])
+        .unwrap();
+        tuned.apply(&mut p, &known, "").unwrap();
+        assert_eq!(p.elite.map(|m| (m.explore, m.tries)), Some((0.3, 8)));
+        let e =
+            Overrides::from_entries([("elite", serde_json::json!({"explor": 0.3}))]).unwrap_err();
+        assert_eq!(e.key, "elite");
+        assert!(e.message.contains("explor"), "{e}");
+        let alone = Overrides::from_entries([("elite", serde_json::json!({}))]).unwrap();
+        let e = alone
+            .apply(&mut paper(), &known, "")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`elite`") && e.contains("search = elite"), "{e}");
+        let settle = Overrides::from_entries([("pair_settle", serde_json::json!(5))]).unwrap();
+        let e = settle
+            .apply(&mut paper(), &known, "")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`pair_settle`: 5 would do nothing"), "{e}");
+        let mut p = paper();
+        p.pair_fraction = 0.0;
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("`pair_fraction`") && e.contains("(0, 1]"), "{e}");
+        let mut p = paper();
+        p.elite = Some(EliteMixture {
+            tries: 0,
+            ..EliteMixture::default()
+        });
+        let e = p.validate().unwrap_err().to_string();
+        assert!(e.contains("`elite`") && e.contains("tries"), "{e}");
+    }
+
+    #[test]
+    fn the_elite_flag_reads_key_value_pairs_and_names_bad_ones() {
+        use clap::Parser;
+        let cli = Cli::try_parse_from(["x", "--elite", "explore=0.1, tries=4"]).unwrap();
+        let m = cli.values.elite.unwrap();
+        assert_eq!(
+            (m.explore, m.tries, m.jump),
+            (0.1, 4, EliteMixture::default().jump)
+        );
+        for (bad, says) in [
+            ("explore", "key=value"),
+            ("explore=x", "`explore`: `x` is not a number"),
+            ("bandwith=0.1", "bandwith"),
+            ("bandwidth=2", "bandwidth"),
+        ] {
+            let e = Cli::try_parse_from(["x", "--elite", bad])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("--elite") && e.contains(says), "{bad}: {e}");
+        }
+    }
+
+    #[test]
     fn old_flag_spellings_still_parse() {
         use clap::Parser;
         let cli =
@@ -424,6 +576,12 @@ mod tests {
             screen_iterations: Some(8),
             audit_fraction: Some(0.2),
             search: Some(Search::Elite),
+            elite: Some(EliteMixture {
+                explore: 0.2,
+                ..EliteMixture::default()
+            }),
+            pair_fraction: Some(0.25),
+            pair_settle: Some(12),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();
