@@ -1,6 +1,6 @@
 //! The ask/tell kernel: suggests trials, ingests their outcomes, learns p_ψ(φ | s) and p_ω(θ_LF).
 
-use crate::outcome::{Credit, Observation, Outcome, Run};
+use crate::outcome::{Credit, Observation, Outcome};
 use crate::pairing::{Pairing, PairingError};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
 use crate::search::{Archive, SearchError, SearchModel};
@@ -12,6 +12,13 @@ use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::sync::Arc;
+
+mod builder;
+mod snapshot;
+mod tell;
+
+pub use builder::KernelBuilder;
+pub use snapshot::{RestoreError, Snapshot};
 
 /// The phase a trial belongs to; it fixes how the trial is drawn and what its tell updates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
@@ -281,23 +288,6 @@ struct Pending {
     arms: Vec<u16>,
 }
 
-/// The complete, serialisable state of a kernel ([`Kernel::snapshot`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Snapshot {
-    config: KernelConfig,
-    phase: Phase,
-    next_id: u64,
-    stats: KernelStats,
-    fidelity: Posterior,
-    scenarios: Vec<Posterior>,
-    pending: Vec<Pending>,
-    rng: Rng64,
-    /// Per scenario, the archive of [`SearchModel::EliteMixture`] (empty for the paper's
-    /// independent bins, and then left out of the JSON).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    search: Vec<Archive>,
-}
-
 /// The SAVME ask/tell kernel.
 ///
 /// Pure and deterministic: no threads, files or clocks. The same configuration (seed included)
@@ -328,89 +318,6 @@ pub struct Kernel {
     state: Snapshot,
     /// Cumulative normalised scenario weights (derived from the config).
     cumulative: Vec<f64>,
-}
-
-/// Builds a [`Kernel`]; see [`Kernel::builder`].
-#[derive(Debug, Clone)]
-pub struct KernelBuilder {
-    config: KernelConfig,
-}
-
-impl KernelBuilder {
-    /// Adds a scenario with its φ-space and weight in p(s).
-    pub fn scenario(mut self, name: &str, space: Space, weight: f64) -> Self {
-        self.config.scenarios.push(Scenario {
-            name: Arc::from(name),
-            space,
-            weight,
-        });
-        self
-    }
-
-    /// Sets C_budget (default 0.3).
-    pub fn budget(mut self, budget: f64) -> Self {
-        self.config.budget = budget;
-        self
-    }
-
-    /// Sets the seed (default 0).
-    pub fn seed(mut self, seed: u64) -> Self {
-        self.config.seed = seed;
-        self
-    }
-
-    /// Sets the base prior counts of every arm (default uniform, 1 and 1).
-    pub fn prior(mut self, prior: PriorCounts) -> Self {
-        self.config.prior = prior;
-        self
-    }
-
-    /// Sets how evaluation picks θ_LF (default [`Estimator::Map`], the paper's).
-    pub fn estimator(mut self, estimator: Estimator) -> Self {
-        self.config.estimator = estimator;
-        self
-    }
-
-    /// Starts p_ω(θ_LF) from an earlier posterior, its evidence scaled by `strength`
-    /// (meta-testing; `strength = 1` is the paper's rule).
-    pub fn fidelity_prior(mut self, posterior: Posterior, strength: f64) -> Self {
-        self.config.fidelity_prior = Some(FidelityPrior {
-            posterior,
-            strength,
-        });
-        self
-    }
-
-    /// Sets how the train and test phases draw φ (default [`SearchModel::IndependentBins`],
-    /// the paper's).
-    ///
-    /// ```
-    /// use savme_kernel::{Assignment, EliteMixture, Kernel, Scale, SearchModel, Space, Variable};
-    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
-    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
-    /// let kernel = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
-    ///     .scenario("s", phi, 1.0)
-    ///     .search(SearchModel::EliteMixture(EliteMixture::default()))
-    ///     .build()?;
-    /// assert!(!kernel.config().search.is_independent_bins());
-    /// # Ok::<(), Box<dyn std::error::Error>>(())
-    /// ```
-    pub fn search(mut self, model: SearchModel) -> Self {
-        self.config.search = model;
-        self
-    }
-
-    /// Sets which learning trials also run LF (default [`Pairing::default`]: all, the
-    /// paper's).
-    pub fn pairing(mut self, pairing: Pairing) -> Self {
-        self.config.pairing = pairing;
-        self
-    }
-
-    /// Validates the configuration and builds the kernel.
-    pub fn build(self) -> Result<Kernel, ConfigError> {
-        Kernel::new(self.config)
-    }
 }
 
 impl Kernel {
@@ -630,239 +537,9 @@ impl Kernel {
         trial
     }
 
-    fn pending_index(&self, id: u64) -> Result<usize, TellError> {
-        if id >= self.state.next_id {
-            return Err(TellError::Unknown(id));
-        }
-        self.state
-            .pending
-            .binary_search_by_key(&id, |p| p.trial.id)
-            .map_err(|_| TellError::AlreadyTold(id))
-    }
-
-    pub(crate) fn check_pending(&self, id: u64) -> Result<(), TellError> {
-        self.pending_index(id).map(|_| ())
-    }
-
-    /// Checks a tell and works out its record without changing anything.
-    fn assess(&self, id: u64, observation: &Observation) -> Result<(usize, Assessed), TellError> {
-        let index = self.pending_index(id)?;
-        let pending = &self.state.pending[index];
-        let phase = pending.trial.phase;
-        let check = |run: &Run, simulator: &'static str| {
-            if run.runtime.is_finite() && run.runtime > 0.0 {
-                Ok(())
-            } else {
-                Err(TellError::BadRuntime {
-                    id,
-                    simulator,
-                    runtime: run.runtime,
-                })
-            }
-        };
-        match (pending.trial.theta_lf.is_some(), observation) {
-            (true, Observation::HfOnly(_)) => return Err(TellError::ExpectedPaired { id, phase }),
-            (false, Observation::Paired { .. }) => return Err(TellError::ExpectedHfOnly { id }),
-            _ => {}
-        }
-        check(observation.hf(), "HF")?;
-        check_robustness(id, observation.hf(), "HF")?;
-        if let Some(lf) = observation.lf() {
-            check(lf, "LF")?;
-            check_robustness(id, lf, "LF")?;
-        }
-        let outcome = observation.outcome();
-        let cost_ratio = observation.cost_ratio();
-        if let (Some(r), Some(lf)) = (cost_ratio, observation.lf()) {
-            if !r.is_finite() {
-                return Err(TellError::BadCostRatio {
-                    id,
-                    hf: observation.hf().runtime,
-                    lf: lf.runtime,
-                });
-            }
-        }
-        let credit = match (phase.learns(), outcome, cost_ratio) {
-            (true, Some(o), Some(r)) => Credit {
-                fidelity: Some(o.fidelity_success(r, self.state.config.budget)),
-                scenario: Some(o.scenario_success()),
-            },
-            // An unpaired learning trial: the HF run credits the φ search alone.
-            (true, None, None) => Credit {
-                fidelity: None,
-                scenario: Some(observation.hf().failure),
-            },
-            _ => Credit::default(),
-        };
-        Ok((
-            index,
-            Assessed {
-                outcome,
-                cost_ratio,
-                credit,
-            },
-        ))
-    }
-
-    /// Ingests the outcome of trial `id`: classifies it, credits the bandits per Table I (in
-    /// the learning phases) and returns the record. On error nothing changes.
-    pub fn tell(&mut self, id: u64, observation: Observation) -> Result<TrialRecord, TellError> {
-        let (index, assessed) = self.assess(id, &observation)?;
-        Ok(self.commit_tell(index, observation, assessed))
-    }
-
-    fn commit_tell(
-        &mut self,
-        index: usize,
-        observation: Observation,
-        assessed: Assessed,
-    ) -> TrialRecord {
-        let pending = self.state.pending.remove(index);
-        let s = pending.trial.scenario_index;
-        let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
-        if let Some(ok) = assessed.credit.scenario {
-            self.state.scenarios[s].update(phi_arms, ok);
-            if let (Some(archive), SearchModel::EliteMixture(m)) =
-                (self.state.search.get_mut(s), &self.state.config.search)
-            {
-                let space = &self.state.config.scenarios[s].space;
-                archive.record(space, &pending.trial.phi, phi_arms, observation.hf());
-                archive.truncate(m.archive);
-            }
-        }
-        if let Some(ok) = assessed.credit.fidelity {
-            self.state.fidelity.update(theta_arms, ok);
-        }
-        self.state.stats.told += 1;
-        TrialRecord {
-            trial: pending.trial,
-            observation,
-            outcome: assessed.outcome,
-            cost_ratio: assessed.cost_ratio,
-            credit: assessed.credit,
-        }
-    }
-
-    /// Tells an evaluation trial whose HF run was not made: LF screening passed it without an
-    /// audit ([`crate::screening`]). Only trials of a phase that runs both simulators and
-    /// learns nothing take it; on error nothing changes.
-    ///
-    /// ```
-    /// use savme_kernel::{Kernel, Phase, Run, Space, Variable, Assignment, Scale};
-    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
-    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 4, Scale::Linear)])?;
-    /// let mut k = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
-    ///     .scenario("s", phi, 1.0)
-    ///     .build()?;
-    /// let learning = k.ask();
-    /// assert!(k.tell_unconfirmed(learning.id, Run::new(false, 0.2)).is_err());
-    /// k.set_phase(Phase::Evaluate);
-    /// let t = k.ask();
-    /// assert_eq!(k.tell_unconfirmed(t.id, Run::new(false, 0.2))?.id, t.id);
-    /// assert_eq!(k.stats().told, 1);
-    /// # Ok::<(), Box<dyn std::error::Error>>(())
-    /// ```
-    pub fn tell_unconfirmed(&mut self, id: u64, lf: Run) -> Result<Trial, TellError> {
-        let index = self.pending_index(id)?;
-        let phase = self.state.pending[index].trial.phase;
-        if phase.learns() || !phase.is_paired() {
-            return Err(TellError::NotScreened { id, phase });
-        }
-        if !(lf.runtime.is_finite() && lf.runtime > 0.0) {
-            return Err(TellError::BadRuntime {
-                id,
-                simulator: "LF",
-                runtime: lf.runtime,
-            });
-        }
-        check_robustness(id, &lf, "LF")?;
-        self.state.stats.told += 1;
-        Ok(self.state.pending.remove(index).trial)
-    }
-
-    /// Withdraws a pending trial (e.g. its simulation crashed); it will never be told.
-    pub fn cancel(&mut self, id: u64) -> Result<Trial, TellError> {
-        let index = self.pending_index(id)?;
-        self.state.stats.cancelled += 1;
-        Ok(self.state.pending.remove(index).trial)
-    }
-
     /// The complete state, to save and later [`Kernel::restore`].
     pub fn snapshot(&self) -> &Snapshot {
         &self.state
-    }
-
-    /// Rebuilds a kernel from a snapshot, checking it for consistency first. The restored
-    /// kernel makes exactly the asks the original would have made.
-    pub fn restore(snapshot: Snapshot) -> Result<Kernel, ConfigError> {
-        let cumulative = validate_config(&snapshot.config)?;
-        let cfg = &snapshot.config;
-        let state = |m: String| ConfigError::State(m);
-        snapshot
-            .fidelity
-            .check_fits(&cfg.fidelity)
-            .map_err(|e| state(format!("fidelity posterior: {e}")))?;
-        if snapshot.scenarios.len() != cfg.scenarios.len() {
-            return Err(state(format!(
-                "{} scenario posteriors for {} scenarios",
-                snapshot.scenarios.len(),
-                cfg.scenarios.len()
-            )));
-        }
-        for (p, s) in snapshot.scenarios.iter().zip(&cfg.scenarios) {
-            p.check_fits(&s.space)
-                .map_err(|e| state(format!("scenario `{}` posterior: {e}", s.name)))?;
-        }
-        check_archives(&snapshot)?;
-        let mut last = None;
-        for p in &snapshot.pending {
-            let t = &p.trial;
-            let bad = |m: &str| state(format!("pending trial {}: {m}", t.id));
-            if t.id >= snapshot.next_id || last.is_some_and(|l| t.id <= l) {
-                return Err(bad("id out of order"));
-            }
-            last = Some(t.id);
-            let sc = cfg
-                .scenarios
-                .get(t.scenario_index)
-                .filter(|s| s.name == t.scenario)
-                .ok_or_else(|| bad("unknown scenario"))?;
-            let arms_ok = |space: &Space, arms: &[u16]| {
-                arms.len() == space.len()
-                    && space
-                        .variables()
-                        .iter()
-                        .zip(arms)
-                        .all(|(v, &a)| (a as usize) < v.arms())
-            };
-            let (phi_arms, theta_arms) = p.arms.split_at(sc.space.len().min(p.arms.len()));
-            if !arms_ok(&sc.space, phi_arms) {
-                return Err(bad("φ arms do not fit the scenario"));
-            }
-            let paired = t.theta_lf.is_some();
-            let may_skip = t.phase.learns() && !cfg.pairing.is_always();
-            if (paired && !(t.phase.is_paired() && arms_ok(&cfg.fidelity, theta_arms)))
-                || (!paired && (t.phase.is_paired() && !may_skip || !theta_arms.is_empty()))
-            {
-                return Err(bad("θ_LF does not fit its phase or the fidelity space"));
-            }
-        }
-        Ok(Kernel {
-            state: snapshot,
-            cumulative,
-        })
-    }
-
-    /// The snapshot as JSON.
-    pub fn to_json(&self) -> String {
-        // A snapshot holds only strings, numbers and maps with string keys: it always serialises.
-        serde_json::to_string(&self.state).unwrap_or_default()
-    }
-
-    /// Restores from [`Kernel::to_json`] output; errors name what is wrong.
-    pub fn from_json(json: &str) -> Result<Kernel, RestoreError> {
-        let snapshot: Snapshot = serde_json::from_str(json).map_err(RestoreError::Parse)?;
-        Kernel::restore(snapshot).map_err(RestoreError::Config)
     }
 
     // Journal support: draw without committing, then commit.
@@ -876,33 +553,6 @@ impl Kernel {
         self.state.rng = rng;
         self.commit_ask(pending.0)
     }
-
-    pub(crate) fn assess_tell(
-        &self,
-        id: u64,
-        observation: Observation,
-    ) -> Result<AssessedTell, TellError> {
-        let (index, assessed) = self.assess(id, &observation)?;
-        let pending = &self.state.pending[index];
-        Ok(AssessedTell {
-            index,
-            record: TrialRecord {
-                trial: pending.trial.clone(),
-                observation,
-                outcome: assessed.outcome,
-                cost_ratio: assessed.cost_ratio,
-                credit: assessed.credit,
-            },
-            assessed,
-        })
-    }
-
-    pub(crate) fn commit_assessed(&mut self, a: AssessedTell) -> TrialRecord {
-        let record = a.record;
-        let committed = self.commit_tell(a.index, record.observation, a.assessed);
-        debug_assert_eq!(committed, record);
-        committed
-    }
 }
 
 /// A trial drawn but not yet pending.
@@ -912,61 +562,4 @@ impl PendingTrial {
     pub(crate) fn trial(&self) -> &Trial {
         &self.0.trial
     }
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Assessed {
-    outcome: Option<Outcome>,
-    cost_ratio: Option<f64>,
-    credit: Credit,
-}
-
-/// A tell checked and worked out, not yet applied.
-pub(crate) struct AssessedTell {
-    index: usize,
-    assessed: Assessed,
-    pub(crate) record: TrialRecord,
-}
-
-/// Why a JSON snapshot could not be restored.
-#[derive(Debug, thiserror::Error)]
-pub enum RestoreError {
-    /// Not a snapshot (the message names line and column).
-    #[error("snapshot is not valid JSON for a kernel state: {0}")]
-    Parse(serde_json::Error),
-    /// A snapshot whose contents are inconsistent.
-    #[error(transparent)]
-    Config(ConfigError),
-}
-
-/// Checks a finite robustness, if any.
-fn check_robustness(id: u64, run: &Run, simulator: &'static str) -> Result<(), TellError> {
-    match run.robustness {
-        Some(r) if !r.is_finite() => Err(TellError::BadRobustness {
-            id,
-            simulator,
-            robustness: r,
-        }),
-        _ => Ok(()),
-    }
-}
-
-/// Checks that a snapshot's search archives fit its search model and scenarios.
-fn check_archives(snapshot: &Snapshot) -> Result<(), ConfigError> {
-    let cfg = &snapshot.config;
-    let expected = match cfg.search {
-        SearchModel::IndependentBins => 0,
-        SearchModel::EliteMixture(_) => cfg.scenarios.len(),
-    };
-    if snapshot.search.len() != expected {
-        return Err(ConfigError::State(format!(
-            "{} search archives for {expected} expected",
-            snapshot.search.len()
-        )));
-    }
-    for (a, s) in snapshot.search.iter().zip(&cfg.scenarios) {
-        a.check_fits(&s.space)
-            .map_err(|e| ConfigError::State(format!("scenario `{}`: {e}", s.name)))?;
-    }
-    Ok(())
 }

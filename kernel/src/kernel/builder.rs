@@ -1,0 +1,92 @@
+//! [`KernelBuilder`]: a kernel's configuration assembled call by call (scenarios, budget,
+//! seed, priors, estimator, search, pairing), checked when built.
+
+use super::{ConfigError, FidelityPrior, Kernel, KernelConfig, Scenario};
+use crate::pairing::Pairing;
+use crate::posterior::{Estimator, Posterior, PriorCounts};
+use crate::search::SearchModel;
+use crate::space::Space;
+use std::sync::Arc;
+
+/// Builds a [`Kernel`]; see [`Kernel::builder`].
+#[derive(Debug, Clone)]
+pub struct KernelBuilder {
+    pub(super) config: KernelConfig,
+}
+
+impl KernelBuilder {
+    /// Adds a scenario with its φ-space and weight in p(s).
+    pub fn scenario(mut self, name: &str, space: Space, weight: f64) -> Self {
+        self.config.scenarios.push(Scenario {
+            name: Arc::from(name),
+            space,
+            weight,
+        });
+        self
+    }
+
+    /// Sets C_budget (default 0.3).
+    pub fn budget(mut self, budget: f64) -> Self {
+        self.config.budget = budget;
+        self
+    }
+
+    /// Sets the seed (default 0).
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.config.seed = seed;
+        self
+    }
+
+    /// Sets the base prior counts of every arm (default uniform, 1 and 1).
+    pub fn prior(mut self, prior: PriorCounts) -> Self {
+        self.config.prior = prior;
+        self
+    }
+
+    /// Sets how evaluation picks θ_LF (default [`Estimator::Map`], the paper's).
+    pub fn estimator(mut self, estimator: Estimator) -> Self {
+        self.config.estimator = estimator;
+        self
+    }
+
+    /// Starts p_ω(θ_LF) from an earlier posterior, its evidence scaled by `strength`
+    /// (meta-testing; `strength = 1` is the paper's rule).
+    pub fn fidelity_prior(mut self, posterior: Posterior, strength: f64) -> Self {
+        self.config.fidelity_prior = Some(FidelityPrior {
+            posterior,
+            strength,
+        });
+        self
+    }
+
+    /// Sets how the train and test phases draw φ (default [`SearchModel::IndependentBins`],
+    /// the paper's).
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, EliteMixture, Kernel, Scale, SearchModel, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
+    /// let kernel = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .search(SearchModel::EliteMixture(EliteMixture::default()))
+    ///     .build()?;
+    /// assert!(!kernel.config().search.is_independent_bins());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn search(mut self, model: SearchModel) -> Self {
+        self.config.search = model;
+        self
+    }
+
+    /// Sets which learning trials also run LF (default [`Pairing::default`]: all, the
+    /// paper's).
+    pub fn pairing(mut self, pairing: Pairing) -> Self {
+        self.config.pairing = pairing;
+        self
+    }
+
+    /// Validates the configuration and builds the kernel.
+    pub fn build(self) -> Result<Kernel, ConfigError> {
+        Kernel::new(self.config)
+    }
+}

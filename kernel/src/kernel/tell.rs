@@ -1,0 +1,219 @@
+//! Telling the kernel a trial's outcome: the tell checked and worked out without changing
+//! anything (classification per Table I, cost ratio, credit), then applied; the unconfirmed
+//! tell of LF screening, a withdrawal, and the journal's two-step assess/commit.
+
+use super::{Kernel, TellError, Trial, TrialRecord};
+use crate::outcome::{Credit, Observation, Outcome, Run};
+use crate::search::SearchModel;
+
+impl Kernel {
+    fn pending_index(&self, id: u64) -> Result<usize, TellError> {
+        if id >= self.state.next_id {
+            return Err(TellError::Unknown(id));
+        }
+        self.state
+            .pending
+            .binary_search_by_key(&id, |p| p.trial.id)
+            .map_err(|_| TellError::AlreadyTold(id))
+    }
+
+    pub(crate) fn check_pending(&self, id: u64) -> Result<(), TellError> {
+        self.pending_index(id).map(|_| ())
+    }
+
+    /// Checks a tell and works out its record without changing anything.
+    fn assess(&self, id: u64, observation: &Observation) -> Result<(usize, Assessed), TellError> {
+        let index = self.pending_index(id)?;
+        let pending = &self.state.pending[index];
+        let phase = pending.trial.phase;
+        let check = |run: &Run, simulator: &'static str| {
+            if run.runtime.is_finite() && run.runtime > 0.0 {
+                Ok(())
+            } else {
+                Err(TellError::BadRuntime {
+                    id,
+                    simulator,
+                    runtime: run.runtime,
+                })
+            }
+        };
+        match (pending.trial.theta_lf.is_some(), observation) {
+            (true, Observation::HfOnly(_)) => return Err(TellError::ExpectedPaired { id, phase }),
+            (false, Observation::Paired { .. }) => return Err(TellError::ExpectedHfOnly { id }),
+            _ => {}
+        }
+        check(observation.hf(), "HF")?;
+        check_robustness(id, observation.hf(), "HF")?;
+        if let Some(lf) = observation.lf() {
+            check(lf, "LF")?;
+            check_robustness(id, lf, "LF")?;
+        }
+        let outcome = observation.outcome();
+        let cost_ratio = observation.cost_ratio();
+        if let (Some(r), Some(lf)) = (cost_ratio, observation.lf()) {
+            if !r.is_finite() {
+                return Err(TellError::BadCostRatio {
+                    id,
+                    hf: observation.hf().runtime,
+                    lf: lf.runtime,
+                });
+            }
+        }
+        let credit = match (phase.learns(), outcome, cost_ratio) {
+            (true, Some(o), Some(r)) => Credit {
+                fidelity: Some(o.fidelity_success(r, self.state.config.budget)),
+                scenario: Some(o.scenario_success()),
+            },
+            // An unpaired learning trial: the HF run credits the φ search alone.
+            (true, None, None) => Credit {
+                fidelity: None,
+                scenario: Some(observation.hf().failure),
+            },
+            _ => Credit::default(),
+        };
+        Ok((
+            index,
+            Assessed {
+                outcome,
+                cost_ratio,
+                credit,
+            },
+        ))
+    }
+
+    /// Ingests the outcome of trial `id`: classifies it, credits the bandits per Table I (in
+    /// the learning phases) and returns the record. On error nothing changes.
+    pub fn tell(&mut self, id: u64, observation: Observation) -> Result<TrialRecord, TellError> {
+        let (index, assessed) = self.assess(id, &observation)?;
+        Ok(self.commit_tell(index, observation, assessed))
+    }
+
+    fn commit_tell(
+        &mut self,
+        index: usize,
+        observation: Observation,
+        assessed: Assessed,
+    ) -> TrialRecord {
+        let pending = self.state.pending.remove(index);
+        let s = pending.trial.scenario_index;
+        let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
+        if let Some(ok) = assessed.credit.scenario {
+            self.state.scenarios[s].update(phi_arms, ok);
+            if let (Some(archive), SearchModel::EliteMixture(m)) =
+                (self.state.search.get_mut(s), &self.state.config.search)
+            {
+                let space = &self.state.config.scenarios[s].space;
+                archive.record(space, &pending.trial.phi, phi_arms, observation.hf());
+                archive.truncate(m.archive);
+            }
+        }
+        if let Some(ok) = assessed.credit.fidelity {
+            self.state.fidelity.update(theta_arms, ok);
+        }
+        self.state.stats.told += 1;
+        TrialRecord {
+            trial: pending.trial,
+            observation,
+            outcome: assessed.outcome,
+            cost_ratio: assessed.cost_ratio,
+            credit: assessed.credit,
+        }
+    }
+
+    /// Tells an evaluation trial whose HF run was not made: LF screening passed it without an
+    /// audit ([`crate::screening`]). Only trials of a phase that runs both simulators and
+    /// learns nothing take it; on error nothing changes.
+    ///
+    /// ```
+    /// use savme_kernel::{Kernel, Phase, Run, Space, Variable, Assignment, Scale};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 4, Scale::Linear)])?;
+    /// let mut k = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .build()?;
+    /// let learning = k.ask();
+    /// assert!(k.tell_unconfirmed(learning.id, Run::new(false, 0.2)).is_err());
+    /// k.set_phase(Phase::Evaluate);
+    /// let t = k.ask();
+    /// assert_eq!(k.tell_unconfirmed(t.id, Run::new(false, 0.2))?.id, t.id);
+    /// assert_eq!(k.stats().told, 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn tell_unconfirmed(&mut self, id: u64, lf: Run) -> Result<Trial, TellError> {
+        let index = self.pending_index(id)?;
+        let phase = self.state.pending[index].trial.phase;
+        if phase.learns() || !phase.is_paired() {
+            return Err(TellError::NotScreened { id, phase });
+        }
+        if !(lf.runtime.is_finite() && lf.runtime > 0.0) {
+            return Err(TellError::BadRuntime {
+                id,
+                simulator: "LF",
+                runtime: lf.runtime,
+            });
+        }
+        check_robustness(id, &lf, "LF")?;
+        self.state.stats.told += 1;
+        Ok(self.state.pending.remove(index).trial)
+    }
+
+    /// Withdraws a pending trial (e.g. its simulation crashed); it will never be told.
+    pub fn cancel(&mut self, id: u64) -> Result<Trial, TellError> {
+        let index = self.pending_index(id)?;
+        self.state.stats.cancelled += 1;
+        Ok(self.state.pending.remove(index).trial)
+    }
+
+    pub(crate) fn assess_tell(
+        &self,
+        id: u64,
+        observation: Observation,
+    ) -> Result<AssessedTell, TellError> {
+        let (index, assessed) = self.assess(id, &observation)?;
+        let pending = &self.state.pending[index];
+        Ok(AssessedTell {
+            index,
+            record: TrialRecord {
+                trial: pending.trial.clone(),
+                observation,
+                outcome: assessed.outcome,
+                cost_ratio: assessed.cost_ratio,
+                credit: assessed.credit,
+            },
+            assessed,
+        })
+    }
+
+    pub(crate) fn commit_assessed(&mut self, a: AssessedTell) -> TrialRecord {
+        let record = a.record;
+        let committed = self.commit_tell(a.index, record.observation, a.assessed);
+        debug_assert_eq!(committed, record);
+        committed
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Assessed {
+    outcome: Option<Outcome>,
+    cost_ratio: Option<f64>,
+    credit: Credit,
+}
+
+/// A tell checked and worked out, not yet applied.
+pub(crate) struct AssessedTell {
+    index: usize,
+    assessed: Assessed,
+    pub(crate) record: TrialRecord,
+}
+
+/// Checks a finite robustness, if any.
+fn check_robustness(id: u64, run: &Run, simulator: &'static str) -> Result<(), TellError> {
+    match run.robustness {
+        Some(r) if !r.is_finite() => Err(TellError::BadRobustness {
+            id,
+            simulator,
+            robustness: r,
+        }),
+        _ => Ok(()),
+    }
+}
