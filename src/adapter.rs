@@ -24,9 +24,9 @@ use savme_campaign_file::CampaignFile;
 use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator, Space};
 use savme_sim::sim::DrivingSimulator;
+use savme_viewer::Frames;
 use std::any::Any;
 use std::path::Path;
-use savme_viewer::Frames;
 
 /// A simulator adapter: a kind of simulator savme can build.
 pub trait Adapter: Sync {

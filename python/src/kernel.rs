@@ -1,5 +1,10 @@
 //! `savme.Kernel`: the ask/tell kernel, plain or journaled to the same store as
 //! `savme serve --journal`.
+//!
+//! One file of ~700 lines because a PyO3 class has one `#[pymethods]` block (several need
+//! PyO3's `multiple-pymethods` feature and the `inventory` crate): every Python method of
+//! `Kernel` is here; what they convert or build lives in `convert`, `trial`, `space` and
+//! `estimation`.
 
 use crate::convert;
 use crate::errors;
