@@ -495,64 +495,108 @@ fn log_grid(
     highlight: Option<&[usize]>,
     y0: f32,
 ) -> Result<(), RecordError> {
-    let (w, h) = CELL;
-    let map = p.best_arms(Estimator::Map);
-    let (mut mins, mut sizes, mut colours, mut labels) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let (mut name_mins, mut name_sizes, mut names) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut hf_mins, mut map_mins, mut means) = (Vec::new(), Vec::new(), Vec::new());
-    for (i, arms) in p.arms().iter().enumerate() {
-        let y = y0 + i as f32 * h;
-        let (min, size) = name_box(y);
-        name_mins.push(min);
-        name_sizes.push(size);
-        names.push(row_name(space, i, &p.names()[i], highlight.is_none()));
-        for (a, arm) in arms.iter().enumerate() {
-            mins.push((a as f32 * w, y));
-            sizes.push((w * 0.95, h * 0.9));
-            colours.push(heat(arm.mean()));
-            labels.push(arm_name(space, i, a));
-            means.push(format!("{:.2}", arm.mean()));
-        }
-        if let Some(hf) = highlight.and_then(|hl| hl.get(i)) {
-            hf_mins.push((*hf as f32 * w, y));
-        }
-        if let Some(m) = map.get(i) {
-            map_mins.push((f32::from(*m) * w + 0.3, y + 0.2));
-        }
-    }
-    let rows = names.len();
+    let g = GridBoxes::of(space, p, highlight, y0);
+    let rows = g.names.len();
     rec.log(
         format!("{path}/cells"),
-        &rerun::Boxes2D::from_mins_and_sizes(mins.clone(), sizes.clone())
-            .with_colors(colours.clone())
+        &rerun::Boxes2D::from_mins_and_sizes(g.mins.clone(), g.sizes.clone())
+            .with_colors(g.colours.clone())
             .with_draw_order(1.0),
     )
     .map_err(err)?;
     // Two one-line labels per cell: the arm's name at the top, its mean below.
-    let lower: Vec<(f32, f32)> = mins.iter().map(|(x, y)| (*x, y + h * 0.4)).collect();
+    let h = CELL.1;
+    let lower: Vec<(f32, f32)> = g.mins.iter().map(|(x, y)| (*x, y + h * 0.4)).collect();
     log_labels(
         rec,
         format!("{path}/cells/means"),
-        (lower, sizes.clone()),
-        colours.clone(),
-        means,
+        (lower, g.sizes.clone()),
+        g.colours.clone(),
+        g.means,
     )?;
     log_labels(
         rec,
         format!("{path}/cells/labels"),
-        (mins, sizes),
-        colours,
-        labels,
+        (g.mins, g.sizes),
+        g.colours,
+        g.labels,
     )?;
-    let grey = vec![rgb(palette::REFERENCE); names.len()];
+    let grey = vec![rgb(palette::REFERENCE); rows];
     log_labels(
         rec,
         format!("{path}/names"),
-        (name_mins, name_sizes),
+        (g.name_mins, g.name_sizes),
         grey,
-        names,
+        g.names,
     )?;
+    log_outlines(rec, path, g.map_mins, g.hf_mins)?;
+    log_key(rec, path, rows, highlight.is_some())
+}
+
+/// Where a grid's boxes go and what they say: one cell per arm (heat colour, name, mean), one
+/// name per row, and the cells the MAP and θ_HF outlines mark.
+struct GridBoxes {
+    mins: Vec<(f32, f32)>,
+    sizes: Vec<(f32, f32)>,
+    colours: Vec<rerun::Color>,
+    labels: Vec<String>,
+    means: Vec<String>,
+    name_mins: Vec<(f32, f32)>,
+    name_sizes: Vec<(f32, f32)>,
+    names: Vec<String>,
+    hf_mins: Vec<(f32, f32)>,
+    map_mins: Vec<(f32, f32)>,
+}
+
+impl GridBoxes {
+    fn of(space: &Space, p: &Posterior, highlight: Option<&[usize]>, y0: f32) -> GridBoxes {
+        let (w, h) = CELL;
+        let map = p.best_arms(Estimator::Map);
+        let mut g = GridBoxes {
+            mins: Vec::new(),
+            sizes: Vec::new(),
+            colours: Vec::new(),
+            labels: Vec::new(),
+            means: Vec::new(),
+            name_mins: Vec::new(),
+            name_sizes: Vec::new(),
+            names: Vec::new(),
+            hf_mins: Vec::new(),
+            map_mins: Vec::new(),
+        };
+        for (i, arms) in p.arms().iter().enumerate() {
+            let y = y0 + i as f32 * h;
+            let (min, size) = name_box(y);
+            g.name_mins.push(min);
+            g.name_sizes.push(size);
+            g.names
+                .push(row_name(space, i, &p.names()[i], highlight.is_none()));
+            for (a, arm) in arms.iter().enumerate() {
+                g.mins.push((a as f32 * w, y));
+                g.sizes.push((w * 0.95, h * 0.9));
+                g.colours.push(heat(arm.mean()));
+                g.labels.push(arm_name(space, i, a));
+                g.means.push(format!("{:.2}", arm.mean()));
+            }
+            if let Some(hf) = highlight.and_then(|hl| hl.get(i)) {
+                g.hf_mins.push((*hf as f32 * w, y));
+            }
+            if let Some(m) = map.get(i) {
+                g.map_mins.push((f32::from(*m) * w + 0.3, y + 0.2));
+            }
+        }
+        g
+    }
+}
+
+/// The magenta MAP outline in every row and, for the θ grid, the white θ_HF outline.
+fn log_outlines(
+    rec: &RecordingStream,
+    path: &str,
+    map_mins: Vec<(f32, f32)>,
+    hf_mins: Vec<(f32, f32)>,
+) -> Result<(), RecordError> {
+    let (w, h) = CELL;
     let n_map = map_mins.len();
     rec.log(
         format!("{path}/map"),
@@ -580,5 +624,5 @@ fn log_grid(
         )
         .map_err(err)?;
     }
-    log_key(rec, path, rows, highlight.is_some())
+    Ok(())
 }
