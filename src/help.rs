@@ -94,9 +94,22 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("search", None) => Some("bins".into()),
         ("screen_iterations", None) => Some("0".into()),
         ("prior_strengths", None) => Some("none".into()),
+        ("pair_fraction", None) => Some(p.pair_fraction.to_string()),
+        ("pair_settle", None) => Some(p.pair_settle.to_string()),
+        ("elite", None) => Some(elite_defaults()),
         (_, Some(x)) => Some(shown(x)),
         (_, None) => None,
     }
+}
+
+/// The elite search's default parameters as `--elite` takes them (`key=value,…`).
+fn elite_defaults() -> String {
+    let v = serde_json::to_value(savme::kernel::EliteMixture::default()).unwrap_or_default();
+    let pairs: Vec<String> = v
+        .as_object()
+        .map(|m| m.iter().map(|(k, x)| format!("{k}={}", shown(x))).collect())
+        .unwrap_or_default();
+    pairs.join(",")
 }
 
 /// Adds `[default: …]` to every protocol flag of `reproduce` (the paper's protocol, and
