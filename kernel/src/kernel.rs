@@ -5,17 +5,18 @@ use crate::pairing::{Pairing, PairingError};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
 use crate::search::{Archive, SearchError, SearchModel};
 use crate::space::{Space, SpaceError};
-use crate::validation::validate_config;
 use crate::value::Assignment;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::sync::Arc;
+use validation::validate_config;
 
 mod builder;
 mod snapshot;
 mod tell;
+mod validation;
 
 pub use builder::KernelBuilder;
 pub use snapshot::{RestoreError, Snapshot};

@@ -51,7 +51,6 @@ pub mod screening;
 mod search;
 mod simulator;
 mod space;
-mod validation;
 mod value;
 
 pub use kernel::{

@@ -2,11 +2,11 @@
 //! is consistent (posteriors fit their spaces, pending trials fit their phases, archives fit
 //! the search model), so a restored kernel makes exactly the asks the original would have.
 
+use super::validation::validate_config;
 use super::{ConfigError, Kernel, KernelConfig, KernelStats, Pending, Phase};
 use crate::posterior::Posterior;
 use crate::search::{Archive, SearchModel};
 use crate::space::Space;
-use crate::validation::validate_config;
 use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
 

@@ -1,6 +1,6 @@
 //! Checks of a kernel configuration before the kernel is built or restored.
 
-use crate::kernel::{ConfigError, KernelConfig};
+use super::{ConfigError, KernelConfig};
 use crate::posterior::PosteriorError;
 use crate::space::Space;
 
