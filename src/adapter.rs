@@ -28,6 +28,11 @@ use savme_viewer::Frames;
 use std::any::Any;
 use std::path::Path;
 
+/// The simulator label of the bundled simulator with camera + lidar perception.
+pub const SENSORS: &str = "savme-sim/sensors";
+/// The simulator label of the bundled simulator with idealised perception.
+pub const IDEAL: &str = "savme-sim/ideal";
+
 /// A simulator adapter: a kind of simulator savme can build.
 pub trait Adapter: Sync {
     /// Its short name (`savme-sim`, `savme-toy`, `savme-null`, `fmu`).
@@ -205,15 +210,15 @@ impl Adapter for Bundled {
     }
     fn simulator(&self, label: &str) -> Option<AnySimulator> {
         match label {
-            crate::compose::SENSORS => Some(AnySimulator::new(DrivingSimulator::default())),
-            crate::compose::IDEAL => Some(AnySimulator::new(DrivingSimulator::ideal())),
+            SENSORS => Some(AnySimulator::new(DrivingSimulator::default())),
+            IDEAL => Some(AnySimulator::new(DrivingSimulator::ideal())),
             _ => None,
         }
     }
     fn frames(&self, label: &str) -> Frames {
         match label {
-            crate::compose::SENSORS => Frames::driving(DrivingSimulator::default()),
-            crate::compose::IDEAL => Frames::driving(DrivingSimulator::ideal()),
+            SENSORS => Frames::driving(DrivingSimulator::default()),
+            IDEAL => Frames::driving(DrivingSimulator::ideal()),
             _ => Frames::none(),
         }
     }
@@ -324,8 +329,8 @@ mod tests {
     fn every_label_savme_writes_finds_its_adapter() {
         let toy = savme_campaign::config::toy_label(20);
         for (label, name) in [
-            (crate::compose::SENSORS, "savme-sim"),
-            (crate::compose::IDEAL, "savme-sim"),
+            (SENSORS, "savme-sim"),
+            (IDEAL, "savme-sim"),
             (TOY, "savme-toy"),
             (toy.as_str(), "savme-toy"),
             (NULL, "savme-null"),
@@ -343,7 +348,7 @@ mod tests {
 
     #[test]
     fn the_bundled_adapter_offers_its_trial_view_the_others_none() {
-        for label in [crate::compose::SENSORS, crate::compose::IDEAL] {
+        for label in [SENSORS, IDEAL] {
             // In a build without `rerun`, nothing is recorded, so no frames at all.
             assert_eq!(frames_of_label(label).is_none(), !cfg!(feature = "rerun"));
         }

@@ -14,10 +14,8 @@ use savme_sim::sim::DrivingSimulator;
 use std::io::Write;
 use std::path::Path;
 
-/// The simulator label of the bundled simulator with camera + lidar perception.
-pub const SENSORS: &str = "savme-sim/sensors";
-/// The simulator label of the bundled simulator with idealised perception.
-pub const IDEAL: &str = "savme-sim/ideal";
+/// The bundled simulator's labels (defined with its adapter).
+pub use crate::adapter::{IDEAL, SENSORS};
 
 /// Which preset of the bundled simulator's protocol.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

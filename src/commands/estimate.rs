@@ -458,7 +458,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let outcome = match file {
         Some(c) => {
-            let sim = c.file.simulator(&super::run::worker_command)?;
+            let sim = c.file.simulator(&super::worker_command)?;
             configured(c.problem).run(&sim)
         }
         None => {

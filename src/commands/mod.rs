@@ -236,6 +236,14 @@ impl CampaignRecordArgs {
     }
 }
 
+/// The worker process of a campaign file's simulator that isolates its runs: `savme
+/// fmu-worker` of this binary.
+pub fn worker_command() -> Result<Vec<String>, String> {
+    let exe = std::env::current_exe()
+        .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
+    Ok(vec![exe.display().to_string(), "fmu-worker".into()])
+}
+
 /// Where a campaign command writes, and whether it continues a campaign.
 pub struct Target {
     /// The output directory.

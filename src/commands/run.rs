@@ -68,7 +68,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
         remote,
     };
-    let backend = c.file.simulator(&worker_command)?;
+    let backend = c.file.simulator(&super::worker_command)?;
     let repeat = c.repeat;
     let estimate = c.estimate_settings().map_err(Failure::Runtime)?;
     // Where the [estimate] stage reads the campaign: its database, or its directory.
@@ -134,17 +134,9 @@ fn run_estimate_stage(
     .map_err(Failure::Runtime)
 }
 
-/// The worker process of a campaign file's simulator that isolates its runs: `savme
-/// fmu-worker` of this binary.
-pub fn worker_command() -> Result<Vec<String>, String> {
-    let exe = std::env::current_exe()
-        .map_err(|e| format!("cannot find the savme binary for the FMU workers: {e}"))?;
-    Ok(vec![exe.display().to_string(), "fmu-worker".into()])
-}
-
 /// What recorded trials show: for an FMU campaign, the outputs `[fmu] record` lists (re-run on
-/// an FMU back end of its own); else the campaign view only. (`viewer::Frames` is still a
-/// closed enum: the FMU case is named here until the adapters give their frames.)
+/// an FMU back end of its own); else the campaign view only. (A `FileSimulator` does not give
+/// its frames yet: the FMU case is named here.)
 fn frames(file: Box<dyn savme::adapter::FileSimulator>) -> Result<Frames, String> {
     let Ok(fmu) = file.into_any().downcast::<FmuCampaignFile>() else {
         return Ok(Frames::none());
@@ -153,7 +145,7 @@ fn frames(file: Box<dyn savme::adapter::FileSimulator>) -> Result<Frames, String
         return Ok(Frames::none());
     }
     let worker = if fmu.isolate {
-        Some(worker_command()?)
+        Some(super::worker_command()?)
     } else {
         None
     };

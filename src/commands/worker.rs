@@ -151,7 +151,7 @@ fn file_simulator(
             c.protocol.simulator
         )));
     }
-    Ok(c.file.simulator(&super::run::worker_command))
+    Ok(c.file.simulator(&super::worker_command))
 }
 
 /// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it
