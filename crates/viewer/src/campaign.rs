@@ -19,49 +19,16 @@
 //! - `/campaign/summary`: what was recorded, why, and how to open a trial.
 
 use super::palette::{self, heat, rgb};
+use super::plan::entity_label;
+use super::plan::{name_box, CampaignPlan, CELL};
 use super::stream::{err, RecordError, RecordOptions};
 use rerun::RecordingStream;
 use savme_campaign::log::{ScreenLine, TrialLine};
+use savme_campaign::Stage;
 use savme_campaign::{Problem, Protocol};
-use savme_campaign::{Stage, StageKind};
 use savme_kernel::{Domain, Estimator, Kernel, Posterior, Space, Value};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-
-/// Cell size of the posterior grids (2D view units; tall enough for two lines of label).
-const CELL: (f32, f32) = (10.0, 6.0);
-/// Columns the key row under a grid takes: five steps of the colour scale, θ_HF, MAP.
-const KEY_CELLS: usize = 7;
-/// Width of the column of row names left of a grid, in cells (a label is centred on its box,
-/// so a name never reaches into the grid, and the view, which frames the boxes, never crops it).
-const NAME_CELLS: f32 = 4.0;
-
-/// The box of a row's name: `NAME_CELLS` cells wide, left of the grid's first column, at `y`.
-fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
-    let (w, h) = CELL;
-    ((-(NAME_CELLS + 0.1) * w, y), (NAME_CELLS * w, h * 0.9))
-}
-
-/// The part of the 2D plane a grid of `space` takes (with its names and key row), as
-/// `[x_min, x_max, y_min, y_max]`: what its view shows, with a margin, so that no cell, name or
-/// key is cropped.
-pub fn grid_bounds(space: &Space) -> [f32; 4] {
-    let (w, h) = CELL;
-    let cols = space
-        .variables()
-        .iter()
-        .map(|v| v.arms())
-        .max()
-        .unwrap_or(1)
-        .max(KEY_CELLS) as f32;
-    let rows = space.variables().len() as f32;
-    [
-        -(NAME_CELLS + 0.4) * w,
-        (cols + 0.3) * w,
-        -0.4 * h,
-        (rows + 2.0) * h,
-    ]
-}
 
 /// Boxes as (mins, sizes).
 type BoxList = (Vec<(f32, f32)>, Vec<(f32, f32)>);
@@ -100,27 +67,6 @@ struct StageTally {
     trials: u64,
 }
 
-/// A learning stage's tab of posterior grids: its entity label, its label, and the scenarios
-/// it learns φ-bins of.
-#[derive(Debug, Clone)]
-pub struct LearningTab {
-    /// The stage's entity-path label (`train_0_3`).
-    pub entity: String,
-    /// The stage's label (`train@0.3`).
-    pub label: String,
-    /// Its scenarios with their spaces.
-    pub scenarios: Vec<(String, Space)>,
-}
-
-/// What the campaign layout needs to know before the first trial.
-#[derive(Debug, Clone)]
-pub struct CampaignPlan {
-    /// The fidelity space (the θ grid's extent).
-    pub fidelity: Space,
-    /// One tab per learning stage.
-    pub learning: Vec<LearningTab>,
-}
-
 /// The campaign view's state.
 #[derive(Debug)]
 pub struct CampaignView {
@@ -132,12 +78,12 @@ pub struct CampaignView {
     budgets_logged: BTreeMap<String, bool>,
 }
 
-/// A stage label as an entity-path part: `train@0.3` → `train_0_3`.
-pub fn entity_label(label: &str) -> String {
-    label.replace(['@', '.'], "_")
-}
-
 impl CampaignView {
+    /// What the layout needs ([`CampaignPlan::new`]).
+    pub fn plan(problem: &Problem, protocol: &Protocol) -> CampaignPlan {
+        CampaignPlan::new(problem, protocol)
+    }
+
     /// The view of a campaign running `protocol` on `problem`.
     pub fn new(problem: &Problem, protocol: &Protocol) -> Self {
         CampaignView {
@@ -150,36 +96,6 @@ impl CampaignView {
             stages: BTreeMap::new(),
             colours: palette::stage_colours(protocol),
             budgets_logged: BTreeMap::new(),
-        }
-    }
-
-    /// What the layout needs: the fidelity space, and the learning stages (one tab of
-    /// posterior grids each) with their scenarios.
-    pub fn plan(problem: &Problem, protocol: &Protocol) -> CampaignPlan {
-        let learning = protocol
-            .stages()
-            .iter()
-            .filter(|s| s.phase().learns())
-            .map(|s| {
-                let names = match s.kind {
-                    StageKind::TestLearned | StageKind::TestUniform | StageKind::BaselineTest => {
-                        &protocol.test_scenarios
-                    }
-                    _ => &protocol.train_scenarios,
-                };
-                LearningTab {
-                    entity: entity_label(&s.label()),
-                    label: s.label(),
-                    scenarios: names
-                        .iter()
-                        .filter_map(|n| Some((n.clone(), problem.scenarios.get(n)?.clone())))
-                        .collect(),
-                }
-            })
-            .collect();
-        CampaignPlan {
-            fidelity: problem.fidelity.clone(),
-            learning,
         }
     }
 

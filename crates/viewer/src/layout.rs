@@ -11,8 +11,8 @@
 //! plot zoomed to the failure threshold, no legend over the data (a plot's title names its
 //! colours; the campaign's plots share a key of stage colours), grids framed whole.
 
-use super::campaign::{grid_bounds, CampaignPlan};
 use super::error::{err, RecordError};
+use super::plan::{grid_bounds, CampaignPlan};
 use rerun::blueprint::components::{PanelState, PlayState};
 use rerun::blueprint::{
     Blueprint, BlueprintActivation, BlueprintPanel, ContainerLike, Grid, Horizontal,

@@ -15,6 +15,7 @@
 //! - `fmu`: an FMU campaign's frames: the outputs its file lists under `[fmu] record`, as time
 //!   series per trial;
 //! - `layout`: the blueprints both recordings open with;
+//! - `plan`: what the campaign layout needs before the first trial, and the grids' geometry;
 //! - `palette`: the colours every view shares (one per stage kind, HF red, LF blue).
 
 #[cfg(feature = "rerun")]
@@ -30,14 +31,14 @@ pub mod layout;
 #[cfg(feature = "rerun")]
 mod palette;
 #[cfg(feature = "rerun")]
+mod plan;
+#[cfg(feature = "rerun")]
 mod recorder;
 #[cfg(feature = "rerun")]
 mod stream;
 #[cfg(feature = "rerun")]
 mod trial;
 
-#[cfg(feature = "rerun")]
-pub use campaign::entity_label;
 #[cfg(feature = "rerun")]
 pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
@@ -48,6 +49,8 @@ pub use fmu::{leading_sentinels, FmuFrames, FMU_APP, SENTINEL};
 pub use layout::plot_path;
 #[cfg(feature = "rerun")]
 pub use palette::{kind_colour, stage_colours};
+#[cfg(feature = "rerun")]
+pub use plan::entity_label;
 #[cfg(feature = "rerun")]
 pub use recorder::{campaign_app, is_campaign_app, Recorder, CAMPAIGN_APP};
 /// The rerun SDK this crate records with (to read recordings back with the same version).
