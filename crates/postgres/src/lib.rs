@@ -10,8 +10,10 @@
 //! [`Runner`](savme_campaign::executor::Runner). Nothing above this crate writes SQL.
 #![warn(missing_docs)]
 
+mod campaign;
 mod command;
 mod connect;
+mod lines;
 mod locked;
 pub mod queue;
 mod remote;
@@ -22,12 +24,13 @@ mod store;
 pub mod tls;
 pub mod worker;
 
+pub use campaign::{
+    application_name, campaign_id, check_name, connection_lost, find_campaign, host_name,
+    stored_simulator, MAX_NAME,
+};
 pub use command::{shell_quote, worker_command, worker_url};
 pub use connect::{reconnect_for, Database, RECONNECT_FOR};
 pub use remote::{Remote, RemoteOptions, HEARTBEAT};
 pub use session::{Conn, Session};
 pub use source::PostgresSource;
-pub use store::{
-    application_name, campaign_id, check_name, connection_lost, find_campaign, host_name,
-    read_campaign, stored_simulator, PostgresStore, MAX_NAME,
-};
+pub use store::{read_campaign, PostgresStore};

@@ -10,7 +10,7 @@
 //! loses only trials whose runs are finished in `savme.runs`, and `--resume` asks the same
 //! trials again and finds those results there (the same trials, not run again).
 
-use crate::store::{insert_lines, Columns};
+use crate::lines::{insert_lines, Columns};
 use crate::{application_name, campaign_id, connection_lost, queue, schema, Database};
 use postgres::{Client, Statement};
 use savme_campaign::executor::Task;
@@ -200,7 +200,7 @@ impl Locked {
                 false => first - 1,
             };
             if stored < last {
-                let statement = prepare(&mut tx, prepared, crate::store::INSERT)?;
+                let statement = prepare(&mut tx, prepared, crate::lines::INSERT)?;
                 let skip = (stored - first + 1).max(0) as usize;
                 insert_lines(&mut tx, &statement, campaign, stored + 1, &rows[skip..])?;
             }
