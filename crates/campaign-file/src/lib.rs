@@ -42,7 +42,6 @@
 mod error;
 mod estimate;
 mod fidelity;
-mod openscenario;
 mod scenario;
 mod section;
 mod source;

@@ -1,6 +1,8 @@
 //! `[[scenario]]`: each scenario's φ-space, role, weight and bindings, with where it is in the
 //! file.
 
+mod openscenario;
+
 use crate::variable::{binding, toml_value, variables, Named, VarSection};
 use crate::{ConfigError, Source};
 use savme_kernel::estimation::Nominal;
@@ -129,8 +131,7 @@ pub(crate) fn read(
         });
         let (space, bindings) = match &s.openscenario {
             Some(file) => {
-                let (space, bindings, nominal) =
-                    crate::openscenario::scenario(src, k, table, file, base)?;
+                let (space, bindings, nominal) = openscenario::scenario(src, k, table, file, base)?;
                 parts.nominal.insert(name.clone(), nominal);
                 (space, bindings)
             }

@@ -15,7 +15,7 @@
 //! in the file names the campaign file, the key's line and the key, then the distribution
 //! file, its line and element.
 
-use crate::scenario::{fixed, ScenarioBindings, ScenarioSection};
+use super::{fixed, ScenarioBindings, ScenarioSection};
 use crate::{resolve, ConfigError, Named, Source};
 use savme_kernel::estimation::Nominal;
 use savme_kernel::Space;
