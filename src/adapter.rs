@@ -97,6 +97,11 @@ pub trait FileSimulator: std::fmt::Debug + Send + Sync {
         &self,
         worker: &dyn Fn() -> Result<Vec<String>, String>,
     ) -> Result<AnySimulator, String>;
+    /// What a recorded trial of the file's simulator shows in the rerun viewer (default:
+    /// nothing but its outcome); `worker` as for [`FileSimulator::simulator`].
+    fn frames(&self, _worker: &dyn Fn() -> Result<Vec<String>, String>) -> Result<Frames, String> {
+        Ok(Frames::none())
+    }
     /// The adapter's own reading of the file (to set an option only it has).
     fn as_any_mut(&mut self) -> &mut dyn Any;
     /// The same, owned.
@@ -312,6 +317,21 @@ impl FileSimulator for FmuCampaignFile {
         let backend = savme_fmu::FmuBackend::new(&self.init, worker, self.timeout)
             .map_err(|e| format!("{}: {e}", self.common.path.display()))?;
         Ok(AnySimulator::new(backend))
+    }
+    /// The outputs `[fmu] record` lists, re-run on an FMU back end of its own (in a worker
+    /// process too with `isolate`); nothing when it lists none.
+    fn frames(&self, worker: &dyn Fn() -> Result<Vec<String>, String>) -> Result<Frames, String> {
+        if self.record.is_empty() {
+            return Ok(Frames::none());
+        }
+        let worker = if self.isolate { Some(worker()?) } else { None };
+        let backend = savme_fmu::FmuBackend::new(&self.init, worker, self.timeout)
+            .map_err(|e| format!("{}: {e}", self.common.path.display()))?;
+        Ok(Frames::fmu(
+            backend,
+            self.record.clone(),
+            self.init.spec.failure.clone(),
+        ))
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self

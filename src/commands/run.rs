@@ -7,7 +7,6 @@ use super::{
 use savme::adapter::AnySimulator;
 use savme::campaign::store::TrialStore;
 use savme::compose;
-use savme::viewer::Frames;
 use savme_fmu::campaign_file::FmuCampaignFile;
 use std::path::PathBuf;
 
@@ -80,7 +79,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
     let out = target.out.clone();
-    let frames = frames(c.file)?;
+    let frames = c.file.frames(&super::worker_command)?;
     run_campaign(
         c.protocol,
         c.problem.clone(),
@@ -132,24 +131,4 @@ fn run_estimate_stage(
         super::shown_path(&outcome.out)
     ))
     .map_err(Failure::Runtime)
-}
-
-/// What recorded trials show: for an FMU campaign, the outputs `[fmu] record` lists (re-run on
-/// an FMU back end of its own); else the campaign view only. (A `FileSimulator` does not give
-/// its frames yet: the FMU case is named here.)
-fn frames(file: Box<dyn savme::adapter::FileSimulator>) -> Result<Frames, String> {
-    let Ok(fmu) = file.into_any().downcast::<FmuCampaignFile>() else {
-        return Ok(Frames::none());
-    };
-    if fmu.record.is_empty() {
-        return Ok(Frames::none());
-    }
-    let worker = if fmu.isolate {
-        Some(super::worker_command()?)
-    } else {
-        None
-    };
-    let backend =
-        savme_fmu::FmuBackend::new(&fmu.init, worker, fmu.timeout).map_err(|e| e.to_string())?;
-    Ok(Frames::fmu(backend, fmu.record, fmu.init.spec.failure))
 }
