@@ -1066,20 +1066,45 @@ fn an_fmu_campaign_records_the_listed_outputs_of_hf_and_lf_per_trial() {
     let stores = load(&rrd);
     // The trials chosen by the usual rule, each its own recording with the FMU trial view.
     let expected = expected_recorded(&trials, 7, 3);
-    let recs = recordings(&stores, savme::viewer::FMU_APP);
+    // Paired trials under one application, HF-only ones under another: each layout's plot
+    // titles name only the runs its trials have.
+    let (paired_app, hf_app) = (savme::viewer::FMU_APP, savme::viewer::FMU_HF_APP);
+    let mut recs = recordings(&stores, paired_app);
+    let hf_recs = recordings(&stores, hf_app);
+    for s in &hf_recs {
+        assert!(
+            !s.has("/plots/steps/lf"),
+            "an HF-only recording has an LF run"
+        );
+    }
+    let hf_only = expected
+        .iter()
+        .filter(|n| trials[**n]["theta_lf"].is_null())
+        .count();
+    assert_eq!(
+        hf_recs.len(),
+        hf_only,
+        "one {hf_app} recording per HF-only trial"
+    );
+    recs.extend(hf_recs.iter().copied());
     let mut names: Vec<String> = recs.iter().flat_map(|s| s.names.clone()).collect();
     names.sort();
     let mut want: Vec<String> = expected.iter().map(|n| trial_name(&trials[*n])).collect();
     want.sort();
     assert_eq!(names, want);
     let outputs = ["min_distance", "steps", "collision"];
-    let mut views: Vec<String> = outputs
-        .iter()
-        .map(|o| savme::viewer::layout::output_view_name(o))
-        .collect();
-    views.extend([names::OUTCOME.to_string(), names::EVENTS.to_string()]);
-    let views: Vec<&str> = views.iter().map(String::as_str).collect();
-    assert_views(blueprint(&stores, savme::viewer::FMU_APP), &views);
+    for (app, paired) in [(paired_app, true), (hf_app, false)] {
+        if app == hf_app && hf_recs.is_empty() {
+            continue;
+        }
+        let mut views: Vec<String> = outputs
+            .iter()
+            .map(|o| savme::viewer::layout::output_view_name(o, paired))
+            .collect();
+        views.extend([names::OUTCOME.to_string(), names::EVENTS.to_string()]);
+        let views: Vec<&str> = views.iter().map(String::as_str).collect();
+        assert_views(blueprint(&stores, app), &views);
+    }
     let theta_hf = savme_sim::fidelity::theta_hf();
     let rate_hf = theta_hf.get_f64("simulation_rate_hz").unwrap();
     let (mut paired, mut failing) = (0, 0);

@@ -19,8 +19,11 @@ use rerun::{EntityPath, RecordingStream, TimeColumn};
 use savme_fmu::{Crossing, Failure, FmuBackend};
 use savme_kernel::{Assignment, Role};
 
-/// The application id of FMU trial recordings (their own layout: one plot per output).
+/// The application id of paired FMU trial recordings (their own layout: one plot per output).
 pub const FMU_APP: &str = "savme-fmu-trial";
+/// The application of an HF-only FMU trial's recording (its plots have no LF run: the viewer
+/// keeps one layout per application, so HF-only trials get their own).
+pub const FMU_HF_APP: &str = "savme-fmu-hf-run";
 
 /// Values of at least this magnitude at the start of an output are placeholders, not plotted.
 pub const SENTINEL: f64 = 1e6;
@@ -112,8 +115,9 @@ impl FmuFrames {
 }
 
 impl TrialFrames for FmuFrames {
-    fn layout(&self, _paired: bool) -> (&'static str, Layout) {
-        (FMU_APP, layout::fmu_trial(&self.record))
+    fn layout(&self, paired: bool) -> (&'static str, Layout) {
+        let app = if paired { FMU_APP } else { FMU_HF_APP };
+        (app, layout::fmu_trial(&self.record, paired))
     }
 
     fn record_scene(

@@ -226,21 +226,28 @@ pub fn trial(paired: bool) -> Layout {
     }
 }
 
-/// The name of the plot of FMU output `output` in the FMU trial view.
-pub fn output_view_name(output: &str) -> String {
-    format!("{output}: HF red, LF blue")
+/// The name of the plot of FMU output `output` in the FMU trial view of a paired trial (HF
+/// and LF) or an HF-only one.
+pub fn output_view_name(output: &str, paired: bool) -> String {
+    if paired {
+        format!("{output}: HF red, LF blue")
+    } else {
+        format!("{output}: HF red")
+    }
 }
 
-/// The FMU trial view: one time series per recorded output (`[fmu] record`), HF and LF in
-/// each, in a grid on the left; the outcome and the failure events on the right.
-pub fn fmu_trial(record: &[String]) -> Layout {
+/// The FMU trial view: one time series per recorded output (`[fmu] record`), HF and (for a
+/// paired trial) LF in each, in a grid on the left; the outcome and the failure events on the
+/// right.
+pub fn fmu_trial(record: &[String], paired: bool) -> Layout {
     use names::*;
     let mut props = Vec::new();
     let plots: Vec<ContainerLike> = record
         .iter()
         .map(|name| {
-            let (c, path) =
-                child(TimeSeriesView::new(output_view_name(name)).with_origin(plot_path(name)));
+            let (c, path) = child(
+                TimeSeriesView::new(output_view_name(name, paired)).with_origin(plot_path(name)),
+            );
             no_legend(&mut props, &path);
             c
         })

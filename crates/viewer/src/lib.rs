@@ -44,7 +44,7 @@ pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
 pub use error::RecordError;
 #[cfg(feature = "rerun")]
-pub use fmu::{leading_sentinels, FmuFrames, FMU_APP, SENTINEL};
+pub use fmu::{leading_sentinels, FmuFrames, FMU_APP, FMU_HF_APP, SENTINEL};
 #[cfg(feature = "rerun")]
 pub use layout::plot_path;
 #[cfg(feature = "rerun")]
