@@ -163,7 +163,7 @@ def test_typed_accessors_give_the_kind_asked_or_name_the_variable():
         t.phi_as("gap", float)
     k.set_phase("baseline")
     b = k.ask()
-    with pytest.raises(ValueError, match="baseline trial: it has no theta_lf"):
+    with pytest.raises(ValueError, match="trial 1 is a baseline trial without theta_lf"):
         b.theta_as("rate_hz", int)
 
 
