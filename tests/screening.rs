@@ -211,3 +211,87 @@ fn bad_screening_values_are_refused_naming_the_flag() {
         assert!(!dir.exists());
     }
 }
+
+/// `--deployment adaptive`: the search is the same trials as a frozen deployment's, the
+/// evaluation credits the φ search and the screening draws other φ; the protocol stores it,
+/// a cut store resumes to the same lines, and an exploiting deployment without the elite
+/// search is refused naming the value.
+#[test]
+fn an_adaptive_deployment_keeps_the_search_learns_from_its_results_and_resumes() {
+    let elite = ["--search", "elite", "--window", "1"];
+    let run = |name: &str, deployment: &str| {
+        let dir = temp_dir(name);
+        let out = dir.display().to_string();
+        let mut a = vec!["reproduce", "--out", &out, "--jobs", "2"];
+        a.extend(ARGS);
+        a.extend(elite);
+        a.extend(["--deployment", deployment]);
+        let (ok, _, err) = savme(&a);
+        assert!(ok, "{deployment}: {err}");
+        dir
+    };
+    let (frozen, adaptive) = (run("frozen", "frozen"), run("adaptive", "adaptive"));
+    let protocol = |d: &Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("protocol.json")).unwrap()).unwrap()
+    };
+    assert_eq!(protocol(&adaptive)["deployment"], "adaptive");
+    assert!(
+        protocol(&frozen).get("deployment").is_none(),
+        "frozen is the default"
+    );
+    let stage = |lines: &[Value], s: &str| -> Vec<Value> {
+        lines.iter().filter(|v| v["stage"] == s).cloned().collect()
+    };
+    let (f, a) = (trial_lines(&frozen), trial_lines(&adaptive));
+    assert_eq!(
+        without_wall(stage(&f, "train@0.3")),
+        without_wall(stage(&a, "train@0.3")),
+        "the deployment changed the search"
+    );
+    let credited = |lines: &[Value]| {
+        stage(lines, "evaluate@0.3")
+            .iter()
+            .filter(|v| !v["credit"]["scenario"].is_null())
+            .count()
+    };
+    assert_eq!(credited(&f), 0);
+    assert_eq!(credited(&a), 30);
+    let phis = |lines: &[Value]| -> Vec<Value> {
+        stage(lines, "screen@0.3")
+            .iter()
+            .map(|v| v["phi"].clone())
+            .collect()
+    };
+    assert_ne!(phis(&f), phis(&a));
+    // Cut inside the screening stage and resume: the same lines.
+    let text = std::fs::read_to_string(adaptive.join("trials.jsonl")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let cut = lines.len() - 60;
+    std::fs::write(
+        adaptive.join("trials.jsonl"),
+        lines[..cut].join("\n") + "\n",
+    )
+    .unwrap();
+    let (ok, _, err) = resume(&adaptive);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trial_lines(&adaptive)), without_wall(a));
+    // Exploiting needs the elite search.
+    let bad = temp_dir("exploit-bins");
+    let out = bad.display().to_string();
+    let (ok, _, err) = savme(&[
+        "reproduce",
+        "--out",
+        &out,
+        "--quiet",
+        "--deployment",
+        "exploit",
+    ]);
+    assert!(
+        !ok && err.contains("`deployment`") && err.contains("search = elite"),
+        "{err}"
+    );
+    assert!(!bad.exists());
+    for d in [frozen, adaptive] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

@@ -25,7 +25,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{CampaignError, Cost, Protocol, Search};
+use super::{CampaignError, Cost, Deploy, Protocol, Search};
 use savme_kernel::EliteMixture;
 use serde::Deserialize;
 
@@ -247,6 +247,12 @@ protocol_values! {
     /// settled and `pair_fraction` applies.
     pair_settle: u64, flag = "pair-settle", aliases = [], stages = "train, test-*",
         to = protocol, cli(value_name = "N");
+    /// What the deployed search does with what the search learned: frozen (the paper's),
+    /// exploit (the elite proposal draws for failures, not for new cells; search = elite),
+    /// learn (every evaluation and screening result keeps teaching the φ search) or adaptive
+    /// (both).
+    deployment: Deploy, flag = "deployment", aliases = [], stages = "evaluate, screen",
+        to = protocol, cli(value_enum);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -400,6 +406,7 @@ mod tests {
             elite: Some(EliteMixture::default()),
             pair_fraction: 0.5,
             pair_settle: 5,
+            deployment: Deploy::Adaptive,
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -582,6 +589,7 @@ mod tests {
             }),
             pair_fraction: Some(0.25),
             pair_settle: Some(12),
+            deployment: Some(Deploy::Adaptive),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();

@@ -69,6 +69,11 @@ impl Kernel {
                 fidelity: None,
                 scenario: Some(observation.hf().failure),
             },
+            // A deployment that keeps learning: the HF run credits the φ search alone.
+            (false, _, _) if self.state.config.deployment.learn => Credit {
+                fidelity: None,
+                scenario: Some(observation.hf().failure),
+            },
             _ => Credit::default(),
         };
         Ok((
@@ -98,14 +103,7 @@ impl Kernel {
         let s = pending.trial.scenario_index;
         let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
         if let Some(ok) = assessed.credit.scenario {
-            self.state.scenarios[s].update(phi_arms, ok);
-            if let (Some(archive), SearchModel::EliteMixture(m)) =
-                (self.state.search.get_mut(s), &self.state.config.search)
-            {
-                let space = &self.state.config.scenarios[s].space;
-                archive.record(space, &pending.trial.phi, phi_arms, observation.hf());
-                archive.truncate(m.archive);
-            }
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, observation.hf(), ok);
         }
         if let Some(ok) = assessed.credit.fidelity {
             self.state.fidelity.update(theta_arms, ok);
@@ -154,7 +152,35 @@ impl Kernel {
         }
         check_robustness(id, &lf, "LF")?;
         self.state.stats.told += 1;
-        Ok(self.state.pending.remove(index).trial)
+        let pending = self.state.pending.remove(index);
+        if self.state.config.deployment.learn {
+            // The screen called it a pass: the φ search learns it as one.
+            let s = pending.trial.scenario_index;
+            let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
+            let pass = Run::new(false, lf.runtime);
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, &pass, false);
+        }
+        Ok(pending.trial)
+    }
+
+    /// Credits scenario `s`'s φ search with a result: its bins by `found` (an HF failure), the
+    /// elite archive (if any) by the run.
+    fn credit_scenario(
+        &mut self,
+        s: usize,
+        phi: &crate::Assignment,
+        phi_arms: &[u16],
+        hf: &Run,
+        found: bool,
+    ) {
+        self.state.scenarios[s].update(phi_arms, found);
+        if let (Some(archive), SearchModel::EliteMixture(m)) =
+            (self.state.search.get_mut(s), &self.state.config.search)
+        {
+            let space = &self.state.config.scenarios[s].space;
+            archive.record(space, phi, phi_arms, hf);
+            archive.truncate(m.archive);
+        }
     }
 
     /// Withdraws a pending trial (e.g. its simulation crashed); it will never be told.
