@@ -37,7 +37,8 @@ use std::sync::{Arc, Mutex};
 /// A search trial's LF and HF runs, for fitting the screen's margin.
 struct Pair {
     scenario: usize,
-    theta_lf: savme_kernel::Assignment,
+    /// θ_LF's arms (its bins).
+    theta_lf: Vec<usize>,
     lf: Run,
     hf: Run,
 }
@@ -160,7 +161,10 @@ fn deploy(
     robust: bool,
 ) -> Result<(u64, u64, usize), Box<dyn std::error::Error>> {
     k.set_phase(Phase::Evaluate);
-    let theta = k.fidelity_estimate(Estimator::Map);
+    let theta = k
+        .config()
+        .fidelity
+        .arms_of(&k.fidelity_estimate(Estimator::Map))?;
     let rules: Vec<Rule> = (0..k.config().scenarios.len())
         .map(|s| {
             let at: Vec<(Run, Run)> = pairs
@@ -184,6 +188,10 @@ fn deploy(
         .collect();
     let sim = DrivingSimulator::default();
     let (mut found, mut work, mut cells) = (0u64, 0u64, BTreeSet::new());
+    // What the same φ would have given on HF alone (exact only when the deployment does not
+    // learn: then φ does not depend on the outcomes), and the LF share of the cost.
+    let (mut trials, mut lf_work, mut missed, mut direct) = (0u64, 0u64, 0u64, (0u64, 0u64));
+    let counterfactual = std::env::var_os("SAVME_HF_DIRECT").is_some();
     while work < budget {
         let t = k.ask();
         let theta_lf = t
@@ -192,6 +200,14 @@ fn deploy(
             .ok_or("an evaluate trial without θ_LF")?;
         let lf = sim.run(&t.scenario, &t.phi, theta_lf, false)?;
         work += lf.work;
+        lf_work += lf.work;
+        trials += 1;
+        if counterfactual {
+            let hf = sim.run(&t.scenario, &t.phi, k.theta_hf(), false)?;
+            direct.0 += u64::from(hf.failure);
+            direct.1 += hf.work;
+            missed += u64::from(hf.failure && !lf.failure);
+        }
         let lf_run = told(&lf, robust);
         if rules[t.scenario_index].decide(&lf_run, false) == Screen::Pass {
             k.tell_unconfirmed(t.id, lf_run)?;
@@ -211,6 +227,14 @@ fn deploy(
                 lf: lf_run,
             },
         )?;
+    }
+    if counterfactual {
+        eprintln!(
+            "deployed: {trials} trials, {found} confirmed, LF {:.0} % of the cost, {missed} HF failures the LF run passed; HF alone on the same φ: {} failures, {:.1} per 10⁹ wu",
+            100.0 * lf_work as f64 / work as f64,
+            direct.0,
+            direct.0 as f64 / (direct.1 as f64 / 1e9)
+        );
     }
     Ok((found, work, cells.len()))
 }
@@ -253,7 +277,7 @@ fn search(
             (Some(lf), Some(theta)) => {
                 pairs.push(Pair {
                     scenario: trial.scenario_index,
-                    theta_lf: theta.clone(),
+                    theta_lf: k.config().fidelity.arms_of(theta)?,
                     lf: run(lf),
                     hf: run(&hf),
                 });
