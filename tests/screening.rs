@@ -295,3 +295,91 @@ fn an_adaptive_deployment_keeps_the_search_learns_from_its_results_and_resumes()
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
+/// `--screen-lf where-it-pays`: where the deployed proposal fails so often that an LF run
+/// saves less than it costs, trials run HF directly (a `direct` line without an LF run); the
+/// decisions replay exactly on resume, an edited decision is refused naming the field, and the
+/// value is refused without a screening stage.
+#[test]
+fn screening_runs_hf_directly_where_the_lf_run_does_not_pay_and_resumes() {
+    let dir = temp_dir("direct");
+    let out = dir.display().to_string();
+    let mut a = vec!["reproduce", "--out", &out, "--jobs", "2"];
+    a.extend(ARGS);
+    a.extend(["--search", "elite", "--deployment", "exploit"]);
+    a.extend(["--screen-lf", "where-it-pays"]);
+    let (ok, _, err) = savme(&a);
+    assert!(ok, "{err}");
+    let all = trial_lines(&dir);
+    let screen: Vec<&Value> = all.iter().filter(|v| v["stage"] == "screen@0.3").collect();
+    assert_eq!(screen.len(), 150);
+    let direct: Vec<&&Value> = screen.iter().filter(|v| v["screen"] == "direct").collect();
+    assert!(
+        !direct.is_empty() && direct.len() < 150,
+        "{} direct",
+        direct.len()
+    );
+    for v in &direct {
+        assert!(v.get("lf").is_none() && v["hf"].is_object(), "{v}");
+    }
+    // Each scenario screens its first trials (the warm-up measures the LF run).
+    let first = |name: &Value| screen.iter().position(|v| v["scenario"] == *name).unwrap();
+    for v in &direct {
+        assert!(screen.iter().position(|w| *w == **v).unwrap() > first(&v["scenario"]) + 9);
+    }
+    // The report counts the direct trials' failures with the confirmed ones (and the audit's
+    // misses apart).
+    let found = screen.iter().filter(|v| v["hf"]["failure"] == true).count();
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let text = report.to_string();
+    assert!(text.contains("\"direct_found\""), "{text}");
+    let counts = &report["report"]["budgets"][0]["screening"]["counts"];
+    let reported = ["confirmed", "direct_found", "margin_found", "audit_misses"]
+        .iter()
+        .map(|k| counts[k].as_u64().unwrap())
+        .sum::<u64>();
+    assert_eq!(reported as usize, found);
+    // Cut inside the screening stage and resume: the same decisions and lines.
+    let text = std::fs::read_to_string(dir.join("trials.jsonl")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(
+        dir.join("trials.jsonl"),
+        lines[..lines.len() - 50].join("\n") + "\n",
+    )
+    .unwrap();
+    let (ok, _, err) = resume(&dir);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trial_lines(&dir)), without_wall(all.clone()));
+    // A direct line edited into a screened confirmation is refused, naming its line and field.
+    let k = lines
+        .iter()
+        .position(|l| l.contains(r#""screen":"direct""#))
+        .unwrap();
+    let mut bad: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+    bad[k] = bad[k].replace(r#""screen":"direct""#, r#""screen":"confirm""#);
+    std::fs::write(dir.join("trials.jsonl"), bad.join("\n") + "\n").unwrap();
+    let (ok, _, err) = resume(&dir);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("line {}", k + 1)) && err.contains("field `screen`"),
+        "{err}"
+    );
+    // Without a screening stage the value would do nothing.
+    let none = temp_dir("direct-none");
+    let out = none.display().to_string();
+    let (ok, _, err) = savme(&[
+        "reproduce",
+        "--out",
+        &out,
+        "--quiet",
+        "--screen-lf",
+        "where-it-pays",
+    ]);
+    assert!(
+        !ok && err.contains("`screen_lf`") && err.contains("screen_iterations"),
+        "{err}"
+    );
+    assert!(!none.exists());
+    let _ = std::fs::remove_dir_all(dir);
+}

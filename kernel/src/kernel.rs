@@ -245,13 +245,19 @@ pub enum TellError {
     },
     /// An LF-only (screened, unconfirmed) tell for a trial that learns or runs HF only.
     #[error(
-        "trial {id} is a {phase} trial: only evaluation trials take an LF run alone (screening)"
+        "trial {id} is a {phase} trial: only evaluation trials can be screened (told with an LF run alone, or an HF run alone)"
     )]
     NotScreened {
         /// The trial.
         id: u64,
         /// Its phase.
         phase: Phase,
+    },
+    /// A screened trial told with neither an LF nor an HF run.
+    #[error("trial {id}: a screened trial needs its LF run, its HF run, or both")]
+    NoRun {
+        /// The trial.
+        id: u64,
     },
     /// A robustness value that is NaN or infinite.
     #[error("trial {id}: {simulator} robustness must be a finite number, got {robustness}")]

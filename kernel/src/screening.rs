@@ -19,7 +19,7 @@
 //!         Screen::Pass => None,
 //!         _ => Some(Run::new(index % 20 == 0, 1.0)),
 //!     };
-//!     counts.add(&lf, hf.as_ref(), screen);
+//!     counts.add(Some(&lf), hf.as_ref(), screen);
 //! }
 //! assert_eq!((counts.lf_failures, counts.confirmed), (100, 50));
 //! assert!(counts.audited > 60 && counts.audited < 120); // ≈ 0.1 · 900 passes
@@ -37,6 +37,8 @@ pub enum Screen {
     Confirm,
     /// The LF run passed within the [`Rule::margin`]: check it on HF.
     Margin,
+    /// No LF run: screening does not pay here ([`Economy::screen_pays`]), so HF ran directly.
+    Direct,
     /// The LF run passed and the trial was drawn for the audit: run HF to look for a miss.
     Audit,
     /// The LF run passed, not audited: no HF run.
@@ -144,6 +146,96 @@ impl Rule {
     }
 }
 
+/// Whether LF screening pays in one scenario, from what its runs cost and how often they
+/// fail. A screened trial pays an LF run to save the HF run of a pass; when nearly every trial
+/// fails (a deployed proposal that has concentrated on a failure region) the LF run saves
+/// nothing and HF alone finds the same failures for less. Screening pays while
+/// `c_LF < (1 − p) · c_HF,pass`: the mean LF cost against the HF pass cost it is expected to
+/// save, with `p` the share of failures (LF failures of screened trials, HF failures of direct
+/// ones, under a uniform prior). The LF verdict is taken as exact (at θ_LF* it is the search's
+/// best agreement with HF; the audit measures its misses).
+///
+/// ```
+/// use savme_kernel::screening::Economy;
+/// use savme_kernel::Run;
+/// let mut e = Economy::default();
+/// e.saw_hf(&Run::new(false, 10.0)); // the search's HF passes cost 10
+/// assert!(e.screen_pays(), "it screens until it has measured the LF runs");
+/// for _ in 0..Economy::WARMUP {
+///     e.add_screened(&Run::new(true, 3.0), None); // every LF run fails, at 3 each
+/// }
+/// assert!(!e.screen_pays(), "3 > (1 − p) · 10 once p > 0.7");
+/// for _ in 0..20 {
+///     e.add_direct(&Run::new(false, 10.0)); // the failures stop
+/// }
+/// assert!(e.screen_pays());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Economy {
+    /// Screened trials (an LF run each).
+    pub screened: u64,
+    /// Their LF failures.
+    pub lf_failures: u64,
+    /// Trials run on HF directly.
+    pub direct: u64,
+    /// Their HF failures.
+    pub direct_failures: u64,
+    /// Summed cost of the LF runs.
+    pub lf_cost: f64,
+    /// HF passes seen (the search's and the screening's).
+    pub hf_passes: u64,
+    /// Their summed cost.
+    pub hf_pass_cost: f64,
+}
+
+impl Economy {
+    /// Screened trials before the LF cost counts as measured: until then every trial is
+    /// screened.
+    pub const WARMUP: u64 = 10;
+
+    /// Counts an HF run's cost if it passed.
+    pub fn saw_hf(&mut self, hf: &Run) {
+        if !hf.failure {
+            self.hf_passes += 1;
+            self.hf_pass_cost += hf.runtime;
+        }
+    }
+
+    /// Adds a screened trial: its LF run and the HF run if one was made.
+    pub fn add_screened(&mut self, lf: &Run, hf: Option<&Run>) {
+        self.screened += 1;
+        self.lf_failures += u64::from(lf.failure);
+        self.lf_cost += lf.runtime;
+        if let Some(hf) = hf {
+            self.saw_hf(hf);
+        }
+    }
+
+    /// Adds a direct trial (HF only).
+    pub fn add_direct(&mut self, hf: &Run) {
+        self.direct += 1;
+        self.direct_failures += u64::from(hf.failure);
+        self.saw_hf(hf);
+    }
+
+    /// The estimated share of failures among the next trials.
+    pub fn failure_share(&self) -> f64 {
+        let failures = self.lf_failures + self.direct_failures;
+        (failures as f64 + 1.0) / ((self.screened + self.direct) as f64 + 2.0)
+    }
+
+    /// Whether the next trial should run LF first: during the warm-up, without a known HF
+    /// pass cost, or while `c_LF < (1 − p) · c_HF,pass`.
+    pub fn screen_pays(&self) -> bool {
+        if self.screened < Self::WARMUP || self.hf_passes == 0 {
+            return true;
+        }
+        let lf = self.lf_cost / self.screened as f64;
+        let pass = self.hf_pass_cost / self.hf_passes as f64;
+        lf < (1.0 - self.failure_share()) * pass
+    }
+}
+
 /// Whether trial `index` of a screening stage seeded `seed` belongs to the audit sample: a
 /// uniform draw (SplitMix64 of seed and index) below `alpha`. A pure function, so a replayed
 /// stage audits the same trials, whatever order the runs finish in.
@@ -177,6 +269,12 @@ pub struct ScreeningCounts {
     /// Of those, the HF failures: failures the margin found that the LF verdict missed.
     #[serde(default)]
     pub margin_found: u64,
+    /// Trials run on HF directly, without an LF run ([`Screen::Direct`]).
+    #[serde(default)]
+    pub direct: u64,
+    /// Of those, the HF failures.
+    #[serde(default)]
+    pub direct_found: u64,
     /// Cost of the LF runs.
     pub lf_runtime: f64,
     /// Cost of the HF runs (confirmations and audits).
@@ -184,10 +282,11 @@ pub struct ScreeningCounts {
 }
 
 impl ScreeningCounts {
-    /// Adds a trial: its LF run, its HF run if one was made, and the screen's decision.
-    pub fn add(&mut self, lf: &Run, hf: Option<&Run>, screen: Screen) {
+    /// Adds a trial: its LF run (None for a direct trial), its HF run if one was made, and the
+    /// screen's decision.
+    pub fn add(&mut self, lf: Option<&Run>, hf: Option<&Run>, screen: Screen) {
         self.trials += 1;
-        self.lf_runtime += lf.runtime;
+        self.lf_runtime += lf.map_or(0.0, |l| l.runtime);
         if let Some(hf) = hf {
             self.hf_runtime += hf.runtime;
         }
@@ -206,6 +305,10 @@ impl ScreeningCounts {
                 self.audited += 1;
                 self.audit_misses += u64::from(hf_failed);
             }
+            Screen::Direct => {
+                self.direct += 1;
+                self.direct_found += u64::from(hf_failed);
+            }
             Screen::Margin | Screen::Audit | Screen::Pass => {}
         }
     }
@@ -218,7 +321,7 @@ impl ScreeningCounts {
     /// HF-confirmed failures: LF failures confirmed, and near-misses within the margin that
     /// failed on HF.
     pub fn found(&self) -> u64 {
-        self.confirmed + self.margin_found
+        self.confirmed + self.margin_found + self.direct_found
     }
 
     /// HF-confirmed failures ([`ScreeningCounts::found`]) per unit of total cost (None before
@@ -235,7 +338,7 @@ impl ScreeningCounts {
 
     /// LF passes not checked within the margin: trials the screen called safe.
     pub fn passes(&self) -> u64 {
-        self.trials - self.lf_failures - self.margin_checks
+        self.trials - self.lf_failures - self.margin_checks - self.direct
     }
 
     /// Estimated failures among all LF passes (miss rate × passes).
@@ -265,7 +368,7 @@ mod tests {
     fn counts_split_confirmations_false_positives_and_misses() {
         let mut c = ScreeningCounts::default();
         let add = |c: &mut ScreeningCounts, lf: Run, hf: Option<Run>, audit| {
-            c.add(&lf, hf.as_ref(), Rule::PAPER.decide(&lf, audit));
+            c.add(Some(&lf), hf.as_ref(), Rule::PAPER.decide(&lf, audit));
         };
         add(
             &mut c,
@@ -319,7 +422,7 @@ mod tests {
                 Some(Run::new(true, 4.0)),
             ),
         ] {
-            c.add(&lf, hf.as_ref(), rule.decide(&lf, false));
+            c.add(Some(&lf), hf.as_ref(), rule.decide(&lf, false));
         }
         assert_eq!((c.lf_failures, c.confirmed), (1, 1));
         assert_eq!((c.margin_checks, c.margin_found, c.found()), (2, 1, 2));

@@ -447,6 +447,7 @@ class Protocol:
         pair_fraction: Optional[float] = None,
         pair_settle: Optional[int] = None,
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
+        screen_lf: Optional[Literal["always", "where-it-pays"]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:

@@ -110,6 +110,24 @@ impl Deploy {
     }
 }
 
+/// Which trials of an LF screening stage run LF first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScreenLf {
+    /// Every trial: LF first, HF to confirm (the paper's).
+    #[default]
+    Always,
+    /// Per scenario, only while the LF run costs less than the HF passes it is expected to
+    /// save; otherwise HF directly ([`Economy`](savme_kernel::screening::Economy)).
+    WhereItPays,
+}
+
+impl ScreenLf {
+    fn is_always(&self) -> bool {
+        *self == ScreenLf::Always
+    }
+}
+
 /// The most trials one stage may run (10⁸: years of simulation even at a millisecond a run).
 pub const MAX_ITERATIONS: u64 = 100_000_000;
 /// The most trials in flight at once.
@@ -194,6 +212,9 @@ pub struct Protocol {
     /// is not written).
     #[serde(default, skip_serializing_if = "Deploy::is_frozen")]
     pub deployment: Deploy,
+    /// Which screened trials run LF first (always, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "ScreenLf::is_always")]
+    pub screen_lf: ScreenLf,
 }
 
 fn one() -> f64 {
@@ -275,6 +296,7 @@ impl Protocol {
             pair_fraction: 1.0,
             pair_settle: default_settle(),
             deployment: Deploy::Frozen,
+            screen_lf: ScreenLf::Always,
         }
     }
 

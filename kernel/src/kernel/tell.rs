@@ -163,6 +163,49 @@ impl Kernel {
         Ok(pending.trial)
     }
 
+    /// Tells an evaluation trial whose LF run was not made: LF screening did not pay, so the
+    /// harness ran HF directly ([`crate::screening::Economy`]). Only trials of a phase that
+    /// runs both simulators and learns nothing take it; with [`crate::Deployment::learn`] the
+    /// HF run credits the φ search. On error nothing changes.
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, Kernel, Phase, Run, Scale, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 4, Scale::Linear)])?;
+    /// let mut k = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .build()?;
+    /// let learning = k.ask();
+    /// assert!(k.tell_direct(learning.id, Run::new(true, 1.0)).is_err());
+    /// k.set_phase(Phase::Evaluate);
+    /// let t = k.ask();
+    /// assert_eq!(k.tell_direct(t.id, Run::new(true, 1.0))?.id, t.id);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn tell_direct(&mut self, id: u64, hf: Run) -> Result<Trial, TellError> {
+        let index = self.pending_index(id)?;
+        let phase = self.state.pending[index].trial.phase;
+        if phase.learns() || !phase.is_paired() {
+            return Err(TellError::NotScreened { id, phase });
+        }
+        if !(hf.runtime.is_finite() && hf.runtime > 0.0) {
+            return Err(TellError::BadRuntime {
+                id,
+                simulator: "HF",
+                runtime: hf.runtime,
+            });
+        }
+        check_robustness(id, &hf, "HF")?;
+        self.state.stats.told += 1;
+        let pending = self.state.pending.remove(index);
+        if self.state.config.deployment.learn {
+            let s = pending.trial.scenario_index;
+            let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, &hf, hf.failure);
+        }
+        Ok(pending.trial)
+    }
+
     /// Credits scenario `s`'s φ search with a result: its bins by `found` (an HF failure), the
     /// elite archive (if any) by the run.
     fn credit_scenario(

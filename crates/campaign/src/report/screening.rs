@@ -57,7 +57,7 @@ pub fn report(
     let mut counts = ScreeningCounts::default();
     for l in screened {
         counts.add(
-            &l.lf.run(),
+            l.lf.map(|lf| lf.run()).as_ref(),
             l.hf.as_ref().map(|h| h.run()).as_ref(),
             l.screen,
         );
@@ -109,7 +109,7 @@ mod tests {
             phi: Default::default(),
             theta_lf: None,
             screen,
-            lf,
+            lf: Some(lf),
             hf,
             outcome: None,
         }
