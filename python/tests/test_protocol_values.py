@@ -49,7 +49,7 @@ COMPANIONS = {"audit_fraction": {"screen_iterations": 7}, "elite": {"search": "e
               "pair_settle": {"pair_fraction": 0.5}, "deployment": {"search": "elite"},
               "screen_lf": {"screen_iterations": 7}}
 # Values that set another one: the elite search stores its default parameters.
-DERIVED = {"search": {"elite"}}
+DERIVED = {"search": {"elite"}, "deployment": {"elite"}}
 
 
 def toml_value(v):

@@ -23,7 +23,7 @@
 //! `learn`, `exploit`, `adaptive` (both; [`savme_kernel::Deployment`]) and `+margin` (LF
 //! near-misses also checked on HF, the margin fitted per scenario on the search's trials at
 //! θ_LF*: [`savme_kernel::screening::Rule::fit`]). It reports HF-confirmed failures per 10⁹ wu.
-use savme_kernel::screening::{Rule, Screen};
+use savme_kernel::screening::{Economy, Rule, Screen};
 use savme_kernel::{
     Deployment, EliteMixture, Estimator, Kernel, Observation, Pairing, Phase, Run, SearchModel,
     Trial,
@@ -126,6 +126,7 @@ fn told(r: &savme_sim::sim::RunResult, robust: bool) -> Run {
 /// `+margin`; `margin` alone is `paper+margin`): the kernel's and whether the screen fits a
 /// margin.
 fn deployment(name: &str) -> Result<(Deployment, bool), String> {
+    let name = name.strip_suffix("+direct").unwrap_or(name);
     let (base, margin) = match name.strip_suffix("+margin") {
         Some(b) => (b, true),
         None if name == "margin" => ("paper", true),
@@ -156,10 +157,16 @@ fn deployment(name: &str) -> Result<(Deployment, bool), String> {
 fn deploy(
     mut k: Kernel,
     pairs: &[Pair],
-    margin: bool,
+    (margin, direct): (bool, bool),
     budget: u64,
     robust: bool,
 ) -> Result<(u64, u64, usize), Box<dyn std::error::Error>> {
+    // `+direct`: HF alone where screening does not pay (the campaign's `--screen-lf
+    // where-it-pays`), the HF pass costs seeded from the search's paired trials.
+    let mut economy = vec![Economy::default(); k.config().scenarios.len()];
+    for p in pairs {
+        economy[p.scenario].saw_hf(&p.hf);
+    }
     k.set_phase(Phase::Evaluate);
     let theta = k
         .config()
@@ -190,7 +197,7 @@ fn deploy(
     let (mut found, mut work, mut cells) = (0u64, 0u64, BTreeSet::new());
     // What the same φ would have given on HF alone (exact only when the deployment does not
     // learn: then φ does not depend on the outcomes), and the LF share of the cost.
-    let (mut trials, mut lf_work, mut missed, mut direct) = (0u64, 0u64, 0u64, (0u64, 0u64));
+    let (mut trials, mut lf_work, mut missed, mut alone) = (0u64, 0u64, 0u64, (0u64, 0u64));
     let counterfactual = std::env::var_os("SAVME_HF_DIRECT").is_some();
     while work < budget {
         let t = k.ask();
@@ -198,18 +205,33 @@ fn deploy(
             .theta_lf
             .as_ref()
             .ok_or("an evaluate trial without θ_LF")?;
+        if direct && !economy[t.scenario_index].screen_pays() {
+            let hf = sim.run(&t.scenario, &t.phi, k.theta_hf(), false)?;
+            work += hf.work;
+            trials += 1;
+            let hf_run = told(&hf, robust);
+            economy[t.scenario_index].add_direct(&hf_run);
+            if hf.failure {
+                found += 1;
+                let space = &k.config().scenarios[t.scenario_index].space;
+                cells.insert((t.scenario_index, space.arms_of(&t.phi)?));
+            }
+            k.tell_direct(t.id, hf_run)?;
+            continue;
+        }
         let lf = sim.run(&t.scenario, &t.phi, theta_lf, false)?;
         work += lf.work;
         lf_work += lf.work;
         trials += 1;
         if counterfactual {
             let hf = sim.run(&t.scenario, &t.phi, k.theta_hf(), false)?;
-            direct.0 += u64::from(hf.failure);
-            direct.1 += hf.work;
+            alone.0 += u64::from(hf.failure);
+            alone.1 += hf.work;
             missed += u64::from(hf.failure && !lf.failure);
         }
         let lf_run = told(&lf, robust);
         if rules[t.scenario_index].decide(&lf_run, false) == Screen::Pass {
+            economy[t.scenario_index].add_screened(&lf_run, None);
             k.tell_unconfirmed(t.id, lf_run)?;
             continue;
         }
@@ -220,6 +242,7 @@ fn deploy(
             let space = &k.config().scenarios[t.scenario_index].space;
             cells.insert((t.scenario_index, space.arms_of(&t.phi)?));
         }
+        economy[t.scenario_index].add_screened(&lf_run, Some(&told(&hf, robust)));
         k.tell(
             t.id,
             Observation::Paired {
@@ -232,8 +255,8 @@ fn deploy(
         eprintln!(
             "deployed: {trials} trials, {found} confirmed, LF {:.0} % of the cost, {missed} HF failures the LF run passed; HF alone on the same φ: {} failures, {:.1} per 10⁹ wu",
             100.0 * lf_work as f64 / work as f64,
-            direct.0,
-            direct.0 as f64 / (direct.1 as f64 / 1e9)
+            alone.0,
+            alone.0 as f64 / (alone.1 as f64 / 1e9)
         );
     }
     Ok((found, work, cells.len()))
@@ -304,7 +327,8 @@ fn search(
         }
     }
     if let Some(d) = deploy_as {
-        let found = deploy(k, &pairs, margin, deploy_budget, robust)?;
+        let direct = d.ends_with("+direct");
+        let found = deploy(k, &pairs, (margin, direct), deploy_budget, robust)?;
         t.deployed.insert(d.to_string(), found);
     }
     Ok(t)
