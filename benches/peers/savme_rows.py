@@ -127,6 +127,8 @@ def read_seed(trials: Path, method: str, seed: int, budget: float) -> SavmeSeed:
     train, screen = f"train@{budget}", f"screen@{budget}"
     for line in trials.read_text().splitlines():
         t = json.loads(line)
+        if "protocol" in t:  # the store's first record: the campaign's protocol
+            continue
         if "error" in t:
             raise ValueError(f"{trials}: a withdrawn trial: {t['error']}")
         sc = t["scenario"]

@@ -31,13 +31,18 @@ def _screen(scenario: str, hf_fail: bool | None, lf_work: int, hf_work: int) -> 
 
 class SavmeRows(unittest.TestCase):
     def test_search_and_deployment_are_read_with_every_run_charged(self) -> None:
+        direct = _screen("b", True, 0, 5)  # HF alone (`--screen-lf where-it-pays`): no LF run
+        del direct["lf"]
+        direct["screen"] = "direct"
         lines = [
+            {"v": 1, "protocol": {"seed": 1}, "c": "00"},  # the store's first record
             _trial("baseline-train", "a", True, 100, None),  # not read
             _trial("train@0.3", "a", True, 10, 3),
             _trial("train@0.3", "b", False, 20, None),
             _screen("a", None, 2, 0),  # an LF pass: LF charged only
             _screen("a", True, 1, 7),  # confirmed
             _screen("b", False, 1, 9),  # a false LF alarm: both charged
+            direct,
         ]
         with tempfile.TemporaryDirectory() as d:
             p = Path(d) / "trials.jsonl"
@@ -45,9 +50,9 @@ class SavmeRows(unittest.TestCase):
             s = savme_rows.read_seed(p, "savme", 1, 0.3)
         self.assertEqual(s.search_work, {"a": 13, "b": 20})
         self.assertEqual([h.failure for h in s.search_hf], [True, False])
-        self.assertEqual(s.deployed_work, {"a": 10, "b": 10})
-        self.assertEqual([h.failure for h in s.deployed_hf], [True, False])
-        self.assertEqual(s.deployed_trials, {"a": 2, "b": 1})
+        self.assertEqual(s.deployed_work, {"a": 10, "b": 15})
+        self.assertEqual([h.failure for h in s.deployed_hf], [True, False, True])
+        self.assertEqual(s.deployed_trials, {"a": 2, "b": 2})
 
     def test_a_campaign_without_work_units_is_refused(self) -> None:
         t = _trial("train@0.3", "a", True, 1, None)
