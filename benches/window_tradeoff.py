@@ -28,7 +28,7 @@ def rates(exe, window, seed, extra, out):
     with open(f"{out}/trials.jsonl") as f:
         for line in f:
             t = json.loads(line)
-            if t["stage"] in acc:
+            if t.get("stage") in acc:  # (the store's first record is the protocol)
                 a = acc[t["stage"]]
                 a[0] += bool(t["hf"]["failure"])
                 a[1] += t["hf"]["runtime"] + (t["lf"]["runtime"] if t.get("lf") else 0.0)

@@ -95,6 +95,8 @@ def savme_seed(args, seed, out):
     search, deployed = [], []
     for line in (out / "trials.jsonl").read_text().splitlines():
         t = json.loads(line)
+        if "protocol" in t:  # the store's first record: the campaign's protocol
+            continue
         work = t["hf"]["work"] if t.get("hf") else 0
         work += t["lf"]["work"] if t.get("lf") else 0
         if t["stage"] == f"train@{args.budget}":
