@@ -93,8 +93,14 @@ def metrics(runs: list[Outcome], per: float = PER) -> dict[str, tuple[float, flo
     }
 
 
+def rate_digits(per: float) -> int:
+    """Decimals of a rate: 1 per 10⁹ wu (the bundled simulator's tables, as always), 2 in the
+    smaller units an FMU's counter gets, where rates are a few per unit."""
+    return 1 if per >= PER else 2
+
+
 def main_table(outcomes: list[Outcome], per: float = PER) -> str:
-    u = UNITS[per]
+    u, d = UNITS[per], rate_digits(per)
     rows = [
         f"| method | HF failures / {u} wu, search | distinct failing cells / {u} wu, search "
         f"| confirmed failures / {u} wu, deployed | search: HF failures, trials, {u} wu "
@@ -104,8 +110,8 @@ def main_table(outcomes: list[Outcome], per: float = PER) -> str:
     for method, runs in by_method(outcomes).items():
         m = metrics(runs, per)
         rows.append(
-            f"| {method} | {fmt(m['search_failures'])} | {fmt(m['search_cells'])} "
-            f"| {fmt(m['deployed_failures'])} | {fmt(m['search_raw_failures'], 0)}, "
+            f"| {method} | {fmt(m['search_failures'], d)} | {fmt(m['search_cells'], d)} "
+            f"| {fmt(m['deployed_failures'], d)} | {fmt(m['search_raw_failures'], 0)}, "
             f"{fmt(m['search_trials'], 0)}, {fmt(m['search_work'], 2)} "
             f"| {fmt(m['deployed_work'], 2)} | {fmt(m['overhead_ms'], 2)} |"
         )
@@ -139,7 +145,7 @@ def scenario_table(
                 if m not in savme_methods and means[m][0] > base
             ]
             ahead.append(f"{sm}: " + (", ".join(better) if better else "none"))
-        cells = " | ".join(fmt(means[m]) for m in methods)
+        cells = " | ".join(fmt(means[m], rate_digits(per)) for m in methods)
         rows.append(f"| {sc} | {cells} | {'; '.join(ahead)} |")
     return "\n".join(rows)
 
@@ -161,8 +167,9 @@ def peers_ahead(outcomes: list[Outcome], savme_methods: list[str], per: float = 
                 if m in savme_methods or math.isnan(ms[m][key][0]) or math.isnan(base):
                     continue
                 if ms[m][key][0] > base:
+                    d = rate_digits(per)
                     out.append(
-                        f"- {label}: {m} {ms[m][key][0]:.1f} > {sm} {base:.1f} "
+                        f"- {label}: {m} {ms[m][key][0]:.{d}f} > {sm} {base:.{d}f} "
                         f"({ms[m][key][0] / base:.2f}×)" if base > 0 else f"- {label}: {m} > {sm}"
                     )
     return out

@@ -128,7 +128,7 @@ class Report(unittest.TestCase):
         t = report.Tally(trials=4, failures=2, work=4000, cells={("a", (1,)), ("a", (2,))})
         table = report.main_table([report.Outcome("m", 1, {"a": t}, {})], 1e3)
         self.assertIn("HF failures / 10³ wu, search", table)
-        self.assertIn("| m | 0.5 | 0.5 |", table)
+        self.assertIn("| m | 0.50 | 0.50 |", table)  # two decimals below 10⁹ wu
 
 
     def test_rates_are_per_billion_work_units_and_sd_over_seeds(self) -> None:
