@@ -96,6 +96,8 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("prior_strengths", None) => Some("none".into()),
         ("pair_fraction", None) => Some(p.pair_fraction.to_string()),
         ("pair_settle", None) => Some(p.pair_settle.to_string()),
+        ("deployment", None) => Some(p.deployment.name().into()),
+        ("screen_lf", None) => Some("always".into()),
         ("elite", None) => Some(elite_defaults()),
         (_, Some(x)) => Some(shown(x)),
         (_, None) => None,

@@ -211,3 +211,175 @@ fn bad_screening_values_are_refused_naming_the_flag() {
         assert!(!dir.exists());
     }
 }
+
+/// `--deployment adaptive`: the search is the same trials as a frozen deployment's, the
+/// evaluation credits the φ search and the screening draws other φ; the protocol stores it,
+/// a cut store resumes to the same lines, and an exploiting deployment without the elite
+/// search is refused naming the value.
+#[test]
+fn an_adaptive_deployment_keeps_the_search_learns_from_its_results_and_resumes() {
+    let elite = ["--search", "elite", "--window", "1"];
+    let run = |name: &str, deployment: &str| {
+        let dir = temp_dir(name);
+        let out = dir.display().to_string();
+        let mut a = vec!["reproduce", "--out", &out, "--jobs", "2"];
+        a.extend(ARGS);
+        a.extend(elite);
+        a.extend(["--deployment", deployment]);
+        let (ok, _, err) = savme(&a);
+        assert!(ok, "{deployment}: {err}");
+        dir
+    };
+    let (frozen, adaptive) = (run("frozen", "frozen"), run("adaptive", "adaptive"));
+    let protocol = |d: &Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("protocol.json")).unwrap()).unwrap()
+    };
+    assert_eq!(protocol(&adaptive)["deployment"], "adaptive");
+    assert!(
+        protocol(&frozen).get("deployment").is_none(),
+        "frozen is the default"
+    );
+    let stage = |lines: &[Value], s: &str| -> Vec<Value> {
+        lines.iter().filter(|v| v["stage"] == s).cloned().collect()
+    };
+    let (f, a) = (trial_lines(&frozen), trial_lines(&adaptive));
+    assert_eq!(
+        without_wall(stage(&f, "train@0.3")),
+        without_wall(stage(&a, "train@0.3")),
+        "the deployment changed the search"
+    );
+    let credited = |lines: &[Value]| {
+        stage(lines, "evaluate@0.3")
+            .iter()
+            .filter(|v| !v["credit"]["scenario"].is_null())
+            .count()
+    };
+    assert_eq!(credited(&f), 0);
+    assert_eq!(credited(&a), 30);
+    let phis = |lines: &[Value]| -> Vec<Value> {
+        stage(lines, "screen@0.3")
+            .iter()
+            .map(|v| v["phi"].clone())
+            .collect()
+    };
+    assert_ne!(phis(&f), phis(&a));
+    // Cut inside the screening stage and resume: the same lines.
+    let text = std::fs::read_to_string(adaptive.join("trials.jsonl")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let cut = lines.len() - 60;
+    std::fs::write(
+        adaptive.join("trials.jsonl"),
+        lines[..cut].join("\n") + "\n",
+    )
+    .unwrap();
+    let (ok, _, err) = resume(&adaptive);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trial_lines(&adaptive)), without_wall(a));
+    // Exploiting needs the elite search.
+    let bad = temp_dir("exploit-bins");
+    let out = bad.display().to_string();
+    let (ok, _, err) = savme(&[
+        "reproduce",
+        "--out",
+        &out,
+        "--quiet",
+        "--deployment",
+        "exploit",
+    ]);
+    assert!(
+        !ok && err.contains("`deployment`") && err.contains("search = elite"),
+        "{err}"
+    );
+    assert!(!bad.exists());
+    for d in [frozen, adaptive] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// `--screen-lf where-it-pays`: where the deployed proposal fails so often that an LF run
+/// saves less than it costs, trials run HF directly (a `direct` line without an LF run); the
+/// decisions replay exactly on resume, an edited decision is refused naming the field, and the
+/// value is refused without a screening stage.
+#[test]
+fn screening_runs_hf_directly_where_the_lf_run_does_not_pay_and_resumes() {
+    let dir = temp_dir("direct");
+    let out = dir.display().to_string();
+    let mut a = vec!["reproduce", "--out", &out, "--jobs", "2"];
+    a.extend(ARGS);
+    a.extend(["--search", "elite", "--deployment", "exploit"]);
+    a.extend(["--screen-lf", "where-it-pays"]);
+    let (ok, _, err) = savme(&a);
+    assert!(ok, "{err}");
+    let all = trial_lines(&dir);
+    let screen: Vec<&Value> = all.iter().filter(|v| v["stage"] == "screen@0.3").collect();
+    assert_eq!(screen.len(), 150);
+    let direct: Vec<&&Value> = screen.iter().filter(|v| v["screen"] == "direct").collect();
+    assert!(
+        !direct.is_empty() && direct.len() < 150,
+        "{} direct",
+        direct.len()
+    );
+    for v in &direct {
+        assert!(v.get("lf").is_none() && v["hf"].is_object(), "{v}");
+    }
+    // Each scenario screens its first trials (the warm-up measures the LF run).
+    let first = |name: &Value| screen.iter().position(|v| v["scenario"] == *name).unwrap();
+    for v in &direct {
+        assert!(screen.iter().position(|w| *w == **v).unwrap() > first(&v["scenario"]) + 9);
+    }
+    // The report counts the direct trials' failures with the confirmed ones (and the audit's
+    // misses apart).
+    let found = screen.iter().filter(|v| v["hf"]["failure"] == true).count();
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    let text = report.to_string();
+    assert!(text.contains("\"direct_found\""), "{text}");
+    let counts = &report["report"]["budgets"][0]["screening"]["counts"];
+    let reported = ["confirmed", "direct_found", "margin_found", "audit_misses"]
+        .iter()
+        .map(|k| counts[k].as_u64().unwrap())
+        .sum::<u64>();
+    assert_eq!(reported as usize, found);
+    // Cut inside the screening stage and resume: the same decisions and lines.
+    let text = std::fs::read_to_string(dir.join("trials.jsonl")).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(
+        dir.join("trials.jsonl"),
+        lines[..lines.len() - 50].join("\n") + "\n",
+    )
+    .unwrap();
+    let (ok, _, err) = resume(&dir);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trial_lines(&dir)), without_wall(all.clone()));
+    // A direct line edited into a screened confirmation is refused, naming its line and field.
+    let k = lines
+        .iter()
+        .position(|l| l.contains(r#""screen":"direct""#))
+        .unwrap();
+    let mut bad: Vec<String> = lines.iter().map(|s| s.to_string()).collect();
+    bad[k] = bad[k].replace(r#""screen":"direct""#, r#""screen":"confirm""#);
+    std::fs::write(dir.join("trials.jsonl"), bad.join("\n") + "\n").unwrap();
+    let (ok, _, err) = resume(&dir);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("line {}", k + 1)) && err.contains("field `screen`"),
+        "{err}"
+    );
+    // Without a screening stage the value would do nothing.
+    let none = temp_dir("direct-none");
+    let out = none.display().to_string();
+    let (ok, _, err) = savme(&[
+        "reproduce",
+        "--out",
+        &out,
+        "--quiet",
+        "--screen-lf",
+        "where-it-pays",
+    ]);
+    assert!(
+        !ok && err.contains("`screen_lf`") && err.contains("screen_iterations"),
+        "{err}"
+    );
+    assert!(!none.exists());
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -153,7 +153,7 @@ def read_seed(trials: Path, method: str, seed: int, budget: float) -> SavmeSeed:
         elif t["stage"] == screen:
             if t.get("hf"):
                 s.deployed_hf.append(Hit(sc, _phi(t["phi"]), bool(t["hf"]["failure"])))
-            _add(s.deployed_work, sc, _work(t.get("hf")) + _work(t["lf"]))
+            _add(s.deployed_work, sc, _work(t.get("hf")) + _work(t.get("lf")))
             _add(s.deployed_trials, sc, 1)
     if not s.search_hf:
         raise ValueError(f"{trials}: no `{train}` trials")

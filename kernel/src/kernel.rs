@@ -1,5 +1,6 @@
 //! The ask/tell kernel: suggests trials, ingests their outcomes, learns p_ψ(φ | s) and p_ω(θ_LF).
 
+use crate::deployment::Deployment;
 use crate::outcome::{Credit, Observation, Outcome};
 use crate::pairing::{Pairing, PairingError};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
@@ -148,6 +149,10 @@ pub struct KernelConfig {
     /// Which learning trials also run LF (default: every one, the paper's; then left out).
     #[serde(default, skip_serializing_if = "Pairing::is_default")]
     pub pairing: Pairing,
+    /// What the evaluate phase (evaluation, LF screening) learns and how it draws φ (default:
+    /// frozen, the paper's; then left out).
+    #[serde(default, skip_serializing_if = "Deployment::is_frozen")]
+    pub deployment: Deployment,
 }
 
 /// Why a kernel cannot be built or restored.
@@ -240,13 +245,19 @@ pub enum TellError {
     },
     /// An LF-only (screened, unconfirmed) tell for a trial that learns or runs HF only.
     #[error(
-        "trial {id} is a {phase} trial: only evaluation trials take an LF run alone (screening)"
+        "trial {id} is a {phase} trial: only evaluation trials can be screened (told with an LF run alone, or an HF run alone)"
     )]
     NotScreened {
         /// The trial.
         id: u64,
         /// Its phase.
         phase: Phase,
+    },
+    /// A screened trial told with neither an LF nor an HF run.
+    #[error("trial {id}: a screened trial needs its LF run, its HF run, or both")]
+    NoRun {
+        /// The trial.
+        id: u64,
     },
     /// A robustness value that is NaN or infinite.
     #[error("trial {id}: {simulator} robustness must be a finite number, got {robustness}")]
@@ -336,6 +347,7 @@ impl Kernel {
                 fidelity_prior: None,
                 search: SearchModel::IndependentBins,
                 pairing: Pairing::default(),
+                deployment: Deployment::FROZEN,
             },
         }
     }
@@ -522,7 +534,8 @@ impl Kernel {
                 SearchModel::EliteMixture(m),
                 Some(archive),
             ) => {
-                return archive.propose(m, &st.scenarios[s], space, rng, arms);
+                let exploit = phase == Phase::Evaluate && st.config.deployment.exploit;
+                return archive.propose(m, exploit, &st.scenarios[s], space, rng, arms);
             }
             _ => st.scenarios[s].thompson(rng, arms),
         }

@@ -39,6 +39,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod deployment;
 pub mod estimation;
 pub mod journal;
 mod kernel;
@@ -53,6 +54,7 @@ mod simulator;
 mod space;
 mod value;
 
+pub use deployment::Deployment;
 pub use kernel::{
     ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase,
     RestoreError, Scenario, Snapshot, TellError, Trial, TrialRecord,

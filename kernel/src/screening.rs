@@ -14,11 +14,12 @@
 //! let mut counts = ScreeningCounts::default();
 //! for index in 0..1000u64 {
 //!     let lf = Run::new(index % 10 == 0, 0.2);
-//!     let hf = match decide(lf.failure, audited(7, index, 0.1)) {
-//!         Screen::Confirm | Screen::Audit => Some(Run::new(index % 20 == 0, 1.0)),
+//!     let screen = decide(lf.failure, audited(7, index, 0.1));
+//!     let hf = match screen {
 //!         Screen::Pass => None,
+//!         _ => Some(Run::new(index % 20 == 0, 1.0)),
 //!     };
-//!     counts.add(&lf, hf.as_ref(), audited(7, index, 0.1));
+//!     counts.add(Some(&lf), hf.as_ref(), screen);
 //! }
 //! assert_eq!((counts.lf_failures, counts.confirmed), (100, 50));
 //! assert!(counts.audited > 60 && counts.audited < 120); // ≈ 0.1 · 900 passes
@@ -34,18 +35,204 @@ use serde::{Deserialize, Serialize};
 pub enum Screen {
     /// The LF run failed: confirm it on HF.
     Confirm,
+    /// The LF run passed within the [`Rule::margin`]: check it on HF.
+    Margin,
+    /// No LF run: screening does not pay here ([`Economy::screen_pays`]), so HF ran directly.
+    Direct,
     /// The LF run passed and the trial was drawn for the audit: run HF to look for a miss.
     Audit,
     /// The LF run passed, not audited: no HF run.
     Pass,
 }
 
-/// The decision for an LF result (`audited`: the trial was drawn for the audit).
+/// The decision for an LF result under the paper's rule (`audited`: the trial was drawn for
+/// the audit): [`Rule::PAPER`]`.decide`.
 pub fn decide(lf_failure: bool, audited: bool) -> Screen {
     match (lf_failure, audited) {
         (true, _) => Screen::Confirm,
         (false, true) => Screen::Audit,
         (false, false) => Screen::Pass,
+    }
+}
+
+/// Which LF results call for an HF run: the LF failures (the paper's), and with a margin also
+/// the LF passes whose robustness is at most the margin — near-misses of the LF simulator,
+/// where the HF simulator may fail (an LF simulator misses some HF failures: it is cheaper
+/// because it is less exact).
+///
+/// ```
+/// use savme_kernel::screening::{Rule, Screen};
+/// use savme_kernel::Run;
+/// let near = Run::new(false, 1.0).with_robustness(0.4);
+/// assert_eq!(Rule::PAPER.decide(&near, false), Screen::Pass);
+/// assert_eq!(Rule { margin: Some(0.5) }.decide(&near, false), Screen::Margin);
+/// assert_eq!(Rule { margin: Some(0.3) }.decide(&near, true), Screen::Audit);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rule {
+    /// LF passes with a robustness at most this are checked on HF (None: none, the paper's;
+    /// a pass without a robustness never is).
+    pub margin: Option<f64>,
+}
+
+impl Rule {
+    /// The paper's: only LF failures are confirmed on HF.
+    pub const PAPER: Rule = Rule { margin: None };
+
+    /// The decision for an LF result (`audited`: the trial was drawn for the audit).
+    pub fn decide(&self, lf: &Run, audited: bool) -> Screen {
+        let near = !lf.failure && self.margin.zip(lf.robustness).is_some_and(|(m, r)| r <= m);
+        match (lf.failure, near, audited) {
+            (true, _, _) => Screen::Confirm,
+            (false, true, _) => Screen::Margin,
+            (false, false, true) => Screen::Audit,
+            (false, false, false) => Screen::Pass,
+        }
+    }
+
+    /// The rule that would have found the most HF-confirmed failures per unit of cost on
+    /// paired results `(lf, hf)` of the LF fidelity to be deployed (e.g. the search's trials
+    /// at θ_LF*): the paper's, or a margin at one of the LF passes' robustness values. The
+    /// paper's rule is kept unless a margin finds at least two more failures *and* at least
+    /// 2 % more failures per cost, or with fewer than `min_samples` results.
+    ///
+    /// ```
+    /// use savme_kernel::screening::Rule;
+    /// use savme_kernel::Run;
+    /// // The LF simulator misses HF failures that come within 0.5 m; checking them pays.
+    /// let pairs: Vec<(Run, Run)> = (0..40)
+    ///     .map(|i| {
+    ///         let r = f64::from(i % 10) * 0.25;
+    ///         let lf = Run::new(i % 10 == 0, 1.0).with_robustness(r);
+    ///         (lf, Run::new(r <= 0.5, if r <= 0.5 { 5.0 } else { 10.0 }))
+    ///     })
+    ///     .collect();
+    /// assert_eq!(Rule::fit(&pairs, 20).margin, Some(0.5));
+    /// assert_eq!(Rule::fit(&pairs[..10], 20), Rule::PAPER);
+    /// ```
+    pub fn fit(pairs: &[(Run, Run)], min_samples: usize) -> Rule {
+        if pairs.len() < min_samples.max(1) {
+            return Rule::PAPER;
+        }
+        let lf_cost: f64 = pairs.iter().map(|(lf, _)| lf.runtime).sum();
+        let value = |rule: &Rule| {
+            let (mut found, mut cost) = (0u64, lf_cost);
+            for (lf, hf) in pairs {
+                if rule.decide(lf, false) != Screen::Pass {
+                    cost += hf.runtime;
+                    found += u64::from(hf.failure);
+                }
+            }
+            (found, found as f64 / cost)
+        };
+        let (paper_found, paper_rate) = value(&Rule::PAPER);
+        let mut margins: Vec<f64> = pairs
+            .iter()
+            .filter(|(lf, _)| !lf.failure)
+            .filter_map(|(lf, _)| lf.robustness)
+            .collect();
+        margins.sort_by(f64::total_cmp);
+        margins.dedup();
+        let mut best = (Rule::PAPER, paper_rate);
+        for m in margins {
+            let rule = Rule { margin: Some(m) };
+            let (found, rate) = value(&rule);
+            if found >= paper_found + 2 && rate >= paper_rate * 1.02 && rate > best.1 {
+                best = (rule, rate);
+            }
+        }
+        best.0
+    }
+}
+
+/// Whether LF screening pays in one scenario, from what its runs cost and how often they
+/// fail. A screened trial pays an LF run to save the HF run of a pass; when nearly every trial
+/// fails (a deployed proposal that has concentrated on a failure region) the LF run saves
+/// nothing and HF alone finds the same failures for less. Screening pays while
+/// `c_LF < (1 − p) · c_HF,pass`: the mean LF cost against the HF pass cost it is expected to
+/// save, with `p` the share of failures (LF failures of screened trials, HF failures of direct
+/// ones, under a uniform prior). The LF verdict is taken as exact (at θ_LF* it is the search's
+/// best agreement with HF; the audit measures its misses).
+///
+/// ```
+/// use savme_kernel::screening::Economy;
+/// use savme_kernel::Run;
+/// let mut e = Economy::default();
+/// e.saw_hf(&Run::new(false, 10.0)); // the search's HF passes cost 10
+/// assert!(e.screen_pays(), "it screens until it has measured the LF runs");
+/// for _ in 0..Economy::WARMUP {
+///     e.add_screened(&Run::new(true, 3.0), None); // every LF run fails, at 3 each
+/// }
+/// assert!(!e.screen_pays(), "3 > (1 − p) · 10 once p > 0.7");
+/// for _ in 0..20 {
+///     e.add_direct(&Run::new(false, 10.0)); // the failures stop
+/// }
+/// assert!(e.screen_pays());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Economy {
+    /// Screened trials (an LF run each).
+    pub screened: u64,
+    /// Their LF failures.
+    pub lf_failures: u64,
+    /// Trials run on HF directly.
+    pub direct: u64,
+    /// Their HF failures.
+    pub direct_failures: u64,
+    /// Summed cost of the LF runs.
+    pub lf_cost: f64,
+    /// HF passes seen (the search's and the screening's).
+    pub hf_passes: u64,
+    /// Their summed cost.
+    pub hf_pass_cost: f64,
+}
+
+impl Economy {
+    /// Screened trials before the LF cost counts as measured: until then every trial is
+    /// screened.
+    pub const WARMUP: u64 = 10;
+
+    /// Counts an HF run's cost if it passed.
+    pub fn saw_hf(&mut self, hf: &Run) {
+        if !hf.failure {
+            self.hf_passes += 1;
+            self.hf_pass_cost += hf.runtime;
+        }
+    }
+
+    /// Adds a screened trial: its LF run and the HF run if one was made.
+    pub fn add_screened(&mut self, lf: &Run, hf: Option<&Run>) {
+        self.screened += 1;
+        self.lf_failures += u64::from(lf.failure);
+        self.lf_cost += lf.runtime;
+        if let Some(hf) = hf {
+            self.saw_hf(hf);
+        }
+    }
+
+    /// Adds a direct trial (HF only).
+    pub fn add_direct(&mut self, hf: &Run) {
+        self.direct += 1;
+        self.direct_failures += u64::from(hf.failure);
+        self.saw_hf(hf);
+    }
+
+    /// The estimated share of failures among the next trials.
+    pub fn failure_share(&self) -> f64 {
+        let failures = self.lf_failures + self.direct_failures;
+        (failures as f64 + 1.0) / ((self.screened + self.direct) as f64 + 2.0)
+    }
+
+    /// Whether the next trial should run LF first: during the warm-up, without a known HF
+    /// pass cost, or while `c_LF < (1 − p) · c_HF,pass`.
+    pub fn screen_pays(&self) -> bool {
+        if self.screened < Self::WARMUP || self.hf_passes == 0 {
+            return true;
+        }
+        let lf = self.lf_cost / self.screened as f64;
+        let pass = self.hf_pass_cost / self.hf_passes as f64;
+        lf < (1.0 - self.failure_share()) * pass
     }
 }
 
@@ -76,6 +263,18 @@ pub struct ScreeningCounts {
     pub audited: u64,
     /// Audited LF passes whose HF run failed: failures the LF simulator missed.
     pub audit_misses: u64,
+    /// LF passes within the [`Rule::margin`], checked on HF.
+    #[serde(default)]
+    pub margin_checks: u64,
+    /// Of those, the HF failures: failures the margin found that the LF verdict missed.
+    #[serde(default)]
+    pub margin_found: u64,
+    /// Trials run on HF directly, without an LF run ([`Screen::Direct`]).
+    #[serde(default)]
+    pub direct: u64,
+    /// Of those, the HF failures.
+    #[serde(default)]
+    pub direct_found: u64,
     /// Cost of the LF runs.
     pub lf_runtime: f64,
     /// Cost of the HF runs (confirmations and audits).
@@ -83,25 +282,34 @@ pub struct ScreeningCounts {
 }
 
 impl ScreeningCounts {
-    /// Adds a trial: its LF run, its HF run if one was made, and whether it was audited.
-    pub fn add(&mut self, lf: &Run, hf: Option<&Run>, audited: bool) {
+    /// Adds a trial: its LF run (None for a direct trial), its HF run if one was made, and the
+    /// screen's decision.
+    pub fn add(&mut self, lf: Option<&Run>, hf: Option<&Run>, screen: Screen) {
         self.trials += 1;
-        self.lf_runtime += lf.runtime;
+        self.lf_runtime += lf.map_or(0.0, |l| l.runtime);
         if let Some(hf) = hf {
             self.hf_runtime += hf.runtime;
         }
         let hf_failed = hf.is_some_and(|h| h.failure);
-        match decide(lf.failure, audited) {
+        match screen {
             Screen::Confirm => {
                 self.lf_failures += 1;
                 self.confirmed += u64::from(hf_failed);
                 self.false_positives += u64::from(!hf_failed);
             }
+            Screen::Margin if hf.is_some() => {
+                self.margin_checks += 1;
+                self.margin_found += u64::from(hf_failed);
+            }
             Screen::Audit if hf.is_some() => {
                 self.audited += 1;
                 self.audit_misses += u64::from(hf_failed);
             }
-            Screen::Audit | Screen::Pass => {}
+            Screen::Direct => {
+                self.direct += 1;
+                self.direct_found += u64::from(hf_failed);
+            }
+            Screen::Margin | Screen::Audit | Screen::Pass => {}
         }
     }
 
@@ -110,10 +318,17 @@ impl ScreeningCounts {
         self.lf_runtime + self.hf_runtime
     }
 
-    /// Confirmed failures per unit of total cost (None before any cost).
+    /// HF-confirmed failures: LF failures confirmed, and near-misses within the margin that
+    /// failed on HF.
+    pub fn found(&self) -> u64 {
+        self.confirmed + self.margin_found + self.direct_found
+    }
+
+    /// HF-confirmed failures ([`ScreeningCounts::found`]) per unit of total cost (None before
+    /// any cost).
     pub fn confirmed_per_runtime(&self) -> Option<f64> {
         let r = self.runtime();
-        (r > 0.0).then(|| self.confirmed as f64 / r)
+        (r > 0.0).then(|| self.found() as f64 / r)
     }
 
     /// The miss (FN) rate among LF passes, from the audit (None without audited trials).
@@ -121,9 +336,9 @@ impl ScreeningCounts {
         (self.audited > 0).then(|| self.audit_misses as f64 / self.audited as f64)
     }
 
-    /// LF passes: trials the LF simulator called safe.
+    /// LF passes not checked within the margin: trials the screen called safe.
     pub fn passes(&self) -> u64 {
-        self.trials - self.lf_failures
+        self.trials - self.lf_failures - self.margin_checks - self.direct
     }
 
     /// Estimated failures among all LF passes (miss rate × passes).
@@ -152,16 +367,88 @@ mod tests {
     #[test]
     fn counts_split_confirmations_false_positives_and_misses() {
         let mut c = ScreeningCounts::default();
-        c.add(&Run::new(true, 1.0), Some(&Run::new(true, 4.0)), false);
-        c.add(&Run::new(true, 1.0), Some(&Run::new(false, 4.0)), true);
-        c.add(&Run::new(false, 1.0), Some(&Run::new(true, 4.0)), true);
-        c.add(&Run::new(false, 1.0), Some(&Run::new(false, 4.0)), true);
-        c.add(&Run::new(false, 1.0), None, false);
+        let add = |c: &mut ScreeningCounts, lf: Run, hf: Option<Run>, audit| {
+            c.add(Some(&lf), hf.as_ref(), Rule::PAPER.decide(&lf, audit));
+        };
+        add(
+            &mut c,
+            Run::new(true, 1.0),
+            Some(Run::new(true, 4.0)),
+            false,
+        );
+        add(
+            &mut c,
+            Run::new(true, 1.0),
+            Some(Run::new(false, 4.0)),
+            true,
+        );
+        add(
+            &mut c,
+            Run::new(false, 1.0),
+            Some(Run::new(true, 4.0)),
+            true,
+        );
+        add(
+            &mut c,
+            Run::new(false, 1.0),
+            Some(Run::new(false, 4.0)),
+            true,
+        );
+        add(&mut c, Run::new(false, 1.0), None, false);
         assert_eq!((c.trials, c.lf_failures, c.confirmed), (5, 2, 1));
         assert_eq!((c.false_positives, c.audited, c.audit_misses), (1, 2, 1));
         assert_eq!(c.runtime(), 5.0 + 16.0);
         assert_eq!(c.miss_rate(), Some(0.5));
         assert_eq!(c.estimated_misses(), Some(1.5));
         assert_eq!(c.confirmed_per_runtime(), Some(1.0 / 21.0));
+    }
+
+    #[test]
+    fn margin_checks_count_as_found_failures_and_not_as_passes() {
+        let rule = Rule { margin: Some(0.5) };
+        let mut c = ScreeningCounts::default();
+        for (lf, hf) in [
+            (
+                Run::new(false, 1.0).with_robustness(0.2),
+                Some(Run::new(true, 4.0)),
+            ),
+            (
+                Run::new(false, 1.0).with_robustness(0.4),
+                Some(Run::new(false, 4.0)),
+            ),
+            (Run::new(false, 1.0).with_robustness(3.0), None),
+            (
+                Run::new(true, 1.0).with_robustness(-1.0),
+                Some(Run::new(true, 4.0)),
+            ),
+        ] {
+            c.add(Some(&lf), hf.as_ref(), rule.decide(&lf, false));
+        }
+        assert_eq!((c.lf_failures, c.confirmed), (1, 1));
+        assert_eq!((c.margin_checks, c.margin_found, c.found()), (2, 1, 2));
+        assert_eq!(c.passes(), 1);
+        assert_eq!(c.confirmed_per_runtime(), Some(2.0 / 16.0));
+    }
+
+    #[test]
+    fn a_fitted_rule_keeps_the_papers_unless_a_margin_clearly_pays() {
+        // An LF simulator that misses nothing: no margin pays.
+        let exact: Vec<(Run, Run)> = (0..50)
+            .map(|i| {
+                let fail = i % 5 == 0;
+                let r = if fail { -1.0 } else { f64::from(i % 7) * 0.1 };
+                (Run::new(fail, 1.0).with_robustness(r), Run::new(fail, 4.0))
+            })
+            .collect();
+        assert_eq!(Rule::fit(&exact, 20), Rule::PAPER);
+        // Passes without a robustness give no margin to choose.
+        let bare: Vec<(Run, Run)> = (0..50)
+            .map(|i| (Run::new(false, 1.0), Run::new(i % 2 == 0, 4.0)))
+            .collect();
+        assert_eq!(Rule::fit(&bare, 20), Rule::PAPER);
+        // One miss is not enough evidence.
+        let mut one = exact.clone();
+        one[1].1 = Run::new(true, 4.0);
+        assert_eq!(Rule::fit(&one, 20), Rule::PAPER);
     }
 }

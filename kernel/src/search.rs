@@ -235,16 +235,25 @@ impl Archive {
         Ok(())
     }
 
-    /// Draws φ (and pushes its arms onto `arms`).
+    /// Draws φ (and pushes its arms onto `arms`); `exploit` draws for failures rather than
+    /// for new cells ([`crate::Deployment::exploit`]): no exploration, no novelty weighting,
+    /// candidates ranked by failure odds alone.
     pub(crate) fn propose<R: Rng + ?Sized>(
         &self,
         m: &EliteMixture,
+        exploit: bool,
         bins: &Posterior,
         space: &Space,
         rng: &mut R,
         arms: &mut Vec<u16>,
     ) -> Assignment {
         let explore: f64 = rng.random();
+        let exploiting = EliteMixture {
+            explore: 0.0,
+            spread: 0.0,
+            ..*m
+        };
+        let m = if exploit { &exploiting } else { m };
         let tried = self.tried_cells();
         let failures = self.points.iter().filter(|p| p.failure).count();
         let threshold = if failures < m.near_miss_until as usize {
@@ -281,7 +290,11 @@ impl Archive {
             let mut cell = Vec::with_capacity(u.len());
             let phi = space.at_unit(&u, &mut cell);
             let score = if m.tries > 1 {
-                let visits = tried.get(&*cell).map_or(0, |c| c.0);
+                let visits = if exploit {
+                    0
+                } else {
+                    tried.get(&*cell).map_or(0, |c| c.0)
+                };
                 self.failure_odds(&u, m, &weights) / (1.0 + f64::from(visits))
             } else {
                 0.0

@@ -228,6 +228,7 @@ class Kernel:
         search: Union[Literal["bins", "elite"], Mapping[str, float], None] = None,
         pair_fraction: float = 1.0,
         pair_settle: int = 30,
+        deployment: Literal["frozen", "exploit", "learn", "adaptive"] = "frozen",
     ) -> Kernel:
         """Builds a kernel in the "train" phase.
 
@@ -244,7 +245,11 @@ class Kernel:
         a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at defaults);
         pair_fraction, pair_settle: once the greedy arm of every fidelity variable holds
         pair_settle observations, only this share of the learning trials is paired; the others
-        have no theta_lf (`trial.paired` is False) and are told with the HF run alone.
+        have no theta_lf (`trial.paired` is False) and are told with the HF run alone;
+        deployment: what the "evaluate" phase (evaluation, LF screening) does with what the
+        search learned — "frozen" (default, the paper's), "exploit" (the elite proposal draws
+        for failures, not for new cells), "learn" (its results keep teaching the φ search) or
+        "adaptive" (both).
 
         Raises ValueError naming the variable or scenario at fault, JournalError for a journal
         that cannot be used."""
@@ -441,6 +446,8 @@ class Protocol:
         elite: Optional[Mapping[str, float]] = None,
         pair_fraction: Optional[float] = None,
         pair_settle: Optional[int] = None,
+        deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
+        screen_lf: Optional[Literal["always", "where-it-pays"]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:

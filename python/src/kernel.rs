@@ -17,8 +17,8 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use savme::campaign::store::{journal, JsonlStore};
 use savme::serve::Session;
 use savme_kernel::{
-    EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Pairing, Phase,
-    PriorCounts, Run, Scenario, SearchModel, Space, TrialRecord,
+    Deployment, EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Pairing,
+    Phase, PriorCounts, Run, Scenario, SearchModel, Space, TrialRecord,
 };
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -97,6 +97,25 @@ fn scenarios(arg: &Bound<'_, PyAny>) -> PyResult<Vec<Scenario>> {
 
 /// `search=`: "bins" (the paper's), "elite", or a dict of [`EliteMixture`] parameters (the
 /// elite mixture with those, the others at their defaults).
+/// The `deployment` keyword: "frozen" (the paper's), "exploit", "learn" or "adaptive".
+fn deployment(name: &str) -> PyResult<Deployment> {
+    match name {
+        "frozen" => Ok(Deployment::FROZEN),
+        "exploit" => Ok(Deployment {
+            learn: false,
+            exploit: true,
+        }),
+        "learn" => Ok(Deployment {
+            learn: true,
+            exploit: false,
+        }),
+        "adaptive" => Ok(Deployment::ADAPTIVE),
+        other => Err(PyValueError::new_err(format!(
+            "deployment = {other:?}: give \"frozen\", \"exploit\", \"learn\" or \"adaptive\""
+        ))),
+    }
+}
+
 fn search_model(arg: Option<&Bound<'_, PyAny>>) -> PyResult<SearchModel> {
     let Some(arg) = arg else {
         return Ok(SearchModel::IndependentBins);
@@ -258,7 +277,7 @@ impl PyKernel {
     #[new]
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
-        pair_fraction = 1.0, pair_settle = 30))]
+        pair_fraction = 1.0, pair_settle = 30, deployment = "frozen"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -275,6 +294,7 @@ impl PyKernel {
         search: Option<&Bound<'_, PyAny>>,
         pair_fraction: f64,
         pair_settle: u64,
+        deployment: &str,
     ) -> PyResult<Self> {
         let pairing = Pairing {
             fraction: pair_fraction,
@@ -310,6 +330,7 @@ impl PyKernel {
             }),
             search: search_model(search)?,
             pairing,
+            deployment: self::deployment(deployment)?,
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal)

@@ -572,3 +572,25 @@ def test_pairing_a_fraction_leaves_settled_learning_trials_hf_only():
     for bad in (0.0, 1.5, float("nan")):
         with pytest.raises(ValueError, match=r"pair_fraction = .* is outside \(0, 1\]"):
             kernel(pair_fraction=bad)
+
+
+def test_an_adaptive_deployment_keeps_teaching_the_search_in_the_evaluate_phase():
+    # deployment: what the evaluate phase (evaluation, screening) does with what the search
+    # learned. Frozen (the default, the paper's) credits nothing; adaptive credits the φ search
+    # with the HF run and never the fidelity bandit.
+    assert '"deployment"' not in kernel(search="elite").config_json()
+    for name, credited in (("frozen", False), ("adaptive", True)):
+        k = kernel(search="elite", deployment=name)
+        for _ in range(40):
+            t = k.ask()
+            hf, lf = runs(t)
+            k.tell(t, hf=hf, lf=lf)
+        k.set_phase("evaluate")
+        t = k.ask()
+        hf, lf = runs(t)
+        r = k.tell(t, hf=hf, lf=lf)
+        assert r.credit == {"fidelity": None, "scenario": hf[0] if credited else None}
+    assert json.loads(kernel(search="elite", deployment="exploit").config_json())[
+        "deployment"] == {"learn": False, "exploit": True}
+    with pytest.raises(ValueError, match='deployment = "greedy": give "frozen", "exploit"'):
+        kernel(deployment="greedy")

@@ -38,15 +38,18 @@ SAMPLES = {
               "archive": 4096},
     "pair_fraction": 0.25,
     "pair_settle": 12,
+    "deployment": "adaptive",
+    "screen_lf": "where-it-pays",
     "repeat": 2,
 }
 
 # Values that mean something only with another one (audit_fraction audits the screening, the
 # elite parameters the elite search, pair_settle a pairing of fewer than every trial).
 COMPANIONS = {"audit_fraction": {"screen_iterations": 7}, "elite": {"search": "elite"},
-              "pair_settle": {"pair_fraction": 0.5}}
+              "pair_settle": {"pair_fraction": 0.5}, "deployment": {"search": "elite"},
+              "screen_lf": {"screen_iterations": 7}}
 # Values that set another one: the elite search stores its default parameters.
-DERIVED = {"search": {"elite"}}
+DERIVED = {"search": {"elite"}, "deployment": {"elite"}}
 
 
 def toml_value(v):

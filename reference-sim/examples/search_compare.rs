@@ -7,23 +7,47 @@
 //! reports HF failures per 10⁹ work units and distinct failing joint cells (10 bins per
 //! variable, the φ-spaces' own bins), with a per-scenario breakdown.
 //!
-//! `cargo run --release -p savme-sim --example search_compare -- [budget_gwu] [seeds] [threads] [models] [train|test]`
+//! `cargo run --release -p savme-sim --example search_compare -- [budget_gwu] [seeds] [threads] [models] [train|test] [deploy_gwu] [deployments]`
 //!
 //! `budget_gwu` in 10⁹ work units (default 15, about the paper's 500 iterations), `seeds` a
 //! count (default 3, seeds 1..=n), `threads` (default 2), `models` a comma list of
 //! `bins` and `elite[+key=value…][+binary]` (default `bins,elite`; `+binary` tells no
 //! robustness, so the elites are failures only); `test` searches the meta-testing scenarios
 //! (9–10) instead of the eight meta-training ones.
-use savme_kernel::{EliteMixture, Kernel, Observation, Pairing, Run, SearchModel, Trial};
+//!
+//! With `deploy_gwu` > 0 every search is then deployed as LF screening with HF confirmation
+//! (the campaign's `screen@B` stage: φ from the learned proposal, an LF run at θ_LF*, HF runs
+//! as the screen decides, both charged) for that many 10⁹ wu, once per deployment in
+//! `deployments` (a comma list, default `paper,margin,adaptive,adaptive+margin`), each from a
+//! copy of the same searched kernel: `paper` (frozen proposal, only LF failures confirmed),
+//! `learn`, `exploit`, `adaptive` (both; [`savme_kernel::Deployment`]) and `+margin` (LF
+//! near-misses also checked on HF, the margin fitted per scenario on the search's trials at
+//! θ_LF*: [`savme_kernel::screening::Rule::fit`]). It reports HF-confirmed failures per 10⁹ wu.
+use savme_kernel::screening::{Economy, Rule, Screen};
+use savme_kernel::{
+    Deployment, EliteMixture, Estimator, Kernel, Observation, Pairing, Phase, Run, SearchModel,
+    Trial,
+};
 use savme_sim::fidelity;
 use savme_sim::scenario::{phi_space, SCENARIOS};
 use savme_sim::sim::DrivingSimulator;
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, Mutex};
 
-/// What one search found.
+/// A search trial's LF and HF runs, for fitting the screen's margin.
+struct Pair {
+    scenario: usize,
+    /// θ_LF's arms (its bins).
+    theta_lf: Vec<usize>,
+    lf: Run,
+    hf: Run,
+}
+
+/// What one search found, and what its deployments found.
 #[derive(Debug, Default, Clone)]
 struct Tally {
+    /// Per deployment: HF-confirmed failures, cost, distinct failing cells.
+    deployed: BTreeMap<String, (u64, u64, usize)>,
     trials: u64,
     /// Trials with an LF run.
     paired: u64,
@@ -86,19 +110,175 @@ fn model(spec: &str) -> Result<Spec, String> {
     })
 }
 
+/// The kernel run's result as told: its runtime in work units, and the robustness ρ (the run's
+/// minimum distance, −1 on a collision) unless `robust` is false.
+fn told(r: &savme_sim::sim::RunResult, robust: bool) -> Run {
+    let run = Run::new(r.failure, r.work.max(1) as f64);
+    let rho = if r.failure { -1.0 } else { r.min_distance };
+    if robust {
+        run.with_robustness(rho)
+    } else {
+        run
+    }
+}
+
+/// A deployment by name (`paper`, `learn`, `exploit`, `adaptive`, each optionally
+/// `+margin`; `margin` alone is `paper+margin`): the kernel's and whether the screen fits a
+/// margin.
+fn deployment(name: &str) -> Result<(Deployment, bool), String> {
+    let name = name.strip_suffix("+direct").unwrap_or(name);
+    let (base, margin) = match name.strip_suffix("+margin") {
+        Some(b) => (b, true),
+        None if name == "margin" => ("paper", true),
+        None => (name, false),
+    };
+    let d = match base {
+        "paper" => Deployment::FROZEN,
+        "learn" => Deployment {
+            learn: true,
+            exploit: false,
+        },
+        "exploit" => Deployment {
+            learn: false,
+            exploit: true,
+        },
+        "adaptive" => Deployment::ADAPTIVE,
+        other => {
+            return Err(format!(
+                "deployment `{other}`: use paper, learn, exploit or adaptive"
+            ))
+        }
+    };
+    Ok((d, margin))
+}
+
+/// Deploys the searched kernel `k` (built with its deployment) as LF screening for `budget`
+/// wu; `margin` fits a margin per scenario on the search's trials at θ_LF*.
+fn deploy(
+    mut k: Kernel,
+    pairs: &[Pair],
+    (margin, direct): (bool, bool),
+    budget: u64,
+    robust: bool,
+) -> Result<(u64, u64, usize), Box<dyn std::error::Error>> {
+    // `+direct`: HF alone where screening does not pay (the campaign's `--screen-lf
+    // where-it-pays`), the HF pass costs seeded from the search's paired trials.
+    let mut economy = vec![Economy::default(); k.config().scenarios.len()];
+    for p in pairs {
+        economy[p.scenario].saw_hf(&p.hf);
+    }
+    k.set_phase(Phase::Evaluate);
+    let theta = k
+        .config()
+        .fidelity
+        .arms_of(&k.fidelity_estimate(Estimator::Map))?;
+    let rules: Vec<Rule> = (0..k.config().scenarios.len())
+        .map(|s| {
+            let at: Vec<(Run, Run)> = pairs
+                .iter()
+                .filter(|p| p.scenario == s && p.theta_lf == theta)
+                .map(|p| (p.lf, p.hf))
+                .collect();
+            if !margin {
+                return Rule::PAPER;
+            }
+            let rule = Rule::fit(&at, 20);
+            let missed = at.iter().filter(|(lf, hf)| hf.failure && !lf.failure).count();
+            let all = pairs.iter().filter(|p| p.scenario == s).count();
+            eprintln!(
+                "scenario {s}: {} of {all} search trials at θ_LF*, {missed} HF failures the LF run passed; margin {:?}",
+                at.len(),
+                rule.margin
+            );
+            rule
+        })
+        .collect();
+    let sim = DrivingSimulator::default();
+    let (mut found, mut work, mut cells) = (0u64, 0u64, BTreeSet::new());
+    // What the same φ would have given on HF alone (exact only when the deployment does not
+    // learn: then φ does not depend on the outcomes), and the LF share of the cost.
+    let (mut trials, mut lf_work, mut missed, mut alone) = (0u64, 0u64, 0u64, (0u64, 0u64));
+    let counterfactual = std::env::var_os("SAVME_HF_DIRECT").is_some();
+    while work < budget {
+        let t = k.ask();
+        let theta_lf = t
+            .theta_lf
+            .as_ref()
+            .ok_or("an evaluate trial without θ_LF")?;
+        if direct && !economy[t.scenario_index].screen_pays() {
+            let hf = sim.run(&t.scenario, &t.phi, k.theta_hf(), false)?;
+            work += hf.work;
+            trials += 1;
+            let hf_run = told(&hf, robust);
+            economy[t.scenario_index].add_direct(&hf_run);
+            if hf.failure {
+                found += 1;
+                let space = &k.config().scenarios[t.scenario_index].space;
+                cells.insert((t.scenario_index, space.arms_of(&t.phi)?));
+            }
+            k.tell_direct(t.id, hf_run)?;
+            continue;
+        }
+        let lf = sim.run(&t.scenario, &t.phi, theta_lf, false)?;
+        work += lf.work;
+        lf_work += lf.work;
+        trials += 1;
+        if counterfactual {
+            let hf = sim.run(&t.scenario, &t.phi, k.theta_hf(), false)?;
+            alone.0 += u64::from(hf.failure);
+            alone.1 += hf.work;
+            missed += u64::from(hf.failure && !lf.failure);
+        }
+        let lf_run = told(&lf, robust);
+        if rules[t.scenario_index].decide(&lf_run, false) == Screen::Pass {
+            economy[t.scenario_index].add_screened(&lf_run, None);
+            k.tell_unconfirmed(t.id, lf_run)?;
+            continue;
+        }
+        let hf = sim.run(&t.scenario, &t.phi, k.theta_hf(), false)?;
+        work += hf.work;
+        if hf.failure {
+            found += 1;
+            let space = &k.config().scenarios[t.scenario_index].space;
+            cells.insert((t.scenario_index, space.arms_of(&t.phi)?));
+        }
+        economy[t.scenario_index].add_screened(&lf_run, Some(&told(&hf, robust)));
+        k.tell(
+            t.id,
+            Observation::Paired {
+                hf: told(&hf, robust),
+                lf: lf_run,
+            },
+        )?;
+    }
+    if counterfactual {
+        eprintln!(
+            "deployed: {trials} trials, {found} confirmed, LF {:.0} % of the cost, {missed} HF failures the LF run passed; HF alone on the same φ: {} failures, {:.1} per 10⁹ wu",
+            100.0 * lf_work as f64 / work as f64,
+            alone.0,
+            alone.0 as f64 / (alone.1 as f64 / 1e9)
+        );
+    }
+    Ok((found, work, cells.len()))
+}
+
 fn search(
     name: &str,
     seed: u64,
     budget: u64,
     train: bool,
+    deploy_as: Option<&str>,
+    deploy_budget: u64,
 ) -> Result<Tally, Box<dyn std::error::Error>> {
+    let (chosen, margin) = deployment(deploy_as.unwrap_or("paper"))?;
     let training: Vec<_> = SCENARIOS.iter().filter(|s| s.training() == train).collect();
     let spec = model(name)?;
     let mut b = Kernel::builder(fidelity::space(10), fidelity::theta_hf())
         .budget(0.3)
         .seed(seed)
         .search(spec.model)
-        .pairing(spec.pairing);
+        .pairing(spec.pairing)
+        .deployment(chosen);
     for info in &training {
         b = b.scenario(info.name, phi_space(info), 1.0);
     }
@@ -106,6 +286,7 @@ fn search(
     let sim = DrivingSimulator::default();
     let robust = !name.split('+').any(|p| p == "binary");
     let mut t = Tally::default();
+    let mut pairs = Vec::new();
     let mut window: std::collections::VecDeque<Trial> = (0..spec.window).map(|_| k.ask()).collect();
     while t.work < budget {
         let trial = window.pop_front().ok_or("empty window")?;
@@ -114,21 +295,21 @@ fn search(
             Some(theta) => Some(sim.run(&trial.scenario, &trial.phi, theta, false)?),
             None => None,
         };
-        let run = |r: &savme_sim::sim::RunResult| {
-            let run = Run::new(r.failure, r.work.max(1) as f64);
-            let rho = if r.failure { -1.0 } else { r.min_distance };
-            if robust {
-                run.with_robustness(rho)
-            } else {
-                run
+        let run = |r: &savme_sim::sim::RunResult| told(r, robust);
+        let observation = match (&lf, &trial.theta_lf) {
+            (Some(lf), Some(theta)) => {
+                pairs.push(Pair {
+                    scenario: trial.scenario_index,
+                    theta_lf: k.config().fidelity.arms_of(theta)?,
+                    lf: run(lf),
+                    hf: run(&hf),
+                });
+                Observation::Paired {
+                    hf: run(&hf),
+                    lf: run(lf),
+                }
             }
-        };
-        let observation = match &lf {
-            Some(lf) => Observation::Paired {
-                hf: run(&hf),
-                lf: run(lf),
-            },
-            None => Observation::HfOnly(run(&hf)),
+            _ => Observation::HfOnly(run(&hf)),
         };
         k.tell(trial.id, observation)?;
         window.push_back(k.ask());
@@ -144,6 +325,11 @@ fn search(
             t.cells
                 .insert((trial.scenario_index, space.arms_of(&trial.phi)?));
         }
+    }
+    if let Some(d) = deploy_as {
+        let direct = d.ends_with("+direct");
+        let found = deploy(k, &pairs, (margin, direct), deploy_budget, robust)?;
+        t.deployed.insert(d.to_string(), found);
     }
     Ok(t)
 }
@@ -176,10 +362,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some("test") => false,
         Some(other) => return Err(format!("scenarios `{other}`: use train or test").into()),
     };
+    let deploy_gwu: f64 = args.next().map_or(Ok(0.0), |a| a.parse())?;
+    let deployments: Vec<String> = args
+        .next()
+        .unwrap_or_else(|| "paper,margin,adaptive,adaptive+margin".into())
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    for d in &deployments {
+        deployment(d)?;
+    }
+    let deploy_budget = (deploy_gwu * 1e9) as u64;
     let budget = (budget_gwu * 1e9) as u64;
-    let jobs: Vec<(String, u64)> = models
+    // One job per model, seed and deployment: the deployment does not change the search, so
+    // every deployment of a seed deploys the same searched kernel (checked below).
+    let deploy_as: Vec<Option<String>> = if deploy_budget > 0 {
+        deployments.iter().cloned().map(Some).collect()
+    } else {
+        vec![None]
+    };
+    let jobs: Vec<(String, u64, Option<String>)> = models
         .iter()
         .flat_map(|m| (1..=seeds).map(move |s| (m.clone(), s)))
+        .flat_map(|(m, s)| deploy_as.iter().map(move |d| (m.clone(), s, d.clone())))
         .collect();
     let queue = Arc::new(Mutex::new(jobs));
     let results: Results = Arc::default();
@@ -188,8 +393,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let (queue, results) = (queue.clone(), results.clone());
             std::thread::spawn(move || loop {
                 let job = queue.lock().ok().and_then(|mut q| q.pop());
-                let Some((m, seed)) = job else { break };
-                match search(&m, seed, budget, train) {
+                let Some((m, seed, d)) = job else { break };
+                match search(&m, seed, budget, train, d.as_deref(), deploy_budget) {
                     Ok(t) => {
                         eprintln!(
                             "{m} seed {seed}: {} trials ({} paired), {} HF failures, {} cells",
@@ -199,7 +404,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                             t.cells.len()
                         );
                         if let Ok(mut r) = results.lock() {
-                            r.insert((m, seed), t);
+                            let same = r.entry((m.clone(), seed)).or_insert_with(|| t.clone());
+                            if (same.failures, same.work) != (t.failures, t.work) {
+                                eprintln!("{m} seed {seed}: the deployment changed the search");
+                            }
+                            same.deployed.extend(t.deployed);
                         }
                     }
                     Err(e) => eprintln!("{m} seed {seed}: {e}"),
@@ -212,7 +421,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let results = results.lock().map_err(|_| "poisoned")?.clone();
     report(&models, &results, budget_gwu, train);
+    if deploy_budget > 0 {
+        report_deployed(&models, &results, &deployments, deploy_gwu);
+    }
     Ok(())
+}
+
+fn report_deployed(
+    models: &[String],
+    results: &BTreeMap<(String, u64), Tally>,
+    deployments: &[String],
+    deploy_gwu: f64,
+) {
+    println!("\ndeployed: {deploy_gwu} × 10⁹ wu per seed after each search\n");
+    println!("| model | deployment | seeds | HF-confirmed failures per 10⁹ wu | distinct failing cells |");
+    println!("|---|---|---|---|---|");
+    for m in models {
+        for d in deployments {
+            let runs: Vec<(u64, u64, usize)> = results
+                .iter()
+                .filter(|((n, _), _)| n == m)
+                .filter_map(|(_, t)| t.deployed.get(d).copied())
+                .collect();
+            if runs.is_empty() {
+                continue;
+            }
+            let rates: Vec<f64> = runs
+                .iter()
+                .map(|r| r.0 as f64 / (r.1 as f64 / 1e9))
+                .collect();
+            let (fm, fs) = mean_sd(&rates);
+            let (cm, cs) = mean_sd(&runs.iter().map(|r| r.2 as f64).collect::<Vec<_>>());
+            println!(
+                "| {m} | {d} | {} | {fm:.1} ± {fs:.1} | {cm:.0} ± {cs:.0} |",
+                runs.len()
+            );
+        }
+    }
 }
 
 fn report(

@@ -5,9 +5,12 @@ use super::executor::{self, RemoteRunner, Runner, StageContext};
 use super::kernels::StageKernels;
 use super::log::{self, LogLine, TrialLine};
 use super::outputs::{self, Outputs};
+use super::protocol::{StageId, StageKind};
 use super::store::{EditedLine, JsonlStore, Loaded, StoreError, TrialStore};
+use super::ScreenLf;
 use super::{CampaignError, CampaignOutcome, Observer, Problem, Protocol, Report, Stop};
-use savme_kernel::Simulator;
+use savme_kernel::screening::Economy;
+use savme_kernel::{Kernel, Simulator};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -388,6 +391,27 @@ fn protocol_differences(saved: &Protocol, given: &Protocol) -> String {
     diffs.join("; ")
 }
 
+/// Each scenario's screening economy at the start of the screening stage at `budget`: the HF
+/// passes of the search at that budget (what a screened pass saves).
+fn economy(kernel: &Kernel, lines: &[LogLine], budget: Option<f64>) -> Vec<Economy> {
+    let names: Vec<&str> = kernel.config().scenarios.iter().map(|s| &*s.name).collect();
+    let mut economy = vec![Economy::default(); names.len()];
+    let search = StageId {
+        kind: StageKind::Train,
+        budget,
+        strength: None,
+    };
+    for l in lines {
+        if let LogLine::Trial(t) = l {
+            let s = names.iter().position(|n| *n == t.scenario);
+            if let (true, Some(s)) = (t.stage == search, s) {
+                economy[s].saw_hf(&t.hf.run());
+            }
+        }
+    }
+    economy
+}
+
 /// The stages of a campaign run one after the other on one runner, with what they share.
 struct Stages<'a, 'o> {
     protocol: &'a Protocol,
@@ -432,6 +456,8 @@ impl Stages<'_, '_> {
                 screen: (stage.kind == super::StageKind::Screen).then(|| executor::Audit {
                     seed: p.kernel_seed(&format!("audit:{}", stage.label())),
                     fraction: p.audit_fraction,
+                    economy: (p.screen_lf == ScreenLf::WhereItPays)
+                        .then(|| economy(kernel, &all_lines, stage.budget)),
                 }),
             };
             let observers = &mut *self.observers;

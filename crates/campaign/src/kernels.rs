@@ -80,7 +80,8 @@ impl<'a> StageKernels<'a> {
             .budget(budget)
             .seed(p.kernel_seed(label))
             .search(p.search.model(p.elite))
-            .pairing(p.pairing());
+            .pairing(p.pairing())
+            .deployment(p.deployment.kernel());
         for (name, space) in scenarios {
             b = b.scenario(name, space.clone(), p.weight(name));
         }

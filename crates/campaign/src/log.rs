@@ -136,10 +136,12 @@ pub struct ScreenLine {
     pub phi: Assignment,
     /// θ_LF* (the evaluation's).
     pub theta_lf: Option<Assignment>,
-    /// What the LF result called for: confirm, audit or pass.
+    /// What the LF result called for (confirm, margin, audit or pass), or `direct`: no LF
+    /// run, screening did not pay.
     pub screen: savme_kernel::screening::Screen,
-    /// The LF run.
-    pub lf: RunLine,
+    /// The LF run (none for a direct trial).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf: Option<RunLine>,
     /// The HF run (confirmations and audits only).
     pub hf: Option<RunLine>,
     /// TP / TN / FP / FN when HF ran.

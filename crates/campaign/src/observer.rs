@@ -504,7 +504,7 @@ mod tests {
             phi: Assignment::new(),
             theta_lf: None,
             screen: savme_kernel::screening::Screen::Confirm,
-            lf: run(true),
+            lf: Some(run(true)),
             hf: hf_failure.map(run),
             outcome: None,
         }

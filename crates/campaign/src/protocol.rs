@@ -69,6 +69,65 @@ impl Search {
     }
 }
 
+/// What the deployed search — the evaluation and LF screening stages — does with what the
+/// search learned (the kernel's [`Deployment`](savme_kernel::Deployment)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Deploy {
+    /// The paper's: φ drawn from the proposal as the search left it; nothing learned.
+    #[default]
+    Frozen,
+    /// The elite proposal draws for failures: no exploration, no novelty weighting,
+    /// candidates ranked by failure odds (needs search = elite).
+    Exploit,
+    /// Every result keeps teaching the φ search (θ_LF* stays the search's).
+    Learn,
+    /// Exploit and learn.
+    Adaptive,
+}
+
+impl Deploy {
+    /// The kernel's deployment.
+    pub fn kernel(self) -> savme_kernel::Deployment {
+        savme_kernel::Deployment {
+            learn: matches!(self, Deploy::Learn | Deploy::Adaptive),
+            exploit: matches!(self, Deploy::Exploit | Deploy::Adaptive),
+        }
+    }
+
+    /// Its name in protocol.json, a campaign file and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Deploy::Frozen => "frozen",
+            Deploy::Exploit => "exploit",
+            Deploy::Learn => "learn",
+            Deploy::Adaptive => "adaptive",
+        }
+    }
+
+    fn is_frozen(&self) -> bool {
+        *self == Deploy::Frozen
+    }
+}
+
+/// Which trials of an LF screening stage run LF first.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScreenLf {
+    /// Every trial: LF first, HF to confirm (the paper's).
+    #[default]
+    Always,
+    /// Per scenario, only while the LF run costs less than the HF passes it is expected to
+    /// save; otherwise HF directly ([`Economy`](savme_kernel::screening::Economy)).
+    WhereItPays,
+}
+
+impl ScreenLf {
+    fn is_always(&self) -> bool {
+        *self == ScreenLf::Always
+    }
+}
+
 /// The most trials one stage may run (10⁸: years of simulation even at a millisecond a run).
 pub const MAX_ITERATIONS: u64 = 100_000_000;
 /// The most trials in flight at once.
@@ -149,6 +208,13 @@ pub struct Protocol {
     /// Observations the greedy fidelity arm needs before θ_LF* counts as settled.
     #[serde(default = "default_settle", skip_serializing_if = "is_default_settle")]
     pub pair_settle: u64,
+    /// What evaluation and screening do with what the search learned (frozen, the paper's,
+    /// is not written).
+    #[serde(default, skip_serializing_if = "Deploy::is_frozen")]
+    pub deployment: Deploy,
+    /// Which screened trials run LF first (always, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "ScreenLf::is_always")]
+    pub screen_lf: ScreenLf,
 }
 
 fn one() -> f64 {
@@ -229,6 +295,8 @@ impl Protocol {
             elite: None,
             pair_fraction: 1.0,
             pair_settle: default_settle(),
+            deployment: Deploy::Frozen,
+            screen_lf: ScreenLf::Always,
         }
     }
 
@@ -370,8 +438,17 @@ impl Protocol {
         self.check_search()
     }
 
-    /// The elite parameters and the pairing.
+    /// The elite parameters, the pairing and the deployment.
     fn check_search(&self) -> Result<(), CampaignError> {
+        if self.deployment.kernel().exploit && self.search != Search::Elite {
+            return bad(
+                "deployment",
+                format!(
+                    "{} exploits the elite search's proposal, and the search is the paper's bins; give search = elite too, or deployment = frozen or learn",
+                    self.deployment.name()
+                ),
+            );
+        }
         if let Some(m) = &self.elite {
             if let Err(e) = m.validate() {
                 return bad("elite", e.to_string());

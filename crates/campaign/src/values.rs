@@ -25,7 +25,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{CampaignError, Cost, Protocol, Search};
+use super::{CampaignError, Cost, Deploy, Protocol, ScreenLf, Search};
 use savme_kernel::EliteMixture;
 use serde::Deserialize;
 
@@ -247,6 +247,17 @@ protocol_values! {
     /// settled and `pair_fraction` applies.
     pair_settle: u64, flag = "pair-settle", aliases = [], stages = "train, test-*",
         to = protocol, cli(value_name = "N");
+    /// What the deployed search does with what the search learned: frozen (the paper's),
+    /// exploit (the elite proposal draws for failures, not for new cells; search = elite),
+    /// learn (every evaluation and screening result keeps teaching the φ search) or adaptive
+    /// (both).
+    deployment: Deploy, flag = "deployment", aliases = [], stages = "evaluate, screen",
+        to = protocol, cli(value_enum);
+    /// Which screened trials run LF first: always (the paper's), or where-it-pays (per
+    /// scenario, while the LF run costs less than the HF passes it is expected to save; the
+    /// others run HF directly).
+    screen_lf: ScreenLf, flag = "screen-lf", aliases = [], stages = "screen", to = protocol,
+        cli(value_enum);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -332,6 +343,12 @@ impl Overrides {
                 ),
             });
         }
+        if let (Some(ScreenLf::WhereItPays), 0) = (self.screen_lf, p.screen_iterations) {
+            return idle(
+                "screen_lf",
+                "where-it-pays would do nothing: it decides which screened trials run LF first, and there is no screening (screen_iterations is 0); give screen_iterations too, or leave screen_lf out".into(),
+            );
+        }
         let names = |given: &[String]| -> Result<Vec<String>, CampaignError> {
             given
                 .iter()
@@ -400,6 +417,8 @@ mod tests {
             elite: Some(EliteMixture::default()),
             pair_fraction: 0.5,
             pair_settle: 5,
+            deployment: Deploy::Adaptive,
+            screen_lf: ScreenLf::WhereItPays,
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -582,6 +601,8 @@ mod tests {
             }),
             pair_fraction: Some(0.25),
             pair_settle: Some(12),
+            deployment: Some(Deploy::Adaptive),
+            screen_lf: Some(ScreenLf::WhereItPays),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();

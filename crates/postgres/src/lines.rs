@@ -83,7 +83,7 @@ impl Columns {
                 phi: json(&s.phi),
                 theta_lf: s.theta_lf.as_ref().and_then(json),
                 hf: RunColumns::of(s.hf.as_ref()),
-                lf: RunColumns::of(Some(&s.lf)),
+                lf: RunColumns::of(s.lf.as_ref()),
                 outcome: s.outcome.as_ref().and_then(name),
                 ..Columns::default()
             },

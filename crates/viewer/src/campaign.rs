@@ -222,7 +222,8 @@ impl CampaignView {
         stage: &Stage,
         line: &ScreenLine,
     ) -> Result<(), RecordError> {
-        let runtime = line.lf.wall_seconds + line.hf.map_or(0.0, |h| h.wall_seconds);
+        let seconds = |r: Option<savme_campaign::log::RunLine>| r.map_or(0.0, |r| r.wall_seconds);
+        let runtime = seconds(line.lf) + seconds(line.hf);
         let failure = line.hf.is_some_and(|h| h.failure);
         self.found(rec, n, stage, runtime, failure).map(|_| ())
     }

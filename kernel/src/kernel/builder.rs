@@ -2,6 +2,7 @@
 //! seed, priors, estimator, search, pairing), checked when built.
 
 use super::{ConfigError, FidelityPrior, Kernel, KernelConfig, Scenario};
+use crate::deployment::Deployment;
 use crate::pairing::Pairing;
 use crate::posterior::{Estimator, Posterior, PriorCounts};
 use crate::search::SearchModel;
@@ -82,6 +83,25 @@ impl KernelBuilder {
     /// paper's).
     pub fn pairing(mut self, pairing: Pairing) -> Self {
         self.config.pairing = pairing;
+        self
+    }
+
+    /// Sets what the evaluate phase learns and how it draws φ (default
+    /// [`Deployment::FROZEN`], the paper's).
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, Deployment, Kernel, Scale, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
+    /// let kernel = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .deployment(Deployment::ADAPTIVE)
+    ///     .build()?;
+    /// assert!(kernel.config().deployment.learn);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn deployment(mut self, deployment: Deployment) -> Self {
+        self.config.deployment = deployment;
         self
     }
 

@@ -69,6 +69,11 @@ impl Kernel {
                 fidelity: None,
                 scenario: Some(observation.hf().failure),
             },
+            // A deployment that keeps learning: the HF run credits the φ search alone.
+            (false, _, _) if self.state.config.deployment.learn => Credit {
+                fidelity: None,
+                scenario: Some(observation.hf().failure),
+            },
             _ => Credit::default(),
         };
         Ok((
@@ -98,14 +103,7 @@ impl Kernel {
         let s = pending.trial.scenario_index;
         let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
         if let Some(ok) = assessed.credit.scenario {
-            self.state.scenarios[s].update(phi_arms, ok);
-            if let (Some(archive), SearchModel::EliteMixture(m)) =
-                (self.state.search.get_mut(s), &self.state.config.search)
-            {
-                let space = &self.state.config.scenarios[s].space;
-                archive.record(space, &pending.trial.phi, phi_arms, observation.hf());
-                archive.truncate(m.archive);
-            }
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, observation.hf(), ok);
         }
         if let Some(ok) = assessed.credit.fidelity {
             self.state.fidelity.update(theta_arms, ok);
@@ -154,7 +152,78 @@ impl Kernel {
         }
         check_robustness(id, &lf, "LF")?;
         self.state.stats.told += 1;
-        Ok(self.state.pending.remove(index).trial)
+        let pending = self.state.pending.remove(index);
+        if self.state.config.deployment.learn {
+            // The screen called it a pass: the φ search learns it as one.
+            let s = pending.trial.scenario_index;
+            let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
+            let pass = Run::new(false, lf.runtime);
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, &pass, false);
+        }
+        Ok(pending.trial)
+    }
+
+    /// Tells an evaluation trial whose LF run was not made: LF screening did not pay, so the
+    /// harness ran HF directly ([`crate::screening::Economy`]). Only trials of a phase that
+    /// runs both simulators and learns nothing take it; with [`crate::Deployment::learn`] the
+    /// HF run credits the φ search. On error nothing changes.
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, Kernel, Phase, Run, Scale, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 4, Scale::Linear)])?;
+    /// let mut k = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .build()?;
+    /// let learning = k.ask();
+    /// assert!(k.tell_direct(learning.id, Run::new(true, 1.0)).is_err());
+    /// k.set_phase(Phase::Evaluate);
+    /// let t = k.ask();
+    /// assert_eq!(k.tell_direct(t.id, Run::new(true, 1.0))?.id, t.id);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn tell_direct(&mut self, id: u64, hf: Run) -> Result<Trial, TellError> {
+        let index = self.pending_index(id)?;
+        let phase = self.state.pending[index].trial.phase;
+        if phase.learns() || !phase.is_paired() {
+            return Err(TellError::NotScreened { id, phase });
+        }
+        if !(hf.runtime.is_finite() && hf.runtime > 0.0) {
+            return Err(TellError::BadRuntime {
+                id,
+                simulator: "HF",
+                runtime: hf.runtime,
+            });
+        }
+        check_robustness(id, &hf, "HF")?;
+        self.state.stats.told += 1;
+        let pending = self.state.pending.remove(index);
+        if self.state.config.deployment.learn {
+            let s = pending.trial.scenario_index;
+            let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, &hf, hf.failure);
+        }
+        Ok(pending.trial)
+    }
+
+    /// Credits scenario `s`'s φ search with a result: its bins by `found` (an HF failure), the
+    /// elite archive (if any) by the run.
+    fn credit_scenario(
+        &mut self,
+        s: usize,
+        phi: &crate::Assignment,
+        phi_arms: &[u16],
+        hf: &Run,
+        found: bool,
+    ) {
+        self.state.scenarios[s].update(phi_arms, found);
+        if let (Some(archive), SearchModel::EliteMixture(m)) =
+            (self.state.search.get_mut(s), &self.state.config.search)
+        {
+            let space = &self.state.config.scenarios[s].space;
+            archive.record(space, phi, phi_arms, hf);
+            archive.truncate(m.archive);
+        }
     }
 
     /// Withdraws a pending trial (e.g. its simulation crashed); it will never be told.

@@ -9,12 +9,13 @@ mod tell;
 
 pub use local::{with_pool, Pool};
 
-use tell::{check_logged, simulation_error, tell};
+use tell::{add_screened, check_direct, check_logged, simulation_error, tell};
 
 use super::log::LogLine;
 use super::protocol::{OnError, Stage};
 use super::store::{EditedLine, StoreError, TrialStore};
 use super::CampaignError;
+use savme_kernel::screening::Economy;
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
 use std::collections::VecDeque;
 use std::panic::AssertUnwindSafe;
@@ -98,6 +99,8 @@ struct Slot {
     error: Option<String>,
     /// In a screening stage: whether the trial belongs to the audit sample.
     audit: Option<bool>,
+    /// In a screening stage: HF runs directly, without an LF run (screening does not pay).
+    direct: bool,
 }
 
 impl Slot {
@@ -106,6 +109,8 @@ impl Slot {
             return true;
         }
         match (self.audit, &self.lf) {
+            // Screening: HF alone for a direct trial.
+            (Some(_), _) if self.direct => self.hf.is_some(),
             // Screening: the LF run, then HF only to confirm a failure or for the audit.
             (Some(audit), Some(lf)) => self.hf.is_some() || !(lf.failure || audit),
             (Some(_), None) => false,
@@ -114,13 +119,18 @@ impl Slot {
     }
 }
 
-/// A screening stage's audit: its seed and fraction α ([`savme_kernel::screening::audited`]).
-#[derive(Debug, Clone, Copy)]
+/// A screening stage's audit: its seed and fraction α ([`savme_kernel::screening::audited`]),
+/// and where LF screening is decided by what it pays.
+#[derive(Debug, Clone)]
 pub struct Audit {
     /// Seed of the audit draws.
     pub seed: u64,
     /// Fraction of LF passes run on HF.
     pub fraction: f64,
+    /// Per scenario (kernel order), what its runs have cost so far, when each trial runs LF
+    /// only where it pays ([`savme_kernel::screening::Economy`]); None: every trial runs LF
+    /// first (the paper's).
+    pub economy: Option<Vec<Economy>>,
 }
 
 /// What a stage needs besides the kernel.
@@ -158,6 +168,7 @@ pub fn run_stage(
     mut progress: impl FnMut(&LogLine, &Kernel),
 ) -> Result<Vec<LogLine>, CampaignError> {
     kernel.set_phase(cx.stage.phase());
+    let economy = cx.screen.as_ref().and_then(|a| a.economy.clone());
     let mut run = StageRun {
         label: cx.stage.label(),
         stage: cx.stage.label().into(),
@@ -169,6 +180,7 @@ pub fn run_stage(
         queue: VecDeque::new(),
         asked: 0,
         failed: 0,
+        economy,
     };
     while run.queue.len() < run.cx.window && run.ask()? {}
     while !run.queue.is_empty() {
@@ -198,6 +210,8 @@ struct StageRun<'p, 'k, 'c> {
     /// Trials asked (withdrawn ones included) and withdrawn.
     asked: u64,
     failed: u64,
+    /// A screening stage's economy per scenario, updated as its trials are told.
+    economy: Option<Vec<Economy>>,
 }
 
 impl StageRun<'_, '_, '_> {
@@ -217,18 +231,25 @@ impl StageRun<'_, '_, '_> {
         let audit = self
             .cx
             .screen
+            .as_ref()
             .map(|a| savme_kernel::screening::audited(a.seed, index, a.fraction));
+        let direct = self
+            .economy
+            .as_ref()
+            .and_then(|e| e.get(trial.scenario_index))
+            .is_some_and(|e| !e.screen_pays());
         match &logged {
             Some((number, l)) => {
                 let at = (self.cx.store.location(), *number);
-                check_logged(l, &trial, self.cx.stage.id(), index, at)?
+                check_logged(l, &trial, self.cx.stage.id(), index, at.clone())?;
+                check_direct(l, direct, at)?;
             }
             None => {
-                if audit.is_none() {
+                if audit.is_none() || direct {
                     let theta_hf = self.theta_hf.clone();
                     self.send(&trial, Role::High, &theta_hf)?;
                 }
-                if let Some(theta) = &trial.theta_lf {
+                if let Some(theta) = trial.theta_lf.as_ref().filter(|_| !direct) {
                     self.send(&trial, Role::Learned, theta)?;
                 }
             }
@@ -241,6 +262,7 @@ impl StageRun<'_, '_, '_> {
             logged,
             error: None,
             audit,
+            direct,
         });
         Ok(true)
     }
@@ -273,6 +295,7 @@ impl StageRun<'_, '_, '_> {
                 break;
             };
             let number = slot.logged.as_ref().map(|(n, _)| *n);
+            let scenario = slot.trial.scenario_index;
             let line = tell(
                 self.kernel,
                 slot,
@@ -288,6 +311,11 @@ impl StageRun<'_, '_, '_> {
                     message: e.message.clone(),
                 }
                 .into());
+            }
+            if let (LogLine::Screen(s), Some(economy)) = (&line, self.economy.as_mut()) {
+                if let Some(e) = economy.get_mut(scenario) {
+                    add_screened(e, s);
+                }
             }
             match &line {
                 LogLine::Trial(_) | LogLine::Screen(_) => progress(&line, self.kernel),

@@ -7,6 +7,7 @@ use crate::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
 use crate::protocol::{Stage, StageId};
 use crate::store::TrialStore;
 use crate::CampaignError;
+use savme_kernel::screening::{Economy, Screen};
 use savme_kernel::{Assignment, CostMeasure, Kernel, SimError, SimResult, Trial};
 
 pub(super) fn simulation_error(
@@ -67,6 +68,43 @@ pub(super) fn check_logged(
                 "field `{field}` is {logged}, but the protocol asks {asked} here ({expected} trial {index}): the line was edited, or written by another campaign"
             ),
         }),
+    }
+}
+
+/// A logged screening line must have run HF directly exactly when the screening's economy
+/// says so now; the error names the store, the line and the field `screen`.
+pub(super) fn check_direct(
+    l: &LogLine,
+    direct: bool,
+    at: (String, u64),
+) -> Result<(), CampaignError> {
+    let LogLine::Screen(s) = l else {
+        return Ok(());
+    };
+    if (s.screen == Screen::Direct) == direct {
+        return Ok(());
+    }
+    let asked = if direct { "direct" } else { "an LF run first" };
+    Err(CampaignError::Log {
+        store: at.0,
+        line: at.1 as usize,
+        message: format!(
+            "field `screen` is {:?}, but the screening's economy asks {asked} here: the line was edited, or written by another campaign",
+            s.screen
+        ),
+    })
+}
+
+/// Adds a told screening line to its scenario's economy.
+pub(super) fn add_screened(e: &mut Economy, s: &ScreenLine) {
+    let hf = s.hf.as_ref().map(RunLine::run);
+    match &s.lf {
+        Some(lf) => e.add_screened(&lf.run(), hf.as_ref()),
+        None => {
+            if let Some(hf) = &hf {
+                e.add_direct(hf);
+            }
+        }
     }
 }
 
@@ -176,17 +214,26 @@ impl TellCx<'_> {
                 Ok(LogLine::Failed(f))
             }
             LogLine::Screen(l) => {
-                let expected =
-                    savme_kernel::screening::decide(l.lf.failure, slot.audit == Some(true));
-                let hf_expected = expected != savme_kernel::screening::Screen::Pass;
-                if slot.audit.is_none() || l.screen != expected || l.hf.is_some() != hf_expected {
+                let expected = match &l.lf {
+                    Some(lf) => {
+                        savme_kernel::screening::decide(lf.failure, slot.audit == Some(true))
+                    }
+                    None => Screen::Direct,
+                };
+                let hf_expected = expected != Screen::Pass;
+                if slot.audit.is_none()
+                    || l.screen != expected
+                    || l.hf.is_some() != hf_expected
+                    || l.lf.is_none() != slot.direct
+                {
                     return Err(tampered(
                         "screen",
                         format!("{:?} (HF run: {})", l.screen, l.hf.is_some()),
                         format!("{expected:?}"),
                     ));
                 }
-                tell_screened(kernel, self.id, &l.lf, l.hf.as_ref()).map_err(cannot_tell)?;
+                tell_screened(kernel, self.id, l.lf.as_ref(), l.hf.as_ref())
+                    .map_err(cannot_tell)?;
                 Ok(LogLine::Screen(l))
             }
             LogLine::Trial(l) => {
@@ -229,7 +276,8 @@ impl TellCx<'_> {
             })
         } else if let Some(audit) = slot.audit {
             let l = screen_line(&slot, audit, label, stage, cost)?;
-            tell_screened(kernel, self.id, &l.lf, l.hf.as_ref()).map_err(|e| self.untellable(e))?;
+            tell_screened(kernel, self.id, l.lf.as_ref(), l.hf.as_ref())
+                .map_err(|e| self.untellable(e))?;
             LogLine::Screen(l)
         } else {
             let mut line = trial_line(&slot, label, stage, cost)?;
@@ -260,15 +308,15 @@ fn run_line(
     Ok(RunLine::new(r, run.runtime))
 }
 
-/// Tells the kernel a screened trial: paired when HF ran, LF alone otherwise.
+/// Tells the kernel a screened trial: paired when both ran, LF or HF alone otherwise.
 fn tell_screened(
     kernel: &mut Kernel,
     id: u64,
-    lf: &RunLine,
+    lf: Option<&RunLine>,
     hf: Option<&RunLine>,
 ) -> Result<(), savme_kernel::TellError> {
-    match hf {
-        Some(hf) => kernel
+    match (lf, hf) {
+        (Some(lf), Some(hf)) => kernel
             .tell(
                 id,
                 savme_kernel::Observation::Paired {
@@ -277,7 +325,9 @@ fn tell_screened(
                 },
             )
             .map(|_| ()),
-        None => kernel.tell_unconfirmed(id, lf.run()).map(|_| ()),
+        (Some(lf), None) => kernel.tell_unconfirmed(id, lf.run()).map(|_| ()),
+        (None, Some(hf)) => kernel.tell_direct(id, hf.run()).map(|_| ()),
+        (None, None) => Err(savme_kernel::TellError::NoRun { id }),
     }
 }
 
@@ -290,12 +340,22 @@ fn screen_line(
     cost: CostMeasure,
 ) -> Result<ScreenLine, CampaignError> {
     let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
-    let lf = run_line(slot.lf.as_ref().ok_or(CampaignError::WorkersGone)?, "LF")?;
+    let lf = match &slot.lf {
+        Some(r) => Some(run_line(r, "LF")?),
+        None if slot.direct => None,
+        None => return Err(CampaignError::WorkersGone),
+    };
     let hf = match &slot.hf {
         Some(r) => Some(run_line(r, "HF")?),
         None => None,
     };
-    let outcome = hf.map(|h| savme_kernel::Outcome::classify(h.failure, lf.failure));
+    let outcome = hf
+        .zip(lf)
+        .map(|(h, l)| savme_kernel::Outcome::classify(h.failure, l.failure));
+    let screen = match &lf {
+        Some(lf) => savme_kernel::screening::decide(lf.failure, audit),
+        None => Screen::Direct,
+    };
     Ok(ScreenLine {
         stage: stage.id(),
         index: slot.index,
@@ -304,7 +364,7 @@ fn screen_line(
         scenario: slot.trial.scenario.to_string(),
         phi: slot.trial.phi.clone(),
         theta_lf: slot.trial.theta_lf.clone(),
-        screen: savme_kernel::screening::decide(lf.failure, audit),
+        screen,
         lf,
         hf,
         outcome,

@@ -91,7 +91,7 @@ pub fn found_failures(lines: &[LogLine], filter: &Filter) -> Vec<FoundFailure> {
                         scenario: s.scenario.clone(),
                         phi: s.phi.clone(),
                         theta_lf: s.theta_lf.clone(),
-                        lf_failure: Some(s.lf.failure),
+                        lf_failure: s.lf.map(|lf| lf.failure),
                         outcome: s.outcome,
                         hf_runtime: hf.runtime,
                     })

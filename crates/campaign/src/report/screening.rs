@@ -56,8 +56,11 @@ pub fn report(
     }
     let mut counts = ScreeningCounts::default();
     for l in screened {
-        let audit = l.screen == savme_kernel::screening::Screen::Audit;
-        counts.add(&l.lf.run(), l.hf.as_ref().map(|h| h.run()).as_ref(), audit);
+        counts.add(
+            l.lf.map(|lf| lf.run()).as_ref(),
+            l.hf.as_ref().map(|h| h.run()).as_ref(),
+            l.screen,
+        );
     }
     let confirmed_per_runtime = counts.confirmed_per_runtime();
     let paired_per_runtime = failures_per_runtime(evaluation);
@@ -106,7 +109,7 @@ mod tests {
             phi: Default::default(),
             theta_lf: None,
             screen,
-            lf,
+            lf: Some(lf),
             hf,
             outcome: None,
         }
