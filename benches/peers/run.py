@@ -337,4 +337,10 @@ def write_section(path: Path, text: str, scenarios: str, mode: str) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.path.insert(0, str(HERE))
+    from simulator import SimulatorError
+
+    try:
+        sys.exit(main())
+    except SimulatorError as e:  # a bad campaign file, flag or request: said, not a traceback
+        sys.exit(f"run.py: {e}")

@@ -94,6 +94,10 @@ def campaign_tag(config: Path) -> str:
     return config.parent.name if config.stem == "campaign" and config.parent.name else config.stem
 
 
+class SimulatorError(RuntimeError):
+    """The simulator process refused a request or exited (its own message names the cause)."""
+
+
 class Simulator:
     """One simulator process (a back end's `sim_command`); requests are answered in order."""
 
@@ -111,12 +115,12 @@ class Simulator:
         except BrokenPipeError:
             line = ""
         if not line:
-            raise RuntimeError(
+            raise SimulatorError(
                 f"the simulator process exited (status {self._proc.wait()}; its message is above)"
             )
         answer: dict[str, Any] = json.loads(line)
         if "error" in answer:
-            raise RuntimeError(f"simulator: {answer['error']} (request {request})")
+            raise SimulatorError(f"simulator: {answer['error']} (request {request})")
         return answer
 
     def space(self, scenario: str | int) -> ScenarioSpace:

@@ -100,6 +100,16 @@ class Backends(unittest.TestCase):
             with self.assertRaises(ValueError):
                 simulator.parse_run("dry_road", {}, bad)
 
+    def test_a_refusing_or_exiting_simulator_process_is_a_simulator_error_naming_it(self) -> None:
+        refuses = "import sys; sys.stdin.readline(); print('{\"error\": \"unknown scenario `x`\"}', flush=True)"
+        with simulator.Simulator([sys.executable, "-c", refuses]) as sim:
+            with self.assertRaisesRegex(simulator.SimulatorError, "unknown scenario `x`"):
+                sim.space("x")
+        exits = "import sys; sys.stderr.write('bad file\\n'); sys.exit(2)"
+        with simulator.Simulator([sys.executable, "-c", exits]) as sim:
+            with self.assertRaisesRegex(simulator.SimulatorError, "exited \\(status 2"):
+                sim.sets()
+
     def test_the_two_back_ends_start_their_processes(self) -> None:
         d = simulator.Backend.driving(Path("peers_sim"))
         self.assertEqual((d.tag, d.sim_command, d.config), ("", ("peers_sim",), None))
