@@ -5,10 +5,11 @@
 //! ```text
 //! {"scenario": "lead_vehicle_brakes", "phi": {"ego_speed": 20.0, …}}          # θ_HF
 //! {"scenario": 7, "phi": {…}, "fidelity": {"simulation_rate_hz": 2.0}}       # θ_HF overridden
-//! → {"scenario": "lead_vehicle_brakes", "arms": [6, 3, 0, 9, 2], "failure": false, "min_distance_m": 3.1,
+//! → {"scenario": "lead_vehicle_brakes", "arms": [6, 3, 0, 9, 2], "failure": false, "rho": 3.1, "min_distance_m": 3.1,
 //!    "collision_time_s": null, "work": 26800000, "steps": 180, "wall_seconds": 0.09}
 //! {"op": "space", "scenario": 7}                 → {"scenario": …, "id": 7, "variables": [{"name": …, "lo": …, "hi": …, "bins": 10, …}]}
 //! {"op": "arms", "scenario": 7, "phi": {…}}      → {"arms": […]}  (savme's bins of φ, nothing run)
+//! {"op": "scenarios"}                            → {"train": ["1", …, "8"], "test": ["9", "10"], "label": …, "rho": …}
 //! ```
 //!
 //! Camera + lidar perception (the simulator's default, as in `savme reproduce`), or idealised
@@ -38,8 +39,11 @@ fn assignment(object: &Json, base: Assignment) -> Result<Assignment, String> {
     Ok(out)
 }
 
-fn answer(sim: &DrivingSimulator, line: &str) -> Result<Json, String> {
+fn answer(sim: &DrivingSimulator, ideal: bool, line: &str) -> Result<Json, String> {
     let request: Json = serde_json::from_str(line).map_err(|e| e.to_string())?;
+    if request.get("op").and_then(Json::as_str) == Some("scenarios") {
+        return Ok(scenarios(ideal));
+    }
     let key = match &request["scenario"] {
         Json::String(s) => s.clone(),
         Json::Number(n) => n.to_string(),
@@ -70,12 +74,37 @@ fn answer(sim: &DrivingSimulator, line: &str) -> Result<Json, String> {
         "scenario": info.name,
         "arms": arms,
         "failure": r.failure,
+        // The robustness the peers get: −1 on a collision (the simulator reports 0 there), else
+        // the minimum distance — ρ < 0 exactly on a failure.
+        "rho": if r.failure { -1.0 } else { r.min_distance },
         "min_distance_m": r.min_distance,
         "collision_time_s": r.collision_time,
         "work": r.work,
         "steps": r.steps,
         "wall_seconds": r.wall_seconds,
     }))
+}
+
+/// The meta-training and meta-testing scenarios (their numbers, as `savme reproduce
+/// --train-scenarios` takes them) and how ρ is made.
+fn scenarios(ideal: bool) -> Json {
+    let ids = |train: bool| -> Vec<String> {
+        (scenario::SCENARIOS.iter())
+            .filter(|s| s.training() == train)
+            .map(|s| s.id.to_string())
+            .collect()
+    };
+    let label = if ideal {
+        savme::compose::IDEAL
+    } else {
+        savme::compose::SENSORS
+    };
+    json!({
+        "train": ids(true),
+        "test": ids(false),
+        "label": label,
+        "rho": "−1 on a collision, else the run's minimum distance (m)",
+    })
 }
 
 fn main() -> std::io::Result<()> {
@@ -92,7 +121,7 @@ fn main() -> std::io::Result<()> {
         if line.trim().is_empty() {
             continue;
         }
-        let reply = answer(&sim, &line).unwrap_or_else(|e| json!({ "error": e }));
+        let reply = answer(&sim, ideal, &line).unwrap_or_else(|e| json!({ "error": e }));
         writeln!(out, "{reply}")?;
         out.flush()?;
     }

@@ -4,16 +4,18 @@
     python3 benches/peers/run.py --quick              # a few minutes: 1 seed, 2 scenarios
     python3 benches/peers/run.py                      # scenarios 1–8, 3 seeds, paper length
     python3 benches/peers/run.py --scenarios test     # the meta-testing scenarios 9–10
+    python3 benches/peers/run.py --campaign examples/fmu/braking/campaign.toml --rho-output distance
 
-Same simulator (the bundled driving simulator, camera + lidar), same φ-ranges (one VerifAI
-`Box` per φ variable), same budget in deterministic work units (wu): each seed's savme search
-(`train@B` of a `savme reproduce --cost work` campaign, HF + LF runs charged) sets the budget
-every peer gets on that seed; the deployed part likewise (savme's `screen@B` stage). Everything
-runs in one invocation. See benches/peers/README.md.
+Same simulator (the bundled driving simulator, camera + lidar; or the FMU a campaign file
+names, at its θ_HF), same φ-ranges (one VerifAI `Box` per φ variable), same budget in
+deterministic work units (wu): each seed's savme search (`train@B` of a `savme reproduce --cost
+work` campaign, or of `savme run --config FILE --cost work`; HF + LF runs charged) sets the
+budget every peer gets on that seed; the deployed part likewise (savme's `screen@B` stage).
+Everything runs in one invocation. See benches/peers/README.md.
 
 The first run creates target/peers-venv (VerifAI from PyPI; GPyOpt for Bayesian optimisation
-if it installs) and re-runs itself inside it; it also builds `savme` and the `peers_sim`
-example in release mode.
+if it installs) and re-runs itself inside it; it also builds `savme` and the `peers_sim` (or,
+with --campaign, `peers_fmu`) example in release mode.
 """
 from __future__ import annotations
 
@@ -40,8 +42,6 @@ VENV = REPO / "target" / "peers-venv"
 REQUIREMENTS = HERE / "requirements.txt"
 OPTIONAL = HERE / "requirements-bayesopt.txt"
 
-TRAIN = ("1", "2", "3", "4", "5", "6", "7", "8")
-TEST = ("9", "10")
 QUICK_SCENARIOS = ("7", "5")  # lead_vehicle_brakes, intruder_cuts_in (5 and 4 parameters)
 BEGIN, END = "<!-- peers:begin -->", "<!-- peers:end -->"
 
@@ -66,17 +66,22 @@ def ensure_venv() -> None:
     os.execv(str(py), [str(py), str(Path(__file__).resolve()), *sys.argv[1:]])
 
 
-def build(profile_dir: Path) -> tuple[Path, Path]:
-    """`savme` and the `peers_sim` example, release mode, at low priority."""
-    cmd = ["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme", "--example", "peers_sim"]
+def build(profile_dir: Path, example: str) -> tuple[Path, Path]:
+    """`savme` and the simulator process's example, release mode, at low priority."""
+    cmd = ["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme", "--example", example]
     subprocess.run(cmd, check=True, cwd=REPO)
-    return profile_dir / "savme", profile_dir / "examples" / "peers_sim"
+    return profile_dir / "savme", profile_dir / "examples" / example
 
 
 def parse_args() -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="1 seed, scenarios 7 and 5, 40 iterations")
-    ap.add_argument("--scenarios", default="train", help="train (1–8), test (9–10) or a list: 7,5")
+    ap.add_argument("--scenarios", default="train",
+                    help="train (1–8 / the campaign file's role = train), test (9–10 / role = test) or a list: 7,5")
+    ap.add_argument("--campaign", type=Path, default=None, metavar="FILE",
+                    help="a campaign file with an FMU instead of the bundled simulator (savme run --config FILE)")
+    ap.add_argument("--rho-output", default=None, metavar="OUTPUT",
+                    help="with --campaign and a Boolean [failure]: the output whose smallest value is ρ (e.g. distance)")
     ap.add_argument("--seeds", type=int, default=None, help="number of seeds (default 3; quick 1)")
     ap.add_argument("--first-seed", type=int, default=1)
     ap.add_argument("--iterations", type=int, default=None, help="savme search iterations (default 500; quick 40)")
@@ -92,12 +97,46 @@ def parse_args() -> argparse.Namespace:
     return ap.parse_args()
 
 
-def scenario_keys(arg: str, quick: bool) -> tuple[str, ...]:
+def scenario_keys(arg: str, quick: bool, sets, bundled: bool) -> tuple[str, ...]:
+    """The scenarios of `--scenarios`: a set the simulator process names (`train`, `test`;
+    `--quick` on the bundled simulator: scenarios 7 and 5) or a comma-separated list."""
     if arg == "train":
-        return QUICK_SCENARIOS if quick else TRAIN
+        return QUICK_SCENARIOS if quick and bundled else sets.train
     if arg == "test":
-        return TEST
+        return sets.test
     return tuple(s.strip() for s in arg.split(",") if s.strip())
+
+
+def backend_of(args: argparse.Namespace, profile_dir: Path):
+    """The simulator process and savme's campaign: the bundled simulator, or `--campaign`'s FMU
+    (both built here)."""
+    from simulator import Backend
+
+    if args.campaign is None:
+        if args.rho_output:
+            raise SystemExit("--rho-output: only with --campaign (the bundled simulator's ρ is its minimum distance)")
+        savme_exe, sim_exe = build(profile_dir, "peers_sim")
+        return savme_exe, Backend.driving(sim_exe)
+    config = args.campaign.resolve()
+    if not config.is_file():
+        raise SystemExit(f"--campaign {args.campaign}: no such file")
+    ensure_fmus(config)
+    savme_exe, sim_exe = build(profile_dir, "peers_fmu")
+    return savme_exe, Backend.campaign(sim_exe, config, args.rho_output)
+
+
+def ensure_fmus(config: Path) -> None:
+    """Runs the `build.sh` next to a campaign file when an FMU its `[fmu]` names is missing
+    (examples/fmu/braking: the FMU is compiled for this machine from its C source, not shipped)."""
+    import tomllib
+
+    with open(config, "rb") as f:
+        fmu = tomllib.load(f).get("fmu", {})
+    missing = [p for p in (fmu.get("hf"), fmu.get("lf")) if p and not (config.parent / p).exists()]
+    script = config.parent / "build.sh"
+    if missing and script.exists():
+        log(f"{', '.join(missing)} missing: running {script.relative_to(REPO) if script.is_relative_to(REPO) else script}")
+        subprocess.run([str(script)], check=True)
 
 
 def main() -> int:
@@ -111,13 +150,19 @@ def main() -> int:
 
     started = dt.datetime.now(dt.timezone.utc)
     t0 = time.monotonic()
-    keys = scenario_keys(args.scenarios, args.quick)
+    savme_exe, backend = backend_of(args, REPO / "target" / "release")
+    with Simulator(backend.sim_command) as sim:
+        sets = sim.sets()
+        keys = scenario_keys(args.scenarios, args.quick, sets, backend.config is None)
+        spaces = [sim.space(k) for k in keys]
+    names = [s.name for s in spaces]
     n_seeds = args.seeds or (1 if args.quick else 3)
     seeds = tuple(range(args.first_seed, args.first_seed + n_seeds))
     iterations = args.iterations or (40 if args.quick else 500)
     screen = args.screen_iterations if args.screen_iterations is not None else (30 if args.quick else 300)
     mode = "quick" if args.quick else "full"
-    out = args.out or REPO / "target" / "peers" / f"{mode}-{args.scenarios.replace(',', '_')}"
+    where = f"{mode}-{backend.tag}" if backend.tag else mode
+    out = args.out or REPO / "target" / "peers" / f"{where}-{args.scenarios.replace(',', '_')}"
     out.mkdir(parents=True, exist_ok=True)
     variants = [savme_rows.Variant.parse(v) for v in (args.savme_variant or ["savme"])]
     methods = [m for m in (args.methods.split(",") if args.methods else verifai_peers.PEERS)]
@@ -125,11 +170,7 @@ def main() -> int:
         print("GPyOpt is not installed: Bayesian optimisation left out", file=sys.stderr)
         methods.remove("bayesopt")
 
-    savme_exe, sim_exe = build(REPO / "target" / "release")
-    with Simulator(sim_exe) as sim:
-        spaces = [sim.space(k) for k in keys]
-    names = [s.name for s in spaces]
-    protocol = savme_rows.Protocol(seeds, iterations, screen, args.budget, keys, args.jobs)
+    protocol = savme_rows.Protocol(seeds, iterations, screen, args.budget, keys, args.jobs, backend.config)
 
     # savme first: its search and deployment costs set every peer's budgets, seed by seed.
     outcomes: list[report.Outcome] = []
@@ -141,7 +182,7 @@ def main() -> int:
         log(f"savme `{v.name}`: seeds {seeds}, {iterations} iterations, {screen} screened")
         cmd = savme_rows.run_campaign(savme_exe, v, protocol, vdir, out / "savme.log")
         commands.append(shlex.join(cmd).replace(f"{REPO}/", ""))
-        with Simulator(sim_exe) as sim:
+        with Simulator(backend.sim_command) as sim:
             for seed in seeds:
                 trials = vdir / f"seed-{seed}" / "trials.jsonl"
                 if not trials.exists():  # one seed: the campaign may be written in vdir itself
@@ -157,7 +198,7 @@ def main() -> int:
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = {
             job: pool.submit(verifai_peers.run_peer, job[0], job[1], spaces,
-                             budgets[job[1]][0], budgets[job[1]][1], sim_exe)
+                             budgets[job[1]][0], budgets[job[1]][1], backend.sim_command)
             for job in jobs
         }
         for (m, seed), f in futures.items():
@@ -170,13 +211,14 @@ def main() -> int:
     text = render(report, outcomes, names, [v.name for v in variants], dict(
         mode=mode, seeds=seeds, iterations=iterations, screen=screen, budget=args.budget,
         budgets=budgets, started=started, finished=finished, wall=time.monotonic() - t0,
-        commands=commands, methods=methods,
+        commands=commands, methods=methods, problem=problem_text(backend, sets),
+        per=report.PER if backend.config is None else None,
     ))
     (out / "table.md").write_text(text)
     (out / "outcomes.json").write_text(json.dumps([outcome_json(o) for o in outcomes], indent=1))
     print(text)
     if args.results_md:
-        write_section(args.results_md, text, args.scenarios, mode)
+        write_section(args.results_md, text, args.scenarios, where)
     return 0
 
 
@@ -236,14 +278,27 @@ def outcome_json(o) -> dict:
             "search": part(o.search), "deployed": part(o.deployed)}
 
 
+def problem_text(backend, sets) -> str:
+    """What the runs simulate, for the table's heading."""
+    if backend.config is None:
+        return "camera + lidar"
+    config = str(backend.config).replace(f"{REPO}/", "")
+    label = sets.label.replace(f"{REPO}/", "")
+    return f"the campaign file {config} ({label}) at its θ_HF; ρ for the peers: {sets.rho}"
+
+
 def render(report, outcomes, names, savme_methods, info) -> str:
-    ahead = report.peers_ahead(outcomes, savme_methods)
+    # The bundled simulator's tables stay per 10⁹ wu (comparable across runs and with the issue);
+    # a campaign file's FMU counts its own units, often a few hundred a run: a unit to fit.
+    per = info["per"] or report.unit(b for pair in info["budgets"].values() for b in pair)
+    u = report.UNITS[per]
+    ahead = report.peers_ahead(outcomes, savme_methods, per)
     lines = [
         f"Run {info['started']:%Y-%m-%d %H:%M}–{info['finished']:%H:%M} UTC ({info['wall'] / 60:.0f} min wall), "
         f"mode {info['mode']}, seeds {', '.join(map(str, info['seeds']))}, scenarios {', '.join(names)}, "
-        f"camera + lidar. savme: C_budget {info['budget']}, {info['iterations']} search iterations, "
+        f"{info['problem']}. savme: C_budget {info['budget']}, {info['iterations']} search iterations, "
         f"{info['screen']} screened trials (`--audit-fraction 0`). Budgets per seed (search, deployed; "
-        f"10⁹ wu): " + "; ".join(f"seed {s}: {a / 1e9:.2f}, {b / 1e9:.2f}" for s, (a, b) in info["budgets"].items())
+        f"{u} wu): " + "; ".join(f"seed {s}: {a / per:.2f}, {b / per:.2f}" for s, (a, b) in info["budgets"].items())
         + ". Every VerifAI peer gets its seed's budgets on HF only.",
         "",
         "Commands:",
@@ -252,13 +307,13 @@ def render(report, outcomes, names, savme_methods, info) -> str:
         *info["commands"],
         "```",
         "",
-        "Per 10⁹ work units, mean ± sd over seeds:",
+        f"Per {u} work units, mean ± sd over seeds:",
         "",
-        report.main_table(outcomes),
+        report.main_table(outcomes, per),
         "",
-        "HF failures per 10⁹ wu in the search, per scenario (mean ± sd over seeds):",
+        f"HF failures per {u} wu in the search, per scenario (mean ± sd over seeds):",
         "",
-        report.scenario_table(outcomes, names, savme_methods),
+        report.scenario_table(outcomes, names, savme_methods, per),
         "",
         "Where a peer is ahead of savme (means):",
         "",
@@ -282,4 +337,10 @@ def write_section(path: Path, text: str, scenarios: str, mode: str) -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.path.insert(0, str(HERE))
+    from simulator import SimulatorError
+
+    try:
+        sys.exit(main())
+    except SimulatorError as e:  # a bad campaign file, flag or request: said, not a traceback
+        sys.exit(f"run.py: {e}")

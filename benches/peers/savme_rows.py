@@ -1,4 +1,5 @@
-"""savme's rows: a `savme reproduce --cost work` campaign per variant (all seeds through
+"""savme's rows: a `savme reproduce --cost work` campaign per variant on the bundled simulator,
+or a `savme run --config FILE --cost work` campaign on a campaign file (all seeds through
 `--repeat`), read back from its own `trials.jsonl` — nothing of savme's search is re-implemented
 here.
 
@@ -68,12 +69,18 @@ class Protocol:
     budget: float
     train_scenarios: tuple[str, ...]
     jobs: int
+    config: Path | None = None  # a campaign file (`savme run --config`); None: `savme reproduce`
 
 
 def command(exe: Path, variant: Variant, p: Protocol, out: Path) -> list[str]:
-    """The `savme reproduce` command line of a variant."""
+    """The `savme reproduce` (or, with a campaign file, `savme run --config`) command line of a
+    variant: the same protocol values either way."""
+    if p.config is None:
+        head = [str(exe), "reproduce", "--cost", "work", "--perception", "sensors"]
+    else:
+        head = [str(exe), "run", "--config", str(p.config), "--cost", "work"]
     return [
-        str(exe), "reproduce", "--cost", "work", "--perception", "sensors",
+        *head,
         "--seed", str(p.seeds[0]), "--repeat", str(len(p.seeds)),
         "--budgets", str(p.budget),
         "--iterations", str(p.iterations),
@@ -90,12 +97,19 @@ def run_campaign(exe: Path, variant: Variant, p: Protocol, out: Path, log: Path)
     """Runs the campaign (or resumes it if `out` exists) and returns the command run."""
     cmd = command(exe, variant, p, out)
     if (out / "protocol.json").exists() or (out / f"seed-{p.seeds[0]}").exists():
-        cmd = [str(exe), "reproduce", "--resume", str(out), "--jobs", str(p.jobs), "--quiet"]
+        cmd = resume_command(exe, p, out)
     with open(log, "a") as f:
         f.write("$ " + shlex.join(cmd) + "\n")
         f.flush()
         subprocess.run(cmd, check=True, stdout=f, stderr=subprocess.STDOUT)
     return cmd
+
+
+def resume_command(exe: Path, p: Protocol, out: Path) -> list[str]:
+    """The command that continues the campaign in `out` (its protocol is stored with it)."""
+    config = [] if p.config is None else ["--config", str(p.config)]
+    verb = "reproduce" if p.config is None else "run"
+    return [str(exe), verb, *config, "--resume", str(out), "--jobs", str(p.jobs), "--quiet"]
 
 
 def _phi(value: dict[str, Any]) -> dict[str, float]:
@@ -127,7 +141,7 @@ def read_seed(trials: Path, method: str, seed: int, budget: float) -> SavmeSeed:
     train, screen = f"train@{budget}", f"screen@{budget}"
     for line in trials.read_text().splitlines():
         t = json.loads(line)
-        if "protocol" in t:  # the store's first record: the campaign's protocol
+        if "protocol" in t and "stage" not in t:  # the campaign's first record: its protocol
             continue
         if "error" in t:
             raise ValueError(f"{trials}: a withdrawn trial: {t['error']}")

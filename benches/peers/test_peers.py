@@ -14,7 +14,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import report  # noqa: E402
+import run  # noqa: E402
 import savme_rows  # noqa: E402
+import simulator  # noqa: E402
 
 
 def _trial(stage: str, scenario: str, hf_fail: bool, hf_work: int, lf_work: int | None) -> dict:
@@ -54,6 +56,31 @@ class SavmeRows(unittest.TestCase):
         self.assertEqual([h.failure for h in s.deployed_hf], [True, False, True])
         self.assertEqual(s.deployed_trials, {"a": 2, "b": 2})
 
+    def test_the_protocol_record_heading_a_campaign_is_skipped(self) -> None:
+        lines = [{"v": 1, "protocol": {"seed": 1}, "c": "x"}, _trial("train@0.3", "a", True, 10, 3)]
+        with tempfile.TemporaryDirectory() as d:
+            p = Path(d) / "trials.jsonl"
+            p.write_text("\n".join(json.dumps(x) for x in lines) + "\n")
+            s = savme_rows.read_seed(p, "savme", 1, 0.3)
+        self.assertEqual(s.search_work, {"a": 13})
+
+    def test_a_campaign_file_runs_savme_run_with_the_same_protocol_values(self) -> None:
+        v = savme_rows.Variant.parse("e=--search elite --window 1")
+        bundled = savme_rows.Protocol((1, 2, 3), 500, 300, 0.3, ("7", "5"), 2)
+        filed = savme_rows.Protocol((1, 2, 3), 500, 300, 0.3, ("7", "5"), 2, Path("c.toml"))
+        a = savme_rows.command(Path("savme"), v, bundled, Path("out"))
+        b = savme_rows.command(Path("savme"), v, filed, Path("out"))
+        self.assertEqual(a[:6], ["savme", "reproduce", "--cost", "work", "--perception", "sensors"])
+        self.assertEqual(b[:6], ["savme", "run", "--config", "c.toml", "--cost", "work"])
+        self.assertEqual(a[6:], b[6:])  # every protocol value and the variant's flags, alike
+        self.assertIn("--train-scenarios", b)
+        self.assertEqual(b[b.index("--train-scenarios") + 1], "7,5")
+        self.assertEqual(b[-4:], ["--search", "elite", "--window", "1"])
+        self.assertEqual(savme_rows.resume_command(Path("savme"), filed, Path("o"))[:6],
+                         ["savme", "run", "--config", "c.toml", "--resume", "o"])
+        self.assertEqual(savme_rows.resume_command(Path("savme"), bundled, Path("o"))[:4],
+                         ["savme", "reproduce", "--resume", "o"])
+
     def test_a_campaign_without_work_units_is_refused(self) -> None:
         t = _trial("train@0.3", "a", True, 1, None)
         t["hf"]["work"] = None
@@ -69,7 +96,56 @@ class SavmeRows(unittest.TestCase):
         self.assertEqual(v.flags, ("--search", "joint", "--window", "2"))
 
 
+class Backends(unittest.TestCase):
+    def test_a_run_answer_needs_rho_below_zero_exactly_on_a_failure(self) -> None:
+        a = {"scenario": "dry_road", "arms": [9, 0], "failure": True, "rho": -1.0, "work": 41}
+        r = simulator.parse_run("dry_road", {"speed0": 25.0}, a)
+        self.assertEqual((r.failure, r.rho, r.work, r.arms), (True, -1.0, 41, (9, 0)))
+        for bad in ({**a, "rho": 0.0}, {**a, "failure": False}, {**a, "work": None}):
+            with self.assertRaises(ValueError):
+                simulator.parse_run("dry_road", {}, bad)
+
+    def test_a_refusing_or_exiting_simulator_process_is_a_simulator_error_naming_it(self) -> None:
+        refuses = "import sys; sys.stdin.readline(); print('{\"error\": \"unknown scenario `x`\"}', flush=True)"
+        with simulator.Simulator([sys.executable, "-c", refuses]) as sim:
+            with self.assertRaisesRegex(simulator.SimulatorError, "unknown scenario `x`"):
+                sim.space("x")
+        exits = "import sys; sys.stderr.write('bad file\\n'); sys.exit(2)"
+        with simulator.Simulator([sys.executable, "-c", exits]) as sim:
+            with self.assertRaisesRegex(simulator.SimulatorError, "exited \\(status 2"):
+                sim.sets()
+
+    def test_the_two_back_ends_start_their_processes(self) -> None:
+        d = simulator.Backend.driving(Path("peers_sim"))
+        self.assertEqual((d.tag, d.sim_command, d.config), ("", ("peers_sim",), None))
+        c = simulator.Backend.campaign(Path("peers_fmu"), Path("x/braking/campaign.toml"), "distance")
+        self.assertEqual(c.sim_command, ("peers_fmu", "x/braking/campaign.toml", "--rho-output", "distance"))
+        self.assertEqual(c.tag, "braking")
+        self.assertEqual(simulator.campaign_tag(Path("x/other.toml")), "other")
+        self.assertEqual(simulator.Backend.campaign(Path("f"), Path("c.toml"), None).sim_command, ("f", "c.toml"))
+
+    def test_scenario_sets_come_from_the_process_and_quick_only_narrows_the_bundled_one(self) -> None:
+        sets = simulator.Sets(("dry_road", "wet_road"), ("icy_road",), "fmu:…", "…")
+        self.assertEqual(run.scenario_keys("train", True, sets, False), ("dry_road", "wet_road"))
+        self.assertEqual(run.scenario_keys("test", False, sets, False), ("icy_road",))
+        self.assertEqual(run.scenario_keys("wet_road, dry_road", False, sets, False), ("wet_road", "dry_road"))
+        driving = simulator.Sets(tuple("12345678"), ("9", "10"), "savme-sim/sensors", "…")
+        self.assertEqual(run.scenario_keys("train", True, driving, True), run.QUICK_SCENARIOS)
+        self.assertEqual(run.scenario_keys("train", False, driving, True), tuple("12345678"))
+
+
 class Report(unittest.TestCase):
+    def test_the_unit_is_the_largest_power_of_a_thousand_the_smallest_budget_reaches(self) -> None:
+        self.assertEqual(report.unit([5.9e9, 2.2e9, 1.3e9]), 1e9)
+        self.assertEqual(report.unit([64_000, 26_000]), 1e3)
+        self.assertEqual(report.unit([3e6, 0]), 1e6)  # a zero budget (no deployed part) is not a size
+        self.assertEqual(report.unit([]), 1e9)
+        t = report.Tally(trials=4, failures=2, work=4000, cells={("a", (1,)), ("a", (2,))})
+        table = report.main_table([report.Outcome("m", 1, {"a": t}, {})], 1e3)
+        self.assertIn("HF failures / 10³ wu, search", table)
+        self.assertIn("| m | 0.50 | 0.50 |", table)  # two decimals below 10⁹ wu
+
+
     def test_rates_are_per_billion_work_units_and_sd_over_seeds(self) -> None:
         def outcome(seed: int, failures: int) -> report.Outcome:
             t = report.Tally(trials=10, failures=failures, work=2 * 10**9,

@@ -1,6 +1,8 @@
-"""VerifAI's samplers on the bundled simulator: one sampler per scenario over a `FeatureSpace`
-with one `Box` feature per φ variable, HF runs only, robustness ρ = the run's minimum distance
-(−1 on a collision; VerifAI's default threshold 0 makes ρ < 0 exactly a collision).
+"""VerifAI's samplers on the benchmark's simulator process (the bundled simulator or a campaign
+file's FMU): one sampler per scenario over a `FeatureSpace` with one `Box` feature per φ
+variable, HF runs only, robustness ρ as the process gives it (< 0 exactly on a failure, so
+VerifAI's default threshold 0 counts exactly the failures; the bundled simulator: the run's
+minimum distance, −1 on a collision).
 
 Used without Scenic and without VerifAI's server/falsifier (those add a socket round trip and
 a monitor, nothing a sampler sees): `getSample()` → simulate → `update(sample, info, ρ)`.
@@ -11,8 +13,7 @@ import math
 import random
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -149,14 +150,14 @@ def run_peer(
     spaces: list[ScenarioSpace],
     search_budget: float,
     deployed_budget: float,
-    sim_exe: Path,
+    sim_command: Sequence[str],
 ) -> PeerRun:
     """One peer, one seed: the search, then the deployed part (the same samplers go on
     sampling on HF), each until its work-unit budget is spent."""
     random.seed(seed)
     np.random.seed(seed)
     peer = PeerRun(method, seed)
-    with Simulator(sim_exe) as sim:
+    with Simulator(sim_command) as sim:
         state = _Scenarios(method, spaces)
         _spend(state, sim, search_budget, peer.search, peer)
         if deployed_budget > 0:
