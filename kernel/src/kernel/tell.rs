@@ -138,29 +138,8 @@ impl Kernel {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn tell_unconfirmed(&mut self, id: u64, lf: Run) -> Result<Trial, TellError> {
-        let index = self.pending_index(id)?;
-        let phase = self.state.pending[index].trial.phase;
-        if phase.learns() || !phase.is_paired() {
-            return Err(TellError::NotScreened { id, phase });
-        }
-        if !(lf.runtime.is_finite() && lf.runtime > 0.0) {
-            return Err(TellError::BadRuntime {
-                id,
-                simulator: "LF",
-                runtime: lf.runtime,
-            });
-        }
-        check_robustness(id, &lf, "LF")?;
-        self.state.stats.told += 1;
-        let pending = self.state.pending.remove(index);
-        if self.state.config.deployment.learn {
-            // The screen called it a pass: the φ search learns it as one.
-            let s = pending.trial.scenario_index;
-            let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
-            let pass = Run::new(false, lf.runtime);
-            self.credit_scenario(s, &pending.trial.phi, phi_arms, &pass, false);
-        }
-        Ok(pending.trial)
+        // The screen called it a pass: a learning deployment learns it as one.
+        self.tell_screened_alone(id, &lf, "LF", Run::new(false, lf.runtime))
     }
 
     /// Tells an evaluation trial whose LF run was not made: LF screening did not pay, so the
@@ -183,25 +162,37 @@ impl Kernel {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn tell_direct(&mut self, id: u64, hf: Run) -> Result<Trial, TellError> {
+        self.tell_screened_alone(id, &hf, "HF", hf)
+    }
+
+    /// Tells a screened evaluation trial with one run (`simulator` names it); a learning
+    /// deployment credits the φ search with `learned`.
+    fn tell_screened_alone(
+        &mut self,
+        id: u64,
+        run: &Run,
+        simulator: &'static str,
+        learned: Run,
+    ) -> Result<Trial, TellError> {
         let index = self.pending_index(id)?;
         let phase = self.state.pending[index].trial.phase;
         if phase.learns() || !phase.is_paired() {
             return Err(TellError::NotScreened { id, phase });
         }
-        if !(hf.runtime.is_finite() && hf.runtime > 0.0) {
+        if !(run.runtime.is_finite() && run.runtime > 0.0) {
             return Err(TellError::BadRuntime {
                 id,
-                simulator: "HF",
-                runtime: hf.runtime,
+                simulator,
+                runtime: run.runtime,
             });
         }
-        check_robustness(id, &hf, "HF")?;
+        check_robustness(id, run, simulator)?;
         self.state.stats.told += 1;
         let pending = self.state.pending.remove(index);
         if self.state.config.deployment.learn {
             let s = pending.trial.scenario_index;
             let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
-            self.credit_scenario(s, &pending.trial.phi, phi_arms, &hf, hf.failure);
+            self.credit_scenario(s, &pending.trial.phi, phi_arms, &learned, learned.failure);
         }
         Ok(pending.trial)
     }
