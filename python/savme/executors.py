@@ -44,6 +44,9 @@ __all__ = ["RayExecutor"]
 
 log = logging.getLogger("savme.ray")
 
+# How long `finish` lets the runs still in flight end on their own before force-cancelling them.
+_FINISH_GRACE_S = 2.0
+
 Outcome = Tuple[Any, ...]
 Polled = List[Tuple[int, str, Outcome]]
 
@@ -221,8 +224,15 @@ class RayExecutor:
         ray = self._ray
         if ray is None:
             return
-        if self._task is not None:
-            for ref in list(self._running):
+        if self._task is not None and self._running:
+            # Only runs still going after a short grace are force-cancelled: Ray 2.60's core
+            # worker aborts the whole driver process ("Tried to complete task that was not
+            # pending", task_manager.cc) when a force-cancel races the task's own completion,
+            # which an aborted campaign's just-finishing runs made happen about once in six
+            # runs of test_ray.py on a loaded machine.
+            refs = list(self._running)
+            _, still = ray.wait(refs, num_returns=len(refs), timeout=_FINISH_GRACE_S)
+            for ref in still:
                 try:
                     ray.cancel(ref, force=True)
                 except Exception as e:  # finished meanwhile, or its worker gone: nothing to stop
