@@ -130,6 +130,13 @@ fn a_frozen_deployment_credits_nothing_and_a_learning_one_credits_the_search_onl
         k.tell_unconfirmed(t.id, Run::new(false, 0.2)).unwrap();
         assert_eq!(k.fidelity_posterior(), &theta_before, "θ_LF* moved");
         assert_eq!(k.scenario_posterior("s").unwrap() != &bins_before, credited);
+        // The deployment is the evaluate phase's only: baseline trials credit nothing.
+        k.set_phase(Phase::Baseline);
+        let t = k.ask();
+        let record = k
+            .tell(t.id, Observation::HfOnly(Run::new(true, 1.0)))
+            .unwrap();
+        assert_eq!(record.credit.scenario, None);
     }
 }
 

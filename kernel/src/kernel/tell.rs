@@ -2,7 +2,7 @@
 //! anything (classification per Table I, cost ratio, credit), then applied; the unconfirmed
 //! tell of LF screening, a withdrawal, and the journal's two-step assess/commit.
 
-use super::{Kernel, TellError, Trial, TrialRecord};
+use super::{Kernel, Phase, TellError, Trial, TrialRecord};
 use crate::outcome::{Credit, Observation, Outcome, Run};
 use crate::search::SearchModel;
 
@@ -70,10 +70,12 @@ impl Kernel {
                 scenario: Some(observation.hf().failure),
             },
             // A deployment that keeps learning: the HF run credits the φ search alone.
-            (false, _, _) if self.state.config.deployment.learn => Credit {
-                fidelity: None,
-                scenario: Some(observation.hf().failure),
-            },
+            (false, _, _) if phase == Phase::Evaluate && self.state.config.deployment.learn => {
+                Credit {
+                    fidelity: None,
+                    scenario: Some(observation.hf().failure),
+                }
+            }
             _ => Credit::default(),
         };
         Ok((
