@@ -1,5 +1,6 @@
 //! The ask/tell kernel: suggests trials, ingests their outcomes, learns p_ψ(φ | s) and p_ω(θ_LF).
 
+use crate::allocation::{self, Allocation, Ledger};
 use crate::deployment::Deployment;
 use crate::outcome::{Credit, Observation, Outcome};
 use crate::pairing::{Pairing, PairingError};
@@ -153,6 +154,9 @@ pub struct KernelConfig {
     /// frozen, the paper's; then left out).
     #[serde(default, skip_serializing_if = "Deployment::is_frozen")]
     pub deployment: Deployment,
+    /// How each ask chooses its scenario (default: from p(s), the paper's; then left out).
+    #[serde(default, skip_serializing_if = "Allocation::is_weights")]
+    pub allocation: Allocation,
 }
 
 /// Why a kernel cannot be built or restored.
@@ -207,6 +211,9 @@ pub enum ConfigError {
     /// The pairing's parameters are out of range.
     #[error("{0}")]
     Pairing(PairingError),
+    /// The scenario allocation's parameters are out of range.
+    #[error("{0}")]
+    Allocation(allocation::AllocationError),
 }
 
 /// Why a tell (or a cancel) was refused. A refused tell leaves the kernel unchanged.
@@ -348,6 +355,7 @@ impl Kernel {
                 search: SearchModel::IndependentBins,
                 pairing: Pairing::default(),
                 deployment: Deployment::FROZEN,
+                allocation: Allocation::Weights,
             },
         }
     }
@@ -373,6 +381,10 @@ impl Kernel {
             SearchModel::IndependentBins => Vec::new(),
             SearchModel::EliteMixture(_) => vec![Archive::default(); config.scenarios.len()],
         };
+        let ledgers = match config.allocation {
+            Allocation::Weights => Vec::new(),
+            Allocation::CostRate(_) => vec![Ledger::default(); config.scenarios.len()],
+        };
         Ok(Kernel {
             state: Snapshot {
                 config,
@@ -384,6 +396,7 @@ impl Kernel {
                 pending: Vec::new(),
                 rng,
                 search,
+                ledgers,
             },
             cumulative,
         })
@@ -477,12 +490,7 @@ impl Kernel {
     fn draw(&self, rng: &mut Rng64) -> Pending {
         let st = &self.state;
         let phase = st.phase;
-        let u: f64 = rng.random();
-        let s = self
-            .cumulative
-            .iter()
-            .position(|&c| u < c)
-            .unwrap_or(self.cumulative.len() - 1);
+        let s = self.draw_scenario(rng);
         let scenario = &st.config.scenarios[s];
         let n_phi = scenario.space.len();
         let mut arms = Vec::with_capacity(n_phi + st.config.fidelity.len());
@@ -514,6 +522,33 @@ impl Kernel {
         }
     }
 
+    /// Draws the scenario of the next ask: from p(s), or by the cost-rate allocation.
+    fn draw_scenario(&self, rng: &mut Rng64) -> usize {
+        match &self.state.config.allocation {
+            Allocation::Weights => {
+                let u: f64 = rng.random();
+                self.cumulative
+                    .iter()
+                    .position(|&c| u < c)
+                    .unwrap_or(self.cumulative.len() - 1)
+            }
+            Allocation::CostRate(rule) => {
+                let mut pending = vec![0u32; self.cumulative.len()];
+                for p in &self.state.pending {
+                    pending[p.trial.scenario_index] += 1;
+                }
+                let weights = self.scenario_probabilities();
+                allocation::choose(rule, &weights, &self.state.ledgers, &pending, rng)
+            }
+        }
+    }
+
+    /// Per scenario (kernel order), what its told trials cost and found; empty unless the
+    /// allocation is [`Allocation::CostRate`].
+    pub fn ledgers(&self) -> &[Ledger] {
+        &self.state.ledgers
+    }
+
     /// Draws φ of scenario `s` in `phase`, pushing its arms onto `arms`.
     fn draw_phi(&self, phase: Phase, s: usize, rng: &mut Rng64, arms: &mut Vec<u16>) -> Assignment {
         let st = &self.state;
@@ -535,7 +570,22 @@ impl Kernel {
                 Some(archive),
             ) => {
                 let exploit = phase == Phase::Evaluate && st.config.deployment.exploit;
-                return archive.propose(m, exploit, &st.scenarios[s], space, rng, arms);
+                let in_flight: Vec<Vec<f64>> = if m.crowding > 0.0 {
+                    st.pending
+                        .iter()
+                        .filter(|p| p.trial.scenario_index == s)
+                        .map(|p| space.unit_of(&p.trial.phi, &p.arms[..space.len()]))
+                        .collect()
+                } else {
+                    Vec::new()
+                };
+                let draw = crate::search::Draw {
+                    exploit,
+                    bins: &st.scenarios[s],
+                    space,
+                    in_flight: &in_flight,
+                };
+                return archive.propose(m, &draw, rng, arms);
             }
             _ => st.scenarios[s].thompson(rng, arms),
         }

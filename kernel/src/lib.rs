@@ -39,6 +39,7 @@
 //! ```
 #![warn(missing_docs)]
 
+mod allocation;
 mod deployment;
 pub mod estimation;
 pub mod journal;
@@ -54,6 +55,7 @@ mod simulator;
 mod space;
 mod value;
 
+pub use allocation::{Allocation, AllocationError, CostRate, Ledger};
 pub use deployment::Deployment;
 pub use kernel::{
     ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase,

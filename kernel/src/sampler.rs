@@ -66,6 +66,11 @@ fn marsaglia_tsang<R: Rng + ?Sized>(d: f64, c: f64, rng: &mut R) -> f64 {
     }
 }
 
+/// One Gamma(`shape`, 1) draw (`shape` > 0; Marsaglia–Tsang).
+pub(crate) fn gamma<R: Rng + ?Sized>(shape: f64, rng: &mut R) -> f64 {
+    Gamma::new(shape).sample(rng)
+}
+
 /// A Beta(α, β) sampler with its constants precomputed.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct BetaSampler {

@@ -60,7 +60,9 @@ impl Search {
     pub fn model(self, elite: Option<EliteMixture>) -> savme_kernel::SearchModel {
         match self {
             Search::Bins => savme_kernel::SearchModel::IndependentBins,
-            Search::Elite => savme_kernel::SearchModel::EliteMixture(elite.unwrap_or_default()),
+            Search::Elite => {
+                savme_kernel::SearchModel::EliteMixture(elite.unwrap_or_else(EliteMixture::legacy))
+            }
         }
     }
 

@@ -2,6 +2,7 @@
 //! seed, priors, estimator, search, pairing), checked when built.
 
 use super::{ConfigError, FidelityPrior, Kernel, KernelConfig, Scenario};
+use crate::allocation::Allocation;
 use crate::deployment::Deployment;
 use crate::pairing::Pairing;
 use crate::posterior::{Estimator, Posterior, PriorCounts};
@@ -102,6 +103,25 @@ impl KernelBuilder {
     /// ```
     pub fn deployment(mut self, deployment: Deployment) -> Self {
         self.config.deployment = deployment;
+        self
+    }
+
+    /// Sets how each ask chooses its scenario (default [`Allocation::Weights`]: from p(s),
+    /// the paper's).
+    ///
+    /// ```
+    /// use savme_kernel::{Allocation, Assignment, CostRate, Kernel, Scale, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
+    /// let kernel = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .allocation(Allocation::CostRate(CostRate::default()))
+    ///     .build()?;
+    /// assert_eq!(kernel.ledgers().len(), 1);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn allocation(mut self, allocation: Allocation) -> Self {
+        self.config.allocation = allocation;
         self
     }
 

@@ -4,6 +4,7 @@
 
 use super::validation::validate_config;
 use super::{ConfigError, Kernel, KernelConfig, KernelStats, Pending, Phase};
+use crate::allocation::{Allocation, Ledger};
 use crate::posterior::Posterior;
 use crate::search::{Archive, SearchModel};
 use crate::space::Space;
@@ -25,6 +26,10 @@ pub struct Snapshot {
     /// independent bins, and then left out of the JSON).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(super) search: Vec<Archive>,
+    /// Per scenario, what its told trials cost and found ([`Allocation::CostRate`]; empty for
+    /// the paper's p(s), and then left out of the JSON).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(super) ledgers: Vec<Ledger>,
 }
 
 impl Kernel {
@@ -50,6 +55,7 @@ impl Kernel {
                 .map_err(|e| state(format!("scenario `{}` posterior: {e}", s.name)))?;
         }
         check_archives(&snapshot)?;
+        check_ledgers(&snapshot)?;
         let mut last = None;
         for p in &snapshot.pending {
             let t = &p.trial;
@@ -111,6 +117,30 @@ pub enum RestoreError {
     /// A snapshot whose contents are inconsistent.
     #[error(transparent)]
     Config(ConfigError),
+}
+
+/// Checks that a snapshot's ledgers fit its allocation and scenarios.
+fn check_ledgers(snapshot: &Snapshot) -> Result<(), ConfigError> {
+    let cfg = &snapshot.config;
+    let expected = match cfg.allocation {
+        Allocation::Weights => 0,
+        Allocation::CostRate(_) => cfg.scenarios.len(),
+    };
+    if snapshot.ledgers.len() != expected {
+        return Err(ConfigError::State(format!(
+            "{} scenario ledgers for {expected} expected",
+            snapshot.ledgers.len()
+        )));
+    }
+    for (l, s) in snapshot.ledgers.iter().zip(&cfg.scenarios) {
+        if !(l.cost.is_finite() && l.cost >= 0.0) || l.failures > l.trials {
+            return Err(ConfigError::State(format!(
+                "scenario `{}`: its ledger ({} trials, {} failures, cost {}) is impossible",
+                s.name, l.trials, l.failures, l.cost
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// Checks that a snapshot's search archives fit its search model and scenarios.

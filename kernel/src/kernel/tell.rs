@@ -104,8 +104,11 @@ impl Kernel {
         let pending = self.state.pending.remove(index);
         let s = pending.trial.scenario_index;
         let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
+        let cost = observation.hf().runtime + observation.lf().map_or(0.0, |lf| lf.runtime);
+        self.account(s, cost, observation.hf().failure);
         if let Some(ok) = assessed.credit.scenario {
-            self.credit_scenario(s, &pending.trial.phi, phi_arms, observation.hf(), ok);
+            let phi = &pending.trial.phi;
+            self.credit_scenario(s, phi, phi_arms, observation.hf(), ok, cost);
         }
         if let Some(ok) = assessed.credit.fidelity {
             self.state.fidelity.update(theta_arms, ok);
@@ -191,16 +194,19 @@ impl Kernel {
         check_robustness(id, run, simulator)?;
         self.state.stats.told += 1;
         let pending = self.state.pending.remove(index);
+        let s = pending.trial.scenario_index;
+        // Only an HF run (a direct trial) can find a failure; an LF pass found none.
+        self.account(s, run.runtime, simulator == "HF" && run.failure);
         if self.state.config.deployment.learn {
-            let s = pending.trial.scenario_index;
             let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
-            self.credit_scenario(s, &pending.trial.phi, phi_arms, &learned, learned.failure);
+            let phi = &pending.trial.phi;
+            self.credit_scenario(s, phi, phi_arms, &learned, learned.failure, run.runtime);
         }
         Ok(pending.trial)
     }
 
     /// Credits scenario `s`'s φ search with a result: its bins by `found` (an HF failure), the
-    /// elite archive (if any) by the run.
+    /// elite archive (if any) by the run and what the trial cost (every run told).
     fn credit_scenario(
         &mut self,
         s: usize,
@@ -208,14 +214,22 @@ impl Kernel {
         phi_arms: &[u16],
         hf: &Run,
         found: bool,
+        cost: f64,
     ) {
         self.state.scenarios[s].update(phi_arms, found);
         if let (Some(archive), SearchModel::EliteMixture(m)) =
             (self.state.search.get_mut(s), &self.state.config.search)
         {
             let space = &self.state.config.scenarios[s].space;
-            archive.record(space, phi, phi_arms, hf);
+            archive.record(space, phi, phi_arms, hf, cost);
             archive.truncate(m.archive);
+        }
+    }
+
+    /// Adds a told trial of scenario `s` to its ledger (kept by the cost-rate allocation only).
+    fn account(&mut self, s: usize, cost: f64, failure: bool) {
+        if let Some(l) = self.state.ledgers.get_mut(s) {
+            l.add(cost, failure);
         }
     }
 

@@ -38,6 +38,7 @@ pub(crate) fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError>
     c.prior.validate().map_err(ConfigError::Prior)?;
     c.search.validate().map_err(ConfigError::Search)?;
     c.pairing.validate().map_err(ConfigError::Pairing)?;
+    c.allocation.validate().map_err(ConfigError::Allocation)?;
     if let Some(fp) = &c.fidelity_prior {
         fp.posterior
             .check_fits(&c.fidelity)

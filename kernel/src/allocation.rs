@@ -1,0 +1,250 @@
+//! Which scenario the next trial runs: the paper's p(s), or the scenarios whose failures have
+//! cost least so far.
+//!
+//! The paper draws every trial's scenario from p(s) (the scenario weights), so each scenario
+//! gets the same share of the *trials* whatever its runs cost and however often they fail. A
+//! user pays for simulation, not for trials: with [`Allocation::CostRate`] the kernel keeps a
+//! [`Ledger`] per scenario (what its told trials cost, how many HF failures they found) and
+//! picks the scenario by Thompson sampling of its failure rate per unit cost — a Gamma–Poisson
+//! bandit: failures arrive as a Poisson process in the cost spent, the rate's posterior is
+//! Gamma(failures + 1, cost + 2·c̄) with c̄ the mean cost of a told trial. Two rules come
+//! first: every scenario gets `warmup` trials, and no scenario's share of the cost falls below
+//! `floor` times its share of p(s) (the coverage floor: a failure mode that is dear to find
+//! is never starved). Trials in flight count with the scenario's mean cost and, for the
+//! rate, as if they fail at its posterior mean (so a batch is spread without biasing the
+//! allocation).
+//!
+//! ```
+//! use savme_kernel::{Allocation, CostRate};
+//! assert_eq!(Allocation::default(), Allocation::Weights); // the paper's
+//! let a = Allocation::CostRate(CostRate::default());
+//! let json = serde_json::to_string(&a)?;
+//! assert!(json.starts_with(r#"{"rule":"cost_rate""#));
+//! assert_eq!(serde_json::from_str::<Allocation>(&json)?, a);
+//! assert!(CostRate { floor: 1.5, ..CostRate::default() }.validate().is_err());
+//! # Ok::<(), serde_json::Error>(())
+//! ```
+
+use crate::sampler::gamma;
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+/// How the kernel chooses the scenario of each ask. Part of the [`crate::KernelConfig`]; the
+/// default is the paper's (and is then left out of the JSON).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[serde(tag = "rule", rename_all = "snake_case")]
+pub enum Allocation {
+    /// The paper's: the scenario is drawn from p(s), the normalised scenario weights.
+    #[default]
+    Weights,
+    /// A bandit over the scenarios by HF failures per unit cost, with a coverage floor.
+    CostRate(CostRate),
+}
+
+impl Allocation {
+    /// True for the paper's [`Allocation::Weights`].
+    pub fn is_weights(&self) -> bool {
+        matches!(self, Allocation::Weights)
+    }
+
+    /// Checks the parameters.
+    pub fn validate(&self) -> Result<(), AllocationError> {
+        match self {
+            Allocation::Weights => Ok(()),
+            Allocation::CostRate(r) => r.validate(),
+        }
+    }
+}
+
+/// The parameters of [`Allocation::CostRate`]; missing fields take their defaults.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CostRate {
+    /// The coverage floor, in `[0, 1]`: every scenario's share of the cost spent stays at or
+    /// above `floor` × its share of p(s) (1: the cost is split by the weights; 0: no floor).
+    pub floor: f64,
+    /// Trials (told or in flight) every scenario gets before the bandit chooses; at least 1.
+    pub warmup: u32,
+}
+
+impl Default for CostRate {
+    fn default() -> Self {
+        CostRate {
+            floor: 0.3,
+            warmup: 4,
+        }
+    }
+}
+
+impl CostRate {
+    /// Checks `floor` ∈ [0, 1] and `warmup` ≥ 1.
+    pub fn validate(&self) -> Result<(), AllocationError> {
+        if !(0.0..=1.0).contains(&self.floor) {
+            return Err(AllocationError::Floor(self.floor));
+        }
+        if self.warmup == 0 {
+            return Err(AllocationError::Warmup);
+        }
+        Ok(())
+    }
+}
+
+/// An allocation parameter out of range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AllocationError {
+    /// `floor` outside [0, 1] (or NaN).
+    #[error("allocation `floor` = {0} is outside [0, 1]")]
+    Floor(f64),
+    /// `warmup` of 0.
+    #[error("allocation `warmup` must be at least 1")]
+    Warmup,
+}
+
+/// What one scenario's told trials have cost and found (kept with [`Allocation::CostRate`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Ledger {
+    /// Trials told.
+    pub trials: u64,
+    /// Their cost: every run told, HF and LF, in the runtimes' unit.
+    pub cost: f64,
+    /// Their HF failures (a screened trial's only when its HF run was made).
+    pub failures: u64,
+}
+
+impl Ledger {
+    /// Adds a told trial.
+    pub(crate) fn add(&mut self, cost: f64, failure: bool) {
+        self.trials += 1;
+        self.cost += cost;
+        self.failures += u64::from(failure);
+    }
+
+    /// HF failures per unit cost so far (0 before any trial).
+    pub fn rate(&self) -> f64 {
+        if self.cost > 0.0 {
+            self.failures as f64 / self.cost
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Picks the next scenario: warm-up first, then the scenario furthest below its floor, else a
+/// Thompson draw of every scenario's failures per unit cost. `weights` is p(s), `pending` the
+/// trials in flight per scenario.
+pub(crate) fn choose<R: Rng + ?Sized>(
+    rule: &CostRate,
+    weights: &[f64],
+    ledgers: &[Ledger],
+    pending: &[u32],
+    rng: &mut R,
+) -> usize {
+    let started = |s: usize| ledgers[s].trials + u64::from(pending[s]);
+    if let Some(s) = (0..weights.len())
+        .filter(|&s| started(s) < u64::from(rule.warmup))
+        .min_by_key(|&s| started(s))
+    {
+        return s;
+    }
+    let told: u64 = ledgers.iter().map(|l| l.trials).sum();
+    let spent: f64 = ledgers.iter().map(|l| l.cost).sum();
+    let mean = if told > 0 { spent / told as f64 } else { 1.0 };
+    // Cost per scenario with its trials in flight at its mean cost.
+    let each = |s: usize| {
+        let l = &ledgers[s];
+        let m = if l.trials > 0 {
+            l.cost / l.trials as f64
+        } else {
+            mean
+        };
+        (m, l.cost + f64::from(pending[s]) * m)
+    };
+    let costs: Vec<(f64, f64)> = (0..weights.len()).map(each).collect();
+    let total: f64 = costs.iter().map(|c| c.1).sum();
+    let below = (0..weights.len())
+        .map(|s| (s, 1.0 - costs[s].1 / (rule.floor * weights[s] * total)))
+        .filter(|d| d.1 > 0.0 && d.1.is_finite())
+        .max_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((s, _)) = below {
+        return s;
+    }
+    let (shape0, rate0) = (1.0, 2.0 * mean);
+    let mut best = (0, f64::NEG_INFINITY);
+    for (s, l) in ledgers.iter().enumerate() {
+        let (m, cost) = costs[s];
+        let posterior_mean = (l.failures as f64 + shape0) / (l.cost + rate0);
+        let believed = l.failures as f64 + f64::from(pending[s]) * m * posterior_mean;
+        let draw = gamma(believed + shape0, rng) / (cost + rate0);
+        if draw > best.1 {
+            best = (s, draw);
+        }
+    }
+    best.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    fn ledger(trials: u64, cost: f64, failures: u64) -> Ledger {
+        Ledger {
+            trials,
+            cost,
+            failures,
+        }
+    }
+
+    #[test]
+    fn warm_up_goes_to_the_scenario_with_fewest_trials() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(1);
+        let rule = CostRate::default();
+        let ledgers = [ledger(4, 4.0, 0), ledger(1, 1.0, 0), ledger(0, 0.0, 0)];
+        assert_eq!(choose(&rule, &[0.3; 3], &ledgers, &[0, 0, 1], &mut rng), 1);
+        assert_eq!(choose(&rule, &[0.3; 3], &ledgers, &[0, 1, 0], &mut rng), 2);
+    }
+
+    #[test]
+    fn cheap_failures_win_most_draws_and_the_floor_holds() {
+        // Scenario 0 finds a failure per 10 cost units, scenario 1 one per 100.
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+        let rule = CostRate {
+            floor: 0.5,
+            warmup: 1,
+        };
+        let (mut l, weights) = ([ledger(0, 0.0, 0); 2], [0.5, 0.5]);
+        let (rate, unit) = ([0.1, 0.01], [1.0, 1.0]);
+        for _ in 0..4000 {
+            let s = choose(&rule, &weights, &l, &[0, 0], &mut rng);
+            // Deterministic failures at the scenario's rate: one per 1/rate cost.
+            let before = (l[s].cost * rate[s]).floor();
+            let after = ((l[s].cost + unit[s]) * rate[s]).floor();
+            l[s].add(unit[s], after > before);
+        }
+        let share0 = l[0].cost / (l[0].cost + l[1].cost);
+        assert!(
+            share0 > 0.7,
+            "the cheap scenario got {share0:.2} of the cost"
+        );
+        // floor 0.5 × weight 0.5: scenario 1 keeps at least a quarter (less one trial).
+        assert!(1.0 - share0 >= 0.25 - 1e-3, "floor broken: {share0:.3}");
+    }
+
+    #[test]
+    fn a_floor_of_one_splits_the_cost_by_weight() {
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let rule = CostRate {
+            floor: 1.0,
+            warmup: 1,
+        };
+        let weights = [0.75, 0.25];
+        let mut l = [ledger(0, 0.0, 0); 2];
+        let unit = [1.0, 5.0];
+        for _ in 0..2000 {
+            let s = choose(&rule, &weights, &l, &[0, 0], &mut rng);
+            l[s].add(unit[s], s == 1);
+        }
+        let share0 = l[0].cost / (l[0].cost + l[1].cost);
+        assert!((share0 - 0.75).abs() < 0.01, "{share0}");
+    }
+}
