@@ -120,7 +120,7 @@ fn print_rates() {
         );
         show(
             &format!("batch {batch}, crowding 1"),
-            rate(|s| config(elite(true, 0.0), cost_rate(), s), 600, batch),
+            rate(|s| config(elite(true, 1.0), cost_rate(), s), 600, batch),
         );
     }
 }
