@@ -7,7 +7,7 @@ use savme_campaign::config::{check_repeat, Overrides};
 use savme_campaign::estimate::{
     EstimateError, EstimateOutcome, EstimateProgress, EstimateRun, EstimateSettings,
 };
-use savme_campaign::{CampaignError, OnError, Problem, Protocol};
+use savme_campaign::{CampaignError, Method, OnError, Problem, Protocol};
 use savme_campaign_file::{CampaignFile, ConfigError};
 use savme_kernel::Simulator;
 use savme_sim::sim::DrivingSimulator;
@@ -86,7 +86,8 @@ pub struct FileCampaign {
 
 /// Reads and checks the campaign file at `path` through the adapter whose sections it has
 /// (with the bundled simulator's fidelity table for `[fidelity] paper = true`), then builds its
-/// protocol: the paper's, the file's `[campaign]` section, then `flags`, validated. An error in
+/// protocol: the paper's stages with savme's tuned search ([`Method::Tuned`]), the file's
+/// `[campaign]` section, then `flags`, validated. An error in
 /// a value the file gave names the file, line and key; one in a flag names the protocol field.
 pub fn campaign_file(path: &Path, flags: &Overrides) -> Result<FileCampaign, CampaignError> {
     let paper = |bins| {
@@ -104,11 +105,13 @@ pub fn campaign_file(path: &Path, flags: &Overrides) -> Result<FileCampaign, Cam
     let file = file_adapter(path)?.read_file(path, &paper)?;
     let common = file.common();
     let scenarios = &common.scenarios;
+    // `savme run` searches with savme's tuned method unless `method = "paper"` is given.
     let mut p = Protocol::paper(
         file.label(),
         scenarios.train.clone(),
         scenarios.test.clone(),
-    );
+    )
+    .with_method(Method::Tuned);
     p.weights = scenarios.weights.clone();
     p.on_error = if file.skip_failed_runs() {
         OnError::Skip

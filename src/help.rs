@@ -6,7 +6,7 @@
 use clap::{Command, CommandFactory};
 use savme::campaign::config::{self as campaign_config, TOY};
 use savme::campaign::values::VALUES;
-use savme::campaign::Protocol;
+use savme::campaign::{Method, Protocol};
 use savme::compose;
 
 /// The command line with the additions of this module.
@@ -99,6 +99,9 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("deployment", None) => Some(p.deployment.name().into()),
         ("screen_lf", None) => Some("always".into()),
         ("elite", None) => Some(elite_defaults()),
+        ("allocation", None) => Some("weights".into()),
+        ("coverage_floor", None) => Some(p.coverage_floor.to_string()),
+        ("search_budget" | "deploy_budget", None) => Some("none (the iterations)".into()),
         (_, Some(x)) => Some(shown(x)),
         (_, None) => None,
     }
@@ -122,6 +125,8 @@ fn protocol_defaults(cli: Command) -> Command {
     let paper = Protocol::paper(compose::SENSORS, train.clone(), test.clone());
     let quick = Protocol::quick(compose::SENSORS, train, test);
     let toy = campaign_config::toy(TOY, &Default::default()).map(|(p, _)| p);
+    // `savme run` searches with the tuned method unless told otherwise.
+    let tuned = paper.clone().with_method(Method::Tuned);
     let mut cli = cli;
     for v in VALUES {
         let id = v.name;
@@ -130,6 +135,11 @@ fn protocol_defaults(cli: Command) -> Command {
             "repeat" => {
                 let one = "[default: none — one campaign, written to OUT itself]".to_string();
                 (one.clone(), one.clone(), one)
+            }
+            "method" => {
+                let paper = "[default: paper]".to_string();
+                let run = "[default: the campaign file's `method`, else tuned]".to_string();
+                (paper.clone(), run, paper)
             }
             _ => {
                 let (Some(p), Some(q)) = (note(&paper), note(&quick)) else {
@@ -141,9 +151,10 @@ fn protocol_defaults(cli: Command) -> Command {
                 } else {
                     format!("[default: {p}; with --quick: {q}]")
                 };
+                let r = note(&tuned).unwrap_or(p);
                 (
                     reproduce,
-                    format!("[default: the campaign file's `{id}`, else {p}]"),
+                    format!("[default: the campaign file's `{id}`, else {r}]"),
                     format!("[default: {t}]"),
                 )
             }

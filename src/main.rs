@@ -25,8 +25,10 @@ struct Cli {
 enum Command {
     /// Serve the ask/tell kernel as JSON lines on stdin/stdout, for a harness in any language.
     Serve(commands::serve::Args),
-    /// Print a kernel configuration (the toy simulator's) to start editing from.
-    ExampleConfig,
+    /// Print a kernel configuration (the toy simulator's) to start editing from: savme's
+    /// search by cost (elite search, cost-rate allocation, adaptive deployment), or with
+    /// `--method paper` the paper's SAVME.
+    ExampleConfig(commands::serve::ExampleArgs),
     /// List the bundled driving simulator's scenarios with their parameter spaces.
     Scenarios(commands::scenarios::Args),
     /// List the 16 fidelity settings (the paper's Table II) with their high-fidelity values.
@@ -74,7 +76,7 @@ fn main() -> ExitCode {
     let cli = Cli::from_arg_matches(&help::command().get_matches()).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Serve(a) => commands::serve::run(a),
-        Command::ExampleConfig => commands::serve::example_config().map_err(Failure::from),
+        Command::ExampleConfig(a) => commands::serve::example_config(a).map_err(Failure::from),
         Command::Scenarios(a) => commands::scenarios::run(a).map_err(Failure::from),
         Command::Fidelity(a) => commands::fidelity::run(a).map_err(Failure::from),
         Command::Reproduce(a) => commands::reproduce::run(a),

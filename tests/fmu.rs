@@ -212,12 +212,15 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
         );
         let config = campaign_file(&dir, &body);
         let out = dir.join(name);
+        // The paper's method: the fixture below is its campaign.
         let (ok, stdout, err) = savme(&[
             "run",
             "--config",
             config.to_str().unwrap(),
             "--out",
             out.to_str().unwrap(),
+            "--method",
+            "paper",
             "--quiet",
         ]);
         assert!(ok, "{name}: {err}");
@@ -281,6 +284,8 @@ fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {
         config.to_str().unwrap(),
         "--out",
         dir.join("fmi3").to_str().unwrap(),
+        "--method",
+        "paper",
         "--quiet",
     ]);
     assert!(ok, "FMI 3.0: {err}");

@@ -44,6 +44,8 @@ OPTIONAL = HERE / "requirements-bayesopt.txt"
 
 QUICK_SCENARIOS = ("7", "5")  # lead_vehicle_brakes, intruder_cuts_in (5 and 4 parameters)
 BEGIN, END = "<!-- peers:begin -->", "<!-- peers:end -->"
+# The savme rows without --savme-variant: the first sets every peer's budgets.
+DEFAULT_VARIANTS = ("savme=--method tuned", "savme-paper=--method paper")
 
 
 def in_venv() -> bool:
@@ -89,7 +91,11 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--budget", type=float, default=0.3, help="savme's C_budget")
     ap.add_argument("--methods", default=None, help="VerifAI peers, comma-separated (default: all that installed)")
     ap.add_argument("--savme-variant", action="append", default=None, metavar="NAME[=FLAGS]",
-                    help="a savme row: name and extra `savme reproduce` flags (repeatable; default: savme)")
+                    help="a savme row: name and extra `savme reproduce` flags (repeatable; default: "
+                         "savme=--method tuned, savme-paper=--method paper)")
+    ap.add_argument("--peer-split", choices=("work", "trials"), default="work",
+                    help="how each peer splits its budget over the scenarios: equal work per scenario "
+                         "(default: a VerifAI user's even split of the budget) or equal trials")
     ap.add_argument("--jobs", type=int, default=2, help="processes at once (savme --jobs, peer runs in parallel)")
     ap.add_argument("--out", type=Path, default=None, help="default target/peers/<mode>")
     ap.add_argument("--results-md", type=Path, default=None,
@@ -164,7 +170,8 @@ def main() -> int:
     where = f"{mode}-{backend.tag}" if backend.tag else mode
     out = args.out or REPO / "target" / "peers" / f"{where}-{args.scenarios.replace(',', '_')}"
     out.mkdir(parents=True, exist_ok=True)
-    variants = [savme_rows.Variant.parse(v) for v in (args.savme_variant or ["savme"])]
+    # savme as a user gets it (`savme run`'s defaults: the tuned method), then the paper's SAVME.
+    variants = [savme_rows.Variant.parse(v) for v in (args.savme_variant or list(DEFAULT_VARIANTS))]
     methods = [m for m in (args.methods.split(",") if args.methods else verifai_peers.PEERS)]
     if "bayesopt" in methods and not verifai_peers.bayesopt_available():
         print("GPyOpt is not installed: Bayesian optimisation left out", file=sys.stderr)
@@ -198,7 +205,8 @@ def main() -> int:
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = {
             job: pool.submit(verifai_peers.run_peer, job[0], job[1], spaces,
-                             budgets[job[1]][0], budgets[job[1]][1], backend.sim_command)
+                             budgets[job[1]][0], budgets[job[1]][1], backend.sim_command,
+                             args.peer_split)
             for job in jobs
         }
         for (m, seed), f in futures.items():
@@ -211,6 +219,7 @@ def main() -> int:
     text = render(report, outcomes, names, [v.name for v in variants], dict(
         mode=mode, seeds=seeds, iterations=iterations, screen=screen, budget=args.budget,
         budgets=budgets, started=started, finished=finished, wall=time.monotonic() - t0,
+        split=args.peer_split,
         commands=commands, methods=methods, problem=problem_text(backend, sets),
         per=report.PER if backend.config is None else None,
     ))
@@ -299,7 +308,8 @@ def render(report, outcomes, names, savme_methods, info) -> str:
         f"{info['problem']}. savme: C_budget {info['budget']}, {info['iterations']} search iterations, "
         f"{info['screen']} screened trials (`--audit-fraction 0`). Budgets per seed (search, deployed; "
         f"{u} wu): " + "; ".join(f"seed {s}: {a / per:.2f}, {b / per:.2f}" for s, (a, b) in info["budgets"].items())
-        + ". Every VerifAI peer gets its seed's budgets on HF only.",
+        + f". Every VerifAI peer gets its seed's budgets on HF only, split over the scenarios by "
+        f"{'equal work' if info['split'] == 'work' else 'equal trials'} (savme allocates its own).",
         "",
         "Commands:",
         "",

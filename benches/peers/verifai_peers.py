@@ -98,20 +98,33 @@ class PeerRun:
     restarts: int = 0
 
 
-class _Scenarios:
-    """One sampler per scenario, visited in turn (equal trials per scenario)."""
+# How a peer splits its budget over the scenarios: equal work (the default), or equal trials.
+SPLITS = ("work", "trials")
 
-    def __init__(self, method: str, spaces: list[ScenarioSpace]) -> None:
+
+class _Scenarios:
+    """One sampler per scenario: `split = "work"` runs next the scenario that has cost least so
+    far (an equal share of the work per scenario: what a VerifAI user with one sampler per
+    scenario and a budget split evenly gets); `"trials"` visits them in turn (equal trials)."""
+
+    def __init__(self, method: str, spaces: list[ScenarioSpace], split: str = "work") -> None:
+        if split not in SPLITS:
+            raise ValueError(f"split {split!r}: give one of {', '.join(SPLITS)}")
         self.method = method
         self.spaces = spaces
         self.samplers = [make_sampler(method, s) for s in spaces]
+        self.split = split
+        self.work = [0.0] * len(spaces)  # per scenario, in the current part (search, deployed)
         self.turn = 0
         self.restarts = 0
 
     def next(self) -> tuple[int, Any, Any]:
         from verifai.samplers.domain_sampler import TerminationException
 
-        k = self.turn % len(self.spaces)
+        if self.split == "work":
+            k = min(range(len(self.spaces)), key=lambda i: (self.work[i], i))
+        else:
+            k = self.turn % len(self.spaces)
         self.turn += 1
         try:
             sample, info = self.samplers[k].getSample()
@@ -128,6 +141,7 @@ def _spend(
     """Samples, runs on HF and feeds ρ back until `budget` work units are spent (the run that
     crosses the budget counts)."""
     spent = 0
+    state.work = [0.0] * len(state.spaces)
     while spent < budget:
         t0 = time.perf_counter()
         k, sample, info = state.next()
@@ -142,6 +156,7 @@ def _spend(
         peer.sampler_calls += 1
         out.append(run)
         spent += run.work
+        state.work[k] += run.work
 
 
 def run_peer(
@@ -151,6 +166,7 @@ def run_peer(
     search_budget: float,
     deployed_budget: float,
     sim_command: Sequence[str],
+    split: str = "work",
 ) -> PeerRun:
     """One peer, one seed: the search, then the deployed part (the same samplers go on
     sampling on HF), each until its work-unit budget is spent."""
@@ -158,7 +174,7 @@ def run_peer(
     np.random.seed(seed)
     peer = PeerRun(method, seed)
     with Simulator(sim_command) as sim:
-        state = _Scenarios(method, spaces)
+        state = _Scenarios(method, spaces, split)
         _spend(state, sim, search_budget, peer.search, peer)
         if deployed_budget > 0:
             _spend(state, sim, deployed_budget, peer.deployed, peer)

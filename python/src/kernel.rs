@@ -17,8 +17,8 @@ use pyo3::types::{PyDict, PyList, PyTuple};
 use savme::campaign::store::{journal, JsonlStore};
 use savme::serve::Session;
 use savme_kernel::{
-    Deployment, EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig, Observation, Pairing,
-    Phase, PriorCounts, Run, Scenario, SearchModel, Space, TrialRecord,
+    Allocation, CostRate, Deployment, EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig,
+    Observation, Pairing, Phase, PriorCounts, Run, Scenario, SearchModel, Space, TrialRecord,
 };
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -277,7 +277,8 @@ impl PyKernel {
     #[new]
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
-        pair_fraction = 1.0, pair_settle = 30, deployment = "frozen"))]
+        pair_fraction = 1.0, pair_settle = 30, deployment = None, allocation = None,
+        method = "tuned"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -294,8 +295,35 @@ impl PyKernel {
         search: Option<&Bound<'_, PyAny>>,
         pair_fraction: f64,
         pair_settle: u64,
-        deployment: &str,
+        deployment: Option<&str>,
+        allocation: Option<&str>,
+        method: &str,
     ) -> PyResult<Self> {
+        let tuned = match method {
+            "tuned" => true,
+            "paper" => false,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "method = {other:?}: give \"tuned\" (savme's search by cost) or \"paper\" (the paper's SAVME)"
+                )))
+            }
+        };
+        let search = match search {
+            Some(s) => search_model(Some(s))?,
+            None if tuned => SearchModel::EliteMixture(EliteMixture::default()),
+            None => SearchModel::IndependentBins,
+        };
+        let deployment =
+            self::deployment(deployment.unwrap_or(if tuned { "adaptive" } else { "frozen" }))?;
+        let allocation = match allocation.unwrap_or(if tuned { "cost-rate" } else { "weights" }) {
+            "weights" => Allocation::Weights,
+            "cost-rate" => Allocation::CostRate(CostRate::default()),
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's) or \"cost-rate\" (by HF failures per unit cost)"
+                )))
+            }
+        };
         let pairing = Pairing {
             fraction: pair_fraction,
             settle: pair_settle,
@@ -328,9 +356,10 @@ impl PyKernel {
                 posterior: p.posterior.clone(),
                 strength: prior_strength,
             }),
-            search: search_model(search)?,
+            search,
             pairing,
-            deployment: self::deployment(deployment)?,
+            deployment,
+            allocation,
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal)

@@ -7,7 +7,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use savme::campaign::config::Overrides;
-use savme::campaign::{OnError, Protocol};
+use savme::campaign::{Method, OnError, Protocol};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
@@ -101,7 +101,9 @@ impl PyProtocol {
                     "preset must be \"paper\" or \"quick\", got {other:?}"
                 )))
             }
-        };
+        }
+        // savme's tuned search unless `method="paper"` is given (the preset is the length).
+        .with_method(Method::Tuned);
         let o = overrides(values)?;
         if o.repeat.is_some() {
             return Err(PyValueError::new_err(

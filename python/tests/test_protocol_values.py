@@ -1,7 +1,7 @@
 """Every protocol value is declared once in savme (savme.PROTOCOL_VALUES) and reachable under
 the same name from the command line (`savme run`/`savme reproduce` flags), a campaign file's
 `[campaign]` section (savme.campaign.load) and Python (savme.Protocol keywords), with the same
-default (the paper's protocol when the value is not given)."""
+default (the paper's stages with savme's tuned search when the value is not given)."""
 
 import json
 import os
@@ -13,7 +13,7 @@ import pytest
 import savme
 from conftest import REPO
 
-# A value for each declared name, different from the paper's default (and valid together).
+# A value for each declared name, written to the protocol when given (and valid together).
 SAMPLES = {
     "seed": 11,
     "cost": "work",
@@ -35,11 +35,16 @@ SAMPLES = {
     # Every parameter: the protocol stores them all (those not given at their defaults).
     "elite": {"explore": 0.2, "bandwidth": 0.06, "jump": 0.1, "near_miss": 0.0,
               "near_miss_weight": 0.5, "near_miss_until": 20, "spread": 1.0, "tries": 8,
-              "archive": 4096},
+              "archive": 4096, "per_cost": True, "crowding": 0.0},
     "pair_fraction": 0.25,
     "pair_settle": 12,
     "deployment": "adaptive",
     "screen_lf": "where-it-pays",
+    "method": "paper",
+    "allocation": "cost-rate",
+    "coverage_floor": 0.5,
+    "search_budget": 1e9,
+    "deploy_budget": 2e8,
     "repeat": 2,
 }
 
@@ -80,6 +85,12 @@ def test_each_value_is_a_protocol_keyword_with_the_papers_default():
         name = v["name"]
         if name in ("train_scenarios", "test_scenarios", "repeat"):
             continue  # positional arguments of Protocol; repeat belongs to the campaign
+        if name == "method":  # not stored: it sets the search values it names
+            given = savme.Protocol(["a"], ["b"], method="paper").to_dict()
+            assert (paper["search"], paper["allocation"], paper["deployment"]) == (
+                "elite", "cost-rate", "adaptive")
+            assert not {"search", "allocation", "deployment", "elite"} & set(given)
+            continue
         with_ = COMPANIONS.get(name, {})
         given = savme.Protocol(["a"], ["b"], **{name: SAMPLES[name]}, **with_).to_dict()
         assert given[name] == SAMPLES[name], name
@@ -123,6 +134,10 @@ def test_each_value_is_a_campaign_file_key_with_the_same_meaning(fmu_campaign, t
         if name == "repeat":
             assert c.repeat == SAMPLES[name]
             assert got == default
+            continue
+        if name == "method":  # the paper's SAVME: its search values are the defaults, not written
+            assert default["search"] == "elite"
+            assert not {"search", "allocation", "deployment", "elite"} & set(got)
             continue
         assert got[name] == SAMPLES[name], name
     bad = tmp_path / "bad.toml"

@@ -127,11 +127,24 @@ impl Read for LinesUntilStop {
     }
 }
 
-pub fn example_config() -> Result<(), String> {
-    let kernel = savme::toy::kernel_builder()
-        .seed(1)
-        .build()
-        .map_err(|e| e.to_string())?;
+/// `savme example-config`'s flags.
+#[derive(clap::Args)]
+pub struct ExampleArgs {
+    /// tuned (savme's search by cost, the default) or paper (the paper's SAVME).
+    #[arg(long, value_enum, default_value = "tuned")]
+    method: savme::campaign::Method,
+}
+
+pub fn example_config(a: ExampleArgs) -> Result<(), String> {
+    let builder = savme::toy::kernel_builder().seed(1);
+    let builder = match a.method {
+        savme::campaign::Method::Paper => builder,
+        savme::campaign::Method::Tuned => builder
+            .search(savme::kernel::SearchModel::EliteMixture(Default::default()))
+            .deployment(savme::kernel::Deployment::ADAPTIVE)
+            .allocation(savme::kernel::Allocation::CostRate(Default::default())),
+    };
+    let kernel = builder.build().map_err(|e| e.to_string())?;
     let json = serde_json::to_string_pretty(kernel.config()).map_err(|e| e.to_string())?;
     super::print(&format!("{json}\n"))
 }

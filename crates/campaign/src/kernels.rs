@@ -81,7 +81,8 @@ impl<'a> StageKernels<'a> {
             .seed(p.kernel_seed(label))
             .search(p.search.model(p.elite))
             .pairing(p.pairing())
-            .deployment(p.deployment.kernel());
+            .deployment(p.deployment.kernel())
+            .allocation(p.allocation.kernel(p.coverage_floor));
         for (name, space) in scenarios {
             b = b.scenario(name, space.clone(), p.weight(name));
         }

@@ -85,6 +85,11 @@ pub struct TrialLine {
 }
 
 impl TrialLine {
+    /// What the trial's runs cost: HF, and LF if it ran.
+    pub fn cost(&self) -> f64 {
+        runs_cost(Some(&self.hf), self.lf.as_ref())
+    }
+
     /// The observation the kernel was told.
     pub fn observation(&self) -> savme_kernel::Observation {
         match &self.lf {
@@ -148,6 +153,18 @@ pub struct ScreenLine {
     pub outcome: Option<Outcome>,
 }
 
+/// What runs cost in all (the runtimes told for them).
+fn runs_cost(a: Option<&RunLine>, b: Option<&RunLine>) -> f64 {
+    a.map_or(0.0, |r| r.runtime) + b.map_or(0.0, |r| r.runtime)
+}
+
+impl ScreenLine {
+    /// What the screened trial's runs cost: the LF run and the HF run, those that were made.
+    pub fn cost(&self) -> f64 {
+        runs_cost(self.hf.as_ref(), self.lf.as_ref())
+    }
+}
+
 /// A line of `trials.jsonl`: a told trial, a screened one, or a withdrawn one.
 /// Stored as its own line's fields (no tag: [`LineKind`] says how a stored line is read).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -162,6 +179,15 @@ pub enum LogLine {
 }
 
 impl LogLine {
+    /// What the line's runs cost (every run made, HF and LF; 0 for a withdrawn trial).
+    pub fn cost(&self) -> f64 {
+        match self {
+            LogLine::Trial(t) => t.cost(),
+            LogLine::Screen(s) => s.cost(),
+            LogLine::Failed(_) => 0.0,
+        }
+    }
+
     /// The stage.
     pub fn stage(&self) -> StageId {
         match self {

@@ -81,6 +81,8 @@ pub struct ProgressBars {
     failures: u64,
     /// Replayed trials still to come (resume).
     replay_left: u64,
+    /// The current stage has a cost budget: its bar counts cost.
+    spend: bool,
 }
 
 impl ProgressBars {
@@ -97,16 +99,22 @@ impl ProgressBars {
             bar: None,
             failures: 0,
             replay_left: 0,
+            spend: false,
         }
     }
 
-    /// One more told trial; an HF failure if `failure`. After the last replayed trial the
-    /// bars' rates (and so their ETAs) restart, so that they count only trials run now.
-    fn count(&mut self, failure: bool) {
+    /// One more told trial that cost `cost`; an HF failure if `failure`. After the last
+    /// replayed trial the bars' rates (and so their ETAs) restart, so that they count only
+    /// trials run now.
+    fn count(&mut self, failure: bool, cost: f64) {
         self.failures += u64::from(failure);
         let bars = self.bar.iter().chain(&self.total);
-        for b in bars.clone() {
-            b.inc(1);
+        if let Some(b) = &self.bar {
+            // A stage with a cost budget advances by what the trial cost.
+            b.inc(if self.spend { cost.round() as u64 } else { 1 });
+        }
+        if let Some(t) = &self.total {
+            t.inc(1);
         }
         if let Some(b) = &self.bar {
             b.set_message(plural(self.failures, "failure"));
@@ -128,10 +136,23 @@ impl Default for ProgressBars {
 
 impl Observer for ProgressBars {
     fn start(&mut self, protocol: &Protocol) {
-        let total = self.multi.add(ProgressBar::new(protocol.total_trials()));
-        total.set_style(bar_style(
-            "{prefix:>15} [{bar:30}] {pos}/{len} trials  {elapsed_precise} elapsed, ETA {eta}",
-        ));
+        let total = match protocol.known_total_trials() {
+            Some(n) => {
+                let bar = self.multi.add(ProgressBar::new(n));
+                bar.set_style(bar_style(
+                    "{prefix:>15} [{bar:30}] {pos}/{len} trials  {elapsed_precise} elapsed, ETA {eta}",
+                ));
+                bar
+            }
+            // A cost budget: the number of trials is not known in advance.
+            None => {
+                let bar = self.multi.add(ProgressBar::no_length());
+                bar.set_style(bar_style(
+                    "{prefix:>15} {pos} trials  {elapsed_precise} elapsed",
+                ));
+                bar
+            }
+        };
         total.set_prefix("campaign");
         self.total = Some(total);
     }
@@ -140,10 +161,24 @@ impl Observer for ProgressBars {
         if let Some(b) = self.bar.take() {
             b.finish();
         }
-        let bar = self.multi.add(ProgressBar::new(stage.iterations));
-        bar.set_style(bar_style(
-            "{prefix:>15} [{bar:30}] {pos}/{len}  {rate}, ETA {eta}  {msg}",
-        ));
+        let bar = match stage.spend {
+            // Progress in cost: the bar's unit is one cost unit (rounded up to a whole one).
+            Some(budget) => {
+                let bar = self.multi.add(ProgressBar::new(budget.ceil() as u64));
+                bar.set_style(bar_style(
+                    "{prefix:>15} [{bar:30}] {percent}% of the cost budget, ETA {eta}  {msg}",
+                ));
+                bar
+            }
+            None => {
+                let bar = self.multi.add(ProgressBar::new(stage.iterations));
+                bar.set_style(bar_style(
+                    "{prefix:>15} [{bar:30}] {pos}/{len}  {rate}, ETA {eta}  {msg}",
+                ));
+                bar
+            }
+        };
+        self.spend = stage.spend.is_some();
         bar.set_prefix(stage.label());
         self.failures = 0;
         self.bar = Some(bar);
@@ -154,11 +189,11 @@ impl Observer for ProgressBars {
     }
 
     fn trial(&mut self, _: &Stage, line: &TrialLine, _: &Kernel) {
-        self.count(line.hf.failure);
+        self.count(line.hf.failure, line.cost());
     }
 
     fn screened(&mut self, _: &Stage, line: &ScreenLine, _: &Kernel) {
-        self.count(line.hf.as_ref().is_some_and(|h| h.failure));
+        self.count(line.hf.as_ref().is_some_and(|h| h.failure), line.cost());
     }
 
     fn finish(&mut self) -> Result<(), CampaignError> {
@@ -194,19 +229,26 @@ pub struct ProgressLines<W: Write> {
     campaign: Counts,
     stage: Option<(String, Counts)>,
     prefix: String,
+    /// The cost measure's unit (`work units`, `s`).
+    unit: &'static str,
 }
 
 /// Trials done out of a total, failures among them, since when, and when last printed.
 struct Counts {
     done: u64,
+    /// Trials to run; 0 when unknown (a campaign with a cost budget).
     total: u64,
     failures: u64,
+    /// A stage with a cost budget: (the budget, what its told runs cost so far). Its progress
+    /// and ETA are in cost, not trials.
+    spend: Option<(f64, f64)>,
     since: Instant,
     printed: Instant,
     /// Replayed trials still to come (resume), and where the rate is measured from: the
     /// time and count after the last replayed trial.
     replay_left: u64,
-    rate_from: (Instant, u64),
+    /// Where the rate is measured from: the time, trials and cost after the last replay.
+    rate_from: (Instant, u64, f64),
 }
 
 impl Counts {
@@ -216,35 +258,108 @@ impl Counts {
             done: 0,
             total,
             failures: 0,
+            spend: None,
             since: now,
             printed: now,
             replay_left: 0,
-            rate_from: (now, 0),
+            rate_from: (now, 0, 0.0),
         }
     }
 
-    /// One more told trial.
-    fn count(&mut self, failure: bool) {
+    /// The counts of `stage`: its trials, or its cost budget.
+    fn of(stage: &Stage) -> Self {
+        match stage.spend {
+            Some(budget) => Counts {
+                spend: Some((budget, 0.0)),
+                ..Counts::new(0)
+            },
+            None => Counts::new(stage.iterations),
+        }
+    }
+
+    /// What has been spent (trials, or cost with a cost budget) and what is to be spent.
+    fn progress(&self) -> (f64, f64) {
+        match self.spend {
+            Some((budget, spent)) => (spent, budget),
+            None => (self.done as f64, self.total as f64),
+        }
+    }
+
+    /// Whether the stage ended short of its trials or its cost budget.
+    fn short(&self) -> bool {
+        let (done, total) = self.progress();
+        done < total
+    }
+
+    /// One more told trial, which cost `cost`.
+    fn count(&mut self, failure: bool, cost: f64) {
         self.done += 1;
         self.failures += u64::from(failure);
+        if let Some((_, spent)) = &mut self.spend {
+            *spent += cost;
+        }
         if self.replay_left > 0 {
             self.replay_left -= 1;
             if self.replay_left == 0 {
-                self.rate_from = (Instant::now(), self.done);
+                self.rate_from = (Instant::now(), self.done, self.progress().0);
             }
         }
     }
 
-    /// The time left at the rate of the trials run so far, replayed ones not counted ("?"
-    /// before the first trial run).
+    /// The time left at the rate of the trials run so far (in cost with a cost budget),
+    /// replayed ones not counted ("?" before the first trial run, or with no known total).
     fn eta(&self) -> String {
-        let (from, base) = self.rate_from;
-        let run = self.done.saturating_sub(base);
-        if run == 0 || self.replay_left > 0 {
+        let (from, base, base_spent) = self.rate_from;
+        let (done, total) = self.progress();
+        let run = if self.spend.is_some() {
+            done - base_spent
+        } else {
+            self.done.saturating_sub(base) as f64
+        };
+        if run <= 0.0 || self.replay_left > 0 || total <= 0.0 {
             return "?".into();
         }
-        let per_trial = from.elapsed().as_secs_f64() / run as f64;
-        human_seconds(per_trial * self.total.saturating_sub(self.done) as f64)
+        let per_unit = from.elapsed().as_secs_f64() / run;
+        human_seconds(per_unit * (total - done).max(0.0))
+    }
+
+    /// `3/200 trials`, or with a cost budget `3 trials, 1.2e9 of 2e9 work units`.
+    fn done_of(&self, unit: &str) -> String {
+        match self.spend {
+            Some((budget, spent)) => format!(
+                "{} trials, {} of {} {unit}",
+                self.done,
+                short_number(spent),
+                short_number(budget)
+            ),
+            None => format!("{}/{} trials", self.done, self.total),
+        }
+    }
+
+    /// The campaign's part of a line: `campaign: 3 of 860 trials, ETA 1 min 02 s`, or with a
+    /// cost budget (no known total) `campaign: 3 trials`.
+    fn campaign(&self) -> String {
+        if self.total == 0 {
+            format!("campaign: {} trials", self.done)
+        } else {
+            format!(
+                "campaign: {} of {} trials, ETA {}",
+                self.done,
+                self.total,
+                self.eta()
+            )
+        }
+    }
+}
+
+/// A cost as people read it: `950`, `12.5`, `1.23e9`.
+fn short_number(x: f64) -> String {
+    if x.abs() >= 1e5 {
+        format!("{x:.3e}")
+    } else if x.fract() == 0.0 {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.1}")
     }
 }
 
@@ -279,6 +394,7 @@ impl<W: Write> ProgressLines<W> {
             every: Duration::from_secs(10),
             campaign: Counts::new(0),
             stage: None,
+            unit: "s",
         }
     }
 
@@ -308,46 +424,39 @@ impl<W: Write> ProgressLines<W> {
         c.printed = Instant::now();
         let eta = match state {
             "done" | "stopped" => String::new(),
-            _ => format!(
-                ", ETA {} (campaign: {} of {} trials, ETA {})",
-                c.eta(),
-                self.campaign.done,
-                self.campaign.total,
-                self.campaign.eta()
-            ),
+            _ => format!(", ETA {} ({})", c.eta(), self.campaign.campaign()),
         };
+        let unit = self.unit;
         // Progress is best effort: a closed pipe must not stop the campaign. A stage that has
         // just started has no failures, elapsed time or ETA of its own to show yet.
         let _ = if state == "started" {
             writeln!(
                 self.out,
-                "{}{label} started: 0/{} trials (campaign: {} of {} trials, ETA {})",
+                "{}{label} started: {} ({})",
                 self.prefix,
-                c.total,
-                self.campaign.done,
-                self.campaign.total,
-                self.campaign.eta()
+                c.done_of(unit),
+                self.campaign.campaign()
             )
         } else {
             writeln!(
                 self.out,
-                "{}{label} {state}: {}/{} trials, {} (HF), {} elapsed{eta}",
+                "{}{label} {state}: {}, {} (HF), {} elapsed{eta}",
                 self.prefix,
-                c.done,
-                c.total,
+                c.done_of(unit),
                 plural(c.failures, "failure"),
                 human_seconds(c.since.elapsed().as_secs_f64()),
             )
         };
     }
 
-    /// One more told trial (an HF failure if `failure`); a line if one is due.
-    fn count(&mut self, failure: bool) {
-        self.campaign.count(failure);
+    /// One more told trial (an HF failure if `failure`) that cost `cost`; a line if one is
+    /// due.
+    fn count(&mut self, failure: bool, cost: f64) {
+        self.campaign.count(failure, cost);
         let every = self.every;
         let due = self.stage.as_mut().is_some_and(|(_, c)| {
-            c.count(failure);
-            c.printed.elapsed() >= every && c.done < c.total
+            c.count(failure, cost);
+            c.printed.elapsed() >= every && c.short()
         });
         if due {
             self.line("running");
@@ -357,7 +466,7 @@ impl<W: Write> ProgressLines<W> {
     /// The stage's last line: `done`, or `stopped` when it ends short of its trials (the
     /// campaign was interrupted or failed).
     fn end_stage(&mut self) {
-        let short = self.stage.as_ref().is_some_and(|(_, c)| c.done < c.total);
+        let short = self.stage.as_ref().is_some_and(|(_, c)| c.short());
         self.line(if short { "stopped" } else { "done" });
         self.stage = None;
     }
@@ -365,12 +474,13 @@ impl<W: Write> ProgressLines<W> {
 
 impl<W: Write> Observer for ProgressLines<W> {
     fn start(&mut self, protocol: &Protocol) {
-        self.campaign = Counts::new(protocol.total_trials());
+        self.campaign = Counts::new(protocol.known_total_trials().unwrap_or(0));
+        self.unit = protocol.cost.unit();
     }
 
     fn stage(&mut self, stage: &Stage) {
         self.end_stage();
-        self.stage = Some((stage.label(), Counts::new(stage.iterations)));
+        self.stage = Some((stage.label(), Counts::of(stage)));
         self.line("started");
     }
 
@@ -382,11 +492,11 @@ impl<W: Write> Observer for ProgressLines<W> {
     }
 
     fn trial(&mut self, _: &Stage, line: &TrialLine, _: &Kernel) {
-        self.count(line.hf.failure);
+        self.count(line.hf.failure, line.cost());
     }
 
     fn screened(&mut self, _: &Stage, line: &ScreenLine, _: &Kernel) {
-        self.count(line.hf.as_ref().is_some_and(|h| h.failure));
+        self.count(line.hf.as_ref().is_some_and(|h| h.failure), line.cost());
     }
 
     fn finish(&mut self) -> Result<(), CampaignError> {

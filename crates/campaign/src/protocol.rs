@@ -130,6 +130,73 @@ impl ScreenLf {
     }
 }
 
+/// How each trial's scenario is chosen (the kernel's [`Allocation`](savme_kernel::Allocation)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Allocate {
+    /// The paper's: drawn from p(s), the scenario weights — the same share of trials each.
+    #[default]
+    Weights,
+    /// A bandit over the scenarios by HF failures per unit cost, every scenario kept above
+    /// `coverage_floor` × its share of p(s) in cost.
+    CostRate,
+}
+
+impl Allocate {
+    /// The kernel's allocation with the coverage floor `floor`.
+    pub fn kernel(self, floor: f64) -> savme_kernel::Allocation {
+        match self {
+            Allocate::Weights => savme_kernel::Allocation::Weights,
+            Allocate::CostRate => savme_kernel::Allocation::CostRate(savme_kernel::CostRate {
+                floor,
+                ..savme_kernel::CostRate::default()
+            }),
+        }
+    }
+
+    fn is_weights(&self) -> bool {
+        *self == Allocate::Weights
+    }
+}
+
+/// What a campaign searches with before any other value is given: savme's search by cost
+/// (`savme run`, Python, `savme serve`'s example configuration) or the paper's SAVME (`savme
+/// reproduce`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// savme's: the elite search with candidates ranked per expected cost, the cost-rate
+    /// allocation over scenarios, a deployed search that exploits and keeps learning, and LF
+    /// screening only where it pays.
+    #[default]
+    Tuned,
+    /// The paper's SAVME: independent bins, scenarios from p(s), a frozen deployment, LF
+    /// screening of every trial.
+    Paper,
+}
+
+impl Method {
+    /// Sets the values this method decides on `p` (the others stay).
+    pub fn apply(self, p: &mut Protocol) {
+        match self {
+            Method::Tuned => {
+                p.search = Search::Elite;
+                p.elite = Some(EliteMixture::default());
+                p.deployment = Deploy::Adaptive;
+                p.screen_lf = ScreenLf::WhereItPays;
+                p.allocation = Allocate::CostRate;
+            }
+            Method::Paper => {
+                p.search = Search::Bins;
+                p.elite = None;
+                p.deployment = Deploy::Frozen;
+                p.screen_lf = ScreenLf::Always;
+                p.allocation = Allocate::Weights;
+            }
+        }
+    }
+}
+
 /// The most trials one stage may run (10⁸: years of simulation even at a millisecond a run).
 pub const MAX_ITERATIONS: u64 = 100_000_000;
 /// The most trials in flight at once.
@@ -217,6 +284,29 @@ pub struct Protocol {
     /// Which screened trials run LF first (always, the paper's, is not written).
     #[serde(default, skip_serializing_if = "ScreenLf::is_always")]
     pub screen_lf: ScreenLf,
+    /// How each trial's scenario is chosen (weights, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "Allocate::is_weights")]
+    pub allocation: Allocate,
+    /// The cost-rate allocation's coverage floor, in [0, 1].
+    #[serde(default = "default_floor", skip_serializing_if = "is_default_floor")]
+    pub coverage_floor: f64,
+    /// The cost of each search stage (meta-training and meta-testing), in the cost measure's
+    /// unit (work units or seconds): the stage runs until its told runs have cost this much,
+    /// instead of for its iterations. None: iterations (not written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub search_budget: Option<f64>,
+    /// The cost of each deployed search (the LF screening stage), likewise; it adds the stage
+    /// when `screen_iterations` is 0. None: iterations (not written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub deploy_budget: Option<f64>,
+}
+
+fn default_floor() -> f64 {
+    savme_kernel::CostRate::default().floor
+}
+
+fn is_default_floor(x: &f64) -> bool {
+    *x == default_floor()
 }
 
 fn one() -> f64 {
@@ -299,7 +389,17 @@ impl Protocol {
             pair_settle: default_settle(),
             deployment: Deploy::Frozen,
             screen_lf: ScreenLf::Always,
+            allocation: Allocate::Weights,
+            coverage_floor: default_floor(),
+            search_budget: None,
+            deploy_budget: None,
         }
+    }
+
+    /// `self` with `method`'s values ([`Method::apply`]).
+    pub fn with_method(mut self, method: Method) -> Self {
+        method.apply(&mut self);
+        self
     }
 
     /// A short preset that still shows the qualitative result (one budget, fewer iterations).
@@ -456,6 +556,20 @@ impl Protocol {
                 return bad("elite", e.to_string());
             }
         }
+        if !(0.0..=1.0).contains(&self.coverage_floor) {
+            return bad(
+                "coverage_floor",
+                format!("{} is outside [0, 1]", self.coverage_floor),
+            );
+        }
+        for (field, b) in [
+            ("search_budget", self.search_budget),
+            ("deploy_budget", self.deploy_budget),
+        ] {
+            if let Some(b) = b.filter(|b| !(b.is_finite() && *b > 0.0)) {
+                return bad(field, format!("{b} is not a positive cost"));
+            }
+        }
         self.pairing().validate().or_else(|e| {
             bad(
                 "pair_fraction",
@@ -484,17 +598,43 @@ impl Protocol {
             budget,
             iterations,
             strength: None,
+            spend: None,
         };
+        // A stage with a cost budget runs until it is spent (at most MAX_ITERATIONS trials).
+        let spending = |kind, budget, spend: Option<f64>, iterations| Stage {
+            spend,
+            ..stage(
+                kind,
+                budget,
+                if spend.is_some() {
+                    MAX_ITERATIONS
+                } else {
+                    iterations
+                },
+            )
+        };
+        let search = |kind, b| spending(kind, Some(b), self.search_budget, self.test_iterations);
         let mut s = vec![stage(
             StageKind::BaselineTrain,
             None,
             self.baseline_train_iterations,
         )];
         for &b in &self.budgets {
-            s.push(stage(StageKind::Train, Some(b), self.train_iterations));
+            let (train, screen) = (StageKind::Train, StageKind::Screen);
+            s.push(spending(
+                train,
+                Some(b),
+                self.search_budget,
+                self.train_iterations,
+            ));
             s.push(stage(StageKind::Evaluate, Some(b), self.eval_iterations));
-            if self.screen_iterations > 0 {
-                s.push(stage(StageKind::Screen, Some(b), self.screen_iterations));
+            if self.screen_iterations > 0 || self.deploy_budget.is_some() {
+                s.push(spending(
+                    screen,
+                    Some(b),
+                    self.deploy_budget,
+                    self.screen_iterations,
+                ));
             }
         }
         s.push(stage(
@@ -504,12 +644,12 @@ impl Protocol {
         ));
         for &b in &self.budgets {
             for kind in [StageKind::TestLearned, StageKind::TestUniform] {
-                s.push(stage(kind, Some(b), self.test_iterations));
+                s.push(search(kind, b));
             }
             for &strength in self.ablation_strengths() {
                 s.push(Stage {
                     strength: Some(strength),
-                    ..stage(StageKind::TestLearned, Some(b), self.test_iterations)
+                    ..search(StageKind::TestLearned, b)
                 });
             }
         }
@@ -526,10 +666,22 @@ impl Protocol {
 
     /// Total trials over all stages (saturating: an unvalidated protocol may ask for more than
     /// a `u64` holds).
+    ///
+    /// Stages with a cost budget count as their cap ([`MAX_ITERATIONS`]): see
+    /// [`Stage::spend`].
     pub fn total_trials(&self) -> u64 {
         self.stages()
             .iter()
             .fold(0u64, |sum, s| sum.saturating_add(s.iterations))
+    }
+
+    /// Total trials over all stages, when every stage runs for its iterations (None: some
+    /// stage has a cost budget, so the number of its trials is not known in advance).
+    pub fn known_total_trials(&self) -> Option<u64> {
+        self.stages()
+            .iter()
+            .all(|s| s.spend.is_none())
+            .then(|| self.total_trials())
     }
 
     /// The seed of the kernel named `label`: the master seed mixed with the label (FNV-1a,

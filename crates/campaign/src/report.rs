@@ -157,6 +157,7 @@ fn stage_of(p: &Protocol, kind: StageKind, budget: Option<f64>) -> Stage {
             budget,
             iterations: 0,
             strength: None,
+            spend: None,
         })
 }
 

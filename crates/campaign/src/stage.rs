@@ -82,6 +82,10 @@ pub struct Stage {
     /// The fidelity prior's strength of a prior-strength ablation stage (None: the protocol's
     /// `prior_strength` for `test-learned`, nothing for the others).
     pub strength: Option<f64>,
+    /// The stage's cost budget (the protocol's `search_budget` or `deploy_budget`): it runs
+    /// until its told runs have cost this much, `iterations` being only a cap. None: it runs
+    /// `iterations` trials.
+    pub spend: Option<f64>,
 }
 
 /// A budget or strength as it appears in stage labels, directory names and messages: as Rust

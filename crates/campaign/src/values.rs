@@ -25,7 +25,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{CampaignError, Cost, Deploy, Protocol, ScreenLf, Search};
+use super::{Allocate, CampaignError, Cost, Deploy, Method, Protocol, ScreenLf, Search};
 use savme_kernel::EliteMixture;
 use serde::Deserialize;
 
@@ -258,6 +258,30 @@ protocol_values! {
     /// others run HF directly).
     screen_lf: ScreenLf, flag = "screen-lf", aliases = [], stages = "screen", to = protocol,
         cli(value_enum);
+    /// What the campaign searches with, before the values given here: tuned (savme's search
+    /// by cost: search = elite, allocation = cost-rate, deployment = adaptive, screen_lf =
+    /// where-it-pays; the default of `savme run`, Python and `savme serve`'s example) or
+    /// paper (the paper's SAVME; the default of `savme reproduce`).
+    method: Method, flag = "method", aliases = [], stages = "train, evaluate, screen, test-*",
+        to = command, cli(value_enum);
+    /// How each trial's scenario is chosen: weights (drawn from p(s): the same share of the
+    /// trials each, the paper's) or cost-rate (a bandit by HF failures per unit cost, each
+    /// scenario kept above `coverage_floor` × its share of p(s) in cost).
+    allocation: Allocate, flag = "allocation", aliases = [], stages = "train, evaluate, screen, test-*",
+        to = protocol, cli(value_enum);
+    /// The cost-rate allocation's coverage floor in [0, 1]: every scenario gets at least this
+    /// share of its weight's share of the cost (1: the cost split by the weights).
+    coverage_floor: f64, flag = "coverage-floor", aliases = [], stages = "train, evaluate, screen, test-*",
+        to = protocol, cli(value_name = "F", allow_negative_numbers = true);
+    /// The cost of each search stage (meta-training, meta-testing) in the cost measure's unit
+    /// (work units with cost = work, seconds with wall): the stage runs until its runs have
+    /// cost this much, instead of for its iterations.
+    search_budget: f64, flag = "search-budget", aliases = [], stages = "train, test-*",
+        to = optional, cli(value_name = "COST", allow_negative_numbers = true);
+    /// The cost of each deployed search (the LF screening stage) in the cost measure's unit;
+    /// adds the screening stage if `screen_iterations` is 0.
+    deploy_budget: f64, flag = "deploy-budget", aliases = [], stages = "screen",
+        to = optional, cli(value_name = "COST", allow_negative_numbers = true);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -329,13 +353,18 @@ impl Overrides {
         scenario: &dyn Fn(&str) -> Option<String>,
         known: &str,
     ) -> Result<(), CampaignError> {
+        if let Some(m) = self.method {
+            m.apply(p);
+        }
         self.apply_fields(p);
         // (A value outside [0, 1] is refused as such by the validation.)
         let in_range = |a: f64| (0.0..=1.0).contains(&a);
-        if let (Some(alpha), 0) = (
-            self.audit_fraction.filter(|&a| in_range(a)),
-            p.screen_iterations,
-        ) {
+        let screens = if p.deploy_budget.is_some() {
+            1
+        } else {
+            p.screen_iterations
+        };
+        if let (Some(alpha), 0) = (self.audit_fraction.filter(|&a| in_range(a)), screens) {
             return Err(CampaignError::Protocol {
                 field: "audit_fraction".into(),
                 message: format!(
@@ -343,7 +372,7 @@ impl Overrides {
                 ),
             });
         }
-        if let (Some(ScreenLf::WhereItPays), 0) = (self.screen_lf, p.screen_iterations) {
+        if let (Some(ScreenLf::WhereItPays), 0) = (self.screen_lf, screens) {
             return idle(
                 "screen_lf",
                 "where-it-pays would do nothing: it decides which screened trials run LF first, and there is no screening (screen_iterations is 0); give screen_iterations too, or leave screen_lf out".into(),
@@ -419,6 +448,10 @@ mod tests {
             pair_settle: 5,
             deployment: Deploy::Adaptive,
             screen_lf: ScreenLf::WhereItPays,
+            allocation: Allocate::CostRate,
+            coverage_floor: 0.5,
+            search_budget: Some(1e9),
+            deploy_budget: Some(1e8),
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -603,6 +636,11 @@ mod tests {
             pair_settle: Some(12),
             deployment: Some(Deploy::Adaptive),
             screen_lf: Some(ScreenLf::WhereItPays),
+            method: Some(Method::Paper),
+            allocation: Some(Allocate::CostRate),
+            coverage_floor: Some(0.5),
+            search_budget: Some(1e9),
+            deploy_budget: Some(2e8),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();

@@ -180,6 +180,8 @@ pub fn run_stage(
         queue: VecDeque::new(),
         asked: 0,
         failed: 0,
+        spent: 0.0,
+        told: 0,
         economy,
     };
     while run.queue.len() < run.cx.window && run.ask()? {}
@@ -210,6 +212,9 @@ struct StageRun<'p, 'k, 'c> {
     /// Trials asked (withdrawn ones included) and withdrawn.
     asked: u64,
     failed: u64,
+    /// What the told trials cost, and how many were told (a stage with a cost budget).
+    spent: f64,
+    told: u64,
     /// A screening stage's economy per scenario, updated as its trials are told.
     economy: Option<Vec<Economy>>,
 }
@@ -218,7 +223,7 @@ impl StageRun<'_, '_, '_> {
     /// Asks the next trial and sends its runs to the workers (or takes its logged line on
     /// resume); false when the stage has asked enough (withdrawn trials are replaced).
     fn ask(&mut self) -> Result<bool, CampaignError> {
-        if self.asked - self.failed >= self.cx.stage.iterations {
+        if self.asked - self.failed >= self.cx.stage.iterations || self.spent_enough() {
             return Ok(false);
         }
         let trial = self.kernel.ask();
@@ -265,6 +270,21 @@ impl StageRun<'_, '_, '_> {
             direct,
         });
         Ok(true)
+    }
+
+    /// Whether a stage with a cost budget has spent it: what its told trials cost, plus its
+    /// trials in flight at their mean cost so far (so a window does not overshoot by much).
+    /// Depends on told trials only, so a resumed stage asks exactly what it asked before.
+    fn spent_enough(&self) -> bool {
+        let Some(budget) = self.cx.stage.spend else {
+            return false;
+        };
+        let mean = if self.told > 0 {
+            self.spent / self.told as f64
+        } else {
+            0.0
+        };
+        self.spent + self.queue.len() as f64 * mean >= budget
     }
 
     fn send(
@@ -317,8 +337,12 @@ impl StageRun<'_, '_, '_> {
                     add_screened(e, s);
                 }
             }
+            self.spent += line.cost();
             match &line {
-                LogLine::Trial(_) | LogLine::Screen(_) => progress(&line, self.kernel),
+                LogLine::Trial(_) | LogLine::Screen(_) => {
+                    self.told += 1;
+                    progress(&line, self.kernel)
+                }
                 LogLine::Failed(f) => {
                     self.failed += 1;
                     if self.failed > self.cx.stage.iterations {

@@ -74,6 +74,7 @@ pub fn at_budget(p: &Protocol, lines: &[TrialLine], b: f64) -> Option<Ablation> 
             budget: Some(b),
             iterations: 0,
             strength: None,
+            spend: None,
         },
     );
     let found = |acc: Accounting| {
