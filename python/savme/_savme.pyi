@@ -228,7 +228,9 @@ class Kernel:
         search: Union[Literal["bins", "elite"], Mapping[str, float], None] = None,
         pair_fraction: float = 1.0,
         pair_settle: int = 30,
-        deployment: Literal["frozen", "exploit", "learn", "adaptive"] = "frozen",
+        deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
+        allocation: Optional[Literal["weights", "cost-rate"]] = None,
+        method: Literal["tuned", "paper"] = "tuned",
     ) -> Kernel:
         """Builds a kernel in the "train" phase.
 
@@ -240,16 +242,24 @@ class Kernel:
         fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
         kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
         journal: a journal file, created or resumed (it must hold the same configuration);
-        search: how train and test draw φ — "bins" (default, the paper's independent bins),
-        "elite" (a joint proposal around failures, paired with the same fidelity bandit), or
-        a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at defaults);
+        method: what search, deployment and allocation default to — "tuned" (the default:
+        savme's search by cost — search "elite", deployment "adaptive", allocation
+        "cost-rate") or "paper" (the paper's SAVME — "bins", "frozen", "weights"); a value
+        given below wins over the method's;
+        search: how train and test draw φ — "bins" (the paper's independent bins), "elite" (a
+        joint proposal around failures, candidates ranked per expected cost, paired with the
+        same fidelity bandit), or a dict of elite-mixture parameters (e.g. {"explore": 0.1};
+        the rest at defaults);
         pair_fraction, pair_settle: once the greedy arm of every fidelity variable holds
         pair_settle observations, only this share of the learning trials is paired; the others
         have no theta_lf (`trial.paired` is False) and are told with the HF run alone;
         deployment: what the "evaluate" phase (evaluation, LF screening) does with what the
-        search learned — "frozen" (default, the paper's), "exploit" (the elite proposal draws
-        for failures, not for new cells), "learn" (its results keep teaching the φ search) or
-        "adaptive" (both).
+        search learned — "frozen" (the paper's), "exploit" (the elite proposal draws for
+        failures, not for new cells), "learn" (its results keep teaching the φ search) or
+        "adaptive" (both);
+        allocation: how each ask chooses its scenario — "weights" (drawn from p(s), the
+        paper's) or "cost-rate" (a bandit by HF failures per unit cost, every scenario kept
+        above 0.3 × its share of p(s) in cost).
 
         Raises ValueError naming the variable or scenario at fault, JournalError for a journal
         that cannot be used."""
@@ -448,11 +458,19 @@ class Protocol:
         pair_settle: Optional[int] = None,
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
         screen_lf: Optional[Literal["always", "where-it-pays"]] = None,
+        method: Optional[Literal["tuned", "paper"]] = None,
+        allocation: Optional[Literal["weights", "cost-rate"]] = None,
+        coverage_floor: Optional[float] = None,
+        search_budget: Optional[float] = None,
+        deploy_budget: Optional[float] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:
-        """cost="work" makes a campaign reproducible bit for bit (simulators must then return
-        (failure, work_units)); "wall" (default) measures each call's wall-clock time.
+        """The paper's stages (preset "paper", or the shorter "quick") searched with savme's
+        tuned method (method="paper": the paper's SAVME). cost="work" makes a campaign
+        reproducible bit for bit (simulators must then return (failure, work_units)); "wall"
+        (default) measures each call's wall-clock time. search_budget / deploy_budget: run each
+        search / deployed stage until its runs have cost this much (in the cost's unit).
         window: trials in flight; on_error="skip" withdraws a trial whose simulation raised."""
     def to_json(self) -> str:
         """The protocol as JSON (a campaign directory's protocol.json)."""

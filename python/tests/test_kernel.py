@@ -25,7 +25,10 @@ def phi():
 
 
 def kernel(**kw):
-    args = dict(fidelity=fidelity(), theta_hf=THETA_HF, scenarios={"lead_brakes": phi()}, budget=0.3, seed=7)
+    """The paper's SAVME unless a test says otherwise (the tuned default is tested on its own:
+    test_the_default_method_is_savmes_search_by_cost)."""
+    args = dict(fidelity=fidelity(), theta_hf=THETA_HF, scenarios={"lead_brakes": phi()}, budget=0.3, seed=7,
+                method="paper")
     args.update(kw)
     return savme.Kernel(**args)
 
@@ -572,6 +575,30 @@ def test_pairing_a_fraction_leaves_settled_learning_trials_hf_only():
     for bad in (0.0, 1.5, float("nan")):
         with pytest.raises(ValueError, match=r"pair_fraction = .* is outside \(0, 1\]"):
             kernel(pair_fraction=bad)
+
+
+def test_the_default_method_is_savmes_search_by_cost():
+    base = dict(fidelity=fidelity(), theta_hf=THETA_HF, scenarios=[("a", phi(), 1.0), ("b", phi(), 1.0)])
+    tuned = json.loads(savme.Kernel(**base).config_json())
+    assert tuned["search"]["model"] == "elite_mixture" and tuned["search"]["per_cost"] is True
+    assert tuned["deployment"] == {"learn": True, "exploit": True}
+    assert tuned["allocation"] == {"rule": "cost_rate", "floor": 0.3, "warmup": 4}
+    paper = json.loads(savme.Kernel(**base, method="paper").config_json())
+    assert not {"search", "deployment", "allocation"} & set(paper)
+    # A value given wins over the method's.
+    mixed = json.loads(savme.Kernel(**base, allocation="weights", deployment="frozen").config_json())
+    assert "allocation" not in mixed and "deployment" not in mixed and "search" in mixed
+    k = savme.Kernel(**base)
+    for _ in range(20):  # the cost-rate allocation keeps a ledger per scenario
+        t = k.ask()
+        hf, lf = runs(t)
+        k.tell(t, hf=hf, lf=lf)
+    ledgers = json.loads(k.to_json())["ledgers"]
+    assert [l["trials"] for l in ledgers] and sum(l["trials"] for l in ledgers) == 20
+    with pytest.raises(ValueError, match='method = "best": give "tuned"'):
+        savme.Kernel(**base, method="best")
+    with pytest.raises(ValueError, match='allocation = "even": give "weights"'):
+        savme.Kernel(**base, allocation="even")
 
 
 def test_an_adaptive_deployment_keeps_teaching_the_search_in_the_evaluate_phase():
