@@ -38,7 +38,8 @@ enum Command {
     /// trials.jsonl, breakeven.png and meta_testing.png.
     #[command(after_help = commands::reproduce::defaults_help())]
     Reproduce(commands::reproduce::Args),
-    /// Run the paper's protocol on FMUs named in a campaign file (TOML).
+    /// Run the paper's stages on the FMUs a campaign file (TOML) names, searched with savme's
+    /// tuned method by default (`--method paper`: the paper's SAVME).
     Run(commands::run::Args),
     /// Estimate P(failure) under the nominal distribution of φ by importance sampling from a
     /// finished campaign's learned posterior (defensive mixture; HF runs only). Writes
