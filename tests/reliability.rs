@@ -177,6 +177,89 @@ fn a_campaign_never_writes_through_a_link_in_its_directory() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Asserts that a command was refused (exit status 1, a runtime refusal as for a campaign's
+/// files) with a message naming `path` and `why`.
+fn assert_refused(code: Option<i32>, err: &str, path: &Path, why: &str) {
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(&path.display().to_string()) && err.contains(why),
+        "the error names {} and says it {why}: {err}",
+        path.display()
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+#[cfg(unix)]
+#[test]
+fn fmu_pack_never_writes_through_a_symbolic_or_hard_link() {
+    let dir = made_dir("pack-links");
+    let decoy = decoy(&dir);
+    let out = dir.join("savme-sim.fmu");
+    let pack = |out: &Path| {
+        let (code, _, err) = run(&["fmu", "pack", "--out", out.to_str().unwrap()]);
+        (code, err)
+    };
+    // A symbolic link at --out onto the decoy.
+    link(&decoy, &out);
+    let (code, err) = pack(&out);
+    assert_refused(code, &err, &out, "symbolic link");
+    assert_untouched(&decoy);
+    // A hard link: the decoy under a second name.
+    std::fs::remove_file(&out).unwrap();
+    std::fs::hard_link(&decoy, &out).unwrap();
+    let (code, err) = pack(&out);
+    assert_refused(code, &err, &out, "has 2 names (hard links)");
+    assert_untouched(&decoy);
+    // A regular file of its own is replaced by the archive, as before.
+    std::fs::remove_file(&out).unwrap();
+    std::fs::write(&out, "an older pack").unwrap();
+    let (code, err) = pack(&out);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(std::fs::read(&out).unwrap().starts_with(b"PK"), "a zip");
+    assert_untouched(&decoy);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(unix)]
+#[test]
+fn man_out_never_writes_a_page_through_a_link() {
+    let dir = made_dir("man-links");
+    let decoy = decoy(&dir);
+    let pages = dir.join("man1");
+    std::fs::create_dir_all(&pages).unwrap();
+    let man = || {
+        let (code, _, err) = run(&["man", "--out", pages.to_str().unwrap()]);
+        (code, err)
+    };
+    // A subcommand's page is a symbolic link onto the decoy, then a hard link to it.
+    let page = pages.join("savme-fmu-pack.1");
+    link(&decoy, &page);
+    let (code, err) = man();
+    assert_refused(code, &err, &page, "symbolic link");
+    assert_untouched(&decoy);
+    std::fs::remove_file(&page).unwrap();
+    std::fs::hard_link(&decoy, &page).unwrap();
+    let (code, err) = man();
+    assert_refused(code, &err, &page, "has 2 names (hard links)");
+    assert_untouched(&decoy);
+    // Without the link every page is written, savme.1 among them.
+    std::fs::remove_file(&page).unwrap();
+    let (code, err) = man();
+    assert_eq!(code, Some(0), "{err}");
+    for name in ["savme.1", "savme-fmu-pack.1", "savme-run.1"] {
+        let text = std::fs::read_to_string(pages.join(name)).unwrap();
+        assert!(text.starts_with(".ie"), "{name}: a man page");
+    }
+    // The directory itself a dangling link: named, nothing created where it points.
+    let gone = dir.join("gone");
+    let dangling = dir.join("pages");
+    link(&gone, &dangling);
+    let (code, _, err) = run(&["man", "--out", dangling.to_str().unwrap()]);
+    assert_refused(code, &err, &dangling, "which does not exist");
+    assert!(!gone.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Sets `lo`/`hi` of every variable named `name` in a JSON document.
 fn set_range(v: &mut Value, name: &str, lo: f64, hi: f64) -> usize {
     match v {

@@ -75,7 +75,9 @@ pub use instance::{
     setup_experiment, terminate, types_platform, version, version3, Instance,
 };
 pub use model::{Causality, Kind, Model, Scalar, Variable};
-pub use pack::{pack, pack_with, platform_folder, platform_tuple, FmiVersion, PackError};
+pub use pack::{
+    pack, pack_bytes, pack_with, platform_folder, platform_tuple, FmiVersion, PackError,
+};
 pub use state::{free_state, get_state, set_state};
 pub use status::{last_successful_time, terminated, unsupported};
 pub use values::{get_set, get_set3, no_variables, strings, Access};

@@ -1,6 +1,6 @@
 //! Packing an `.fmu`: the model description and the shared library in a zip archive.
 
-use std::io::Write;
+use std::io::{Seek, Write};
 use std::path::Path;
 
 /// The `binaries/` folder of this platform (`linux64`, `darwin64`, `win64`).
@@ -86,6 +86,9 @@ pub fn pack(
 }
 
 /// [`pack`] with more files in the archive, e.g. `("resources/table.txt", bytes)`.
+///
+/// `out` is created (or truncated) as [`std::fs::File::create`] does; a program that must not
+/// write through a link at `out` packs with [`pack_bytes`] and writes the bytes itself.
 pub fn pack_with(
     model_description: &str,
     identifier: &str,
@@ -93,23 +96,70 @@ pub fn pack_with(
     files: &[(&str, &[u8])],
     out: &Path,
 ) -> Result<(), PackError> {
-    let io = |path: &Path| {
-        let path = path.display().to_string();
-        move |source| PackError::Io { path, source }
-    };
-    let zip_err = |source| PackError::Zip {
-        path: out.display().to_string(),
+    let lib = std::fs::read(library).map_err(io_error(library))?;
+    let file = std::fs::File::create(out).map_err(io_error(out))?;
+    let shown = out.display().to_string();
+    write_archive(file, model_description, identifier, &lib, files, &shown)?;
+    Ok(())
+}
+
+/// The `.fmu` archive [`pack_with`] writes, as bytes (for a caller that writes the file by its
+/// own means, e.g. refusing a link at the path).
+///
+/// ```no_run
+/// let bytes = savme_fmi_export::pack_bytes("<fmiModelDescription …/>", "model",
+///     std::path::Path::new("libmodel.so"), &[])?;
+/// assert!(bytes.starts_with(b"PK"));
+/// # Ok::<(), savme_fmi_export::PackError>(())
+/// ```
+pub fn pack_bytes(
+    model_description: &str,
+    identifier: &str,
+    library: &Path,
+    files: &[(&str, &[u8])],
+) -> Result<Vec<u8>, PackError> {
+    let lib = std::fs::read(library).map_err(io_error(library))?;
+    let cursor = std::io::Cursor::new(Vec::new());
+    let written = write_archive(
+        cursor,
+        model_description,
+        identifier,
+        &lib,
+        files,
+        "the .fmu archive",
+    )?;
+    Ok(written.into_inner())
+}
+
+fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> PackError {
+    let path = path.display().to_string();
+    move |source| PackError::Io { path, source }
+}
+
+/// Writes the archive into `w` (`shown`: what errors name); gives `w` back.
+fn write_archive<W: Write + Seek>(
+    w: W,
+    model_description: &str,
+    identifier: &str,
+    lib: &[u8],
+    files: &[(&str, &[u8])],
+    shown: &str,
+) -> Result<W, PackError> {
+    let io = |source| PackError::Io {
+        path: shown.to_string(),
         source,
     };
-    let lib = std::fs::read(library).map_err(io(library))?;
-    let file = std::fs::File::create(out).map_err(io(out))?;
-    let mut z = zip::ZipWriter::new(file);
+    let zip_err = |source| PackError::Zip {
+        path: shown.to_string(),
+        source,
+    };
+    let mut z = zip::ZipWriter::new(w);
     let opts = zip::write::FileOptions::default()
         .compression_method(zip::CompressionMethod::Deflated)
         .unix_permissions(0o755);
     z.start_file("modelDescription.xml", opts)
         .map_err(zip_err)?;
-    z.write_all(model_description.as_bytes()).map_err(io(out))?;
+    z.write_all(model_description.as_bytes()).map_err(io)?;
     let ext = std::env::consts::DLL_EXTENSION;
     let version = if model_description.contains("fmiVersion=\"3.") {
         FmiVersion::V3
@@ -121,11 +171,10 @@ pub fn pack_with(
         opts,
     )
     .map_err(zip_err)?;
-    z.write_all(&lib).map_err(io(out))?;
+    z.write_all(lib).map_err(io)?;
     for (name, bytes) in files {
         z.start_file(*name, opts).map_err(zip_err)?;
-        z.write_all(bytes).map_err(io(out))?;
+        z.write_all(bytes).map_err(io)?;
     }
-    z.finish().map_err(zip_err)?;
-    Ok(())
+    z.finish().map_err(zip_err)
 }

@@ -3,7 +3,8 @@
 
 use clap::Command;
 use clap_complete::Shell;
-use std::path::PathBuf;
+use savme::store::safe_file;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct CompletionArgs {
@@ -33,8 +34,10 @@ pub fn man(a: ManArgs, cli: Command) -> Result<(), String> {
     let cli = cli.version(crate::help::VERSION);
     match a.out {
         Some(dir) => {
-            std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-            clap_mangen::generate_to(cli, &dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+            let at = |e: std::io::Error| format!("{}: {e}", dir.display());
+            safe_file::dangling_link(&dir).map_err(at)?;
+            std::fs::create_dir_all(&dir).map_err(at)?;
+            write_pages(cli, &dir)?;
             super::print(&format!("wrote the man pages into {}\n", dir.display()))
         }
         None => {
@@ -45,4 +48,24 @@ pub fn man(a: ManArgs, cli: Command) -> Result<(), String> {
             super::print(&String::from_utf8_lossy(&page))
         }
     }
+}
+
+/// Writes the page of `cli` and of each subcommand (not the hidden ones) into `dir`, as
+/// `clap_mangen::generate_to` names them, each through [`safe_file::write_file`]: a page that
+/// is a link (symbolic, or a file other names share) is refused, naming it, and left unchanged.
+fn write_pages(cli: Command, dir: &Path) -> Result<(), String> {
+    fn pages(cmd: Command, dir: &Path) -> Result<(), String> {
+        for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()).cloned() {
+            pages(sub, dir)?;
+        }
+        let man = clap_mangen::Man::new(cmd);
+        let path = dir.join(man.get_filename());
+        let mut page = Vec::new();
+        man.render(&mut page)
+            .and_then(|()| safe_file::write_file(&path, &page))
+            .map_err(|e| format!("{}: {e}", path.display()))
+    }
+    let mut cli = cli.disable_help_subcommand(true);
+    cli.build();
+    pages(cli, dir)
 }

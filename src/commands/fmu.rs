@@ -203,8 +203,13 @@ fn pack(out: &Path, library: Option<&Path>, fmi: u8) -> Result<String, String> {
     } else {
         savme_sim_fmu::model_description()
     };
-    savme_fmi_export::pack(&description, savme_sim_fmu::MODEL_IDENTIFIER, &lib, out)
-        .map_err(|e| e.to_string())?;
+    let archive =
+        savme_fmi_export::pack_bytes(&description, savme_sim_fmu::MODEL_IDENTIFIER, &lib, &[])
+            .map_err(|e| e.to_string())?;
+    // Never through a link at `out` (a symbolic link, or a file other names share): refused,
+    // naming the path, and whatever it points at left unchanged.
+    savme::store::safe_file::write_file(out, &archive)
+        .map_err(|e| format!("{}: {e}", out.display()))?;
     Ok(format!(
         "wrote {} (FMI {fmi}.0, library {})\n",
         out.display(),
