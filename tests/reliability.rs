@@ -415,6 +415,57 @@ fn sigint_and_sigterm_stop_a_campaign_and_an_estimate_between_runs_and_say_how_t
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The command after `continue with ` at the end of a line of `err`, as words.
+fn printed_command(err: &str) -> Vec<String> {
+    let line = err
+        .lines()
+        .find_map(|l| l.split_once("continue with ").map(|(_, c)| c.to_string()))
+        .unwrap_or_else(|| panic!("no `continue with` in: {err}"));
+    line.split_whitespace().map(str::to_string).collect()
+}
+
+#[cfg(unix)]
+#[test]
+fn a_run_stopped_in_its_campaign_prints_the_whole_command_that_resumes_it() {
+    let dir = made_dir("run-hint");
+    let fmu = dir.join("savme-sim.fmu");
+    let (code, _, err) = run(&["fmu", "pack", "--out", fmu.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{err}");
+    let config = dir.join("campaign.toml");
+    let body = include_str!("fixtures/fmu-tiny-campaign.toml");
+    std::fs::write(&config, body.replace("FMU", fmu.to_str().unwrap())).unwrap();
+    let out = dir.join("out");
+    let args: Vec<String> = [
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--method",
+        "paper",
+        "--jobs",
+        "1",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let trials = out.join("trials.jsonl");
+    let child = start_and_wait(&args, &trials, 3);
+    send(&child, "INT");
+    let (code, err) = stopped(child);
+    assert_eq!(code, Some(130), "{err}");
+    let told = line_count(&trials);
+    let all = 1 + 6 + 8 + 4 + 4 + 2 * 4;
+    assert!(told < all, "the campaign finished before the signal");
+    // The printed command, run as printed, resumes the campaign to its end.
+    let words = printed_command(&err);
+    assert_eq!(words[..2], ["savme", "run"], "a whole command: {err}");
+    let (code, _, resumed) = run(&words[1..]);
+    assert_eq!(code, Some(0), "{words:?}: {resumed}");
+    assert_eq!(line_count(&trials), all, "no trial lost or repeated");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[cfg(unix)]
 #[test]
 fn a_second_signal_quits_at_once_and_still_prints_the_resume_command() {

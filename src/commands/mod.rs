@@ -254,6 +254,11 @@ pub struct Target {
     pub store: Option<Box<dyn TrialStore>>,
     /// The work queue, when `savme worker` processes run the trials.
     pub remote: Option<Remote>,
+    /// How to continue the campaign once a signal stopped it (`continue with …`: a whole
+    /// command, as `savme run` needs its `--config`); `None`: `continue with --resume DIR`
+    /// (in a database: the same --storage and --campaign and --resume), for a command that
+    /// continues with those alone.
+    pub hint: Option<String>,
 }
 
 /// Runs a campaign with the observers the flags ask for (progress bars on a terminal, plain
@@ -269,9 +274,12 @@ pub fn run_campaign<S>(
 where
     S: Simulator + Clone + Send,
 {
-    let hint = match &target.store {
-        Some(_) => "continue with the same --storage and --campaign and --resume".to_string(),
-        None => format!("continue with --resume {}", shown_path(&target.out)),
+    let hint = match (&target.hint, &target.store) {
+        (Some(hint), _) => hint.clone(),
+        (None, Some(_)) => {
+            "continue with the same --storage and --campaign and --resume".to_string()
+        }
+        (None, None) => format!("continue with --resume {}", shown_path(&target.out)),
     };
     let target_in_database = target.store.is_some();
     let mut campaign = Campaign::new(protocol.clone(), problem.clone())
@@ -351,7 +359,10 @@ where
             &format!("seed {seed}: "),
         ))]
     };
-    let hint = format!("continue with --resume {}", shown_path(&target.out));
+    let hint = target
+        .hint
+        .clone()
+        .unwrap_or_else(|| format!("continue with --resume {}", shown_path(&target.out)));
     let mut repeated = Repeated::new(protocol, problem, repeat)
         .out(target.out)
         .resume(target.resume)

@@ -107,6 +107,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
                 resume: true,
                 store: None,
                 remote: None,
+                hint: None,
             },
         ),
         (Some(_), Some(mut store)) => (
@@ -116,6 +117,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
                 resume: true,
                 store: Some(Box::new(store)),
                 remote,
+                hint: None,
             },
         ),
         (None, store) => (
@@ -127,6 +129,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
                 resume: false,
                 store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
                 remote,
+                hint: None,
             },
         ),
     };

@@ -7,8 +7,9 @@ use super::{
 use savme::adapter::AnySimulator;
 use savme::campaign::store::TrialStore;
 use savme::compose;
+use savme::postgres::{shell_quote, Database};
 use savme_fmu::campaign_file::FmuCampaignFile;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -18,8 +19,8 @@ pub struct Args {
     /// Output directory (default: the file's `campaign.out`, else savme-fmu-results).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Continue the campaign in DIR (give the same --config); with --storage, continue the
-    /// database's campaign (no DIR).
+    /// Continue the campaign in DIR (give the same --config and protocol flags: a stopped run
+    /// prints the whole command); with --storage, continue the database's campaign (no DIR).
     #[arg(long, value_name = "DIR", num_args = 0..=1)]
     resume: Option<Option<PathBuf>>,
     /// Print every FMU log message to standard error (also `[fmu] log = true`); errors carry
@@ -44,9 +45,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let store = a.storage.open()?;
     let remote = a.storage.remote(store.as_ref())?;
     let resume = resume_dir(a.resume, a.out.as_deref(), store.is_some())?;
-    if resume.is_some() && overrides.any() {
-        return Err(usage("protocol: `--resume`: a resumed campaign keeps its protocol; give only --config, --resume, --out, --storage, --campaign, --remote, --jobs and --quiet"));
-    }
+    // Protocol flags are taken on resume: with the file they must give the stored protocol
+    // (checked when the campaign opens, naming each difference), and the resume command a
+    // stopped run prints repeats them.
     let mut c = compose::campaign_file(&config, &overrides).map_err(config_failure)?;
     if a.fmu_log {
         let Some(fmu) = c.file.as_any_mut().downcast_mut::<FmuCampaignFile>() else {
@@ -58,20 +59,25 @@ pub fn run(a: Args) -> Result<(), Failure> {
         .out
         .or(c.file.common().campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
+    let out = match &resume {
+        Some(dir) if store.is_none() => dir.clone(),
+        _ => out,
+    };
+    let database = a.storage.store.database()?;
+    // The campaign and its [estimate] stage continue with the same command.
+    let hint = resume_hint(&out, database.as_ref().map(|(db, _)| db));
     let target = Target {
-        out: match &resume {
-            Some(dir) if store.is_none() => dir.clone(),
-            _ => out,
-        },
+        out,
         resume: resume.is_some(),
         store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
         remote,
+        hint: Some(hint.clone()),
     };
     let backend = c.file.simulator(&super::worker_command)?;
     let repeat = c.repeat;
     let estimate = c.estimate_settings().map_err(Failure::Runtime)?;
     // Where the [estimate] stage reads the campaign: its database, or its directory.
-    let place = match a.storage.store.database()? {
+    let place = match database {
         Some((db, name)) => compose::Place::Database(Box::new(db), name),
         None => compose::Place::Dir(target.out.clone()),
     };
@@ -97,29 +103,79 @@ pub fn run(a: Args) -> Result<(), Failure> {
             jobs: a.runner.jobs(),
             stop: savme::campaign::Stop::new(),
         };
-        run_estimate_stage(stage, &config, a.runner.quiet(), &backend)?;
+        run_estimate_stage(stage, &hint, a.runner.quiet(), &backend)?;
     }
     Ok(())
 }
 
+/// `continue with` the whole command that continues this run (its campaign, then its
+/// `[estimate]` stage): this process's command line ([`resume_words`]), shell-quoted.
+fn resume_hint(dir: &Path, database: Option<&Database>) -> String {
+    let args: Vec<String> = std::env::args().skip(2).collect();
+    let dir = super::shown_path(dir);
+    let words = resume_words(
+        &args,
+        database.map(savme::postgres::worker_url).as_deref(),
+        &dir,
+    );
+    let quoted: Vec<String> = words.iter().map(|w| shell_quote(w)).collect();
+    format!("continue with {}", quoted.join(" "))
+}
+
+/// `savme run` with `args` (the arguments after `run`: the campaign file, the protocol flags a
+/// resumed campaign must repeat to give the same protocol, `--jobs`, …) as they were given,
+/// but its campaign resumed: `--out DIR` and any `--resume [DIR]` replaced by `--resume DIR`
+/// (`dir`: the campaign's directory); for a campaign in a database (`storage`: its URL
+/// without the password) `--resume` alone, `--out` kept (the `[estimate]` stage writes there)
+/// and `--storage` given `storage`.
+pub(super) fn resume_words(args: &[String], storage: Option<&str>, dir: &str) -> Vec<String> {
+    let mut words: Vec<String> = vec!["savme".into(), "run".into()];
+    let mut args = args.iter().peekable();
+    while let Some(arg) = args.next() {
+        let (flag, inline) = match arg.split_once('=') {
+            Some((f, v)) if f.starts_with("--") => (f, Some(v)),
+            _ => (arg.as_str(), None),
+        };
+        match flag {
+            // Its value, if any, is the next word unless that is a flag (num_args 0..=1).
+            "--resume" => {
+                if inline.is_none() && args.peek().is_some_and(|v| !v.starts_with('-')) {
+                    args.next();
+                }
+            }
+            "--out" if storage.is_none() => {
+                if inline.is_none() {
+                    args.next();
+                }
+            }
+            "--storage" => {
+                let given = inline.map(str::to_string).or_else(|| args.next().cloned());
+                words.push(flag.into());
+                words.push(storage.map_or_else(|| given.unwrap_or_default(), str::to_string));
+            }
+            _ => words.push(arg.clone()),
+        }
+    }
+    words.push("--resume".into());
+    if storage.is_none() {
+        words.push(dir.into());
+    }
+    words
+}
+
 /// The campaign file's `[estimate]` stage, after its campaign; a signal stops it between runs
-/// with the command that resumes it.
+/// with the command that resumes it (`hint`).
 fn run_estimate_stage(
     mut stage: compose::EstimateStage,
-    config: &std::path::Path,
+    hint: &str,
     quiet: bool,
     backend: &AnySimulator,
 ) -> Result<(), Failure> {
-    let hint = format!(
-        "continue with savme run --config {} --resume {}",
-        config.display(),
-        super::shown_path(&stage.out)
-    );
-    stage.stop = super::signals::stop_on_signals(&hint);
+    stage.stop = super::signals::stop_on_signals(hint);
     let outcome = stage
         .run(compose::estimate_progress_lines(quiet), backend)
         .map_err(|e| {
-            super::estimate::interrupted(e, &hint)
+            super::estimate::interrupted(e, hint)
                 .unwrap_or_else(|e| Failure::Runtime(e.to_string()))
         })?;
     for change in &outcome.changed_on_resume {
@@ -131,4 +187,51 @@ fn run_estimate_stage(
         super::shown_path(&outcome.out)
     ))
     .map_err(Failure::Runtime)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::resume_words;
+
+    fn words(s: &str) -> Vec<String> {
+        s.split_whitespace().map(str::to_string).collect()
+    }
+
+    #[test]
+    fn the_resume_command_repeats_the_run_with_its_directory_as_resume() {
+        let given = words("--config c.toml --out o --method paper --seed 3 --jobs 2 --quiet");
+        assert_eq!(
+            resume_words(&given, None, "/abs/o"),
+            words("savme run --config c.toml --method paper --seed 3 --jobs 2 --quiet --resume /abs/o")
+        );
+        // Resumed, then stopped again: the same command (`--resume DIR`, `--resume=DIR`, a
+        // bare `--resume` before a flag).
+        for given in [
+            "--config=c.toml --resume o --method=paper",
+            "--config=c.toml --resume=o --method=paper",
+            "--config=c.toml --out=o --resume --method=paper",
+        ] {
+            assert_eq!(
+                resume_words(&words(given), None, "o"),
+                words("savme run --config=c.toml --method=paper --resume o"),
+                "{given}"
+            );
+        }
+    }
+
+    #[test]
+    fn in_a_database_the_resume_command_keeps_out_and_drops_the_password() {
+        let given = words(
+            "--config c.toml --storage postgresql://u:pw@h/db --campaign n --remote --out o --seed 3",
+        );
+        assert_eq!(
+            resume_words(&given, Some("postgresql://u@h:5432/db"), "unused"),
+            words("savme run --config c.toml --storage postgresql://u@h:5432/db --campaign n --remote --out o --seed 3 --resume")
+        );
+        let given = words("--config c.toml --storage=postgresql://u:pw@h/db --campaign n --resume");
+        assert_eq!(
+            resume_words(&given, Some("postgresql://u@h:5432/db"), ""),
+            words("savme run --config c.toml --storage postgresql://u@h:5432/db --campaign n --resume")
+        );
+    }
 }

@@ -165,8 +165,20 @@ impl CampaignStorageArgs {
 /// The command that resumes this coordinator's campaign: its subcommand with the flags a
 /// resumed campaign takes (`--config`, `--out`, `--storage` — its URL without the password —,
 /// `--campaign`, `--remote`, `--worker-role`, `--worker-wait`), then `--resume`; shell-quoted.
-/// Workers print it when their coordinator is gone.
+/// Workers print it when their coordinator is gone. For `savme run`, which rebuilds its
+/// protocol from its file and flags, its whole command line (`run::resume_words`).
 fn resume_command(db: &Database) -> String {
+    // `savme run` rebuilds its protocol from the file and its flags: it repeats them all.
+    let given: Vec<String> = std::env::args().skip(1).collect();
+    if given.first().is_some_and(|c| c == "run") {
+        let words =
+            super::run::resume_words(&given[1..], Some(&savme::postgres::worker_url(db)), "");
+        let quoted: Vec<String> = words
+            .iter()
+            .map(|w| savme::postgres::shell_quote(w))
+            .collect();
+        return quoted.join(" ");
+    }
     const KEPT: &[&str] = &[
         "--config",
         "--out",

@@ -129,6 +129,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
         resume: resume.is_some(),
         store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
         remote,
+        hint: None,
     };
     if let Some(n) = repeat {
         return run_repeated(protocol, problem, n, target, &a.runner, &sim);
