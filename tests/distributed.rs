@@ -622,7 +622,7 @@ fn a_worker_whose_coordinator_was_killed_stops_after_its_grace_naming_the_resume
         return;
     };
     let (url, expected) = (dist.url.clone(), dist.expected.clone());
-    let w = worker(&url, "g", &["--grace", "5"]);
+    let w = worker(&url, "g", &["--grace", "5", "--jobs", "2"]);
     let mut coordinator = dist.coordinator("g", Stdio::null());
     let mut client = dist.client();
     wait_until("trials to be stored", Duration::from_secs(60), || {
@@ -652,6 +652,13 @@ fn a_worker_whose_coordinator_was_killed_stops_after_its_grace_naming_the_resume
             && resume.ends_with(" --resume")
             && !resume.contains(common::postgres::PASSWORD),
         "{resume}"
+    );
+    // This worker's own command to start again keeps its --jobs.
+    assert!(
+        said.contains(
+            "then start the workers again: savme worker --storage postgresql://savme@127.0.0.1:"
+        ) && said.contains(" --campaign g --jobs 2"),
+        "{said}"
     );
     // The command, pasted, resumes the campaign (the password from the environment).
     let w = worker(&url, "g", &[]);
@@ -838,8 +845,10 @@ fn sigint_and_sigterm_stop_a_worker_between_runs_and_nothing_is_lost() {
             said.contains("stopped between runs") || said.contains("between runs"),
             "{said}"
         );
+        // The whole command: the flags it was given that change how it works (`--jobs`).
         assert!(
-            said.contains("start it again with: savme worker --storage"),
+            said.contains("start it again with: savme worker --storage")
+                && said.contains(" --campaign s --jobs 2"),
             "{signal}: {said}"
         );
         // Nothing it held is left running: its runs were finished or queued again (a lease of

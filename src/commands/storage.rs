@@ -83,6 +83,19 @@ impl StorageArgs {
         }
     }
 
+    /// The flags naming this database and campaign for a process started again on this host,
+    /// unquoted: `--storage URL` (its location: never the password) or `--storage-file FILE`,
+    /// then `--campaign NAME`.
+    pub fn restart_words(&self, db: &Database) -> Vec<String> {
+        let mut words = match &self.storage_file {
+            Some(file) => vec!["--storage-file".into(), file.display().to_string()],
+            None => vec!["--storage".into(), savme::postgres::worker_url(db)],
+        };
+        words.push("--campaign".into());
+        words.push(self.campaign.clone().unwrap_or_else(|| "NAME".into()));
+        words
+    }
+
     /// Opens (and locks) the campaign in the database given, if any.
     pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
         match self.database()? {

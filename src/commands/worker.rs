@@ -7,7 +7,7 @@ use savme::adapter::simulator_of_label;
 use savme::adapter::AnySimulator;
 use savme::compose;
 use savme::postgres::worker::{work, Unavailable, WorkerOptions};
-use savme::postgres::{stored_simulator, Session};
+use savme::postgres::{shell_quote, stored_simulator, Session};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -46,15 +46,10 @@ pub fn run(a: Args) -> Result<(), Failure> {
             "savme worker needs --storage URL (or --storage-file FILE) and --campaign NAME",
         ));
     };
-    let again = format!(
-        "start it again with: savme worker {}{}",
-        a.storage.flags(&db),
-        match &a.config {
-            Some(file) => format!(" --config {}", file.display()),
-            None => String::new(),
-        }
-    );
-    let options = options(&a, &again)?;
+    let restart = restart_command(a.storage.restart_words(&db), a.jobs, a.config.as_deref());
+    let again = format!("start it again with: {restart}");
+    let mut options = options(&a, &again)?;
+    options.restart = Some(restart);
     let Some(label) = simulator_label(&db, &name, &options, a.quiet)? else {
         return Err(Failure::Interrupted(format!(
             "worker stopped ({}) while waiting for campaign {name:?} to be started; {again}",
@@ -99,6 +94,19 @@ pub fn run(a: Args) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `savme worker` with `storage` (the flags naming the database and campaign), `--jobs` and
+/// `--config` as this worker was given them, shell-quoted: the command that starts it again.
+fn restart_command(storage: Vec<String>, jobs: usize, config: Option<&Path>) -> String {
+    let mut words: Vec<String> = vec!["savme".into(), "worker".into()];
+    words.extend(storage);
+    words.extend(["--jobs".into(), jobs.to_string()]);
+    if let Some(file) = config {
+        words.extend(["--config".into(), file.display().to_string()]);
+    }
+    let quoted: Vec<String> = words.iter().map(|w| shell_quote(w)).collect();
+    quoted.join(" ")
+}
+
 /// The worker's options from the flags (each duration a positive number of seconds); Ctrl-C
 /// and SIGTERM stop it between runs (`again`: how to start it again).
 fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
@@ -126,6 +134,7 @@ fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
         wait_for_campaign,
         stop,
         grace,
+        restart: None,
     })
 }
 
@@ -191,5 +200,38 @@ fn simulator_label(
         // Often: workers usually start before their coordinator, and every moment waited
         // here is a moment of the campaign (a cheap indexed read).
         std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::restart_command;
+    use std::path::Path;
+
+    #[test]
+    fn the_restart_command_keeps_jobs_and_config_and_is_quoted_for_a_shell() {
+        let storage = [
+            "--storage",
+            "postgresql://w@db.lab:5432/safety?sslmode=require",
+        ];
+        let words = |name: &str| -> Vec<String> {
+            let mut w: Vec<String> = storage.iter().map(|s| s.to_string()).collect();
+            w.extend(["--campaign".into(), name.into()]);
+            w
+        };
+        assert_eq!(
+            restart_command(words("night 1"), 4, Some(Path::new("fmus/campaign.toml"))),
+            "savme worker --storage 'postgresql://w@db.lab:5432/safety?sslmode=require' --campaign 'night 1' --jobs 4 --config fmus/campaign.toml"
+        );
+        let file = vec![
+            "--storage-file".to_string(),
+            "db.url".into(),
+            "--campaign".into(),
+            "night-1".into(),
+        ];
+        assert_eq!(
+            restart_command(file, 1, None),
+            "savme worker --storage-file db.url --campaign night-1 --jobs 1"
+        );
     }
 }

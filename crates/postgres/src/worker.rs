@@ -51,6 +51,9 @@ pub struct WorkerOptions {
     /// How long without a live coordinator (one whose heartbeat is fresh and that runs the
     /// campaign through the queue) before the worker stops.
     pub grace: Duration,
+    /// The command that starts this worker again, as its messages print it (with the flags it
+    /// was given, e.g. `--jobs`); `None`: [`worker_command`] (the database and campaign alone).
+    pub restart: Option<String>,
 }
 
 impl Default for WorkerOptions {
@@ -61,6 +64,7 @@ impl Default for WorkerOptions {
             wait_for_campaign: Duration::from_secs(600),
             stop: Stop::new(),
             grace: Duration::from_secs(120),
+            restart: None,
         }
     }
 }
@@ -178,10 +182,20 @@ where
     let watch = Watch::default();
     let (runs, dropped) = (AtomicU64::new(0), AtomicU64::new(0));
     let lease = options.lease.max(Duration::from_millis(300));
+    let restart = options.restart.as_deref();
     std::thread::scope(|scope| -> Result<(), WorkerError> {
         let beat = scope.spawn(|| heartbeat(db, &held, &stop, lease));
-        let watcher = scope
-            .spawn(|| watch_coordinator(session, campaign, name, options.grace, &watch, &stop));
+        let watcher = scope.spawn(|| {
+            watch_coordinator(
+                session,
+                campaign,
+                name,
+                options.grace,
+                restart,
+                &watch,
+                &stop,
+            )
+        });
         let threads: Vec<_> = (0..options.jobs.max(1))
             .map(|k| {
                 let mut sim = sim.clone();
@@ -305,12 +319,14 @@ fn work_thread<S: Simulator>(
 
 /// Watches the campaign's coordinator once a second until `stop`: marks the campaign finished,
 /// says on stderr when no live coordinator runs it through the queue (at once when one runs it
-/// without `--remote`), and gives up after `grace` without one.
+/// without `--remote`), and gives up after `grace` without one (naming `restart`, the command
+/// that starts this worker again, if given).
 fn watch_coordinator(
     mut s: Session,
     campaign: i32,
     name: &str,
     grace: Duration,
+    restart: Option<&str>,
     watch: &Watch,
     stop: &AtomicBool,
 ) {
@@ -354,7 +370,8 @@ fn watch_coordinator(
                     campaign: name.into(),
                     seconds: grace.as_secs(),
                     resume,
-                    worker: worker_command(s.database(), name),
+                    worker: restart
+                        .map_or_else(|| worker_command(s.database(), name), str::to_string),
                 });
                 return;
             }
