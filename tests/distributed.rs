@@ -872,3 +872,73 @@ fn sigint_and_sigterm_stop_a_worker_between_runs_and_nothing_is_lost() {
     );
     dist.clean();
 }
+
+#[cfg(unix)]
+#[test]
+fn a_run_in_a_database_stopped_by_a_signal_prints_the_whole_command_that_resumes_it() {
+    use std::io::BufRead;
+    let Some(server) = Server::start("runhint") else {
+        return;
+    };
+    let url = server.create_db("runhint");
+    let dir = temp_dir("runhint");
+    let (_, config) = fmu_campaign(&dir, "");
+    let out = dir.join("out");
+    // A protocol flag a resumed run must repeat, and --out (its [estimate] stage's directory).
+    let mut child = Command::new(EXE)
+        .args([
+            "run",
+            "--storage",
+            &url,
+            "--campaign",
+            "h",
+            "--method",
+            "paper",
+        ])
+        .args(["--jobs", "1", "--config"])
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Stopped once its first stage has started (a progress line on stderr).
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut said = String::new();
+    while !said.contains(" started: ") {
+        let mut line = String::new();
+        assert!(err.read_line(&mut line).unwrap() > 0, "{said}");
+        said += &line;
+    }
+    send(&child, "INT");
+    std::io::Read::read_to_string(&mut err, &mut said).unwrap();
+    assert_eq!(child.wait().unwrap().code(), Some(130), "{said}");
+    let hint = said
+        .lines()
+        .find_map(|l| l.split_once("continue with ").map(|(_, c)| c.to_string()))
+        .unwrap_or_else(|| panic!("no resume command: {said}"));
+    assert!(
+        hint.starts_with("savme run --storage postgresql://savme@127.0.0.1:")
+            && hint.contains(" --campaign h --method paper --jobs 1 --config ")
+            && hint.contains(" --out ")
+            && hint.ends_with(" --resume")
+            && !hint.contains(common::postgres::PASSWORD),
+        "{hint}"
+    );
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let count = "SELECT count(*) FROM savme.trials";
+    assert!(
+        query_i64(&mut client, count) < 30,
+        "finished before the signal"
+    );
+    // The command, pasted, resumes the campaign to its end (the password from the environment).
+    let resumed = Command::new("sh")
+        .args(["-c", &hint.replacen("savme", EXE, 1)])
+        .env("PGPASSWORD", common::postgres::PASSWORD)
+        .output()
+        .unwrap();
+    assert!(resumed.status.success(), "{}", text(&resumed));
+    assert_eq!(query_i64(&mut client, count), 30);
+    let _ = std::fs::remove_dir_all(&dir);
+}
