@@ -246,6 +246,37 @@ mod tests {
         }
     }
 
+    /// Help is read in a terminal: no rustdoc link syntax (`[`X`](path)`) leaks into any
+    /// command's `--help`, at any depth of subcommands.
+    #[test]
+    fn no_help_shows_rustdoc_link_syntax() {
+        fn walk(c: &mut Command, path: &str, bad: &mut Vec<String>) {
+            let text = c.render_long_help().to_string();
+            for line in text
+                .lines()
+                .filter(|l| l.contains("](") || l.contains("[`"))
+            {
+                bad.push(format!("{path}: {}", line.trim()));
+            }
+            let names: Vec<String> = c
+                .get_subcommands()
+                .map(|s| s.get_name().to_string())
+                .collect();
+            for name in names {
+                if let Some(s) = c.find_subcommand_mut(&name) {
+                    walk(s, &format!("{path} {name}"), bad);
+                }
+            }
+        }
+        let mut bad = Vec::new();
+        walk(&mut command(), "savme", &mut bad);
+        assert!(
+            bad.is_empty(),
+            "rustdoc syntax in help:\n{}",
+            bad.join("\n")
+        );
+    }
+
     #[test]
     fn every_protocol_flag_shows_its_default_in_each_campaign_command() {
         let mut cli = command();

@@ -120,7 +120,7 @@ pub enum ScreenLf {
     #[default]
     Always,
     /// Per scenario, only while the LF run costs less than the HF passes it is expected to
-    /// save; otherwise HF directly ([`Economy`](savme_kernel::screening::Economy)).
+    /// save; otherwise HF directly (the kernel's screening economy).
     WhereItPays,
 }
 
