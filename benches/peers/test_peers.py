@@ -165,5 +165,23 @@ class Report(unittest.TestCase):
         self.assertIn("HF failures per cost in the search: VerifAI x 3.0 > savme 2.0 (1.50×)", lines[0])
 
 
+    def test_families_compare_with_the_best_peer_per_metric_and_the_worst_scenario(self) -> None:
+        import families
+
+        def row(method: str, a: int, b: int, deployed: int) -> dict:
+            part = {"a": {"failures": a, "work": 100, "cells": a}, "b": {"failures": b, "work": 100, "cells": b}}
+            return {"method": method, "seed": 1, "search": part,
+                    "deployed": {"a": {"failures": deployed, "work": 50, "cells": 0}}}
+
+        rows = [row("savme", 8, 1, 10), row("VerifAI x", 2, 4, 5), row("VerifAI y", 4, 2, 1)]
+        f = families.family(rows, "savme")
+        mine, peer, theirs = f["HF failures / wu, search"]
+        self.assertEqual((mine, peer, theirs), (9 / 200, "VerifAI x", 6 / 200))
+        self.assertEqual(f["confirmed failures / wu, deployed"][1], "VerifAI x")
+        ratio, scenario, best = f["worst scenario"]
+        self.assertEqual((scenario, best), ("b", "VerifAI x"))
+        self.assertAlmostEqual(ratio, 0.25)
+
+
 if __name__ == "__main__":
     unittest.main()
