@@ -30,7 +30,8 @@ pub const VERSION: &str = concat!(
 );
 
 /// Examples per subcommand path (`fmu pack` is subcommand `pack` of `fmu`); each line that
-/// starts with `savme ` is parsed by a test.
+/// starts with `savme ` is parsed by a test, and tests/help_examples.rs runs them as printed, in
+/// order, from an empty directory (so a command that reads a campaign or an FMU makes it first).
 pub const EXAMPLES: &[(&str, &str)] = &[
     ("serve", "savme example-config > kernel.json\n  savme serve --config kernel.json --journal campaign.journal"),
     ("example-config", "savme example-config > kernel.json"),
@@ -38,11 +39,11 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("fidelity", "savme fidelity\n  savme fidelity --json"),
     ("reproduce", "savme reproduce --quick --out results\n  savme reproduce --quick --perception ideal --cost work --seed 3\n  savme reproduce --repeat 5 --out results-5\n  savme reproduce --resume results"),
     ("run", "savme run --config examples/fmu/campaign.toml --out fmu-results\n  savme run --config examples/fmu/campaign.toml --resume fmu-results"),
-    ("estimate", "savme estimate results --target-width 0.1\n  savme estimate results --max-runs 2000 --no-target --json\n  savme estimate results --nominal lead_vehicle_stopped.ego_speed=normal:20,3"),
-    ("failures", "savme failures results\n  savme failures results --stage train@0.3 --json"),
+    ("estimate", "savme reproduce --quick --perception ideal --cost work --out results\n  savme estimate results --target-width 0.1\n  savme estimate results --max-runs 2000 --no-target --out estimate-2000 --json\n  savme estimate results --nominal lead_vehicle_brakes.ego_speed=normal:20,3 --out estimate-nominal"),
+    ("failures", "savme reproduce --quick --perception ideal --cost work --out results\n  savme failures results\n  savme failures results --stage train@0.3 --json"),
     ("fmu pack", "savme fmu pack --out savme-sim.fmu\n  savme fmu pack --fmi 3 --out savme-sim3.fmu"),
-    ("fmu info", "savme fmu info model.fmu\n  savme fmu info model.fmu --json"),
-    ("fmu validate", "savme fmu validate model.fmu\n  savme fmu validate model.fmu --json"),
+    ("fmu info", "savme fmu pack --out model.fmu\n  savme fmu info model.fmu\n  savme fmu info model.fmu --json"),
+    ("fmu validate", "savme fmu pack --out model.fmu\n  savme fmu validate model.fmu\n  savme fmu validate model.fmu --json"),
     ("simulate", "savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --fidelity simulation_rate_hz=2 --json\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --perception ideal"),
     ("toy", "savme toy --out toy-results\n  savme toy --sleep-ms 20 --jobs 4 --quiet"),
     ("worker", "savme worker --storage-file db.url --campaign c1 --jobs 4"),
