@@ -97,7 +97,8 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("savme: {}", e.message());
+            // The prefix clap gives the command line's errors: one for every error.
+            eprintln!("error: {}", e.message());
             ExitCode::from(e.code())
         }
     }

@@ -376,3 +376,27 @@ fn more_jobs_than_the_window_keeps_busy_are_warned_about() {
     assert!(!err.contains("WARNING"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Every error says `error: …`, whoever found it (clap while parsing, or savme before or while
+/// running), and the exit status says which kind: 2 for the command line, 1 for running.
+#[test]
+fn every_error_has_one_prefix_and_its_exit_status() {
+    let missing = std::env::temp_dir().join(format!("savme-cli-{}-none", std::process::id()));
+    let m = missing.to_str().unwrap();
+    for (args, code) in [
+        // clap: an unknown flag.
+        (&["simulate", "--no-such-flag"][..], 2),
+        // savme, before running: a value it refuses.
+        (&["simulate", "--scenario", "99", "--phi", "gap=8"][..], 2),
+        (&["serve"][..], 2),
+        // savme, running: a file that is not there.
+        (&["fmu", "info", m][..], 1),
+        (&["failures", m][..], 1),
+    ] {
+        let r = Command::new(EXE).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(code), "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{args:?}: {err}");
+        assert!(!err.contains("savme: "), "{args:?}: {err}");
+    }
+}
