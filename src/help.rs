@@ -3,7 +3,7 @@
 //! and `--storage` help that fits each command. [`command`] is the one `clap::Command` that
 //! parsing, the shell completions and the man pages all use.
 
-use clap::{Command, CommandFactory};
+use clap::{ColorChoice, Command, CommandFactory};
 use savme::campaign::config::{self as campaign_config, TOY};
 use savme::campaign::values::VALUES;
 use savme::campaign::{Method, Protocol};
@@ -17,6 +17,45 @@ pub fn command() -> Command {
     }
     cli = protocol_defaults(cli);
     storage_help(cli)
+}
+
+/// The `--color` of `args` (the command line after the program's name), read before clap
+/// parses it so that clap's own help and errors honour it: the last one given (`--color WHEN`
+/// or `--color=WHEN`, before a `--`); `auto` when there is none or its value is not one clap
+/// takes (clap then refuses it).
+pub fn color_choice(args: impl IntoIterator<Item = std::ffi::OsString>) -> ColorChoice {
+    let mut choice = ColorChoice::Auto;
+    let mut args = args.into_iter();
+    while let Some(arg) = args.next() {
+        let value = match arg.to_str() {
+            Some("--") => break,
+            Some("--color") => args.next(),
+            Some(a) => a.strip_prefix("--color=").map(Into::into),
+            None => None,
+        };
+        if let Some(v) = value {
+            choice = match v.to_str() {
+                Some("always") => ColorChoice::Always,
+                Some("never") => ColorChoice::Never,
+                _ => ColorChoice::Auto,
+            };
+        }
+    }
+    choice
+}
+
+/// Makes the progress bars (indicatif, through console) follow `--color`; with `auto`, a set
+/// NO_COLOR turns colour off (as clap does, and before console's CLICOLOR_FORCE).
+pub fn color_progress(choice: ColorChoice) {
+    match choice {
+        ColorChoice::Always => console::set_colors_enabled_stderr(true),
+        ColorChoice::Never => console::set_colors_enabled_stderr(false),
+        ColorChoice::Auto => {
+            if std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty()) {
+                console::set_colors_enabled_stderr(false);
+            }
+        }
+    }
 }
 
 /// `savme --version`: the package version, the commit it was built from and the features.
@@ -329,6 +368,21 @@ mod tests {
         assert!(help("estimate").contains("Read the campaign from this PostgreSQL database"));
         assert!(help("worker").contains("whose campaign (--campaign) this worker runs trials"));
         assert!(help("reproduce").contains("Keep the campaign"));
+    }
+
+    #[test]
+    fn color_is_read_before_parsing_wherever_it_stands() {
+        let choice = |line: &str| color_choice(line.split_whitespace().map(Into::into));
+        assert_eq!(choice("scenarios"), ColorChoice::Auto);
+        assert_eq!(choice("--color never scenarios"), ColorChoice::Never);
+        assert_eq!(choice("estimate r --color=always"), ColorChoice::Always);
+        assert_eq!(
+            choice("--color never toy --color always"),
+            ColorChoice::Always
+        );
+        assert_eq!(choice("--color sometimes toy"), ColorChoice::Auto);
+        assert_eq!(choice("toy --color"), ColorChoice::Auto);
+        assert_eq!(choice("toy -- --color never"), ColorChoice::Auto);
     }
 
     #[test]

@@ -400,3 +400,56 @@ fn every_error_has_one_prefix_and_its_exit_status() {
         assert!(!err.contains("savme: "), "{args:?}: {err}");
     }
 }
+
+/// `--color auto|always|never` (any position) decides whether clap's help and errors are
+/// coloured; `auto` colours a terminal unless NO_COLOR is set (CLICOLOR_FORCE stands in for the
+/// terminal here).
+#[test]
+fn color_flag_and_no_color_decide_the_escapes() {
+    let run = |args: &[&str], env: &[(&str, &str)]| {
+        let mut c = Command::new(EXE);
+        c.args(args)
+            .env_remove("NO_COLOR")
+            .env_remove("CLICOLOR_FORCE");
+        for (k, v) in env {
+            c.env(k, v);
+        }
+        let o = c.output().unwrap();
+        let text =
+            String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+        (o.status.code(), text.contains('\x1b'))
+    };
+    let force = [("CLICOLOR_FORCE", "1")];
+    let both = [("CLICOLOR_FORCE", "1"), ("NO_COLOR", "1")];
+    for help in [&["--help"][..], &["estimate", "--help"][..]] {
+        let with = |flag: &[&'static str]| -> Vec<&'static str> { [flag, help].concat() };
+        assert_eq!(
+            run(&with(&["--color", "always"]), &[]),
+            (Some(0), true),
+            "{help:?}"
+        );
+        assert_eq!(
+            run(&with(&["--color=never"]), &force),
+            (Some(0), false),
+            "{help:?}"
+        );
+        assert_eq!(run(help, &force), (Some(0), true), "{help:?}");
+        assert_eq!(run(help, &both), (Some(0), false), "{help:?}");
+        assert_eq!(run(help, &[]), (Some(0), false), "{help:?}: not a terminal");
+    }
+    // After the subcommand too, and for an error.
+    assert_eq!(
+        run(&["estimate", "--help", "--color", "never"], &force),
+        (Some(0), false)
+    );
+    assert_eq!(
+        run(&["simulate", "--bogus", "--color", "always"], &[]),
+        (Some(2), true)
+    );
+    assert_eq!(
+        run(&["simulate", "--bogus", "--color", "never"], &force),
+        (Some(2), false)
+    );
+    // A wrong value is a usage error.
+    assert_eq!(run(&["--color", "sometimes", "scenarios"], &[]).0, Some(2));
+}

@@ -154,7 +154,7 @@ pub fn parse_jobs(s: &str) -> Result<usize, String> {
 #[derive(clap::Args, Debug, Clone)]
 pub struct RunnerArgs {
     /// Worker threads (default: one per core). Does not change the results.
-    #[arg(long, value_parser = parse_jobs)]
+    #[arg(long, short = 'j', value_parser = parse_jobs)]
     jobs: Option<usize>,
     /// No progress output.
     #[arg(long, short)]
