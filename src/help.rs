@@ -3,7 +3,7 @@
 //! and `--storage` help that fits each command. [`command`] is the one `clap::Command` that
 //! parsing, the shell completions and the man pages all use.
 
-use clap::{Command, CommandFactory};
+use clap::{ColorChoice, Command, CommandFactory};
 use savme::campaign::config::{self as campaign_config, TOY};
 use savme::campaign::values::VALUES;
 use savme::campaign::{Method, Protocol};
@@ -19,6 +19,45 @@ pub fn command() -> Command {
     storage_help(cli)
 }
 
+/// The `--color` of `args` (the command line after the program's name), read before clap
+/// parses it so that clap's own help and errors honour it: the last one given (`--color WHEN`
+/// or `--color=WHEN`, before a `--`); `auto` when there is none or its value is not one clap
+/// takes (clap then refuses it).
+pub fn color_choice(args: impl IntoIterator<Item = std::ffi::OsString>) -> ColorChoice {
+    let mut choice = ColorChoice::Auto;
+    let mut args = args.into_iter();
+    while let Some(arg) = args.next() {
+        let value = match arg.to_str() {
+            Some("--") => break,
+            Some("--color") => args.next(),
+            Some(a) => a.strip_prefix("--color=").map(Into::into),
+            None => None,
+        };
+        if let Some(v) = value {
+            choice = match v.to_str() {
+                Some("always") => ColorChoice::Always,
+                Some("never") => ColorChoice::Never,
+                _ => ColorChoice::Auto,
+            };
+        }
+    }
+    choice
+}
+
+/// Makes the progress bars (indicatif, through console) follow `--color`; with `auto`, a set
+/// NO_COLOR turns colour off (as clap does, and before console's CLICOLOR_FORCE).
+pub fn color_progress(choice: ColorChoice) {
+    match choice {
+        ColorChoice::Always => console::set_colors_enabled_stderr(true),
+        ColorChoice::Never => console::set_colors_enabled_stderr(false),
+        ColorChoice::Auto => {
+            if std::env::var_os("NO_COLOR").is_some_and(|v| !v.is_empty()) {
+                console::set_colors_enabled_stderr(false);
+            }
+        }
+    }
+}
+
 /// `savme --version`: the package version, the commit it was built from and the features.
 pub const VERSION: &str = concat!(
     env!("CARGO_PKG_VERSION"),
@@ -30,7 +69,8 @@ pub const VERSION: &str = concat!(
 );
 
 /// Examples per subcommand path (`fmu pack` is subcommand `pack` of `fmu`); each line that
-/// starts with `savme ` is parsed by a test.
+/// starts with `savme ` is parsed by a test, and tests/help_examples.rs runs them as printed, in
+/// order, from an empty directory (so a command that reads a campaign or an FMU makes it first).
 pub const EXAMPLES: &[(&str, &str)] = &[
     ("serve", "savme example-config > kernel.json\n  savme serve --config kernel.json --journal campaign.journal"),
     ("example-config", "savme example-config > kernel.json"),
@@ -38,11 +78,11 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("fidelity", "savme fidelity\n  savme fidelity --json"),
     ("reproduce", "savme reproduce --quick --out results\n  savme reproduce --quick --perception ideal --cost work --seed 3\n  savme reproduce --repeat 5 --out results-5\n  savme reproduce --resume results"),
     ("run", "savme run --config examples/fmu/campaign.toml --out fmu-results\n  savme run --config examples/fmu/campaign.toml --resume fmu-results"),
-    ("estimate", "savme estimate results --target-width 0.1\n  savme estimate results --max-runs 2000 --no-target --json\n  savme estimate results --nominal lead_vehicle_stopped.ego_speed=normal:20,3"),
-    ("failures", "savme failures results\n  savme failures results --stage train@0.3 --json"),
+    ("estimate", "savme reproduce --quick --perception ideal --cost work --out results\n  savme estimate results --target-width 0.1\n  savme estimate results --max-runs 2000 --no-target --out estimate-2000 --json\n  savme estimate results --nominal lead_vehicle_brakes.ego_speed=normal:20,3 --out estimate-nominal"),
+    ("failures", "savme reproduce --quick --perception ideal --cost work --out results\n  savme failures results\n  savme failures results --stage train@0.3 --json"),
     ("fmu pack", "savme fmu pack --out savme-sim.fmu\n  savme fmu pack --fmi 3 --out savme-sim3.fmu"),
-    ("fmu info", "savme fmu info model.fmu\n  savme fmu info model.fmu --json"),
-    ("fmu validate", "savme fmu validate model.fmu\n  savme fmu validate model.fmu --json"),
+    ("fmu info", "savme fmu pack --out model.fmu\n  savme fmu info model.fmu\n  savme fmu info model.fmu --json"),
+    ("fmu validate", "savme fmu pack --out model.fmu\n  savme fmu validate model.fmu\n  savme fmu validate model.fmu --json"),
     ("simulate", "savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --fidelity simulation_rate_hz=2 --json\n  savme simulate --scenario 7 --phi ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5 --perception ideal"),
     ("toy", "savme toy --out toy-results\n  savme toy --sleep-ms 20 --jobs 4 --quiet"),
     ("worker", "savme worker --storage-file db.url --campaign c1 --jobs 4"),
@@ -328,6 +368,21 @@ mod tests {
         assert!(help("estimate").contains("Read the campaign from this PostgreSQL database"));
         assert!(help("worker").contains("whose campaign (--campaign) this worker runs trials"));
         assert!(help("reproduce").contains("Keep the campaign"));
+    }
+
+    #[test]
+    fn color_is_read_before_parsing_wherever_it_stands() {
+        let choice = |line: &str| color_choice(line.split_whitespace().map(Into::into));
+        assert_eq!(choice("scenarios"), ColorChoice::Auto);
+        assert_eq!(choice("--color never scenarios"), ColorChoice::Never);
+        assert_eq!(choice("estimate r --color=always"), ColorChoice::Always);
+        assert_eq!(
+            choice("--color never toy --color always"),
+            ColorChoice::Always
+        );
+        assert_eq!(choice("--color sometimes toy"), ColorChoice::Auto);
+        assert_eq!(choice("toy --color"), ColorChoice::Auto);
+        assert_eq!(choice("toy -- --color never"), ColorChoice::Auto);
     }
 
     #[test]

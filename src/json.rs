@@ -11,7 +11,7 @@
 
 use savme_campaign::estimate::EstimateSummary;
 use savme_campaign::report::failures::FoundFailure;
-use savme_kernel::Assignment;
+use savme_kernel::{Assignment, Domain, Scale, Value};
 use schemars::JsonSchema;
 use serde::Serialize;
 
@@ -88,6 +88,134 @@ pub struct FailureLine {
     pub replay_unavailable: Option<String>,
 }
 
+/// `savme scenarios --json`: the bundled driving simulator's scenarios.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct ScenarioList {
+    /// The layout version of savme's JSON documents (1 for now; a script checks it).
+    pub format_version: u32,
+    /// The scenarios in number order: meta-training (1–8), then meta-testing (9–10).
+    pub scenarios: Vec<Scenario>,
+}
+
+/// One scenario of `savme scenarios --json`.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct Scenario {
+    /// Its number (what `--scenario` takes, as its name).
+    pub id: u8,
+    /// Its name.
+    pub name: String,
+    /// Whether the paper's protocol meta-trains or meta-tests on it.
+    pub role: Role,
+    /// Simulated driving per run, in seconds.
+    pub duration_s: f64,
+    /// What happens in it.
+    pub description: String,
+    /// Its parameters φ, in the order `--phi` lists them.
+    pub parameters: Vec<Parameter>,
+}
+
+/// A scenario's part in the paper's protocol.
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+pub enum Role {
+    /// A meta-training scenario (`--train-scenarios`).
+    #[serde(rename = "meta-training")]
+    MetaTraining,
+    /// A meta-testing scenario (`--test-scenarios`).
+    #[serde(rename = "meta-testing")]
+    MetaTesting,
+}
+
+/// A scenario parameter: the kernel's variable (name and values) with its unit.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct Parameter {
+    /// The parameter's name (as `--phi` takes it).
+    pub name: String,
+    /// Its values.
+    #[serde(flatten)]
+    pub domain: Values,
+    /// Its unit (`m/s`, `m/s²`, `m`, `s`; empty when it has none).
+    pub unit: String,
+}
+
+/// `savme fidelity --json`: the 16 fidelity settings (the paper's Table II).
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct FidelityList {
+    /// The layout version of savme's JSON documents (1 for now; a script checks it).
+    pub format_version: u32,
+    /// The settings, in the order of the fidelity space.
+    pub settings: Vec<Setting>,
+}
+
+/// One fidelity setting of `savme fidelity --json`.
+#[derive(Debug, Serialize, JsonSchema)]
+pub struct Setting {
+    /// The setting's name (as `--fidelity` takes it).
+    pub name: String,
+    /// Its values.
+    #[serde(flatten)]
+    pub domain: Values,
+    /// Its unit (`Hz`, `m`; null when it has none).
+    pub unit: Option<String>,
+    /// Its high-fidelity value θ_HF (null: none).
+    pub hf: Option<Value>,
+}
+
+/// The values a variable takes, as the kernel writes a variable's domain.
+#[derive(Debug, Serialize, JsonSchema)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum Values {
+    /// A finite list of values (numbers, booleans or labels).
+    Discrete {
+        /// The values, in order.
+        values: Vec<Value>,
+    },
+    /// A real interval `[lo, hi]` cut into `bins` bins.
+    Continuous {
+        /// Lower bound (inclusive).
+        lo: f64,
+        /// Upper bound (inclusive).
+        hi: f64,
+        /// Number of bins.
+        bins: u32,
+        /// `linear`: bins of equal width; `log`: bins of equal ratio.
+        scale: BinScale,
+    },
+}
+
+/// How a continuous variable's bins are cut.
+#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
+#[serde(rename_all = "lowercase")]
+pub enum BinScale {
+    /// Bins of equal width.
+    Linear,
+    /// Bins of equal ratio.
+    Log,
+}
+
+impl From<&Domain> for Values {
+    fn from(d: &Domain) -> Self {
+        match d {
+            Domain::Discrete { values } => Values::Discrete {
+                values: values.clone(),
+            },
+            Domain::Continuous {
+                lo,
+                hi,
+                bins,
+                scale,
+            } => Values::Continuous {
+                lo: *lo,
+                hi: *hi,
+                bins: *bins,
+                scale: match scale {
+                    Scale::Linear => BinScale::Linear,
+                    Scale::Log => BinScale::Log,
+                },
+            },
+        }
+    }
+}
+
 /// The schema of `T`'s JSON (what savme writes, 2020-12 draft), as a JSON value.
 fn schema_of<T: JsonSchema>() -> serde_json::Value {
     let generator = schemars::generate::SchemaSettings::draft2020_12()
@@ -98,13 +226,15 @@ fn schema_of<T: JsonSchema>() -> serde_json::Value {
 
 /// Every document's schema by name (`docs/schemas/<name>.schema.json`): `estimate-summary`
 /// (`summary.json` of `savme estimate`, and `savme estimate --json`), `failures-line`,
-/// `fmu-info`, `fmu-validate` and `simulate`.
+/// `fidelity`, `fmu-info`, `fmu-validate`, `scenarios` and `simulate`.
 pub fn schemas() -> Vec<(&'static str, serde_json::Value)> {
     vec![
         ("estimate-summary", schema_of::<EstimateSummary<'static>>()),
         ("failures-line", schema_of::<FailureLine>()),
+        ("fidelity", schema_of::<FidelityList>()),
         ("fmu-info", schema_of::<FmuInfo>()),
         ("fmu-validate", schema_of::<FmuValidation>()),
+        ("scenarios", schema_of::<ScenarioList>()),
         ("simulate", schema_of::<Simulation>()),
     ]
 }

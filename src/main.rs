@@ -3,7 +3,7 @@
 mod commands;
 mod help;
 
-use clap::{FromArgMatches, Parser, Subcommand};
+use clap::{ColorChoice, FromArgMatches, Parser, Subcommand};
 use commands::Failure;
 use std::process::ExitCode;
 
@@ -19,6 +19,10 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// When to colour the output (help, errors, progress): auto (on a terminal, unless
+    /// NO_COLOR is set), always or never.
+    #[arg(long, global = true, value_name = "WHEN", value_enum, default_value_t = ColorChoice::Auto)]
+    color: ColorChoice,
 }
 
 #[derive(Subcommand)]
@@ -74,7 +78,11 @@ enum Command {
 fn main() -> ExitCode {
     // Each command fails with a message (a runtime failure) or a `Failure` that says which.
     // The command line with its Examples and defaults (help.rs); parsed into `Cli`.
-    let cli = Cli::from_arg_matches(&help::command().get_matches()).unwrap_or_else(|e| e.exit());
+    // `--color` is read before parsing, so that clap's own help and errors honour it too.
+    let color = help::color_choice(std::env::args_os().skip(1));
+    help::color_progress(color);
+    let matches = help::command().color(color).get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let result = match cli.command {
         Command::Serve(a) => commands::serve::run(a),
         Command::ExampleConfig(a) => commands::serve::example_config(a).map_err(Failure::from),
@@ -97,7 +105,8 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("savme: {}", e.message());
+            // The prefix clap gives the command line's errors: one for every error.
+            eprintln!("error: {}", e.message());
             ExitCode::from(e.code())
         }
     }
@@ -147,6 +156,7 @@ mod tests {
     fn serve_without_a_configuration_or_journal_is_a_usage_error() {
         let Ok(Cli {
             command: super::Command::Serve(args),
+            ..
         }) = parse("serve")
         else {
             panic!("savme serve did not parse");
@@ -166,6 +176,7 @@ mod tests {
         let run = |args: &str| match parse(args) {
             Ok(Cli {
                 command: super::Command::Toy(a),
+                ..
             }) => crate::commands::toy::run(a),
             _ => panic!("{args} did not parse"),
         };
@@ -224,6 +235,32 @@ mod tests {
                 assert_eq!(e.exit_code(), 2, "{args}");
             }
             assert!(parse(&format!("{command} {db}")).is_ok(), "{command}");
+        }
+    }
+
+    /// `-j N` is `--jobs N` wherever there is a `--jobs` (as cargo's).
+    #[test]
+    fn every_jobs_flag_has_short_j() {
+        fn walk(c: &clap::Command, path: &str, found: &mut Vec<String>) {
+            for a in c.get_arguments().filter(|a| a.get_long() == Some("jobs")) {
+                assert_eq!(a.get_short(), Some('j'), "{path} --jobs has no -j");
+                found.push(path.to_owned());
+            }
+            for s in c.get_subcommands() {
+                walk(s, &format!("{path} {}", s.get_name()), found);
+            }
+        }
+        let mut found = Vec::new();
+        walk(&crate::help::command(), "savme", &mut found);
+        assert!(found.len() >= 5, "{found:?}");
+        for args in [
+            "toy -j 3",
+            "reproduce -j 2",
+            "run --config c.toml -j 2",
+            "estimate results -j 2",
+            "worker --storage postgresql://u@h/d --campaign c -j 2",
+        ] {
+            assert!(parse(args).is_ok(), "{args}");
         }
     }
 }

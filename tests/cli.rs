@@ -376,3 +376,80 @@ fn more_jobs_than_the_window_keeps_busy_are_warned_about() {
     assert!(!err.contains("WARNING"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Every error says `error: …`, whoever found it (clap while parsing, or savme before or while
+/// running), and the exit status says which kind: 2 for the command line, 1 for running.
+#[test]
+fn every_error_has_one_prefix_and_its_exit_status() {
+    let missing = std::env::temp_dir().join(format!("savme-cli-{}-none", std::process::id()));
+    let m = missing.to_str().unwrap();
+    for (args, code) in [
+        // clap: an unknown flag.
+        (&["simulate", "--no-such-flag"][..], 2),
+        // savme, before running: a value it refuses.
+        (&["simulate", "--scenario", "99", "--phi", "gap=8"][..], 2),
+        (&["serve"][..], 2),
+        // savme, running: a file that is not there.
+        (&["fmu", "info", m][..], 1),
+        (&["failures", m][..], 1),
+    ] {
+        let r = Command::new(EXE).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(code), "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{args:?}: {err}");
+        assert!(!err.contains("savme: "), "{args:?}: {err}");
+    }
+}
+
+/// `--color auto|always|never` (any position) decides whether clap's help and errors are
+/// coloured; `auto` colours a terminal unless NO_COLOR is set (CLICOLOR_FORCE stands in for the
+/// terminal here).
+#[test]
+fn color_flag_and_no_color_decide_the_escapes() {
+    let run = |args: &[&str], env: &[(&str, &str)]| {
+        let mut c = Command::new(EXE);
+        c.args(args)
+            .env_remove("NO_COLOR")
+            .env_remove("CLICOLOR_FORCE");
+        for (k, v) in env {
+            c.env(k, v);
+        }
+        let o = c.output().unwrap();
+        let text =
+            String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+        (o.status.code(), text.contains('\x1b'))
+    };
+    let force = [("CLICOLOR_FORCE", "1")];
+    let both = [("CLICOLOR_FORCE", "1"), ("NO_COLOR", "1")];
+    for help in [&["--help"][..], &["estimate", "--help"][..]] {
+        let with = |flag: &[&'static str]| -> Vec<&'static str> { [flag, help].concat() };
+        assert_eq!(
+            run(&with(&["--color", "always"]), &[]),
+            (Some(0), true),
+            "{help:?}"
+        );
+        assert_eq!(
+            run(&with(&["--color=never"]), &force),
+            (Some(0), false),
+            "{help:?}"
+        );
+        assert_eq!(run(help, &force), (Some(0), true), "{help:?}");
+        assert_eq!(run(help, &both), (Some(0), false), "{help:?}");
+        assert_eq!(run(help, &[]), (Some(0), false), "{help:?}: not a terminal");
+    }
+    // After the subcommand too, and for an error.
+    assert_eq!(
+        run(&["estimate", "--help", "--color", "never"], &force),
+        (Some(0), false)
+    );
+    assert_eq!(
+        run(&["simulate", "--bogus", "--color", "always"], &[]),
+        (Some(2), true)
+    );
+    assert_eq!(
+        run(&["simulate", "--bogus", "--color", "never"], &force),
+        (Some(2), false)
+    );
+    // A wrong value is a usage error.
+    assert_eq!(run(&["--color", "sometimes", "scenarios"], &[]).0, Some(2));
+}

@@ -274,7 +274,7 @@ fn ctrl_c_then_resume(expected: &[Value]) {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(130), "{err}");
     assert!(err.contains("stopping after the runs in flight"), "{err}");
-    assert!(err.contains("savme: interrupted: stopped in "), "{err}");
+    assert!(err.contains("error: interrupted: stopped in "), "{err}");
     let hint = format!(
         "trials (every told trial is stored); continue with --resume {}",
         dir.display()

@@ -56,6 +56,26 @@ fn json_of(args: &[&str]) -> Value {
 }
 
 #[test]
+fn scenarios_and_fidelity_documents_match_their_schemas() {
+    let scenarios = json_of(&["scenarios", "--json"]);
+    check("scenarios", &scenarios, "scenarios --json");
+    assert_eq!(scenarios["scenarios"].as_array().map(Vec::len), Some(10));
+    let fidelity = json_of(&["fidelity", "--json"]);
+    check("fidelity", &fidelity, "fidelity --json");
+    assert_eq!(fidelity["settings"].as_array().map(Vec::len), Some(16));
+    // The schemas say what each holds: a scenario's role and a setting's kind are closed lists.
+    for (name, doc) in [("scenarios", &scenarios), ("fidelity", &fidelity)] {
+        let text = std::fs::read_to_string(schema_path(name)).unwrap();
+        for word in ["continuous", "format_version"] {
+            assert!(text.contains(word), "{name}.schema.json has no {word}");
+        }
+        assert!(doc.is_object());
+    }
+    let text = std::fs::read_to_string(schema_path("scenarios")).unwrap();
+    assert!(text.contains("meta-testing"), "{text}");
+}
+
+#[test]
 fn simulate_and_fmu_documents_match_their_schemas() {
     let phi = "ego_speed=20,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
     let base = ["simulate", "--scenario", "7", "--phi", phi, "--json"];

@@ -87,7 +87,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     config: Option<PathBuf>,
     /// Worker threads (default: one per core). Does not change the result.
-    #[arg(long, value_parser = super::parse_jobs)]
+    #[arg(long, short = 'j', value_parser = super::parse_jobs)]
     jobs: Option<usize>,
     /// Print summary.json (the estimate, its settings and costs; raw numbers) on standard
     /// output instead of the table.

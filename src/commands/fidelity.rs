@@ -1,43 +1,43 @@
 //! `savme fidelity`: the 16 fidelity settings (the paper's Table II) with their θ_HF values.
 
+use savme::json;
 use savme::kernel::Domain;
 use savme_sim::fidelity;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print the settings as JSON (with θ_HF and units).
+    /// Print the settings as JSON (with θ_HF and units; schema:
+    /// docs/schemas/fidelity.schema.json).
     #[arg(long)]
     json: bool,
 }
 
 pub fn run(a: Args) -> Result<(), String> {
     if a.json {
-        super::print(&(fidelity_json().to_string() + "\n"))
+        super::print(&(serde_json::to_string(&fidelity_json()).map_err(|e| e.to_string())? + "\n"))
     } else {
         super::print(&fidelity_text())
     }
 }
 
-/// `savme fidelity --json`: every setting as the kernel writes a variable, with its unit and
-/// θ_HF value.
-fn fidelity_json() -> serde_json::Value {
+/// `savme fidelity --json` (schema: docs/schemas/fidelity.schema.json): every setting as the
+/// kernel writes a variable, with its unit and θ_HF value.
+fn fidelity_json() -> json::FidelityList {
     let hf = fidelity::theta_hf();
-    let settings: Vec<_> = fidelity::space(10)
+    let settings = fidelity::space(10)
         .variables()
         .iter()
-        .map(|v| {
-            let mut s = serde_json::to_value(v).unwrap_or_default();
-            if let Some(o) = s.as_object_mut() {
-                o.insert("unit".into(), fidelity::unit(&v.name).into());
-                o.insert(
-                    "hf".into(),
-                    serde_json::to_value(hf.get(&v.name)).unwrap_or_default(),
-                );
-            }
-            s
+        .map(|v| json::Setting {
+            name: v.name.to_string(),
+            domain: (&v.domain).into(),
+            unit: fidelity::unit(&v.name).map(str::to_owned),
+            hf: hf.get(&v.name).cloned(),
         })
         .collect();
-    serde_json::json!({ "format_version": 1, "settings": settings })
+    json::FidelityList {
+        format_version: json::FORMAT_VERSION,
+        settings,
+    }
 }
 
 /// `savme fidelity`: the 16 fidelity settings of Table II with their θ_HF values.

@@ -154,7 +154,7 @@ pub fn parse_jobs(s: &str) -> Result<usize, String> {
 #[derive(clap::Args, Debug, Clone)]
 pub struct RunnerArgs {
     /// Worker threads (default: one per core). Does not change the results.
-    #[arg(long, value_parser = parse_jobs)]
+    #[arg(long, short = 'j', value_parser = parse_jobs)]
     jobs: Option<usize>,
     /// No progress output.
     #[arg(long, short)]
@@ -317,7 +317,7 @@ where
         match campaign_failure(e, &hint, |e| Failure::Runtime(e.to_string())) {
             // The told trials are in the database: say how to go on once it is back.
             Failure::Runtime(m) if database_failed => Failure::Runtime(format!(
-                "{m}\nsavme: the campaign stopped; every trial it told is in the database. Once the database is reachable again, {hint}"
+                "{m}\nThe campaign stopped; every trial it told is in the database. Once the database is reachable again, {hint}"
             )),
             other => other,
         }

@@ -1,19 +1,21 @@
 //! `savme scenarios`: the bundled simulator's scenarios with their parameter spaces, as text
 //! or (`--json`) as JSON.
 
+use savme::json;
 use savme::kernel::Domain;
 use savme_sim::scenario::{self, ScenarioInfo, SCENARIOS};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Print the scenarios as JSON (one document; units given per parameter).
+    /// Print the scenarios as JSON (one document; units given per parameter; schema:
+    /// docs/schemas/scenarios.schema.json).
     #[arg(long)]
     json: bool,
 }
 
 pub fn run(a: Args) -> Result<(), String> {
     if a.json {
-        super::print(&(scenarios_json().to_string() + "\n"))
+        super::print(&(serde_json::to_string(&scenarios_json()).map_err(|e| e.to_string())? + "\n"))
     } else {
         super::print(&scenarios_text())
     }
@@ -51,26 +53,33 @@ fn scenarios_text() -> String {
     out
 }
 
-/// `savme scenarios --json`.
-fn scenarios_json() -> serde_json::Value {
-    let scenarios: Vec<_> = SCENARIOS
+/// `savme scenarios --json` (schema: docs/schemas/scenarios.schema.json).
+fn scenarios_json() -> json::ScenarioList {
+    let scenarios = SCENARIOS
         .iter()
-        .map(|info| {
-            serde_json::json!({
-                "id": info.id,
-                "name": info.name,
-                "role": role(info),
-                "duration_s": info.duration,
-                "description": info.description,
-                "parameters": scenario::phi_space(info).variables().iter().map(|v| {
-                    let mut p = serde_json::to_value(v).unwrap_or_default();
-                    if let Some(o) = p.as_object_mut() {
-                        o.insert("unit".into(), scenario::unit(&v.name).into());
-                    }
-                    p
-                }).collect::<Vec<_>>(),
-            })
+        .map(|info| json::Scenario {
+            id: info.id,
+            name: info.name.to_string(),
+            role: if info.training() {
+                json::Role::MetaTraining
+            } else {
+                json::Role::MetaTesting
+            },
+            duration_s: info.duration,
+            description: info.description.to_string(),
+            parameters: scenario::phi_space(info)
+                .variables()
+                .iter()
+                .map(|v| json::Parameter {
+                    name: v.name.to_string(),
+                    domain: (&v.domain).into(),
+                    unit: scenario::unit(&v.name).to_string(),
+                })
+                .collect(),
         })
         .collect();
-    serde_json::json!({ "format_version": 1, "scenarios": scenarios })
+    json::ScenarioList {
+        format_version: json::FORMAT_VERSION,
+        scenarios,
+    }
 }

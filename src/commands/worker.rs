@@ -16,7 +16,7 @@ pub struct Args {
     #[command(flatten)]
     storage: super::StorageArgs,
     /// Runs at once on this host (threads, each with its own simulator).
-    #[arg(long, default_value_t = 1, value_parser = super::parse_jobs)]
+    #[arg(long, short = 'j', default_value_t = 1, value_parser = super::parse_jobs)]
     jobs: usize,
     /// For an FMU campaign: its campaign file on this host (the FMUs it names are resolved
     /// here). Not needed for the bundled and toy simulators.
