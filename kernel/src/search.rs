@@ -103,7 +103,8 @@ pub struct EliteMixture {
     pub archive: usize,
     /// Rank candidates by failure odds per expected cost: the score is divided by the
     /// Parzen mean of what the archived trials near the candidate cost (every run told), so
-    /// of two equally likely failures the cheaper one is drawn. Missing from a stored
+    /// of two equally likely failures the cheaper one is drawn; and weight each elite by the
+    /// archive's mean cost over its own (a cheap failure is a likelier centre of cheap ones). Missing from a stored
     /// configuration (written before it existed): false, the ranking by odds alone.
     #[serde(default)]
     pub per_cost: bool,
@@ -310,7 +311,8 @@ impl Archive {
             None
         };
         let weights: Vec<f64> = self.points.iter().map(|p| p.weight(m, threshold)).collect();
-        let elites = self.elites(m, &tried, &weights);
+        let mean_cost = self.mean_cost().filter(|_| m.per_cost);
+        let elites = self.elites(m, &tried, &weights, mean_cost);
         let total: f64 = elites.iter().map(|e| e.1).sum();
         if explore < m.explore || total.is_nan() || total <= 0.0 {
             let start = arms.len();
@@ -328,7 +330,6 @@ impl Archive {
         let wide = rng.random::<f64>() < m.jump;
         let sd = m.bandwidth * if wide { 4.0 } else { 1.0 };
         let start = arms.len();
-        let mean_cost = self.mean_cost();
         let mut best: Option<(f64, Vec<u16>, Assignment)> = None;
         for _ in 0..m.tries {
             let u: Vec<f64> = self.points[centre]
@@ -345,7 +346,7 @@ impl Archive {
                     tried.get(&*cell).map_or(0, |c| c.0)
                 };
                 let mut score = self.failure_odds(&u, m, &weights) / (1.0 + f64::from(visits));
-                if let Some(mean) = mean_cost.filter(|_| m.per_cost) {
+                if let Some(mean) = mean_cost {
                     score /= self.expected_cost(&u, m, mean);
                 }
                 if m.crowding > 0.0 && !in_flight.is_empty() {
@@ -424,14 +425,20 @@ impl Archive {
         m: &EliteMixture,
         tried: &BTreeMap<&[u16], (u32, u32)>,
         weights: &[f64],
+        mean_cost: Option<f64>,
     ) -> Vec<(usize, f64)> {
         let failures = |p: &Point| tried.get(&*p.cell).map_or(0.0, |c| f64::from(c.1));
         let novelty = |p: &Point| 1.0 / (1.0 + m.spread * failures(p));
+        // Ranking per cost: a failure that was cheap to run is a likelier centre of cheap ones.
+        let cheap = |p: &Point| match (mean_cost, p.cost) {
+            (Some(mean), Some(c)) if c > 0.0 => mean / c,
+            _ => 1.0,
+        };
         self.points
             .iter()
             .zip(weights)
             .enumerate()
-            .map(|(i, (p, w))| (i, w * novelty(p)))
+            .map(|(i, (p, w))| (i, w * novelty(p) * cheap(p)))
             .filter(|e| e.1 > 0.0)
             .collect()
     }

@@ -259,7 +259,7 @@ class Kernel:
         "adaptive" (both);
         allocation: how each ask chooses its scenario — "weights" (drawn from p(s), the
         paper's) or "cost-rate" (a bandit by HF failures per unit cost, every scenario kept
-        above 0.3 × its share of p(s) in cost).
+        above 0.6 × its share of p(s) in cost).
 
         Raises ValueError naming the variable or scenario at fault, JournalError for a journal
         that cannot be used."""
