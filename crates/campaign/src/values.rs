@@ -313,13 +313,15 @@ pub fn parse_elite(s: &str) -> Result<EliteMixture, String> {
             .split_once('=')
             .ok_or_else(|| format!("`{pair}`: give key=value, e.g. explore=0.1,tries=8"))?;
         let value = value.trim();
-        let number = match value.parse::<u64>() {
-            Ok(n) => serde_json::Value::from(n),
-            Err(_) => value
+        let number = match (value.parse::<u64>(), value.parse::<bool>()) {
+            (Ok(n), _) => serde_json::Value::from(n),
+            // Switches (`per_cost=false`).
+            (_, Ok(b)) => serde_json::Value::from(b),
+            _ => value
                 .parse::<f64>()
                 .ok()
                 .and_then(|x| serde_json::Number::from_f64(x).map(Into::into))
-                .ok_or_else(|| format!("`{key}`: `{value}` is not a number"))?,
+                .ok_or_else(|| format!("`{key}`: `{value}` is neither a number nor true/false"))?,
         };
         map.insert(key.trim().to_string(), number);
     }
@@ -574,9 +576,14 @@ mod tests {
             (m.explore, m.tries, m.jump),
             (0.1, 4, EliteMixture::default().jump)
         );
+        // A switch takes true or false.
+        let cli = Cli::try_parse_from(["x", "--elite", "per_cost=false"]).unwrap();
+        assert!(!cli.values.elite.unwrap().per_cost);
         for (bad, says) in [
             ("explore", "key=value"),
-            ("explore=x", "`explore`: `x` is not a number"),
+            ("explore=x", "`explore`: `x` is neither a number nor true/false"),
+            ("per_cost=maybe", "`per_cost`: `maybe` is neither"),
+            ("explore=true", "explore"),
             ("bandwith=0.1", "bandwith"),
             ("bandwidth=2", "bandwidth"),
         ] {
