@@ -368,8 +368,11 @@ fn campaign_file(a: &Args) -> Result<Option<compose::FileCampaign>, Failure> {
     a.config
         .as_ref()
         .map(|path| {
-            compose::campaign_file(path, &Default::default())
-                .map_err(|e| Failure::Runtime(e.to_string()))
+            // A signal while the file is read stops the reading.
+            super::signals::while_loading();
+            let loaded = compose::campaign_file(path, &Default::default());
+            super::signals::loaded(path)?;
+            loaded.map_err(|e| Failure::Runtime(e.to_string()))
         })
         .transpose()
 }

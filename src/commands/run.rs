@@ -48,7 +48,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
     // Protocol flags are taken on resume: with the file they must give the stored protocol
     // (checked when the campaign opens, naming each difference), and the resume command a
     // stopped run prints repeats them.
-    let mut c = compose::campaign_file(&config, &overrides).map_err(config_failure)?;
+    // A signal while the file is read (its OpenSCENARIO files can be large) stops the reading.
+    super::signals::while_loading();
+    let loaded = compose::campaign_file(&config, &overrides);
+    super::signals::loaded(&config)?;
+    let mut c = loaded.map_err(config_failure)?;
     if a.fmu_log {
         let Some(fmu) = c.file.as_any_mut().downcast_mut::<FmuCampaignFile>() else {
             return Err(usage("--fmu-log: the campaign file names no FMU"));
