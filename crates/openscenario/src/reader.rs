@@ -78,6 +78,20 @@ impl File<'_> {
     /// A `<Range lowerLimit upperLimit>` child of `e`: `lo < hi`, or `lo ≤ hi` if `closed`.
     fn range(&self, e: &Element, closed: bool) -> Result<(f64, f64), OpenScenarioError> {
         let r = self.child(e, "Range")?;
+        // OpenSCENARIO 1.x's Range has these two attributes and no other: a third (`step`, a
+        // misspelt `uperLimit`) would be ignored, so it is refused.
+        if let Some((name, _)) = r
+            .attributes
+            .iter()
+            .find(|(n, _)| n != "lowerLimit" && n != "upperLimit")
+        {
+            return Err(self.err(
+                r,
+                format!(
+                    "unknown attribute `{name}`: a <Range> has `lowerLimit` and `upperLimit` only"
+                ),
+            ));
+        }
         let (lo, hi) = (self.number(r, "lowerLimit")?, self.number(r, "upperLimit")?);
         if lo < hi || (closed && lo == hi) {
             Ok((lo, hi))
