@@ -89,6 +89,16 @@ pub fn run(a: Args) -> Result<(), Failure> {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
     let out = target.out.clone();
+    // The φ-spaces a campaign in a directory starts with are kept beside it (phi.json); a
+    // resumed one must still have them (an .xosc edited since is named with both ranges).
+    if target.store.is_none() {
+        let scenarios = &c.file.common().scenarios;
+        if target.resume {
+            super::phi::check(&out, &config, &scenarios.spaces, &scenarios.openscenario)?;
+        } else {
+            super::phi::record(&out, &scenarios.spaces)?;
+        }
+    }
     let frames = c.file.frames(&super::worker_command)?;
     run_campaign(
         c.protocol,
