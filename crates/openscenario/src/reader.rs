@@ -26,7 +26,7 @@ impl File<'_> {
     /// A [`crate::STOPPED`] error if the stop says so (asked before the `k`th parameter, every
     /// [`STOP_EVERY`]th).
     fn check_stop(&self, k: usize) -> Result<(), OpenScenarioError> {
-        if k > 0 && k % STOP_EVERY == 0 && (self.stop)() {
+        if k > 0 && k.is_multiple_of(STOP_EVERY) && (self.stop)() {
             return Err(OpenScenarioError {
                 file: self.name.to_string(),
                 line: None,

@@ -134,7 +134,7 @@ pub(crate) fn parse(text: &str, budget: &Budget) -> Result<Element, ParseError> 
             if elements > budget.elements {
                 return Err(ParseError::TooManyElements { line });
             }
-            if elements % STOP_EVERY == 0 && (budget.stop)() {
+            if elements.is_multiple_of(STOP_EVERY) && (budget.stop)() {
                 return Err(ParseError::Stopped);
             }
         }
