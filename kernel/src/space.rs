@@ -308,11 +308,14 @@ impl Variable {
                 if values.is_empty() {
                     return Err(SpaceError::NoValues { variable: name() });
                 }
-                for (i, v) in values.iter().enumerate() {
+                // Each value's key in a set (not a search of the earlier values, which takes
+                // time quadratic in their number): keys equal exactly when `same_as`.
+                let mut seen = std::collections::HashSet::with_capacity(values.len());
+                for v in values {
                     if v.is_non_finite() {
                         return Err(SpaceError::NonFiniteValue { variable: name() });
                     }
-                    if values[..i].iter().any(|w| w.same_as(v)) {
+                    if !seen.insert(ValueKey::of(v)) {
                         return Err(SpaceError::DuplicateValue {
                             variable: name(),
                             value: v.to_string(),
@@ -371,6 +374,28 @@ impl Variable {
             });
         }
         Ok(())
+    }
+}
+
+/// A finite value as a set key: numbers by their value as a real (so `Int(2)` and
+/// `Real(2.0)` are one key, as [`Value::same_as`] has it; `-0.0` is `0.0`), others as they are.
+#[derive(PartialEq, Eq, Hash)]
+enum ValueKey<'a> {
+    Number(u64),
+    Bool(bool),
+    Label(&'a str),
+}
+
+impl<'a> ValueKey<'a> {
+    fn of(v: &'a Value) -> Self {
+        match v {
+            Value::Bool(b) => ValueKey::Bool(*b),
+            Value::Label(s) => ValueKey::Label(s),
+            Value::Int(_) | Value::Real(_) => {
+                let x = v.as_f64().unwrap_or_default();
+                ValueKey::Number(if x == 0.0 { 0 } else { x.to_bits() })
+            }
+        }
     }
 }
 
@@ -572,9 +597,10 @@ impl Space {
         if vars.is_empty() {
             return Err(SpaceError::Empty);
         }
-        for (i, v) in vars.iter().enumerate() {
+        let mut seen = std::collections::HashSet::with_capacity(vars.len());
+        for v in &vars {
             v.validate()?;
-            if vars[..i].iter().any(|w| w.name == v.name) {
+            if !seen.insert(&*v.name) {
                 return Err(SpaceError::DuplicateName(v.name.to_string()));
             }
         }

@@ -368,8 +368,11 @@ fn campaign_file(a: &Args) -> Result<Option<compose::FileCampaign>, Failure> {
     a.config
         .as_ref()
         .map(|path| {
-            compose::campaign_file(path, &Default::default())
-                .map_err(|e| Failure::Runtime(e.to_string()))
+            // A signal while the file is read stops the reading.
+            super::signals::while_loading();
+            let loaded = compose::campaign_file(path, &Default::default());
+            super::signals::loaded(path)?;
+            loaded.map_err(|e| Failure::Runtime(e.to_string()))
         })
         .transpose()
 }
@@ -429,6 +432,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
         .map_err(|e| Failure::Runtime(e.to_string()))?;
     if let (Some(c), Some(path)) = (&file, &a.config) {
         same_campaign(path, &c.protocol, &protocol, &source.location())?;
+        // The φ-spaces the campaign ran with (kept beside a campaign in a directory).
+        if let compose::Place::Dir(dir) = &place {
+            let scenarios = &c.file.common().scenarios;
+            super::phi::check(dir, path, &scenarios.spaces, &scenarios.openscenario)?;
+        }
     }
     // The nominals the campaign file's OpenSCENARIO files declare, under the flags' and
     // the [estimate] section's.

@@ -7,6 +7,7 @@ pub mod estimate;
 pub mod failures;
 pub mod fidelity;
 pub mod fmu;
+mod phi;
 pub mod reproduce;
 pub mod run;
 pub mod scenarios;

@@ -48,7 +48,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
     // Protocol flags are taken on resume: with the file they must give the stored protocol
     // (checked when the campaign opens, naming each difference), and the resume command a
     // stopped run prints repeats them.
-    let mut c = compose::campaign_file(&config, &overrides).map_err(config_failure)?;
+    // A signal while the file is read (its OpenSCENARIO files can be large) stops the reading.
+    super::signals::while_loading();
+    let loaded = compose::campaign_file(&config, &overrides);
+    super::signals::loaded(&config)?;
+    let mut c = loaded.map_err(config_failure)?;
     if a.fmu_log {
         let Some(fmu) = c.file.as_any_mut().downcast_mut::<FmuCampaignFile>() else {
             return Err(usage("--fmu-log: the campaign file names no FMU"));
@@ -85,6 +89,16 @@ pub fn run(a: Args) -> Result<(), Failure> {
         return run_repeated(c.protocol, c.problem, n, target, &a.runner, &backend);
     }
     let out = target.out.clone();
+    // The φ-spaces a campaign in a directory starts with are kept beside it (phi.json); a
+    // resumed one must still have them (an .xosc edited since is named with both ranges).
+    if target.store.is_none() {
+        let scenarios = &c.file.common().scenarios;
+        if target.resume {
+            super::phi::check(&out, &config, &scenarios.spaces, &scenarios.openscenario)?;
+        } else {
+            super::phi::record(&out, &scenarios.spaces)?;
+        }
+    }
     let frames = c.file.frames(&super::worker_command)?;
     run_campaign(
         c.protocol,

@@ -3,15 +3,22 @@
 //! to stop between runs (the runs in flight finish, every told trial is stored); the command
 //! then prints how to resume and exits 128 + the signal (130, 143). A second signal quits at
 //! once, printing the resume command too (the told trials are kept either way).
+//!
+//! The handlers are installed before a command reads its campaign file ([`while_loading`]):
+//! a signal during the reading (of its OpenSCENARIO files, say) stops it within 1024
+//! elements, and the command exits 130 or 143 with nothing run ([`loaded`]).
 
+use super::Failure;
 use savme::campaign::Stop;
-use std::sync::atomic::{AtomicI32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI32, Ordering};
 use std::sync::OnceLock;
 
 /// The first signal received (0: none).
 static RECEIVED: AtomicI32 = AtomicI32::new(0);
 /// The stop the first signal requests.
 static STOP: OnceLock<Stop> = OnceLock::new();
+/// Whether a campaign file is being read (what the first signal prints).
+static LOADING: AtomicBool = AtomicBool::new(false);
 /// What a second signal prints before quitting: `savme: quit at once; continue with …`.
 static QUIT_LINE: OnceLock<Vec<u8>> = OnceLock::new();
 /// What the first signal prints, when the command said (else: stopping after the runs in
@@ -27,19 +34,47 @@ pub fn stop_on_signals(resume_hint: &str) -> Stop {
     let _ = QUIT_LINE.set(
         format!("savme: quit at once; the told trials are kept: {resume_hint}\n").into_bytes(),
     );
+    handlers().clone()
+}
+
+/// The stop of the first signal, the handlers installed on the first call (and every later
+/// OpenSCENARIO reading stopped by a signal).
+fn handlers() -> &'static Stop {
     let mut fresh = false;
     let stop = STOP.get_or_init(|| {
         fresh = true;
         Stop::new()
     });
     if fresh {
+        savme::openscenario::stop_reading_when(|| RECEIVED.load(Ordering::SeqCst) != 0);
         if let Err(e) = install() {
             eprintln!(
                 "savme: warning: Ctrl-C will end the run at once ({e}); --resume continues it"
             );
         }
     }
-    stop.clone()
+    stop
+}
+
+/// Before a command reads its campaign file: the handlers installed, so that a signal stops
+/// the reading (see [`loaded`]).
+pub fn while_loading() {
+    handlers();
+    LOADING.store(true, Ordering::SeqCst);
+}
+
+/// After the reading of campaign file `file` (whether it succeeded or not): an interrupted
+/// failure (exit 130 or 143) if a signal came meanwhile.
+pub fn loaded(file: &std::path::Path) -> Result<(), Failure> {
+    LOADING.store(false, Ordering::SeqCst);
+    if RECEIVED.load(Ordering::SeqCst) == 0 {
+        return Ok(());
+    }
+    Err(Failure::Interrupted(format!(
+        "interrupted ({}) while reading the campaign file {}; nothing ran",
+        received_name(),
+        file.display()
+    )))
 }
 
 /// As [`stop_on_signals`], for a command whose first signal does something else than
@@ -107,6 +142,14 @@ extern "C" fn on_signal(sig: libc::c_int) {
     }
     if let Some(stop) = STOP.get() {
         stop.request();
+    }
+    if LOADING.load(Ordering::SeqCst) {
+        write(if sig == libc::SIGTERM {
+            b"savme: SIGTERM: stopping the reading of the campaign file\n"
+        } else {
+            b"savme: Ctrl-C: stopping the reading of the campaign file\n"
+        });
+        return;
     }
     if let Some(line) = FIRST_LINE.get() {
         write(if sig == libc::SIGTERM {

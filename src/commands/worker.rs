@@ -149,7 +149,10 @@ fn file_simulator(
     if let Err(e) = std::fs::metadata(file) {
         return Err(usage(format!("--config {}: {e}", file.display())));
     }
-    let c = match compose::campaign_file(file, &Default::default()) {
+    super::signals::while_loading();
+    let loaded = compose::campaign_file(file, &Default::default());
+    super::signals::loaded(file)?;
+    let c = match loaded {
         Ok(c) => c,
         Err(e) => return Ok(Err(e.to_string())),
     };

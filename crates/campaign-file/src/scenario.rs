@@ -8,7 +8,7 @@ use crate::{ConfigError, Source};
 use savme_kernel::estimation::Nominal;
 use savme_kernel::{Space, Value};
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use toml::Spanned;
 
 /// A `[[scenario]]` table as serde reads it.
@@ -49,6 +49,9 @@ pub struct Scenarios {
     /// The nominal distributions the scenarios' OpenSCENARIO files declare (`openscenario`),
     /// by scenario then variable; `[estimate.nominal]` entries override them.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
+    /// The OpenSCENARIO file of each scenario that has one (`openscenario`, resolved against
+    /// the campaign file's directory), by scenario.
+    pub openscenario: BTreeMap<String, PathBuf>,
 }
 
 /// Where one `[[scenario]]` table is in its file.
@@ -133,6 +136,7 @@ pub(crate) fn read(
             Some(file) => {
                 let (space, bindings, nominal) = openscenario::scenario(src, k, table, file, base)?;
                 parts.nominal.insert(name.clone(), nominal);
+                (parts.openscenario).insert(name.clone(), crate::resolve(base, file.get_ref()));
                 (space, bindings)
             }
             None => {

@@ -20,6 +20,14 @@
 //! them) and `DeterministicMultiParameterDistribution`s (joint value sets are no product
 //! space). Every error names the file, the line and the element ([`OpenScenarioError`]).
 //!
+//! Reading takes time linear in the file's size. A file is refused (naming it and the limit)
+//! when it is larger than [`Limits::bytes`] (default [`MAX_BYTES`], 32 MiB) or holds more
+//! elements than [`Limits::elements`] (default [`MAX_ELEMENTS`], 500,000): parameter variation
+//! files are a few kilobytes; the limits leave room for sets of [`savme_kernel::MAX_ARMS`]
+//! values and thousands of parameters. A reading asks its stop (see
+//! [`ParameterDistribution::read_with`] and [`stop_reading_when`]) every
+//! 1024 elements and parameters, so that a program can end a long one promptly.
+//!
 //! ```
 //! use savme_openscenario::ParameterDistribution;
 //! use savme_kernel::estimation::Nominal;
@@ -51,7 +59,52 @@ mod xml;
 use savme_kernel::estimation::Nominal;
 use savme_kernel::{Scale, Space, Value, Variable};
 use std::collections::BTreeMap;
+use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// The largest file read by default: 32 MiB.
+pub const MAX_BYTES: u64 = 32 << 20;
+/// The most elements a file may hold by default.
+pub const MAX_ELEMENTS: usize = 500_000;
+
+/// How large a file may be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// The most bytes.
+    pub bytes: u64,
+    /// The most XML elements.
+    pub elements: usize,
+}
+
+impl Default for Limits {
+    /// [`MAX_BYTES`] and [`MAX_ELEMENTS`].
+    fn default() -> Self {
+        Limits {
+            bytes: MAX_BYTES,
+            elements: MAX_ELEMENTS,
+        }
+    }
+}
+
+/// The message of the error a stopped reading gives.
+pub const STOPPED: &str = "reading stopped before its end (a stop was requested)";
+
+/// The process-wide stop of [`ParameterDistribution::read`] and [`ParameterDistribution::parse`].
+static STOP: OnceLock<fn() -> bool> = OnceLock::new();
+
+/// Makes every later [`ParameterDistribution::read`] and [`ParameterDistribution::parse`] in
+/// this process ask `stop` every 1024 elements and give up (with a [`STOPPED`] error) when it
+/// says true — for a program whose signal handler sets a flag (`savme` does, so that Ctrl-C
+/// and SIGTERM end a long load). The first call sets it; later ones are ignored.
+pub fn stop_reading_when(stop: fn() -> bool) {
+    let _ = STOP.set(stop);
+}
+
+/// The process-wide stop: true once [`stop_reading_when`]'s function says so.
+fn stop_requested() -> bool {
+    STOP.get().is_some_and(|stop| stop())
+}
 
 /// A problem with a parameter value distribution file: where it is and what is wrong.
 /// Displayed as ``FILE, line N, element `E`: message`` (line and element when known).
@@ -152,22 +205,77 @@ pub struct ParameterDistribution {
 }
 
 impl ParameterDistribution {
-    /// Reads and checks the file at `path`.
+    /// Reads and checks the file at `path`, within the default [`Limits`], stopped by the
+    /// process-wide stop ([`stop_reading_when`]).
     pub fn read(path: &Path) -> Result<ParameterDistribution, OpenScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(|e| OpenScenarioError {
-            file: path.display().to_string(),
+        Self::read_with(path, Limits::default(), &stop_requested)
+    }
+
+    /// Reads and checks the file at `path` within `limits`; `stop` is asked every 1024
+    /// elements and parameters, and true gives up with a [`STOPPED`] error.
+    ///
+    /// ```
+    /// use savme_openscenario::{Limits, ParameterDistribution};
+    /// let dir = std::env::temp_dir().join(format!("savme-openscenario-doc-{}", std::process::id()));
+    /// std::fs::create_dir_all(&dir)?;
+    /// let path = dir.join("big.xosc");
+    /// std::fs::write(&path, "<OpenSCENARIO/>")?;
+    /// let small = Limits { bytes: 10, elements: 100 };
+    /// let e = ParameterDistribution::read_with(&path, small, &|| false).unwrap_err();
+    /// assert_eq!(
+    ///     e.to_string(),
+    ///     format!("{}: the file has 15 bytes, more than the 10 bytes savme reads (a parameter variation file is a few kB)", path.display())
+    /// );
+    /// # std::fs::remove_dir_all(&dir)?;
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn read_with(
+        path: &Path,
+        limits: Limits,
+        stop: &dyn Fn() -> bool,
+    ) -> Result<ParameterDistribution, OpenScenarioError> {
+        let name = path.display().to_string();
+        let err = |message: String| OpenScenarioError {
+            file: name.clone(),
             line: None,
             element: None,
-            message: e.to_string(),
-        })?;
-        let mut d = Self::parse(&text, &path.display().to_string())?;
+            message,
+        };
+        let too_large = |bytes: u64| {
+            err(format!(
+                "the file has {bytes} bytes, more than the {} bytes savme reads (a parameter variation file is a few kB)",
+                limits.bytes
+            ))
+        };
+        let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+        // Its size as it is now, then a reading that takes no more than the limit (should it
+        // grow meanwhile, or be a pipe).
+        if let Ok(meta) = file.metadata() {
+            if meta.is_file() && meta.len() > limits.bytes {
+                return Err(too_large(meta.len()));
+            }
+        }
+        let mut bytes = Vec::new();
+        file.take(limits.bytes.saturating_add(1))
+            .read_to_end(&mut bytes)
+            .map_err(|e| err(e.to_string()))?;
+        if bytes.len() as u64 > limits.bytes {
+            return Err(err(format!(
+                "the file has more than the {} bytes savme reads (a parameter variation file is a few kB)",
+                limits.bytes
+            )));
+        }
+        let text = String::from_utf8(bytes)
+            .map_err(|e| err(format!("the file is not UTF-8 text: {e}")))?;
+        let mut d = reader::read(&text, &name, limits, stop)?;
         d.path = path.to_path_buf();
         Ok(d)
     }
 
-    /// Reads and checks `text`, naming it `file` in errors.
+    /// Reads and checks `text`, naming it `file` in errors, within the default [`Limits`]'
+    /// element count, stopped by the process-wide stop ([`stop_reading_when`]).
     pub fn parse(text: &str, file: &str) -> Result<ParameterDistribution, OpenScenarioError> {
-        reader::read(text, file)
+        reader::read(text, file, Limits::default(), &stop_requested)
     }
 
     /// The φ-space: one variable per parameter, in file order, continuous ones in `bins`

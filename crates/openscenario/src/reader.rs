@@ -1,14 +1,16 @@
 //! The reading of a `ParameterValueDistribution` file's elements into parameters.
 
-use crate::xml::{self, Element};
-use crate::{Domain, OpenScenarioError, Parameter, ParameterDistribution, Variation};
+use crate::xml::{self, Budget, Element, ParseError, STOP_EVERY};
+use crate::{Domain, Limits, OpenScenarioError, Parameter, ParameterDistribution, Variation};
 use savme_kernel::estimation::Nominal;
 use savme_kernel::{Value, MAX_ARMS};
+use std::collections::HashMap;
 use std::path::PathBuf;
 
-/// The file being read: builds errors that name it.
+/// The file being read: builds errors that name it, and asks whether to stop.
 struct File<'a> {
     name: &'a str,
+    stop: &'a dyn Fn() -> bool,
 }
 
 impl File<'_> {
@@ -19,6 +21,20 @@ impl File<'_> {
             element: Some(at.name.clone()),
             message: message.into(),
         }
+    }
+
+    /// A [`crate::STOPPED`] error if the stop says so (asked before the `k`th parameter, every
+    /// [`STOP_EVERY`]th).
+    fn check_stop(&self, k: usize) -> Result<(), OpenScenarioError> {
+        if k > 0 && k.is_multiple_of(STOP_EVERY) && (self.stop)() {
+            return Err(OpenScenarioError {
+                file: self.name.to_string(),
+                line: None,
+                element: None,
+                message: crate::STOPPED.into(),
+            });
+        }
+        Ok(())
     }
 
     /// Attribute `name` of `e`, required.
@@ -62,6 +78,20 @@ impl File<'_> {
     /// A `<Range lowerLimit upperLimit>` child of `e`: `lo < hi`, or `lo ≤ hi` if `closed`.
     fn range(&self, e: &Element, closed: bool) -> Result<(f64, f64), OpenScenarioError> {
         let r = self.child(e, "Range")?;
+        // OpenSCENARIO 1.x's Range has these two attributes and no other: a third (`step`, a
+        // misspelt `uperLimit`) would be ignored, so it is refused.
+        if let Some((name, _)) = r
+            .attributes
+            .iter()
+            .find(|(n, _)| n != "lowerLimit" && n != "upperLimit")
+        {
+            return Err(self.err(
+                r,
+                format!(
+                    "unknown attribute `{name}`: a <Range> has `lowerLimit` and `upperLimit` only"
+                ),
+            ));
+        }
         let (lo, hi) = (self.number(r, "lowerLimit")?, self.number(r, "upperLimit")?);
         if lo < hi || (closed && lo == hi) {
             Ok((lo, hi))
@@ -76,13 +106,37 @@ fn number(text: &str) -> Option<f64> {
     text.trim().parse::<f64>().ok().filter(|x| x.is_finite())
 }
 
-pub(crate) fn read(text: &str, name: &str) -> Result<ParameterDistribution, OpenScenarioError> {
-    let f = File { name };
-    let root = xml::parse(text).map_err(|e| OpenScenarioError {
-        file: name.to_string(),
-        line: Some(e.line),
-        element: None,
-        message: e.message,
+/// Reads `text` (the file `name`): at most `limits.elements` elements, `stop` asked every
+/// [`STOP_EVERY`] elements and parameters.
+pub(crate) fn read(
+    text: &str,
+    name: &str,
+    limits: Limits,
+    stop: &dyn Fn() -> bool,
+) -> Result<ParameterDistribution, OpenScenarioError> {
+    let f = File { name, stop };
+    let budget = Budget {
+        elements: limits.elements,
+        stop,
+    };
+    let root = xml::parse(text, &budget).map_err(|e| {
+        let (line, message) = match e {
+            ParseError::Xml(e) => (Some(e.line), e.message),
+            ParseError::TooManyElements { line } => (
+                Some(line),
+                format!(
+                    "the file holds more than the {} elements savme reads (a parameter variation file holds a few dozen)",
+                    limits.elements
+                ),
+            ),
+            ParseError::Stopped => (None, crate::STOPPED.to_string()),
+        };
+        OpenScenarioError {
+            file: name.to_string(),
+            line,
+            element: None,
+            message,
+        }
     })?;
     if root.name != "OpenSCENARIO" {
         return Err(f.err(&root, "the root element must be <OpenSCENARIO>"));
@@ -114,15 +168,18 @@ pub(crate) fn read(text: &str, name: &str) -> Result<ParameterDistribution, Open
             return Err(f.err(pvd, "neither <Deterministic> nor <Stochastic> inside"));
         }
     };
-    for (i, p) in parameters.iter().enumerate() {
-        if let Some(first) = parameters[..i].iter().find(|q| q.name == p.name) {
+    // The first line of each name (a map: a search of the earlier parameters for each one
+    // would take time quadratic in their number).
+    let mut first_line: HashMap<&str, usize> = HashMap::with_capacity(parameters.len());
+    for p in &parameters {
+        if let Some(first) = first_line.insert(p.name.as_str(), p.line) {
             return Err(OpenScenarioError {
                 file: name.to_string(),
                 line: Some(p.line),
                 element: Some(p.element.clone()),
                 message: format!(
-                    "parameter `{}` varies twice (first at line {})",
-                    p.name, first.line
+                    "parameter `{}` varies twice (first at line {first})",
+                    p.name
                 ),
             });
         }
@@ -148,7 +205,8 @@ fn parameter_name(f: &File, e: &Element) -> Result<String, OpenScenarioError> {
 /// The parameters of `<Deterministic>`.
 fn deterministic(f: &File, det: &Element) -> Result<Vec<Parameter>, OpenScenarioError> {
     let mut out = Vec::new();
-    for c in &det.children {
+    for (k, c) in det.children.iter().enumerate() {
+        f.check_stop(k)?;
         match c.name.as_str() {
             "DeterministicSingleParameterDistribution" => {
                 let name = parameter_name(f, c)?;
@@ -270,7 +328,8 @@ fn stochastic(f: &File, s: &Element) -> Result<(Variation, Vec<Parameter>), Open
         None => None,
     };
     let mut out = Vec::new();
-    for c in &s.children {
+    for (k, c) in s.children.iter().enumerate() {
+        f.check_stop(k)?;
         if c.name != "StochasticDistribution" {
             return Err(f.err(
                 c,
@@ -413,14 +472,31 @@ fn poisson(
         ));
     }
     let ks: Vec<u64> = (first as u64..=last as u64).collect();
-    // ln P(k) = k ln λ − λ − ln k!, normalised by the caller (the kernel).
-    let ln_fact = |k: u64| (1..=k).map(|i| (i as f64).ln()).sum::<f64>();
+    // ln P(k) = k ln λ − λ − ln k!, normalised by the caller (the kernel); ln k! summed once
+    // up to the first count, then one term per count (not a sum from 1 for each).
+    let mut ln_fact = ln_factorial((first as u64).saturating_sub(1));
     let weights = ks
         .iter()
-        .map(|&k| (k as f64 * lambda.ln() - lambda - ln_fact(k)).exp())
+        .map(|&k| {
+            if k > 0 {
+                ln_fact += (k as f64).ln();
+            }
+            (k as f64 * lambda.ln() - lambda - ln_fact).exp()
+        })
         .collect();
     let values = ks.iter().map(|&k| Value::Int(k as i64)).collect();
     Ok((Domain::Values(values), Nominal::Weights { weights }))
+}
+
+/// ln n!: summed up to 256, Stirling's series above (relative error below 1e-15 there), so that
+/// a range far from 0 costs no more than one near it.
+fn ln_factorial(n: u64) -> f64 {
+    if n < 256 {
+        return (2..=n).map(|i| (i as f64).ln()).sum();
+    }
+    let x = n as f64;
+    x * x.ln() - x + 0.5 * (2.0 * std::f64::consts::PI * x).ln() + 1.0 / (12.0 * x)
+        - 1.0 / (360.0 * x * x * x)
 }
 
 /// A parameter, its variable and nominal checked as the kernel and the estimator check them.
@@ -445,4 +521,21 @@ fn checked(
         .check(&var)
         .map_err(|e| f.err(d, format!("parameter `{}`: {e}", p.name)))?;
     Ok(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ln_factorial;
+
+    #[test]
+    fn ln_factorial_sums_then_follows_stirling() {
+        assert_eq!(ln_factorial(0), 0.0);
+        assert_eq!(ln_factorial(1), 0.0);
+        assert!((ln_factorial(5) - 120f64.ln()).abs() < 1e-12);
+        let summed = |n: u64| (2..=n).map(|i| (i as f64).ln()).sum::<f64>();
+        for n in [256, 300, 5000] {
+            let (a, b) = (ln_factorial(n), summed(n));
+            assert!((a - b).abs() <= 1e-12 * b, "{n}: {a} vs {b}");
+        }
+    }
 }

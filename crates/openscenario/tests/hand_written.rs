@@ -154,6 +154,30 @@ fn stochastic_distributions_become_ranges_with_their_nominals() {
 
 /// (body, line, element, words of the message)
 const BAD: &[(&str, usize, &str, &str)] = &[
+    // A <Range> takes lowerLimit and upperLimit only: another attribute, or a misspelt one,
+    // would be ignored.
+    (
+        r#"    <Deterministic>
+      <DeterministicSingleParameterDistribution parameterName="Speed">
+        <DistributionRange stepWidth="1">
+          <Range lowerLimit="10" upperLimit="20" step="2"/>
+        </DistributionRange>
+      </DeterministicSingleParameterDistribution>
+    </Deterministic>"#,
+        8,
+        "Range",
+        "unknown attribute `step`: a <Range> has `lowerLimit` and `upperLimit` only",
+    ),
+    (
+        r#"    <Stochastic>
+      <StochasticDistribution parameterName="Speed">
+        <UniformDistribution><Range lowerLimit="10" uperLimit="20"/></UniformDistribution>
+      </StochasticDistribution>
+    </Stochastic>"#,
+        7,
+        "Range",
+        "unknown attribute `uperLimit`",
+    ),
     (
         r#"    <Stochastic>
       <StochasticDistribution parameterName="Speed">

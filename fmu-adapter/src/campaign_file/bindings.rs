@@ -38,25 +38,33 @@ impl Use {
 /// One binding: the FMU variable, the line and key that name it, and its use.
 #[derive(Debug)]
 struct Origin {
-    fmu_variable: String,
     line: usize,
     key: String,
     used: Use,
 }
 
-/// Every binding of the file, in the order read.
+/// Every binding of the file, by FMU variable in the order read (a map: a search of every
+/// earlier binding for each one took time quadratic in their number, which an OpenSCENARIO file
+/// of many parameters makes large).
 #[derive(Debug, Default)]
-pub(super) struct Origins(Vec<Origin>);
+pub(super) struct Origins(std::collections::HashMap<String, Vec<Origin>>);
 
 impl Origins {
     /// Remembers an output the runs read (`used` is [`Use::Failure`] or [`Use::Cost`]).
     pub(super) fn read(&mut self, fmu_variable: &str, line: usize, key: &str, used: Use) {
-        self.0.push(Origin {
-            fmu_variable: fmu_variable.into(),
-            line,
-            key: key.into(),
-            used,
-        });
+        self.0
+            .entry(fmu_variable.to_string())
+            .or_default()
+            .push(Origin {
+                line,
+                key: key.into(),
+                used,
+            });
+    }
+
+    /// The bindings of `fmu_variable`, in the order read.
+    fn named(&self, fmu_variable: &str) -> impl Iterator<Item = &Origin> {
+        self.0.get(fmu_variable).into_iter().flatten()
     }
 
     /// Remembers an input the runs set, refusing an FMU variable another binding already sets
@@ -70,10 +78,7 @@ impl Origins {
         key: &str,
         used: Use,
     ) -> Result<(), ConfigError> {
-        let clash = self
-            .0
-            .iter()
-            .find(|o| o.fmu_variable == fmu_variable && o.used.set_with(used));
+        let clash = self.named(fmu_variable).find(|o| o.used.set_with(used));
         if let Some(o) = clash {
             let ((at, here), (there, other)) = if line >= o.line {
                 ((line, key), (o.line, o.key.as_str()))
@@ -94,9 +99,8 @@ impl Origins {
 
     /// The line and key of the binding of `fmu_variable` for `used`.
     fn of(&self, fmu_variable: &str, used: Use) -> Option<(usize, &str)> {
-        self.0
-            .iter()
-            .find(|o| o.fmu_variable == fmu_variable && o.used == used)
+        self.named(fmu_variable)
+            .find(|o| o.used == used)
             .map(|o| (o.line, o.key.as_str()))
     }
 }
