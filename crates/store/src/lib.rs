@@ -338,6 +338,8 @@ pub(crate) struct LineReader {
     last_sealed: Option<u64>,
     previous_sealed: bool,
     previous: Option<u64>,
+    /// The previous non-blank line's text (a repeated line is named as a copy).
+    previous_text: Vec<u8>,
     /// The first line whose checksum failed.
     pub(crate) edited: Option<EditedLine>,
 }
@@ -352,19 +354,46 @@ impl LineReader {
             chain::ChainCheck::Sealed { body } | chain::ChainCheck::Mismatch { body } => body,
             _ => text.len(),
         };
-        if let Err(message) = self.checked(line, checked) {
+        let mut value = if body == text.len() {
+            decode(text)?
+        } else {
+            let mut object = text[..body].to_vec();
+            object.push(b'}');
+            decode(&object)?
+        };
+        // A line that still has its digest, but not where and as savme writes it: another
+        // JSON writer re-serialised it (keys reordered, spacing or numbers changed).
+        let rewritten = matches!(
+            checked,
+            chain::ChainCheck::Missing | chain::ChainCheck::Unsealed
+        ) && value
+            .as_object_mut()
+            .is_some_and(|m| m.get("c").is_some_and(is_digest) && m.remove("c").is_some());
+        let verdict = if rewritten {
+            self.previous = Some(line);
+            self.previous_sealed = true;
+            Err(format!(
+                "this line was rewritten after savme wrote it: it keeps its checksum (`\"c\"`), but not the bytes savme wrote (keys reordered, spacing or number format changed, e.g. by another JSON writer), so its checksum no longer matches. savme checks the line as it wrote it, not its values as another tool re-serialised them; restore the line (from a copy), or cut the store back to line {} and resume to run the rest again",
+                line - 1
+            ))
+        } else {
+            self.checked(line, checked, text)
+        };
+        if let Err(message) = verdict {
             self.edited.get_or_insert(EditedLine { line, message });
         }
-        if body == text.len() {
-            return decode(text);
-        }
-        let mut object = text[..body].to_vec();
-        object.push(b'}');
-        decode(&object)
+        self.previous_text.clear();
+        self.previous_text.extend_from_slice(text);
+        Ok(value)
     }
 
     /// What the chain says of line `line`.
-    fn checked(&mut self, line: u64, checked: chain::ChainCheck) -> Result<(), String> {
+    fn checked(
+        &mut self,
+        line: u64,
+        checked: chain::ChainCheck,
+        text: &[u8],
+    ) -> Result<(), String> {
         use chain::ChainCheck;
         let previous = self.previous.replace(line);
         let previous_sealed = std::mem::replace(
@@ -387,7 +416,10 @@ impl LineReader {
             )),
             ChainCheck::Mismatch { .. } => {
                 let what = match (previous_sealed, previous) {
-                    (true, _) | (false, None) => "this line was changed after savme wrote it".to_string(),
+                    (true, Some(p)) if text == self.previous_text.as_slice() => format!(
+                        "this line repeats line {p} (a copy of it was added after savme wrote the file); remove it"
+                    ),
+                    (true, _) | (false, None) => "this line was changed after savme wrote it, or a line just before it was deleted (the chain links each line to the one before it)".to_string(),
                     (false, Some(p)) => format!(
                         "this line, or one of lines 1–{p} before it (written without checksums by an earlier savme), was changed after savme wrote it"
                     ),
@@ -399,6 +431,12 @@ impl LineReader {
             }
         }
     }
+}
+
+/// True for a digest as savme writes it: a string of 16 hex digits.
+fn is_digest(c: &Value) -> bool {
+    c.as_str()
+        .is_some_and(|s| s.len() == 16 && s.bytes().all(|b| b.is_ascii_hexdigit()))
 }
 
 /// A record as a line: `{"v":FORMAT,` followed by the record's own keys, appended to `out`.
