@@ -361,6 +361,7 @@ pub fn split_by_stage<'a>(
         line: line_at(i),
         message,
     };
+    check_sequence(lines, numbers, store)?;
     let mut out = Vec::new();
     let mut at = 0usize;
     for stage in p.stages() {
@@ -398,6 +399,73 @@ pub fn split_by_stage<'a>(
         ));
     }
     Ok(out)
+}
+
+impl LogLine {
+    /// The trial's position within its stage.
+    pub fn index(&self) -> u64 {
+        match self {
+            LogLine::Trial(t) => t.index,
+            LogLine::Failed(f) => f.index,
+            LogLine::Screen(s) => s.index,
+        }
+    }
+}
+
+/// Refuses lines whose trial indices do not count up by one within each stage (from 0),
+/// naming the first line that breaks the count: a deleted line leaves a gap there, a
+/// duplicated one repeats an index. `numbers` are the lines' positions in `store`.
+pub fn check_sequence(
+    lines: &[LogLine],
+    numbers: &[u64],
+    store: &str,
+) -> Result<(), CampaignError> {
+    let line_at = |i: usize| numbers.get(i).map_or(i as u64 + 1, |&n| n);
+    let restore = |i: usize| {
+        format!(
+            "restore the file from a copy, or cut the store back to line {} and resume to run the rest again",
+            line_at(i) - 1
+        )
+    };
+    let mut previous: Option<(usize, StageId, u64)> = None;
+    for (i, l) in lines.iter().enumerate() {
+        let (stage, index) = (l.stage(), l.index());
+        let message = match previous {
+            Some((j, s, k)) if s == stage && index == k => Some(format!(
+                "this line repeats line {}: trial index {index} of stage `{stage}` appears twice (lines {} and {}); remove the copy",
+                line_at(j),
+                line_at(j),
+                line_at(i)
+            )),
+            Some((j, s, k)) if s == stage && index > k + 1 => Some(format!(
+                "trial index {index} of stage `{stage}` follows index {k} (line {}): {} missing — {}",
+                line_at(j),
+                if index == k + 2 { "a line is" } else { "lines are" },
+                restore(i)
+            )),
+            Some((j, s, k)) if s == stage && index < k => Some(format!(
+                "trial index {index} of stage `{stage}` follows index {k} (line {}): the lines are out of order — {}",
+                line_at(j),
+                restore(i)
+            )),
+            Some((_, s, _)) if s == stage => None,
+            _ if index > 0 => Some(format!(
+                "trial index {index} is the first line of stage `{stage}`: the lines of its indices 0–{} are missing — {}",
+                index - 1,
+                restore(i)
+            )),
+            _ => None,
+        };
+        if let Some(message) = message {
+            return Err(CampaignError::Log {
+                store: store.to_string(),
+                line: line_at(i) as usize,
+                message,
+            });
+        }
+        previous = Some((i, stage, index));
+    }
+    Ok(())
 }
 
 /// The trial lines of the campaign directory `dir` (its `trials.jsonl`), each with its
