@@ -4,7 +4,7 @@
 
 use super::Slot;
 use crate::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
-use crate::protocol::{Stage, StageId};
+use crate::protocol::{Compact, Stage, StageId};
 use crate::store::TrialStore;
 use crate::CampaignError;
 use savme_kernel::screening::{Economy, Screen};
@@ -54,7 +54,7 @@ pub(super) fn check_logged(
     } else if *theta != t.theta_lf {
         Some(match (theta, &t.theta_lf) {
             (Some(a), Some(b)) => assignment_difference("theta_lf", a, b),
-            (a, b) => ("theta_lf".into(), format!("{a:?}"), format!("{b:?}")),
+            (a, b) => ("theta_lf".into(), shown(a), shown(b)),
         })
     } else {
         None
@@ -89,8 +89,8 @@ pub(super) fn check_direct(
         store: at.0,
         line: at.1 as usize,
         message: format!(
-            "field `screen` is {:?}, but the screening's economy asks {asked} here: the line was edited, or written by another campaign",
-            s.screen
+            "field `screen` is {}, but the screening's economy asks {asked} here: the line was edited, or written by another campaign",
+            shown(&s.screen)
         ),
     })
 }
@@ -105,6 +105,56 @@ pub(super) fn add_screened(e: &mut Economy, s: &ScreenLine) {
                 e.add_direct(hf);
             }
         }
+    }
+}
+
+/// A stored field's value as a message shows it: as the line has it (`FP`, `train`,
+/// `{"fidelity":true,"scenario":null}`), `absent` for a missing (null) one, and numbers
+/// compactly ([`Compact`]: `1e308`, not 309 digits). Never Rust's debug text.
+fn shown<T: serde::Serialize + ?Sized>(v: &T) -> String {
+    fn text(v: &serde_json::Value) -> String {
+        use serde_json::Value;
+        match v {
+            Value::Null => "absent".into(),
+            Value::String(s) => s.clone(),
+            Value::Number(n) => match (n.as_i64(), n.as_u64(), n.as_f64()) {
+                (Some(i), _, _) => i.to_string(),
+                (_, Some(u), _) => u.to_string(),
+                (_, _, Some(f)) => Compact(f).to_string(),
+                _ => n.to_string(),
+            },
+            Value::Bool(b) => b.to_string(),
+            Value::Array(a) => format!("[{}]", a.iter().map(text).collect::<Vec<_>>().join(", ")),
+            Value::Object(m) => format!(
+                "{{{}}}",
+                m.iter()
+                    .map(|(k, v)| format!("{k}: {}", text(v)))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
+    }
+    serde_json::to_value(v).map_or_else(|e| format!("(not shown: {e})"), |v| text(&v))
+}
+
+/// Values compared as the stored line holds them (JSON), whatever their Rust type.
+mod erased {
+    /// A serialisable value as JSON.
+    pub(super) trait Json {
+        fn value(&self) -> serde_json::Value;
+    }
+    impl<T: serde::Serialize> Json for T {
+        fn value(&self) -> serde_json::Value {
+            serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+        }
+    }
+}
+
+/// A φ or θ value as a message shows it (reals compactly: [`Compact`]).
+fn value_text(v: &savme_kernel::Value) -> String {
+    match v {
+        savme_kernel::Value::Real(x) => Compact(*x).to_string(),
+        v => v.to_string(),
     }
 }
 
@@ -123,8 +173,8 @@ fn assignment_difference(
     for name in names {
         let (a, b) = (logged.get(name), asked.get(name));
         if a != b {
-            let a = a.map_or_else(none, |v| v.to_string());
-            let b = b.map_or_else(none, |v| v.to_string());
+            let a = a.map_or_else(none, value_text);
+            let b = b.map_or_else(none, value_text);
             return (format!("{field}.{name}"), a, b);
         }
     }
@@ -228,8 +278,8 @@ impl TellCx<'_> {
                 {
                     return Err(tampered(
                         "screen",
-                        format!("{:?} (HF run: {})", l.screen, l.hf.is_some()),
-                        format!("{expected:?}"),
+                        format!("{} (HF run: {})", shown(&l.screen), l.hf.is_some()),
+                        shown(&expected),
                     ));
                 }
                 tell_screened(kernel, self.id, l.lf.as_ref(), l.hf.as_ref())
@@ -239,16 +289,18 @@ impl TellCx<'_> {
             LogLine::Trial(l) => {
                 check_costs(&l, self.cost, &tampered)?;
                 let record = kernel.tell(self.id, l.observation()).map_err(cannot_tell)?;
-                let show = |v: &dyn std::fmt::Debug| format!("{v:?}");
+                let json = |v: &dyn erased::Json| v.value();
                 let checks = [
-                    ("phase", show(&l.phase), show(&slot.trial.phase)),
-                    ("budget", show(&l.budget), show(&self.stage.budget)),
-                    ("outcome", show(&l.outcome), show(&record.outcome)),
-                    ("cost_ratio", show(&l.cost_ratio), show(&record.cost_ratio)),
-                    ("credit", show(&l.credit), show(&record.credit)),
+                    ("phase", json(&l.phase), json(&slot.trial.phase)),
+                    ("budget", json(&l.budget), json(&self.stage.budget)),
+                    ("outcome", json(&l.outcome), json(&record.outcome)),
+                    ("cost_ratio", json(&l.cost_ratio), json(&record.cost_ratio)),
+                    ("credit", json(&l.credit), json(&record.credit)),
                 ];
                 match checks.into_iter().find(|(_, a, b)| a != b) {
-                    Some((field, logged, computed)) => Err(tampered(field, logged, computed)),
+                    Some((field, logged, computed)) => {
+                        Err(tampered(field, shown(&logged), shown(&computed)))
+                    }
                     None => Ok(LogLine::Trial(l)),
                 }
             }
@@ -387,8 +439,8 @@ fn check_costs(
         if expected != Some(run.runtime) {
             return Err(tampered(
                 &format!("{name}.runtime"),
-                run.runtime.to_string(),
-                expected.map_or("no cost".into(), |e| e.to_string()),
+                Compact(run.runtime).to_string(),
+                expected.map_or("no cost".into(), |e| Compact(e).to_string()),
             ));
         }
     }
