@@ -716,3 +716,163 @@ fn a_file_given_as_a_campaign_and_a_negative_seed_are_named_as_such() {
     );
     let _ = std::fs::remove_dir_all(&home);
 }
+
+/// `good` with its lines changed by `edit` (0-based lines), written to `file`.
+fn rewrite_lines(file: &Path, good: &str, edit: impl FnOnce(&mut Vec<String>)) {
+    let mut lines: Vec<String> = good.lines().map(String::from).collect();
+    edit(&mut lines);
+    std::fs::write(file, lines.join("\n") + "\n").unwrap();
+}
+
+/// The refusal of a resume (it must fail), its first line.
+fn refused(dir: &Path) -> String {
+    let (code, err) = resume(dir);
+    assert_ne!(code, Some(0), "an edited store was accepted: {err}");
+    err.lines().next().unwrap_or_default().to_string()
+}
+
+#[test]
+fn an_edited_store_is_refused_saying_what_happened_at_the_line_it_happened() {
+    let dir = temp_dir("edited-kinds");
+    let (code, err) = reproduce(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let trials = dir.join("trials.jsonl");
+    let good = std::fs::read_to_string(&trials).unwrap();
+    let lines: Vec<&str> = good.lines().collect();
+    let at = |n: usize| format!("{}, line {n}: ", trials.display());
+    // The 5th line of the first paired stage (its trial index 4).
+    let first = lines
+        .iter()
+        .position(|l| l.contains("\"stage\":\"train@0.3\""))
+        .unwrap();
+    let (n, index) = (first + 5, 4);
+    assert!(lines[n - 1].contains(&format!("\"index\":{index},")));
+
+    // Re-serialised by another JSON writer: the same values, keys sorted, spaces added, the
+    // checksum kept. Refused (savme checks the bytes it wrote), as a rewritten line.
+    rewrite_lines(&trials, &good, |l| {
+        let v: serde_json::Map<String, Value> = serde_json::from_str(&l[n - 1]).unwrap();
+        let sorted: std::collections::BTreeMap<_, _> = v.into_iter().collect();
+        l[n - 1] = serde_json::to_string(&sorted)
+            .unwrap()
+            .replace(",\"", ", \"");
+    });
+    let e = refused(&dir);
+    assert!(
+        e.contains(&at(n))
+            && e.contains("was rewritten after savme wrote it")
+            && e.contains("no longer matches")
+            && !e.contains("unknown field"),
+        "{e}"
+    );
+
+    // A deleted line: named where the gap is (the chain breaks there too).
+    rewrite_lines(&trials, &good, |l| {
+        l.remove(n - 1);
+    });
+    let e = refused(&dir);
+    assert!(
+        e.contains(&at(n))
+            && e.contains(&format!(
+                "trial index {} of stage `train@0.3` follows index {} (line {}): a line is missing",
+                index + 1,
+                index - 1,
+                n - 1
+            )),
+        "{e}"
+    );
+
+    // A duplicated line: named as a copy of the line before it.
+    rewrite_lines(&trials, &good, |l| {
+        let copy = l[n - 1].clone();
+        l.insert(n, copy);
+    });
+    let e = refused(&dir);
+    assert!(
+        e.contains(&at(n + 1))
+            && e.contains(&format!("this line repeats line {n}"))
+            && e.contains(&format!(
+                "trial index {index} of stage `train@0.3` appears twice"
+            )),
+        "{e}"
+    );
+
+    // A field edited: its values as the line has them, never Rust's debug text.
+    let m = 1 + lines
+        .iter()
+        .position(|l| l.contains("\"outcome\":\"TN\""))
+        .unwrap();
+    for (to, shown) in [("\"FP\"", "is FP but"), ("null", "is absent but")] {
+        rewrite_lines(&trials, &good, |l| {
+            l[m - 1] = l[m - 1].replacen("\"outcome\":\"TN\"", &format!("\"outcome\":{to}"), 1);
+        });
+        let e = refused(&dir);
+        assert!(
+            e.contains(&at(m))
+                && e.contains(&format!(
+                    "field `outcome` {shown} replaying the trial gives TN"
+                )),
+            "{e}"
+        );
+        assert!(!e.contains("Some(") && !e.contains("None"), "{e}");
+    }
+
+    // Numbers compactly: 1e308, not 309 digits.
+    rewrite_lines(&trials, &good, |l| {
+        let i = l[1].find("\"runtime\":").unwrap() + 10;
+        let end = i + l[1][i..].find(',').unwrap();
+        l[1].replace_range(i..end, "1e308");
+    });
+    let e = refused(&dir);
+    assert!(
+        e.contains(&at(2)) && e.contains("field `hf.runtime` is 1e308 but") && e.len() < 300,
+        "{e}"
+    );
+    rewrite_lines(&trials, &good, |l| {
+        let i = l[1].find("\"ego_speed\":").unwrap() + 12;
+        let end = i + l[1][i..].find(',').unwrap();
+        l[1].replace_range(i..end, "1e308");
+    });
+    let e = refused(&dir);
+    assert!(
+        e.contains(&at(2)) && e.contains("field `phi.ego_speed` is 1e308,") && e.len() < 300,
+        "{e}"
+    );
+
+    // Restored: resumes.
+    std::fs::write(&trials, &good).unwrap();
+    let (code, err) = resume(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_figure_that_cannot_be_written_is_named_with_the_systems_reason() {
+    let dir = temp_dir("figure-too-large");
+    let (code, err) = reproduce(&dir);
+    assert_eq!(code, Some(0), "{err}");
+    for png in ["breakeven.png", "meta_testing.png"] {
+        let _ = std::fs::remove_file(dir.join(png));
+    }
+    // Files above 4 kB refused (EFBIG; SIGXFSZ ignored): the stored lines are only read.
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 8; exec \"$0\" reproduce --quiet --resume \"$1\"")
+        .arg(common::EXE)
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_ne!(out.status.code(), Some(0), "{err}");
+    let png = dir.join("breakeven.png").display().to_string();
+    assert!(
+        err.contains(&format!("{png}: could not write the image: File too large")),
+        "{err}"
+    );
+    assert!(
+        !err.contains("ImageError") && !err.contains("Custom {"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
