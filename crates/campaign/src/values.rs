@@ -581,7 +581,10 @@ mod tests {
         assert!(!cli.values.elite.unwrap().per_cost);
         for (bad, says) in [
             ("explore", "key=value"),
-            ("explore=x", "`explore`: `x` is neither a number nor true/false"),
+            (
+                "explore=x",
+                "`explore`: `x` is neither a number nor true/false",
+            ),
             ("per_cost=maybe", "`per_cost`: `maybe` is neither"),
             ("explore=true", "explore"),
             ("bandwith=0.1", "bandwith"),
