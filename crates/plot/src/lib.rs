@@ -201,29 +201,9 @@ fn figure<S>(
         for (panel, area) in panels.iter().zip(areas.iter()) {
             draw(area, panel)?;
         }
-        root.present().map_err(not_written)
+        root.present().map_err(|e| e.to_string())
     })();
     drawn.map_err(PlotError::Draw)
-}
-
-/// Why the PNG could not be encoded or written, with the operating system's message (not the
-/// backend's debug text, which plotters' `Display` prints).
-fn not_written(e: DrawingAreaErrorKind<plotters_bitmap::BitMapBackendError>) -> String {
-    use plotters_backend::DrawingErrorKind;
-    use plotters_bitmap::BitMapBackendError as B;
-    match e {
-        DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(b)) => match b {
-            B::IOError(io) => format!("could not write the image: {io}"),
-            B::ImageError(image) => format!("could not write the image: {image}"),
-            B::InvalidBuffer => "could not write the image: its pixel buffer is invalid".into(),
-            #[allow(unreachable_patterns)]
-            _ => "could not write the image".into(),
-        },
-        DrawingAreaErrorKind::BackendError(DrawingErrorKind::FontError(f)) => {
-            format!("could not draw the image's text: {f}")
-        }
-        other => format!("could not draw the image: {other}"),
-    }
 }
 
 #[cfg(test)]
