@@ -625,8 +625,10 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
     );
     assert_eq!(over["refine_runs"], 10);
 
-    // A campaign file whose φ-space is not the campaign's: the trial line that does not fit
-    // is named (it was "line 0").
+    // A campaign file whose φ-space is not the campaign's: refused before any run, naming the
+    // file, the scenario, the variable and both ranges (the campaign's phi.json); a campaign
+    // without phi.json (written before it existed) still names the trial line that does not
+    // fit (it was "line 0").
     let other = campaign_file(
         &made_dir("estimate-other"),
         &TINY.replacen("range = [10.0, 25.0]", "range = [24.9, 25.0]", 1),
@@ -642,6 +644,23 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
                 && v["phi"]["ego_speed"].as_f64().unwrap() < 24.9
         })
         .unwrap();
+    let (ok, _, err) = savme(&[
+        "estimate",
+        out.to_str().unwrap(),
+        "--config",
+        other.to_str().unwrap(),
+        "--out",
+        out.join("other").to_str().unwrap(),
+    ]);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!(
+            "{}: φ variable `ego_speed` of scenario `lead_vehicle_brakes` is [24.9, 25]",
+            other.display()
+        )) && err.contains("the campaign ran with [10, 25]"),
+        "{err}"
+    );
+    std::fs::remove_file(out.join("phi.json")).unwrap();
     let (ok, _, err) = savme(&[
         "estimate",
         out.to_str().unwrap(),

@@ -845,34 +845,3 @@ fn an_edited_store_is_refused_saying_what_happened_at_the_line_it_happened() {
     assert_eq!(code, Some(0), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
-
-#[cfg(unix)]
-#[test]
-fn a_figure_that_cannot_be_written_is_named_with_the_systems_reason() {
-    let dir = temp_dir("figure-too-large");
-    let (code, err) = reproduce(&dir);
-    assert_eq!(code, Some(0), "{err}");
-    for png in ["breakeven.png", "meta_testing.png"] {
-        let _ = std::fs::remove_file(dir.join(png));
-    }
-    // Files above 4 kB refused (EFBIG; SIGXFSZ ignored): the stored lines are only read.
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg("trap '' XFSZ; ulimit -f 8; exec \"$0\" reproduce --quiet --resume \"$1\"")
-        .arg(common::EXE)
-        .arg(&dir)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_ne!(out.status.code(), Some(0), "{err}");
-    let png = dir.join("breakeven.png").display().to_string();
-    assert!(
-        err.contains(&format!("{png}: could not write the image: File too large")),
-        "{err}"
-    );
-    assert!(
-        !err.contains("ImageError") && !err.contains("Custom {"),
-        "{err}"
-    );
-    let _ = std::fs::remove_dir_all(&dir);
-}
