@@ -644,14 +644,17 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
                 && v["phi"]["ego_speed"].as_f64().unwrap() < 24.9
         })
         .unwrap();
-    let (ok, _, err) = savme(&[
-        "estimate",
-        out.to_str().unwrap(),
-        "--config",
-        other.to_str().unwrap(),
-        "--out",
-        out.join("other").to_str().unwrap(),
-    ]);
+    let estimate_other = || {
+        savme(&[
+            "estimate",
+            out.to_str().unwrap(),
+            "--config",
+            other.to_str().unwrap(),
+            "--out",
+            out.join("other").to_str().unwrap(),
+        ])
+    };
+    let (ok, _, err) = estimate_other();
     assert!(!ok);
     assert!(
         err.contains(&format!(
@@ -661,14 +664,7 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         "{err}"
     );
     std::fs::remove_file(out.join("phi.json")).unwrap();
-    let (ok, _, err) = savme(&[
-        "estimate",
-        out.to_str().unwrap(),
-        "--config",
-        other.to_str().unwrap(),
-        "--out",
-        out.join("other").to_str().unwrap(),
-    ]);
+    let (ok, _, err) = estimate_other();
     assert!(!ok);
     assert!(
         err.contains(&format!("trials.jsonl, line {line}: train@0.3 trial "))
