@@ -88,28 +88,12 @@ fn a_cost_budget_ends_each_stage_once_spent_and_a_killed_campaign_resumes_identi
     }
     assert_eq!(stage_lines(&lines, "evaluate@0.3").len(), 4);
 
-    // Killed (SIGKILL) in its meta-training stage, then resumed: the same trials.
+    // Killed (SIGKILL) in its meta-training stage, and once more after it (a spent stage is
+    // complete on resume, not short of its cap), then resumed: the same trials.
     let killed = made_dir("killed");
-    std::fs::remove_dir_all(&killed).unwrap();
-    let mut child = Command::new(EXE)
-        .args(args(&killed))
-        .arg("--quiet")
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let trials = killed.join("trials.jsonl");
-    let start = std::time::Instant::now();
-    while std::fs::read_to_string(&trials).map_or(0, |s| s.matches("train@0.3").count()) < 8 {
-        assert!(start.elapsed().as_secs() < 120, "no progress");
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "finished before the kill"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(2));
+    for (stage, n) in [("train@0.3", 8), ("test-learned@0.3", 1)] {
+        kill_after(&killed, stage, n);
     }
-    child.kill().unwrap(); // SIGKILL
-    child.wait().unwrap();
     let (code, _, err) = run(&["reproduce", "--quiet", "--resume", killed.to_str().unwrap()]);
     assert_eq!(code, Some(0), "{err}");
     assert_eq!(without_wall(trial_lines(&killed)), without_wall(lines));
@@ -122,6 +106,35 @@ fn a_cost_budget_ends_each_stage_once_spent_and_a_killed_campaign_resumes_identi
     assert_eq!(protocol["allocation"], "cost-rate");
     let _ = std::fs::remove_dir_all(&whole);
     let _ = std::fs::remove_dir_all(&killed);
+}
+
+/// Starts (or resumes) the campaign in `dir` and kills it with SIGKILL once `trials.jsonl`
+/// holds `n` lines of `stage`.
+fn kill_after(dir: &Path, stage: &str, n: usize) {
+    let mut cmd = Command::new(EXE);
+    if dir.join("protocol.json").exists() {
+        cmd.args(["reproduce", "--quiet", "--resume", dir.to_str().unwrap()]);
+    } else {
+        let _ = std::fs::remove_dir_all(dir);
+        cmd.args(args(dir)).arg("--quiet");
+    }
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let trials = dir.join("trials.jsonl");
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(&trials).map_or(0, |s| s.matches(stage).count()) < n {
+        assert!(start.elapsed().as_secs() < 120, "no progress");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "finished before the kill"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
 }
 
 #[test]

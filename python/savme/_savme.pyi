@@ -480,8 +480,9 @@ class Protocol:
     def load(out: Union[str, PathLike[str]]) -> Protocol:
         """The protocol saved in campaign directory `out`."""
     @property
-    def total_trials(self) -> int:
-        """How many trials the campaign runs in all."""
+    def total_trials(self) -> Optional[int]:
+        """How many trials the campaign runs in all; None when a stage runs by a cost budget
+        (search_budget, deploy_budget), whose number of trials is not known in advance."""
 
 @final
 class Problem:

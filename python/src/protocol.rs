@@ -139,10 +139,11 @@ impl PyProtocol {
         Ok(PyProtocol { protocol })
     }
 
-    /// How many trials the campaign runs in all.
+    /// How many trials the campaign runs in all; None when a stage runs by a cost budget
+    /// (`search_budget`, `deploy_budget`): its number of trials is not known in advance.
     #[getter]
-    fn total_trials(&self) -> u64 {
-        self.protocol.total_trials()
+    fn total_trials(&self) -> Option<u64> {
+        self.protocol.known_total_trials()
     }
 
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
@@ -158,7 +159,8 @@ impl PyProtocol {
             p.simulator,
             p.seed,
             p.budgets,
-            p.total_trials()
+            p.known_total_trials()
+                .map_or("by cost".to_string(), |n| n.to_string())
         )
     }
 }

@@ -273,3 +273,41 @@ def test_python_errors_speak_python_not_command_line_flags(tmp_path):
     assert "resume=True" in str(e.value) and "--" not in str(e.value), str(e.value)
     with pytest.raises(ValueError, match=r"`train_iterations`: .*-5"):
         savme.Protocol(["a"], ["b"], train_iterations=-5)
+
+
+def test_a_campaign_with_cost_budgets_spends_them_and_resumes_identically(tmp_path):
+    """search_budget / deploy_budget: each search and deployed stage runs until its runs have
+    cost that much (work units here); a campaign stopped part-way and resumed gives the same
+    trials as one run straight through."""
+    p = protocol(search_budget=4000.0, deploy_budget=2000.0, window=3)
+    assert p.total_trials is None and "by cost" in repr(p)
+    whole = savme.Campaign(p, problem(), out=tmp_path / "whole", jobs=2).run(toy)
+    lines = trial_records(whole.files["trials"])
+    assert whole.ran == len(lines)
+
+    def cost(d):
+        return sum((d.get(r) or {}).get("runtime", 0.0) for r in ("hf", "lf"))
+
+    for stage, budget in (("train@0.3", 4000.0), ("screen@0.3", 2000.0), ("test-learned@0.3", 4000.0)):
+        mine = [d for d in lines if d["stage"] == stage]
+        spent = sum(map(cost, mine))
+        assert spent >= budget, (stage, spent)
+        # Stops asking once spent: at most the window (3) of trials in flight come after.
+        assert spent - sum(map(cost, mine[-3:])) < budget, (stage, spent, len(mine))
+    # Stopped by a raising simulator inside meta-training, then resumed: the same trials.
+    part = tmp_path / "part"
+    calls = {"n": 0}
+
+    def flaky(scenario, phi, theta):
+        calls["n"] += 1
+        if calls["n"] == 60:  # HF and LF runs: past the baseline, inside meta-training
+            raise RuntimeError("license server unreachable")
+        return toy(scenario, phi, theta)
+
+    with pytest.raises(savme.CampaignError, match="license server unreachable"):
+        savme.Campaign(p, problem(), out=part, jobs=1).run(flaky)
+    stored = len(trial_records(part / "trials.jsonl"))
+    assert 0 < stored < len(lines)
+    resumed = savme.Campaign(None, problem(), out=part, resume=True, jobs=2).run(toy)
+    assert resumed.replayed == stored
+    assert strip_wall(part / "trials.jsonl") == strip_wall(whole.files["trials"])

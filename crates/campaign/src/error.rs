@@ -141,16 +141,14 @@ pub enum CampaignError {
     },
     /// The campaign was asked to stop ([`Stop`](super::Stop)) before it finished; the trials
     /// told so far are stored, and resuming continues from them.
-    #[error(
-        "stopped in {stage} after {told} of its {iterations} trials (every told trial is stored)"
-    )]
+    #[error("stopped in {stage} after {told} of its {planned} (every told trial is stored)")]
     Stopped {
         /// Label of the stage that was running.
         stage: String,
         /// Trials of that stage told (and stored).
         told: u64,
-        /// The stage's iterations.
-        iterations: u64,
+        /// What the stage runs: `300 trials`, or `trials until 4e10 work units are spent`.
+        planned: String,
     },
     /// Recording to the viewer failed.
     #[error("recording: {0}")]

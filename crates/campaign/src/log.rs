@@ -377,7 +377,13 @@ pub fn split_by_stage<'a>(
                 ),
             ));
         }
-        if n > 0 && (told as u64) < stage.iterations && at + n < lines.len() {
+        // A stage with a cost budget is complete once its runs have cost it (the stage asks
+        // until then, and its last trials in flight are told too); otherwise at its trials.
+        let complete = match stage.spend {
+            Some(budget) => lines[at..at + n].iter().map(LogLine::cost).sum::<f64>() >= budget,
+            None => told as u64 >= stage.iterations,
+        };
+        if n > 0 && !complete && at + n < lines.len() {
             return Err(bad(
                 at + n,
                 format!(

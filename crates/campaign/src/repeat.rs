@@ -199,7 +199,10 @@ impl<'f> Repeated<'f> {
             let stopped = CampaignError::Stopped {
                 stage: "its first stage (not started)".into(),
                 told: 0,
-                iterations: p.stages().first().map_or(0, |s| s.iterations),
+                planned: p
+                    .stages()
+                    .first()
+                    .map_or("0 trials".into(), crate::stage::Stage::planned),
             };
             return Err(self.in_seed(p.seed, stopped));
         }

@@ -119,6 +119,15 @@ impl std::fmt::Display for Compact {
 }
 
 impl Stage {
+    /// What the stage runs, for people: `300 trials`, or with a cost budget `trials until
+    /// 4e10 of cost are spent` (numbers as [`Compact`] writes them).
+    pub fn planned(&self) -> String {
+        match self.spend {
+            Some(budget) => format!("trials until {} of cost are spent", Compact(budget)),
+            None => format!("{} trials", self.iterations),
+        }
+    }
+
     /// The kernel phase its trials are asked in.
     pub fn phase(&self) -> savme_kernel::Phase {
         use savme_kernel::Phase;

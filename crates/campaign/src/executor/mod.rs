@@ -370,7 +370,7 @@ impl StageRun<'_, '_, '_> {
         CampaignError::Stopped {
             stage: self.label.clone(),
             told: told as u64,
-            iterations: self.cx.stage.iterations,
+            planned: self.cx.stage.planned(),
         }
     }
 
