@@ -56,8 +56,13 @@ impl<'a> StageKernels<'a> {
             test: None,
         };
         let seed_of = |kind, budget| StageId::new(kind, budget).to_string();
+        // The baselines are random search: scenarios from p(s) whatever the allocation.
+        let uniform = savme_kernel::Allocation::Weights;
         let baseline = seed_of(StageKind::BaselineTrain, None);
-        let mut kernels = vec![k.builder(&train, 1.0, &baseline).build()?];
+        let mut kernels = vec![k
+            .builder(&train, 1.0, &baseline)
+            .allocation(uniform)
+            .build()?];
         for &b in &protocol.budgets {
             kernels.push(
                 k.builder(&train, b, &seed_of(StageKind::Train, Some(b)))
@@ -65,7 +70,11 @@ impl<'a> StageKernels<'a> {
             );
         }
         let baseline = seed_of(StageKind::BaselineTest, None);
-        kernels.push(k.builder(&k.test_spaces, 1.0, &baseline).build()?);
+        kernels.push(
+            k.builder(&k.test_spaces, 1.0, &baseline)
+                .allocation(uniform)
+                .build()?,
+        );
         k.kernels = kernels;
         // The meta-testing kernels are built per stage; build one now to check them too.
         k.test_kernel(StageKind::TestUniform, protocol.budgets[0], None)?;
@@ -133,6 +142,36 @@ impl<'a> StageKernels<'a> {
                 let kernel = self.test_kernel(kind, b.unwrap_or(1.0), stage.strength)?;
                 Ok(self.test.insert(kernel))
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{self, Overrides};
+    use crate::Method;
+
+    #[test]
+    fn the_baselines_draw_scenarios_from_p_s_whatever_the_allocation() {
+        let over = Overrides {
+            method: Some(Method::Tuned),
+            ..Overrides::default()
+        };
+        let (p, problem) = config::toy(config::TOY, &over).expect("toy protocol");
+        let mut kernels = StageKernels::new(&p, &problem).expect("kernels");
+        for stage in p.stages() {
+            let k = kernels.for_stage(&stage).expect("a kernel");
+            let baseline = matches!(
+                stage.kind,
+                StageKind::BaselineTrain | StageKind::BaselineTest
+            );
+            assert_eq!(
+                k.config().allocation.is_weights(),
+                baseline,
+                "{}",
+                stage.label()
+            );
         }
     }
 }
