@@ -11,7 +11,7 @@
 
 use savme_campaign::estimate::EstimateSummary;
 use savme_campaign::report::failures::FoundFailure;
-use savme_kernel::{Assignment, Domain, Scale, Value};
+use savme_kernel::{Assignment, Domain, Value};
 use schemars::JsonSchema;
 use serde::Serialize;
 
@@ -132,7 +132,7 @@ pub struct Parameter {
     pub name: String,
     /// Its values.
     #[serde(flatten)]
-    pub domain: Values,
+    pub domain: Domain,
     /// Its unit (`m/s`, `m/s²`, `m`, `s`; empty when it has none).
     pub unit: String,
 }
@@ -153,67 +153,11 @@ pub struct Setting {
     pub name: String,
     /// Its values.
     #[serde(flatten)]
-    pub domain: Values,
+    pub domain: Domain,
     /// Its unit (`Hz`, `m`; null when it has none).
     pub unit: Option<String>,
     /// Its high-fidelity value θ_HF (null: none).
     pub hf: Option<Value>,
-}
-
-/// The values a variable takes, as the kernel writes a variable's domain.
-#[derive(Debug, Serialize, JsonSchema)]
-#[serde(tag = "type", rename_all = "lowercase")]
-pub enum Values {
-    /// A finite list of values (numbers, booleans or labels).
-    Discrete {
-        /// The values, in order.
-        values: Vec<Value>,
-    },
-    /// A real interval `[lo, hi]` cut into `bins` bins.
-    Continuous {
-        /// Lower bound (inclusive).
-        lo: f64,
-        /// Upper bound (inclusive).
-        hi: f64,
-        /// Number of bins.
-        bins: u32,
-        /// `linear`: bins of equal width; `log`: bins of equal ratio.
-        scale: BinScale,
-    },
-}
-
-/// How a continuous variable's bins are cut.
-#[derive(Debug, Clone, Copy, Serialize, JsonSchema)]
-#[serde(rename_all = "lowercase")]
-pub enum BinScale {
-    /// Bins of equal width.
-    Linear,
-    /// Bins of equal ratio.
-    Log,
-}
-
-impl From<&Domain> for Values {
-    fn from(d: &Domain) -> Self {
-        match d {
-            Domain::Discrete { values } => Values::Discrete {
-                values: values.clone(),
-            },
-            Domain::Continuous {
-                lo,
-                hi,
-                bins,
-                scale,
-            } => Values::Continuous {
-                lo: *lo,
-                hi: *hi,
-                bins: *bins,
-                scale: match scale {
-                    Scale::Linear => BinScale::Linear,
-                    Scale::Log => BinScale::Log,
-                },
-            },
-        }
-    }
 }
 
 /// The schema of `T`'s JSON (what savme writes, 2020-12 draft), as a JSON value.

@@ -25,6 +25,7 @@ use std::sync::Arc;
 
 /// How a continuous variable is cut into bins.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(rename_all = "lowercase")]
 pub enum Scale {
     /// Bins of equal width; values uniform inside a bin.
@@ -35,6 +36,7 @@ pub enum Scale {
 
 /// The values a variable may take.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(tag = "type", rename_all = "lowercase")]
 pub enum Domain {
     /// A finite list of values (numbers, booleans or labels); one arm each.

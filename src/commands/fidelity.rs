@@ -29,7 +29,7 @@ fn fidelity_json() -> json::FidelityList {
         .iter()
         .map(|v| json::Setting {
             name: v.name.to_string(),
-            domain: (&v.domain).into(),
+            domain: v.domain.clone(),
             unit: fidelity::unit(&v.name).map(str::to_owned),
             hf: hf.get(&v.name).cloned(),
         })

@@ -72,7 +72,7 @@ fn scenarios_json() -> json::ScenarioList {
                 .iter()
                 .map(|v| json::Parameter {
                     name: v.name.to_string(),
-                    domain: (&v.domain).into(),
+                    domain: v.domain.clone(),
                     unit: scenario::unit(&v.name).to_string(),
                 })
                 .collect(),
