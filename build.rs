@@ -38,6 +38,22 @@ fn commit() -> String {
     sha
 }
 
+/// Where cargo writes the bundled simulator's FMU library (savme-sim-fmu's `cdylib`, built by
+/// the same rustc run as the `rlib` the binary links): `deps/` of this profile's directory, three
+/// levels above `OUT_DIR` (`<profile>/build/savme-<hash>/out`). The binary embeds it
+/// (`savme_embed::embed_built!`), so that `savme fmu pack` works from a lone copy.
+fn sim_fmu_library() -> Option<String> {
+    let out = std::path::PathBuf::from(std::env::var_os("OUT_DIR")?);
+    let deps = out.ancestors().nth(3)?.join("deps");
+    let os = std::env::var("CARGO_CFG_TARGET_OS").unwrap_or_default();
+    let name = match os.as_str() {
+        "windows" => "savme_sim_fmu.dll",
+        "macos" | "ios" => "libsavme_sim_fmu.dylib",
+        _ => "libsavme_sim_fmu.so",
+    };
+    Some(deps.join(name).to_str()?.to_string())
+}
+
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     let mut features: Vec<String> = std::env::vars()
@@ -51,5 +67,8 @@ fn main() {
         features.join(", ")
     };
     println!("cargo:rustc-env=SAVME_COMMIT={}", commit());
+    if let Some(path) = sim_fmu_library() {
+        println!("cargo:rustc-env=SAVME_SIM_FMU_EMBED={path}");
+    }
     println!("cargo:rustc-env=SAVME_FEATURES={features}");
 }

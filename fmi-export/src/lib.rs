@@ -76,7 +76,8 @@ pub use instance::{
 };
 pub use model::{Causality, Kind, Model, Scalar, Variable};
 pub use pack::{
-    pack, pack_bytes, pack_with, platform_folder, platform_tuple, FmiVersion, PackError,
+    pack, pack_bytes, pack_library_bytes, pack_with, platform_folder, platform_tuple, FmiVersion,
+    PackError,
 };
 pub use state::{free_state, get_state, set_state};
 pub use status::{last_successful_time, terminated, unsupported};

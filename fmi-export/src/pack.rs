@@ -119,12 +119,29 @@ pub fn pack_bytes(
     files: &[(&str, &[u8])],
 ) -> Result<Vec<u8>, PackError> {
     let lib = std::fs::read(library).map_err(io_error(library))?;
+    pack_library_bytes(model_description, identifier, &lib, files)
+}
+
+/// [`pack_bytes`] with the library given as bytes (e.g. embedded in the program that packs).
+///
+/// ```
+/// let bytes = savme_fmi_export::pack_library_bytes("<fmiModelDescription …/>", "model",
+///     b"\x7fELF (a shared library)", &[])?;
+/// assert!(bytes.starts_with(b"PK"));
+/// # Ok::<(), savme_fmi_export::PackError>(())
+/// ```
+pub fn pack_library_bytes(
+    model_description: &str,
+    identifier: &str,
+    library: &[u8],
+    files: &[(&str, &[u8])],
+) -> Result<Vec<u8>, PackError> {
     let cursor = std::io::Cursor::new(Vec::new());
     let written = write_archive(
         cursor,
         model_description,
         identifier,
-        &lib,
+        library,
         files,
         "the .fmu archive",
     )?;

@@ -16,7 +16,7 @@ pub enum Command {
         #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u8).range(2..=3))]
         fmi: u8,
         /// The simulator's shared library (libsavme_sim_fmu.so) [default: $SAVME_SIM_FMU_LIBRARY,
-        /// else found beside this binary: next to it or in ../lib/savme/; see docs/INSTALL.md].
+        /// else the one built into this binary].
         #[arg(long)]
         library: Option<PathBuf>,
     },
@@ -144,24 +144,60 @@ fn library_problems(file: &Path) -> Result<Vec<String>, String> {
 /// The environment variable that names the bundled simulator's FMU library.
 pub const LIBRARY_VAR: &str = "SAVME_SIM_FMU_LIBRARY";
 
-/// Where the bundled simulator's FMU library is: given (`--library`), named by
-/// `SAVME_SIM_FMU_LIBRARY`, or installed beside the savme binary — next to it (cargo builds it
-/// there as `deps/libsavme_sim_fmu.so`) or in `../lib/savme/` (the layout docs/INSTALL.md
-/// describes for an installed binary: `PREFIX/bin/savme`, `PREFIX/lib/savme/`).
-fn find_library(given: Option<&Path>) -> Result<PathBuf, String> {
-    let named = |p: &Path, by: &str| {
-        if p.is_file() {
-            Ok(p.to_path_buf())
-        } else {
-            Err(format!("{}: no such library ({by})", p.display()))
+/// The bundled simulator's FMU library, built by cargo with this binary and embedded in it
+/// (`None` only in a build without it, e.g. under `cargo check`).
+const EMBEDDED_LIBRARY: Option<&[u8]> = savme_embed::embed_built!("SAVME_SIM_FMU_EMBED");
+
+/// The library `savme fmu pack` puts into the FMU: a file given by `--library` or
+/// `SAVME_SIM_FMU_LIBRARY`, else the one embedded in this binary.
+enum Library {
+    File(PathBuf),
+    Embedded(&'static [u8]),
+}
+
+impl Library {
+    /// Given (`--library`), named by `SAVME_SIM_FMU_LIBRARY`, else embedded in the binary; a
+    /// binary built without it (only `cargo check` builds one) looks beside itself — next to
+    /// it (cargo builds it there as `deps/libsavme_sim_fmu.so`) or in `../lib/savme/`.
+    fn find(given: Option<&Path>) -> Result<Library, String> {
+        let named = |p: &Path, by: &str| {
+            if p.is_file() {
+                Ok(Library::File(p.to_path_buf()))
+            } else {
+                Err(format!("{}: no such library ({by})", p.display()))
+            }
+        };
+        if let Some(p) = given {
+            return named(p, "--library");
         }
-    };
-    if let Some(p) = given {
-        return named(p, "--library");
+        if let Some(p) = std::env::var_os(LIBRARY_VAR).filter(|v| !v.is_empty()) {
+            return named(Path::new(&p), LIBRARY_VAR);
+        }
+        match EMBEDDED_LIBRARY {
+            Some(bytes) => Ok(Library::Embedded(bytes)),
+            None => beside_binary().map(Library::File),
+        }
     }
-    if let Some(p) = std::env::var_os(LIBRARY_VAR).filter(|v| !v.is_empty()) {
-        return named(Path::new(&p), LIBRARY_VAR);
+
+    fn bytes(&self) -> Result<std::borrow::Cow<'static, [u8]>, String> {
+        match self {
+            Library::Embedded(b) => Ok((*b).into()),
+            Library::File(p) => std::fs::read(p)
+                .map(Into::into)
+                .map_err(|e| format!("{}: {e}", p.display())),
+        }
     }
+
+    fn describe(&self) -> String {
+        match self {
+            Library::Embedded(_) => "embedded in this binary".to_string(),
+            Library::File(p) => p.display().to_string(),
+        }
+    }
+}
+
+/// The library installed beside the binary (only a build without the embedded one looks).
+fn beside_binary() -> Result<PathBuf, String> {
     let name = format!(
         "{}{}{}",
         std::env::consts::DLL_PREFIX,
@@ -177,35 +213,41 @@ fn find_library(given: Option<&Path>) -> Result<PathBuf, String> {
         dir.join("..").join(&name),
         installed.join(&name),
     ];
-    candidates.iter().find(|p| p.is_file()).cloned().ok_or_else(|| {
-        format!(
-            "the bundled simulator's FMU library {name} is not installed beside {} (looked in {}); \
-             `cargo install` installs only the binary: build the library with `cargo build --release \
-             -p savme-sim-fmu` and copy target/release/{name} to {}, or give --library PATH \
-             (or set {LIBRARY_VAR}) — docs/INSTALL.md",
+    candidates
+        .iter()
+        .find(|p| p.is_file())
+        .cloned()
+        .ok_or_else(|| {
+            format!(
+            "this savme was built without the bundled simulator's FMU library, and {name} is not \
+             beside {} (looked in {}): give --library PATH (or set {LIBRARY_VAR}), or build \
+             savme with `cargo build --release` — docs/INSTALL.md",
             exe.display(),
             candidates
                 .iter()
                 .map(|p| p.display().to_string())
                 .collect::<Vec<_>>()
                 .join(", "),
-            installed.display()
         )
-    })
+        })
 }
 
 /// Writes the bundled simulator as an `.fmu` of FMI version `fmi` (2 or 3): the same library
 /// (it exports both C APIs) with that version's model description.
 fn pack(out: &Path, library: Option<&Path>, fmi: u8) -> Result<String, String> {
-    let lib = find_library(library)?;
+    let lib = Library::find(library)?;
     let description = if fmi == 3 {
         savme_sim_fmu::model_description3()
     } else {
         savme_sim_fmu::model_description()
     };
-    let archive =
-        savme_fmi_export::pack_bytes(&description, savme_sim_fmu::MODEL_IDENTIFIER, &lib, &[])
-            .map_err(|e| e.to_string())?;
+    let archive = savme_fmi_export::pack_library_bytes(
+        &description,
+        savme_sim_fmu::MODEL_IDENTIFIER,
+        &lib.bytes()?,
+        &[],
+    )
+    .map_err(|e| e.to_string())?;
     // Never through a link at `out` (a symbolic link, or a file other names share): refused,
     // naming the path, and whatever it points at left unchanged.
     savme::store::safe_file::write_file(out, &archive)
@@ -213,7 +255,7 @@ fn pack(out: &Path, library: Option<&Path>, fmi: u8) -> Result<String, String> {
     Ok(format!(
         "wrote {} (FMI {fmi}.0, library {})\n",
         out.display(),
-        lib.display()
+        lib.describe()
     ))
 }
 
