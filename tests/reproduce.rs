@@ -787,3 +787,55 @@ fn the_protocol_is_the_stores_first_record_and_old_stores_without_it_still_resum
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
+/// `--log-bins paper` (issue 39 item 4): the bundled simulator's log-scaled settings are binned
+/// as the authors' code bins them — every θ of a continuous log-scaled setting in trials.jsonl
+/// lies in a bin `[lo − 1 + (hi − lo + 1)^(k/n), …]`, and fidelity.md shows those bins — the
+/// choice is stored in protocol.json (so a resume keeps it), and savme's bins stay the default.
+#[test]
+fn log_bins_paper_bins_log_settings_as_the_authors_code() {
+    let dir = temp_dir("log-bins");
+    let (ok, _, err) = reproduce(&dir, &["--log-bins", "paper", "--fidelity-bins", "4"]);
+    assert!(ok, "{err}");
+    let protocol: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("protocol.json")).unwrap()).unwrap();
+    assert_eq!(protocol["log_bins"], "paper");
+    // camera_near_clipping_m on [0.2, 20] in 4 bins: the authors' edges.
+    let edges: Vec<f64> = (0..=4)
+        .map(|k| 0.2 - 1.0 + 20.8f64.powf(f64::from(k) / 4.0))
+        .collect();
+    let fidelity = std::fs::read_to_string(dir.join("fidelity.md")).unwrap();
+    let row = fidelity
+        .lines()
+        .find(|l| l.starts_with("| camera_near_clipping_m"))
+        .unwrap();
+    assert!(
+        edges
+            .windows(2)
+            .any(|w| row.contains(&format!("[{}, {}]", shown(w[0]), shown(w[1])))),
+        "{row} names none of the authors' bins {edges:?}"
+    );
+    let mut seen = 0;
+    for line in trial_lines(&dir) {
+        let Some(x) = line["theta_lf"]["camera_near_clipping_m"].as_f64() else {
+            continue;
+        };
+        assert!((0.2..=20.0).contains(&x), "{x}");
+        seen += 1;
+    }
+    assert!(seen > 0, "no θ with camera_near_clipping_m in trials.jsonl");
+    // The default: savme's bins (equal ratios), not written into protocol.json.
+    let plain = temp_dir("log-bins-savme");
+    assert!(reproduce(&plain, &["--fidelity-bins", "4"]).0);
+    let text = std::fs::read_to_string(plain.join("protocol.json")).unwrap();
+    assert!(!text.contains("log_bins"), "{text}");
+    for d in [dir, plain] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// A bin edge as fidelity.md prints it (three significant digits).
+fn shown(x: f64) -> String {
+    let digits = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}

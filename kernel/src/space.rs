@@ -7,9 +7,10 @@
 //! value inside the bin uniformly (linear) or log-uniformly (log), as the SAVME paper describes.
 //!
 //! **Log scale** needs a strictly positive range (`0 < lo < hi`): the paper's log-scaled settings
-//! (view distance 10–5000 m, clipping distances 0.2–20 m) are all positive, and a shifted log
-//! would make "log-uniform within a bin" depend on an arbitrary shift. Shift the variable
-//! yourself if you need a range that touches zero.
+//! (view distance 10–5000 m, clipping distances 0.2–20 m) are all positive. The authors' code
+//! bins a log-scaled variable differently — equally in `ln(x − lo + 1)`, with a shift of its own
+//! inside each bin — which is [`Scale::ShiftedLog`]: any range, the paper's code's numbers
+//! (docs/RESULTS.md, "Log bins").
 //!
 //! **Bins are half-open**, `[e_k, e_{k+1})`, except the last, which also holds `hi`. A value on an
 //! inner edge belongs to the upper bin.
@@ -32,6 +33,40 @@ pub enum Scale {
     Linear,
     /// Bins of equal ratio (`hi_k / lo_k` constant); values log-uniform inside a bin.
     Log,
+    /// The authors' SAVME code's log bins (`bin_edge_type = "log"`): edges equally spaced in
+    /// `ln(x − lo + 1)`, so `e_k = lo − 1 + (hi − lo + 1)^(k/bins)`, and inside bin `[a, b]`
+    /// `x − a + 1` log-uniform on `[1, 1 + b − a]`. Any range (it may touch or cross 0); bins
+    /// narrower near `lo` than [`Scale::Log`]'s on a range with `lo` far from 1. `savme
+    /// reproduce --log-bins paper` uses it for the bundled simulator's log-scaled settings.
+    #[serde(rename = "shifted-log")]
+    #[cfg_attr(feature = "schema", schemars(rename = "shifted-log"))]
+    ShiftedLog,
+}
+
+impl Scale {
+    /// The name a space file, the campaign file and Python give the scale: `linear`, `log`,
+    /// `shifted-log`.
+    ///
+    /// ```
+    /// use savme_kernel::Scale;
+    /// assert_eq!(Scale::ShiftedLog.name(), "shifted-log");
+    /// assert_eq!(Scale::from_name("log"), Some(Scale::Log));
+    /// assert_eq!(Scale::from_name("cubic"), None);
+    /// ```
+    pub fn name(self) -> &'static str {
+        match self {
+            Scale::Linear => "linear",
+            Scale::Log => "log",
+            Scale::ShiftedLog => "shifted-log",
+        }
+    }
+
+    /// The scale named `name` ([`Scale::name`]), if any.
+    pub fn from_name(name: &str) -> Option<Scale> {
+        [Scale::Linear, Scale::Log, Scale::ShiftedLog]
+            .into_iter()
+            .find(|s| s.name() == name)
+    }
 }
 
 /// The values a variable may take.
@@ -235,6 +270,11 @@ impl Variable {
                         (lo + t * (hi - lo)).clamp(a, b)
                     }
                     Scale::Log => lo * (t * log_span).exp(),
+                    Scale::ShiftedLog => {
+                        let (a, b) = self.bin(arm).expect("arm of this variable");
+                        // x − a + 1 log-uniform on [1, 1 + b − a].
+                        (a + (u * (b - a).ln_1p()).exp_m1()).clamp(a, b)
+                    }
                 };
                 Value::Real(x.clamp(*lo, *hi))
             }
@@ -242,7 +282,8 @@ impl Variable {
     }
 
     /// The value that stands for `arm` at evaluation: the discrete value, or the expected value
-    /// of the bin under its scale — the midpoint (linear) or `(b − a) / ln(b / a)` (log).
+    /// of the bin under its scale — the midpoint (linear), `(b − a) / ln(b / a)` (log) or
+    /// `a − 1 + (b − a) / ln(1 + b − a)` (shifted-log).
     ///
     /// # Panics
     /// If `arm >= self.arms()`.
@@ -254,8 +295,34 @@ impl Variable {
                 Value::Real(match scale {
                     Scale::Linear => 0.5 * (a + b),
                     Scale::Log => (b - a) / (b / a).ln(),
+                    // The mean of a − 1 + y, y log-uniform on [1, 1 + b − a] (the authors' MAP
+                    // value).
+                    Scale::ShiftedLog => (a - 1.0 + (b - a) / (b - a).ln_1p()).clamp(a, b),
                 })
             }
+        }
+    }
+
+    /// The density of `x` when bin `arm` draws it ([`Variable::draw_in_arm`]): uniform (linear),
+    /// log-uniform (log) or `x − a + 1` log-uniform on `[1, 1 + b − a]` (shifted-log) over the
+    /// bin `[a, b]`; 1 for a discrete variable's value.
+    ///
+    /// ```
+    /// use savme_kernel::{Scale, Value, Variable};
+    /// let v = Variable::continuous("x", 0.0, 10.0, 5, Scale::Linear);
+    /// assert!((v.in_bin_density(1, &Value::Real(3.0)) - 0.5).abs() < 1e-12);
+    /// ```
+    pub fn in_bin_density(&self, arm: usize, x: &Value) -> f64 {
+        match (&self.domain, self.bin(arm)) {
+            (Domain::Continuous { scale, .. }, Some((a, b))) => {
+                let x = x.as_f64().unwrap_or(f64::NAN);
+                match scale {
+                    Scale::Linear => 1.0 / (b - a),
+                    Scale::Log => 1.0 / (x * (b / a).ln()),
+                    Scale::ShiftedLog => 1.0 / ((x - a + 1.0) * (b - a).ln_1p()),
+                }
+            }
+            _ => 1.0,
         }
     }
 
@@ -285,6 +352,7 @@ impl Variable {
                 let frac = match scale {
                     Scale::Linear => (x - lo) / (hi - lo),
                     Scale::Log => (x / lo).ln() / (hi / lo).ln(),
+                    Scale::ShiftedLog => (x - lo).ln_1p() / (hi - lo).ln_1p(),
                 };
                 let n = *bins as usize;
                 let mut k = ((frac * n as f64).floor() as usize).min(n - 1);
@@ -414,6 +482,12 @@ fn representable(lo: f64, hi: f64, bins: u32, scale: Scale) -> bool {
     match scale {
         Scale::Linear => usable((hi - lo) / bins),
         Scale::Log => (hi / lo).is_finite() && usable((hi / lo).ln() / bins),
+        // The narrowest bin is the first: (hi − lo + 1)^(1 / bins) − 1 wide.
+        Scale::ShiftedLog => {
+            (hi - lo).is_finite()
+                && usable(((hi - lo).ln_1p() / bins).exp_m1())
+                && lo + ((hi - lo).ln_1p() / bins).exp_m1() > lo
+        }
     }
 }
 
@@ -429,6 +503,7 @@ fn edge(lo: f64, hi: f64, bins: u32, scale: Scale, k: usize) -> f64 {
     match scale {
         Scale::Linear => lo + t * (hi - lo),
         Scale::Log => (lo.ln() + t * (hi.ln() - lo.ln())).exp(),
+        Scale::ShiftedLog => lo + (t * (hi - lo).ln_1p()).exp_m1(),
     }
 }
 
@@ -615,6 +690,34 @@ impl Space {
         })
     }
 
+    /// This space with every log-scaled variable ([`Scale::Log`]) cut as `scale` instead — e.g.
+    /// [`Scale::ShiftedLog`], the authors' code's bins; the other variables unchanged.
+    ///
+    /// ```
+    /// use savme_kernel::{Scale, Space, Variable};
+    /// let s = Space::new(vec![Variable::continuous("view_m", 10.0, 5000.0, 10, Scale::Log)])?;
+    /// let paper = s.with_log_scale(Scale::ShiftedLog)?;
+    /// assert_eq!(paper.variables()[0].bin(0).unwrap().0, 10.0);
+    /// assert_ne!(paper.variables()[0].bin(0), s.variables()[0].bin(0));
+    /// # Ok::<(), savme_kernel::SpaceError>(())
+    /// ```
+    pub fn with_log_scale(&self, scale: Scale) -> Result<Space, SpaceError> {
+        let vars = self
+            .vars
+            .iter()
+            .map(|v| match v.domain {
+                Domain::Continuous {
+                    lo,
+                    hi,
+                    bins,
+                    scale: Scale::Log,
+                } => Variable::continuous(&v.name, lo, hi, bins, scale),
+                _ => v.clone(),
+            })
+            .collect();
+        Space::new(vars)
+    }
+
     /// The variables, in order.
     pub fn variables(&self) -> &[Variable] {
         &self.vars
@@ -694,7 +797,8 @@ impl Space {
     }
 
     /// The position of every variable of `phi` in the unit cube along its scale: a continuous
-    /// value at `(x − lo) / (hi − lo)` (linear) or `ln(x / lo) / ln(hi / lo)` (log), a
+    /// value at `(x − lo) / (hi − lo)` (linear), `ln(x / lo) / ln(hi / lo)` (log) or
+    /// `ln(1 + x − lo) / ln(1 + hi − lo)` (shifted-log), a
     /// discrete value at the centre of its arm's slice `(arm + ½) / n`. `arms` are the arms of
     /// `phi` (one per variable, as drawn).
     pub(crate) fn unit_of(&self, phi: &Assignment, arms: &[u16]) -> Vec<f64> {
@@ -708,6 +812,7 @@ impl Space {
                         let t = match scale {
                             Scale::Linear => (x - lo) / (hi - lo),
                             Scale::Log => (x / lo).ln() / (hi / lo).ln(),
+                            Scale::ShiftedLog => (x - lo).ln_1p() / (hi - lo).ln_1p(),
                         };
                         if t.is_finite() {
                             t.clamp(0.0, 1.0)
@@ -744,6 +849,7 @@ impl Space {
                         match scale {
                             Scale::Linear => lo + t * (hi - lo),
                             Scale::Log => lo * (t * span).exp(),
+                            Scale::ShiftedLog => lo + (t * (hi - lo).ln_1p()).exp_m1(),
                         }
                         .clamp(*lo, *hi),
                     ),

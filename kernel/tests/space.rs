@@ -261,3 +261,74 @@ fn a_value_that_is_no_number_for_a_continuous_variable_is_named_as_such() {
         .unwrap_err();
     assert!(matches!(e, SpaceError::OutOfSpace { .. }), "{e}");
 }
+
+/// The authors' SAVME code's log bins (`Variable(bin_edge_type="log")`): edges
+/// `lo − 1 + (hi − lo + 1)^(k/n)`, inside a bin `[a, b]` the value `a − 1 + y` with `y`
+/// log-uniform on `[1, 1 + b − a]`, and its mean as the MAP value. The expected numbers are the
+/// authors' formulas evaluated in Python (numpy's `10 ** linspace(...) − 1 + lo`).
+#[test]
+fn shifted_log_bins_are_the_authors_code_s() {
+    let v = Variable::continuous("near_clipping_m", 0.2, 20.0, 5, Scale::ShiftedLog);
+    let authors = [
+        0.2,
+        1.034901125220996,
+        2.566862139337278,
+        5.377859127933941,
+        10.53576066530279,
+        20.0,
+    ];
+    for arm in 0..5 {
+        let (a, b) = v.bin(arm).unwrap();
+        assert!((a - authors[arm]).abs() < 1e-12, "edge {arm}: {a}");
+        assert!(
+            (b - authors[arm + 1]).abs() < 1e-12,
+            "edge {}: {b}",
+            arm + 1
+        );
+        assert_eq!(v.arm_of(&real(a)), Some(arm), "edge {arm} opens its bin");
+    }
+    // The authors' get_map() value of bin 2.
+    let Value::Real(m) = v.representative(2) else {
+        panic!()
+    };
+    assert!((m - 3.667928177001919).abs() < 1e-12, "representative {m}");
+    // Draws: in their bin, x − a + 1 log-uniform on [1, 1 + b − a] (median √(1 + b − a)).
+    let mut rng = Pcg64::seed_from_u64(11);
+    let (a, b) = v.bin(4).unwrap();
+    let median = a - 1.0 + (1.0 + b - a).sqrt();
+    let n = 20_000;
+    let mut below = 0;
+    for _ in 0..n {
+        let x = v.draw_in_arm(4, &mut rng);
+        assert_eq!(v.arm_of(&x), Some(4));
+        below += usize::from(x.as_f64().unwrap() < median);
+    }
+    let share = below as f64 / n as f64;
+    assert!((share - 0.5).abs() < 0.02, "share below the median {share}");
+    // The in-bin density integrates to 1 (midpoint rule).
+    let steps = 100_000;
+    let h = (b - a) / steps as f64;
+    let mass: f64 = (0..steps)
+        .map(|i| v.in_bin_density(4, &real(a + (i as f64 + 0.5) * h)) * h)
+        .sum();
+    assert!((mass - 1.0).abs() < 1e-6, "mass {mass}");
+}
+
+/// A shifted-log variable may touch or cross 0 (a log-scaled one may not), serialises as
+/// "shifted-log", and an unrepresentable range is refused as for the other scales.
+#[test]
+fn shifted_log_takes_any_range_and_round_trips() {
+    let v = Variable::continuous("offset", -5.0, 100.0, 4, Scale::ShiftedLog);
+    let space = Space::new(vec![v.clone()]).unwrap();
+    let json = serde_json::to_string(&space).unwrap();
+    assert!(json.contains("\"scale\":\"shifted-log\""), "{json}");
+    let back: Space = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, space);
+    assert!(Space::new(vec![Variable::continuous("z", 0.0, 1.0, 3, Scale::Log)]).is_err());
+    let huge = Variable::continuous("h", -1e308, 1e308, 3, Scale::ShiftedLog);
+    assert!(matches!(
+        Space::new(vec![huge]),
+        Err(SpaceError::RangeNotRepresentable { .. })
+    ));
+    assert_eq!(Scale::from_name("shifted-log"), Some(Scale::ShiftedLog));
+}

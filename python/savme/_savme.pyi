@@ -58,7 +58,7 @@ class Variable:
     def values(self) -> Optional[List[_Value]]:
         """A discrete variable's values, in arm order (None for a continuous one)."""
     @property
-    def range(self) -> Optional[Tuple[float, float, int, Literal["linear", "log"]]]:
+    def range(self) -> Optional[Tuple[float, float, int, Literal["linear", "log", "shifted-log"]]]:
         """A continuous variable's (lo, hi, bins, scale) (None for a discrete one)."""
 
 def Discrete(name: str, values: Sequence[_Value]) -> Variable:
@@ -70,7 +70,7 @@ def Boolean(name: str) -> Variable:
     """A boolean variable: arms False and True."""
 
 def Continuous(
-    name: str, lo: float, hi: float, bins: int = 10, scale: Literal["linear", "log"] = "linear"
+    name: str, lo: float, hi: float, bins: int = 10, scale: Literal["linear", "log", "shifted-log"] = "linear"
 ) -> Variable:
     """A continuous variable on [lo, hi] cut into `bins` arms of equal width ("linear") or
     equal ratio ("log", needs 0 < lo). Values are drawn uniformly (log-uniformly) in a bin.
@@ -447,6 +447,7 @@ class Protocol:
         baseline_test_iterations: Optional[int] = None,
         cost: Optional[Literal["wall", "work"]] = None,
         fidelity_bins: Optional[int] = None,
+        log_bins: Optional[Literal["savme", "paper"]] = None,
         prior_strength: Optional[float] = None,
         window: Optional[int] = None,
         prior_strengths: Optional[Sequence[float]] = None,

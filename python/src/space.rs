@@ -101,10 +101,7 @@ impl PyVariable {
 }
 
 fn scale_name(s: Scale) -> &'static str {
-    match s {
-        Scale::Linear => "linear",
-        Scale::Log => "log",
-    }
+    s.name()
 }
 
 /// A discrete variable: one arm per value (bools, ints, floats or strings).
@@ -136,14 +133,10 @@ pub fn boolean(name: &str) -> PyResult<PyVariable> {
 #[pyfunction]
 #[pyo3(name = "Continuous", signature = (name, lo, hi, bins = 10, scale = "linear"))]
 pub fn continuous(name: &str, lo: f64, hi: f64, bins: u32, scale: &str) -> PyResult<PyVariable> {
-    let scale = match scale {
-        "linear" => Scale::Linear,
-        "log" => Scale::Log,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "continuous variable `{name}`: scale must be \"linear\" or \"log\", got {other:?}"
-            )))
-        }
+    let Some(scale) = Scale::from_name(scale) else {
+        return Err(PyValueError::new_err(format!(
+            "continuous variable `{name}`: scale must be \"linear\", \"log\" or \"shifted-log\", got {scale:?}"
+        )));
     };
     PyVariable::checked(Variable::continuous(name, lo, hi, bins, scale))
 }

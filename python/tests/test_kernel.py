@@ -186,7 +186,7 @@ def test_bad_spaces_and_configurations_name_the_variable_or_scenario():
         savme.Continuous("gap", 5, 5)
     with pytest.raises(ValueError, match="`gap` needs at least one bin"):
         savme.Continuous("gap", 1, 5, bins=0)
-    with pytest.raises(ValueError, match='continuous variable `gap`: scale must be "linear" or "log", got "cubic"'):
+    with pytest.raises(ValueError, match='continuous variable `gap`: scale must be "linear", "log" or "shifted-log", got "cubic"'):
         savme.Continuous("gap", 1, 5, scale="cubic")
     with pytest.raises(ValueError, match="discrete variable `rate` lists the value 2 twice"):
         savme.Discrete("rate", [2, 2])

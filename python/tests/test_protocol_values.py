@@ -26,6 +26,7 @@ SAMPLES = {
     "train_scenarios": ["lead_vehicle_brakes"],
     "test_scenarios": ["on_ramp_merge"],
     "fidelity_bins": 4,
+    "log_bins": "paper",
     "prior_strength": 0.5,
     "window": 2,
     "prior_strengths": [0.0, 0.3],

@@ -6,7 +6,7 @@
 //! a different P(failure) said nothing of.
 
 use super::{usage, Failure};
-use savme::kernel::{Domain, Scale, Space, Variable};
+use savme::kernel::{Domain, Space, Variable};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -112,11 +112,7 @@ fn range(v: &Variable) -> String {
             bins,
             scale,
         } => {
-            let scale = match scale {
-                Scale::Linear => "linear",
-                Scale::Log => "log",
-            };
-            format!("[{lo}, {hi}] in {bins} {scale} bins")
+            format!("[{lo}, {hi}] in {bins} {} bins", scale.name())
         }
         Domain::Discrete { values } => {
             let shown: Vec<String> = values.iter().take(8).map(|x| x.to_string()).collect();

@@ -18,7 +18,7 @@
 //! [fidelity]                     # paper = true, or variables:
 //! [[fidelity.variable]]
 //! name = "rate"                  # bound to the simulator variable `rate` unless fmu = "…"
-//! values = [2, 4, 10]            # or range = [lo, hi], bins = 10, scale = "linear" | "log"
+//! values = [2, 4, 10]            # or range = [lo, hi], bins = 10, scale = "linear" | "log" | "shifted-log"
 //! hf = 10                        # θ_HF
 //! # drives = "step_size"         # or "tolerance": the variable IS the step size (seconds) or
 //! #                              # the tolerance, bound to no simulator variable

@@ -55,6 +55,9 @@ pub(crate) enum ScaleSection {
     #[default]
     Linear,
     Log,
+    /// The authors' SAVME code's log bins (any range): `savme_kernel::Scale::ShiftedLog`.
+    #[serde(rename = "shifted-log")]
+    ShiftedLog,
 }
 
 /// A simulator variable named in the file, with the line and the key that name it.
@@ -241,6 +244,7 @@ fn continuous(v: &VarSection, [lo, hi]: [f64; 2]) -> Result<Variable, (Part, Str
     }
     let scale = match v.scale.as_ref().map(|s| *s.get_ref()).unwrap_or_default() {
         ScaleSection::Linear => Scale::Linear,
+        ScaleSection::ShiftedLog => Scale::ShiftedLog,
         ScaleSection::Log if lo > 0.0 => Scale::Log,
         ScaleSection::Log => {
             return Err((

@@ -149,7 +149,8 @@ impl<'o> Campaign<'o> {
         let custom_store = self.store.take();
         let p = &self.protocol;
         p.validate()?;
-        let mut kernels = StageKernels::new(p, &self.problem)?;
+        let problem = self.problem.binned_for(p)?;
+        let mut kernels = StageKernels::new(p, &problem)?;
         let files = Outputs::in_dir(&self.out);
         let (mut store, (logged, edited)) = self.open_store(&files, custom_store)?;
         let numbers: Vec<u64> = logged.iter().map(|(n, _)| *n).collect();
@@ -188,14 +189,15 @@ impl<'o> Campaign<'o> {
             .into());
         }
         drop(store);
-        self.write_outcome(files, &logged, &all_lines, clock)
+        self.write_outcome(files, &problem, &logged, &all_lines, clock)
     }
 
     /// The report and the output files of a campaign whose stages are done: `logged` were
-    /// replayed, `all_lines` are every stage's lines.
+    /// replayed, `all_lines` are every stage's lines; `problem` binned as the campaign ran it.
     fn write_outcome(
         &self,
         files: Outputs,
+        problem: &Problem,
         logged: &[LogLine],
         all_lines: &[LogLine],
         clock: Instant,
@@ -215,7 +217,7 @@ impl<'o> Campaign<'o> {
         let mut report = Report::from_trials(p, &trials);
         report.add_screening(&screened, &trials);
         let elapsed = clock.elapsed().as_secs_f64();
-        outputs::write(&report, &trials, failed, &files, &self.problem, elapsed)?;
+        outputs::write(&report, &trials, failed, &files, problem, elapsed)?;
         Ok(CampaignOutcome {
             ran: count(all_lines) - replayed,
             report,

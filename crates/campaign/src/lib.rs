@@ -54,7 +54,7 @@ pub use builder::Campaign;
 pub use error::{CampaignError, SimulationError};
 pub use observer::{Observer, ProgressBars, ProgressLines};
 pub use outputs::{load_protocol, Outputs};
-pub use protocol::{Allocate, Cost, Deploy, Method, OnError, Protocol, ScreenLf, Search};
+pub use protocol::{Allocate, Cost, Deploy, LogBins, Method, OnError, Protocol, ScreenLf, Search};
 pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;
 pub use stage::{Stage, StageId, StageKind};
@@ -92,6 +92,30 @@ pub struct Problem {
     pub theta_hf: savme_kernel::Assignment,
     /// Scenario parameter spaces φ by scenario name.
     pub scenarios: BTreeMap<String, Space>,
+}
+
+impl Problem {
+    /// The problem as `protocol` runs it: its log-scaled variables (fidelity settings and
+    /// scenario parameters) binned as `log_bins` says — unchanged with savme's bins.
+    pub fn binned_for(&self, protocol: &Protocol) -> Result<Problem, CampaignError> {
+        if protocol.log_bins == LogBins::Savme {
+            return Ok(self.clone());
+        }
+        let scale = protocol.log_bins.scale();
+        let bad = |e: savme_kernel::SpaceError| CampaignError::Protocol {
+            field: "log_bins".into(),
+            message: e.to_string(),
+        };
+        Ok(Problem {
+            fidelity: self.fidelity.with_log_scale(scale).map_err(bad)?,
+            theta_hf: self.theta_hf.clone(),
+            scenarios: self
+                .scenarios
+                .iter()
+                .map(|(name, s)| Ok((name.clone(), s.with_log_scale(scale).map_err(bad)?)))
+                .collect::<Result<_, CampaignError>>()?,
+        })
+    }
 }
 
 impl From<(Space, savme_kernel::Assignment, BTreeMap<String, Space>)> for Problem {

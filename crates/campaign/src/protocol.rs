@@ -159,6 +159,32 @@ impl Allocate {
     }
 }
 
+/// How log-scaled variables are cut into bins.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum LogBins {
+    /// savme's: bins of equal ratio, log-uniform inside (the kernel's log scale).
+    #[default]
+    Savme,
+    /// The authors' SAVME code's: edges equally spaced in ln(x − lo + 1), a shift of its own
+    /// inside each bin (the kernel's shifted-log scale).
+    Paper,
+}
+
+impl LogBins {
+    fn is_savme(&self) -> bool {
+        *self == LogBins::Savme
+    }
+
+    /// The scale log-scaled variables take.
+    pub fn scale(self) -> savme_kernel::Scale {
+        match self {
+            LogBins::Savme => savme_kernel::Scale::Log,
+            LogBins::Paper => savme_kernel::Scale::ShiftedLog,
+        }
+    }
+}
+
 /// What a campaign searches with before any other value is given: savme's search by cost
 /// (`savme run`, Python, `savme serve`'s example configuration) or the paper's SAVME (`savme
 /// reproduce`).
@@ -281,6 +307,9 @@ pub struct Protocol {
     /// is not written).
     #[serde(default, skip_serializing_if = "Deploy::is_frozen")]
     pub deployment: Deploy,
+    /// How log-scaled variables are binned (savme's, the default, is not written).
+    #[serde(default, skip_serializing_if = "LogBins::is_savme")]
+    pub log_bins: LogBins,
     /// Which screened trials run LF first (always, the paper's, is not written).
     #[serde(default, skip_serializing_if = "ScreenLf::is_always")]
     pub screen_lf: ScreenLf,
@@ -389,6 +418,7 @@ impl Protocol {
             pair_settle: default_settle(),
             deployment: Deploy::Frozen,
             screen_lf: ScreenLf::Always,
+            log_bins: LogBins::Savme,
             allocation: Allocate::Weights,
             coverage_floor: default_floor(),
             search_budget: None,

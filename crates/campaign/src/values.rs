@@ -25,7 +25,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{Allocate, CampaignError, Cost, Deploy, Method, Protocol, ScreenLf, Search};
+use super::{Allocate, CampaignError, Cost, Deploy, LogBins, Method, Protocol, ScreenLf, Search};
 use savme_kernel::EliteMixture;
 use serde::Deserialize;
 
@@ -210,6 +210,11 @@ protocol_values! {
     /// Bins per continuous fidelity setting.
     fidelity_bins: u32, flag = "fidelity-bins", aliases = [], stages = "all but the baselines",
         to = protocol;
+    /// How log-scaled variables (the bundled simulator's view and clipping distances) are cut
+    /// into bins: savme (equal ratios, log-uniform inside) or paper (the authors' code: equal
+    /// steps of ln(x − lo + 1), docs/RESULTS.md "Log bins").
+    log_bins: LogBins, flag = "log-bins", aliases = [], stages = "all", to = protocol,
+        cli(value_enum);
     /// Strength of the transferred fidelity prior in meta-testing (power prior; 1 = the
     /// meta-training posterior as is).
     prior_strength: f64, flag = "prior-strength", aliases = [], stages = "test-learned",
@@ -450,6 +455,7 @@ mod tests {
             pair_settle: 5,
             deployment: Deploy::Adaptive,
             screen_lf: ScreenLf::WhereItPays,
+            log_bins: LogBins::Paper,
             allocation: Allocate::CostRate,
             coverage_floor: 0.5,
             search_budget: Some(1e9),
@@ -632,6 +638,7 @@ mod tests {
             train_scenarios: Some(vec!["a".into()]),
             test_scenarios: Some(vec!["b".into()]),
             fidelity_bins: Some(3),
+            log_bins: Some(LogBins::Paper),
             prior_strength: Some(0.5),
             window: Some(2),
             prior_strengths: Some(vec![0.0, 0.5]),

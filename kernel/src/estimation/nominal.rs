@@ -316,6 +316,8 @@ impl NominalOf {
                 match scale {
                     Scale::Linear => 1.0 / (hi - lo),
                     Scale::Log => 1.0 / (v * (hi / lo).ln()),
+                    // A bin drawn uniformly, then the value inside it as the bin draws.
+                    Scale::ShiftedLog => var.in_bin_density(arm, x) / var.arms() as f64,
                 }
             }
             (NominalOf::Truncated { shape, mass, .. }, _) => {

@@ -6,7 +6,7 @@
 
 use super::nominal::{categorical, NominalOf};
 use crate::posterior::Posterior;
-use crate::space::{Domain, Scale, Space, Variable};
+use crate::space::{Space, Variable};
 use crate::value::{Assignment, Value};
 use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
@@ -259,14 +259,7 @@ impl Proposal {
     }
 }
 
-/// The density of `x` inside bin `arm` of `var`: 1 for a discrete value, uniform (linear) or
-/// log-uniform (log) over the bin.
+/// The density of `x` inside bin `arm` of `var` ([`Variable::in_bin_density`]).
 fn in_bin_density(var: &Variable, arm: usize, x: &Value) -> f64 {
-    match (&var.domain, var.bin(arm)) {
-        (Domain::Continuous { scale, .. }, Some((a, b))) => match scale {
-            Scale::Linear => 1.0 / (b - a),
-            Scale::Log => 1.0 / (x.as_f64().unwrap_or(f64::NAN) * (b / a).ln()),
-        },
-        _ => 1.0,
-    }
+    var.in_bin_density(arm, x)
 }

@@ -308,11 +308,12 @@ impl<'p> EstimateRun<'p> {
         let budget = settings.budget.unwrap_or(protocol.budgets[0]);
         let lines = self.campaign.lines()?;
         let (location, at) = (self.campaign.location(), self.campaign.lines_location());
+        let problem = self.problem.binned_for(&protocol)?;
         let trained = posterior::trained(
             &location,
             (&at, &lines),
             &protocol,
-            &self.problem,
+            &problem,
             budget,
             &settings,
         )?;
