@@ -293,7 +293,7 @@ static void estimation(savme_kernel *k) {
     sim_result hf = simulate(t, SAVME_THETA_HF);
     printf("estimation %" PRIu64 " %.*s phi", id, (int)scenario.len, scenario.ptr);
     print_part(t, SAVME_PHI);
-    printf(" weight=%016" PRIx64 " hf=%d\n", bits(weight), hf.failure);
+    printf(" weight=%016" PRIx64 " hf=%d/%016" PRIx64 "\n", bits(weight), hf.failure, bits(hf.robustness));
     CHECK(savme_estimation_tell(k, id, hf.failure != 0, true, hf.robustness));
   }
   CHECK(savme_trial_free(t));

@@ -143,7 +143,7 @@ void estimation(savme::kernel &k) {
     std::string_view scenario = t.scenario();
     std::printf("estimation %" PRIu64 " %.*s phi", t.id(), static_cast<int>(scenario.size()), scenario.data());
     print_part(t, SAVME_PHI);
-    std::printf(" weight=%016" PRIx64 " hf=%d\n", bits(t.weight()), hf.failure);
+    std::printf(" weight=%016" PRIx64 " hf=%d/%016" PRIx64 "\n", bits(t.weight()), hf.failure, bits(hf.robustness));
     k.estimation_tell(t.id(), hf.failure != 0, hf.robustness);
   }
   std::printf("estimation result %s\n", k.estimation_result().c_str());
