@@ -391,11 +391,8 @@ fn fill(t: &mut TrialState, trial: ::savme_kernel::Trial, s: &KernelState) {
 pub unsafe extern "C" fn savme_ask(k: *const savme_kernel, t: *const savme_trial) -> savme_status {
     with_kernel("savme_ask", k, |s| {
         let trial = trial_of(t, "t")?;
-        let asked = s.session.ask(1).map_err(session_failure)?;
-        let mut held = lock(&trial);
-        if let Some(first) = asked.into_iter().next() {
-            fill(&mut held, first, s);
-        }
+        let asked = s.session.ask_one().map_err(session_failure)?;
+        fill(&mut lock(&trial), asked, s);
         Ok(())
     })
 }

@@ -231,6 +231,14 @@ impl Session {
         })
     }
 
+    /// Asks one trial (as `ask(1)`, without the vector: the C ABI's hot path).
+    pub fn ask_one(&mut self) -> Result<Trial, SessionError> {
+        Ok(match self {
+            Session::Plain(k) => k.ask(),
+            Session::Journaled(j) => j.ask()?,
+        })
+    }
+
     /// Tells trial `id`'s observation ([`Kernel::tell`]).
     pub fn tell(&mut self, id: u64, observation: Observation) -> Result<TrialRecord, SessionError> {
         Ok(match self {
