@@ -27,7 +27,7 @@ fn rust_block(k: &mut Kernel, n: u32) -> f64 {
     for _ in 0..n {
         let t = k.ask();
         let gap = t.phi.get_f64("gap").unwrap();
-        let failure = t.id % 3 == 0;
+        let failure = t.id.is_multiple_of(3);
         let observation = Observation::Paired {
             hf: Run::new(failure, 1.0 + gap * 1e-3),
             lf: Run::new(failure, 0.2),
@@ -47,7 +47,7 @@ fn c_block(k: *const savme_kernel, t: *const savme_trial, n: u32) -> f64 {
             let (mut id, mut gap) = (0u64, 0.0);
             savme_trial_id(t, &mut id);
             savme_trial_number(t, savme_part::SAVME_PHI as i32, gap_name.as_ptr(), &mut gap);
-            let failure = id % 3 == 0;
+            let failure = id.is_multiple_of(3);
             let hf = savme_run {
                 failure,
                 runtime: 1.0 + gap * 1e-3,
