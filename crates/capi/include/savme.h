@@ -211,6 +211,13 @@ typedef enum {
 typedef struct savme_assignment savme_assignment;
 
 /**
+ * A kernel configuration being put together (`savme_builder_new`), turned into a kernel by
+ * `savme_builder_build` (or into JSON by `savme_builder_config`), freed with
+ * `savme_builder_free`. Thread-safety: as every handle (calls serialised by a lock).
+ */
+typedef struct savme_builder savme_builder;
+
+/**
  * A kernel: the SAVME ask/tell state, in memory or journaled to a file. Thread-safety: a
  * kernel may be used from any thread, and from several at once — calls on one kernel are
  * serialised by a lock (asks and tells keep their order per caller). Its last error
@@ -380,6 +387,110 @@ extern "C" {
  * The library's version (the savme workspace's), e.g. `"0.1.0"`. Never NULL.
  */
 const char *savme_version(void);
+
+/**
+ * Starts a configuration with the kernel's `seed` and compute `budget` (the largest
+ * t_LF / t_HF a fidelity may cost and still be credited, e.g. 0.3) into `*out`.
+ */
+savme_status savme_builder_new(uint64_t seed, double budget, savme_builder **out);
+
+/**
+ * Frees a builder. NULL does nothing; a handle that is not live is refused with
+ * `SAVME_ERROR_HANDLE`.
+ */
+savme_status savme_builder_free(savme_builder *b);
+
+/**
+ * Adds a fidelity setting taking the `n` integers at `values` (e.g. a rate in Hz), `hf`
+ * being its θ_HF value. `SAVME_ERROR_CONFIG` names a bad variable (no values, repeated ones).
+ */
+savme_status savme_builder_fidelity_ints(const savme_builder *b,
+                                         const char *name,
+                                         const int64_t *values,
+                                         size_t n,
+                                         int64_t hf);
+
+/**
+ * Adds a fidelity setting taking the `n` labels at `values` (e.g. `"low"`, `"high"`), `hf`
+ * being its θ_HF label.
+ */
+savme_status savme_builder_fidelity_labels(const savme_builder *b,
+                                           const char *name,
+                                           const char *const *values,
+                                           size_t n,
+                                           const char *hf);
+
+/**
+ * Adds a boolean fidelity setting (e.g. "disable shadows"), `hf` being its θ_HF value.
+ */
+savme_status savme_builder_fidelity_bool(const savme_builder *b, const char *name, bool hf);
+
+/**
+ * Adds a continuous fidelity setting on `[lo, hi]` in `bins` bins (log-spaced if `log_scale`;
+ * then `0 < lo`), `hf` being its θ_HF value.
+ */
+savme_status savme_builder_fidelity_continuous(const savme_builder *b,
+                                               const char *name,
+                                               double lo,
+                                               double hi,
+                                               uint32_t bins,
+                                               bool log_scale,
+                                               double hf);
+
+/**
+ * Adds scenario `name` with `weight` in p(s) (> 0); add its parameters with
+ * `savme_builder_phi_*`.
+ */
+savme_status savme_builder_scenario(const savme_builder *b, const char *name, double weight);
+
+/**
+ * Adds a continuous parameter to scenario `scenario` on `[lo, hi]` in `bins` bins
+ * (log-spaced if `log_scale`). `SAVME_ERROR_NOT_FOUND` for a scenario not added yet.
+ */
+savme_status savme_builder_phi_continuous(const savme_builder *b,
+                                          const char *scenario,
+                                          const char *name,
+                                          double lo,
+                                          double hi,
+                                          uint32_t bins,
+                                          bool log_scale);
+
+/**
+ * Adds a parameter taking the `n` integers at `values` to scenario `scenario`.
+ */
+savme_status savme_builder_phi_ints(const savme_builder *b,
+                                    const char *scenario,
+                                    const char *name,
+                                    const int64_t *values,
+                                    size_t n);
+
+/**
+ * Adds a parameter taking the `n` labels at `values` to scenario `scenario`.
+ */
+savme_status savme_builder_phi_labels(const savme_builder *b,
+                                      const char *scenario,
+                                      const char *name,
+                                      const char *const *values,
+                                      size_t n);
+
+/**
+ * Adds a boolean parameter to scenario `scenario`.
+ */
+savme_status savme_builder_phi_bool(const savme_builder *b, const char *scenario, const char *name);
+
+/**
+ * The configuration the builder holds, as JSON (what `savme_kernel_new`,
+ * `savme_kernel_open_journal` and `savme serve --config` read), into `*json`; free it with
+ * `savme_string_free`. `SAVME_ERROR_CONFIG` names what is missing or wrong.
+ */
+savme_status savme_builder_config(const savme_builder *b, char **json);
+
+/**
+ * Builds a kernel (in memory) from the builder into `*out`; the builder stays usable (and
+ * must still be freed). `SAVME_ERROR_CONFIG` names what is missing or wrong (no fidelity
+ * setting, no scenario, a θ_HF value outside its variable's values, a budget outside (0, 1]).
+ */
+savme_status savme_builder_build(const savme_builder *b, savme_kernel **out);
 
 /**
  * Makes a kernel (in memory, not journaled) from `config_json`, a kernel configuration as

@@ -23,6 +23,7 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 namespace savme {
 
@@ -183,6 +184,70 @@ inline std::string take_string(char *s, size_t len) {
   return out;
 }
 
+class kernel;
+
+/// A kernel configuration put together variable by variable (the common case; everything
+/// else at its default). `config()` gives its JSON, `build()` the kernel.
+class builder {
+public:
+  builder(uint64_t seed, double budget) {
+    savme_builder *b = nullptr;
+    check(savme_builder_new(seed, budget, &b));
+    h_ = handle<savme_builder, savme_builder_free>(b);
+  }
+  savme_builder *get() const noexcept { return h_.get(); }
+  builder &fidelity_ints(const char *name, const std::vector<int64_t> &values, int64_t hf) {
+    check(savme_builder_fidelity_ints(get(), name, values.data(), values.size(), hf));
+    return *this;
+  }
+  builder &fidelity_labels(const char *name, const std::vector<const char *> &values, const char *hf) {
+    check(savme_builder_fidelity_labels(get(), name, values.data(), values.size(), hf));
+    return *this;
+  }
+  builder &fidelity_bool(const char *name, bool hf) {
+    check(savme_builder_fidelity_bool(get(), name, hf));
+    return *this;
+  }
+  builder &fidelity_continuous(const char *name, double lo, double hi, uint32_t bins, bool log_scale, double hf) {
+    check(savme_builder_fidelity_continuous(get(), name, lo, hi, bins, log_scale, hf));
+    return *this;
+  }
+  builder &scenario(const char *name, double weight = 1.0) {
+    check(savme_builder_scenario(get(), name, weight));
+    return *this;
+  }
+  builder &phi_continuous(const char *scenario, const char *name, double lo, double hi, uint32_t bins,
+                          bool log_scale = false) {
+    check(savme_builder_phi_continuous(get(), scenario, name, lo, hi, bins, log_scale));
+    return *this;
+  }
+  builder &phi_ints(const char *scenario, const char *name, const std::vector<int64_t> &values) {
+    check(savme_builder_phi_ints(get(), scenario, name, values.data(), values.size()));
+    return *this;
+  }
+  builder &phi_labels(const char *scenario, const char *name, const std::vector<const char *> &values) {
+    check(savme_builder_phi_labels(get(), scenario, name, values.data(), values.size()));
+    return *this;
+  }
+  builder &phi_bool(const char *scenario, const char *name) {
+    check(savme_builder_phi_bool(get(), scenario, name));
+    return *this;
+  }
+  /// The configuration as JSON (for a journal, or `savme serve --config`).
+  std::string config() const {
+    char *json;
+    check(savme_builder_config(get(), &json));
+    std::string out(json);
+    savme_string_free(json);
+    return out;
+  }
+  /// The kernel (in memory).
+  kernel build() const;
+
+private:
+  handle<savme_builder, savme_builder_free> h_;
+};
+
 /// The kernel.
 class kernel {
 public:
@@ -296,9 +361,16 @@ public:
   }
 
 private:
+  friend class builder;
   explicit kernel(savme_kernel *k) : h_(k) {}
   handle<savme_kernel, savme_kernel_free> h_;
 };
+
+inline kernel builder::build() const {
+  savme_kernel *k = nullptr;
+  check(savme_builder_build(get(), &k));
+  return kernel(k);
+}
 
 } // namespace savme
 

@@ -186,6 +186,11 @@ fn register(session: Session, info: savme_journal_info, out: &mut *mut savme_ker
     *out = std::ptr::without_provenance_mut(handle);
 }
 
+/// Registers a plain (not journaled) kernel as a handle into `*out`.
+pub(crate) fn register_plain(kernel: Kernel, out: &mut *mut savme_kernel) {
+    register(Session::Plain(kernel), savme_journal_info::default(), out);
+}
+
 fn config_failure(e: savme_serve::ParseConfigError) -> Failure {
     Failure::new(SAVME_ERROR_CONFIG, format!("`config_json`: {e}"))
 }

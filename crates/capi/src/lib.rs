@@ -38,12 +38,14 @@
 // parse them.
 #![allow(clippy::manual_c_str_literals)]
 
+mod builder;
 mod kernel;
 mod registry;
 mod status;
 mod strings;
 mod values;
 
+pub use builder::*;
 pub use kernel::*;
 pub use status::{savme_last_error, savme_status, savme_status_name};
 pub use strings::savme_string_free;

@@ -11,6 +11,7 @@ pub(crate) enum Kind {
     Kernel = 0x5a,
     Trial = 0x5b,
     Assignment = 0x5c,
+    Builder = 0x5d,
 }
 
 /// The largest generation (24 bits): a slot that reaches it is retired, never reused, so a

@@ -60,7 +60,54 @@ fn build() -> Option<PathBuf> {
             .arg("-DSAVME_SANITIZE=ON"),
     );
     run_ok(Command::new("cmake").arg("--build").arg(&build));
+    pkg_config(&prefix, &build);
     Some(build)
+}
+
+/// The pkg-config file: the C harness compiled with `pkg-config --cflags --libs savme` alone
+/// (against libsavme.so, found at run time through an rpath to the prefix).
+fn pkg_config(prefix: &Path, build: &Path) {
+    let pc = prefix.join("lib/pkgconfig");
+    let flags = Command::new("pkg-config")
+        .args(["--cflags", "--libs", "savme"])
+        .env("PKG_CONFIG_PATH", &pc)
+        .output();
+    let flags = match flags {
+        Ok(out) if out.status.success() => String::from_utf8(out.stdout).unwrap(),
+        Ok(out) => panic!("pkg-config savme: {}", String::from_utf8_lossy(&out.stderr)),
+        Err(_) => {
+            assert!(
+                std::env::var_os("SAVME_REQUIRE_CMAKE").is_none(),
+                "SAVME_REQUIRE_CMAKE is set but pkg-config is not installed"
+            );
+            eprintln!("\n*** SKIPPED: pkg-config not found: savme.pc was NOT checked ***\n");
+            return;
+        }
+    };
+    let examples = capi().join("examples");
+    let exe = build.join("harness_pkg_config");
+    run_ok(
+        Command::new("cc")
+            .arg(examples.join("c/harness.c"))
+            .arg(examples.join("sim.c"))
+            .arg("-o")
+            .arg(&exe)
+            .args(flags.split_whitespace())
+            .arg(format!("-Wl,-rpath,{}", prefix.join("lib").display())),
+    );
+    let out = run_ok(
+        Command::new(&exe)
+            .arg("--config")
+            .arg(config_path())
+            .args(["--train", "5", "--evaluate", "2", "--baseline", "2"])
+            .env_remove("LD_LIBRARY_PATH"),
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(
+        text.lines().filter(|l| l.starts_with("trial ")).count(),
+        9,
+        "{text}"
+    );
 }
 
 fn run_ok(c: &mut Command) -> Output {
@@ -298,6 +345,14 @@ fn batched_asks_give_the_same_trials_in_c_cpp_and_rust() {
     ];
     let c = stdout(&harness("harness", &args));
     let cpp = stdout(&harness("harness_cpp", &args));
+    // The C++ harness's kernel put together with savme::builder: the same trials.
+    let mut built = args.to_vec();
+    built.extend(["--builder", "1"]);
+    same_lines(
+        &stdout(&harness("harness_cpp", &built)),
+        &cpp,
+        "builder against JSON",
+    );
     same_lines(
         &cpp,
         &format!("{c}{REFUSED}"),

@@ -2,7 +2,10 @@
 // savme.hpp: RAII handles, exceptions, string views. Prints the same lines as the C harness,
 // so the tests check that both give the same trials (and the Rust API too).
 //
-//   harness_cpp --config FILE [--train N] [--evaluate N] [--baseline N] [--batch K]
+//   harness_cpp --config FILE [--train N] [--evaluate N] [--baseline N] [--batch K] [--builder 1]
+//
+// With --builder 1 the kernel comes from savme::builder (the configuration of config.json put
+// together in code) instead of the file: the same kernel, so the same trials.
 #include <savme.hpp>
 
 #include <cinttypes>
@@ -79,6 +82,7 @@ void run_and_tell(savme::kernel &k, const savme::trial &t) {
 
 struct options {
   std::string config;
+  bool builder = false;
   long counts[3] = {60, 20, 20};
   long batch = 1;
 };
@@ -149,6 +153,23 @@ void estimation(savme::kernel &k) {
   std::printf("estimation result %s\n", k.estimation_result().c_str());
 }
 
+/// config.json's configuration in code.
+savme::builder example_builder() {
+  savme::builder b(7, 0.3);
+  b.fidelity_ints("rate_hz", {5, 10, 20, 50}, 50)
+      .fidelity_labels("integrator", {"euler", "exact"}, "exact")
+      .fidelity_bool("skip_latency", false)
+      .fidelity_continuous("horizon_s", 1.0, 4.0, 3, false, 4.0)
+      .scenario("lead_brakes")
+      .phi_continuous("lead_brakes", "speed", 5.0, 30.0, 5)
+      .phi_continuous("lead_brakes", "gap", 5.0, 60.0, 5)
+      .scenario("cut_in")
+      .phi_continuous("cut_in", "speed", 5.0, 30.0, 5)
+      .phi_continuous("cut_in", "gap", 2.0, 30.0, 4)
+      .phi_labels("cut_in", "road", {"dry", "wet"});
+  return b;
+}
+
 } // namespace
 
 int main(int argc, char **argv) {
@@ -161,6 +182,7 @@ int main(int argc, char **argv) {
     else if (a == "--evaluate") o.counts[1] = std::atol(v);
     else if (a == "--baseline") o.counts[2] = std::atol(v);
     else if (a == "--batch") o.batch = std::atol(v);
+    else if (a == "--builder") o.builder = std::atol(v) != 0;
     else {
       std::cerr << "harness_cpp: unknown argument " << a << "\n";
       return 2;
@@ -174,7 +196,7 @@ int main(int argc, char **argv) {
     std::ifstream in(o.config);
     std::stringstream text;
     text << in.rdbuf();
-    savme::kernel k = savme::kernel::from_config(text.str());
+    savme::kernel k = o.builder ? example_builder().build() : savme::kernel::from_config(text.str());
     campaign(k, o);
     report(k);
     snapshot_round_trip(k);
