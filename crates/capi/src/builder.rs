@@ -51,7 +51,7 @@ fn checked(variable: Variable) -> Outcome<Variable> {
     Ok(variable)
 }
 
-fn labels(values: *const *const c_char, n: usize) -> Outcome<Vec<Value>> {
+unsafe fn labels(values: *const *const c_char, n: usize) -> Outcome<Vec<Value>> {
     if values.is_null() {
         return Err(Failure::new(SAVME_ERROR_NULL, "`values` is NULL"));
     }
@@ -64,7 +64,7 @@ fn labels(values: *const *const c_char, n: usize) -> Outcome<Vec<Value>> {
         .collect()
 }
 
-fn ints(values: *const i64, n: usize) -> Outcome<Vec<Value>> {
+unsafe fn ints(values: *const i64, n: usize) -> Outcome<Vec<Value>> {
     if values.is_null() {
         return Err(Failure::new(SAVME_ERROR_NULL, "`values` is NULL"));
     }

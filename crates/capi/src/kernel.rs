@@ -232,7 +232,7 @@ pub unsafe extern "C" fn savme_kernel_new(
 }
 
 /// The path argument `path` (any bytes on Unix; UTF-8 elsewhere).
-fn path_of(path: *const c_char) -> Outcome<PathBuf> {
+unsafe fn path_of(path: *const c_char) -> Outcome<PathBuf> {
     if path.is_null() {
         return Err(Failure::new(SAVME_ERROR_NULL, "`path` is NULL"));
     }
@@ -705,7 +705,7 @@ pub unsafe extern "C" fn savme_scenario(
 }
 
 /// The posterior of `scenario` (NULL: the fidelity posterior).
-fn posterior_of(s: &KernelState, scenario: *const c_char) -> Outcome<&Posterior> {
+unsafe fn posterior_of(s: &KernelState, scenario: *const c_char) -> Outcome<&Posterior> {
     let kernel = s.session.kernel();
     match optional_text(scenario, "scenario")? {
         None => Ok(kernel.fidelity_posterior()),

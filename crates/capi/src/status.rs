@@ -100,14 +100,20 @@ pub(crate) fn guard(function: &str, body: impl FnOnce() -> Outcome) -> savme_sta
 }
 
 /// A required pointer argument, or `SAVME_ERROR_NULL` naming it.
-pub(crate) fn required<'a, T>(p: *mut T, name: &str) -> Outcome<&'a mut T> {
+///
+/// # Safety
+/// `p` is NULL or valid for writes of a `T` for `'a`.
+pub(crate) unsafe fn required<'a, T>(p: *mut T, name: &str) -> Outcome<&'a mut T> {
     // SAFETY: the caller promises a non-NULL pointer is valid for writes of a T (the
     // header's contract for every out-parameter).
     unsafe { p.as_mut() }.ok_or_else(|| Failure::new(SAVME_ERROR_NULL, format!("`{name}` is NULL")))
 }
 
 /// A NUL-terminated UTF-8 string argument.
-pub(crate) fn text<'a>(p: *const c_char, name: &str) -> Outcome<&'a str> {
+///
+/// # Safety
+/// `p` is NULL or a NUL-terminated string that lives for `'a`.
+pub(crate) unsafe fn text<'a>(p: *const c_char, name: &str) -> Outcome<&'a str> {
     if p.is_null() {
         return Err(Failure::new(SAVME_ERROR_NULL, format!("`{name}` is NULL")));
     }
@@ -122,7 +128,10 @@ pub(crate) fn text<'a>(p: *const c_char, name: &str) -> Outcome<&'a str> {
 }
 
 /// An optional NUL-terminated UTF-8 string argument (NULL: none).
-pub(crate) fn optional_text<'a>(p: *const c_char, name: &str) -> Outcome<Option<&'a str>> {
+///
+/// # Safety
+/// As [`text`].
+pub(crate) unsafe fn optional_text<'a>(p: *const c_char, name: &str) -> Outcome<Option<&'a str>> {
     if p.is_null() {
         Ok(None)
     } else {

@@ -403,6 +403,7 @@ pub unsafe extern "C" fn savme_trial_scenario(
             Held::Empty => unreachable!("filled() refused an empty trial"),
         };
         *name = savme_str::of(scenario);
+        // SAFETY: NULL or valid for writes (the header's contract).
         if let Some(index) = unsafe { index.as_mut() } {
             *index = i;
         }
