@@ -22,6 +22,14 @@
 #include <stdint.h>
 
 /**
+ * The version of the C ABI this header describes. It changes only when a function's
+ * signature, a struct's layout or an enum value changes; additions (new functions, new enum
+ * values at the end) keep it. Compare it with `savme_abi_version()` to catch a header used
+ * with another library.
+ */
+#define SAVME_ABI_VERSION 1
+
+/**
  * What one bandit was credited by a tell.
  */
 typedef enum {
@@ -382,6 +390,12 @@ typedef struct {
 #ifdef __cplusplus
 extern "C" {
 #endif // __cplusplus
+
+/**
+ * The C ABI version of the library loaded (`SAVME_ABI_VERSION` of the header it was built
+ * with). Never fails.
+ */
+uint32_t savme_abi_version(void);
 
 /**
  * The library's version (the savme workspace's), e.g. `"0.1.0"`. Never NULL.

@@ -51,6 +51,19 @@ pub use status::{savme_last_error, savme_status, savme_status_name};
 pub use strings::savme_string_free;
 pub use values::*;
 
+/// The version of the C ABI this header describes. It changes only when a function's
+/// signature, a struct's layout or an enum value changes; additions (new functions, new enum
+/// values at the end) keep it. Compare it with `savme_abi_version()` to catch a header used
+/// with another library.
+pub const SAVME_ABI_VERSION: u32 = 1;
+
+/// The C ABI version of the library loaded (`SAVME_ABI_VERSION` of the header it was built
+/// with). Never fails.
+#[no_mangle]
+pub extern "C" fn savme_abi_version() -> u32 {
+    SAVME_ABI_VERSION
+}
+
 /// The library's version (the savme workspace's), e.g. `"0.1.0"`. Never NULL.
 #[no_mangle]
 pub extern "C" fn savme_version() -> *const std::ffi::c_char {

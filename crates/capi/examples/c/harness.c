@@ -305,6 +305,11 @@ static void estimation(savme_kernel *k) {
 
 int main(int argc, char **argv) {
   setvbuf(stdout, NULL, _IOLBF, 0); /* every line out before a kill */
+  if (savme_abi_version() != SAVME_ABI_VERSION) {
+    fprintf(stderr, "harness: savme.h is ABI %d, libsavme %u (%s)\n", SAVME_ABI_VERSION,
+            savme_abi_version(), savme_version());
+    return 1;
+  }
   options o = parse(argc, argv);
   char *config = read_file(o.config);
   savme_kernel *k;
