@@ -37,7 +37,7 @@ fn rust_block(k: &mut Kernel, n: u32) -> f64 {
     start.elapsed().as_secs_f64() / f64::from(n)
 }
 
-fn c_block(k: *const savme_kernel, t: *const savme_trial, n: u32) -> f64 {
+fn c_block(k: *mut savme_kernel, t: *mut savme_trial, n: u32) -> f64 {
     let gap_name = c"gap";
     let start = Instant::now();
     for _ in 0..n {

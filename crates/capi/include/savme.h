@@ -418,7 +418,7 @@ savme_status savme_builder_free(savme_builder *b);
  * Adds a fidelity setting taking the `n` integers at `values` (e.g. a rate in Hz), `hf`
  * being its θ_HF value. `SAVME_ERROR_CONFIG` names a bad variable (no values, repeated ones).
  */
-savme_status savme_builder_fidelity_ints(const savme_builder *b,
+savme_status savme_builder_fidelity_ints(savme_builder *b,
                                          const char *name,
                                          const int64_t *values,
                                          size_t n,
@@ -428,7 +428,7 @@ savme_status savme_builder_fidelity_ints(const savme_builder *b,
  * Adds a fidelity setting taking the `n` labels at `values` (e.g. `"low"`, `"high"`), `hf`
  * being its θ_HF label.
  */
-savme_status savme_builder_fidelity_labels(const savme_builder *b,
+savme_status savme_builder_fidelity_labels(savme_builder *b,
                                            const char *name,
                                            const char *const *values,
                                            size_t n,
@@ -437,13 +437,13 @@ savme_status savme_builder_fidelity_labels(const savme_builder *b,
 /**
  * Adds a boolean fidelity setting (e.g. "disable shadows"), `hf` being its θ_HF value.
  */
-savme_status savme_builder_fidelity_bool(const savme_builder *b, const char *name, bool hf);
+savme_status savme_builder_fidelity_bool(savme_builder *b, const char *name, bool hf);
 
 /**
  * Adds a continuous fidelity setting on `[lo, hi]` in `bins` bins (log-spaced if `log_scale`;
  * then `0 < lo`), `hf` being its θ_HF value.
  */
-savme_status savme_builder_fidelity_continuous(const savme_builder *b,
+savme_status savme_builder_fidelity_continuous(savme_builder *b,
                                                const char *name,
                                                double lo,
                                                double hi,
@@ -455,13 +455,13 @@ savme_status savme_builder_fidelity_continuous(const savme_builder *b,
  * Adds scenario `name` with `weight` in p(s) (> 0); add its parameters with
  * `savme_builder_phi_*`.
  */
-savme_status savme_builder_scenario(const savme_builder *b, const char *name, double weight);
+savme_status savme_builder_scenario(savme_builder *b, const char *name, double weight);
 
 /**
  * Adds a continuous parameter to scenario `scenario` on `[lo, hi]` in `bins` bins
  * (log-spaced if `log_scale`). `SAVME_ERROR_NOT_FOUND` for a scenario not added yet.
  */
-savme_status savme_builder_phi_continuous(const savme_builder *b,
+savme_status savme_builder_phi_continuous(savme_builder *b,
                                           const char *scenario,
                                           const char *name,
                                           double lo,
@@ -472,7 +472,7 @@ savme_status savme_builder_phi_continuous(const savme_builder *b,
 /**
  * Adds a parameter taking the `n` integers at `values` to scenario `scenario`.
  */
-savme_status savme_builder_phi_ints(const savme_builder *b,
+savme_status savme_builder_phi_ints(savme_builder *b,
                                     const char *scenario,
                                     const char *name,
                                     const int64_t *values,
@@ -481,7 +481,7 @@ savme_status savme_builder_phi_ints(const savme_builder *b,
 /**
  * Adds a parameter taking the `n` labels at `values` to scenario `scenario`.
  */
-savme_status savme_builder_phi_labels(const savme_builder *b,
+savme_status savme_builder_phi_labels(savme_builder *b,
                                       const char *scenario,
                                       const char *name,
                                       const char *const *values,
@@ -490,7 +490,7 @@ savme_status savme_builder_phi_labels(const savme_builder *b,
 /**
  * Adds a boolean parameter to scenario `scenario`.
  */
-savme_status savme_builder_phi_bool(const savme_builder *b, const char *scenario, const char *name);
+savme_status savme_builder_phi_bool(savme_builder *b, const char *scenario, const char *name);
 
 /**
  * The configuration the builder holds, as JSON (what `savme_kernel_new`,
@@ -561,13 +561,13 @@ savme_status savme_journal_info_of(const savme_kernel *k, savme_journal_info *in
  * handle is reused: no allocation beyond the kernel's own). Any number of trials may be pending.
  * With a journal, the ask is written first (`SAVME_ERROR_JOURNAL`: nothing was asked).
  */
-savme_status savme_ask(const savme_kernel *k, const savme_trial *t);
+savme_status savme_ask(savme_kernel *k, savme_trial *t);
 
 /**
  * Asks `n` trials at once, all or none (a journal writes them in one go), filling the `n`
  * distinct trial handles `trials[0..n)`. `n` must be 1 to 100000.
  */
-savme_status savme_ask_batch(const savme_kernel *k, const savme_trial *const *trials, size_t n);
+savme_status savme_ask_batch(savme_kernel *k, savme_trial *const *trials, size_t n);
 
 /**
  * Tells trial `id`'s paired observation: its HF run (at θ_HF) and its LF run (at the trial's
@@ -575,7 +575,7 @@ savme_status savme_ask_batch(const savme_kernel *k, const savme_trial *const *tr
  * (`SAVME_ERROR_REFUSED`, naming the trial; nothing changes) for a trial never asked, told
  * or cancelled before, one without θ_LF, or a runtime or robustness out of range.
  */
-savme_status savme_tell_paired(const savme_kernel *k,
+savme_status savme_tell_paired(savme_kernel *k,
                                uint64_t id,
                                savme_run hf,
                                savme_run lf,
@@ -585,21 +585,18 @@ savme_status savme_tell_paired(const savme_kernel *k,
  * Tells trial `id`'s HF run alone: a baseline trial, or a learning trial the kernel left
  * unpaired (`savme_trial_is_paired` false). Refused as `savme_tell_paired` is.
  */
-savme_status savme_tell_hf_only(const savme_kernel *k,
-                                uint64_t id,
-                                savme_run hf,
-                                savme_record *record);
+savme_status savme_tell_hf_only(savme_kernel *k, uint64_t id, savme_run hf, savme_record *record);
 
 /**
  * Withdraws pending trial `id` (its runs failed or will never come): it credits nothing.
  * Refused (`SAVME_ERROR_REFUSED`) for a trial that is not pending.
  */
-savme_status savme_cancel(const savme_kernel *k, uint64_t id);
+savme_status savme_cancel(savme_kernel *k, uint64_t id);
 
 /**
  * Switches the phase (a `savme_phase`) of the asks that follow; pending trials keep theirs.
  */
-savme_status savme_set_phase(const savme_kernel *k, int32_t phase);
+savme_status savme_set_phase(savme_kernel *k, int32_t phase);
 
 /**
  * The phase of the next ask into `*phase`.
@@ -615,12 +612,12 @@ savme_status savme_get_stats(const savme_kernel *k, savme_stats *stats);
  * Fills `t` with the `index`th pending trial, in id order (`savme_get_stats`'s `pending`
  * counts them): after a journal was resumed, these are the trials to run again or cancel.
  */
-savme_status savme_pending_trial(const savme_kernel *k, size_t index, const savme_trial *t);
+savme_status savme_pending_trial(const savme_kernel *k, size_t index, savme_trial *t);
 
 /**
  * Fills the assignment handle `out` with the high-fidelity settings θ_HF.
  */
-savme_status savme_theta_hf(const savme_kernel *k, const savme_assignment *out);
+savme_status savme_theta_hf(const savme_kernel *k, savme_assignment *out);
 
 /**
  * Fills the assignment handle `out` with θ_LF*, the learned fidelity settings the posterior
@@ -630,7 +627,7 @@ savme_status savme_theta_hf(const savme_kernel *k, const savme_assignment *out);
  */
 savme_status savme_estimate(const savme_kernel *k,
                             int32_t estimator,
-                            const savme_assignment *out,
+                            savme_assignment *out,
                             double *evidence);
 
 /**
@@ -692,7 +689,7 @@ savme_status savme_config(const savme_kernel *k, char **json);
  * with `savme_string_free`). `SAVME_ERROR_REQUEST` when the response is `"ok":false`
  * (`*response` is set then too, and the error is also the last error).
  */
-savme_status savme_request(const savme_kernel *k, const char *request, char **response);
+savme_status savme_request(savme_kernel *k, const char *request, char **response);
 
 /**
  * Starts an importance-sampling estimation of P(failure) from the current posteriors
@@ -700,19 +697,19 @@ savme_status savme_request(const savme_kernel *k, const char *request, char **re
  * `estimation` request without `"op"`, e.g. `{"epsilon":0.1,"seed":7}`. Never changes the
  * kernel and is not journaled.
  */
-savme_status savme_estimation_start(const savme_kernel *k, const char *config_json);
+savme_status savme_estimation_start(savme_kernel *k, const char *config_json);
 
 /**
  * Asks the running estimation's next trial into `t` and sets `*asked`; `*asked` is false (and
  * `t` unchanged) while a refinement round waits for its outcomes. Read its densities with
  * `savme_trial_densities`.
  */
-savme_status savme_estimation_ask(const savme_kernel *k, const savme_trial *t, bool *asked);
+savme_status savme_estimation_ask(savme_kernel *k, savme_trial *t, bool *asked);
 
 /**
  * Tells estimation trial `id`'s HF failure (and, if `has_robustness`, its robustness).
  */
-savme_status savme_estimation_tell(const savme_kernel *k,
+savme_status savme_estimation_tell(savme_kernel *k,
                                    uint64_t id,
                                    bool failure,
                                    bool has_robustness,

@@ -273,7 +273,7 @@ public:
 
   void ask(const trial &t) { check(savme_ask(get(), t.get())); }
   /// Asks `n` trials into `trials[0..n)` (distinct handles), all or none.
-  void ask_batch(const savme_trial *const *trials, size_t n) { check(savme_ask_batch(get(), trials, n)); }
+  void ask_batch(savme_trial *const *trials, size_t n) { check(savme_ask_batch(get(), trials, n)); }
   savme_record tell_paired(uint64_t id, savme_run hf, savme_run lf) {
     savme_record r;
     check(savme_tell_paired(get(), id, hf, lf, &r));

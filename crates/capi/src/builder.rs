@@ -176,7 +176,7 @@ pub unsafe extern "C" fn savme_builder_free(b: *mut savme_builder) -> savme_stat
 /// being its θ_HF value. `SAVME_ERROR_CONFIG` names a bad variable (no values, repeated ones).
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_fidelity_ints(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     name: *const c_char,
     values: *const i64,
     n: usize,
@@ -193,7 +193,7 @@ pub unsafe extern "C" fn savme_builder_fidelity_ints(
 /// being its θ_HF label.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_fidelity_labels(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     name: *const c_char,
     values: *const *const c_char,
     n: usize,
@@ -210,7 +210,7 @@ pub unsafe extern "C" fn savme_builder_fidelity_labels(
 /// Adds a boolean fidelity setting (e.g. "disable shadows"), `hf` being its θ_HF value.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_fidelity_bool(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     name: *const c_char,
     hf: bool,
 ) -> savme_status {
@@ -224,7 +224,7 @@ pub unsafe extern "C" fn savme_builder_fidelity_bool(
 /// then `0 < lo`), `hf` being its θ_HF value.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_fidelity_continuous(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     name: *const c_char,
     lo: f64,
     hi: f64,
@@ -243,7 +243,7 @@ pub unsafe extern "C" fn savme_builder_fidelity_continuous(
 /// `savme_builder_phi_*`.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_scenario(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     name: *const c_char,
     weight: f64,
 ) -> savme_status {
@@ -264,7 +264,7 @@ pub unsafe extern "C" fn savme_builder_scenario(
 /// (log-spaced if `log_scale`). `SAVME_ERROR_NOT_FOUND` for a scenario not added yet.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_phi_continuous(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     scenario: *const c_char,
     name: *const c_char,
     lo: f64,
@@ -285,7 +285,7 @@ pub unsafe extern "C" fn savme_builder_phi_continuous(
 /// Adds a parameter taking the `n` integers at `values` to scenario `scenario`.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_phi_ints(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     scenario: *const c_char,
     name: *const c_char,
     values: *const i64,
@@ -301,7 +301,7 @@ pub unsafe extern "C" fn savme_builder_phi_ints(
 /// Adds a parameter taking the `n` labels at `values` to scenario `scenario`.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_phi_labels(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     scenario: *const c_char,
     name: *const c_char,
     values: *const *const c_char,
@@ -317,7 +317,7 @@ pub unsafe extern "C" fn savme_builder_phi_labels(
 /// Adds a boolean parameter to scenario `scenario`.
 #[no_mangle]
 pub unsafe extern "C" fn savme_builder_phi_bool(
-    b: *const savme_builder,
+    b: *mut savme_builder,
     scenario: *const c_char,
     name: *const c_char,
 ) -> savme_status {

@@ -393,7 +393,7 @@ fn fill(t: &mut TrialState, trial: ::savme_kernel::Trial, s: &KernelState) {
 /// handle is reused: no allocation beyond the kernel's own). Any number of trials may be pending.
 /// With a journal, the ask is written first (`SAVME_ERROR_JOURNAL`: nothing was asked).
 #[no_mangle]
-pub unsafe extern "C" fn savme_ask(k: *const savme_kernel, t: *const savme_trial) -> savme_status {
+pub unsafe extern "C" fn savme_ask(k: *mut savme_kernel, t: *mut savme_trial) -> savme_status {
     with_kernel("savme_ask", k, |s| {
         let trial = trial_of(t, "t")?;
         let asked = s.session.ask_one().map_err(session_failure)?;
@@ -406,8 +406,8 @@ pub unsafe extern "C" fn savme_ask(k: *const savme_kernel, t: *const savme_trial
 /// distinct trial handles `trials[0..n)`. `n` must be 1 to 100000.
 #[no_mangle]
 pub unsafe extern "C" fn savme_ask_batch(
-    k: *const savme_kernel,
-    trials: *const *const savme_trial,
+    k: *mut savme_kernel,
+    trials: *const *mut savme_trial,
     n: usize,
 ) -> savme_status {
     with_kernel("savme_ask_batch", k, |s| {
@@ -502,7 +502,7 @@ fn tell(
 /// or cancelled before, one without θ_LF, or a runtime or robustness out of range.
 #[no_mangle]
 pub unsafe extern "C" fn savme_tell_paired(
-    k: *const savme_kernel,
+    k: *mut savme_kernel,
     id: u64,
     hf: savme_run,
     lf: savme_run,
@@ -521,7 +521,7 @@ pub unsafe extern "C" fn savme_tell_paired(
 /// unpaired (`savme_trial_is_paired` false). Refused as `savme_tell_paired` is.
 #[no_mangle]
 pub unsafe extern "C" fn savme_tell_hf_only(
-    k: *const savme_kernel,
+    k: *mut savme_kernel,
     id: u64,
     hf: savme_run,
     record: *mut savme_record,
@@ -534,7 +534,7 @@ pub unsafe extern "C" fn savme_tell_hf_only(
 /// Withdraws pending trial `id` (its runs failed or will never come): it credits nothing.
 /// Refused (`SAVME_ERROR_REFUSED`) for a trial that is not pending.
 #[no_mangle]
-pub unsafe extern "C" fn savme_cancel(k: *const savme_kernel, id: u64) -> savme_status {
+pub unsafe extern "C" fn savme_cancel(k: *mut savme_kernel, id: u64) -> savme_status {
     with_kernel("savme_cancel", k, |s| {
         s.session.cancel(id).map_err(session_failure)?;
         Ok(())
@@ -543,7 +543,7 @@ pub unsafe extern "C" fn savme_cancel(k: *const savme_kernel, id: u64) -> savme_
 
 /// Switches the phase (a `savme_phase`) of the asks that follow; pending trials keep theirs.
 #[no_mangle]
-pub unsafe extern "C" fn savme_set_phase(k: *const savme_kernel, phase: i32) -> savme_status {
+pub unsafe extern "C" fn savme_set_phase(k: *mut savme_kernel, phase: i32) -> savme_status {
     with_kernel("savme_set_phase", k, |s| {
         let phase = rust_phase(phase)?;
         s.session.set_phase(phase).map_err(session_failure)
@@ -588,7 +588,7 @@ pub unsafe extern "C" fn savme_get_stats(
 pub unsafe extern "C" fn savme_pending_trial(
     k: *const savme_kernel,
     index: usize,
-    t: *const savme_trial,
+    t: *mut savme_trial,
 ) -> savme_status {
     with_kernel("savme_pending_trial", k, |s| {
         let trial = trial_of(t, "t")?;
@@ -619,7 +619,7 @@ fn assignment_of(
 #[no_mangle]
 pub unsafe extern "C" fn savme_theta_hf(
     k: *const savme_kernel,
-    out: *const savme_assignment,
+    out: *mut savme_assignment,
 ) -> savme_status {
     with_kernel("savme_theta_hf", k, |s| {
         let held = assignment_of(out)?;
@@ -636,7 +636,7 @@ pub unsafe extern "C" fn savme_theta_hf(
 pub unsafe extern "C" fn savme_estimate(
     k: *const savme_kernel,
     estimator: i32,
-    out: *const savme_assignment,
+    out: *mut savme_assignment,
     evidence: *mut f64,
 ) -> savme_status {
     with_kernel("savme_estimate", k, |s| {
@@ -838,7 +838,7 @@ pub unsafe extern "C" fn savme_config(
 /// (`*response` is set then too, and the error is also the last error).
 #[no_mangle]
 pub unsafe extern "C" fn savme_request(
-    k: *const savme_kernel,
+    k: *mut savme_kernel,
     request: *const c_char,
     response: *mut *mut c_char,
 ) -> savme_status {
@@ -866,7 +866,7 @@ pub unsafe extern "C" fn savme_request(
 /// kernel and is not journaled.
 #[no_mangle]
 pub unsafe extern "C" fn savme_estimation_start(
-    k: *const savme_kernel,
+    k: *mut savme_kernel,
     config_json: *const c_char,
 ) -> savme_status {
     with_kernel("savme_estimation_start", k, |s| {
@@ -888,8 +888,8 @@ pub unsafe extern "C" fn savme_estimation_start(
 /// `savme_trial_densities`.
 #[no_mangle]
 pub unsafe extern "C" fn savme_estimation_ask(
-    k: *const savme_kernel,
-    t: *const savme_trial,
+    k: *mut savme_kernel,
+    t: *mut savme_trial,
     asked: *mut bool,
 ) -> savme_status {
     with_kernel("savme_estimation_ask", k, |s| {
@@ -914,7 +914,7 @@ pub unsafe extern "C" fn savme_estimation_ask(
 /// Tells estimation trial `id`'s HF failure (and, if `has_robustness`, its robustness).
 #[no_mangle]
 pub unsafe extern "C" fn savme_estimation_tell(
-    k: *const savme_kernel,
+    k: *mut savme_kernel,
     id: u64,
     failure: bool,
     has_robustness: bool,

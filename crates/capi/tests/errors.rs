@@ -121,12 +121,12 @@ fn null_pointers_are_refused_naming_the_argument_and_change_nothing() {
             &["`out` is NULL"],
         );
         refused(
-            savme_ask(null(), t),
+            savme_ask(null_mut(), t),
             SAVME_ERROR_NULL,
             &["savme_ask: `k` is NULL"],
         );
         refused(
-            savme_ask(k, null()),
+            savme_ask(k, null_mut()),
             SAVME_ERROR_NULL,
             &["savme_ask: `t` is NULL"],
         );
@@ -135,7 +135,7 @@ fn null_pointers_are_refused_naming_the_argument_and_change_nothing() {
             SAVME_ERROR_NULL,
             &["`trials` is NULL"],
         );
-        let with_null = [t as *const savme_trial, null()];
+        let with_null = [t, null_mut()];
         refused(
             savme_ask_batch(k, with_null.as_ptr(), 2),
             SAVME_ERROR_NULL,
@@ -172,12 +172,12 @@ fn null_pointers_are_refused_naming_the_argument_and_change_nothing() {
             &["`response` is NULL"],
         );
         refused(
-            savme_theta_hf(k, null()),
+            savme_theta_hf(k, null_mut()),
             SAVME_ERROR_NULL,
             &["`out` is NULL"],
         );
         refused(
-            savme_estimate(k, 0, null(), null_mut()),
+            savme_estimate(k, 0, null_mut(), null_mut()),
             SAVME_ERROR_NULL,
             &["`out` is NULL"],
         );
@@ -202,12 +202,12 @@ fn null_pointers_are_refused_naming_the_argument_and_change_nothing() {
             &["`asked` is NULL"],
         );
         refused(
-            savme_pending_trial(k, 0, null()),
+            savme_pending_trial(k, 0, null_mut()),
             SAVME_ERROR_NULL,
             &["`t` is NULL"],
         );
         refused(
-            savme_tell_paired(null(), 0, run(true, 1.0), run(true, 1.0), null_mut()),
+            savme_tell_paired(null_mut(), 0, run(true, 1.0), run(true, 1.0), null_mut()),
             SAVME_ERROR_NULL,
             &["`k` is NULL"],
         );
@@ -258,17 +258,17 @@ fn freed_double_freed_foreign_and_made_up_handles_are_refused_never_dereferenced
         // Another kind's handle, and numbers that were never handles (dereferencing them would
         // crash this test).
         refused(
-            savme_ask(t as *const savme_kernel, t),
+            savme_ask(t as *mut savme_kernel, t),
             SAVME_ERROR_HANDLE,
             &["savme_ask: `k` is not a live savme_kernel handle"],
         );
         refused(
-            savme_ask(k, k as *const savme_trial),
+            savme_ask(k, k as *mut savme_trial),
             SAVME_ERROR_HANDLE,
             &["`t` is not a live savme_trial handle"],
         );
         refused(
-            savme_theta_hf(k, t as *const savme_assignment),
+            savme_theta_hf(k, t as *mut savme_assignment),
             SAVME_ERROR_HANDLE,
             &["`out` is not a live savme_assignment handle"],
         );
@@ -435,7 +435,7 @@ fn refused_argument_values_are_named() {
         );
         // Batches: 0, too many, the same handle twice; nothing asked.
         let t2 = trial();
-        let same = [t as *const savme_trial, t2, t];
+        let same = [t, t2, t];
         refused(
             savme_ask_batch(k, same.as_ptr(), 0),
             SAVME_ERROR_ARGUMENT,
@@ -812,7 +812,7 @@ fn one_kernel_serves_many_threads_at_once() {
     let threads: Vec<_> = (0..4)
         .map(|_| {
             std::thread::spawn(move || unsafe {
-                let k = std::ptr::without_provenance::<savme_kernel>(k);
+                let k = std::ptr::without_provenance_mut::<savme_kernel>(k);
                 let t = trial();
                 for _ in 0..200 {
                     assert_eq!(savme_ask(k, t), SAVME_OK);

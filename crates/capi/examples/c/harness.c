@@ -198,7 +198,7 @@ static void campaign(savme_kernel *k, const options *o) {
     while ((long)st.told < end) {
       long n = end - (long)st.told < o->batch ? end - (long)st.told : o->batch;
       if (n == 1) CHECK(savme_ask(k, trials[0]));
-      else CHECK(savme_ask_batch(k, (const savme_trial *const *)trials, (size_t)n));
+      else CHECK(savme_ask_batch(k, trials, (size_t)n));
       if (o->die_after_ask >= 0 && (long)st.asked + n >= o->die_after_ask) {
         fflush(stdout);
         raise(SIGKILL); /* as kill -9 would: the journal holds the ask, nothing else runs */

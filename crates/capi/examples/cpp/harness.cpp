@@ -89,7 +89,7 @@ struct options {
 
 void campaign(savme::kernel &k, const options &o) {
   std::vector<savme::trial> trials(static_cast<size_t>(o.batch));
-  std::vector<const savme_trial *> handles;
+  std::vector<savme_trial *> handles;
   for (const auto &t : trials) handles.push_back(t.get());
   const savme_phase order[3] = {SAVME_PHASE_TRAIN, SAVME_PHASE_EVALUATE, SAVME_PHASE_BASELINE};
   long end = 0;
