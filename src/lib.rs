@@ -47,6 +47,9 @@ pub use savme_openscenario as openscenario;
 /// Campaigns in PostgreSQL (crate `savme-postgres`, feature `postgres`).
 #[cfg(feature = "postgres")]
 pub use savme_postgres as postgres;
+/// The kernel served: a plain or journaled session and its JSON-lines protocol (crate
+/// `savme-serve`).
+pub use savme_serve as serve;
 /// The trial store seam and the JSON-lines store (crate `savme-store`).
 pub use savme_store as store;
 /// Recording to the rerun viewer (crate `savme-viewer`; the recorder needs feature `rerun`).
@@ -54,7 +57,6 @@ pub use savme_viewer as viewer;
 pub mod adapter;
 pub mod compose;
 pub mod json;
-pub mod serve;
 
 /// The README's code, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]

@@ -370,9 +370,8 @@ impl PyKernel {
     #[staticmethod]
     #[pyo3(signature = (config, journal = None))]
     fn from_config(py: Python<'_>, config: &str, journal: Option<PathBuf>) -> PyResult<Self> {
-        let config: KernelConfig = serde_json::from_str(config)
-            .map_err(|e| PyValueError::new_err(format!("kernel configuration: {e}")))?;
-        Kernel::new(config.clone()).map_err(errors::value)?;
+        // The one reader of a configuration's JSON (`savme serve --config`, the C ABI).
+        let config = savme::serve::parse_config(config).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal)
     }
 

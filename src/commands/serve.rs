@@ -2,10 +2,10 @@
 //! store) and `savme example-config`.
 
 use super::{usage, Failure};
-use savme::campaign::store::{journal, JsonlStore, TrialStore};
+use savme::campaign::store::{JsonlStore, TrialStore};
 use savme::campaign::Stop;
-use savme::kernel::{Kernel, KernelConfig};
-use savme::serve::Session;
+use savme::kernel::KernelConfig;
+use savme::serve::{OpenError, Session};
 use std::io::{self, BufRead, Read};
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
@@ -151,11 +151,7 @@ pub fn example_config(a: ExampleArgs) -> Result<(), String> {
 
 fn read_config(path: &Path) -> Result<KernelConfig, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let config: KernelConfig =
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-    // Validate now, so that the error names the file.
-    Kernel::new(config.clone()).map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok(config)
+    savme::serve::parse_config(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 fn serve(
@@ -167,29 +163,24 @@ fn serve(
     let stdin = io::BufReader::new(LinesUntilStop::stdin(stop));
     let stdout = io::stdout().lock();
     let io_err = |e: io::Error| format!("stdin/stdout: {e}");
-    let session = match journal {
-        None => {
-            let config = config.ok_or("give --config (or --journal to resume)")?;
-            Session::Plain(Kernel::new(config).map_err(|e| e.to_string())?)
-        }
-        Some(store) => {
-            let shown = store.location();
-            let opened = journal::open(store, config).map_err(|e| e.to_string())?;
-            if let Some(tail) = &opened.torn {
-                eprintln!(
-                    "savme: {shown}: line {} was cut off mid-write ({} bytes); dropped it",
-                    tail.line, tail.bytes
-                );
-            }
-            if let Some((told, pending)) = &opened.resumed {
-                eprintln!(
-                    "savme: resumed {shown}: {told} told, {} pending",
-                    pending.len()
-                );
-            }
-            Session::Journaled(opened.kernel)
-        }
-    };
-    let mut session = session;
+    let shown = journal.as_ref().map(|s| s.location());
+    let opened = Session::open(config, journal).map_err(|e| match e {
+        OpenError::NoConfig => "give --config (or --journal to resume)".to_string(),
+        e => e.to_string(),
+    })?;
+    let shown = shown.unwrap_or_default();
+    if let Some(tail) = &opened.torn {
+        eprintln!(
+            "savme: {shown}: line {} was cut off mid-write ({} bytes); dropped it",
+            tail.line, tail.bytes
+        );
+    }
+    if let Some((told, pending)) = &opened.resumed {
+        eprintln!(
+            "savme: resumed {shown}: {told} told, {} pending",
+            pending.len()
+        );
+    }
+    let mut session = opened.session;
     session.serve(stdin, stdout).map_err(io_err)
 }

@@ -1,5 +1,10 @@
-//! `savme serve`: the kernel behind a JSON-lines protocol on standard input and output, so that
-//! a harness in any language (Python, MATLAB, C++, a shell script) can drive it.
+//! # savme-serve
+//!
+//! The kernel served: a [`Session`] (plain, or journaled to a trial store so that it resumes
+//! after a crash: [`Session::open`]), the kernel configuration read from JSON
+//! ([`parse_config`]: the one parser of `savme serve --config`, the Python `Kernel` and the C ABI),
+//! and `savme serve`'s protocol: the kernel behind JSON lines on standard input and output, so
+//! that a harness in any language (Python, MATLAB, C++, a shell script) can drive it.
 //!
 //! One request per line, one response per line, in order:
 //!
@@ -29,11 +34,16 @@
 //! depend only on its request and the outcomes told, so a client that restarts it with the
 //! same request and tells the same outcomes in order gets the same trials again.
 
+#![warn(missing_docs)]
+
 use savme_kernel::estimation::{Estimation, EstimationConfig};
 use savme_kernel::journal::{Journaled, JournaledTellError};
+use savme_kernel::{ConfigError, KernelConfig};
 use savme_kernel::{Estimator, Kernel, Observation, Phase, TellError, Trial, TrialRecord};
 use savme_store::journal::JournalSink;
+use savme_store::journal::{self, JournalError};
 use savme_store::StoreError;
+use savme_store::{TornTail, TrialStore};
 use serde::Deserialize;
 use serde_json::{json, Value};
 use std::io::{BufRead, Write};
@@ -110,6 +120,55 @@ pub enum SessionError {
     NoEstimation,
 }
 
+/// Why a kernel configuration (JSON, as `savme example-config` prints) was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum ParseConfigError {
+    /// Not JSON, or not a kernel configuration (the message names line and column).
+    #[error("not a kernel configuration: {0}")]
+    Json(#[from] serde_json::Error),
+    /// A configuration the kernel refuses (the message names the variable or value).
+    #[error(transparent)]
+    Invalid(#[from] ConfigError),
+}
+
+/// Reads a kernel configuration from JSON text and validates it (a kernel is built from it and
+/// dropped), so that the error comes before anything starts.
+///
+/// ```
+/// let config = savme_serve::parse_config("{}");
+/// assert!(config.unwrap_err().to_string().starts_with("not a kernel configuration: missing field"));
+/// ```
+pub fn parse_config(text: &str) -> Result<KernelConfig, ParseConfigError> {
+    let config: KernelConfig = serde_json::from_str(text)?;
+    Kernel::new(config.clone())?;
+    Ok(config)
+}
+
+/// Why a session could not be opened.
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// No journal and no configuration.
+    #[error("give a kernel configuration (or a journal to resume)")]
+    NoConfig,
+    /// The configuration is invalid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The journal could not be opened or replayed (the message names the store and line).
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+}
+
+/// A session as [`Session::open`] found it.
+#[derive(Debug)]
+pub struct Opened {
+    /// The session.
+    pub session: Session,
+    /// Some when an existing journal was resumed: trials told and pending.
+    pub resumed: Option<(u64, Vec<Trial>)>,
+    /// An incomplete last journal line that was dropped (a process killed mid-write).
+    pub torn: Option<TornTail>,
+}
+
 /// The running estimation, or the error saying none is.
 fn running(e: &mut Option<Estimation>) -> Result<&mut Estimation, SessionError> {
     e.as_mut().ok_or(SessionError::NoEstimation)
@@ -125,6 +184,33 @@ impl From<JournaledTellError<StoreError>> for SessionError {
 }
 
 impl Session {
+    /// Opens a session: with a journal, started with `config` if the journal is new, else
+    /// replayed (`config`, if given, must be the journal's) — what `savme serve --journal` does;
+    /// without one, a plain kernel from `config`.
+    pub fn open(
+        config: Option<KernelConfig>,
+        journal: Option<Box<dyn TrialStore>>,
+    ) -> Result<Opened, OpenError> {
+        match journal {
+            None => {
+                let config = config.ok_or(OpenError::NoConfig)?;
+                Ok(Opened {
+                    session: Session::Plain(Kernel::new(config)?),
+                    resumed: None,
+                    torn: None,
+                })
+            }
+            Some(store) => {
+                let opened = journal::open(store, config)?;
+                Ok(Opened {
+                    session: Session::Journaled(opened.kernel),
+                    resumed: opened.resumed,
+                    torn: opened.torn,
+                })
+            }
+        }
+    }
+
     /// The kernel (read-only: changes go through the session, so that they are journaled).
     pub fn kernel(&self) -> &Kernel {
         match self {
@@ -142,6 +228,14 @@ impl Session {
             Session::Plain(k) => (0..n).map(|_| k.ask()).collect(),
             Session::Journaled(j) if n == 1 => vec![j.ask()?],
             Session::Journaled(j) => j.ask_batch(n)?,
+        })
+    }
+
+    /// Asks one trial (as `ask(1)`, without the vector: the C ABI's hot path).
+    pub fn ask_one(&mut self) -> Result<Trial, SessionError> {
+        Ok(match self {
+            Session::Plain(k) => k.ask(),
+            Session::Journaled(j) => j.ask()?,
         })
     }
 
@@ -330,7 +424,7 @@ fn posterior(k: &Kernel) -> Value {
 
 /// How many observations stand behind the fidelity posterior (told or transferred): the
 /// evidence on its first variable beyond the prior's pseudo-counts.
-fn evidence(p: &savme_kernel::Posterior) -> f64 {
+pub fn evidence(p: &savme_kernel::Posterior) -> f64 {
     let prior = p.prior();
     p.arms().first().map_or(0.0, |arms| {
         arms.iter()
