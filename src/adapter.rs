@@ -327,10 +327,10 @@ impl FileSimulator for FmuCampaignFile {
         let worker = if self.isolate { Some(worker()?) } else { None };
         let backend = savme_fmu::FmuBackend::new(&self.init, worker, self.timeout)
             .map_err(|e| format!("{}: {e}", self.common.path.display()))?;
-        Ok(Frames::fmu(
-            backend,
+        Ok(Frames::series(
+            FmuRerun(backend),
             self.record.clone(),
-            self.init.spec.failure.clone(),
+            signal(&self.init.spec.failure),
         ))
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
@@ -338,6 +338,50 @@ impl FileSimulator for FmuCampaignFile {
     }
     fn into_any(self: Box<Self>) -> Box<dyn Any> {
         self
+    }
+}
+
+/// An FMU campaign's back end re-running trials for the viewer's time-series frames.
+struct FmuRerun(savme_fmu::FmuBackend);
+
+impl savme_viewer::Rerun for FmuRerun {
+    fn rerun(
+        &mut self,
+        role: Role,
+        scenario: &str,
+        phi: &Assignment,
+        theta: &Assignment,
+        record: &[String],
+    ) -> Result<(SimResult, savme_viewer::Series), String> {
+        let (result, trace) = self
+            .0
+            .run_traced(role, scenario, phi, theta, record)
+            .map_err(|e| e.to_string())?;
+        let series = savme_viewer::Series {
+            names: trace.names,
+            times: trace.times,
+            values: trace.values,
+            failure_time: trace.failure_time,
+        };
+        Ok((result, series))
+    }
+}
+
+/// The campaign file's failure signal as the viewer shows it.
+fn signal(failure: &savme_fmu::Failure) -> savme_viewer::Signal {
+    match failure {
+        savme_fmu::Failure::Boolean { variable } => savme_viewer::Signal::Flag {
+            variable: variable.clone(),
+        },
+        savme_fmu::Failure::Threshold {
+            variable,
+            when,
+            value,
+        } => savme_viewer::Signal::Threshold {
+            variable: variable.clone(),
+            above: matches!(when, savme_fmu::Crossing::Above),
+            value: *value,
+        },
     }
 }
 

@@ -12,8 +12,9 @@
 //! - `trial`: one trial's recording (HF and LF side by side, the outcome document);
 //! - `driving`: the bundled simulator's frames (`TrialFrames` is what a simulator implements
 //!   to offer frames);
-//! - `fmu`: an FMU campaign's frames: the outputs its file lists under `[fmu] record`, as time
-//!   series per trial;
+//! - `series_frames`: a campaign's frames as time series per trial (an FMU campaign's: the
+//!   outputs its file lists under `[fmu] record`), from a simulator's [`Rerun`] (`series`, in
+//!   every build);
 //! - `layout`: the blueprints both recordings open with;
 //! - `plan`: what the campaign layout needs before the first trial, and the grids' geometry;
 //! - `palette`: the colours every view shares (one per stage kind, HF red, LF blue).
@@ -25,8 +26,6 @@ mod driving;
 #[cfg(feature = "rerun")]
 mod error;
 #[cfg(feature = "rerun")]
-mod fmu;
-#[cfg(feature = "rerun")]
 pub mod layout;
 #[cfg(feature = "rerun")]
 mod palette;
@@ -34,6 +33,9 @@ mod palette;
 mod plan;
 #[cfg(feature = "rerun")]
 mod recorder;
+mod series;
+#[cfg(feature = "rerun")]
+mod series_frames;
 #[cfg(feature = "rerun")]
 mod stream;
 #[cfg(feature = "rerun")]
@@ -43,8 +45,6 @@ mod trial;
 pub use driving::DrivingFrames;
 #[cfg(feature = "rerun")]
 pub use error::RecordError;
-#[cfg(feature = "rerun")]
-pub use fmu::{leading_sentinels, FmuFrames, FMU_APP, FMU_HF_APP, SENTINEL};
 #[cfg(feature = "rerun")]
 pub use layout::plot_path;
 #[cfg(feature = "rerun")]
@@ -57,14 +57,16 @@ pub use recorder::{campaign_app, is_campaign_app, Recorder, CAMPAIGN_APP};
 #[cfg(feature = "rerun")]
 pub use rerun;
 #[cfg(feature = "rerun")]
+pub use series_frames::{leading_sentinels, SeriesFrames, FMU_APP, FMU_HF_APP, SENTINEL};
+#[cfg(feature = "rerun")]
 pub use stream::{RecordOptions, RunSide, RunSummary, Sink, TrialFrames};
 #[cfg(feature = "rerun")]
 pub use trial::{HF_APP, PAIRED_APP};
 
 use savme_campaign::{CampaignError, Observer, Problem, Protocol};
-use savme_fmu::{Failure, FmuBackend};
 use savme_kernel::Assignment;
 use savme_sim::sim::{DrivingSimulator, RunResult};
+pub use series::{Rerun, Series, Signal};
 use std::path::PathBuf;
 
 /// What the user asked to record.
@@ -122,7 +124,7 @@ impl RecordRequest {
 /// What a recorded trial shows besides its outcome: the frames a simulator adapter offers for
 /// the viewer. An open seam: a simulator offers frames by implementing `TrialFrames` (in its
 /// own crate) and handing it over with `Frames::new` (feature `rerun`); the bundled driving simulator and FMU
-/// campaigns use [`Frames::driving`] and [`Frames::fmu`]; [`Frames::none`] records the
+/// campaigns use [`Frames::driving`] and [`Frames::series`]; [`Frames::none`] records the
 /// campaign view and the outcomes only. In a build without the `rerun` feature every `Frames`
 /// is empty (nothing is recorded there).
 ///
@@ -168,17 +170,17 @@ impl Frames {
         }
     }
 
-    /// An FMU campaign's frames (`FmuFrames`): re-runs of `backend` (as the campaign runs
-    /// it, in this process or in workers) reading the outputs `record` (`[fmu] record`) at
-    /// every communication point; `failure` is the campaign's failure signal.
-    pub fn fmu(backend: FmuBackend, record: Vec<String>, failure: Failure) -> Self {
+    /// Time-series frames (`SeriesFrames`): re-runs of `runner` (as the campaign runs its
+    /// simulator; an FMU campaign's back end, in this process or in workers) recording the
+    /// outputs `record` (`[fmu] record`); `signal` is the campaign's failure signal.
+    pub fn series(runner: impl Rerun + 'static, record: Vec<String>, signal: Signal) -> Self {
         #[cfg(feature = "rerun")]
         {
-            Frames::new(FmuFrames::new(backend, record, failure))
+            Frames::new(SeriesFrames::new(runner, record, signal))
         }
         #[cfg(not(feature = "rerun"))]
         {
-            let _ = (backend, record, failure);
+            let _ = (runner, record, signal);
             Frames::none()
         }
     }

@@ -59,7 +59,7 @@ pub struct RunSummary {
 /// campaign ran it) with recording on and logs its frames under `/hf` or `/lf` of the trial
 /// recording `rec`. The bundled driving simulator implements it ([`super::DrivingFrames`]: the
 /// trial view), and an FMU campaign's simulator when its file lists outputs to record
-/// ([`super::FmuFrames`]: one plot per output); without frames a campaign gets its campaign
+/// ([`super::SeriesFrames`]: one plot per output); without frames a campaign gets its campaign
 /// view only.
 ///
 /// It is the seam through which any simulator shows its runs: implement it in the simulator's

@@ -1,7 +1,7 @@
-//! An FMU campaign's trial frames ([`FmuFrames`]): no scene, but the outputs the campaign file
-//! lists under `[fmu] record = [...]`, read at every communication point of a re-run of the
-//! trial (in this process or in an FMU worker, as the campaign ran it) and logged as time
-//! series over `sim_time`: `/plots/<output>/hf` and `/plots/<output>/lf` (one plot per output,
+//! A campaign's trial frames as time series ([`SeriesFrames`]): no scene, but the outputs a
+//! simulator records (an FMU campaign: those its file lists under `[fmu] record = [...]`, read at
+//! every communication point of a re-run of the trial, in this process or in an FMU worker, as
+//! the campaign ran it; any simulator through [`Rerun`]), logged as time series over `sim_time`: `/plots/<output>/hf` and `/plots/<output>/lf` (one plot per output,
 //! HF and LF in it, as the trial view plots the bundled simulator's clearance); for a threshold
 //! failure on a recorded output, the threshold as `/plots/<output>/threshold`; the first
 //! failure (or its absence) in `/{hf,lf}/events`. Laid out by [`super::layout::fmu_trial`].
@@ -14,14 +14,15 @@
 use super::layout::plot_path;
 use super::layout::{self, Layout};
 use super::palette::{self, rgb};
+use super::series::{Rerun, Signal};
 use super::stream::{err, RecordError, RunSide, RunSummary, TrialFrames};
 use rerun::{EntityPath, RecordingStream, TimeColumn};
-use savme_fmu::{Crossing, Failure, FmuBackend};
 use savme_kernel::{Assignment, Role};
 
-/// The application id of paired FMU trial recordings (their own layout: one plot per output).
+/// The application id of paired trial recordings of time series (their own layout: one plot per
+/// output; the id names FMUs, whose campaigns record them first).
 pub const FMU_APP: &str = "savme-fmu-trial";
-/// The application of an HF-only FMU trial's recording (its plots have no LF run: the viewer
+/// The application of an HF-only trial's recording of time series (its plots have no LF run: the viewer
 /// keeps one layout per application, so HF-only trials get their own).
 pub const FMU_HF_APP: &str = "savme-fmu-hf-run";
 
@@ -46,12 +47,11 @@ pub fn leading_sentinels(values: &[f64]) -> usize {
     }
 }
 
-/// Re-runs an FMU campaign's trials recording the outputs `record`.
-#[derive(Debug, Clone)]
-pub struct FmuFrames {
-    backend: FmuBackend,
+/// Re-runs a campaign's trials recording the outputs `record`.
+pub struct SeriesFrames {
+    runner: Box<dyn Rerun>,
     record: Vec<String>,
-    failure: Failure,
+    signal: Signal,
 }
 
 fn colour(run: RunSide) -> rerun::Color {
@@ -61,14 +61,15 @@ fn colour(run: RunSide) -> rerun::Color {
     }
 }
 
-impl FmuFrames {
-    /// Frames of `backend`'s runs showing the outputs `record` (checked against the FMUs by
-    /// the campaign file); `failure` is the campaign's failure signal (its threshold is drawn).
-    pub fn new(backend: FmuBackend, record: Vec<String>, failure: Failure) -> Self {
-        FmuFrames {
-            backend,
+impl SeriesFrames {
+    /// Frames of `runner`'s re-runs showing the outputs `record` (checked against the
+    /// simulator by its adapter, e.g. the campaign file against the FMUs); `signal` is the
+    /// campaign's failure signal (its threshold is drawn).
+    pub fn new(runner: impl Rerun + 'static, record: Vec<String>, signal: Signal) -> Self {
+        SeriesFrames {
+            runner: Box::new(runner),
             record,
-            failure,
+            signal,
         }
     }
 
@@ -80,20 +81,7 @@ impl FmuFrames {
         failure_time: Option<f64>,
         end: f64,
     ) -> Result<(), RecordError> {
-        let signal = match &self.failure {
-            Failure::Boolean { variable } => format!("`{variable}`"),
-            Failure::Threshold {
-                variable,
-                when,
-                value,
-            } => format!(
-                "`{variable}` {} {value}",
-                match when {
-                    Crossing::Above => "≥",
-                    Crossing::Below => "≤",
-                }
-            ),
-        };
+        let signal = self.signal.text();
         let (time, log) = match failure_time {
             Some(t) => (
                 t,
@@ -114,7 +102,7 @@ impl FmuFrames {
     }
 }
 
-impl TrialFrames for FmuFrames {
+impl TrialFrames for SeriesFrames {
     fn layout(&self, paired: bool) -> (&'static str, Layout) {
         let app = if paired { FMU_APP } else { FMU_HF_APP };
         (app, layout::fmu_trial(&self.record, paired))
@@ -125,8 +113,8 @@ impl TrialFrames for FmuFrames {
         rec: &RecordingStream,
         _scenario: &str,
     ) -> Result<bool, RecordError> {
-        if let Failure::Threshold { variable, .. } = &self.failure {
-            if self.record.contains(variable) {
+        if let Some((variable, _)) = self.signal.threshold() {
+            if self.record.iter().any(|r| r == variable) {
                 rec.log_static(
                     plot_path(variable).join(&EntityPath::from("threshold")),
                     &rerun::SeriesLines::new()
@@ -152,8 +140,8 @@ impl TrialFrames for FmuFrames {
             RunSide::Lf => Role::Learned,
         };
         let (result, trace) = self
-            .backend
-            .run_traced(role, scenario, phi, theta, &self.record)
+            .runner
+            .rerun(role, scenario, phi, theta, &self.record)
             .map_err(err)?;
         let times = || TimeColumn::new_duration_secs("sim_time", trace.times.iter().copied());
         for (name, values) in trace.names.iter().zip(&trace.values) {
@@ -192,15 +180,12 @@ impl TrialFrames for FmuFrames {
             )
             .map_err(err)?;
         }
-        if let Failure::Threshold {
-            variable, value, ..
-        } = &self.failure
-        {
-            if run == RunSide::Hf && self.record.contains(variable) {
+        if let Some((variable, value)) = self.signal.threshold() {
+            if run == RunSide::Hf && self.record.iter().any(|r| r == variable) {
                 rec.send_columns(
                     plot_path(variable).join(&EntityPath::from("threshold")),
                     [times()],
-                    rerun::Scalars::new(vec![*value; trace.times.len()])
+                    rerun::Scalars::new(vec![value; trace.times.len()])
                         .columns_of_unit_batches()
                         .map_err(err)?,
                 )
