@@ -1277,3 +1277,49 @@ fn a_simulator_outside_the_viewer_crate_offers_its_own_frames() {
     assert!(savme::viewer::is_campaign_app(&last_activated_app(&rrd)));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The README's key to the stage colours names each stage kind's colour as the viewer draws it
+/// (issue 40 item 15: it said "baseline white" while meta-training's baseline is pink).
+#[test]
+fn the_readme_names_every_stage_colour_as_drawn() {
+    use savme::campaign::StageKind;
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md"))
+        .unwrap()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    // Reference colours of the names the README uses; the palette's colour must be nearest
+    // to the name the README gives it.
+    let names: [(&str, [f64; 3]); 7] = [
+        ("orange", [255.0, 140.0, 0.0]),
+        ("blue", [40.0, 120.0, 255.0]),
+        ("white", [240.0, 240.0, 240.0]),
+        ("green", [30.0, 200.0, 80.0]),
+        ("pink", [240.0, 110.0, 180.0]),
+        ("purple", [170.0, 90.0, 240.0]),
+        ("yellow", [240.0, 220.0, 30.0]),
+    ];
+    let said = [
+        ("learned prior orange", StageKind::TestLearned),
+        ("uniform prior blue", StageKind::TestUniform),
+        ("its baseline white", StageKind::BaselineTest),
+        ("meta-training green", StageKind::Train),
+        ("its baseline pink", StageKind::BaselineTrain),
+        ("evaluation purple", StageKind::Evaluate),
+        ("LF screening yellow", StageKind::Screen),
+    ];
+    for (phrase, kind) in said {
+        assert!(readme.contains(phrase), "README.md does not say {phrase:?}");
+        let colour = savme::viewer::kind_colour(kind).map(f64::from);
+        let distance = |c: &[f64; 3]| (0..3).map(|i| (c[i] - colour[i]).powi(2)).sum::<f64>();
+        let nearest = names
+            .iter()
+            .min_by(|a, b| distance(&a.1).total_cmp(&distance(&b.1)))
+            .unwrap()
+            .0;
+        assert!(
+            phrase.ends_with(nearest),
+            "{kind:?} is drawn {colour:?}, nearest to {nearest}, but README.md says {phrase:?}"
+        );
+    }
+}
