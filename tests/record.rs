@@ -554,8 +554,9 @@ fn trial_name(t: &serde_json::Value) -> String {
         None if t["hf"]["failure"] == true => "HF failure".into(),
         None => "HF pass".into(),
     };
+    // The outcome first: the viewer's Sources panel cuts long names off at the right.
     format!(
-        "{} #{} {} {outcome}",
+        "{outcome} · {} #{} {}",
         t["stage"].as_str().unwrap(),
         t["index"],
         t["scenario"].as_str().unwrap()

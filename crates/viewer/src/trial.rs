@@ -24,14 +24,16 @@ pub fn app(paired: bool) -> &'static str {
     }
 }
 
-/// The name of a campaign trial's recording: stage, trial, scenario, outcome.
+/// The name of a campaign trial's recording: outcome first (the viewer's Sources panel cuts
+/// long names off at the right), then stage, trial and scenario — `FN · train@0.3 #12
+/// lead_vehicle_brakes`.
 pub fn name(line: &TrialLine) -> String {
     format!(
-        "{} #{} {} {}",
+        "{} · {} #{} {}",
+        outcome_label(line.outcome, line.hf.failure),
         line.stage,
         line.index,
         line.scenario,
-        outcome_label(line.outcome, line.hf.failure)
     )
 }
 
