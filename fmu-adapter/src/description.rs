@@ -148,7 +148,7 @@ pub enum VarCausality {
     Local,
     /// The independent variable (time).
     Independent,
-    /// FMI 3.0 structural parameter (array sizes): not settable by savme.
+    /// FMI 3.0 structural parameter (array sizes, model structure): set in configuration mode.
     StructuralParameter,
 }
 

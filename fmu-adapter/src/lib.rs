@@ -19,7 +19,7 @@
 
 pub mod backend;
 pub mod campaign_file;
-mod declared;
+pub mod declared;
 pub mod description;
 pub mod file;
 pub mod fmi3;

@@ -301,7 +301,7 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
     // Outputs cannot be set; parameters are no failure signal.
     check(
         &|s| s.scenarios[0].phi[0].fmu_variable = "x".into(),
-        "variable `x` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
+        "variable `x` cannot be used here: expected a parameter, a structural parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
     );
     check(
         &|s| {

@@ -247,7 +247,7 @@ fn a_binding_error_is_put_on_the_use_that_failed() {
             "fmu = \"failed\"",
             32,
             "scenario[0].phi[0].fmu",
-            "variable `failed` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
+            "variable `failed` cannot be used here: expected a parameter, a structural parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
         ),
         // Two scenarios bind `x0`; the second as a Boolean.
         (
