@@ -246,10 +246,37 @@ fn fmu_validate_lists_every_problem() {
         text.contains("fmi2Instantiate failed (returned no instance)"),
         "{text}"
     );
-    // A library that crashes while loading is a problem, not the end of savme.
+    // A library that crashes while loading is a problem, not the end of savme; the child's
+    // unpacked copy of the FMU does not stay behind in the temporary directory (issue 40).
     let crash = dir.join("crash");
     std::fs::create_dir_all(&crash).unwrap();
-    let lib = crash.join("crash.so");
+    let fmu = crashing_fmu(&crash);
+    let tmp = made_dir("validate-tmp");
+    let o = Command::new(common::EXE)
+        .args(["fmu", "validate", fmu.to_str().unwrap()])
+        .env("TMPDIR", &tmp)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains(
+            "the library crashed while it was loaded or instantiated (killed by signal 7)"
+        ),
+        "{text}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&tmp)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
+}
+
+/// `braking.fmu` in `dir` whose library dies of SIGBUS while it is loaded (its constructor:
+/// `fmu-adapter/testkit/c/crash_on_load.c`).
+fn crashing_fmu(dir: &Path) -> PathBuf {
+    let lib = dir.join("crash.so");
     let status = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
         .args(["-shared", "-fPIC", "-o"])
         .arg(&lib)
@@ -257,16 +284,48 @@ fn fmu_validate_lists_every_problem() {
         .status()
         .unwrap();
     assert!(status.success());
-    let fmu = crash.join("braking.fmu");
+    let fmu = dir.join("braking.fmu");
     savme_fmi_export::pack(&model_description(), "braking", &lib, &fmu).unwrap();
-    let (ok, text, _) = savme(&["fmu", "validate", fmu.to_str().unwrap()]);
-    assert!(!ok);
+    fmu
+}
+
+/// Issue 40 item 10: a campaign that runs its FMU in this process (no `isolate`) on a library
+/// that crashes while it is loaded ends with a message naming the FMU, the signal and that
+/// `isolate = true` contains it (exit status 1) — it died of the signal without a word (exit
+/// 135) — and leaves nothing in $TMPDIR.
+#[test]
+fn an_fmu_that_crashes_on_load_is_named_before_an_in_process_campaign() {
+    let (dir, config) = example_dir("crash-on-load");
+    crashing_fmu(&dir);
+    let tmp = dir.join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let o = Command::new(common::EXE)
+        .args([
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--quiet",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .env("TMPDIR", &tmp)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        text.contains(
-            "the library crashed while it was loaded or instantiated (killed by signal 7)"
-        ),
-        "{text}"
+        err.contains("campaign.toml, line 14, key `fmu.hf / fmu.lf`")
+            && err.contains("braking.fmu: the FMU's library crashed while it was loaded and instantiated in a test process (killed by signal 7 (SIGBUS: the FMU crashed))")
+            && err.contains("`isolate = true` in [fmu] runs the FMU in worker processes"),
+        "{err}"
     );
+    let left: Vec<_> = std::fs::read_dir(&tmp)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// FMPy, the independent FMI client, and savme give the braking FMU the same outcomes: its
