@@ -1061,3 +1061,117 @@ fn structural_parameters_are_set_in_configuration_mode() {
         assert_eq!(trace.series("x").unwrap().last(), Some(&(2.0 * s as f64)));
     }
 }
+
+/// FMPy's `validate_fmu` problems of `fmu`, one per line.
+fn fmpy_validate(python: &str, fmu: &Path) -> Vec<String> {
+    let script = format!(
+        "import fmpy.validation\nfor p in fmpy.validation.validate_fmu(r'{}'):\n    print(' '.join(str(p).split()))\n",
+        fmu.display()
+    );
+    let o = std::process::Command::new(python)
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(String::from)
+        .collect()
+}
+
+/// Issue 40 item 9: `fmu validate` (`inspect::problems`) finds what FMPy's validation flags —
+/// a parameter with continuous variability (FMI 2.0 and 3.0), a value reference shared by two
+/// FMI 3.0 variables, a ModelStructure output naming no variable — and lists every problem
+/// of a description (five here, one before), each with its line, and a column where the
+/// problem is an element (a name declared twice with both places).
+#[test]
+fn validate_lists_every_problem_fmpy_flags_with_lines_and_columns() {
+    let dir = common::temp_dir("savme-stairs", "validate");
+    let faults: [(&str, &str, &str); 5] = [
+        (
+            "continuous",
+            r#"name="rate" valueReference="1" causality="parameter" variability="fixed""#,
+            r#"name="rate" valueReference="1" causality="parameter" variability="continuous""#,
+        ),
+        (
+            "reference",
+            r#"name="period" valueReference="3""#,
+            r#"name="period" valueReference="1""#,
+        ),
+        (
+            "output",
+            r#"<Output valueReference="10"/>"#,
+            r#"<Output valueReference="10"/><Output valueReference="99"/>"#,
+        ),
+        (
+            "twice",
+            "  </ModelVariables>",
+            "    <Float64 name=\"x0\" valueReference=\"20\" causality=\"parameter\" variability=\"fixed\" initial=\"exact\" start=\"0\"/>\n  </ModelVariables>",
+        ),
+        (
+            "start",
+            r#"initial="exact" start="5"/>"#,
+            r#"initial="exact" start="5" min="0" max="1"/>"#,
+        ),
+    ];
+    let xml3 = savme_fmu_testkit::STAIRS3_MODEL_DESCRIPTION;
+    let line_of =
+        |xml: &str, needle: &str| 1 + xml.lines().position(|l| l.contains(needle)).unwrap();
+    let all = faults
+        .iter()
+        .fold(xml3.to_string(), |x, (_, from, to)| x.replacen(from, to, 1));
+    let fmu = stairs3_edited(&dir, "all.fmu", |_| all.clone());
+    let ours = savme_fmu::inspect::problems(&fmu);
+    let shown = fmu.display().to_string();
+    let twice = line_of(&all, r#"name="x0" valueReference="20""#);
+    let expected = vec![
+        format!("{shown}: modelDescription.xml: line {}, column 34: ModelStructure: Output valueReference=\"99\" names no variable", line_of(&all, "valueReference=\"99\"")),
+        format!("{shown}: modelDescription.xml: line {twice}, column 5: variable `x0` is declared twice (first at line {}, column 5)", line_of(&all, r#"name="x0" valueReference="0""#)),
+        format!("modelDescription.xml, line {}: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&all, "name=\"rate\"")),
+        format!("modelDescription.xml, line {}: variable `threshold`: start 5 lies outside [min, max]", line_of(&all, "name=\"threshold\"")),
+        format!("modelDescription.xml, line {}: variable `period`: value reference 1 is that of variable `rate` (line {}) too", line_of(&all, "name=\"period\""), line_of(&all, "name=\"rate\"")),
+    ];
+    assert_eq!(ours, expected);
+    // FMI 2.0: a continuous parameter; an output Unknown naming no variable, at its line.
+    let xml2 = savme_fmu_testkit::STAIRS_MODEL_DESCRIPTION
+        .replacen(
+            r#"name="rate" valueReference="1" causality="parameter" variability="fixed""#,
+            r#"name="rate" valueReference="1" causality="parameter" variability="continuous""#,
+            1,
+        )
+        .replacen(r#"<Unknown index="8"/>"#, r#"<Unknown index="99"/>"#, 1);
+    let fmu2 = dir.join("all2.fmu");
+    savme_fmu_testkit::pack_stairs(&fmu2, 2, |_| xml2.clone()).unwrap();
+    let ours2 = savme_fmu::inspect::problems(&fmu2);
+    assert_eq!(
+        ours2,
+        [
+            format!("{}: modelDescription.xml: line {}, column 7: ModelStructure: output index 99 names no variable", fmu2.display(), line_of(&xml2, "index=\"99\"")),
+            format!("modelDescription.xml, line {}: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&xml2, "name=\"rate\"")),
+        ]
+    );
+    // Each fault alone: FMPy flags it, and so does savme.
+    if let Some(python) = common::fmpy_python() {
+        assert_eq!(
+            fmpy_validate(&python, &stairs(&dir, 3)),
+            Vec::<String>::new()
+        );
+        for (name, from, to) in faults {
+            let one = stairs3_edited(&dir, &format!("{name}.fmu"), |x| x.replacen(from, to, 1));
+            if name != "start" {
+                // (FMPy does not check a start value against min / max.)
+                assert!(
+                    !fmpy_validate(&python, &one).is_empty(),
+                    "FMPy misses {name}"
+                );
+            }
+            assert_eq!(savme_fmu::inspect::problems(&one).len(), 1, "{name}");
+        }
+        let one = dir.join("continuous2.fmu");
+        let xml = savme_fmu_testkit::STAIRS_MODEL_DESCRIPTION.replacen(faults[0].1, faults[0].2, 1);
+        savme_fmu_testkit::pack_stairs(&one, 2, |_| xml.clone()).unwrap();
+        assert!(!fmpy_validate(&python, &one).is_empty());
+        assert_eq!(savme_fmu::inspect::problems(&one).len(), 1);
+    }
+}
