@@ -364,7 +364,7 @@ struct Parser {
     in_variable3: bool,
     /// The `<Alias>` names (and descriptions) of the FMI 3.0 variable being read, added as
     /// variables when it ends.
-    aliases: Vec<(String, Option<String>)>,
+    aliases: Vec<(String, Option<String>, (usize, usize))>,
     /// Inside `ModelVariables`, `TypeDefinitions`, `ModelStructure/Outputs` (2.0).
     in_variables: bool,
     in_types: bool,
@@ -486,7 +486,8 @@ impl Parser {
             let of = self.md.variables.last().map_or("", |v| v.name.as_str());
             format!("variable `{of}`: an Alias without a name")
         })?;
-        self.aliases.push((alias, a.get("description").cloned()));
+        let at = (self.line, self.column);
+        self.aliases.push((alias, a.get("description").cloned(), at));
         Ok(())
     }
 
@@ -645,9 +646,11 @@ impl Parser {
         let Some(of) = self.md.variables.last().cloned() else {
             return;
         };
-        for (name, description) in std::mem::take(&mut self.aliases) {
+        for (name, description, (line, column)) in std::mem::take(&mut self.aliases) {
             self.md.variables.push(VarInfo {
                 name,
+                line,
+                column,
                 description: description.or_else(|| of.description.clone()),
                 alias_of: Some(of.name.clone()),
                 ..of.clone()

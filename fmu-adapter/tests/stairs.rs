@@ -408,7 +408,7 @@ fn fmi3_aliases_are_shown_and_bindable() {
     let e = FmuFile::open(&dup).unwrap_err().to_string();
     assert!(
         e.contains("modelDescription.xml: line ")
-            && e.ends_with(": variable `rate` is declared twice"),
+            && e.ends_with(": variable `rate` is declared twice (first at line 11, column 5)"),
         "{e}"
     );
 }
