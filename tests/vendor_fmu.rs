@@ -476,3 +476,95 @@ fn fmu_info_and_validate_read_fmi3() {
         "{text}"
     );
 }
+
+/// The FMI 3.0 `stairs` test FMU (`fmu-adapter/testkit/c/stairs.c`, compiled here) in `dir`:
+/// `failed` holds when its Int64 parameter `ticket` is odd (or x reaches `threshold`).
+fn stairs3(dir: &Path) -> PathBuf {
+    let testkit = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu-adapter/testkit/c");
+    let lib = dir.join("stairs.so");
+    let status = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
+        .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
+        .arg(&lib)
+        .arg(testkit.join("stairs.c"))
+        .arg("-lm")
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let xml = std::fs::read_to_string(testkit.join("stairs3.xml")).unwrap();
+    let fmu = dir.join("stairs3.fmu");
+    savme_fmi_export::pack(&xml, "stairs", &lib, &fmu).unwrap();
+    fmu
+}
+
+/// Issue 40 item 7, end to end: a campaign over Int64 values next to 2⁵³ keeps them exact in
+/// its trial store and the FMU gets each exactly — every verdict is the parity of the value the
+/// store holds (9007199254740993 was set as 9007199254740992: verdicts differed from FMPy's).
+#[test]
+fn a_campaigns_int64_values_are_exact_in_the_store_and_the_fmu() {
+    let dir = made_dir("int64-campaign");
+    stairs3(&dir);
+    let config = dir.join("campaign.toml");
+    let scenario = |name: &str, role: &str| {
+        format!(
+            "[[scenario]]\nname = \"{name}\"\nrole = \"{role}\"\nfixed = {{ threshold = 100.0 }}\n\
+             [[scenario.phi]]\nname = \"ticket\"\n\
+             values = [9007199254740993, 9007199254740992, 9223372036854775807, -9223372036854775808]\n"
+        )
+    };
+    std::fs::write(
+        &config,
+        format!(
+            "[fmu]\nhf = \"stairs3.fmu\"\nstop_time = 1.0\nstep = 0.5\n\n[failure]\nboolean = \"failed\"\n\n\
+             [campaign]\nbudgets = [0.5]\ntrain_iterations = 6\neval_iterations = 3\ntest_iterations = 3\n\
+             baseline_train_iterations = 3\nbaseline_test_iterations = 3\ncost = \"work\"\n\n\
+             [fidelity]\n[[fidelity.variable]]\nname = \"min_step\"\nvalues = [1e-9, 1e-8]\nhf = 1e-9\n\n{}\n{}",
+            scenario("s", "train"),
+            scenario("t", "test")
+        ),
+    )
+    .unwrap();
+    for isolate in [false, true] {
+        let out = dir.join(format!("out-{isolate}"));
+        let mut args = vec![
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--quiet",
+            "--out",
+        ];
+        args.push(out.to_str().unwrap());
+        if isolate {
+            let text = std::fs::read_to_string(&config).unwrap();
+            std::fs::write(
+                &config,
+                text.replace("step = 0.5\n", "step = 0.5\nisolate = true\n"),
+            )
+            .unwrap();
+        }
+        let (ok, _, err) = savme(&args);
+        assert!(ok, "{err}");
+        let text = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+        let (mut seen, mut judged) = (std::collections::BTreeSet::new(), 0);
+        for line in text.lines().skip(1) {
+            let v: serde_json::Value = serde_json::from_str(line).unwrap();
+            let Some(ticket) = v["phi"]["ticket"].as_i64() else {
+                continue;
+            };
+            // The stored value as written: an integer, not a float near it.
+            assert!(v["phi"]["ticket"].is_i64(), "{line}");
+            for run in ["hf", "lf"] {
+                if let Some(failure) = v[run]["failure"].as_bool() {
+                    assert_eq!(failure, ticket % 2 != 0, "ticket {ticket}, {run}: {line}");
+                    judged += 1;
+                }
+            }
+            seen.insert(ticket);
+        }
+        assert!(
+            seen.contains(&9_007_199_254_740_993) && seen.contains(&9_007_199_254_740_992),
+            "{seen:?}"
+        );
+        assert!(judged > 10, "{judged} runs judged: {text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

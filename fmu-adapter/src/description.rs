@@ -487,7 +487,8 @@ impl Parser {
             format!("variable `{of}`: an Alias without a name")
         })?;
         let at = (self.line, self.column);
-        self.aliases.push((alias, a.get("description").cloned(), at));
+        self.aliases
+            .push((alias, a.get("description").cloned(), at));
         Ok(())
     }
 
