@@ -496,6 +496,57 @@ fn stairs3(dir: &Path) -> PathBuf {
     fmu
 }
 
+/// Issue 40 item 10: a library that crashes in its instantiate (the `stairs` FMU with
+/// SAVME_STAIRS_CRASH set: SIGSEGV) in an in-process campaign is named with its signal before
+/// the campaign starts (it died at the first run: exit 139); with `isolate = true` each run
+/// fails in its worker and the campaign stops naming the trial, not the process.
+#[test]
+fn an_fmu_that_crashes_in_instantiate_is_named_before_an_in_process_campaign() {
+    let dir = made_dir("crash-instantiate");
+    stairs3(&dir);
+    let config = dir.join("campaign.toml");
+    let body = "[fmu]\nhf = \"stairs3.fmu\"\nstop_time = 1.0\nstep = 0.5\n\n[failure]\nboolean = \"failed\"\n\n\
+                [campaign]\nbudgets = [0.5]\n\n[fidelity]\n[[fidelity.variable]]\nname = \"min_step\"\n\
+                values = [1e-9, 1e-8]\nhf = 1e-9\n\n[[scenario]]\nname = \"s\"\nrole = \"train\"\n\
+                [[scenario.phi]]\nname = \"x0\"\nrange = [0.0, 1.0]\n\n[[scenario]]\nname = \"t\"\n\
+                role = \"test\"\n[[scenario.phi]]\nname = \"x0\"\nrange = [0.0, 1.0]\n";
+    std::fs::write(&config, body).unwrap();
+    let run = |out: &str| {
+        let o = Command::new(common::EXE)
+            .args([
+                "run",
+                "--config",
+                config.to_str().unwrap(),
+                "--quiet",
+                "--out",
+            ])
+            .arg(dir.join(out))
+            .env("SAVME_STAIRS_CRASH", "1")
+            .output()
+            .unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (code, err) = run("in-process");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("stairs3.fmu: the FMU's library crashed while it was loaded and instantiated in a test process (killed by signal 11 (SIGSEGV: the FMU crashed))")
+            && err.contains("`isolate = true` in [fmu]"),
+        "{err}"
+    );
+    std::fs::write(
+        &config,
+        body.replace("step = 0.5\n", "step = 0.5\nisolate = true\n"),
+    )
+    .unwrap();
+    let (code, err) = run("isolated");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("signal 11"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Issue 40 item 7, end to end: a campaign over Int64 values next to 2⁵³ keeps them exact in
 /// its trial store and the FMU gets each exactly — every verdict is the parity of the value the
 /// store holds (9007199254740993 was set as 9007199254740992: verdicts differed from FMPy's).

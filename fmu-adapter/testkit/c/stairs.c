@@ -24,6 +24,8 @@
  *   configuration mode (fmi3EnterConfigurationMode / fmi3ExitConfigurationMode) or in the
  *   Instantiated state (initial="exact", where FMPy sets it); the Int32 output
  *   `configurations` counts the configuration modes left since instantiation or reset.
+ * With the environment variable SAVME_STAIRS_CRASH set, instantiation dies of a genuine
+ * SIGSEGV (a write through a null pointer): a library that crashes in its instantiate.
  *
  * Build (Linux): cc -shared -fPIC -O2 -o stairs.so stairs.c -lm
  */
@@ -59,6 +61,11 @@ typedef struct {
     void (*log2)(void *, const char *, int, const char *, const char *, ...);
     void (*log3)(void *, int, const char *, const char *);
 } Model;
+
+/* Dies of SIGSEGV when SAVME_STAIRS_CRASH is set (see above). */
+static void crash_if_asked(void) {
+    if (getenv("SAVME_STAIRS_CRASH")) *(volatile int *)0 = 0;
+}
 
 static void say(Model *m, int status, const char *fmt, ...) {
     char text[256];
@@ -211,6 +218,7 @@ EXPORT void *fmi2Instantiate(const char *name, int type, const char *guid, const
                              const fmi2CallbackFunctions *cb, int visible, int loggingOn) {
     Model *m;
     (void)name; (void)res; (void)visible; (void)loggingOn;
+    crash_if_asked();
     if (type != 1 || !guid || strcmp(guid, GUID2) != 0 || !cb) return NULL;
     m = calloc(1, sizeof *m);
     if (!m) return NULL;
@@ -350,6 +358,7 @@ EXPORT void *fmi3InstantiateCoSimulation(const char *name, const char *token, co
     Model *m;
     (void)name; (void)res; (void)visible; (void)loggingOn; (void)req; (void)nReq;
     (void)intermediateUpdate;
+    crash_if_asked();
     if (!token || strcmp(token, TOKEN3) != 0 || eventModeUsed) return NULL;
     m = calloc(1, sizeof *m);
     if (!m) return NULL;
