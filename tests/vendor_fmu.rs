@@ -223,11 +223,11 @@ fn fmu_validate_lists_every_problem() {
         v["problems"],
         serde_json::json!([
             format!(
-                "modelDescription.xml, line {}: variable `speed0`: start 30.0 lies outside [min, max]",
+                "modelDescription.xml, line {}, column 5: variable `speed0`: start 30.0 lies outside [min, max]",
                 line_of("speed0")
             ),
             format!(
-                "modelDescription.xml, line {}: variable `road`: start 7 is none of its enumeration's items",
+                "modelDescription.xml, line {}, column 5: variable `road`: start 7 is none of its enumeration's items",
                 line_of("road")
             )
         ])

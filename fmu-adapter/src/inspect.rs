@@ -232,10 +232,11 @@ fn declaration_problems(model: &ModelDescription) -> Vec<String> {
     // FMI 3.0: a value reference names one variable (its aliases share it).
     let mut references: std::collections::HashMap<u32, &VarInfo> = Default::default();
     for v in &model.variables {
+        // Its element's line and column (a variable built, not read, has neither).
         let at = |p: String| {
             format!(
-                "modelDescription.xml, line {}: variable `{}`: {p}",
-                v.line, v.name
+                "modelDescription.xml, line {}, column {}: variable `{}`: {p}",
+                v.line, v.column, v.name
             )
         };
         if let Some(p) = variable_problem(v) {

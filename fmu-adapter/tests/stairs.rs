@@ -447,7 +447,7 @@ fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
     assert_eq!(problems.len(), 1, "{problems:?}");
     let line: usize = problems[0]
         .strip_prefix("modelDescription.xml, line ")
-        .and_then(|r| r.split(':').next())
+        .and_then(|r| r.split(',').next())
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no line: {problems:?}"));
     assert!(line > 1, "{problems:?}");
@@ -1128,9 +1128,9 @@ fn validate_lists_every_problem_fmpy_flags_with_lines_and_columns() {
     let expected = vec![
         format!("{shown}: modelDescription.xml: line {}, column 34: ModelStructure: Output valueReference=\"99\" names no variable", line_of(&all, "valueReference=\"99\"")),
         format!("{shown}: modelDescription.xml: line {twice}, column 5: variable `x0` is declared twice (first at line {}, column 5)", line_of(&all, r#"name="x0" valueReference="0""#)),
-        format!("modelDescription.xml, line {}: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&all, "name=\"rate\"")),
-        format!("modelDescription.xml, line {}: variable `threshold`: start 5 lies outside [min, max]", line_of(&all, "name=\"threshold\"")),
-        format!("modelDescription.xml, line {}: variable `period`: value reference 1 is that of variable `rate` (line {}) too", line_of(&all, "name=\"period\""), line_of(&all, "name=\"rate\"")),
+        format!("modelDescription.xml, line {}, column 5: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&all, "name=\"rate\"")),
+        format!("modelDescription.xml, line {}, column 5: variable `threshold`: start 5 lies outside [min, max]", line_of(&all, "name=\"threshold\"")),
+        format!("modelDescription.xml, line {}, column 5: variable `period`: value reference 1 is that of variable `rate` (line {}) too", line_of(&all, "name=\"period\""), line_of(&all, "name=\"rate\"")),
     ];
     assert_eq!(ours, expected);
     // FMI 2.0: a continuous parameter; an output Unknown naming no variable, at its line.
@@ -1148,7 +1148,7 @@ fn validate_lists_every_problem_fmpy_flags_with_lines_and_columns() {
         ours2,
         [
             format!("{}: modelDescription.xml: line {}, column 7: ModelStructure: output index 99 names no variable", fmu2.display(), line_of(&xml2, "index=\"99\"")),
-            format!("modelDescription.xml, line {}: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&xml2, "name=\"rate\"")),
+            format!("modelDescription.xml, line {}, column 5: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&xml2, "name=\"rate\"")),
         ]
     );
     // Each fault alone: FMPy flags it, and so does savme.
