@@ -222,7 +222,17 @@ pub fn problems(path: &Path) -> Vec<String> {
             }
             out
         }
-        Err(e) => vec![e.to_string()],
+        // An FMU savme cannot run (no binary for this platform, model exchange only, …): that,
+        // then the problems of its declarations, when its description is FMI 2.0 or 3.0.
+        Err(e) => {
+            let mut out = vec![e.to_string()];
+            if let Ok(d) = FmuDescription::inspect(path) {
+                if d.model.fmi_version == "2.0" || d.model.is_fmi3() {
+                    out.extend(declaration_problems(&d.model));
+                }
+            }
+            out
+        }
     }
 }
 
