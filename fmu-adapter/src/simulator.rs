@@ -167,10 +167,11 @@ impl Tracer {
     fn sample(&mut self, inst: &mut Instance, t: f64, failure: bool) -> Result<(), FmuError> {
         self.trace.times.push(t);
         for (v, series) in self.vars.iter().zip(&mut self.trace.values) {
+            // Through the getter of the variable's C type (an FMI 3.0 Int64 or enumeration
+            // through fmi3GetInt64, not fmi3GetInt32).
             series.push(match v.kind {
                 VarType::Boolean => f64::from(u8::from(inst.boolean(v.vr)?)),
-                VarType::Integer | VarType::Enumeration => f64::from(inst.integer(v.vr)?),
-                _ => inst.real(v.vr)?,
+                _ => inst.number(v)?,
             });
         }
         if failure && self.trace.failure_time.is_none() {

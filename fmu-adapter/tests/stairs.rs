@@ -1175,3 +1175,33 @@ fn validate_lists_every_problem_fmpy_flags_with_lines_and_columns() {
         assert_eq!(savme_fmu::inspect::problems(&one).len(), 1);
     }
 }
+
+/// A recorded FMI 3.0 Int64 output is read through `fmi3GetInt64` (it was read through
+/// `fmi3GetInt32`, which the FMU refuses for it).
+#[test]
+fn an_int64_output_is_recorded_through_its_own_getter() {
+    let dir = common::temp_dir("savme-stairs", "record-int64");
+    let fmu = stairs3_edited(&dir, "int64-out.fmu", |xml| {
+        xml.replacen(
+            r#"name="ticket" valueReference="13" causality="parameter" variability="fixed" initial="exact" start="0""#,
+            r#"name="ticket" valueReference="13" causality="output" variability="discrete" initial="calculated""#,
+            1,
+        )
+    });
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let spec = Case::new(&[], 0.5, 1.0).spec(CostSource::Wall);
+    let phi = phi_space();
+    let mut sim =
+        FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone())).unwrap();
+    let phi = Assignment::new().with("threshold", 50.0);
+    let (_, trace) = sim
+        .run_traced(
+            Role::High,
+            "s",
+            &phi,
+            &Assignment::new(),
+            &["ticket".into()],
+        )
+        .unwrap();
+    assert_eq!(trace.series("ticket"), Some(&[0.0, 0.0, 0.0][..]));
+}
