@@ -262,34 +262,6 @@ pub struct Target {
     pub hint: Option<String>,
 }
 
-/// On resume, keeps the stored campaign's simulator label in `protocol` when it names the
-/// simulator `protocol` runs (an FMU campaign's label with its paths spelled otherwise, or
-/// written before labels were canonical: [`savme::adapter::same_simulator`]), so that the
-/// stored protocol is the one given and a campaign resumes from any directory.
-pub fn keep_stored_label(protocol: &mut Protocol, target: &mut Target, repeated: bool) {
-    if !target.resume {
-        return;
-    }
-    let stored = match &mut target.store {
-        Some(store) => store
-            .protocol_keeper()
-            .and_then(|k| k.load_protocol().ok().flatten())
-            .and_then(|v| v.get("simulator")?.as_str().map(String::from)),
-        None if repeated => savme::campaign::load_repeat(&target.out)
-            .ok()
-            .flatten()
-            .map(|r| r.protocol.simulator),
-        None => savme::campaign::load_protocol(&target.out)
-            .ok()
-            .map(|p| p.simulator),
-    };
-    if let Some(stored) = stored {
-        if savme::adapter::same_simulator(&stored, &protocol.simulator) {
-            protocol.simulator = stored;
-        }
-    }
-}
-
 /// Runs a campaign with the observers the flags ask for (progress bars on a terminal, plain
 /// lines otherwise, none with --quiet; the recording) and prints its summary.
 pub fn run_campaign<S>(

@@ -70,7 +70,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let database = a.storage.store.database()?;
     // The campaign and its [estimate] stage continue with the same command.
     let hint = resume_hint(&out, database.as_ref().map(|(db, _)| db));
-    let mut target = Target {
+    let target = Target {
         out,
         resume: resume.is_some(),
         store: store.map(|s| Box::new(s) as Box<dyn TrialStore>),
@@ -79,7 +79,6 @@ pub fn run(a: Args) -> Result<(), Failure> {
     };
     let backend = c.file.simulator(&super::worker_command)?;
     let repeat = c.repeat;
-    super::keep_stored_label(&mut c.protocol, &mut target, repeat.is_some());
     let estimate = c.estimate_settings().map_err(Failure::Runtime)?;
     // Where the [estimate] stage reads the campaign: its database, or its directory.
     let place = match database {
