@@ -123,6 +123,14 @@ pub fn frames_of_label(label: &str) -> Frames {
     adapter_of_label(label).map_or_else(Frames::none, |a| a.frames(label))
 }
 
+/// Whether a stored campaign's simulator label `stored` names the simulator a campaign file
+/// now gives (`given`): the same label, or an FMU campaign's label naming the same files
+/// however their paths were spelled ([`savme_fmu::campaign_file::same_label`]: a campaign run
+/// with `--config ./ref.toml` resumes and estimates from any directory).
+pub fn same_simulator(stored: &str, given: &str) -> bool {
+    stored == given || savme_fmu::campaign_file::same_label(stored, given)
+}
+
 /// The adapter that builds a protocol's label's simulator from the label alone.
 pub fn adapter_of_label(label: &str) -> Option<&'static dyn Adapter> {
     ADAPTERS

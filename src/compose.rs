@@ -90,6 +90,10 @@ pub struct FileCampaign {
 /// `[campaign]` section, then `flags`, validated. An error in
 /// a value the file gave names the file, line and key; one in a flag names the protocol field.
 pub fn campaign_file(path: &Path, flags: &Overrides) -> Result<FileCampaign, CampaignError> {
+    // A campaign stored with its FMUs' paths spelled otherwise (or before labels were
+    // canonical) is the same campaign when they name the same files: for every resume of a
+    // file's campaign, here or through the Python package.
+    savme_campaign::protocol::set_simulator_matcher(crate::adapter::same_simulator);
     let paper = |bins| {
         (
             savme_sim::fidelity::space(bins),

@@ -83,6 +83,11 @@ fn main() -> ExitCode {
     help::color_progress(color);
     let matches = help::command().color(color).get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    // An FMU loaded in this process is loaded and instantiated in a child first: a library
+    // that crashes is reported, not the silent end of savme.
+    if let Ok(probe) = commands::fmu::probe_command() {
+        savme_fmu::inspect::set_load_probe(probe);
+    }
     let result = match cli.command {
         Command::Serve(a) => commands::serve::run(a),
         Command::ExampleConfig(a) => commands::serve::example_config(a).map_err(Failure::from),

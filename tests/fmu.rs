@@ -801,3 +801,99 @@ fn an_estimate_with_another_campaigns_file_names_what_differs() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `savme ARGS` run in directory `cwd`: exit status, standard output and standard error.
+fn savme_in(cwd: &Path, args: &[&str]) -> (Option<i32>, String, String) {
+    let o = Command::new(common::EXE)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Issue 40 item 3: a campaign's identity does not depend on how the campaign file's path is
+/// spelled: run with `--config ./campaign.toml` beside its FMU (`hf = "sim.fmu"`), it resumes
+/// and estimates from another directory with `--config ../campaign.toml` (refused before:
+/// "simulator fmu:../sim.fmu|../sim.fmu there, fmu:./sim.fmu|./sim.fmu in the file"). Another
+/// FMU of the same name is still another campaign.
+#[test]
+fn a_campaign_resumes_and_estimates_from_any_directory() {
+    let dir = made_dir("spelling");
+    std::fs::copy(packed(), dir.join("sim.fmu")).unwrap();
+    std::fs::write(dir.join("campaign.toml"), TINY.replace("FMU", "sim.fmu")).unwrap();
+    let (code, _, err) = savme_in(
+        &dir,
+        &[
+            "run",
+            "--config",
+            "./campaign.toml",
+            "--out",
+            "out",
+            "--quiet",
+        ],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let sub = dir.join("sub");
+    std::fs::create_dir_all(&sub).unwrap();
+    let (code, _, err) = savme_in(
+        &sub,
+        &[
+            "run",
+            "--config",
+            "../campaign.toml",
+            "--resume",
+            "../out",
+            "--quiet",
+        ],
+    );
+    assert_eq!(code, Some(0), "resume from another directory: {err}");
+    let (code, _, err) = savme_in(
+        &sub,
+        &[
+            "estimate",
+            "../out",
+            "--config",
+            "../campaign.toml",
+            "--max-runs",
+            "5",
+            "--no-target",
+        ],
+    );
+    assert_eq!(code, Some(0), "estimate from another directory: {err}");
+    let parent = dir.parent().unwrap();
+    let spelled = format!(
+        "{}/./campaign.toml",
+        dir.file_name().unwrap().to_str().unwrap()
+    );
+    let out = format!("{}/out", dir.file_name().unwrap().to_str().unwrap());
+    let (code, _, err) = savme_in(
+        parent,
+        &["run", "--config", &spelled, "--resume", &out, "--quiet"],
+    );
+    assert_eq!(code, Some(0), "resume from the parent directory: {err}");
+    // Another file named sim.fmu, beside another copy of the campaign file: another campaign.
+    let other = dir.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::copy(packed(), other.join("sim.fmu")).unwrap();
+    std::fs::copy(dir.join("campaign.toml"), other.join("campaign.toml")).unwrap();
+    let (code, _, err) = savme_in(
+        &other,
+        &[
+            "estimate",
+            "../out",
+            "--config",
+            "campaign.toml",
+            "--max-runs",
+            "5",
+            "--no-target",
+        ],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("describes another campaign"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

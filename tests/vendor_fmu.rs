@@ -223,11 +223,11 @@ fn fmu_validate_lists_every_problem() {
         v["problems"],
         serde_json::json!([
             format!(
-                "modelDescription.xml, line {}: variable `speed0`: start 30.0 lies outside [min, max]",
+                "modelDescription.xml, line {}, column 5: variable `speed0`: start 30.0 lies outside [min, max]",
                 line_of("speed0")
             ),
             format!(
-                "modelDescription.xml, line {}: variable `road`: start 7 is none of its enumeration's items",
+                "modelDescription.xml, line {}, column 5: variable `road`: start 7 is none of its enumeration's items",
                 line_of("road")
             )
         ])
@@ -246,10 +246,37 @@ fn fmu_validate_lists_every_problem() {
         text.contains("fmi2Instantiate failed (returned no instance)"),
         "{text}"
     );
-    // A library that crashes while loading is a problem, not the end of savme.
+    // A library that crashes while loading is a problem, not the end of savme; the child's
+    // unpacked copy of the FMU does not stay behind in the temporary directory (issue 40).
     let crash = dir.join("crash");
     std::fs::create_dir_all(&crash).unwrap();
-    let lib = crash.join("crash.so");
+    let fmu = crashing_fmu(&crash);
+    let tmp = made_dir("validate-tmp");
+    let o = Command::new(common::EXE)
+        .args(["fmu", "validate", fmu.to_str().unwrap()])
+        .env("TMPDIR", &tmp)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains(
+            "the library crashed while it was loaded or instantiated (killed by signal 7)"
+        ),
+        "{text}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&tmp)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
+}
+
+/// `braking.fmu` in `dir` whose library dies of SIGBUS while it is loaded (its constructor:
+/// `fmu-adapter/testkit/c/crash_on_load.c`).
+fn crashing_fmu(dir: &Path) -> PathBuf {
+    let lib = dir.join("crash.so");
     let status = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
         .args(["-shared", "-fPIC", "-o"])
         .arg(&lib)
@@ -257,16 +284,48 @@ fn fmu_validate_lists_every_problem() {
         .status()
         .unwrap();
     assert!(status.success());
-    let fmu = crash.join("braking.fmu");
+    let fmu = dir.join("braking.fmu");
     savme_fmi_export::pack(&model_description(), "braking", &lib, &fmu).unwrap();
-    let (ok, text, _) = savme(&["fmu", "validate", fmu.to_str().unwrap()]);
-    assert!(!ok);
+    fmu
+}
+
+/// Issue 40 item 10: a campaign that runs its FMU in this process (no `isolate`) on a library
+/// that crashes while it is loaded ends with a message naming the FMU, the signal and that
+/// `isolate = true` contains it (exit status 1) — it died of the signal without a word (exit
+/// 135) — and leaves nothing in $TMPDIR.
+#[test]
+fn an_fmu_that_crashes_on_load_is_named_before_an_in_process_campaign() {
+    let (dir, config) = example_dir("crash-on-load");
+    crashing_fmu(&dir);
+    let tmp = dir.join("tmp");
+    std::fs::create_dir_all(&tmp).unwrap();
+    let o = Command::new(common::EXE)
+        .args([
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--quiet",
+            "--out",
+        ])
+        .arg(dir.join("out"))
+        .env("TMPDIR", &tmp)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        text.contains(
-            "the library crashed while it was loaded or instantiated (killed by signal 7)"
-        ),
-        "{text}"
+        err.contains("campaign.toml, line 14, key `fmu.hf / fmu.lf`")
+            && err.contains("braking.fmu: the FMU's library crashed while it was loaded and instantiated in a test process (killed by signal 7 (SIGBUS: the FMU crashed))")
+            && err.contains("`isolate = true` in [fmu] runs the FMU in worker processes"),
+        "{err}"
     );
+    let left: Vec<_> = std::fs::read_dir(&tmp)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// FMPy, the independent FMI client, and savme give the braking FMU the same outcomes: its
@@ -416,4 +475,147 @@ fn fmu_info_and_validate_read_fmi3() {
         text.contains("fmi3InstantiateCoSimulation failed (returned no instance); the FMU logged: [error] fmi3InstantiateCoSimulation: wrong instantiationToken"),
         "{text}"
     );
+}
+
+/// The FMI 3.0 `stairs` test FMU (`fmu-adapter/testkit/c/stairs.c`, compiled here) in `dir`:
+/// `failed` holds when its Int64 parameter `ticket` is odd (or x reaches `threshold`).
+fn stairs3(dir: &Path) -> PathBuf {
+    let testkit = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu-adapter/testkit/c");
+    let lib = dir.join("stairs.so");
+    let status = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
+        .args(["-shared", "-fPIC", "-O2", "-fvisibility=hidden", "-o"])
+        .arg(&lib)
+        .arg(testkit.join("stairs.c"))
+        .arg("-lm")
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let xml = std::fs::read_to_string(testkit.join("stairs3.xml")).unwrap();
+    let fmu = dir.join("stairs3.fmu");
+    savme_fmi_export::pack(&xml, "stairs", &lib, &fmu).unwrap();
+    fmu
+}
+
+/// Issue 40 item 10: a library that crashes in its instantiate (the `stairs` FMU with
+/// SAVME_STAIRS_CRASH set: SIGSEGV) in an in-process campaign is named with its signal before
+/// the campaign starts (it died at the first run: exit 139); with `isolate = true` each run
+/// fails in its worker and the campaign stops naming the trial, not the process.
+#[test]
+fn an_fmu_that_crashes_in_instantiate_is_named_before_an_in_process_campaign() {
+    let dir = made_dir("crash-instantiate");
+    stairs3(&dir);
+    let config = dir.join("campaign.toml");
+    let body = "[fmu]\nhf = \"stairs3.fmu\"\nstop_time = 1.0\nstep = 0.5\n\n[failure]\nboolean = \"failed\"\n\n\
+                [campaign]\nbudgets = [0.5]\n\n[fidelity]\n[[fidelity.variable]]\nname = \"min_step\"\n\
+                values = [1e-9, 1e-8]\nhf = 1e-9\n\n[[scenario]]\nname = \"s\"\nrole = \"train\"\n\
+                [[scenario.phi]]\nname = \"x0\"\nrange = [0.0, 1.0]\n\n[[scenario]]\nname = \"t\"\n\
+                role = \"test\"\n[[scenario.phi]]\nname = \"x0\"\nrange = [0.0, 1.0]\n";
+    std::fs::write(&config, body).unwrap();
+    let run = |out: &str| {
+        let o = Command::new(common::EXE)
+            .args([
+                "run",
+                "--config",
+                config.to_str().unwrap(),
+                "--quiet",
+                "--out",
+            ])
+            .arg(dir.join(out))
+            .env("SAVME_STAIRS_CRASH", "1")
+            .output()
+            .unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (code, err) = run("in-process");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("stairs3.fmu: the FMU's library crashed while it was loaded and instantiated in a test process (killed by signal 11 (SIGSEGV: the FMU crashed))")
+            && err.contains("`isolate = true` in [fmu]"),
+        "{err}"
+    );
+    std::fs::write(
+        &config,
+        body.replace("step = 0.5\n", "step = 0.5\nisolate = true\n"),
+    )
+    .unwrap();
+    let (code, err) = run("isolated");
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("signal 11"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Issue 40 item 7, end to end: a campaign over Int64 values next to 2⁵³ keeps them exact in
+/// its trial store and the FMU gets each exactly — every verdict is the parity of the value the
+/// store holds (9007199254740993 was set as 9007199254740992: verdicts differed from FMPy's).
+#[test]
+fn a_campaigns_int64_values_are_exact_in_the_store_and_the_fmu() {
+    let dir = made_dir("int64-campaign");
+    stairs3(&dir);
+    let config = dir.join("campaign.toml");
+    let scenario = |name: &str, role: &str| {
+        format!(
+            "[[scenario]]\nname = \"{name}\"\nrole = \"{role}\"\nfixed = {{ threshold = 100.0 }}\n\
+             [[scenario.phi]]\nname = \"ticket\"\n\
+             values = [9007199254740993, 9007199254740992, 9223372036854775807, -9223372036854775808]\n"
+        )
+    };
+    std::fs::write(
+        &config,
+        format!(
+            "[fmu]\nhf = \"stairs3.fmu\"\nstop_time = 1.0\nstep = 0.5\n\n[failure]\nboolean = \"failed\"\n\n\
+             [campaign]\nbudgets = [0.5]\ntrain_iterations = 6\neval_iterations = 3\ntest_iterations = 3\n\
+             baseline_train_iterations = 3\nbaseline_test_iterations = 3\ncost = \"work\"\n\n\
+             [fidelity]\n[[fidelity.variable]]\nname = \"min_step\"\nvalues = [1e-9, 1e-8]\nhf = 1e-9\n\n{}\n{}",
+            scenario("s", "train"),
+            scenario("t", "test")
+        ),
+    )
+    .unwrap();
+    for isolate in [false, true] {
+        let out = dir.join(format!("out-{isolate}"));
+        let mut args = vec![
+            "run",
+            "--config",
+            config.to_str().unwrap(),
+            "--quiet",
+            "--out",
+        ];
+        args.push(out.to_str().unwrap());
+        if isolate {
+            let text = std::fs::read_to_string(&config).unwrap();
+            std::fs::write(
+                &config,
+                text.replace("step = 0.5\n", "step = 0.5\nisolate = true\n"),
+            )
+            .unwrap();
+        }
+        let (ok, _, err) = savme(&args);
+        assert!(ok, "{err}");
+        let text = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+        let (mut seen, mut judged) = (std::collections::BTreeSet::new(), 0);
+        for line in text.lines().skip(1) {
+            let v: serde_json::Value = serde_json::from_str(line).unwrap();
+            let Some(ticket) = v["phi"]["ticket"].as_i64() else {
+                continue;
+            };
+            // The stored value as written: an integer, not a float near it.
+            assert!(v["phi"]["ticket"].is_i64(), "{line}");
+            for run in ["hf", "lf"] {
+                if let Some(failure) = v[run]["failure"].as_bool() {
+                    assert_eq!(failure, ticket % 2 != 0, "ticket {ticket}, {run}: {line}");
+                    judged += 1;
+                }
+            }
+            seen.insert(ticket);
+        }
+        assert!(
+            seen.contains(&9_007_199_254_740_993) && seen.contains(&9_007_199_254_740_992),
+            "{seen:?}"
+        );
+        assert!(judged > 10, "{judged} runs judged: {text}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

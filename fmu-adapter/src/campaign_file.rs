@@ -165,7 +165,7 @@ impl FmuCampaignFile {
         }
         Ok(FmuCampaignFile {
             common,
-            label: format!("fmu:{}|{}", init.hf.display(), init.lf.display()),
+            label: label(&init.hf, &init.lf),
             init,
             isolate,
             timeout,
@@ -173,6 +173,60 @@ impl FmuCampaignFile {
             record,
         })
     }
+}
+
+/// The simulator label of a campaign on `hf` and `lf`: `fmu:HF|LF`, each the FMU's canonical
+/// path (absolute, links resolved), so that the campaign's identity does not depend on the
+/// directory `savme` runs in or on how the campaign file's path is spelled (`./ref.toml`,
+/// `../x/ref.toml`). A path that cannot be resolved is kept as given.
+pub fn label(hf: &Path, lf: &Path) -> String {
+    let canonical = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    format!(
+        "fmu:{}|{}",
+        canonical(hf).display(),
+        canonical(lf).display()
+    )
+}
+
+/// Whether a stored campaign's simulator label `stored` names the FMUs of `given` (a label of
+/// [`label`]): equal, or each of its paths resolves to the same file as `given`'s. A label
+/// written before labels were canonical holds the paths as given then (relative to the
+/// directory `savme` ran in): a relative one matches if it resolves to the same file from the
+/// current directory or from a directory above the FMU.
+///
+/// ```
+/// use savme_fmu::campaign_file::same_label;
+/// assert!(same_label("fmu:a.fmu|a.fmu", "fmu:a.fmu|a.fmu"));
+/// assert!(!same_label("savme-sim", "fmu:a.fmu|a.fmu"));
+/// ```
+pub fn same_label(stored: &str, given: &str) -> bool {
+    if stored == given {
+        return true;
+    }
+    fn pair(l: &str) -> Option<(&str, &str)> {
+        l.strip_prefix("fmu:")?.split_once('|')
+    }
+    let (Some((sh, sl)), Some((gh, gl))) = (pair(stored), pair(given)) else {
+        return false;
+    };
+    same_file(sh, gh) && same_file(sl, gl)
+}
+
+/// Whether path `stored` (absolute, or relative to an unknown directory) is the file `given`.
+fn same_file(stored: &str, given: &str) -> bool {
+    let Ok(given) = std::fs::canonicalize(given) else {
+        return false;
+    };
+    let stored = Path::new(stored);
+    let is_given = |p: &Path| std::fs::canonicalize(p).is_ok_and(|p| p == given);
+    if stored.is_absolute() {
+        return is_given(stored);
+    }
+    let cwd = std::env::current_dir().ok();
+    cwd.iter()
+        .map(|d| d.as_path())
+        .chain(given.ancestors().skip(1))
+        .any(|base| is_given(&base.join(stored)))
 }
 
 /// The FMU sections as serde reads them. Keep the type names: serde names some of them in its
@@ -550,6 +604,47 @@ mod tests {
     use savme_kernel::Scale;
     use savme_kernel::Variable;
     use std::path::PathBuf;
+
+    /// Issue 40 item 3: a label written before labels were canonical (the paths as given,
+    /// relative to the directory savme ran in) still names its FMUs: it matches the canonical
+    /// label of the same files, not of another file of the same name.
+    #[test]
+    fn an_old_relative_label_matches_the_same_files_only() {
+        let dir = std::env::temp_dir().join(format!("savme-label-{}", std::process::id()));
+        let sub = dir.join("campaigns").join("ref");
+        std::fs::create_dir_all(&sub).unwrap();
+        std::fs::create_dir_all(dir.join("other")).unwrap();
+        for f in [sub.join("a.fmu"), dir.join("other").join("a.fmu")] {
+            std::fs::write(f, b"PK").unwrap();
+        }
+        let given = label(&sub.join("./a.fmu"), &sub.join("a.fmu"));
+        assert!(!given.contains("./"), "{given}");
+        assert_eq!(given, label(&sub.join("../ref/a.fmu"), &sub.join("a.fmu")));
+        // Run from `campaigns/` with `--config ref/campaign.toml`, from `ref/` with
+        // `--config ./campaign.toml`, from elsewhere with an absolute path.
+        for old in [
+            "fmu:ref/a.fmu|ref/a.fmu",
+            "fmu:./a.fmu|a.fmu",
+            "fmu:campaigns/ref/../ref/a.fmu|campaigns/ref/a.fmu",
+            &format!(
+                "fmu:{}|{}",
+                sub.join("a.fmu").display(),
+                sub.join("a.fmu").display()
+            ),
+        ] {
+            assert!(same_label(old, &given), "{old}");
+        }
+        let other = label(&dir.join("other/a.fmu"), &dir.join("other/a.fmu"));
+        for old in [
+            "fmu:ref/a.fmu|ref/a.fmu",
+            "fmu:b.fmu|b.fmu",
+            "fmu:a.fmu|b.fmu",
+        ] {
+            assert!(!same_label(old, &other), "{old}");
+        }
+        assert!(!same_label("savme-sim", &given));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     /// A file every check before the FMUs accepts; its FMU does not exist, so a load that gets
     /// that far fails at line 3 (`fmu.hf`).

@@ -199,6 +199,12 @@ impl std::fmt::Debug for FmuFile {
     }
 }
 
+/// The text of `path`'s `modelDescription.xml` (the archive checked as [`FmuDescription::inspect`]
+/// checks it).
+pub(crate) fn model_xml(path: &Path) -> Result<String, FmuError> {
+    read_archive(path, &path.display().to_string()).map(|(xml, _)| xml)
+}
+
 /// The archive check: `path` exists, is a zip and holds a readable `modelDescription.xml`,
 /// returned as text with the archive's file names.
 fn read_archive(path: &Path, shown: &str) -> Result<(String, Vec<String>), FmuError> {

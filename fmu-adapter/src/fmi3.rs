@@ -73,6 +73,10 @@ pub struct Library {
     pub reset: Plain,
     /// `fmi3DoStep`.
     pub do_step: DoStep,
+    /// `fmi3EnterConfigurationMode`, if exported (called only to set structural parameters).
+    pub enter_configuration_mode: Option<Plain>,
+    /// `fmi3ExitConfigurationMode`, if exported.
+    pub exit_configuration_mode: Option<Plain>,
     /// Float64 … UInt64, Boolean, String.
     pub float64: Access<f64>,
     /// Float32.
@@ -154,6 +158,10 @@ impl Library {
                 terminate: std::mem::transmute::<*const (), Plain>(req("fmi3Terminate")?),
                 reset: std::mem::transmute::<*const (), Plain>(req("fmi3Reset")?),
                 do_step: std::mem::transmute::<*const (), DoStep>(req("fmi3DoStep")?),
+                enter_configuration_mode: opt("fmi3EnterConfigurationMode")
+                    .map(|p| std::mem::transmute::<*const (), Plain>(p)),
+                exit_configuration_mode: opt("fmi3ExitConfigurationMode")
+                    .map(|p| std::mem::transmute::<*const (), Plain>(p)),
                 float64: access!("Float64"),
                 float32: access!("Float32"),
                 int8: access!("Int8"),

@@ -193,30 +193,99 @@ pub fn type_name(v: &VarInfo, fmi3: bool) -> String {
 
 /// The problems savme's checks find in `path` without loading it: the archive, the model
 /// description, FMI 2.0 co-simulation, a binary for this platform (one problem if any fails),
-/// then every variable's declaration — `min` ≤ `max`, the start value of the right type and
-/// inside the bounds or one of the enumeration's items, a start value for every parameter.
+/// then — all of them, not the first — every problem of the model description (a bad element,
+/// a `ModelStructure` output naming no variable, a name declared twice, each with its line and
+/// column) and of every variable's declaration: `min` ≤ `max`, the start value of the right
+/// type and inside the bounds or one of the enumeration's items, a start value for every
+/// parameter, a parameter's variability `fixed` or `tunable` (FMI 2.0 and 3.0), a value
+/// reference of its own (FMI 3.0; an alias shares its variable's), as FMPy's validation has
+/// them.
 pub fn problems(path: &Path) -> Vec<String> {
-    let d = match FmuDescription::read(path) {
-        Ok(d) => d,
-        // Each problem of the model description on its own (the message lists one per line).
-        Err(crate::FmuError::BadModelDescription { fmu, message }) => {
-            return message
-                .lines()
+    match FmuDescription::read(path) {
+        Ok(d) => declaration_problems(&d.model),
+        // Each problem of the model description on its own (the message lists one per line),
+        // then those of the declarations that could be read.
+        Err(FmuError::BadModelDescription { fmu, message }) => {
+            let parsed = crate::file::model_xml(path)
+                .ok()
+                .and_then(|xml| ModelDescription::parse_all(&xml).ok());
+            let mut out: Vec<String> = match &parsed {
+                Some((_, problems)) if !problems.is_empty() => problems.clone(),
+                _ => message.lines().map(String::from).collect(),
+            };
+            out = out
+                .into_iter()
                 .map(|m| format!("{fmu}: modelDescription.xml: {m}"))
-                .collect()
+                .collect();
+            if let Some((model, _)) = parsed {
+                out.extend(declaration_problems(&model));
+            }
+            out
         }
-        Err(e) => return vec![e.to_string()],
-    };
+        // An FMU savme cannot run (no binary for this platform, model exchange only, …): that,
+        // then the problems of its declarations, when its description is FMI 2.0 or 3.0.
+        Err(e) => {
+            let mut out = vec![e.to_string()];
+            if let Ok(d) = FmuDescription::inspect(path) {
+                if d.model.fmi_version == "2.0" || d.model.is_fmi3() {
+                    out.extend(declaration_problems(&d.model));
+                }
+            }
+            out
+        }
+    }
+}
+
+/// Every problem of the variables' declarations, in file order, each with its line.
+fn declaration_problems(model: &ModelDescription) -> Vec<String> {
     let mut out = Vec::new();
-    for v in &d.model.variables {
+    // FMI 3.0: a value reference names one variable (its aliases share it).
+    let mut references: std::collections::HashMap<u32, &VarInfo> = Default::default();
+    for v in &model.variables {
+        // Its element's line and column (a variable built, not read, has neither).
+        let at = |p: String| {
+            format!(
+                "modelDescription.xml, line {}, column {}: variable `{}`: {p}",
+                v.line, v.column, v.name
+            )
+        };
         if let Some(p) = variable_problem(v) {
-            out.push(format!(
-                "modelDescription.xml, line {}: variable `{}`: {p}",
-                v.line, v.name
-            ));
+            out.push(at(p));
+        }
+        if v.alias_of.is_none() && is_parameter(v) && v.variability == "continuous" {
+            out.push(at(format!(
+                "a {} cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")",
+                causality_name(v)
+            )));
+        }
+        if model.is_fmi3() && v.alias_of.is_none() {
+            if let Some(first) = references.insert(v.vr, v) {
+                out.push(at(format!(
+                    "value reference {} is that of variable `{}` (line {}) too",
+                    v.vr, first.name, first.line
+                )));
+                references.insert(v.vr, first);
+            }
         }
     }
     out
+}
+
+/// A parameter of any kind (its variability must be `fixed` or `tunable`).
+fn is_parameter(v: &VarInfo) -> bool {
+    use crate::VarCausality::*;
+    matches!(
+        v.causality,
+        Parameter | CalculatedParameter | StructuralParameter
+    )
+}
+
+/// A causality as the model description writes it (`structuralParameter`, …).
+fn causality_name(v: &VarInfo) -> String {
+    serde_json::to_value(v.causality)
+        .ok()
+        .and_then(|c| c.as_str().map(String::from))
+        .unwrap_or_default()
 }
 
 /// What is wrong with a variable's declaration, if anything (an array's start holds one value
@@ -268,6 +337,63 @@ fn variable_problem(v: &VarInfo) -> Option<String> {
         v.max.unwrap_or(f64::INFINITY),
     );
     (x < lo || x > hi).then(|| format!("start {start} lies outside [min, max]"))
+}
+
+/// The command that loads and instantiates one FMU in a child process — `savme fmu
+/// validate-library`, the FMU's path appended — set once by the program that has one.
+static LOAD_PROBE: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+
+/// Sets the command [`probe_load`] runs (the first call wins): e.g. `["/usr/bin/savme", "fmu",
+/// "validate-library"]`; the command runs [`load_problems`] on the path appended to it.
+pub fn set_load_probe(command: Vec<String>) {
+    let _ = LOAD_PROBE.set(command);
+}
+
+/// Runs `command FMU` (a library check in a child process) to its end: how it ended and its
+/// standard output and error. What the child unpacked is removed once it has ended, also
+/// after a crash.
+pub fn run_probe(command: &[String], fmu: &Path) -> std::io::Result<std::process::Output> {
+    let (program, args) = command
+        .split_first()
+        .ok_or_else(|| std::io::Error::other("an empty probe command"))?;
+    let child = std::process::Command::new(program)
+        .args(args)
+        .arg(fmu)
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()?;
+    let pid = child.id();
+    let out = child.wait_with_output();
+    crate::file::remove_unpacked_of(pid);
+    out
+}
+
+/// Before `fmu` is loaded in this process (a campaign without isolation): loads and
+/// instantiates it in a child process first, when a probe command is set
+/// ([`set_load_probe`]), so that a library that crashes (a constructor that dies, an
+/// instantiation that segfaults) is [`FmuError::CrashedOnLoad`] — saying that `isolate = true`
+/// contains it — rather than the silent end of this process. Any other outcome of the child
+/// passes: this process's own loading reports its errors.
+pub fn probe_load(fmu: &Path) -> Result<(), FmuError> {
+    let Some(command) = LOAD_PROBE.get() else {
+        return Ok(());
+    };
+    let out = run_probe(command, fmu).map_err(|e| FmuError::Io {
+        what: format!("a test process loading {}", fmu.display()),
+        source: e,
+    })?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if out.status.signal().is_some() {
+            return Err(FmuError::CrashedOnLoad {
+                fmu: fmu.display().to_string(),
+                status: crate::worker::describe(out.status),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Loads `path`'s library in this process, checks its FMI functions, and instantiates it once

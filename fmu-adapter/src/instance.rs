@@ -263,6 +263,29 @@ impl Instance {
         }
     }
 
+    /// FMI 3.0 configuration mode around `set` (which sets structural parameters):
+    /// `fmi3EnterConfigurationMode`, `set`, `fmi3ExitConfigurationMode` — in the Instantiated
+    /// state, before the other values are set. An FMI 2.0 FMU has no structural parameters:
+    /// `set` runs as it is.
+    pub fn configure(
+        &mut self,
+        set: impl FnOnce(&mut Instance) -> Result<(), FmuError>,
+    ) -> Result<(), FmuError> {
+        let (enter, exit) = match &self.file.api {
+            Api::Fmi2(_) => return set(self),
+            Api::Fmi3(api) => (api.enter_configuration_mode, api.exit_configuration_mode),
+        };
+        let enter = enter.ok_or_else(|| self.missing("fmi3EnterConfigurationMode"))?;
+        let exit = exit.ok_or_else(|| self.missing("fmi3ExitConfigurationMode"))?;
+        // SAFETY: a live component of this library, in the Instantiated state.
+        let s = unsafe { enter(self.component) };
+        self.status3("fmi3EnterConfigurationMode", s)?;
+        set(self)?;
+        // SAFETY: as above, in configuration mode.
+        let s = unsafe { exit(self.component) };
+        self.status3("fmi3ExitConfigurationMode", s)
+    }
+
     /// Initialises: `fmi2EnterInitializationMode` / `fmi3EnterInitializationMode` (with the
     /// experiment of [`Instance::setup`]) then `fmi2ExitInitializationMode` /
     /// `fmi3ExitInitializationMode`, after which the instance is in step mode.
@@ -497,19 +520,9 @@ impl Instance {
                 Api::Fmi3(api) => self.set3(&api.float32, "fmi3SetFloat32", var.vr, x as f32),
                 Api::Fmi2(_) => Err(self.missing("fmi3SetFloat32")),
             },
-            // UInt64 values above 2⁶³ − 1 do not fit the i64 of `set_int`.
-            Repr::UInt64 if x.fract() == 0.0 && x >= 9_223_372_036_854_775_808.0 => {
-                match &self.file.api {
-                    Api::Fmi3(api) if x < 18_446_744_073_709_551_616.0 => {
-                        self.set3(&api.uint64, "fmi3SetUInt64", var.vr, x as u64)
-                    }
-                    _ => Err(FmuError::Spec(format!(
-                        "{x} does not fit `{}` (UInt64)",
-                        var.name
-                    ))),
-                }
-            }
-            _ if x.fract() == 0.0 => self.set_int(var, x as i64),
+            // Integral and finite: the integer it is, exactly (`as` saturates only beyond
+            // i128, which no integer type takes).
+            _ if x.fract() == 0.0 => self.set_int(var, x as i128),
             _ => Err(FmuError::Spec(format!(
                 "`{}` takes integers, not {x}",
                 var.name
@@ -518,8 +531,9 @@ impl Instance {
     }
 
     /// Sets an integer on `var` (an integer or enumeration variable) through the function of
-    /// its C type; a value outside the type's range is refused.
-    pub fn set_int(&mut self, var: &VarInfo, i: i64) -> Result<(), FmuError> {
+    /// its C type, exactly (an Int64 or UInt64 is never passed through a double); a value
+    /// outside the type's range is refused.
+    pub fn set_int(&mut self, var: &VarInfo, i: i128) -> Result<(), FmuError> {
         let range = || FmuError::Spec(format!("{i} does not fit `{}` ({:?})", var.name, var.repr));
         let api = match (&self.file.api, var.repr) {
             (_, Repr::Int32) => {

@@ -19,7 +19,7 @@
 
 pub mod backend;
 pub mod campaign_file;
-mod declared;
+pub mod declared;
 pub mod description;
 pub mod file;
 pub mod fmi3;
@@ -187,6 +187,15 @@ pub enum FmuError {
     /// signal).
     #[error("{0}")]
     Worker(String),
+    /// The FMU's library crashed while a child process loaded and instantiated it (the check
+    /// before a campaign runs it in this process, where the crash would end savme).
+    #[error("{fmu}: the FMU's library crashed while it was loaded and instantiated in a test process ({status}); in this process it would end the campaign at once — `isolate = true` in [fmu] runs the FMU in worker processes, where a crash costs one run, not savme")]
+    CrashedOnLoad {
+        /// The FMU.
+        fmu: String,
+        /// How the test process ended (`killed by signal 7 (SIGBUS: …)`).
+        status: String,
+    },
     /// The run specification is invalid.
     #[error("run specification: {0}")]
     Spec(String),

@@ -167,10 +167,11 @@ impl Tracer {
     fn sample(&mut self, inst: &mut Instance, t: f64, failure: bool) -> Result<(), FmuError> {
         self.trace.times.push(t);
         for (v, series) in self.vars.iter().zip(&mut self.trace.values) {
+            // Through the getter of the variable's C type (an FMI 3.0 Int64 or enumeration
+            // through fmi3GetInt64, not fmi3GetInt32).
             series.push(match v.kind {
                 VarType::Boolean => f64::from(u8::from(inst.boolean(v.vr)?)),
-                VarType::Integer | VarType::Enumeration => f64::from(inst.integer(v.vr)?),
-                _ => inst.real(v.vr)?,
+                _ => inst.number(v)?,
             });
         }
         if failure && self.trace.failure_time.is_none() {
@@ -329,14 +330,6 @@ impl FmuSimulator {
         };
         match var.kind {
             VarType::Real => inst.set_number(var, value.as_f64().ok_or_else(|| bad("a number"))?),
-            VarType::Integer
-                if var.repr == crate::Repr::UInt64
-                    && value
-                        .as_f64()
-                        .is_some_and(|x| x >= 9_223_372_036_854_775_808.0) =>
-            {
-                inst.set_number(var, value.as_f64().unwrap_or_default())
-            }
             VarType::Integer | VarType::Enumeration => {
                 let i = declared::integer_of(var, value, labels)
                     .ok_or_else(|| bad("an integer, a label or an enumeration item"))?;
@@ -350,6 +343,31 @@ impl FmuSimulator {
             }
             VarType::Other => Err(bad("a Float, Integer, Boolean, String or Enumeration")),
         }
+    }
+
+    /// Sets the fixed values and the values of the bindings on `inst`: those of structural
+    /// parameters (`structural`), or all the others.
+    fn set_values(
+        inst: &mut Instance,
+        fixed: &[(VarInfo, Value)],
+        bound: &[(&Vec<plan::Resolved>, &Assignment)],
+        structural: bool,
+    ) -> Result<(), FmuError> {
+        let wanted = |v: &VarInfo| (v.causality == VarCausality::StructuralParameter) == structural;
+        for (var, value) in fixed.iter().filter(|(v, _)| wanted(v)) {
+            Self::set(inst, var, value, None)?;
+        }
+        for (bindings, values) in bound {
+            for b in bindings.iter().filter(|b| wanted(&b.var)) {
+                let value = values
+                    .get(&b.variable)
+                    .ok_or_else(|| FmuError::MissingValue {
+                        variable: b.variable.clone(),
+                    })?;
+                Self::set(inst, &b.var, value, b.labels.as_deref())?;
+            }
+        }
+        Ok(())
     }
 
     /// Whether the failure signal says failed now, and — for a threshold — its margin: how far
@@ -460,19 +478,12 @@ impl FmuSimulator {
         };
         let start = start_time(inst.file());
         inst.setup(start, Some(stop), tolerance)?;
-        for (var, value) in fixed {
-            Self::set(inst, var, value, None)?;
+        let values = [(phi_bindings, phi), (&plan.fidelity, fidelity)];
+        // Structural parameters first, in configuration mode (FMI 3.0), then the others.
+        if plan.structural {
+            inst.configure(|inst| Self::set_values(inst, fixed, &values, true))?;
         }
-        for (bindings, values) in [(phi_bindings, phi), (&plan.fidelity, fidelity)] {
-            for b in bindings {
-                let value = values
-                    .get(&b.variable)
-                    .ok_or_else(|| FmuError::MissingValue {
-                        variable: b.variable.clone(),
-                    })?;
-                Self::set(inst, &b.var, value, b.labels.as_deref())?;
-            }
-        }
+        Self::set_values(inst, fixed, &values, false)?;
         inst.initialize()?;
         let h = step_size(&spec.step, fidelity)?;
         if let Some(message) = too_many_steps(stop - start, h) {

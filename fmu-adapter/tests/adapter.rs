@@ -269,6 +269,28 @@ fn broken_fmus_are_refused_with_an_error_naming_them() {
         ),
     );
     expect(&wrong_id, "no binary for this platform");
+    // `fmu validate` on an FMU savme cannot run still lists its declarations' problems.
+    let mut bad = md.replace(
+        "modelIdentifier=\"savme_fmu_testkit\"",
+        "modelIdentifier=\"other\"",
+    );
+    let first = bad
+        .find("causality=\"parameter\" variability=\"fixed\"")
+        .unwrap();
+    bad.replace_range(
+        first..first + "causality=\"parameter\" variability=\"fixed\"".len(),
+        "causality=\"parameter\" variability=\"continuous\"",
+    );
+    let bad = pack_xml(&dir, "wrong-id-continuous.fmu", &bad);
+    let all = savme_fmu::inspect::problems(&bad);
+    assert_eq!(all.len(), 2, "{all:?}");
+    assert!(all[0].contains("no binary for this platform"), "{all:?}");
+    assert!(
+        all[1].ends_with(
+            "a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")"
+        ),
+        "{all:?}"
+    );
 }
 
 #[test]
@@ -301,7 +323,7 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
     // Outputs cannot be set; parameters are no failure signal.
     check(
         &|s| s.scenarios[0].phi[0].fmu_variable = "x".into(),
-        "variable `x` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
+        "variable `x` cannot be used here: expected a parameter, a structural parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
     );
     check(
         &|s| {

@@ -247,7 +247,7 @@ fn a_binding_error_is_put_on_the_use_that_failed() {
             "fmu = \"failed\"",
             32,
             "scenario[0].phi[0].fmu",
-            "variable `failed` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
+            "variable `failed` cannot be used here: expected a parameter, a structural parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")",
         ),
         // Two scenarios bind `x0`; the second as a Boolean.
         (
@@ -474,4 +474,112 @@ fn declared_bounds_are_checked_at_the_binding() {
             .ends_with("is declared in [0, 4] (min/max); φ `fault` value 5 lies outside"),
         "{e}"
     );
+}
+
+/// Issue 40 item 7, in a campaign file: listed Int64 and UInt64 values are kept exactly (the
+/// Int64 maximum, 2⁵³ + 1, a UInt64 above 2⁶³ − 1 written as a float); a UInt64 integer
+/// literal above 2⁶³ − 1, which TOML cannot hold, is refused at its line saying what to write
+/// instead; a value outside the C type is refused before any run, naming the binding.
+#[test]
+fn int64_and_uint64_values_of_a_campaign_file_are_exact_or_refused_at_load() {
+    let dir = temp_dir("uint64");
+    let fmu = dir.join("stairs3.fmu");
+    savme_fmu_testkit::pack_stairs(&fmu, 3, |xml| {
+        xml.replacen(
+            "  </ModelVariables>",
+            r#"<UInt64 name="seed" valueReference="12" causality="parameter" variability="fixed" initial="exact" start="0"/>
+  </ModelVariables>"#,
+            1,
+        )
+    })
+    .unwrap();
+    let body = |ticket: &str, seed: &str| {
+        format!(
+            r#"
+[fmu]
+hf = "stairs3.fmu"
+stop_time = 1.0
+step = 0.5
+
+[failure]
+boolean = "failed"
+
+[campaign]
+budgets = [0.5]
+
+[fidelity]
+[[fidelity.variable]]
+name = "min_step"
+values = [1e-9, 1e-8]
+hf = 1e-9
+
+[[scenario]]
+name = "s"
+role = "train"
+[[scenario.phi]]
+name = "ticket"
+values = {ticket}
+[[scenario.phi]]
+name = "seed"
+values = {seed}
+
+[[scenario]]
+name = "t"
+role = "test"
+[[scenario.phi]]
+name = "x0"
+range = [0.0, 1.0]
+"#
+        )
+    };
+    let path = dir.join("campaign.toml");
+    std::fs::write(
+        &path,
+        body(
+            "[9223372036854775807, 9007199254740993, 9007199254740992]",
+            "[1.5e19, 9007199254740993]",
+        ),
+    )
+    .unwrap();
+    let f = FmuCampaignFile::load(&path, &no_paper).unwrap();
+    let space = &f.common.scenarios.spaces["s"];
+    let values = |name: &str| match &space.variable(name).unwrap().domain {
+        savme_kernel::Domain::Discrete { values } => values.clone(),
+        d => panic!("{d:?}"),
+    };
+    assert_eq!(
+        values("ticket"),
+        [
+            Value::Int(i64::MAX),
+            Value::Int(9_007_199_254_740_993),
+            Value::Int(9_007_199_254_740_992)
+        ]
+    );
+    assert_eq!(
+        values("seed"),
+        [Value::Real(1.5e19), Value::Int(9_007_199_254_740_993)]
+    );
+    f.init.simulator().unwrap();
+    // An integer literal TOML cannot hold: refused at its line, saying what to write.
+    std::fs::write(&path, body("[1]", "[18446744073709551615]")).unwrap();
+    let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
+    assert_eq!(e.line, Some(27), "{e}");
+    assert!(
+        e.message
+            .contains("TOML integers are signed 64-bit (at most 9223372036854775807)")
+            && e.message.contains("as a float (`1.5e19`)"),
+        "{e}"
+    );
+    // Outside the C type (UInt64 from 0; 2⁶⁴ as a float): refused at load, naming the binding.
+    for seed in ["[-1]", "[1.8446744073709552e19]"] {
+        std::fs::write(&path, body("[1]", seed)).unwrap();
+        let e = FmuCampaignFile::load(&path, &no_paper)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 26, key `scenario[0].phi[1].name`")
+                && e.contains("variable `seed` is declared in [0, 18446744073709551615]"),
+            "{seed}: {e}"
+        );
+    }
 }

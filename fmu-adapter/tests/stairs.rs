@@ -408,7 +408,7 @@ fn fmi3_aliases_are_shown_and_bindable() {
     let e = FmuFile::open(&dup).unwrap_err().to_string();
     assert!(
         e.contains("modelDescription.xml: line ")
-            && e.ends_with(": variable `rate` is declared twice"),
+            && e.ends_with(": variable `rate` is declared twice (first at line 11, column 5)"),
         "{e}"
     );
 }
@@ -447,7 +447,7 @@ fn fmi3_arrays_binaries_clocks_and_broken_descriptions() {
     assert_eq!(problems.len(), 1, "{problems:?}");
     let line: usize = problems[0]
         .strip_prefix("modelDescription.xml, line ")
-        .and_then(|r| r.split(':').next())
+        .and_then(|r| r.split(',').next())
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("no line: {problems:?}"));
     assert!(line > 1, "{problems:?}");
@@ -730,7 +730,7 @@ fn start_values_of_outputs_and_the_default_start_time() {
             .map(|_| ())
             .unwrap_err()
             .to_string();
-        assert!(e.ends_with("variable `steps` cannot be used here: expected a parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")"), "{e}");
+        assert!(e.ends_with("variable `steps` cannot be used here: expected a parameter, a structural parameter, an input, or a variable whose start value can be set (initial=\"exact\" or \"approx\")"), "{e}");
         // A stop time not after the start time is refused naming both.
         let late = stairs_with_start(&dir, fmi, 5.0);
         let file = Arc::new(FmuFile::open(&late).unwrap());
@@ -820,4 +820,388 @@ fn a_kernel_on_work_takes_runs_that_fail_at_initialisation() {
             assert!(at_start > 0 && later > 0, "{how}: {at_start} / {later}");
         }
     }
+}
+
+/// The FMI 3.0 `stairs` FMU with a UInt64 parameter `seed` (odd fails, as an odd `ticket`).
+fn stairs3_with_seed(dir: &Path) -> PathBuf {
+    stairs3_edited(dir, "exact.fmu", |xml| {
+        xml.replacen(
+            "  </ModelVariables>",
+            r#"<UInt64 name="seed" valueReference="12" causality="parameter" variability="fixed" initial="exact" start="0"/>
+  </ModelVariables>"#,
+            1,
+        )
+    })
+}
+
+/// FMPy's verdict of one run of `fmu` with `start` values (Python literals) up to `stop` in
+/// steps of `h`, and the FMU's `steps` count.
+fn fmpy_runs(python: &str, fmu: &Path, starts: &[String], stop: f64, h: f64) -> Vec<(bool, u64)> {
+    let script = format!(
+        "import fmpy\n\
+         for s in [{}]:\n    \
+         r = fmpy.simulate_fmu(r'{}', start_values=s, stop_time={stop:?}, output_interval={h:?}, \
+         output=['failed', 'steps'], early_return_allowed=True)\n    \
+         print(bool(r['failed'][-1]), int(r['steps'][-1]))\n",
+        starts.join(", "),
+        fmu.display(),
+    );
+    let o = std::process::Command::new(python)
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| {
+            let (f, n) = l.split_once(' ').unwrap();
+            (f == "True", n.parse().unwrap())
+        })
+        .collect()
+}
+
+/// A spec whose one scenario binds φ `name` to the FMU variable of that name, with the
+/// threshold fixed at `threshold`.
+fn bound_spec(name: &str, threshold: f64, h: f64, stop: f64) -> RunSpec {
+    let mut spec =
+        Case::new(&[("threshold", Value::Real(threshold))], h, stop).spec(CostSource::Wall);
+    spec.scenarios[0].phi = vec![Binding {
+        variable: name.into(),
+        fmu_variable: name.into(),
+        labels: None,
+    }];
+    spec
+}
+
+/// Runs every value of φ `name` (listed in `values`) on `fmu` in this process and in a worker:
+/// each run's verdict and `doStep` count.
+fn run_values(fmu: &Path, spec: &RunSpec, name: &str, values: &[Value]) -> Vec<Vec<(bool, u64)>> {
+    let space = Space::new(vec![savme_kernel::Variable::discrete(
+        name,
+        values.to_vec(),
+    )])
+    .unwrap();
+    let file = Arc::new(FmuFile::open(fmu).unwrap());
+    let in_process = FmuBackend::InProcess(
+        FmuSimulator::new(file.clone(), file, spec.clone(), None, &|_| {
+            Some(space.clone())
+        })
+        .unwrap(),
+    );
+    let init = WorkerInit {
+        hf: fmu.to_path_buf(),
+        lf: fmu.to_path_buf(),
+        spec: spec.clone(),
+        fidelity: None,
+        phi: [("s".to_string(), space.clone())].into_iter().collect(),
+    };
+    let worker = vec![env!("CARGO_BIN_EXE_savme-fmu-worker").to_string()];
+    let isolated = FmuBackend::new(&init, Some(worker), Duration::from_secs(60)).unwrap();
+    [in_process, isolated]
+        .into_iter()
+        .map(|mut sim| {
+            values
+                .iter()
+                .map(|v| {
+                    let phi = Assignment::new().with(name, v.clone());
+                    let r = sim
+                        .simulate_as(Role::High, "s", &phi, &Assignment::new())
+                        .unwrap_or_else(|e| panic!("{name} = {v}: {e}"));
+                    (r.failure, r.work.unwrap())
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Issue 40 item 7: Int64 and UInt64 values reach the FMU exactly — 2⁵³ + 1 stays odd (it was
+/// rounded to 2⁵³ through a double), the Int64 extremes are set (i64::MAX was accepted by the
+/// checks and then refused by the first run), a UInt64 above 2⁶³ − 1 written as the number it is
+/// is set as that integer — with FMPy's verdicts; a value outside the type is refused before
+/// any run, naming the variable.
+#[test]
+fn int64_and_uint64_values_are_set_exactly_as_fmpy_sets_them() {
+    let dir = common::temp_dir("savme-stairs", "exact");
+    let fmu = stairs3_with_seed(&dir);
+    let (h, stop) = (0.5, 2.0);
+    // x stays below the threshold: only an odd ticket or seed fails.
+    let tickets = [
+        (9_007_199_254_740_993_i64, true),
+        (9_007_199_254_740_992, false),
+        (i64::MAX, true),
+        (i64::MIN, false),
+        (-3, true),
+    ];
+    let seeds: [(Value, &str, bool); 4] = [
+        (Value::Int(9_007_199_254_740_993), "9007199254740993", true),
+        (Value::Int(i64::MAX), "9223372036854775807", true),
+        // 2⁶⁴ − 2048, the largest double below 2⁶⁴: even.
+        (
+            Value::Real(18_446_744_073_709_549_568.0),
+            "18446744073709549568",
+            false,
+        ),
+        (Value::Int(0), "0", false),
+    ];
+    let want_t: Vec<(bool, u64)> = tickets.iter().map(|(_, f)| (*f, 4)).collect();
+    let want_s: Vec<(bool, u64)> = seeds.iter().map(|(_, _, f)| (*f, 4)).collect();
+    let spec = |name| bound_spec(name, 100.0, h, stop);
+    let values: Vec<Value> = tickets.iter().map(|(t, _)| Value::Int(*t)).collect();
+    for (how, ours) in
+        ["in-process", "isolated"]
+            .iter()
+            .zip(run_values(&fmu, &spec("ticket"), "ticket", &values))
+    {
+        assert_eq!(ours, want_t, "ticket, {how}");
+    }
+    let values: Vec<Value> = seeds.iter().map(|(v, _, _)| v.clone()).collect();
+    for (how, ours) in
+        ["in-process", "isolated"]
+            .iter()
+            .zip(run_values(&fmu, &spec("seed"), "seed", &values))
+    {
+        assert_eq!(ours, want_s, "seed, {how}");
+    }
+    if let Some(python) = common::fmpy_python() {
+        let starts: Vec<String> = tickets
+            .iter()
+            .map(|(t, _)| format!("{{'threshold': 100.0, 'ticket': {t}}}"))
+            .collect();
+        assert_eq!(
+            fmpy_runs(&python, &fmu, &starts, stop, h),
+            want_t,
+            "FMPy, ticket"
+        );
+        let starts: Vec<String> = seeds
+            .iter()
+            .map(|(_, s, _)| format!("{{'threshold': 100.0, 'seed': {s}}}"))
+            .collect();
+        assert_eq!(
+            fmpy_runs(&python, &fmu, &starts, stop, h),
+            want_s,
+            "FMPy, seed"
+        );
+    }
+    // Outside the C type: refused when the simulator is built, before any run.
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    for (name, bad) in [
+        ("seed", Value::Int(-1)),
+        ("seed", Value::Real(18_446_744_073_709_551_616.0)),
+        ("ticket", Value::Real(9_223_372_036_854_775_808.0)),
+    ] {
+        let space =
+            Space::new(vec![savme_kernel::Variable::discrete(name, [bad.clone()])]).unwrap();
+        let e = FmuSimulator::new(file.clone(), file.clone(), spec(name), None, &|_| {
+            Some(space.clone())
+        })
+        .map(|_| ())
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains(&format!("variable `{name}`")) && e.contains("lies outside"),
+            "{name} = {bad}: {e}"
+        );
+    }
+    let e = FmuSimulator::new(file.clone(), file, spec("seed"), None, &|_| {
+        Some(Space::new(vec![savme_kernel::Variable::discrete("seed", [-1])]).unwrap())
+    })
+    .map(|_| ())
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("is declared in [0, 18446744073709551615]"),
+        "{e}"
+    );
+}
+
+/// Issue 40 item 8: an FMI 3.0 structural parameter (`stages`, no `initial` attribute) can be
+/// bound; savme sets it in configuration mode (the FMU counts one), before the other values,
+/// and the verdicts and step counts are FMPy's (which sets it in the Instantiated state).
+#[test]
+fn structural_parameters_are_set_in_configuration_mode() {
+    let dir = common::temp_dir("savme-stairs", "structural");
+    let fmu = stairs(&dir, 3);
+    let (h, stop) = (0.5, 2.0);
+    // x(2) = 2 · stages: fails from stages = 3 on (threshold 5), stopping at the failure.
+    let stages = [1_i64, 2, 3, 7];
+    let mut spec = bound_spec("stages", 5.0, h, stop);
+    spec.stop_on_failure = false;
+    let want: Vec<(bool, u64)> = stages.iter().map(|s| (*s >= 3, 4)).collect();
+    let values: Vec<Value> = stages.iter().map(|s| Value::Int(*s)).collect();
+    for (how, ours) in ["in-process", "isolated"]
+        .iter()
+        .zip(run_values(&fmu, &spec, "stages", &values))
+    {
+        assert_eq!(ours, want, "{how}");
+    }
+    if let Some(python) = common::fmpy_python() {
+        let starts: Vec<String> = stages
+            .iter()
+            .map(|s| format!("{{'threshold': 5.0, 'stages': {s}}}"))
+            .collect();
+        assert_eq!(fmpy_runs(&python, &fmu, &starts, stop, h), want, "FMPy");
+    }
+    // Once per run, in configuration mode: the FMU counted it (reset clears the count).
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let space = Space::new(vec![savme_kernel::Variable::discrete("stages", values)]).unwrap();
+    let mut sim =
+        FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(space.clone())).unwrap();
+    for s in stages {
+        let phi = Assignment::new().with("stages", s);
+        let record = ["configurations".to_string(), "x".to_string()];
+        let (_, trace) = sim
+            .run_traced(Role::High, "s", &phi, &Assignment::new(), &record)
+            .unwrap();
+        assert_eq!(
+            trace.series("configurations").unwrap()[0],
+            1.0,
+            "stages {s}"
+        );
+        assert_eq!(trace.series("x").unwrap().last(), Some(&(2.0 * s as f64)));
+    }
+}
+
+/// FMPy's `validate_fmu` problems of `fmu`, one per line.
+fn fmpy_validate(python: &str, fmu: &Path) -> Vec<String> {
+    let script = format!(
+        "import fmpy.validation\nfor p in fmpy.validation.validate_fmu(r'{}'):\n    print(' '.join(str(p).split()))\n",
+        fmu.display()
+    );
+    let o = std::process::Command::new(python)
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(String::from)
+        .collect()
+}
+
+/// Issue 40 item 9: `fmu validate` (`inspect::problems`) finds what FMPy's validation flags —
+/// a parameter with continuous variability (FMI 2.0 and 3.0), a value reference shared by two
+/// FMI 3.0 variables, a ModelStructure output naming no variable — and lists every problem
+/// of a description (five here, one before), each with its line, and a column where the
+/// problem is an element (a name declared twice with both places).
+#[test]
+fn validate_lists_every_problem_fmpy_flags_with_lines_and_columns() {
+    let dir = common::temp_dir("savme-stairs", "validate");
+    let faults: [(&str, &str, &str); 5] = [
+        (
+            "continuous",
+            r#"name="rate" valueReference="1" causality="parameter" variability="fixed""#,
+            r#"name="rate" valueReference="1" causality="parameter" variability="continuous""#,
+        ),
+        (
+            "reference",
+            r#"name="period" valueReference="3""#,
+            r#"name="period" valueReference="1""#,
+        ),
+        (
+            "output",
+            r#"<Output valueReference="10"/>"#,
+            r#"<Output valueReference="10"/><Output valueReference="99"/>"#,
+        ),
+        (
+            "twice",
+            "  </ModelVariables>",
+            "    <Float64 name=\"x0\" valueReference=\"20\" causality=\"parameter\" variability=\"fixed\" initial=\"exact\" start=\"0\"/>\n  </ModelVariables>",
+        ),
+        (
+            "start",
+            r#"initial="exact" start="5"/>"#,
+            r#"initial="exact" start="5" min="0" max="1"/>"#,
+        ),
+    ];
+    let xml3 = savme_fmu_testkit::STAIRS3_MODEL_DESCRIPTION;
+    let line_of =
+        |xml: &str, needle: &str| 1 + xml.lines().position(|l| l.contains(needle)).unwrap();
+    let all = faults
+        .iter()
+        .fold(xml3.to_string(), |x, (_, from, to)| x.replacen(from, to, 1));
+    let fmu = stairs3_edited(&dir, "all.fmu", |_| all.clone());
+    let ours = savme_fmu::inspect::problems(&fmu);
+    let shown = fmu.display().to_string();
+    let twice = line_of(&all, r#"name="x0" valueReference="20""#);
+    let expected = vec![
+        format!("{shown}: modelDescription.xml: line {}, column 34: ModelStructure: Output valueReference=\"99\" names no variable", line_of(&all, "valueReference=\"99\"")),
+        format!("{shown}: modelDescription.xml: line {twice}, column 5: variable `x0` is declared twice (first at line {}, column 5)", line_of(&all, r#"name="x0" valueReference="0""#)),
+        format!("modelDescription.xml, line {}, column 5: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&all, "name=\"rate\"")),
+        format!("modelDescription.xml, line {}, column 5: variable `threshold`: start 5 lies outside [min, max]", line_of(&all, "name=\"threshold\"")),
+        format!("modelDescription.xml, line {}, column 5: variable `period`: value reference 1 is that of variable `rate` (line {}) too", line_of(&all, "name=\"period\""), line_of(&all, "name=\"rate\"")),
+    ];
+    assert_eq!(ours, expected);
+    // FMI 2.0: a continuous parameter; an output Unknown naming no variable, at its line.
+    let xml2 = savme_fmu_testkit::STAIRS_MODEL_DESCRIPTION
+        .replacen(
+            r#"name="rate" valueReference="1" causality="parameter" variability="fixed""#,
+            r#"name="rate" valueReference="1" causality="parameter" variability="continuous""#,
+            1,
+        )
+        .replacen(r#"<Unknown index="8"/>"#, r#"<Unknown index="99"/>"#, 1);
+    let fmu2 = dir.join("all2.fmu");
+    savme_fmu_testkit::pack_stairs(&fmu2, 2, |_| xml2.clone()).unwrap();
+    let ours2 = savme_fmu::inspect::problems(&fmu2);
+    assert_eq!(
+        ours2,
+        [
+            format!("{}: modelDescription.xml: line {}, column 7: ModelStructure: output index 99 names no variable", fmu2.display(), line_of(&xml2, "index=\"99\"")),
+            format!("modelDescription.xml, line {}, column 5: variable `rate`: a parameter cannot have variability=\"continuous\" (only \"fixed\" or \"tunable\")", line_of(&xml2, "name=\"rate\"")),
+        ]
+    );
+    // Each fault alone: FMPy flags it, and so does savme.
+    if let Some(python) = common::fmpy_python() {
+        assert_eq!(
+            fmpy_validate(&python, &stairs(&dir, 3)),
+            Vec::<String>::new()
+        );
+        for (name, from, to) in faults {
+            let one = stairs3_edited(&dir, &format!("{name}.fmu"), |x| x.replacen(from, to, 1));
+            if name != "start" {
+                // (FMPy does not check a start value against min / max.)
+                assert!(
+                    !fmpy_validate(&python, &one).is_empty(),
+                    "FMPy misses {name}"
+                );
+            }
+            assert_eq!(savme_fmu::inspect::problems(&one).len(), 1, "{name}");
+        }
+        let one = dir.join("continuous2.fmu");
+        let xml = savme_fmu_testkit::STAIRS_MODEL_DESCRIPTION.replacen(faults[0].1, faults[0].2, 1);
+        savme_fmu_testkit::pack_stairs(&one, 2, |_| xml.clone()).unwrap();
+        assert!(!fmpy_validate(&python, &one).is_empty());
+        assert_eq!(savme_fmu::inspect::problems(&one).len(), 1);
+    }
+}
+
+/// A recorded FMI 3.0 Int64 output is read through `fmi3GetInt64` (it was read through
+/// `fmi3GetInt32`, which the FMU refuses for it).
+#[test]
+fn an_int64_output_is_recorded_through_its_own_getter() {
+    let dir = common::temp_dir("savme-stairs", "record-int64");
+    let fmu = stairs3_edited(&dir, "int64-out.fmu", |xml| {
+        xml.replacen(
+            r#"name="ticket" valueReference="13" causality="parameter" variability="fixed" initial="exact" start="0""#,
+            r#"name="ticket" valueReference="13" causality="output" variability="discrete" initial="calculated""#,
+            1,
+        )
+    });
+    let file = Arc::new(FmuFile::open(&fmu).unwrap());
+    let spec = Case::new(&[], 0.5, 1.0).spec(CostSource::Wall);
+    let phi = phi_space();
+    let mut sim =
+        FmuSimulator::new(file.clone(), file, spec, None, &|_| Some(phi.clone())).unwrap();
+    let phi = Assignment::new().with("threshold", 50.0);
+    let (_, trace) = sim
+        .run_traced(
+            Role::High,
+            "s",
+            &phi,
+            &Assignment::new(),
+            &["ticket".into()],
+        )
+        .unwrap();
+    assert_eq!(trace.series("ticket"), Some(&[0.0, 0.0, 0.0][..]));
 }

@@ -447,10 +447,12 @@ impl Variable {
     }
 }
 
-/// A finite value as a set key: numbers by their value as a real (so `Int(2)` and
-/// `Real(2.0)` are one key, as [`Value::same_as`] has it; `-0.0` is `0.0`), others as they are.
+/// A finite value as a set key, equal exactly when [`Value::same_as`] says so: an integral
+/// number by the integer it is (so `Int(2)` and `Real(2.0)` are one key, `-0.0` is `0`, and
+/// `Int(2⁵³ + 1)` is not `Int(2⁵³)`), another real by its bits, others as they are.
 #[derive(PartialEq, Eq, Hash)]
 enum ValueKey<'a> {
+    Integer(i128),
     Number(u64),
     Bool(bool),
     Label(&'a str),
@@ -461,10 +463,10 @@ impl<'a> ValueKey<'a> {
         match v {
             Value::Bool(b) => ValueKey::Bool(*b),
             Value::Label(s) => ValueKey::Label(s),
-            Value::Int(_) | Value::Real(_) => {
-                let x = v.as_f64().unwrap_or_default();
-                ValueKey::Number(if x == 0.0 { 0 } else { x.to_bits() })
-            }
+            Value::Int(i) => ValueKey::Integer(i128::from(*i)),
+            // `as` is exact for an integral double inside ±2¹²⁶.
+            Value::Real(x) if x.fract() == 0.0 && x.abs() < 8.5e37 => ValueKey::Integer(*x as i128),
+            Value::Real(x) => ValueKey::Number(x.to_bits()),
         }
     }
 }

@@ -59,11 +59,23 @@ impl Value {
 
     /// Equality that treats `Int(2)` and `Real(2.0)` as the same number, so that a value typed
     /// by hand (or read from JSON) matches the discrete value it names.
+    /// Integers compare exactly: `Int(2⁵³ + 1)` is not `Int(2⁵³)` (their doubles are equal),
+    /// nor `Real(2⁵³)`.
+    ///
+    /// ```
+    /// use savme_kernel::Value;
+    /// assert!(!Value::Int(9_007_199_254_740_993).same_as(&Value::Int(9_007_199_254_740_992)));
+    /// assert!(!Value::Int(9_007_199_254_740_993).same_as(&Value::Real(9_007_199_254_740_992.0)));
+    /// assert!(Value::Int(-4).same_as(&Value::Real(-4.0)));
+    /// ```
     pub fn same_as(&self, other: &Value) -> bool {
         match (self, other) {
-            (Value::Int(_) | Value::Real(_), Value::Int(_) | Value::Real(_)) => {
-                self.as_f64() == other.as_f64()
+            (Value::Int(i), Value::Real(x)) | (Value::Real(x), Value::Int(i)) => {
+                // Exact: the double must be the integer itself (`as` is exact for an integral
+                // double inside ±2¹²⁶, and no i64 lies outside).
+                x.fract() == 0.0 && x.abs() < 8.5e37 && *x as i128 == i128::from(*i)
             }
+            (Value::Real(a), Value::Real(b)) => a == b,
             _ => self == other,
         }
     }

@@ -318,7 +318,7 @@ fn same_campaign(
     campaign: &str,
 ) -> Result<(), Failure> {
     let mut differs = Vec::new();
-    if theirs.simulator != ours.simulator {
+    if !savme::adapter::same_simulator(&ours.simulator, &theirs.simulator) {
         differs.push(format!(
             "simulator {:?} there, {:?} in the file",
             ours.simulator, theirs.simulator

@@ -111,13 +111,21 @@ fn validate(file: &Path, json: bool) -> Result<(), String> {
     }
 }
 
+/// The command that checks one FMU's library in a child process: this binary's `fmu
+/// validate-library` (the FMU's path appended).
+pub fn probe_command() -> Result<Vec<String>, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot find the savme binary: {e}"))?;
+    Ok(vec![
+        exe.display().to_string(),
+        "fmu".into(),
+        "validate-library".into(),
+    ])
+}
+
 /// The library checks of `file`, run by this binary in a child process.
 fn library_problems(file: &Path) -> Result<Vec<String>, String> {
-    let exe = std::env::current_exe().map_err(|e| format!("cannot find the savme binary: {e}"))?;
-    let out = std::process::Command::new(exe)
-        .args(["fmu", "validate-library"])
-        .arg(file)
-        .output()
+    // The child's unpacked copy is removed once it has ended, also after a crash.
+    let out = savme_fmu::inspect::run_probe(&probe_command()?, file)
         .map_err(|e| format!("cannot start the library check: {e}"))?;
     if out.status.success() {
         return serde_json::from_slice(&out.stdout)

@@ -156,7 +156,7 @@ fn file_simulator(
         Ok(c) => c,
         Err(e) => return Ok(Err(e.to_string())),
     };
-    if c.protocol.simulator != label {
+    if !savme::adapter::same_simulator(label, &c.protocol.simulator) {
         return Err(Failure::Runtime(format!(
             "{}: this campaign file describes simulator {:?}, but campaign {name:?} runs {label:?}",
             file.display(),

@@ -27,6 +27,20 @@ pub struct Source {
     text: String,
 }
 
+/// A TOML reader's message, with what to write instead where it is not plain: an integer
+/// literal beyond the signed 64-bit range TOML has.
+fn explained(message: &str) -> String {
+    if message.contains("value was too large") || message.contains("number too large") {
+        format!(
+            "{message}: TOML integers are signed 64-bit (at most 9223372036854775807); write a \
+             larger value (an FMI 3.0 UInt64) as a float (`1.5e19`): it is set as the integer \
+             that float is, exactly (floats above 2^63 are 2048 apart)"
+        )
+    } else {
+        message.to_string()
+    }
+}
+
 impl Source {
     /// A file named `file` (as errors name it) with its text.
     pub fn new(file: impl Into<String>, text: impl Into<String>) -> Source {
@@ -80,7 +94,7 @@ impl Source {
     pub fn parse<T: DeserializeOwned>(&self) -> Result<T, ConfigError> {
         toml::from_str(&self.text).map_err(|e| {
             let line = e.span().map(|s| self.line(s));
-            self.err(line, None, e.message())
+            self.err(line, None, explained(e.message()))
         })
     }
 

@@ -353,7 +353,7 @@ impl<'o> Campaign<'o> {
     /// Refuses to resume a campaign whose stored protocol (`saved`, kept in `store`) is not
     /// the one given.
     fn check_saved(&self, saved: Protocol, store: &str) -> Result<(), CampaignError> {
-        if saved == self.protocol {
+        if saved.same_campaign(&self.protocol) {
             return Ok(());
         }
         Err(CampaignError::Protocol {

@@ -386,7 +386,37 @@ fn first_format() -> u32 {
     1
 }
 
+/// How a stored campaign's simulator label is matched with the one given to resume it, beyond
+/// equality (set once by the program that reads campaign files: an FMU campaign's label names
+/// its FMUs by path, and one stored with the paths spelled otherwise names the same files).
+static SAME_SIMULATOR: std::sync::OnceLock<fn(&str, &str) -> bool> = std::sync::OnceLock::new();
+
+/// Sets how [`Protocol::same_campaign`] matches a stored simulator label (`stored`, `given`)
+/// that is not the given one (the first call wins).
+pub fn set_simulator_matcher(same: fn(&str, &str) -> bool) {
+    let _ = SAME_SIMULATOR.set(same);
+}
+
+/// Whether the stored simulator label `stored` names the simulator `given` names: equal, or
+/// so by the matcher set with [`set_simulator_matcher`].
+pub fn same_simulator(stored: &str, given: &str) -> bool {
+    stored == given || SAME_SIMULATOR.get().is_some_and(|same| same(stored, given))
+}
+
 impl Protocol {
+    /// Whether this stored protocol is `given`: equal, but for a simulator label that names
+    /// the same simulator ([`same_simulator`]).
+    pub fn same_campaign(&self, given: &Protocol) -> bool {
+        self == given
+            || (self.simulator != given.simulator
+                && same_simulator(&self.simulator, &given.simulator)
+                && *self
+                    == Protocol {
+                        simulator: self.simulator.clone(),
+                        ..given.clone()
+                    })
+    }
+
     /// The paper's protocol: budgets 0.2/0.3/0.4, 500 meta-training iterations, 100
     /// evaluations, 200 meta-testing iterations; scenarios 1–8 for meta-training and 9–10 for
     /// meta-testing. The baselines get enough trials to span the meta-training runtime.
@@ -815,6 +845,31 @@ mod tests {
         assert!(!json.contains("prior_strengths"));
         let back: Protocol = serde_json::from_str(&json).unwrap();
         assert!(back.prior_strengths.is_empty());
+    }
+
+    /// Issue 40 item 3: a stored protocol whose simulator label the matcher takes for the given
+    /// one (an FMU campaign's label with its paths spelled otherwise) is the same campaign;
+    /// any other difference still is not.
+    #[test]
+    fn a_stored_label_the_matcher_accepts_is_the_same_campaign() {
+        set_simulator_matcher(|s, g| s == "fmu:./a.fmu|./a.fmu" && g == "fmu:/d/a.fmu|/d/a.fmu");
+        let stored = Protocol::quick("fmu:./a.fmu|./a.fmu", vec!["s".into()], vec!["t".into()]);
+        let given = Protocol {
+            simulator: "fmu:/d/a.fmu|/d/a.fmu".into(),
+            ..stored.clone()
+        };
+        assert!(stored.same_campaign(&given));
+        assert!(!given.same_campaign(&stored), "stored, then given");
+        assert!(!stored.same_campaign(&Protocol {
+            seed: stored.seed + 1,
+            ..given.clone()
+        }));
+        let other = Protocol {
+            simulator: "fmu:/e/a.fmu|/e/a.fmu".into(),
+            ..stored.clone()
+        };
+        assert!(!stored.same_campaign(&other));
+        assert!(same_simulator("savme-sim", "savme-sim"));
     }
 
     #[test]

@@ -233,7 +233,8 @@ impl<'f> Repeated<'f> {
             protocol: self.protocol.clone(),
         };
         if self.resume {
-            if load(&self.out)? != file {
+            let stored = load(&self.out)?;
+            if stored.repeat != file.repeat || !stored.protocol.same_campaign(&file.protocol) {
                 return Err(CampaignError::Protocol {
                     field: "repeat.json".into(),
                     message: "differs from the protocol and repeat given to resume".into(),

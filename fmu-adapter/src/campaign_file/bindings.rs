@@ -164,12 +164,22 @@ pub(super) fn check_record(
 }
 
 /// Loads both FMUs in this process (for a campaign without isolation): a library that cannot
-/// be loaded, or lacks an FMI function, is named at the line of its FMU.
+/// be loaded, or lacks an FMI function, is named at the line of its FMU. Each is first loaded
+/// and instantiated in a child process ([`crate::inspect::probe_load`]): a library that
+/// crashes is named there, with what contains it, instead of ending this process.
 pub(super) fn load_fmus(
     src: &Source,
     init: &WorkerInit,
     fmu: &Spanned<FmuSection>,
 ) -> Result<(), ConfigError> {
+    let paths = if init.hf == init.lf {
+        vec![&init.hf]
+    } else {
+        vec![&init.hf, &init.lf]
+    };
+    for path in paths {
+        crate::inspect::probe_load(path).map_err(|e| fmu_file_error(src, &e, fmu))?;
+    }
     init.open()
         .map(|_| ())
         .map_err(|e| fmu_file_error(src, &e, fmu))

@@ -65,18 +65,24 @@ fn scalar(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
 }
 
 /// Variable `name` of `file`, if savme can set it before initialisation: a parameter, an
-/// input, or — as FMI allows and FMPy does — any variable with a settable start value
-/// (`initial="exact"` or `"approx"`, not constant: the start value of a state, a counter, …).
+/// FMI 3.0 structural parameter (set in configuration mode), an input, or — as FMI allows and
+/// FMPy does — any variable with a settable start value (`initial="exact"` or `"approx"`, not
+/// constant: the start value of a state, a counter, …).
 fn settable(file: &FmuDescription, name: &str) -> Result<VarInfo, FmuError> {
     let v = scalar(file, name)?;
     let start_settable =
         v.variability != "constant" && matches!(v.initial.as_deref(), Some("exact" | "approx"));
-    if !(matches!(v.causality, VarCausality::Parameter | VarCausality::Input) || start_settable) {
+    let structural =
+        v.causality == VarCausality::StructuralParameter && v.variability != "constant";
+    if !(matches!(v.causality, VarCausality::Parameter | VarCausality::Input)
+        || structural
+        || start_settable)
+    {
         return Err(FmuError::WrongCausality {
             fmu: file.path.display().to_string(),
             variable: name.into(),
-            expected: "a parameter, an input, or a variable whose start value can be set \
-                       (initial=\"exact\" or \"approx\")"
+            expected: "a parameter, a structural parameter, an input, or a variable whose start \
+                       value can be set (initial=\"exact\" or \"approx\")"
                 .into(),
         });
     }
@@ -177,6 +183,8 @@ pub(super) struct Plan {
     pub(super) cost: Option<VarInfo>,
     pub(super) fidelity: Vec<Resolved>,
     pub(super) scenarios: Vec<ScenarioPlan>,
+    /// Some binding or fixed value sets a structural parameter (set in configuration mode).
+    pub(super) structural: bool,
 }
 
 pub(super) fn output(
@@ -226,7 +234,7 @@ impl Plan {
             CostSource::Wall => None,
             CostSource::Output(v) => Some(output(file, v, &[VarType::Real, VarType::Integer])?),
         };
-        let fidelity = spec
+        let fidelity: Vec<Resolved> = spec
             .fidelity
             .iter()
             .map(|b| resolve(file, b, fidelity, "θ"))
@@ -248,12 +256,19 @@ impl Plan {
                     .collect::<Result<Vec<_>, _>>()?;
                 Ok((s.name.clone(), bindings, fixed))
             })
-            .collect::<Result<_, FmuError>>()?;
+            .collect::<Result<Vec<ScenarioPlan>, FmuError>>()?;
+        let is_structural = |v: &VarInfo| v.causality == VarCausality::StructuralParameter;
+        let structural = fidelity.iter().any(|b: &Resolved| is_structural(&b.var))
+            || scenarios.iter().any(|(_, bound, fixed): &ScenarioPlan| {
+                bound.iter().any(|b| is_structural(&b.var))
+                    || fixed.iter().any(|(v, _)| is_structural(v))
+            });
         Ok(Plan {
             failure,
             cost,
             fidelity,
             scenarios,
+            structural,
         })
     }
 }

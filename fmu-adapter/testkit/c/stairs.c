@@ -17,6 +17,15 @@
  *   that instant (failed = true);
  * - its reset does not clear that stop request (as some widely used FMUs do): an instance
  *   reset after one refuses every later step (fmi2Discard / terminateSimulation at once).
+ * FMI 3.0 only (issue 40):
+ * - integers exact to the last bit: `failed` also holds when the Int64 parameter `ticket` or
+ *   the UInt64 parameter `seed` is odd (9007199254740993 is odd, its nearest double is not);
+ * - a structural parameter `stages` (UInt64, default 1) multiplying the rate, settable only in
+ *   configuration mode (fmi3EnterConfigurationMode / fmi3ExitConfigurationMode) or in the
+ *   Instantiated state (initial="exact", where FMPy sets it); the Int32 output
+ *   `configurations` counts the configuration modes left since instantiation or reset.
+ * With the environment variable SAVME_STAIRS_CRASH set, instantiation dies of a genuine
+ * SIGSEGV (a write through a null pointer): a library that crashes in its instantiate.
  *
  * Build (Linux): cc -shared -fPIC -O2 -o stairs.so stairs.c -lm
  */
@@ -31,7 +40,7 @@
 #define EXPORT __attribute__((visibility("default")))
 
 enum { VR_X0, VR_RATE, VR_THRESHOLD, VR_PERIOD, VR_JUMP, VR_MIN_STEP, VR_STOP, VR_X, VR_FAILED,
-       VR_STEPS, VR_EVENTS, VR_TIME, VR_SEED };
+       VR_STEPS, VR_EVENTS, VR_TIME, VR_SEED, VR_TICKET, VR_STAGES, VR_CONFIGURATIONS };
 
 typedef struct {
     double x0, rate, threshold, period, jump, min_step;
@@ -39,7 +48,12 @@ typedef struct {
     double time, x;
     int steps, events, failed;
     int stop_requested; /* deliberately kept by reset */
-    uint64_t seed;      /* an FMI 3.0 UInt64 parameter, unused by the model */
+    uint64_t seed;      /* an FMI 3.0 UInt64 parameter: odd fails */
+    int64_t ticket;     /* an FMI 3.0 Int64 parameter: odd fails */
+    uint64_t stages;    /* an FMI 3.0 structural parameter: the rate's factor */
+    int configuring;    /* in configuration mode */
+    int instantiated;   /* in the Instantiated state (before initialisation) */
+    int configurations; /* configuration modes left */
     int early_return_allowed;
     /* FMI 2.0 or 3.0 logger, called as log3(env, status, category, message) or
      * log2(env, name, status, category, "%s", message) */
@@ -47,6 +61,11 @@ typedef struct {
     void (*log2)(void *, const char *, int, const char *, const char *, ...);
     void (*log3)(void *, int, const char *, const char *);
 } Model;
+
+/* Dies of SIGSEGV when SAVME_STAIRS_CRASH is set (see above). */
+static void crash_if_asked(void) {
+    if (getenv("SAVME_STAIRS_CRASH")) *(volatile int *)0 = 0;
+}
 
 static void say(Model *m, int status, const char *fmt, ...) {
     char text[256];
@@ -67,6 +86,11 @@ static void defaults(Model *m) {
     m->min_step = 1e-9;
     m->stop_at_failure = 0;
     m->seed = 0;
+    m->ticket = 0;
+    m->stages = 1;
+    m->configuring = 0;
+    m->instantiated = 1;
+    m->configurations = 0;
     m->time = 0;
     m->steps = 0;
     m->events = 0;
@@ -74,9 +98,12 @@ static void defaults(Model *m) {
     m->x = 0;
 }
 
+/* dx/dt: the rate times the structural parameter `stages`. */
+static double slope(const Model *m) { return m->rate * (double)m->stages; }
+
 static void evaluate(Model *m) {
-    m->x = m->x0 + m->rate * m->time + m->jump * m->events;
-    m->failed = m->x >= m->threshold;
+    m->x = m->x0 + slope(m) * m->time + m->jump * m->events;
+    m->failed = m->x >= m->threshold || (m->ticket & 1) || (m->seed & 1);
 }
 
 static int set_real(Model *m, unsigned vr, double v) {
@@ -112,6 +139,7 @@ static int get_real(Model *m, unsigned vr, double *v) {
 static int get_int(Model *m, unsigned vr, int *v) {
     if (vr == VR_STEPS) *v = m->steps;
     else if (vr == VR_EVENTS) *v = m->events;
+    else if (vr == VR_CONFIGURATIONS) *v = m->configurations;
     else { say(m, 3, "no Integer variable with value reference %u", vr); return 0; }
     return 1;
 }
@@ -135,8 +163,8 @@ static int step(Model *m, double t, double h, int early_allowed, int stop_inside
         return BAD;
     }
     m->steps++;
-    if (stop_inside && m->stop_at_failure && !m->failed && m->rate > 0 && m->jump == 0) {
-        double cross = t + (m->threshold - (m->x0 + m->rate * t)) / m->rate;
+    if (stop_inside && m->stop_at_failure && !m->failed && slope(m) > 0 && m->jump == 0) {
+        double cross = t + (m->threshold - (m->x0 + slope(m) * t)) / slope(m);
         if (cross > t && cross < end) {
             m->time = cross;
             m->x = m->threshold;
@@ -190,6 +218,7 @@ EXPORT void *fmi2Instantiate(const char *name, int type, const char *guid, const
                              const fmi2CallbackFunctions *cb, int visible, int loggingOn) {
     Model *m;
     (void)name; (void)res; (void)visible; (void)loggingOn;
+    crash_if_asked();
     if (type != 1 || !guid || strcmp(guid, GUID2) != 0 || !cb) return NULL;
     m = calloc(1, sizeof *m);
     if (!m) return NULL;
@@ -329,6 +358,7 @@ EXPORT void *fmi3InstantiateCoSimulation(const char *name, const char *token, co
     Model *m;
     (void)name; (void)res; (void)visible; (void)loggingOn; (void)req; (void)nReq;
     (void)intermediateUpdate;
+    crash_if_asked();
     if (!token || strcmp(token, TOKEN3) != 0 || eventModeUsed) return NULL;
     m = calloc(1, sizeof *m);
     if (!m) return NULL;
@@ -342,8 +372,27 @@ EXPORT void *fmi3InstantiateCoSimulation(const char *name, const char *token, co
 EXPORT void fmi3FreeInstance(void *c) { free(c); }
 EXPORT fmi3Status fmi3EnterInitializationMode(void *c, bool tolDefined, double tol, double start,
                                               bool stopDefined, double stop) {
+    Model *m = c;
     (void)tolDefined; (void)tol; (void)stopDefined; (void)stop;
-    ((Model *)c)->time = start;
+    if (m->configuring) { say(m, 3, "fmi3EnterInitializationMode in configuration mode"); return fmi3Error; }
+    m->time = start;
+    m->instantiated = 0;
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3EnterConfigurationMode(void *c) {
+    Model *m = c;
+    if (!m->instantiated || m->configuring) {
+        say(m, 3, "fmi3EnterConfigurationMode outside the Instantiated state");
+        return fmi3Error;
+    }
+    m->configuring = 1;
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3ExitConfigurationMode(void *c) {
+    Model *m = c;
+    if (!m->configuring) { say(m, 3, "fmi3ExitConfigurationMode outside configuration mode"); return fmi3Error; }
+    m->configuring = 0;
+    m->configurations++;
     return fmi3OK;
 }
 EXPORT fmi3Status fmi3ExitInitializationMode(void *c) { evaluate(c); return fmi3OK; }
@@ -402,25 +451,46 @@ EXPORT fmi3Status fmi3DoStep(void *c, double t, double h, bool noSetPrior, bool 
     return r == BAD ? fmi3Error : fmi3OK;
 }
 
-/* `events` read as an Int64 (an Enumeration output, when the model description says so). */
+/* `events` read as an Int64 (an Enumeration output, when the model description says so),
+ * and `ticket`. */
 EXPORT fmi3Status fmi3GetInt64(void *c, const fmi3ValueReference vr[], size_t nv, int64_t v[], size_t nValues) {
+    Model *m = c;
     EACH3 {
-        if (vr[k] != VR_EVENTS) return fmi3Error;
-        v[k] = ((Model *)c)->events;
+        if (vr[k] == VR_EVENTS) v[k] = m->events;
+        else if (vr[k] == VR_TICKET) v[k] = m->ticket;
+        else return fmi3Error;
+    }
+    return fmi3OK;
+}
+EXPORT fmi3Status fmi3SetInt64(void *c, const fmi3ValueReference vr[], size_t nv, const int64_t v[], size_t nValues) {
+    Model *m = c;
+    EACH3 {
+        if (vr[k] != VR_TICKET) { say(m, 3, "no settable Int64 variable %u", vr[k]); return fmi3Error; }
+        m->ticket = v[k];
     }
     return fmi3OK;
 }
 EXPORT fmi3Status fmi3GetUInt64(void *c, const fmi3ValueReference vr[], size_t nv, uint64_t v[], size_t nValues) {
+    Model *m = c;
     EACH3 {
-        if (vr[k] != VR_SEED) return fmi3Error;
-        v[k] = ((Model *)c)->seed;
+        if (vr[k] == VR_SEED) v[k] = m->seed;
+        else if (vr[k] == VR_STAGES) v[k] = m->stages;
+        else return fmi3Error;
     }
     return fmi3OK;
 }
 EXPORT fmi3Status fmi3SetUInt64(void *c, const fmi3ValueReference vr[], size_t nv, const uint64_t v[], size_t nValues) {
+    Model *m = c;
     EACH3 {
-        if (vr[k] != VR_SEED) return fmi3Error;
-        ((Model *)c)->seed = v[k];
+        if (vr[k] == VR_SEED) m->seed = v[k];
+        else if (vr[k] == VR_STAGES) {
+            /* A structural parameter: in configuration mode, or before initialisation. */
+            if (!m->configuring && !m->instantiated) {
+                say(m, 3, "the structural parameter `stages` is set after initialisation");
+                return fmi3Error;
+            }
+            m->stages = v[k];
+        } else return fmi3Error;
     }
     return fmi3OK;
 }
@@ -435,7 +505,6 @@ NOT_PROVIDED3(fmi3GetInt16) NOT_PROVIDED3(fmi3SetInt16)
 NOT_PROVIDED3(fmi3GetUInt16) NOT_PROVIDED3(fmi3SetUInt16)
 NOT_PROVIDED3(fmi3SetInt32)
 NOT_PROVIDED3(fmi3GetUInt32) NOT_PROVIDED3(fmi3SetUInt32)
-NOT_PROVIDED3(fmi3SetInt64)
 NOT_PROVIDED3(fmi3GetString) NOT_PROVIDED3(fmi3SetString)
 NOT_PROVIDED3(fmi3GetBinary) NOT_PROVIDED3(fmi3SetBinary)
 NOT_PROVIDED3(fmi3GetClock) NOT_PROVIDED3(fmi3SetClock)
@@ -444,10 +513,8 @@ NOT_PROVIDED3(fmi3EnterStepMode) NOT_PROVIDED3(fmi3EnterEventMode)
 NOT_PROVIDED3(fmi3ActivateModelPartition)
 NOT_PROVIDED3(fmi3CompletedIntegratorStep)
 NOT_PROVIDED3(fmi3DeserializeFMUState)
-NOT_PROVIDED3(fmi3EnterConfigurationMode)
 NOT_PROVIDED3(fmi3EnterContinuousTimeMode)
 NOT_PROVIDED3(fmi3EvaluateDiscreteStates)
-NOT_PROVIDED3(fmi3ExitConfigurationMode)
 NOT_PROVIDED3(fmi3GetAdjointDerivative)
 NOT_PROVIDED3(fmi3GetContinuousStateDerivatives)
 NOT_PROVIDED3(fmi3GetContinuousStates)
