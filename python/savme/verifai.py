@@ -11,7 +11,7 @@
         theta_hf={"rate_hz": 10},
         budget=0.3, seed=1)
     falsifier = generic_falsifier(sampler=sampler, monitor=sampler.monitor(rho_of),
-                                  falsifier_params=DotMap(n_iters=600))
+                                  falsifier_params=DotMap(n_iters=600))  # even: a trial is 2 samples
     falsifier.run_falsifier()          # your simulator client reads sample.rate_hz too
     sampler.flush(falsifier)           # the last ρ (VerifAI passes each with the next request)
     sampler.failures()                 # the HF counterexamples
