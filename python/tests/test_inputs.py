@@ -28,6 +28,8 @@ def test_negative_and_too_large_ints_are_named_with_their_range():
         k.estimation(refine=(2, -100))
     with pytest.raises(ValueError, match=r"^joint_components must be a whole number"):
         k.estimation(refine=(2, 100), joint_components=-2)
+    with pytest.raises(ValueError, match=f"^id must be a whole number {u64}, got -1$"):
+        k.estimation().tell(-1, True)
     with pytest.raises(ValueError, match=r"^bins must be a whole number from 0 to 4294967295, got -1$"):
         savme.Problem.driving(bins=-1)
     with pytest.raises(ValueError, match=r"^bins must be a whole number"):
