@@ -100,6 +100,27 @@ def test_a_cancelled_trial_hands_out_no_more_runs():
         s.update(hf, info, 1.0)
 
 
+def test_a_run_of_a_trial_cancelled_on_the_kernel_is_refused_not_taken():
+    """`sampler.kernel.cancel(t)` between a sample and its ρ: the ρ is refused naming the
+    trial (it was taken silently, and the trial's HF result kept)."""
+    s = sampler()
+    hf, info = s.getSample()
+    s.kernel.cancel(info.trial)
+    with pytest.raises(savme.TellError, match=r"update\(trial 0, hf\): trial 0 was withdrawn on the kernel"):
+        s.update(hf, info, 1.0)
+    nxt, nxt_info = s.getSample()
+    assert nxt_info.trial.id == 1 and nxt.savme_run == "hf"
+    # The LF sample of a cancelled trial, handed out before the cancel, is refused too.
+    hf, hf_info = s.getSample() if nxt_info.role == "lf" else (nxt, nxt_info)
+    s.update(hf, hf_info, 1.0)
+    lf, lf_info = s.getSample()
+    assert lf_info.role == "lf"
+    s.kernel.cancel(lf_info.trial)
+    with pytest.raises(savme.TellError, match=r"trial 1 was withdrawn"):
+        s.update(lf, lf_info, 1.0)
+    assert s.kernel.stats() == {"asked": 2, "told": 0, "cancelled": 2}
+
+
 def free_port():
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
@@ -126,13 +147,14 @@ def serve(client, stop):
             return
 
 
-def test_savme_runs_inside_verifai_s_falsifier():
-    s = sampler()
+def falsify(s, n_iters):
+    """Runs VerifAI's falsifier on sampler `s` for `n_iters` samples against the socket
+    client; returns the falsifier, the client and what `s.flush` returned."""
     port = free_port()
     falsifier = generic_falsifier(
         sampler=s,
         monitor=s.monitor(lambda data: (data["rho"], data["cost"])),
-        falsifier_params=DotMap(n_iters=600, save_error_table=True, save_safe_table=False),
+        falsifier_params=DotMap(n_iters=n_iters, save_error_table=True, save_safe_table=False),
         server_options=DotMap(port=port),
     )
     client = Simulator(port)
@@ -141,10 +163,17 @@ def test_savme_runs_inside_verifai_s_falsifier():
     thread.start()
     try:
         falsifier.run_falsifier()
-        assert s.flush(falsifier) is not None
+        flushed = s.flush(falsifier)
     finally:
         stop.set()
         thread.join(timeout=10)
+    return falsifier, client, flushed
+
+
+def test_savme_runs_inside_verifai_s_falsifier():
+    s = sampler()
+    falsifier, client, flushed = falsify(s, 600)
+    assert flushed is not None
     assert len(client.runs) == 600 and s.kernel.stats()["told"] == 300
     # The falsifier's error table holds the counterexamples, HF and LF runs alike (VerifAI
     # writes a categorical feature as its index: savme_run 0 is "hf").
@@ -158,6 +187,21 @@ def test_savme_runs_inside_verifai_s_falsifier():
     assert s.kernel.estimate()["rate_hz"] == 2
     gap = s.kernel.scenario_posterior("verifai").means("gap")
     assert gap.index(max(gap)) <= 2, gap  # the failure region: the lowest bins
+
+
+def test_an_odd_n_iters_leaves_a_half_run_trial_with_a_warning_naming_it():
+    """Each savme trial is two samples: n_iters=7 runs three trials and the HF run of a
+    fourth, which cannot be told — flush says so (it was left pending silently)."""
+    s = sampler()
+    with pytest.warns(RuntimeWarning, match=r"trial 3 has its hf run but not its lf run, so it is not told: "
+                                            r"n_iters=7 is odd .*sampler.cancel\(3\)"):
+        _, client, _ = falsify(s, 7)
+    assert len(client.runs) == 7 and s.kernel.stats()["told"] == 3
+    assert [t.id for t in s.kernel.pending()] == [3]
+    # The next sample is its LF run; with it the trial is told.
+    lf, info = s.getSample()
+    assert (info.trial.id, info.role) == (3, "lf")
+    assert s.update(lf, info, 2.0) is not None and s.kernel.stats()["told"] == 4
 
 
 def test_the_falsify_example_runs():

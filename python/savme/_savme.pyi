@@ -75,7 +75,8 @@ def Continuous(
     """A continuous variable on [lo, hi] cut into `bins` arms of equal width ("linear") or
     equal ratio ("log", needs 0 < lo). Values are drawn uniformly (log-uniformly) in a bin.
 
-    Raises ValueError naming the variable for lo >= hi, no bins, a non-positive log range."""
+    Raises ValueError naming the variable for lo >= hi, no bins or a negative number of them,
+    a non-positive log range."""
 
 @final
 class Space:
@@ -133,6 +134,11 @@ class Trial:
         raises TypeError naming the variable, an unknown name KeyError."""
     def theta_as(self, name: str, kind: Type[_V]) -> _V:
         """θ_LF's setting `name` as `kind`, as `phi_as`; ValueError for a baseline trial."""
+    @staticmethod
+    def _from_json(text: str) -> Trial:
+        """What unpickling calls: a trial from its JSON."""
+    def __reduce__(self) -> Tuple[Callable[[str], Trial], Tuple[str]]:
+        """Pickling (`multiprocessing` over trials, copy.deepcopy): the trial exactly."""
 
 @final
 class Record:
@@ -168,6 +174,11 @@ class Record:
         """The LF run's robustness, if it was told one."""
     def to_dict(self) -> Dict[str, Any]:
         """The record as a dict (the JSON of `savme serve`'s records and journal tells)."""
+    @staticmethod
+    def _from_json(text: str) -> Record:
+        """What unpickling calls: a record from its JSON."""
+    def __reduce__(self) -> Tuple[Callable[[str], Record], Tuple[str]]:
+        """Pickling (`multiprocessing`, copy.deepcopy): the record exactly."""
 
 @final
 class Posterior:
@@ -231,6 +242,7 @@ class Kernel:
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
         allocation: Optional[Literal["weights", "cost-rate"]] = None,
         method: Literal["tuned", "paper"] = "tuned",
+        history: Union[bool, int, None] = None,
     ) -> Kernel:
         """Builds a kernel in the "train" phase.
 
@@ -261,45 +273,64 @@ class Kernel:
         paper's) or "cost-rate" (a bandit by HF failures per unit cost, every scenario kept
         above 0.6 × its share of p(s) in cost).
 
-        Raises ValueError naming the variable or scenario at fault, JournalError for a journal
-        that cannot be used."""
+        history: what `trials()` keeps of the told records — None or True every one (~320 B
+        per told trial on a space of one φ and one θ variable, ~770 B on the paper's 4 φ and
+        16 θ: +320 MB / +770 MB after 10⁶ trials), an int N the last N, False (or 0) none (the
+        kernel's memory then stays flat however many trials are told; a journal keeps them).
+
+        Raises ValueError naming the variable, scenario or argument at fault (a negative or
+        too large `seed`, `pair_settle`, `history`), JournalError for a journal that cannot
+        be used."""
     @staticmethod
-    def from_config(config: str, journal: Optional[Union[str, PathLike[str]]] = None) -> Kernel:
+    def from_config(
+        config: str,
+        journal: Optional[Union[str, PathLike[str]]] = None,
+        *,
+        history: Union[bool, int, None] = None,
+    ) -> Kernel:
         """A kernel from a configuration in JSON (what `savme serve --config` reads and
-        `savme example-config` prints)."""
+        `savme example-config` prints); `history` as for `Kernel(...)`."""
     @staticmethod
-    def resume(journal: Union[str, PathLike[str]]) -> Kernel:
+    def resume(journal: Union[str, PathLike[str]], *, history: Union[bool, int, None] = None) -> Kernel:
         """Reopens an existing journal, written by Python or `savme serve --journal`: the
-        kernel continues exactly (its pending trials are in `pending()`). A torn last line
-        (a crash mid-write) is dropped with a RuntimeWarning."""
+        kernel continues exactly (its pending trials are in `pending()`; its told records
+        are `trials()`, as many as `history` keeps). A torn last line (a crash mid-write) is
+        dropped with a RuntimeWarning."""
     @staticmethod
-    def from_json(snapshot: str) -> Kernel:
+    def from_json(snapshot: str, *, history: Union[bool, int, None] = None) -> Kernel:
         """A kernel restored from `to_json()` output (not journaled; `trials()` starts empty —
         a pickled kernel keeps its history)."""
     @staticmethod
-    def _restore(snapshot: str, history: str) -> Kernel:
-        """What unpickling calls: a kernel from its snapshot and history."""
-    def __reduce__(self) -> Tuple[Callable[[str, str], Kernel], Tuple[str, str]]:
+    def _restore(snapshot: str, history: str, limit: Optional[int] = None) -> Kernel:
+        """What unpickling calls: a kernel from its snapshot, history and history limit."""
+    @property
+    def history_limit(self) -> Optional[int]:
+        """How many told records `trials()` keeps: None all of them, else the last N (0:
+        none) — the kernel's `history=`."""
+    def __reduce__(self) -> Tuple[Callable[[str, str, Optional[int]], Kernel], Tuple[str, str, Optional[int]]]:
         """Pickling (and copy.deepcopy) of an unjournaled kernel, with its history; a
         journaled kernel raises TypeError (its journal has one writer)."""
     def trials(self) -> Trials:
         """The told trials in tell order (each a Record with φ, θ_LF, both runs' failures and
-        runtimes, the outcome); `.to_pandas()` gives a DataFrame when pandas is installed."""
+        runtimes, the outcome); `.to_pandas()` gives a DataFrame when pandas is installed.
+        Only the last N with `history=N`, none with `history=False`."""
     def optimize(
         self,
         objective: Callable[[Trial], Tuple[_RunResult, Optional[_RunResult]]],
-        n_trials: int,
+        n_trials: Optional[int] = None,
         *,
         timeout: Optional[float] = None,
         callbacks: Optional[Iterable[Callable[[Kernel, Record], Any]]] = None,
-        catch: Optional[Sequence[Type[BaseException]]] = None,
+        catch: Union[Type[Exception], Sequence[Type[Exception]], None] = None,
     ) -> Trials:
-        """Asks, runs and tells `n_trials` trials (fewer once `timeout` seconds passed), as
-        Optuna's `study.optimize`: `objective(trial)` returns `(hf, lf)`, each a
-        (failure, runtime) pair, `lf` None for a baseline trial. An exception of a type in
-        `catch` cancels the trial and goes on; any other cancels it and is raised. Each
-        callback is called as `callback(kernel, record)` after each tell. Returns the
-        records told."""
+        """Asks, runs and tells `n_trials` trials (fewer once `timeout` seconds passed; None:
+        no limit — with neither, until interrupted), as Optuna's `study.optimize`:
+        `objective(trial)` returns `(hf, lf)`, each a (failure, runtime) pair, `lf` None for
+        a baseline trial. An exception of a type in `catch` (an exception class or a tuple of
+        them, as Optuna takes it) cancels the trial and goes on; any other cancels it and is
+        raised. Each of `callbacks` (a list, as Optuna's: a bare callable is a TypeError
+        naming `callbacks`) is called as `callback(kernel, record)` after each tell. Returns
+        the records told (as many as the kernel's `history` keeps)."""
     def to_json(self) -> str:
         """The complete state (configuration, posteriors, pending trials, random stream)."""
     def config_json(self) -> str:
@@ -472,7 +503,10 @@ class Protocol:
         reproducible bit for bit (simulators must then return (failure, work_units)); "wall"
         (default) measures each call's wall-clock time. search_budget / deploy_budget: run each
         search / deployed stage until its runs have cost this much (in the cost's unit).
-        window: trials in flight; on_error="skip" withdraws a trial whose simulation raised."""
+        window: trials in flight; on_error="skip" withdraws a trial whose simulation raised.
+        weights: p(s) per scenario (a scenario not listed weighs 1); a name that is not one of
+        the protocol's scenarios is a KeyError naming it. A value that is NaN, infinite or an
+        int beyond 64 bits, or a str for a list of scenarios, is refused naming the value."""
     def to_json(self) -> str:
         """The protocol as JSON (a campaign directory's protocol.json)."""
     def to_dict(self) -> Dict[str, Any]:
@@ -573,10 +607,16 @@ class Campaign:
         sim: Optional[Union[Driving, Simulator]] = None,
     ) -> CampaignResult:
         """Runs (or resumes) the campaign: one `simulate` callable for both runs, or `hf=`
-        and `lf=` callables, or a bundled simulator `sim=`. Raises CampaignError (a failed
-        simulation names the trial and the exception), ValueError for a bad protocol.
+        and `lf=` callables, or a bundled simulator `sim=`; a campaign from
+        `savme.campaign.load` runs its file's simulator (`run()`; a simulator given is a
+        TypeError). Raises CampaignError (a failed simulation names the trial and the
+        exception, a bad result the part and its value), ValueError for a bad protocol.
         Ctrl-C stops the campaign between trials (the runs in flight finish) and raises
-        KeyboardInterrupt; the told trials are stored, so resume=True continues."""
+        KeyboardInterrupt saying where it stopped and the call that resumes it; SIGTERM
+        does the same and raises SystemExit(143) (said on stderr) — unless the program has a
+        SIGTERM handler of its own. The told trials are stored, so resume=True continues. A
+        KeyboardInterrupt or SystemExit the simulator itself raises stops the campaign too
+        and is raised as it was."""
     @property
     def protocol(self) -> Protocol:
         """The protocol."""
@@ -599,7 +639,9 @@ def load_campaign(
 ) -> Campaign:
     """A campaign file (TOML, as `savme run --config` reads) as a campaign with its FMUs
     bound (`savme.campaign.load`): its protocol, `repeat` and `[estimate]` stage are those
-    `savme run --config` runs; storage and campaign as for Campaign."""
+    `savme run --config` runs; storage and campaign as for Campaign. Run it with `run()`: it
+    refuses a Python simulator (its protocol and outputs name the file's simulator) — for
+    one, make a `Campaign` with a `Protocol` and `Problem` of its own."""
 
 @final
 class Driving:

@@ -3,8 +3,9 @@ know Optuna (python/README.md maps its concepts to savme's)."""
 
 from __future__ import annotations
 
+import collections
 import time
-from typing import TYPE_CHECKING, Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple, Type
+from typing import TYPE_CHECKING, Any, Deque, Callable, Dict, Iterable, List, Optional, Sequence, Tuple, Type, Union
 
 if TYPE_CHECKING:  # pragma: no cover
     from ._savme import Kernel, Record, Trial
@@ -44,28 +45,64 @@ class Trials(List["Record"]):
 _Run = Tuple[bool, float]
 
 
+def _catch_classes(catch: Any) -> Tuple[Type[BaseException], ...]:
+    """`catch=`: an exception class or an iterable of them, as Optuna takes it."""
+    if catch is None:
+        return ()
+    classes = (catch,) if isinstance(catch, type) else catch
+    try:
+        classes = tuple(classes)
+    except TypeError:
+        raise TypeError(f"catch must be an exception class or a tuple of them, got {catch!r}") from None
+    for c in classes:
+        if not (isinstance(c, type) and issubclass(c, BaseException)):
+            raise TypeError(f"catch must be an exception class or a tuple of them; {c!r} is not an exception class")
+    return classes
+
+
+def _callback_list(callbacks: Any) -> List[Callable[["Kernel", "Record"], Any]]:
+    """`callbacks=`: a list (any iterable) of callables, as Optuna takes it; a bare callable is
+    refused naming the argument (Optuna fails on it too, after the first trial)."""
+    if callbacks is None:
+        return []
+    if callable(callbacks) and not isinstance(callbacks, (list, tuple)):
+        raise TypeError(f"callbacks must be a list of callables (as in Optuna), got the callable {callbacks!r}: "
+                        "give callbacks=[cb]")
+    try:
+        listed = list(callbacks)
+    except TypeError:
+        raise TypeError(f"callbacks must be a list of callables, got {callbacks!r}") from None
+    for cb in listed:
+        if not callable(cb):
+            raise TypeError(f"callbacks must be a list of callables; {cb!r} is not callable")
+    return listed
+
+
 def optimize(kernel: "Kernel", objective: Callable[["Trial"], Tuple[_Run, Optional[_Run]]],
-             n_trials: int, timeout: Optional[float] = None,
+             n_trials: Optional[int] = None, timeout: Optional[float] = None,
              callbacks: Optional[Iterable[Callable[["Kernel", "Record"], Any]]] = None,
-             catch: Optional[Sequence[Type[BaseException]]] = None) -> Trials:
+             catch: Union[Type[BaseException], Sequence[Type[BaseException]], None] = None) -> Trials:
     """`Kernel.optimize`: see its docstring."""
-    if isinstance(n_trials, bool) or not isinstance(n_trials, int) or n_trials < 0:
-        raise ValueError(f"n_trials must be an int >= 0, got {n_trials!r}")
-    if timeout is not None and not (timeout > 0 and timeout != float("inf")):
+    if n_trials is not None and (isinstance(n_trials, bool) or not isinstance(n_trials, int) or n_trials < 0):
+        raise ValueError(f"n_trials must be an int >= 0 or None (no limit), got {n_trials!r}")
+    if timeout is not None and (isinstance(timeout, bool) or not (timeout > 0 and timeout != float("inf"))):
         raise ValueError(f"timeout must be a finite number of seconds > 0 (or None), got {timeout!r}")
-    callbacks = list(callbacks or [])
-    catch = tuple(catch or ())
+    callbacks = _callback_list(callbacks)
+    catch = _catch_classes(catch)
+    # The records returned: as many as the kernel's history keeps (the last ones).
+    told: Deque["Record"] = collections.deque(maxlen=kernel.history_limit)
     start = time.monotonic()
-    told = Trials()
-    for _ in range(n_trials):
+    count = 0
+    while n_trials is None or count < n_trials:
         if timeout is not None and time.monotonic() - start >= timeout:
             break
+        count += 1
         trial = kernel.ask()
         try:
             result = objective(trial)
         except BaseException as exc:
             kernel.cancel(trial)
-            if catch and isinstance(exc, catch) and not isinstance(exc, KeyboardInterrupt):
+            if catch and isinstance(exc, catch) and isinstance(exc, Exception):
                 continue
             raise
         try:
@@ -78,4 +115,4 @@ def optimize(kernel: "Kernel", objective: Callable[["Trial"], Tuple[_Run, Option
         told.append(record)
         for callback in callbacks:
             callback(kernel, record)
-    return told
+    return Trials(told)

@@ -11,7 +11,7 @@
         theta_hf={"rate_hz": 10},
         budget=0.3, seed=1)
     falsifier = generic_falsifier(sampler=sampler, monitor=sampler.monitor(rho_of),
-                                  falsifier_params=DotMap(n_iters=600))
+                                  falsifier_params=DotMap(n_iters=600))  # even: a trial is 2 samples
     falsifier.run_falsifier()          # your simulator client reads sample.rate_hz too
     sampler.flush(falsifier)           # the last ρ (VerifAI passes each with the next request)
     sampler.failures()                 # the HF counterexamples
@@ -38,6 +38,7 @@ package (`pip install verifai`); `import savme` alone does not import it.
 
 import math
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
@@ -45,7 +46,7 @@ from verifai.features import Box, Categorical, Constant, DiscreteBox, Feature, F
 from verifai.monitor import specification_monitor
 from verifai.samplers import FeatureSampler
 
-from ._savme import Continuous, Discrete, Kernel, Record, Space, Trial, Variable
+from ._savme import Continuous, Discrete, Kernel, Record, Space, TellError, Trial, Variable
 
 #: The feature that says which run of a trial a sample is.
 ROLE = "savme_run"
@@ -171,10 +172,15 @@ class SavmeSampler(FeatureSampler):  # type: ignore[misc]
 
     def update(self, sample: Any, info: SampleInfo, rho: Any) -> Optional[Record]:
         """Takes ρ of a sample; tells the kernel once both runs of its trial are in and
-        returns the record (None before). KeyError for a sample not outstanding."""
+        returns the record (None before). KeyError for a sample not outstanding; TellError
+        for a sample whose trial was withdrawn meanwhile (`sampler.kernel.cancel(trial)`)."""
         if info.key not in self._handed:
             raise KeyError(f"sample of trial {info.trial.id} ({info.role}) is not outstanding")
         where = f"update(trial {info.trial.id}, {info.role})"
+        if all(t.id != info.trial.id for t in self.kernel.pending()):
+            self._forget(info.trial.id)
+            raise TellError(f"{where}: trial {info.trial.id} was withdrawn on the kernel "
+                            "(kernel.cancel): its runs are not taken any more")
         if isinstance(rho, (tuple, list)) or hasattr(rho, "__len__"):
             raise TypeError(f"{where}: savme needs one robustness value ρ, got {rho!r} (multi-objective monitors are not supported)")
         try:
@@ -203,14 +209,32 @@ class SavmeSampler(FeatureSampler):  # type: ignore[misc]
     def flush(self, falsifier: Any) -> Optional[Record]:
         """Tells the falsifier's last ρ. VerifAI hands a sampler each ρ with the request for
         the next sample, so after `run_falsifier()` the last sample's ρ is still with the
-        falsifier's server: call this once it returns (a no-op if there is none)."""
+        falsifier's server: call this once it returns (a no-op if there is none).
+
+        A trial run only half (its HF run without its LF run: an odd `n_iters`, since each
+        savme trial is two samples) is not told: a RuntimeWarning names it. It stays pending —
+        the next sample is its other run — or withdraw it with `sampler.cancel(trial)`."""
         info = getattr(self, "last_info", None)
         rho = getattr(getattr(falsifier, "server", None), "lastValue", None)
-        if self.last_sample is None or info is None or rho is None or info.key not in self._handed:
-            return None
-        record = self.update(self.last_sample, info, rho)
-        self.last_sample = None
+        record = None
+        if self.last_sample is not None and info is not None and rho is not None and info.key in self._handed:
+            record = self.update(self.last_sample, info, rho)
+            self.last_sample = None
+        self._warn_half_run(getattr(falsifier, "n_iters", None))
         return record
+
+    def _warn_half_run(self, n_iters: Optional[int]) -> None:
+        """Warns of each trial with a run in and its other run not (so not told)."""
+        for trial_id, runs in self._runs.items():
+            if not runs:
+                continue
+            missing = "lf" if "hf" in runs else "hf"
+            why = f"n_iters={n_iters} is odd and " if isinstance(n_iters, int) and n_iters % 2 else ""
+            warnings.warn(
+                f"trial {trial_id} has its {'/'.join(runs)} run but not its {missing} run, so it is not told: "
+                f"{why}every savme trial is two samples (HF and LF). The next sample is its {missing} run "
+                f"(run the falsifier on), or withdraw it with sampler.cancel({trial_id})",
+                RuntimeWarning, stacklevel=3)
 
     # --- savme's side ----------------------------------------------------------------------
 

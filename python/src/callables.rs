@@ -2,9 +2,10 @@
 //! theta)`, their results read (`sim_result`) and their exceptions kept for chaining.
 
 use crate::convert;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
+use savme::campaign::Stop;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
 use std::sync::Arc;
 use std::time::Instant;
@@ -20,6 +21,11 @@ pub struct PySimulator {
     /// The first exception a callable raised: the campaign's error is chained to it
     /// (`raise CampaignError(...) from exc`), so that its traceback is kept.
     pub(crate) raised: Raised,
+    /// A `KeyboardInterrupt`, `SystemExit` (any `BaseException` that is no `Exception`) a
+    /// callable raised: the campaign stops between trials and `run` raises it as it was.
+    pub(crate) interrupt: Raised,
+    /// The campaign's stop, requested when a callable raises such an exception.
+    pub(crate) stop: Stop,
 }
 
 /// The first exception a Python simulator raised, shared by its clones (one per worker).
@@ -31,6 +37,8 @@ impl PySimulator {
             hf,
             lf,
             raised: Raised::default(),
+            interrupt: Raised::default(),
+            stop: Stop::new(),
         }
     }
 }
@@ -53,33 +61,75 @@ fn raised_at(py: Python<'_>, e: &PyErr) -> String {
     frame.unwrap_or_default()
 }
 
+/// What a Python simulator may return, for the messages.
+const SHAPES: &str = "the failure flag (bool or numpy bool), (failure, work_units) or (failure, work_units or None, robustness)";
+
+/// A simulator's result `out`, timed `wall` seconds: the failure flag alone,
+/// `(failure, work_units)` or `(failure, work_units or None, robustness)`. A bad part is named
+/// with its value and the whole result (the caller adds the simulator and the trial).
 pub fn sim_result(out: &Bound<'_, PyAny>, wall: f64) -> Result<SimResult, String> {
-    // The flag alone, the first of (failure, work_units), or of (failure, work_units or None,
-    // robustness).
-    let tuple = out.cast::<PyTuple>().ok();
-    let pair = tuple.and_then(|t| t.extract::<(Bound<'_, PyAny>, u64)>().ok());
-    let triple = tuple.and_then(|t| t.extract::<(Bound<'_, PyAny>, Option<u64>, f64)>().ok());
-    let (flag, work, robustness) = match (pair, triple) {
-        (Some((flag, work)), _) => (flag, Some(work), None),
-        (None, Some((flag, work, rho))) => (flag, work, Some(rho)),
-        (None, None) => (out.clone(), None, None),
+    let shown = || {
+        out.repr()
+            .map_or_else(|_| "?".to_string(), |r| r.to_string())
     };
-    let kind = match crate::convert::failure_flag(&flag) {
-        Ok(failure) => {
-            let result = SimResult::new(failure, wall, work);
-            return match robustness {
-                Some(rho) if !rho.is_finite() => Err(format!(
-                    "a simulator's robustness must be a finite number, got {rho}"
-                )),
-                Some(rho) => Ok(result.with_robustness(rho)),
-                None => Ok(result),
-            };
+    let Ok(tuple) = out.cast::<PyTuple>() else {
+        let failure = crate::convert::failure_flag(out)
+            .map_err(|kind| format!("a simulator must return {SHAPES}, got {kind} {}", shown()))?;
+        return Ok(SimResult::new(failure, wall, None));
+    };
+    if !(2..=3).contains(&tuple.len()) {
+        return Err(format!(
+            "a simulator must return {SHAPES}, got a tuple of {} items: {}",
+            tuple.len(),
+            shown()
+        ));
+    }
+    let item = |i: usize| tuple.get_item(i).map_err(|e| e.to_string());
+    let flag = item(0)?;
+    let failure = crate::convert::failure_flag(&flag).map_err(|kind| {
+        format!(
+            "the failure flag (first of {}) must be a bool or a numpy bool, got {kind} {flag}",
+            shown()
+        )
+    })?;
+    let work = item(1)?;
+    let work = if work.is_none() && tuple.len() == 3 {
+        None
+    } else {
+        let whole = !work.is_instance_of::<pyo3::types::PyBool>();
+        match work.extract::<u64>() {
+            Ok(n) if whole => Some(n),
+            _ => {
+                let hint = if work.is_instance_of::<pyo3::types::PyFloat>() {
+                    " (the second item counts work units, not seconds: savme times each call \
+                     itself; a robustness goes third)"
+                } else {
+                    ""
+                };
+                return Err(format!(
+                    "work_units (second of {}) must be a whole number ≥ 0 (an int{}), got {}{hint}",
+                    shown(),
+                    if tuple.len() == 3 { ", or None" } else { "" },
+                    work.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+                ));
+            }
         }
-        Err(kind) => kind,
     };
-    Err(format!(
-        "a simulator must return the failure flag (bool or numpy bool), (failure, work_units) or (failure, work_units or None, robustness), got {kind} {flag}"
-    ))
+    let result = SimResult::new(failure, wall, work);
+    if tuple.len() == 2 {
+        return Ok(result);
+    }
+    let rho = item(2)?;
+    match rho.extract::<f64>() {
+        Ok(r) if r.is_finite() && !rho.is_instance_of::<pyo3::types::PyBool>() => {
+            Ok(result.with_robustness(r))
+        }
+        _ => Err(format!(
+            "the robustness (third of {}) must be a finite number, got {}",
+            shown(),
+            rho.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+        )),
+    }
 }
 
 impl Simulator for PySimulator {
@@ -94,6 +144,17 @@ impl Simulator for PySimulator {
             Role::High => (&self.hf, "hf"),
             Role::Learned => (&self.lf, "lf"),
         };
+        let interrupted = || {
+            let slot = self.interrupt.lock().unwrap_or_else(|p| p.into_inner());
+            slot.is_some()
+        };
+        if interrupted() {
+            // A callable asked to stop (KeyboardInterrupt, SystemExit): the runs queued
+            // behind it are not started.
+            return Err(SimError::Failed(format!(
+                "the `{name}` run was not started: a simulator raised KeyboardInterrupt or SystemExit"
+            )));
+        }
         Python::attach(|py| {
             let args = (
                 scenario,
@@ -105,7 +166,14 @@ impl Simulator for PySimulator {
             let wall = start.elapsed().as_secs_f64();
             let out = out.map_err(|e| {
                 let message = format!("the `{name}` simulator raised {e}{}", raised_at(py, &e));
-                let mut first = self.raised.lock().unwrap_or_else(|p| p.into_inner());
+                let interrupt = !e.is_instance_of::<PyException>(py);
+                let slot = if interrupt {
+                    self.stop.request();
+                    &self.interrupt
+                } else {
+                    &self.raised
+                };
+                let mut first = slot.lock().unwrap_or_else(|p| p.into_inner());
                 if first.is_none() {
                     *first = Some(e);
                 }

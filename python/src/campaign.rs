@@ -3,14 +3,18 @@
 //! FMU simulators — the same outputs, store and resume as `savme run`.
 
 use crate::callables::{PySimulator, Raised};
+use crate::convert;
 use crate::errors;
 use crate::executor::{executor_of, ExecutorRunner};
 use crate::problem::PyProblem;
 use crate::protocol::PyProtocol;
 use crate::result::{Finished, PyCampaignResult};
+use crate::signals;
 use crate::sim::{PyDriving, PyFmuSimulator};
 use crossbeam_channel::RecvTimeoutError;
-use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::exceptions::{
+    PyKeyboardInterrupt, PyRuntimeError, PySystemExit, PyTypeError, PyValueError,
+};
 use pyo3::prelude::*;
 use savme::campaign::config::{check_repeat, Overrides};
 use savme::campaign::estimate::EstimateSettings;
@@ -49,6 +53,11 @@ fn storage_of(
     }
 }
 
+/// `jobs=`: worker threads (None: one per core).
+fn jobs_of(jobs: Option<i128>) -> PyResult<Option<usize>> {
+    jobs.map(|n| convert::whole("jobs", n)).transpose()
+}
+
 /// The protocol the database keeps for campaign `name` (resume with protocol=None).
 fn stored_protocol(db: &Database, name: &str) -> PyResult<Protocol> {
     let store_error = |e: StoreError| errors::campaign(e.into());
@@ -66,9 +75,9 @@ fn stored_protocol(db: &Database, name: &str) -> PyResult<Protocol> {
 /// The simulator bound to a campaign loaded from a campaign file.
 enum BoundSim {
     None,
-    /// The campaign file as its adapter read and checked it; its simulator is made for each
-    /// run.
-    File(Box<dyn savme::adapter::FileSimulator>),
+    /// The campaign file (its path) as its adapter read and checked it; its simulator is made
+    /// for each run.
+    File(PathBuf, Box<dyn savme::adapter::FileSimulator>),
 }
 
 /// A campaign: a protocol, a problem, an output directory.
@@ -100,36 +109,31 @@ impl PyCampaign {
 
     /// Runs the Rust campaign loop on `sim` on a thread of its own, with the GIL released
     /// (Python simulators take it back around each call). Meanwhile this (main) thread looks
-    /// for signals every [`SIGNAL_CHECK`]: on Ctrl-C it asks the campaign to stop between
-    /// trials, waits for the runs in flight, and raises the `KeyboardInterrupt` — every told
-    /// trial is stored, so `resume=True` continues from there.
+    /// for signals every [`SIGNAL_CHECK`]: on Ctrl-C (or SIGTERM) it asks the campaign to stop
+    /// between trials, waits for the runs in flight, and raises (see [`PyCampaign::stopped`])
+    /// — every told trial is stored, so `resume=True` continues from there.
     fn run_on<S: Simulator + Clone + Send + 'static>(
         &self,
         py: Python<'_>,
         sim: S,
     ) -> PyResult<PyCampaignResult> {
-        self.run_raising(py, sim, None)
+        self.run_thread(py, sim, Stop::new())
     }
 
     /// [`PyCampaign::run_on`] a Python simulator: a campaign that failed on an exception it
-    /// raised is chained to that exception (its `__cause__`, with the traceback).
+    /// raised is chained to that exception (its `__cause__`, with the traceback); a
+    /// `KeyboardInterrupt` or `SystemExit` it raised stops the campaign and is raised itself.
     fn run_python(&self, py: Python<'_>, sim: PySimulator) -> PyResult<PyCampaignResult> {
-        let raised = sim.raised.clone();
-        self.run_raising(py, sim, Some(raised))
-    }
-
-    fn run_raising<S: Simulator + Clone + Send + 'static>(
-        &self,
-        py: Python<'_>,
-        sim: S,
-        raised: Option<Raised>,
-    ) -> PyResult<PyCampaignResult> {
-        let outcome = self.run_thread(py, sim);
-        let (Err(e), Some(raised)) = (&outcome, raised) else {
-            return outcome;
-        };
-        let cause = raised.lock().unwrap_or_else(|p| p.into_inner()).take();
-        if let Some(cause) = cause {
+        let (raised, interrupt) = (sim.raised.clone(), sim.interrupt.clone());
+        let stop = sim.stop.clone();
+        let outcome = self.run_thread(py, sim, stop);
+        let take = |slot: &Raised| slot.lock().unwrap_or_else(|p| p.into_inner()).take();
+        if let Some(exc) = take(&interrupt) {
+            let told = outcome.as_ref().err().map(|e| e.value(py).to_string());
+            add_note(py, &exc, &self.stopped_note(told.as_deref()));
+            return Err(exc);
+        }
+        if let (Err(e), Some(cause)) = (&outcome, take(&raised)) {
             if e.to_string().contains("simulator raised") {
                 e.set_cause(py, Some(cause));
             }
@@ -141,9 +145,10 @@ impl PyCampaign {
         &self,
         py: Python<'_>,
         sim: S,
+        stop: Stop,
     ) -> PyResult<PyCampaignResult> {
+        let _sigterm = signals::SigtermStops::install(py)?;
         let plan = self.plan.clone();
-        let stop = Stop::new();
         let stop_campaign = stop.clone();
         let (tx, rx) = crossbeam_channel::bounded(1);
         let campaign = std::thread::Builder::new()
@@ -161,14 +166,82 @@ impl PyCampaign {
                     return Err(PyRuntimeError::new_err("the campaign thread stopped"));
                 }
             }
-            if let Err(interrupt) = py.check_signals() {
+            if let Err(signal) = py.check_signals() {
                 stop.request();
                 let _ = py.detach(|| campaign.join());
-                return Err(interrupt);
+                let told = match rx.try_recv() {
+                    Ok(Err(e)) => Some(e.value(py).to_string()),
+                    _ => None,
+                };
+                return Err(self.stopped(py, signal, told.as_deref()));
             }
         };
         let _ = py.detach(|| campaign.join());
         outcome
+    }
+
+    /// The error `run` raises when a signal stopped the campaign (`told`: what the campaign
+    /// said when it stopped): SIGINT's `KeyboardInterrupt` again, its message saying where the
+    /// campaign stopped and how to resume it; SIGTERM a `SystemExit(143)` (exit status 128 + 15,
+    /// as `savme run`), the same said on stderr; what a handler of the caller's raised, with
+    /// that as a note.
+    fn stopped(&self, py: Python<'_>, signal: PyErr, told: Option<&str>) -> PyErr {
+        let note = self.stopped_note(told);
+        if signal.is_instance_of::<PyKeyboardInterrupt>(py) {
+            return PyKeyboardInterrupt::new_err(note);
+        }
+        if signals::is_terminated(py, &signal) {
+            let said = format!("savme: SIGTERM: {note}\n");
+            let _ = py
+                .import("sys")
+                .and_then(|sys| sys.getattr("stderr"))
+                .and_then(|err| err.call_method1("write", (said,)));
+            let e = PySystemExit::new_err(128 + 15);
+            add_note(py, &e, &note);
+            return e;
+        }
+        add_note(py, &signal, &note);
+        signal
+    }
+
+    /// Where a stopped campaign stopped (`told`: the campaign's own words, if it said) and
+    /// the call that resumes it.
+    fn stopped_note(&self, told: Option<&str>) -> String {
+        let told = match told {
+            Some(t) if t.contains("stopped") => t.to_string(),
+            _ => "the campaign stopped between trials (every told trial is stored)".to_string(),
+        };
+        format!("{told}; resume it with {}", self.resume_call())
+    }
+
+    /// The Python call that resumes this campaign where it stopped.
+    fn resume_call(&self) -> String {
+        let plan = &self.plan;
+        let mut args = vec![format!("out={:?}", plan.out.display().to_string())];
+        if let Some((_, name)) = &plan.storage {
+            args.push(format!("storage=\"postgresql://…\", campaign={name:?}"));
+        }
+        if let Some(n) = plan.repeat {
+            args.push(format!("repeat={n}"));
+        }
+        args.push("resume=True".into());
+        let args = args.join(", ");
+        match &self.bound {
+            BoundSim::File(path, _) => format!(
+                "savme.campaign.load({:?}, {args}).run()",
+                path.display().to_string()
+            ),
+            BoundSim::None => format!("savme.Campaign(None, problem, {args}).run(...)"),
+        }
+    }
+}
+
+/// Adds `note` to `e` (`BaseException.add_note`, Python ≥ 3.11: shown under its traceback);
+/// nothing on older Pythons.
+fn add_note(py: Python<'_>, e: &PyErr, note: &str) {
+    let value = e.value(py);
+    if value.hasattr("add_note").unwrap_or(false) {
+        let _ = value.call_method1("add_note", (note,));
     }
 }
 
@@ -272,13 +345,15 @@ impl PyCampaign {
         problem: PyRef<'_, PyProblem>,
         out: Option<PathBuf>,
         resume: bool,
-        jobs: Option<usize>,
+        jobs: Option<i128>,
         progress: bool,
         storage: Option<&str>,
         campaign: Option<String>,
-        repeat: Option<u32>,
+        repeat: Option<i128>,
         executor: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let jobs = jobs_of(jobs)?;
+        let repeat = repeat.map(|n| convert::whole("repeat", n)).transpose()?;
         let out = out.unwrap_or_else(|| PathBuf::from("savme-results"));
         let executor = executor_of(executor)?;
         if executor.is_some() && repeat.is_some() {
@@ -333,9 +408,11 @@ impl PyCampaign {
     ///
     /// Give `hf` and `lf` callables `(scenario, phi, theta) -> failure | (failure, work)`, or
     /// one `simulate` callable for both, or `sim=savme.sim.Driving()` /
-    /// `sim=savme.fmu.Simulator(...)`; a campaign from `savme.campaign.load` has its FMUs.
-    /// Ctrl-C stops the campaign between trials and raises `KeyboardInterrupt` (the told
-    /// trials are stored: `resume=True` continues).
+    /// `sim=savme.fmu.Simulator(...)`; a campaign from `savme.campaign.load` has its FMUs
+    /// and refuses another simulator (its protocol names the file's).
+    /// Ctrl-C stops the campaign between trials and raises `KeyboardInterrupt`, SIGTERM
+    /// `SystemExit(143)`, each saying the call that resumes it (the told trials are stored:
+    /// `resume=True` continues).
     #[pyo3(signature = (simulate = None, *, hf = None, lf = None, sim = None))]
     fn run(
         &self,
@@ -350,6 +427,18 @@ impl PyCampaign {
             hf.is_some() || lf.is_some(),
             sim.is_some(),
         ];
+        if let (BoundSim::File(path, _), true) = (&self.bound, given.contains(&true)) {
+            return Err(PyTypeError::new_err(format!(
+                "this campaign was loaded from {} and runs the simulator that file names ({}): \
+                 call run() without a simulator. Its protocol, outputs and stored trials are \
+                 labelled with that simulator, so another one is not run in its place; to run a \
+                 Python simulator, make savme.Campaign(savme.Protocol(train, test, \
+                 simulator=\"my-simulator\", ...), savme.Problem(...), out=...) and call \
+                 run(simulate) on it",
+                path.display(),
+                self.plan.protocol.simulator
+            )));
+        }
         if given.iter().filter(|g| **g).count() > 1 {
             return Err(PyTypeError::new_err(
                 "give one of: simulate, hf= and lf=, or sim=",
@@ -392,7 +481,7 @@ impl PyCampaign {
             ));
         }
         match &self.bound {
-            BoundSim::File(file) => self.run_on(py, crate::sim::file_simulator(file.as_ref())?),
+            BoundSim::File(_, file) => self.run_on(py, crate::sim::file_simulator(file.as_ref())?),
             BoundSim::None => Err(PyTypeError::new_err(
                 "give the simulator: run(simulate), run(hf=..., lf=...) or run(sim=...)",
             )),
@@ -439,11 +528,12 @@ pub fn load_campaign(
     path: PathBuf,
     out: Option<PathBuf>,
     resume: bool,
-    jobs: Option<usize>,
+    jobs: Option<i128>,
     progress: bool,
     storage: Option<&str>,
     campaign: Option<String>,
 ) -> PyResult<PyCampaign> {
+    let jobs = jobs_of(jobs)?;
     let storage = storage_of(storage, campaign)?;
     let c = compose::campaign_file(&path, &Overrides::default()).map_err(errors::campaign)?;
     // Build the simulator now (for FMUs: open them), so that a campaign that cannot run fails
@@ -467,6 +557,6 @@ pub fn load_campaign(
             executor: None,
         },
         executor: None,
-        bound: BoundSim::File(c.file),
+        bound: BoundSim::File(path, c.file),
     })
 }

@@ -120,3 +120,33 @@ pub fn unknown(kind: &str, name: &str, known: impl IntoIterator<Item = impl AsRe
         known.join(", ")
     ))
 }
+
+/// An unsigned integer type a Python argument converts to, with its largest value.
+pub trait Unsigned: TryFrom<i128> + Copy {
+    /// The largest value, as the error message states it.
+    const MAX: i128;
+}
+
+impl Unsigned for u32 {
+    const MAX: i128 = u32::MAX as i128;
+}
+
+impl Unsigned for u64 {
+    const MAX: i128 = u64::MAX as i128;
+}
+
+impl Unsigned for usize {
+    const MAX: i128 = usize::MAX as i128;
+}
+
+/// The integer argument `name` (taken from Python as an `i128`, so that a negative or too
+/// large int reaches this check) as a `T`: a `ValueError` naming the argument, its range and
+/// the value given, instead of PyO3's "can't convert negative int to unsigned".
+pub fn whole<T: Unsigned>(name: &str, v: i128) -> PyResult<T> {
+    T::try_from(v).map_err(|_| {
+        pyo3::exceptions::PyValueError::new_err(format!(
+            "{name} must be a whole number from 0 to {}, got {v}",
+            T::MAX
+        ))
+    })
+}

@@ -125,7 +125,8 @@ impl PyEstimation {
     /// Takes the HF outcome of trial `id` (`savme.TellError` for a trial not pending), with
     /// the run's robustness if it has one (a joint proposal's pilot aims at near-misses).
     #[pyo3(signature = (id, failure, *, robustness = None))]
-    fn tell(&self, id: u64, failure: bool, robustness: Option<f64>) -> PyResult<()> {
+    fn tell(&self, id: i128, failure: bool, robustness: Option<f64>) -> PyResult<()> {
+        let id = convert::whole("id", id)?;
         self.with(|e| {
             e.tell_run(id, failure, robustness)
                 .map_err(|e| errors::TellError::new_err(e.to_string()))

@@ -9,6 +9,7 @@
 use crate::convert;
 use crate::errors;
 use crate::estimation::{self, PyEstimation};
+use crate::history::{self, History};
 use crate::space::PySpace;
 use crate::trial::{PyPosterior, PyRecord, PyTrial};
 use pyo3::exceptions::{PyTypeError, PyValueError};
@@ -29,8 +30,9 @@ pub struct PyKernel {
     /// None once closed.
     session: Mutex<Option<Session>>,
     journal: Option<PathBuf>,
-    /// The records of the trials told, in tell order (`trials()`): a resumed journal's first.
-    history: Mutex<Vec<TrialRecord>>,
+    /// The records of the trials told, in tell order (`trials()`): a resumed journal's first;
+    /// all of them, the last N or none (`history=`).
+    history: Mutex<History>,
 }
 
 pub fn parse_phase(phase: &str) -> PyResult<Phase> {
@@ -206,7 +208,12 @@ impl PyKernel {
         f(session)
     }
 
-    fn open(py: Python<'_>, config: Option<KernelConfig>, path: Option<PathBuf>) -> PyResult<Self> {
+    fn open(
+        py: Python<'_>,
+        config: Option<KernelConfig>,
+        path: Option<PathBuf>,
+        limit: Option<usize>,
+    ) -> PyResult<Self> {
         let mut history = Vec::new();
         let session = match &path {
             None => {
@@ -233,12 +240,12 @@ impl PyKernel {
         Ok(PyKernel {
             session: Mutex::new(Some(session)),
             journal: path,
-            history: Mutex::new(history),
+            history: Mutex::new(History::new(history, limit)),
         })
     }
 
     /// A plain (not journaled) kernel from a snapshot, with its history.
-    fn plain(kernel: Kernel, history: Vec<TrialRecord>) -> Self {
+    fn plain(kernel: Kernel, history: History) -> Self {
         PyKernel {
             session: Mutex::new(Some(Session::Plain(kernel))),
             journal: None,
@@ -246,7 +253,7 @@ impl PyKernel {
         }
     }
 
-    fn history(&self) -> PyResult<MutexGuard<'_, Vec<TrialRecord>>> {
+    fn history(&self) -> PyResult<MutexGuard<'_, History>> {
         self.history.lock().map_err(|_| errors::poisoned())
     }
 
@@ -278,7 +285,7 @@ impl PyKernel {
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
         pair_fraction = 1.0, pair_settle = 30, deployment = None, allocation = None,
-        method = "tuned"))]
+        method = "tuned", history = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -286,7 +293,7 @@ impl PyKernel {
         theta_hf: &Bound<'_, PyDict>,
         scenarios: &Bound<'_, PyAny>,
         budget: f64,
-        seed: u64,
+        seed: i128,
         estimator: &str,
         prior: Option<(f64, f64)>,
         fidelity_prior: Option<PyRef<'_, PyPosterior>>,
@@ -294,11 +301,13 @@ impl PyKernel {
         journal: Option<PathBuf>,
         search: Option<&Bound<'_, PyAny>>,
         pair_fraction: f64,
-        pair_settle: u64,
+        pair_settle: i128,
         deployment: Option<&str>,
         allocation: Option<&str>,
         method: &str,
+        history: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let limit = history::limit_of(history)?;
         let tuned = match method {
             "tuned" => true,
             "paper" => false,
@@ -324,9 +333,10 @@ impl PyKernel {
                 )))
             }
         };
+        let seed: u64 = convert::whole("seed", seed)?;
         let pairing = Pairing {
             fraction: pair_fraction,
-            settle: pair_settle,
+            settle: convert::whole("pair_settle", pair_settle)?,
         };
         pairing.validate().map_err(|e| {
             PyValueError::new_err(format!(
@@ -362,51 +372,71 @@ impl PyKernel {
             allocation,
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
-        PyKernel::open(py, Some(config), journal)
+        PyKernel::open(py, Some(config), journal, limit)
     }
 
     /// A kernel from a configuration in JSON (what `savme serve --config` reads and
     /// `savme example-config` prints), optionally journaled.
     #[staticmethod]
-    #[pyo3(signature = (config, journal = None))]
-    fn from_config(py: Python<'_>, config: &str, journal: Option<PathBuf>) -> PyResult<Self> {
+    #[pyo3(signature = (config, journal = None, *, history = None))]
+    fn from_config(
+        py: Python<'_>,
+        config: &str,
+        journal: Option<PathBuf>,
+        history: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let limit = history::limit_of(history)?;
         // The one reader of a configuration's JSON (`savme serve --config`, the C ABI).
         let config = savme::serve::parse_config(config).map_err(errors::value)?;
-        PyKernel::open(py, Some(config), journal)
+        PyKernel::open(py, Some(config), journal, limit)
     }
 
-    /// Reopens an existing journal (written by Python or by `savme serve --journal`).
+    /// Reopens an existing journal (written by Python or by `savme serve --journal`); its
+    /// told records are `trials()` (as many as `history` keeps).
     #[staticmethod]
-    fn resume(py: Python<'_>, journal: PathBuf) -> PyResult<Self> {
+    #[pyo3(signature = (journal, *, history = None))]
+    fn resume(
+        py: Python<'_>,
+        journal: PathBuf,
+        history: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        let limit = history::limit_of(history)?;
         if !journal.is_file() {
             return Err(errors::JournalError::new_err(format!(
                 "{}: no journal to resume (start one with savme.Kernel(..., journal=...))",
                 journal.display()
             )));
         }
-        PyKernel::open(py, None, Some(journal))
+        PyKernel::open(py, None, Some(journal), limit)
     }
 
     /// A kernel restored from `to_json()` output (not journaled; its `trials()` history
     /// starts empty — a pickled kernel keeps it).
     #[staticmethod]
-    fn from_json(snapshot: &str) -> PyResult<Self> {
+    #[pyo3(signature = (snapshot, *, history = None))]
+    fn from_json(snapshot: &str, history: Option<&Bound<'_, PyAny>>) -> PyResult<Self> {
+        let limit = history::limit_of(history)?;
         let kernel = Kernel::from_json(snapshot).map_err(errors::value)?;
-        Ok(PyKernel::plain(kernel, Vec::new()))
+        Ok(PyKernel::plain(kernel, History::new(Vec::new(), limit)))
     }
 
-    /// A kernel from `__reduce__`'s state: its snapshot and its history (JSON).
+    /// A kernel from `__reduce__`'s state: its snapshot, its history (JSON) and how many
+    /// records the history keeps (None: all).
     #[staticmethod]
-    fn _restore(snapshot: &str, history: &str) -> PyResult<Self> {
+    #[pyo3(signature = (snapshot, history, limit = None))]
+    fn _restore(snapshot: &str, history: &str, limit: Option<usize>) -> PyResult<Self> {
         let kernel = Kernel::from_json(snapshot).map_err(errors::value)?;
-        let history = serde_json::from_str(history).map_err(errors::value)?;
-        Ok(PyKernel::plain(kernel, history))
+        let records = serde_json::from_str(history).map_err(errors::value)?;
+        Ok(PyKernel::plain(kernel, History::new(records, limit)))
     }
 
     /// Pickling (and `copy.deepcopy`): a plain kernel is restored exactly, with its history
     /// (through `to_json`). A journaled kernel is refused: its journal has one writer;
     /// `Kernel.resume(path)` reopens it in another process.
-    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String, String))> {
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, String, Option<usize>))> {
         let me = slf.get();
         if let Some(path) = &me.journal {
             return Err(PyTypeError::new_err(format!(
@@ -418,17 +448,28 @@ impl PyKernel {
             )));
         }
         let snapshot = me.to_json()?;
-        let history = serde_json::to_string(&*me.history()?).map_err(errors::value)?;
-        Ok((slf.get_type().getattr("_restore")?, (snapshot, history)))
+        let (records, limit) = {
+            let history = me.history()?;
+            let records: Vec<&TrialRecord> = history.records().collect();
+            (
+                serde_json::to_string(&records).map_err(errors::value)?,
+                history.limit(),
+            )
+        };
+        Ok((
+            slf.get_type().getattr("_restore")?,
+            (snapshot, records, limit),
+        ))
     }
 
     /// The told trials in tell order, each a `Record` (φ, θ_LF, the runs with their
     /// failures and runtimes, the outcome): a list with `.to_pandas()` (a DataFrame, one row
-    /// per trial) when pandas is installed. A resumed journal's trials come first.
+    /// per trial) when pandas is installed. A resumed journal's trials come first. Only the
+    /// last N with `history=N`, none with `history=False`.
     fn trials<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let records = self
             .history()?
-            .iter()
+            .records()
             .map(|record| {
                 Bound::new(
                     py,
@@ -443,17 +484,18 @@ impl PyKernel {
             .call1((PyList::new(py, records)?,))
     }
 
-    /// Asks, runs and tells `n_trials` trials (fewer if `timeout` seconds pass first), as
-    /// Optuna's `study.optimize`: `objective(trial)` returns `(hf, lf)` — each a
-    /// `(failure, runtime)` pair, `lf` None for a baseline trial. An exception of a type in
-    /// `catch` cancels the trial and goes on; any other cancels it and is raised. Each of
-    /// `callbacks` is called as `callback(kernel, record)` after each tell. Returns the
-    /// records told.
-    #[pyo3(signature = (objective, n_trials, *, timeout = None, callbacks = None, catch = None))]
+    /// Asks, runs and tells `n_trials` trials (fewer if `timeout` seconds pass first; None:
+    /// no limit), as Optuna's `study.optimize`: `objective(trial)` returns `(hf, lf)` — each
+    /// a `(failure, runtime)` pair, `lf` None for a baseline trial. An exception of a type in
+    /// `catch` (an exception class or a tuple of them) cancels the trial and goes on; any
+    /// other cancels it and is raised. Each of `callbacks` (a list) is called as
+    /// `callback(kernel, record)` after each tell. Returns the records told (as many as the
+    /// kernel's `history` keeps).
+    #[pyo3(signature = (objective, n_trials = None, *, timeout = None, callbacks = None, catch = None))]
     fn optimize<'py>(
         slf: &Bound<'py, Self>,
         objective: &Bound<'py, PyAny>,
-        n_trials: i64,
+        n_trials: Option<&Bound<'py, PyAny>>,
         timeout: Option<f64>,
         callbacks: Option<&Bound<'py, PyAny>>,
         catch: Option<&Bound<'py, PyAny>>,
@@ -476,8 +518,9 @@ impl PyKernel {
 
     /// Suggests the next trial, or a list of `n` trials (all or none).
     #[pyo3(signature = (n = None))]
-    fn ask(&self, py: Python<'_>, n: Option<i64>) -> PyResult<Py<PyAny>> {
-        // Any int is taken, so that a negative one is named as `n`, not an OverflowError.
+    fn ask(&self, py: Python<'_>, n: Option<i128>) -> PyResult<Py<PyAny>> {
+        // Any int is taken, so that a negative or huge one is named as `n`, not an
+        // OverflowError.
         let n = n
             .map(|n| {
                 usize::try_from(n).map_err(|_| {
@@ -532,7 +575,7 @@ impl PyKernel {
             None => Observation::HfOnly(hf),
         };
         let record = self.with(|s| s.tell(id, observation).map_err(errors::session))?;
-        self.history()?.push(record.clone());
+        self.history()?.push(&record);
         Ok(PyRecord { record })
     }
 
@@ -587,22 +630,32 @@ impl PyKernel {
         &self,
         py: Python<'_>,
         epsilon: f64,
-        seed: u64,
+        seed: i128,
         nominal: Option<&Bound<'_, PyAny>>,
         tilt: &str,
-        refine: Option<(u32, u64)>,
-        refine_reuse: u32,
-        joint_components: Option<u32>,
+        refine: Option<(i128, i128)>,
+        refine_reuse: i128,
+        joint_components: Option<i128>,
     ) -> PyResult<PyEstimation> {
+        let refine = refine
+            .map(|(rounds, runs)| {
+                Ok::<_, PyErr>((
+                    convert::whole("refine's rounds", rounds)?,
+                    convert::whole("refine's runs", runs)?,
+                ))
+            })
+            .transpose()?;
         let config = estimation::config(
             py,
             epsilon,
-            seed,
+            convert::whole("seed", seed)?,
             nominal,
             tilt,
             refine,
-            refine_reuse,
-            joint_components,
+            convert::whole("refine_reuse", refine_reuse)?,
+            joint_components
+                .map(|k| convert::whole("joint_components", k))
+                .transpose()?,
         )?;
         self.with(|s| PyEstimation::of(s.kernel(), &config))
     }
@@ -717,6 +770,13 @@ impl PyKernel {
                 .map(|s| s.name.to_string())
                 .collect())
         })
+    }
+
+    /// How many told records `trials()` keeps: None for all of them, else the last N (0:
+    /// none) — the `history=` the kernel was made with.
+    #[getter]
+    fn history_limit(&self) -> PyResult<Option<usize>> {
+        Ok(self.history()?.limit())
     }
 
     /// The journal's path, or None.

@@ -4,7 +4,7 @@
 //! One module per concept: `space` (spaces and variables), `trial` (trials, records,
 //! posteriors), `kernel` (the ask/tell kernel, plain or journaled), `estimation` (P(failure)
 //! by importance sampling from a kernel's posteriors), `protocol`, `problem`,
-//! `campaign` (the campaign loop), `callables` (Python callables as its simulator), `result`
+//! `history` (the told records a kernel keeps), `campaign` (the campaign loop), `callables` (Python callables as its simulator), `result`
 //! (what it returns), `sim` (the bundled driving simulator
 //! and FMUs), `openscenario` (OpenSCENARIO parameter variations), `convert` (values
 //! between Rust and Python) and `errors` (Rust errors as Python exceptions).
@@ -17,11 +17,13 @@ mod convert;
 mod errors;
 mod estimation;
 mod executor;
+mod history;
 mod kernel;
 mod openscenario;
 mod problem;
 mod protocol;
 mod result;
+mod signals;
 mod sim;
 mod space;
 mod trial;

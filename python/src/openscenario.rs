@@ -59,9 +59,11 @@ impl PyParameterVariation {
 
     /// The φ-space: one variable per parameter, continuous ones in `bins` linear bins.
     #[pyo3(signature = (bins = 10))]
-    fn space(&self, bins: u32) -> PyResult<PySpace> {
+    fn space(&self, bins: i128) -> PyResult<PySpace> {
         Ok(PySpace {
-            space: self.inner.space(bins).map_err(errors::value)?,
+            space: (self.inner)
+                .space(crate::convert::whole("bins", bins)?)
+                .map_err(errors::value)?,
         })
     }
 

@@ -51,10 +51,10 @@ impl PyProblem {
     /// θ_HF and the ten scenarios.
     #[staticmethod]
     #[pyo3(signature = (bins = 10))]
-    fn driving(bins: u32) -> Self {
-        PyProblem {
-            problem: Problem::from(savme_sim::problem(bins)),
-        }
+    fn driving(bins: i128) -> PyResult<Self> {
+        Ok(PyProblem {
+            problem: Problem::from(savme_sim::problem(crate::convert::whole("bins", bins)?)),
+        })
     }
 
     /// The scenarios' names.

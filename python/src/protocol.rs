@@ -3,7 +3,7 @@
 
 use crate::convert;
 use crate::errors;
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use savme::campaign::config::Overrides;
@@ -49,12 +49,7 @@ pub fn overrides(values: Option<&Bound<'_, PyDict>>) -> PyResult<Overrides> {
             continue;
         }
         let key: String = k.extract()?;
-        let text: String = json
-            .call_method1("dumps", (&v,))
-            .and_then(|t| t.extract())
-            .map_err(|e| PyTypeError::new_err(format!("{key}: {e}")))?;
-        let value: serde_json::Value = serde_json::from_str(&text).map_err(errors::value)?;
-        entries.push((key, value));
+        entries.push((key.clone(), json_value(&json, &key, &v)?));
     }
     Overrides::from_entries(entries).map_err(|e| {
         if e.message.starts_with("not a protocol value") {
@@ -63,6 +58,105 @@ pub fn overrides(values: Option<&Bound<'_, PyDict>>) -> PyResult<Overrides> {
             PyValueError::new_err(e.to_string())
         }
     })
+}
+
+/// The protocol value `key` = `v` as JSON (through Python's `json`, so that what
+/// `json.dumps` takes is what a campaign file's TOML would give). NaN and infinities — which
+/// JSON has no words for — and ints beyond 64 bits are refused naming the key and the value.
+fn json_value(
+    json: &Bound<'_, PyModule>,
+    key: &str,
+    v: &Bound<'_, PyAny>,
+) -> PyResult<serde_json::Value> {
+    let kwargs = PyDict::new(v.py());
+    kwargs.set_item("allow_nan", false)?;
+    let text: String = match json.call_method("dumps", (v,), Some(&kwargs)) {
+        Ok(t) => t.extract()?,
+        Err(e) if e.is_instance_of::<PyValueError>(v.py()) => {
+            return Err(PyValueError::new_err(format!(
+                "{key} = {}: not a finite number (NaN and infinity are refused)",
+                v.repr()?
+            )))
+        }
+        Err(e) => return Err(PyTypeError::new_err(format!("{key}: {e}"))),
+    };
+    if let Some(n) = too_large(v)? {
+        let given = v.repr()?.to_string();
+        let which = if given == n { "it" } else { n.as_str() };
+        return Err(PyValueError::new_err(format!(
+            "{key} = {given}: {which} does not fit in 64 bits"
+        )));
+    }
+    serde_json::from_str(&text).map_err(|e| PyValueError::new_err(format!("{key} = {text}: {e}")))
+}
+
+/// The first int in `v` (itself, or an item of a list, tuple or dict) that does not fit in
+/// 64 bits: JSON parsing would turn it into a float.
+fn too_large(v: &Bound<'_, PyAny>) -> PyResult<Option<String>> {
+    use pyo3::types::{PyBool, PyInt, PyList, PyTuple};
+    if v.is_instance_of::<PyInt>() && !v.is_instance_of::<PyBool>() {
+        let fits = v.extract::<i64>().is_ok() || v.extract::<u64>().is_ok();
+        return Ok((!fits).then(|| v.to_string()));
+    }
+    let items = if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        v.try_iter()?.collect::<PyResult<Vec<_>>>()?
+    } else if let Ok(d) = v.cast::<PyDict>() {
+        d.values().iter().collect()
+    } else {
+        return Ok(None);
+    };
+    for item in items {
+        if let Some(n) = too_large(&item)? {
+            return Ok(Some(n));
+        }
+    }
+    Ok(None)
+}
+
+/// A list of scenario names (`train_scenarios`, `test_scenarios`): a str is refused, not
+/// split into its characters.
+fn scenario_names(which: &str, names: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    if names.is_instance_of::<pyo3::types::PyString>() {
+        return Err(PyTypeError::new_err(format!(
+            "{which} must be a list of scenario names, got the str {}; give [{}] for one scenario",
+            names.repr()?,
+            names.repr()?
+        )));
+    }
+    let items = names.try_iter().map_err(|_| {
+        PyTypeError::new_err(format!(
+            "{which} must be a list of scenario names, got {}",
+            names
+                .get_type()
+                .name()
+                .map_or_else(|_| "?".into(), |n| n.to_string())
+        ))
+    })?;
+    items
+        .enumerate()
+        .map(|(i, name)| {
+            let name = name?;
+            name.extract::<String>().map_err(|_| {
+                PyTypeError::new_err(format!(
+                    "{which}[{i}]: a scenario name must be a str, got {}",
+                    name.repr().map_or_else(|_| "?".into(), |r| r.to_string())
+                ))
+            })
+        })
+        .collect()
+}
+
+/// `weights=`: each key must be one of the protocol's scenarios (a misspelt one weighed
+/// nothing, silently).
+fn check_weights(p: &Protocol, weights: &BTreeMap<String, f64>) -> PyResult<()> {
+    let known = || p.train_scenarios.iter().chain(&p.test_scenarios);
+    match weights.keys().find(|k| !known().any(|s| s == *k)) {
+        Some(unknown) => Err(PyKeyError::new_err(format!(
+            "weights: unknown scenario `{unknown}` (the protocol's scenarios: {})",
+            known().map(String::as_str).collect::<Vec<_>>().join(", ")
+        ))),
+        None => Ok(()),
+    }
 }
 
 fn on_error(name: &str) -> PyResult<OnError> {
@@ -85,14 +179,16 @@ impl PyProtocol {
     #[pyo3(signature = (train_scenarios, test_scenarios, *, preset = "paper", simulator = "python",
         weights = None, on_error = None, **values))]
     fn new(
-        train_scenarios: Vec<String>,
-        test_scenarios: Vec<String>,
+        train_scenarios: &Bound<'_, PyAny>,
+        test_scenarios: &Bound<'_, PyAny>,
         preset: &str,
         simulator: &str,
         weights: Option<BTreeMap<String, f64>>,
         on_error: Option<&str>,
         values: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Self> {
+        let train_scenarios = scenario_names("train_scenarios", train_scenarios)?;
+        let test_scenarios = scenario_names("test_scenarios", test_scenarios)?;
         let mut p = match preset {
             "paper" => Protocol::paper(simulator, train_scenarios, test_scenarios),
             "quick" => Protocol::quick(simulator, train_scenarios, test_scenarios),
@@ -113,6 +209,7 @@ impl PyProtocol {
         let lookup = |k: &str| Some(k.to_string());
         o.apply(&mut p, &lookup, "").map_err(errors::value)?;
         if let Some(w) = weights {
+            check_weights(&p, &w)?;
             p.weights = w;
         }
         if let Some(e) = on_error {

@@ -139,10 +139,10 @@ impl PyDriving {
     /// The paper's Table I: the 16 fidelity settings, continuous ones in `bins` log bins.
     #[staticmethod]
     #[pyo3(signature = (bins = 10))]
-    fn fidelity_space(bins: u32) -> PySpace {
-        PySpace {
-            space: savme_sim::fidelity::space(bins),
-        }
+    fn fidelity_space(bins: i128) -> PyResult<PySpace> {
+        Ok(PySpace {
+            space: savme_sim::fidelity::space(convert::whole("bins", bins)?),
+        })
     }
 
     /// θ_HF of Table I (the bold values).

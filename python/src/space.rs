@@ -132,7 +132,8 @@ pub fn boolean(name: &str) -> PyResult<PyVariable> {
 /// A continuous variable on [lo, hi] cut into `bins` arms, linear or log scale.
 #[pyfunction]
 #[pyo3(name = "Continuous", signature = (name, lo, hi, bins = 10, scale = "linear"))]
-pub fn continuous(name: &str, lo: f64, hi: f64, bins: u32, scale: &str) -> PyResult<PyVariable> {
+pub fn continuous(name: &str, lo: f64, hi: f64, bins: i128, scale: &str) -> PyResult<PyVariable> {
+    let bins = convert::whole(&format!("continuous variable `{name}`: bins"), bins)?;
     let Some(scale) = Scale::from_name(scale) else {
         return Err(PyValueError::new_err(format!(
             "continuous variable `{name}`: scale must be \"linear\", \"log\" or \"shifted-log\", got {scale:?}"

@@ -147,6 +147,20 @@ impl PyTrial {
         typed(py, theta, "theta_lf", name, kind)
     }
 
+    /// A trial from its JSON (pickling's state).
+    #[staticmethod]
+    fn _from_json(text: &str) -> PyResult<Self> {
+        let trial =
+            serde_json::from_str(text).map_err(|e| PyValueError::new_err(format!("Trial: {e}")))?;
+        Ok(PyTrial { trial })
+    }
+
+    /// Pickling (`multiprocessing`, `copy.deepcopy`): the trial exactly, through its JSON.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let text = serde_json::to_string(&slf.get().trial).map_err(errors::value)?;
+        Ok((slf.get_type().getattr("_from_json")?, (text,)))
+    }
+
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
         other
             .cast::<PyTrial>()
@@ -244,6 +258,20 @@ impl PyRecord {
     /// The record as a dict (the JSON of `savme serve`'s records and of journal tell lines).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         convert::json_to_py(py, &self.record)
+    }
+
+    /// A record from its JSON (pickling's state).
+    #[staticmethod]
+    fn _from_json(text: &str) -> PyResult<Self> {
+        let record = serde_json::from_str(text)
+            .map_err(|e| PyValueError::new_err(format!("Record: {e}")))?;
+        Ok(PyRecord { record })
+    }
+
+    /// Pickling (`multiprocessing`, `copy.deepcopy`): the record exactly, through its JSON.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
+        let text = serde_json::to_string(&slf.get().record).map_err(errors::value)?;
+        Ok((slf.get_type().getattr("_from_json")?, (text,)))
     }
 
     fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {

@@ -125,10 +125,13 @@ print("the campaign finished")
 """
 
 
-def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path):
-    """A real SIGINT to a process in Campaign.run(): KeyboardInterrupt is raised while the
-    campaign still runs (not when it ends), the told trials are stored intact, and a resumed
-    campaign ends identical to an uninterrupted one."""
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_sigint_and_sigterm_stop_a_running_campaign_between_trials_saying_how_to_resume(tmp_path, signame):
+    """A real SIGINT or SIGTERM to a process in Campaign.run(): the campaign stops while it
+    still runs (not when it ends), the told trials are stored intact, the error says where
+    it stopped and the call that resumes it, and a resumed campaign ends identical to an
+    uninterrupted one. SIGINT raises KeyboardInterrupt; SIGTERM exits 143 as `savme run`
+    does (it killed the process at once before, exit -15, nothing said)."""
     import signal
     import sys
     import time
@@ -144,11 +147,17 @@ def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path)
             break
         time.sleep(0.02)
     assert child.poll() is None, "the campaign ended before it could be interrupted"
-    child.send_signal(signal.SIGINT)
+    child.send_signal(getattr(signal, signame))
     stdout, stderr = child.communicate(timeout=60)
-    assert child.returncode != 0
-    assert "KeyboardInterrupt" in stderr, stderr
     assert "the campaign finished" not in stdout
+    resume = f'resume it with savme.Campaign(None, problem, out="{out}", resume=True).run(...)'
+    if signame == "SIGINT":
+        assert child.returncode != 0
+        assert "KeyboardInterrupt: stopped in " in stderr and resume in stderr, stderr
+    else:
+        assert child.returncode == 143, (child.returncode, stderr)
+        assert "savme: SIGTERM: stopped in " in stderr and resume in stderr, stderr
+    assert "(every told trial is stored)" in stderr, stderr
     p = protocol()
     stored = len(trial_records(trials))
     assert 10 <= stored < p.total_trials, stored
@@ -158,12 +167,49 @@ def test_ctrl_c_stops_a_running_campaign_between_trials_and_it_resumes(tmp_path)
     assert strip_wall(result.files["trials"]) == strip_wall(full.files["trials"])
 
 
+@pytest.mark.parametrize("on_error", ["abort", "skip"])
+def test_keyboardinterrupt_and_systemexit_from_a_simulator_propagate_as_they_are(tmp_path, on_error):
+    """A simulator that raises KeyboardInterrupt or SystemExit (not an Exception: a request
+    to stop) stops the campaign and the very exception is raised — it was wrapped in a
+    CampaignError (or, with on_error="skip", the trial withdrawn and the campaign run on).
+    The told trials are stored and the campaign resumes. (With "skip" the interrupted trial
+    may be stored as withdrawn, as any run that raised: the resumed campaign replaces it.)"""
+    p = protocol(on_error=on_error)
+    for n, exc in enumerate([KeyboardInterrupt("stop now"), SystemExit(3)]):
+        calls = {"n": 0}
+
+        def stopping(scenario, phi, theta, exc=exc):
+            calls["n"] += 1
+            if calls["n"] == 30:
+                raise exc
+            return toy(scenario, phi, theta)
+
+        out = tmp_path / f"c{n}"
+        with pytest.raises(type(exc)) as e:
+            savme.Campaign(p, problem(), out=out, jobs=1).run(stopping)
+        assert e.value is exc
+        assert calls["n"] == 30, "the campaign stopped at the exception"
+        lines = trial_records(out / "trials.jsonl")
+        told = [d for d in lines if "error" not in d]
+        assert 0 < len(told) < p.total_trials
+        assert all("KeyboardInterrupt" in d["error"] or "SystemExit" in d["error"] for d in lines if "error" in d)
+        if on_error == "abort":
+            assert len(told) == len(lines)
+        resumed = savme.Campaign(None, problem(), out=out, resume=True, jobs=1).run(toy)
+        assert resumed.replayed == len(told) and resumed.ran == p.total_trials - len(told)
+
+
 def test_bad_simulator_results_and_bad_protocols_are_named(tmp_path):
     with pytest.raises(savme.CampaignError, match=r"must return the failure flag \(bool or numpy bool\), \(failure, work_units\) or \(failure, work_units or None, robustness\), got float 0.5"):
         savme.Campaign(protocol(), problem(), out=tmp_path / "x", jobs=1).run(lambda s, phi, th: 0.5)
     # 0/1 is not a failure flag (truthiness would hide a simulator returning a count or a distance).
     with pytest.raises(savme.CampaignError, match=r"got int 1"):
         savme.Campaign(protocol(), problem(), out=tmp_path / "x1", jobs=1).run(lambda s, phi, th: (1, 3))
+    # A float where the work count goes (a runtime, or NaN) is named with the trial and the value.
+    with pytest.raises(savme.CampaignError, match=r"trial 0 .*HF run: .*work_units \(second of \(True, nan\)\) "
+                                                  r"must be a whole number ≥ 0 \(an int\), got nan \(the second item "
+                                                  r"counts work units, not seconds"):
+        savme.Campaign(protocol(), problem(), out=tmp_path / "nan", jobs=1).run(lambda s, phi, th: (True, float("nan")))
     with pytest.raises(savme.CampaignError, match="work"):
         # Work cost, but the simulator returns a bare flag (no work count).
         savme.Campaign(protocol(), problem(), out=tmp_path / "y", jobs=1).run(lambda s, phi, th: False)
@@ -199,7 +245,7 @@ def test_a_simulator_reports_robustness_the_trials_keep_it_and_the_elite_search_
     # Deterministic from the seed, whatever the number of workers.
     again = savme.Campaign(p, problem(), out=tmp_path / "f", jobs=1).run(margin)
     assert strip_wall(result.files["trials"]) == strip_wall(again.files["trials"])
-    with pytest.raises(savme.CampaignError, match="HF run: .*robustness must be a finite number, got NaN"):
+    with pytest.raises(savme.CampaignError, match=r"HF run: .*robustness \(third of \(False, 3, nan\)\) must be a finite number, got nan"):
         savme.Campaign(p, problem(), out=tmp_path / "g", jobs=1).run(lambda s, phi, th: (False, 3, float("nan")))
 
 
@@ -224,7 +270,8 @@ def test_the_bundled_driving_simulator_from_python(tmp_path):
     assert result.ran == p.total_trials
 
 
-def test_fmu_campaign_files_load_and_simulate(savme_bin, tmp_path):
+def fmu_campaign_file(savme_bin, tmp_path):
+    """examples/fmu/campaign.toml (in-process) with savme's packed FMU beside it: (path, text)."""
     fmu = tmp_path / "savme-sim.fmu"
     packed = os.environ.get("SAVME_SIM_FMU")  # .ci/run packs it once for every test
     if packed:
@@ -235,6 +282,28 @@ def test_fmu_campaign_files_load_and_simulate(savme_bin, tmp_path):
     text = text.replace("isolate = true", "isolate = false")
     cfg = tmp_path / "campaign.toml"
     cfg.write_text(text)
+    return cfg, text
+
+
+def test_a_campaign_file_refuses_to_run_another_simulator_in_place_of_its_own(savme_bin, tmp_path):
+    """savme.campaign.load(file).run(python_simulator) ran the Python function in place of the
+    file's FMUs and labelled every output with the FMU; it is refused naming the file and its
+    simulator, saying how to run a Python simulator; nothing is written."""
+    cfg, _ = fmu_campaign_file(savme_bin, tmp_path)
+    campaign = savme.campaign.load(cfg, out=tmp_path / "out")
+    simulator = campaign.protocol.to_dict()["simulator"]
+    for run in (lambda: campaign.run(toy), lambda: campaign.run(hf=toy, lf=toy),
+                lambda: campaign.run(sim=savme.sim.Driving())):
+        with pytest.raises(TypeError) as e:
+            run()
+        message = str(e.value)
+        assert f"loaded from {cfg}" in message and simulator in message, message
+        assert "call run() without a simulator" in message and "savme.Campaign(savme.Protocol(" in message, message
+    assert not (tmp_path / "out").exists()
+
+
+def test_fmu_campaign_files_load_and_simulate(savme_bin, tmp_path):
+    cfg, text = fmu_campaign_file(savme_bin, tmp_path)
     sim = savme.fmu.Simulator(cfg)
     scenario = sim.scenarios[0]
     phi = {v.name: (v.range[0] + v.range[1]) / 2 for v in sim.phi_space(scenario).variables}

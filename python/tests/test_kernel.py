@@ -216,7 +216,7 @@ def test_bad_spaces_and_configurations_name_the_variable_or_scenario():
         kernel(estimator="median")
     with pytest.raises(ValueError, match="prior counts must be finite and > 0"):
         kernel(prior=(0.0, 1.0))
-    with pytest.raises(OverflowError, match="seed"):
+    with pytest.raises(ValueError, match="seed must be a whole number from 0 to 18446744073709551615, got -1"):
         kernel(seed=-1)
     k = kernel()
     with pytest.raises(ValueError, match='unknown phase "warmup"'):

@@ -110,10 +110,119 @@ def test_an_objective_that_raises_cancels_its_trial():
     assert not k.pending(), "the raising trial was cancelled"
     with pytest.raises(TypeError, match=r"objective\(trial \d+\) must return \(hf, lf\)"):
         k.optimize(lambda t: True, 1)
-    with pytest.raises(ValueError, match="n_trials must be an int >= 0, got -1"):
+    with pytest.raises(ValueError, match=r"n_trials must be an int >= 0 or None \(no limit\), got -1"):
         k.optimize(runs, -1)
     with pytest.raises(ValueError, match="timeout must be a finite number"):
         k.optimize(runs, 1, timeout=float("inf"))
+
+
+def test_optimize_takes_what_optunas_optimize_takes():
+    """catch= a single exception class (Optuna's `catch=ValueError`), timeout= without
+    n_trials; a bare callable for callbacks= (Optuna refuses it too, after its first trial)
+    is a TypeError naming the argument before any trial runs."""
+    k = kernel()
+    calls = {"n": 0}
+
+    def flaky(trial):
+        calls["n"] += 1
+        if calls["n"] % 2 == 0:
+            raise ValueError("bad run")
+        return runs(trial)
+
+    told = k.optimize(flaky, 6, catch=ValueError)
+    assert len(told) == 3 and k.stats() == {"asked": 6, "told": 3, "cancelled": 3}
+    with pytest.raises(ValueError, match="bad run"):
+        k.optimize(flaky, 6, catch=KeyError)
+    with pytest.raises(TypeError, match="catch must be an exception class or a tuple of them; 'x' is not"):
+        k.optimize(runs, 1, catch=("x",))
+    asked = k.stats()["asked"]
+    with pytest.raises(TypeError, match=r"callbacks must be a list of callables \(as in Optuna\), got the callable .*give callbacks=\[cb\]"):
+        k.optimize(runs, 3, callbacks=lambda kernel, record: None)
+    assert k.stats()["asked"] == asked, "refused before any trial"
+    before = k.stats()["told"]
+    told = k.optimize(runs, timeout=0.2)
+    assert len(told) > 0 and k.stats()["told"] == before + len(told) and not k.pending()
+
+
+def test_a_trial_and_a_record_pickle_and_cross_a_process_pool():
+    """Trials go to worker processes of a multiprocessing pool (pickled there and back),
+    each run there, and are told here — the same records as a loop in this process."""
+    import multiprocessing
+
+    k = kernel()
+    trials = k.ask(6)
+    assert [pickle.loads(pickle.dumps(t)) for t in trials] == trials
+    with multiprocessing.get_context("spawn").Pool(2) as pool:
+        results = pool.map(runs, trials)
+        echoed = pool.map(copy.copy, trials)
+    assert echoed == trials
+    records = [k.tell(t, hf, lf) for t, (hf, lf) in zip(trials, results)]
+    by_hand = kernel()
+    assert [by_hand.tell(t, *runs(t)) for t in by_hand.ask(6)] == records
+    assert pickle.loads(pickle.dumps(records[0])) == records[0]
+    assert copy.deepcopy(records[-1]).to_dict() == records[-1].to_dict()
+
+
+def test_the_history_keeps_all_the_last_n_or_no_told_records():
+    k = kernel(history=5)
+    assert k.history_limit == 5
+    told = k.optimize(runs, 12)
+    assert [r.id for r in told] == [r.id for r in k.trials()] == list(range(7, 12))
+    restored = pickle.loads(pickle.dumps(k))
+    assert restored.history_limit == 5 and list(restored.trials()) == list(k.trials())
+    restored.optimize(runs, 2)
+    assert [r.id for r in restored.trials()] == list(range(9, 14))
+    none = kernel(history=False)
+    assert none.history_limit == 0
+    assert len(none.optimize(runs, 12)) == 0 and len(none.trials()) == 0
+    same = kernel()
+    same.optimize(runs, 12)
+    assert none.stats()["told"] == 12 and none.to_json() == same.to_json(), "the history changes nothing else"
+    assert kernel(history=True).history_limit is None and kernel().history_limit is None
+    with pytest.raises(ValueError, match="^history must be a whole number from 0 to .*, got -1$"):
+        kernel(history=-1)
+    with pytest.raises(TypeError, match="^history must be True .*, False .* or an int N .*, got 'all'$"):
+        kernel(history="all")
+
+
+def test_a_resumed_journal_keeps_as_much_history_as_asked(tmp_path):
+    journal = tmp_path / "k.journal"
+    k = kernel(journal=journal)
+    k.optimize(runs, 9)
+    ids = [r.id for r in k.trials()]
+    k.close()
+    with savme.Kernel.resume(journal, history=4) as again:
+        assert [r.id for r in again.trials()] == ids[-4:]
+    with savme.Kernel.resume(journal, history=False) as again:
+        assert len(again.trials()) == 0 and again.stats()["told"] == 9
+
+
+def test_without_history_a_kernels_memory_stays_flat():
+    """~320 B per told trial is kept for trials() (the README's space; ~770 B on the paper's):
+    history=False keeps none, so a kernel that tells many trials does not grow."""
+    import gc
+    import os
+
+    if not os.path.exists("/proc/self/statm"):
+        pytest.skip("measures the resident set through /proc (Linux)")
+
+    def rss():
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+    def grown(history, n=30_000):
+        k = kernel(history=history)
+        block = lambda m: [k.tell(k.ask(), hf=(False, 1.0), lf=(False, 0.2)) for _ in range(m)] and None
+        block(2000)
+        gc.collect()
+        before = rss()
+        block(n)
+        gc.collect()
+        return (rss() - before) / n
+
+    kept, none = grown(None), grown(False)
+    assert kept > 150, f"{kept:.0f} B per told trial with the history kept"
+    assert none < 30, f"{none:.0f} B per told trial without history"
 
 
 def test_a_kernel_pickles_with_its_history_and_asks_the_same_trials():
