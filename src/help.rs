@@ -138,6 +138,7 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("pair_settle", None) => Some(p.pair_settle.to_string()),
         ("deployment", None) => Some(p.deployment.name().into()),
         ("screen_lf", None) => Some("always".into()),
+        ("log_bins", None) => Some("savme".into()),
         ("elite", None) => Some(elite_defaults()),
         ("allocation", None) => Some("weights".into()),
         ("coverage_floor", None) => Some(p.coverage_floor.to_string()),
