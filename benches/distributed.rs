@@ -8,8 +8,11 @@
 //! --remote`, window 64 for every row):
 //! 1. a **null** simulator (`--null`: runs cost nothing), 1,000 trials (1,750 runs): trials/s of
 //!    the coordinator process's wall time (start to exit: schema, connections and outputs
-//!    included), and its CPU per trial;
-//! 2. a **sleeping** simulator (`--sleep-ms 20`: every run sleeps 20 ms), 200 trials (350 runs).
+//!    included), and its CPU per trial — once with the worker connecting as the tables' owner,
+//!    once as the **least-privilege worker role** of `docs/DISTRIBUTED.md` (`CREATE ROLE …
+//!    LOGIN`, `--worker-role`: the worker functions, no table);
+//! 2. a **sleeping** simulator (`--sleep-ms 20`: every run sleeps 20 ms), 200 trials (350 runs),
+//!    the worker as the least-privilege role.
 //!
 //! Then the reference: Optuna with RDB storage on the same server (`benches/optuna_rdb.py`,
 //! `n_jobs` = N threads, RandomSampler, a null and a 20 ms objective) when
@@ -134,12 +137,22 @@ fn span(server: &pg::Server, name: &str) -> f64 {
     .get(0)
 }
 
-/// A remote campaign `name` with one worker process of `threads` threads started first;
-/// returns the coordinator's (wall, CPU) seconds.
-fn remote(url: &str, name: &str, out: &Path, flags: &[&str], threads: usize) -> (f64, f64) {
+/// The least-privilege worker role of the benchmark, and its password.
+const ROLE: (&str, &str) = ("bench_worker", "bench-pw");
+
+/// A remote campaign `name` with one worker process of `threads` threads started first (on
+/// `worker_url`: the owner's, or the worker role's, which the coordinator then lets work on the
+/// campaign); returns the coordinator's (wall, CPU) seconds.
+fn remote(
+    (url, worker_url): (&str, &str),
+    name: &str,
+    out: &Path,
+    flags: &[&str],
+    threads: usize,
+) -> (f64, f64) {
     let _ = std::fs::remove_dir_all(out);
     let mut worker = Command::new(EXE)
-        .args(["worker", "--storage", url, "--campaign", name])
+        .args(["worker", "--storage", worker_url, "--campaign", name])
         .args(["--jobs", &threads.to_string()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -157,6 +170,9 @@ fn remote(url: &str, name: &str, out: &Path, flags: &[&str], threads: usize) -> 
     ])
     .arg(out)
     .args(flags);
+    if worker_url != url {
+        c.args(["--worker-role", ROLE.0]);
+    }
     let r = measure(c);
     let _ = worker.wait();
     r
@@ -222,6 +238,14 @@ fn main() {
         return;
     };
     let url = server.create_db("bench");
+    let mut admin = server.client_of("bench");
+    admin
+        .batch_execute(&format!(
+            "CREATE ROLE {0} LOGIN PASSWORD '{1}'; GRANT CONNECT ON DATABASE bench TO {0}",
+            ROLE.0, ROLE.1
+        ))
+        .expect("the worker role");
+    let role_url = server.url_for(ROLE.0, ROLE.1, "bench");
     println!("server: {}", settings(&server));
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("load average before: {}", load.trim());
@@ -229,19 +253,23 @@ fn main() {
         std::env::temp_dir().join(format!("savme-bench-dist-{}", std::process::id()));
     let threads = [1usize, 4, 16, 64];
     println!("\nsavme, window {WINDOW}, median of {reps}; one `savme worker --jobs N` process");
-    println!("(trials/s: of the coordinator process's wall time / of the campaign's span in the database, first run queued to last trial stored)");
-    println!("| N threads | null: trials/s (process / span) | coordinator CPU ms/trial | 20 ms sleep: trials/s (process / span) | vs 1 thread (span) |");
-    println!("|---|---|---|---|---|");
+    println!("(trials/s: of the coordinator process's wall time / of the campaign's span in the database, first run queued to last trial stored; the sleeping rows' worker is the least-privilege role)");
+    println!("| N threads | null, worker role: trials/s (process / span) | null, owner: trials/s (process / span) | coordinator CPU ms/trial (role) | 20 ms sleep: trials/s (process / span) | vs 1 thread (span) |");
+    println!("|---|---|---|---|---|---|");
     let mut one = 0.0;
     for (k, &n) in threads.iter().enumerate() {
         let (mut null, mut null_span) = (Vec::new(), Vec::new());
+        let (mut owner, mut owner_span) = (Vec::new(), Vec::new());
         let (mut sleep, mut sleep_span) = (Vec::new(), Vec::new());
         for rep in 0..reps {
             let name = format!("null-{n}-{rep}");
-            null.push(remote(&url, &name, &out, NULL, n));
+            null.push(remote((&url, &role_url), &name, &out, NULL, n));
             null_span.push(span(&server, &name));
+            let name = format!("owner-{n}-{rep}");
+            owner.push(remote((&url, &url), &name, &out, NULL, n).0);
+            owner_span.push(span(&server, &name));
             let name = format!("sleep-{n}-{rep}");
-            sleep.push(remote(&url, &name, &out, SLEEPING, n).0);
+            sleep.push(remote((&url, &role_url), &name, &out, SLEEPING, n).0);
             sleep_span.push(span(&server, &name));
         }
         let wall = median(null.iter().map(|x| x.0).collect());
@@ -251,9 +279,11 @@ fn main() {
             one = s;
         }
         println!(
-            "| {n} | {:.0} / {:.0} | {:.3} | {:.1} / {s:.1} | {:.2}× |",
+            "| {n} | {:.0} / {:.0} | {:.0} / {:.0} | {:.3} | {:.1} / {s:.1} | {:.2}× |",
             NULL_TRIALS / wall,
             NULL_TRIALS / median(null_span),
+            NULL_TRIALS / median(owner),
+            NULL_TRIALS / median(owner_span),
             cpu / NULL_TRIALS * 1e3,
             SLEEPING_TRIALS / median(sleep),
             s / one

@@ -10,10 +10,12 @@
 use postgres::Client;
 
 /// The schema version this savme writes.
-pub const VERSION: i32 = 3;
+pub const VERSION: i32 = 4;
 
-/// The advisory-lock class of savme's locks (`pg_try_advisory_lock(CLASS, campaign id)`):
-/// "sv" in ASCII.
+/// The advisory-lock class of the migration lock (`pg_advisory_xact_lock(CLASS, 0)`): "sv" in
+/// ASCII. (Before schema version 4 a coordinator also held `pg_try_advisory_lock(CLASS, campaign
+/// id)`; any role can take an advisory lock, so the coordinator's lock is now a row of
+/// `savme.coordinators`, which only a coordinator may write.)
 pub const LOCK_CLASS: i32 = 0x7376;
 
 /// The migrations, in order: migration `i` brings the schema to version `i + 1`.
@@ -135,6 +137,9 @@ CREATE POLICY by_role ON savme.campaign_workers
 -- one; the trial lines keep it in `body`.
 ALTER TABLE savme.runs ADD COLUMN robustness double precision;
 "#,
+    // Version 4: workers act through functions that check their caller; the coordinator's lock
+    // is a row naming its server session; results are checked by the server.
+    include_str!("sql/v4.sql"),
 ];
 
 /// Why the schema cannot be used.

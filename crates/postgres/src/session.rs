@@ -54,6 +54,8 @@ pub struct Session {
     settings: Vec<String>,
     /// Statements prepared on `client` (forgotten when it is replaced).
     prepared: HashMap<&'static str, Statement>,
+    /// How many times the connection was replaced.
+    reconnects: u64,
 }
 
 impl Session {
@@ -67,12 +69,18 @@ impl Session {
             channels: Vec::new(),
             settings: Vec::new(),
             prepared: HashMap::new(),
+            reconnects: 0,
         })
     }
 
     /// The database.
     pub fn database(&self) -> &Database {
         &self.db
+    }
+
+    /// How many times the connection was lost and made again.
+    pub fn reconnects(&self) -> u64 {
+        self.reconnects
     }
 
     /// Listens on `channel` (again after every reconnect).
@@ -122,6 +130,7 @@ impl Session {
     fn reconnect(&mut self) -> Result<(), StoreError> {
         self.client = self.db.connect(&application_name(&self.role))?;
         self.prepared.clear();
+        self.reconnects += 1;
         for sql in self.settings.clone() {
             self.client
                 .batch_execute(&sql)
