@@ -1394,3 +1394,63 @@ fn runs_orphaned_by_an_immediate_database_restart_are_reconciled() {
         let _ = std::fs::remove_dir_all(d);
     }
 }
+
+/// A database of schema version 3 (before the worker functions), with a worker role set up as
+/// the former instructions said (`SELECT`/`UPDATE` on the tables, row-level security) and
+/// listed for a campaign: a worker of this savme waits until a coordinator migrates it; the
+/// role then works through the functions, has lost its table rights, and the campaign ends as
+/// the local run does.
+#[test]
+fn a_schema_version_3_database_is_migrated_and_its_worker_role_keeps_working() {
+    let Some(dist) = Distributed::set_up("migrate", 20) else {
+        return;
+    };
+    let expected = dist.expected.clone();
+    let mut admin = dist.client();
+    savme::postgres::schema::migrate_to(&mut admin, 3).unwrap();
+    admin
+        .batch_execute(
+            "CREATE ROLE old_worker LOGIN PASSWORD 'pw';
+             GRANT CONNECT ON DATABASE migrate TO old_worker;
+             GRANT USAGE ON SCHEMA savme TO old_worker;
+             GRANT SELECT ON savme.campaigns, savme.campaign_workers TO old_worker;
+             GRANT SELECT, UPDATE (state, worker, attempts, lease_until, started_at, failure,
+                                   wall_seconds, work, error, finished_at, robustness)
+                ON savme.runs TO old_worker;
+             INSERT INTO savme.campaigns (name) VALUES ('m');
+             INSERT INTO savme.campaign_workers VALUES (1, 'old_worker');",
+        )
+        .unwrap();
+    let version = "SELECT max(version)::bigint FROM savme.schema_version";
+    assert_eq!(query_i64(&mut admin, version), 3);
+    let w = worker(
+        &dist.server.url_for("old_worker", "pw", "migrate"),
+        "m",
+        &[],
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    let coordinator = dist.coordinator("m", Stdio::piped());
+    finish(coordinator, "the coordinator");
+    let said = finish(w, "the worker");
+    assert!(said.contains("waiting for campaign \"m\""), "{said}");
+    assert_eq!(db_trials(&mut admin, "m"), expected);
+    assert_eq!(query_i64(&mut admin, version), 4);
+    let rights = admin
+        .query_one(
+            "SELECT has_table_privilege('old_worker', 'savme.runs', 'SELECT'),
+                    has_any_column_privilege('old_worker', 'savme.runs', 'UPDATE'),
+                    has_table_privilege('old_worker', 'savme.campaigns', 'SELECT'),
+                    has_function_privilege('old_worker', 'savme.claim(integer, text, text, double precision)', 'EXECUTE')",
+            &[],
+        )
+        .unwrap();
+    let rights: [bool; 4] = [rights.get(0), rights.get(1), rights.get(2), rights.get(3)];
+    assert_eq!(rights, [false, false, false, true]);
+    let ran = query_i64(
+        &mut admin,
+        "SELECT count(*) FROM savme.runs WHERE claimed_by = 'old_worker' AND state = 'done'",
+    );
+    let runs = expected.len() + expected.iter().filter(|t| !t["lf"].is_null()).count();
+    assert_eq!(ran, runs as i64);
+    dist.clean();
+}

@@ -306,6 +306,17 @@ impl Server {
         )
     }
 
+    /// The postmaster's process id (benchmarks add up the server's CPU time from it).
+    pub fn postmaster_pid(&self) -> Option<u32> {
+        std::fs::read_to_string(self.dir.join("data/postmaster.pid"))
+            .ok()?
+            .lines()
+            .next()?
+            .trim()
+            .parse()
+            .ok()
+    }
+
     /// The TCP port.
     pub fn port(&self) -> u16 {
         self.port

@@ -46,7 +46,8 @@ pub struct RemoteOptions {
     /// no password).
     pub resume_command: String,
     /// Database roles allowed to work on this campaign (registered in
-    /// `savme.campaign_workers`; a worker role sees only the campaigns it is listed for).
+    /// `savme.campaign_workers` and granted the worker functions, `savme.grant_worker`; a
+    /// worker role works only on the campaigns it is listed for).
     pub worker_roles: Vec<String>,
 }
 

@@ -177,8 +177,17 @@ fn current(client: &mut Client) -> Result<i32, postgres::Error> {
 
 /// Brings the schema to [`VERSION`], or refuses a newer one.
 pub fn migrate(client: &mut Client) -> Result<(), SchemaError> {
+    migrate_to(client, VERSION)
+}
+
+/// Brings the schema to `version` (at most [`VERSION`]), or refuses a newer one than this
+/// savme's: [`migrate`] for the tests of a migration, which need a database as an older savme
+/// left it.
+#[doc(hidden)]
+pub fn migrate_to(client: &mut Client, version: i32) -> Result<(), SchemaError> {
+    let version = version.min(VERSION);
     let found = current(client)?;
-    if found == VERSION {
+    if found >= version && found <= VERSION {
         return Ok(());
     }
     if found > VERSION {
@@ -201,7 +210,8 @@ pub fn migrate(client: &mut Client) -> Result<(), SchemaError> {
     if found > VERSION {
         return Err(SchemaError::TooNew(found));
     }
-    for (i, sql) in MIGRATIONS.iter().enumerate().skip(found.max(0) as usize) {
+    let wanted = MIGRATIONS.iter().take(version.max(0) as usize);
+    for (i, sql) in wanted.enumerate().skip(found.max(0) as usize) {
         tx.batch_execute(sql)?;
         let version = i as i32 + 1;
         tx.execute(

@@ -90,6 +90,13 @@ impl Session {
         self.run(|c| queue::listen(&mut **c, &channel))
     }
 
+    /// Stops listening on `channel`.
+    pub fn unlisten(&mut self, channel: &str) -> Result<(), StoreError> {
+        self.channels.retain(|c| c != channel);
+        let sql = format!("UNLISTEN \"{channel}\"");
+        self.run(|c| c.batch_execute(&sql))
+    }
+
     /// Makes session setting `sql` (e.g. `SET synchronous_commit = off`), again after every
     /// reconnect.
     pub fn set(&mut self, sql: &str) -> Result<(), StoreError> {

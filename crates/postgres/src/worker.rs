@@ -1,9 +1,13 @@
 //! The worker's side of the work queue (`savme worker`): `jobs` threads, each with its own
 //! connection and simulator, claim runs of one campaign (`FOR UPDATE SKIP LOCKED`), run them
-//! and write their results; one more thread renews the leases of the runs in progress. A
-//! worker killed mid-run stops renewing: its lease expires and another worker runs the run
-//! again. Idle threads wait on `LISTEN savme_tasks_<campaign>` (re-checking every second);
-//! the worker exits once the coordinator marks the campaign finished.
+//! and write their results — all through savme's server-side functions, which check that the
+//! session's role may work on the campaign and that a result is valid, and let only this
+//! process (its secret token) finish, renew or hand back the runs it claimed; one more thread
+//! renews the leases of the runs in progress. A worker killed mid-run stops renewing: its lease
+//! expires and another worker runs the run again. Idle threads (only they: every notification
+//! wakes every listening session) wait on `LISTEN savme_tasks_<campaign>` (re-checking every
+//! second); a watch thread looks at the coordinator every [`WATCH`] and says within 2 s when
+//! its heartbeat stops; the worker exits once the coordinator marks the campaign finished.
 //!
 //! A worker whose host cannot build the campaign's simulator (its FMUs are missing there) still
 //! works, on an [`Unavailable`] simulator: every run it claims fails with the reason, naming
@@ -346,9 +350,13 @@ fn work_thread<S: Simulator>(
     // it; the coordinator's own commits, which store the trials, are durable and flush every
     // result they were made from.
     s.set("SET synchronous_commit = off")?;
-    s.listen(&queue::tasks_channel(campaign))?;
     let mut claimed = None;
     let ours = (campaign, token);
+    // Listening only while idle: the server wakes every session listening in the database at
+    // each notification (each finished run notifies the coordinator), so a busy thread that
+    // listened would cost the server a wake-up per run of every other thread.
+    let channel = queue::tasks_channel(campaign);
+    let mut listening = false;
     loop {
         if stop.is_requested() {
             return hand_back(&mut s, ours, claimed.take(), &me);
@@ -360,9 +368,19 @@ fn work_thread<S: Simulator>(
             claimed = s.run(|c| queue::claim(c, campaign, &me, token, lease))?;
         }
         let Some(run) = claimed.take() else {
-            s.wait(Duration::from_secs(1))?;
+            if !listening {
+                // Then claim again: a run queued before the LISTEN sent no wake-up to us.
+                s.listen(&channel)?;
+                listening = true;
+            } else {
+                s.wait(Duration::from_secs(1))?;
+            }
             continue;
         };
+        if listening {
+            s.unlisten(&channel)?;
+            listening = false;
+        }
         if stop.is_requested() {
             return hand_back(&mut s, ours, Some(run), &me);
         }

@@ -28,12 +28,17 @@ CREATE TABLE savme.coordinators (
     taken_at      timestamptz NOT NULL DEFAULT clock_timestamp()
 );
 
+-- (The functions are PL/pgSQL, not SQL: PL/pgSQL keeps its statements' plans for the
+-- session, whereas a SQL function with a SET clause is planned again at every call.)
+
 -- Whether the session of lock row (pid, backend start) is alive.
 CREATE FUNCTION savme.session_alive(p_pid integer, p_start timestamptz) RETURNS boolean
-  LANGUAGE sql STABLE SET search_path = pg_catalog, pg_temp AS $$
-    SELECT EXISTS (SELECT 1 FROM pg_stat_activity a
-                    WHERE a.pid = p_pid
-                      AND (a.backend_start = p_start OR a.backend_start IS NULL)) $$;
+  LANGUAGE plpgsql STABLE SET search_path = pg_catalog, pg_temp AS $$
+BEGIN
+  RETURN EXISTS (SELECT 1 FROM pg_stat_activity a
+                  WHERE a.pid = p_pid
+                    AND (a.backend_start = p_start OR a.backend_start IS NULL));
+END $$;
 
 -- Takes campaign p_campaign's coordinator lock for this session (true), unless a live session
 -- holds it (false). Runs with the caller's rights: a role that may not write
@@ -54,18 +59,22 @@ CREATE FUNCTION savme.take_lock(p_campaign integer) RETURNS boolean
 
 -- Whether a live session holds campaign p_campaign's coordinator lock.
 CREATE FUNCTION savme.locked(p_campaign integer) RETURNS boolean
-  LANGUAGE sql STABLE SET search_path = pg_catalog, pg_temp AS $$
-    SELECT EXISTS (SELECT 1 FROM savme.coordinators l
-                    WHERE l.campaign_id = p_campaign AND savme.session_alive(l.pid, l.backend_start)) $$;
+  LANGUAGE plpgsql STABLE SET search_path = pg_catalog, pg_temp AS $$
+BEGIN
+  RETURN EXISTS (SELECT 1 FROM savme.coordinators l
+                  WHERE l.campaign_id = p_campaign AND savme.session_alive(l.pid, l.backend_start));
+END $$;
 
 -- Whether the calling session's role may work on campaign p_campaign: a coordinator (a role
 -- that may write trials) on any, any other role on the campaigns it (or a role it belongs
 -- to) is listed for in savme.campaign_workers.
 CREATE FUNCTION savme.may_work(p_campaign integer) RETURNS boolean
-  LANGUAGE sql STABLE SECURITY DEFINER SET search_path = pg_catalog, pg_temp AS $$
-    SELECT has_table_privilege(session_user, 'savme.trials', 'INSERT')
-        OR EXISTS (SELECT 1 FROM savme.campaign_workers w JOIN pg_roles r ON r.rolname = w.role
-                    WHERE w.campaign_id = p_campaign AND pg_has_role(session_user, r.oid, 'MEMBER')) $$;
+  LANGUAGE plpgsql STABLE SECURITY DEFINER SET search_path = pg_catalog, pg_temp AS $$
+BEGIN
+  RETURN has_table_privilege(session_user, 'savme.trials', 'INSERT')
+      OR EXISTS (SELECT 1 FROM savme.campaign_workers w JOIN pg_roles r ON r.rolname = w.role
+                  WHERE w.campaign_id = p_campaign AND pg_has_role(session_user, r.oid, 'MEMBER'));
+END $$;
 
 -- Raises unless the calling session's role may work on campaign p_campaign.
 CREATE FUNCTION savme.check_worker(p_campaign integer) RETURNS void
@@ -99,11 +108,14 @@ CREATE FUNCTION savme.worker_campaign(p_name text)
 CREATE FUNCTION savme.coordinator_state(p_campaign integer)
   RETURNS TABLE (finished boolean, remote boolean, seen_ago double precision, locked boolean,
                  resume_command text)
-  LANGUAGE sql STABLE SECURITY DEFINER SET search_path = pg_catalog, pg_temp AS $$
+  LANGUAGE plpgsql STABLE SECURITY DEFINER SET search_path = pg_catalog, pg_temp AS $$
+BEGIN
+  RETURN QUERY
     SELECT c.finished_at IS NOT NULL, c.remote,
            extract(epoch FROM clock_timestamp() - c.coordinator_seen_at)::float8,
            savme.locked(c.id), c.resume_command
-      FROM savme.campaigns c WHERE c.id = p_campaign AND savme.may_work(c.id) $$;
+      FROM savme.campaigns c WHERE c.id = p_campaign AND savme.may_work(c.id);
+END $$;
 
 -- Claims the oldest run of p_campaign that is queued or whose lease expired (never run
 -- p_except), for worker p_worker of the process holding p_token, with a lease of p_lease s.
@@ -112,16 +124,20 @@ CREATE FUNCTION savme.take_run(p_campaign integer, p_worker text, p_token text,
                                p_lease double precision, p_except bigint)
   RETURNS TABLE (id bigint, stage text, trial_id bigint, role text, scenario text, phi text,
                  fidelity text, attempts integer)
-  LANGUAGE sql VOLATILE SET search_path = pg_catalog, pg_temp AS $$
-    UPDATE savme.runs SET state = 'running', worker = p_worker, token = p_token,
-           claimed_by = session_user, attempts = attempts + 1,
+  LANGUAGE plpgsql VOLATILE SET search_path = pg_catalog, pg_temp AS $$
+#variable_conflict use_column
+BEGIN
+  RETURN QUERY
+    UPDATE savme.runs u SET state = 'running', worker = p_worker, token = p_token,
+           claimed_by = session_user, attempts = u.attempts + 1,
            lease_until = clock_timestamp() + make_interval(secs => p_lease),
            started_at = clock_timestamp(), seen_at = clock_timestamp()
-     WHERE id = (SELECT r.id FROM savme.runs r
-                  WHERE r.campaign_id = p_campaign AND r.id <> p_except
-                    AND (r.state = 'queued' OR (r.state = 'running' AND r.lease_until < clock_timestamp()))
-                  ORDER BY r.id LIMIT 1 FOR UPDATE SKIP LOCKED)
-    RETURNING id, stage, trial_id, role, scenario, phi::text, fidelity::text, attempts $$;
+     WHERE u.id = (SELECT r.id FROM savme.runs r
+                    WHERE r.campaign_id = p_campaign AND r.id <> p_except
+                      AND (r.state = 'queued' OR (r.state = 'running' AND r.lease_until < clock_timestamp()))
+                    ORDER BY r.id LIMIT 1 FOR UPDATE SKIP LOCKED)
+    RETURNING u.id, u.stage, u.trial_id, u.role, u.scenario, u.phi::text, u.fidelity::text, u.attempts;
+END $$;
 
 CREATE FUNCTION savme.claim(p_campaign integer, p_worker text, p_token text,
                             p_lease double precision)
@@ -138,8 +154,9 @@ END $$;
 CREATE FUNCTION savme.bad_result(p_campaign integer, p_state text, p_failure boolean,
                                  p_wall double precision, p_work bigint, p_error text,
                                  p_robustness double precision) RETURNS text
-  LANGUAGE sql STABLE SET search_path = pg_catalog, pg_temp AS $$
-    SELECT CASE
+  LANGUAGE plpgsql STABLE SET search_path = pg_catalog, pg_temp AS $$
+BEGIN
+  RETURN CASE
       WHEN p_state IS NULL OR p_state NOT IN ('done', 'failed')
         THEN format('state %L is neither done nor failed', p_state)
       WHEN p_state = 'failed' AND p_error IS NULL THEN 'a failed run must say why (error is NULL)'
@@ -153,7 +170,8 @@ CREATE FUNCTION savme.bad_result(p_campaign integer, p_state text, p_failure boo
       WHEN p_robustness IS NOT NULL AND NOT (p_robustness > '-Infinity'::float8 AND p_robustness < 'Infinity'::float8)
         THEN format('robustness = %s is not finite', p_robustness)
       WHEN p_error IS NOT NULL THEN 'a done run has no error'
-    END $$;
+    END;
+END $$;
 
 -- Writes the result of run p_id, which worker p_worker of the process holding p_token claimed,
 -- and tells the coordinator (kept = false: the run is no longer this worker's — its lease
