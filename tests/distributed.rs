@@ -1114,7 +1114,8 @@ fn every_attack_of_a_worker_role_is_refused_and_no_campaign_stops() {
         }
         std::thread::sleep(Duration::from_millis(20));
     };
-    let corrupt: [(&str, Option<bool>, Option<f64>, Option<i64>, &str); 5] = [
+    type Corrupt<'a> = (&'a str, Option<bool>, Option<f64>, Option<i64>, &'a str);
+    let corrupt: [Corrupt; 5] = [
         ("done", Some(false), Some(0.1), None, "work is NULL"),
         (
             "done",

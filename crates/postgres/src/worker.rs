@@ -174,23 +174,21 @@ where
     let mut session = Session::connect(db, "worker")?;
     let found = wait_for_campaign(&mut session, name, options.wait_for_campaign)?;
     let campaign = found.id;
-    if let Some(window) = found.window {
-        if let Some(warning) = window_warning(name, window, options.jobs) {
-            eprintln!("{warning}");
-        }
+    if let Some(warning) = found
+        .window
+        .and_then(|w| window_warning(name, w, options.jobs))
+    {
+        eprintln!("{warning}");
     }
     let held = Mutex::new(HashSet::new());
     let stop = AtomicBool::new(false);
     let watch = Watch::default();
     let (runs, dropped) = (AtomicU64::new(0), AtomicU64::new(0));
-    let lease = options
-        .lease
-        .clamp(Duration::from_millis(300), queue::MAX_LEASE);
+    let lease = (options.lease).clamp(Duration::from_millis(300), queue::MAX_LEASE);
     let restart = options.restart.as_deref();
-    // This process's secret: the server lets only the process that claimed a run finish,
-    // renew or hand it back.
-    let token = token();
-    let token = token.as_str();
+    // This process's secret: only the process that claimed a run may finish, renew or hand it
+    // back.
+    let token = &*token();
     std::thread::scope(|scope| -> Result<(), WorkerError> {
         let beat = scope.spawn(|| heartbeat(db, campaign, token, &held, &stop, lease));
         let watcher = scope.spawn(|| {
@@ -223,18 +221,7 @@ where
                 })
             })
             .collect();
-        let mut first_error = Ok(());
-        for t in threads {
-            let r = t.join().unwrap_or_else(|_| {
-                Err(StoreError::Database {
-                    store: db.location().into(),
-                    message: "a worker thread panicked".into(),
-                })
-            });
-            if first_error.is_ok() {
-                first_error = r;
-            }
-        }
+        let first_error = join_all(db, threads);
         stop.store(true, Ordering::Relaxed);
         let _ = beat.join();
         let _ = watcher.join();
@@ -249,6 +236,26 @@ where
         dropped: dropped.into_inner(),
         stopped: options.stop.is_requested(),
     })
+}
+
+/// Waits for the worker threads; the first error (a panic is one, naming the database).
+fn join_all(
+    db: &Database,
+    threads: Vec<std::thread::ScopedJoinHandle<'_, Result<(), StoreError>>>,
+) -> Result<(), StoreError> {
+    let mut first_error = Ok(());
+    for t in threads {
+        let r = t.join().unwrap_or_else(|_| {
+            Err(StoreError::Database {
+                store: db.location().into(),
+                message: "a worker thread panicked".into(),
+            })
+        });
+        if first_error.is_ok() {
+            first_error = r;
+        }
+    }
+    first_error
 }
 
 /// A random secret of 128 bits, as hex (the kernel's random source; the clock and the pid
