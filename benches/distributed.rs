@@ -14,6 +14,10 @@
 //! 2. a **sleeping** simulator (`--sleep-ms 20`: every run sleeps 20 ms), 200 trials (350 runs),
 //!    the worker as the least-privilege role.
 //!
+//! Each row also gives the CPU time per trial of the coordinator process, the worker process
+//! and the whole database server (the postmaster, its reaped children and its live backends,
+//! from `/proc`). `--no-optuna` skips the reference rows.
+//!
 //! Then the reference: Optuna with RDB storage on the same server (`benches/optuna_rdb.py`,
 //! `n_jobs` = N threads, RandomSampler, a null and a 20 ms objective) when
 //! `target/optuna-venv/bin/python` (or `SAVME_OPTUNA_PYTHON`) has optuna and psycopg2.
