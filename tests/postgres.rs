@@ -650,6 +650,19 @@ fn storage_flags_are_checked() {
             ],
             "--lease: 0 is not a positive number of seconds",
         ),
+        // A lease has an upper bound (issue 41): the server refuses a longer one too.
+        (
+            vec![
+                "worker",
+                "--storage",
+                url,
+                "--campaign",
+                "x",
+                "--lease",
+                "3601",
+            ],
+            "--lease: 3601 s is longer than a worker may hold a run (3600 s",
+        ),
         // Refused values (issue 28): a worker checks a campaign name by the coordinator's
         // rule, with its message, at once; an unknown URL option; verify-full without a root
         // certificate.
