@@ -331,7 +331,10 @@ fn finish(
         return Ok(done);
     }
     let message = refusal.unwrap_or_default();
-    eprintln!("savme worker: {message}");
+    eprintln!(
+        "savme worker: {}",
+        message.strip_prefix("savme: ").unwrap_or(&message)
+    );
     let failed = Err(SimError::Failed(message));
     s.run(|c| queue::finish_and_claim(c, campaign, id, me, token, &failed, lease, next))
 }

@@ -104,7 +104,10 @@ CREATE FUNCTION savme.worker_campaign(p_name text)
     SELECT c.id, c.protocol->>'simulator', (c.protocol->>'window')::bigint, c.finished_at IS NOT NULL
       FROM savme.campaigns c WHERE c.name = p_name AND savme.may_work(c.id) $$;
 
--- The campaign's coordinator as its workers see it (no row: gone, or not allowed).
+-- The campaign's coordinator as its workers see it (no row: gone, or not allowed). Whether a
+-- live session holds its lock is looked up (in pg_stat_activity) only when its heartbeat is
+-- older than a second: a fresh heartbeat comes from a live coordinator, and every worker asks
+-- four times a second.
 CREATE FUNCTION savme.coordinator_state(p_campaign integer)
   RETURNS TABLE (finished boolean, remote boolean, seen_ago double precision, locked boolean,
                  resume_command text)
@@ -113,7 +116,9 @@ BEGIN
   RETURN QUERY
     SELECT c.finished_at IS NOT NULL, c.remote,
            extract(epoch FROM clock_timestamp() - c.coordinator_seen_at)::float8,
-           savme.locked(c.id), c.resume_command
+           CASE WHEN c.remote AND c.coordinator_seen_at > clock_timestamp() - interval '1 second'
+                THEN true ELSE savme.locked(c.id) END,
+           c.resume_command
       FROM savme.campaigns c WHERE c.id = p_campaign AND savme.may_work(c.id);
 END $$;
 
