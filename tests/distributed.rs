@@ -1385,11 +1385,18 @@ fn runs_orphaned_by_an_immediate_database_restart_are_reconciled() {
     finish(w, "the worker");
     let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
     assert_eq!(db_trials(&mut client, "z"), expected);
-    let open = query_i64(
-        &mut client,
-        "SELECT count(*) FROM savme.runs WHERE state <> 'done'",
-    );
-    assert_eq!(open, 0, "runs left open: {said}");
+    let open: Vec<String> = client
+        .query(
+            "SELECT format('run %s (%s, trial %s, %s): %s, %s attempts, seen %s, server started %s',
+                           id, stage, trial_id, role, state, attempts, seen_at, pg_postmaster_start_time())
+               FROM savme.runs WHERE state <> 'done' ORDER BY id",
+            &[],
+        )
+        .unwrap()
+        .iter()
+        .map(|r| r.get(0))
+        .collect();
+    assert!(open.is_empty(), "runs left open: {open:#?}\n{said}");
     eprintln!("{said}");
     for d in [local, out] {
         let _ = std::fs::remove_dir_all(d);

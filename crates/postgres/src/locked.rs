@@ -179,6 +179,11 @@ impl Locked {
         }
     }
 
+    /// Whether lines wait for the next commit.
+    pub(crate) fn has_pending(&self) -> bool {
+        !self.pending.is_empty()
+    }
+
     /// Appends lines: at once (one transaction), or, deferred, at the next commit.
     pub(crate) fn append(&mut self, rows: Vec<(String, Columns)>) -> Result<(), StoreError> {
         self.pending.extend(rows);

@@ -12,6 +12,13 @@
 //! [`HEARTBEAT`]; a worker that sees no fresh stamp says so and, after its grace period,
 //! exits naming the command that resumes the campaign (stored in `resume_command`).
 //!
+//! **Results it cannot use** (a row written by hand or before the server checked results: a
+//! NULL or negative work count, a NULL failure, a wall time that is not finite) are queued
+//! again with a message naming the run and its worker, and failed after
+//! [`queue::MAX_ATTEMPTS`] claims — never the end of the campaign. **After a database crash**
+//! it writes back the results it told whose rows lost them, and queues again the runs whose
+//! holder did not come back ([`RECONCILE_AFTER`]).
+//!
 //! If no run finishes for [`Remote::worker_wait`], the coordinator says so on stderr — that no
 //! worker ever started a run of this campaign (with the command to start one), or that the
 //! workers stopped — and keeps waiting.
@@ -121,8 +128,15 @@ impl Remote {
     /// (one transaction, one notification).
     fn flush(&mut self) -> Result<(), CampaignError> {
         let tasks = std::mem::take(&mut self.pending);
-        let ids = lock(&self.locked).commit(&tasks, &self.told)?;
-        self.told.clear();
+        let mut locked = lock(&self.locked);
+        // The results read are kept until a commit (of lines or runs) flushes the log past
+        // their finishes: until then a crash may lose those.
+        let flushes = !tasks.is_empty() || locked.has_pending();
+        let ids = locked.commit(&tasks, &self.told)?;
+        drop(locked);
+        if flushes {
+            self.told.clear();
+        }
         for (id, task) in ids.into_iter().zip(&tasks) {
             if id < 0 {
                 return Err(CampaignError::Store(savme_store::StoreError::Database {
