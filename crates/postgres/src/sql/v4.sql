@@ -29,7 +29,12 @@ CREATE TABLE savme.coordinators (
 );
 
 -- (The functions are PL/pgSQL, not SQL: PL/pgSQL keeps its statements' plans for the
--- session, whereas a SQL function with a SET clause is planned again at every call.)
+-- session, whereas a SQL function with a SET clause is planned again at every call. The
+-- internal helpers the worker functions call — savme.may_work, check_worker, check_lease,
+-- take_run, bad_result — have no SET clause and no SECURITY DEFINER: they run inside a worker
+-- function, as its owner and with its pinned search_path, without the cost of switching
+-- either again; called directly they run with the caller's rights, and a worker role may not
+-- call those that touch a table.)
 
 -- Whether the session of lock row (pid, backend start) is alive.
 CREATE FUNCTION savme.session_alive(p_pid integer, p_start timestamptz) RETURNS boolean
@@ -69,7 +74,7 @@ END $$;
 -- that may write trials) on any, any other role on the campaigns it (or a role it belongs
 -- to) is listed for in savme.campaign_workers.
 CREATE FUNCTION savme.may_work(p_campaign integer) RETURNS boolean
-  LANGUAGE plpgsql STABLE SECURITY DEFINER SET search_path = pg_catalog, pg_temp AS $$
+  LANGUAGE plpgsql STABLE AS $$
 BEGIN
   RETURN has_table_privilege(session_user, 'savme.trials', 'INSERT')
       OR EXISTS (SELECT 1 FROM savme.campaign_workers w JOIN pg_roles r ON r.rolname = w.role
@@ -78,7 +83,7 @@ END $$;
 
 -- Raises unless the calling session's role may work on campaign p_campaign.
 CREATE FUNCTION savme.check_worker(p_campaign integer) RETURNS void
-  LANGUAGE plpgsql STABLE SECURITY DEFINER SET search_path = pg_catalog, pg_temp AS $$
+  LANGUAGE plpgsql STABLE AS $$
 BEGIN
   IF NOT savme.may_work(p_campaign) THEN
     RAISE EXCEPTION 'savme: role % may not work on campaign %', session_user, p_campaign
@@ -89,7 +94,7 @@ END $$;
 
 -- Raises unless p_lease (seconds) is a lease a worker may take: more than 0, at most an hour.
 CREATE FUNCTION savme.check_lease(p_lease double precision, p_worker text) RETURNS void
-  LANGUAGE plpgsql STABLE SET search_path = pg_catalog, pg_temp AS $$
+  LANGUAGE plpgsql STABLE AS $$
 BEGIN
   IF p_lease IS NULL OR NOT (p_lease > 0 AND p_lease <= 3600) THEN
     RAISE EXCEPTION 'savme: worker %: a lease of % s is refused (more than 0 and at most 3600 s)',
@@ -129,7 +134,7 @@ CREATE FUNCTION savme.take_run(p_campaign integer, p_worker text, p_token text,
                                p_lease double precision, p_except bigint)
   RETURNS TABLE (id bigint, stage text, trial_id bigint, role text, scenario text, phi text,
                  fidelity text, attempts integer)
-  LANGUAGE plpgsql VOLATILE SET search_path = pg_catalog, pg_temp AS $$
+  LANGUAGE plpgsql VOLATILE AS $$
 #variable_conflict use_column
 BEGIN
   RETURN QUERY
@@ -159,7 +164,7 @@ END $$;
 CREATE FUNCTION savme.bad_result(p_campaign integer, p_state text, p_failure boolean,
                                  p_wall double precision, p_work bigint, p_error text,
                                  p_robustness double precision) RETURNS text
-  LANGUAGE plpgsql STABLE SET search_path = pg_catalog, pg_temp AS $$
+  LANGUAGE plpgsql STABLE AS $$
 BEGIN
   RETURN CASE
       WHEN p_state IS NULL OR p_state NOT IN ('done', 'failed')
@@ -282,6 +287,7 @@ END $$;
 
 -- What a worker role may call: the functions above that check the caller, nothing else.
 REVOKE ALL ON FUNCTION savme.may_work(integer), savme.check_worker(integer),
+    savme.bad_result(integer, text, boolean, double precision, bigint, text, double precision),
     savme.worker_campaign(text), savme.coordinator_state(integer),
     savme.take_run(integer, text, text, double precision, bigint),
     savme.claim(integer, text, text, double precision),
