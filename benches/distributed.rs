@@ -1,6 +1,6 @@
 //! Campaigns on `savme worker` processes through PostgreSQL with **durable commits**.
 //!
-//! `cargo bench --bench distributed -- [repetitions]`
+//! `cargo bench --bench distributed -- [repetitions] [--no-optuna]`
 //!
 //! Starts a throwaway PostgreSQL 15 with durable commits (`fsync=on`, `synchronous_commit=on`:
 //! `tests/common/postgres.rs` `Server::start_durable`; the settings are printed), then for N =
@@ -8,8 +8,15 @@
 //! --remote`, window 64 for every row):
 //! 1. a **null** simulator (`--null`: runs cost nothing), 1,000 trials (1,750 runs): trials/s of
 //!    the coordinator process's wall time (start to exit: schema, connections and outputs
-//!    included), and its CPU per trial;
-//! 2. a **sleeping** simulator (`--sleep-ms 20`: every run sleeps 20 ms), 200 trials (350 runs).
+//!    included), and its CPU per trial — once with the worker connecting as the tables' owner,
+//!    once as the **least-privilege worker role** of `docs/DISTRIBUTED.md` (`CREATE ROLE …
+//!    LOGIN`, `--worker-role`: the worker functions, no table);
+//! 2. a **sleeping** simulator (`--sleep-ms 20`: every run sleeps 20 ms), 200 trials (350 runs),
+//!    the worker as the least-privilege role.
+//!
+//! Each row also gives the CPU time per trial of the coordinator process, the worker process
+//! and the whole database server (the postmaster, its reaped children and its live backends,
+//! from `/proc`). `--no-optuna` skips the reference rows.
 //!
 //! Then the reference: Optuna with RDB storage on the same server (`benches/optuna_rdb.py`,
 //! `n_jobs` = N threads, RandomSampler, a null and a 20 ms objective) when
@@ -85,27 +92,56 @@ fn clock_ticks() -> f64 {
         .unwrap_or(100.0)
 }
 
-/// utime + stime of a running process, in clock ticks.
-fn cpu_ticks(pid: u32) -> Option<u64> {
+/// The fields of `/proc/PID/stat` from the third on (after the command's parentheses).
+fn stat_fields(pid: u32) -> Option<Vec<u64>> {
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     let after = &stat[stat.rfind(')')? + 2..];
-    let fields: Vec<&str> = after.split(' ').collect();
-    // Fields 14 and 15 of stat; `after` starts at field 3.
-    Some(fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?)
+    // Field 3 (the state) is a letter: read as 0.
+    Some(after.split(' ').map(|f| f.parse().unwrap_or(0)).collect())
 }
 
-/// Runs `cmd` to the end: (wall seconds, CPU seconds of the process as last sampled).
-fn measure(mut cmd: Command) -> (f64, f64) {
+/// utime + stime of a running process, in clock ticks.
+fn cpu_ticks(pid: u32) -> Option<u64> {
+    let f = stat_fields(pid)?;
+    // Fields 14 and 15 of stat; `f` starts at field 3.
+    Some(f.get(11)? + f.get(12)?)
+}
+
+/// The CPU time of the whole database server so far, in clock ticks: the postmaster's own and
+/// its reaped children's (cutime, cstime), and its live children's (the backends).
+fn server_ticks(server: &pg::Server) -> u64 {
+    let Some(postmaster) = server.postmaster_pid() else {
+        return 0;
+    };
+    let own = stat_fields(postmaster).map_or(0, |f| f[11..15].iter().sum());
+    let children: u64 = std::fs::read_dir("/proc")
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| e.file_name().to_str()?.parse::<u32>().ok())
+        .filter_map(stat_fields)
+        .filter(|f| f.get(1) == Some(&(postmaster as u64)))
+        .map(|f| f[11] + f[12])
+        .sum();
+    own + children
+}
+
+/// Runs `cmd` to the end: (wall seconds, CPU seconds of the process as last sampled, CPU
+/// seconds of process `also` as last sampled).
+fn measure(mut cmd: Command, also: u32) -> (f64, f64, f64) {
     let start = Instant::now();
     let mut child = cmd
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
         .expect("savme starts");
-    let mut ticks = 0;
+    let (mut ticks, mut other) = (0, 0);
     loop {
         if let Some(t) = cpu_ticks(child.id()) {
             ticks = ticks.max(t);
+        }
+        if let Some(t) = cpu_ticks(also) {
+            other = other.max(t);
         }
         if let Some(status) = child.try_wait().expect("wait") {
             let wall = start.elapsed().as_secs_f64();
@@ -114,7 +150,8 @@ fn measure(mut cmd: Command) -> (f64, f64) {
                 .map(|o| o.stderr)
                 .unwrap_or_default();
             assert!(status.success(), "{}", String::from_utf8_lossy(&err));
-            return (wall, ticks as f64 / clock_ticks());
+            let hz = clock_ticks();
+            return (wall, ticks as f64 / hz, other as f64 / hz);
         }
         std::thread::sleep(Duration::from_millis(2));
     }
@@ -134,12 +171,33 @@ fn span(server: &pg::Server, name: &str) -> f64 {
     .get(0)
 }
 
-/// A remote campaign `name` with one worker process of `threads` threads started first;
-/// returns the coordinator's (wall, CPU) seconds.
-fn remote(url: &str, name: &str, out: &Path, flags: &[&str], threads: usize) -> (f64, f64) {
+/// The least-privilege worker role of the benchmark, and its password.
+const ROLE: (&str, &str) = ("bench_worker", "bench-pw");
+
+/// One campaign's measurements: wall seconds of the coordinator process, and CPU seconds of
+/// the coordinator, the worker process and the database server.
+#[derive(Clone, Copy)]
+struct Measured {
+    wall: f64,
+    coordinator: f64,
+    worker: f64,
+    server: f64,
+}
+
+/// A remote campaign `name` with one worker process of `threads` threads started first (on
+/// `worker_url`: the owner's, or the worker role's, which the coordinator then lets work on the
+/// campaign).
+fn remote(
+    server: &pg::Server,
+    (url, worker_url): (&str, &str),
+    name: &str,
+    (out, flags): (&Path, &[&str]),
+    threads: usize,
+) -> Measured {
     let _ = std::fs::remove_dir_all(out);
+    let before = server_ticks(server);
     let mut worker = Command::new(EXE)
-        .args(["worker", "--storage", url, "--campaign", name])
+        .args(["worker", "--storage", worker_url, "--campaign", name])
         .args(["--jobs", &threads.to_string()])
         .stdout(Stdio::null())
         .stderr(Stdio::null())
@@ -157,9 +215,22 @@ fn remote(url: &str, name: &str, out: &Path, flags: &[&str], threads: usize) -> 
     ])
     .arg(out)
     .args(flags);
-    let r = measure(c);
-    let _ = worker.wait();
-    r
+    if worker_url != url {
+        c.args(["--worker-role", ROLE.0]);
+    }
+    let (wall, coordinator, mut worker_cpu) = measure(c, worker.id());
+    while worker.try_wait().ok().flatten().is_none() {
+        if let Some(t) = cpu_ticks(worker.id()) {
+            worker_cpu = worker_cpu.max(t as f64 / clock_ticks());
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    Measured {
+        wall,
+        coordinator,
+        worker: worker_cpu,
+        server: (server_ticks(server) - before) as f64 / clock_ticks(),
+    }
 }
 
 /// The Python with optuna and psycopg2, if any.
@@ -222,6 +293,14 @@ fn main() {
         return;
     };
     let url = server.create_db("bench");
+    let mut admin = server.client_of("bench");
+    admin
+        .batch_execute(&format!(
+            "CREATE ROLE {0} LOGIN PASSWORD '{1}'; GRANT CONNECT ON DATABASE bench TO {0}",
+            ROLE.0, ROLE.1
+        ))
+        .expect("the worker role");
+    let role_url = server.url_for(ROLE.0, ROLE.1, "bench");
     println!("server: {}", settings(&server));
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("load average before: {}", load.trim());
@@ -229,37 +308,59 @@ fn main() {
         std::env::temp_dir().join(format!("savme-bench-dist-{}", std::process::id()));
     let threads = [1usize, 4, 16, 64];
     println!("\nsavme, window {WINDOW}, median of {reps}; one `savme worker --jobs N` process");
-    println!("(trials/s: of the coordinator process's wall time / of the campaign's span in the database, first run queued to last trial stored)");
-    println!("| N threads | null: trials/s (process / span) | coordinator CPU ms/trial | 20 ms sleep: trials/s (process / span) | vs 1 thread (span) |");
-    println!("|---|---|---|---|---|");
+    println!("(trials/s: of the coordinator process's wall time / of the campaign's span in the database, first run queued to last trial stored; the sleeping rows' worker is the least-privilege role)");
+    println!("| N threads | null, worker role: trials/s (process / span) | null, owner: trials/s (process / span) | CPU ms per null trial (role): coordinator / worker / server | 20 ms sleep: trials/s (process / span) | vs 1 thread (span) | CPU ms per 20 ms trial: coordinator / worker / server |");
+    println!("|---|---|---|---|---|---|---|");
     let mut one = 0.0;
+    let per = |m: &[Measured], trials: f64| {
+        let ms = |f: fn(&Measured) -> f64| median(m.iter().map(f).collect()) / trials * 1e3;
+        format!(
+            "{:.3} / {:.3} / {:.3}",
+            ms(|m| m.coordinator),
+            ms(|m| m.worker),
+            ms(|m| m.server)
+        )
+    };
     for (k, &n) in threads.iter().enumerate() {
         let (mut null, mut null_span) = (Vec::new(), Vec::new());
+        let (mut owner, mut owner_span) = (Vec::new(), Vec::new());
         let (mut sleep, mut sleep_span) = (Vec::new(), Vec::new());
         for rep in 0..reps {
             let name = format!("null-{n}-{rep}");
-            null.push(remote(&url, &name, &out, NULL, n));
+            null.push(remote(&server, (&url, &role_url), &name, (&out, NULL), n));
             null_span.push(span(&server, &name));
+            let name = format!("owner-{n}-{rep}");
+            owner.push(remote(&server, (&url, &url), &name, (&out, NULL), n).wall);
+            owner_span.push(span(&server, &name));
             let name = format!("sleep-{n}-{rep}");
-            sleep.push(remote(&url, &name, &out, SLEEPING, n).0);
+            sleep.push(remote(
+                &server,
+                (&url, &role_url),
+                &name,
+                (&out, SLEEPING),
+                n,
+            ));
             sleep_span.push(span(&server, &name));
         }
-        let wall = median(null.iter().map(|x| x.0).collect());
-        let cpu = median(null.iter().map(|x| x.1).collect());
+        let wall = median(null.iter().map(|x| x.wall).collect());
         let s = SLEEPING_TRIALS / median(sleep_span);
         if k == 0 {
             one = s;
         }
         println!(
-            "| {n} | {:.0} / {:.0} | {:.3} | {:.1} / {s:.1} | {:.2}× |",
+            "| {n} | {:.0} / {:.0} | {:.0} / {:.0} | {} | {:.1} / {s:.1} | {:.2}× | {} |",
             NULL_TRIALS / wall,
             NULL_TRIALS / median(null_span),
-            cpu / NULL_TRIALS * 1e3,
-            SLEEPING_TRIALS / median(sleep),
-            s / one
+            NULL_TRIALS / median(owner),
+            NULL_TRIALS / median(owner_span),
+            per(&null, NULL_TRIALS),
+            SLEEPING_TRIALS / median(sleep.iter().map(|x| x.wall).collect()),
+            s / one,
+            per(&sleep, SLEEPING_TRIALS),
         );
     }
-    if let Some(python) = optuna_python() {
+    let skip_optuna = std::env::args().any(|a| a == "--no-optuna");
+    if let Some(python) = optuna_python().filter(|_| !skip_optuna) {
         // Its own database on the same server (Optuna's tables would otherwise land in the
         // schema named after the user, `savme`, beside savme's own `trials`).
         server.create_db("optuna");

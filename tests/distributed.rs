@@ -713,44 +713,30 @@ fn a_worker_role_sees_and_changes_only_the_campaigns_it_is_allowed_on() {
     assert!(o.status.success(), "{}", text(&o));
     finish(wa, "worker_a");
     assert_eq!(db_trials(&mut admin, "a"), expected);
-    // worker_a neither reads nor changes campaign B: its protocol and runs are invisible, and
-    // a forged result updates nothing.
+    // worker_a neither reads nor changes campaign B: it has no right on any table (it acts
+    // through savme's functions, which show it campaign A only), and a forged result is
+    // refused.
     let mut a = postgres::Client::connect(&url_a, postgres::NoTls).unwrap();
-    let sees =
-        |a: &mut postgres::Client, sql: &str| a.query_one(sql, &[]).unwrap().get::<_, i64>(0);
-    assert_eq!(
-        sees(
-            &mut a,
-            "SELECT count(*) FROM savme.campaigns WHERE name = 'b'"
-        ),
-        0
-    );
-    assert_eq!(
-        sees(
-            &mut a,
-            "SELECT count(*) FROM savme.campaigns WHERE name = 'a'"
-        ),
-        1
-    );
+    let sees = |a: &mut postgres::Client, name: &str| {
+        a.query("SELECT id FROM savme.worker_campaign($1)", &[&name])
+            .unwrap()
+            .len()
+    };
+    assert_eq!(sees(&mut a, "b"), 0);
+    assert_eq!(sees(&mut a, "a"), 1);
     let b_id: i32 = admin
         .query_one("SELECT id FROM savme.campaigns WHERE name = 'b'", &[])
         .unwrap()
         .get(0);
-    assert_eq!(
-        sees(
-            &mut a,
-            &format!("SELECT count(*) FROM savme.runs WHERE campaign_id = {b_id}")
-        ),
-        0
-    );
-    let forged = a
-        .execute(
-            "UPDATE savme.runs SET state = 'done', failure = true, wall_seconds = 1, work = 1
-              WHERE campaign_id = $1",
-            &[&b_id],
-        )
-        .unwrap();
-    assert_eq!(forged, 0);
+    for sql in [
+        "SELECT count(*) FROM savme.campaigns WHERE id = $1",
+        "SELECT count(*) FROM savme.runs WHERE campaign_id = $1",
+        "UPDATE savme.runs SET state = 'done', failure = true, wall_seconds = 1, work = 1
+          WHERE campaign_id = $1",
+    ] {
+        let e = a.execute(sql, &[&b_id]).unwrap_err();
+        assert_eq!(e.code().map(|c| c.code()), Some("42501"), "{sql}: {e}");
+    }
     assert!(a.query("SELECT * FROM savme.trials", &[]).is_err());
     // A worker of role worker_a on campaign B waits for a campaign it cannot see.
     let stray = worker(&url_a, "b", &["--wait", "2"]);
@@ -941,4 +927,538 @@ fn a_run_in_a_database_stopped_by_a_signal_prints_the_whole_command_that_resumes
     assert!(resumed.status.success(), "{}", text(&resumed));
     assert_eq!(query_i64(&mut client, count), 30);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The SQLSTATE and message of a statement the server refused (panics if it ran).
+fn refusal<T: std::fmt::Debug>(r: Result<T, postgres::Error>, what: &str) -> (String, String) {
+    let e = r.expect_err(what);
+    let db = e
+        .as_db_error()
+        .unwrap_or_else(|| panic!("{what}: not a server error: {e}"));
+    (db.code().code().to_string(), db.message().to_string())
+}
+
+/// Each attack of issue 41, played with a raw client connection as a worker role allowed on
+/// campaign A only (`application_name` claiming to be a coordinator): the coordinator lock of
+/// another campaign, that campaign's rows, a forged or corrupt result, a result under another
+/// worker's name, an endless lease. Every one is refused, and both campaigns end with the local
+/// run's trials.
+#[test]
+fn every_attack_of_a_worker_role_is_refused_and_no_campaign_stops() {
+    let Some(server) = Server::start("attack") else {
+        return;
+    };
+    let url = server.create_db("attack");
+    let local = temp_dir("attack-local");
+    let expected = toy_local(&local, &["--sleep-ms", "200"]);
+    let mut admin = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    let db = savme::postgres::Database::parse(&url).unwrap();
+    drop(savme::postgres::PostgresStore::open(&db, "setup").unwrap());
+    for role in ["worker_a", "worker_b"] {
+        let sql = common::doc_sql("worker-role")
+            .replace("savme_worker", role)
+            .replace("change-me", "pw")
+            .replace("DATABASE safety", "DATABASE attack");
+        admin.batch_execute(&sql).unwrap();
+        // As when it was allowed on an earlier campaign: the worker functions, no table.
+        admin
+            .execute("SELECT savme.grant_worker($1::text::name)", &[&role])
+            .unwrap();
+    }
+    // Campaign B, allowed to worker_b, queues its runs; its coordinator is then killed.
+    let out_b = temp_dir("attack-b");
+    let mut coordinator_b = toy_coordinator(&url, "b", &out_b, &["--sleep-ms", "200"])
+        .args(["--worker-role", "worker_b"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let runs_of = |name: &str| {
+        format!("SELECT count(*) FROM savme.runs r JOIN savme.campaigns c ON c.id = r.campaign_id WHERE c.name = '{name}'")
+    };
+    wait_until("b's runs to be queued", Duration::from_secs(60), || {
+        query_i64(&mut admin, &runs_of("b")) > 0
+    });
+    coordinator_b.kill().unwrap();
+    coordinator_b.wait().unwrap();
+    let b_id: i32 = admin
+        .query_one("SELECT id FROM savme.campaigns WHERE name = 'b'", &[])
+        .unwrap()
+        .get(0);
+    let url_a = server.url_for("worker_a", "pw", "attack");
+    let mut config: postgres::Config = url_a.parse().unwrap();
+    config.application_name("savme coordinator pid 4242 on trusted-host");
+    let mut a = config.connect(postgres::NoTls).unwrap();
+
+    // 1. B's coordinator lock, and the next campaign's: an advisory lock is no lock any more,
+    // and the lock row cannot be written.
+    for id in [b_id, b_id + 1] {
+        let r = a.query_one("SELECT pg_try_advisory_lock(29558, $1)", &[&id]);
+        assert!(r.unwrap().get::<_, bool>(0));
+    }
+    let (code, _) = refusal(
+        a.query_one("SELECT savme.take_lock($1)", &[&b_id]),
+        "take_lock",
+    );
+    assert_eq!(code, "42501");
+    for sql in [
+        "INSERT INTO savme.coordinators VALUES (2, pg_backend_pid(), now(), 'worker_a', 'x', 'y')",
+        "UPDATE savme.coordinators SET pid = pg_backend_pid()",
+        "DELETE FROM savme.coordinators",
+    ] {
+        assert_eq!(refusal(a.execute(sql, &[]), sql).0, "42501", "{sql}");
+    }
+    // B's rows, through the tables or the functions: nothing.
+    for sql in [
+        "SELECT count(*) FROM savme.runs",
+        "SELECT count(*) FROM savme.campaigns",
+        "SELECT count(*) FROM savme.trials",
+        "SELECT count(*) FROM savme.campaign_workers",
+        "UPDATE savme.runs SET lease_until = 'infinity'",
+        "UPDATE savme.runs SET state = 'done', failure = true, wall_seconds = 1, work = NULL",
+        "INSERT INTO savme.campaign_workers VALUES (2, 'worker_a')",
+    ] {
+        assert_eq!(refusal(a.execute(sql, &[]), sql).0, "42501", "{sql}");
+    }
+    let none =
+        |a: &mut postgres::Client, sql: &str, id: i32| a.query(sql, &[&id]).unwrap().is_empty();
+    assert!(none(
+        &mut a,
+        "SELECT * FROM savme.coordinator_state($1)",
+        b_id
+    ));
+    let seen = a.query("SELECT * FROM savme.worker_campaign('b')", &[]);
+    assert!(seen.unwrap().is_empty());
+    let (code, message) = refusal(
+        a.query("SELECT * FROM savme.claim($1, 'me', 'tok', 30)", &[&b_id]),
+        "claim of b",
+    );
+    assert_eq!(code, "42501");
+    assert!(
+        message.contains(&format!("role worker_a may not work on campaign {b_id}")),
+        "{message}"
+    );
+
+    // Campaign A (its id is the one whose advisory lock the attacker holds) starts anyway.
+    let out_a = temp_dir("attack-a");
+    let coordinator_a = toy_coordinator(&url, "a", &out_a, &["--sleep-ms", "200"])
+        .args(["--worker-role", "worker_a"])
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let honest = worker(&url_a, "a", &[]);
+    let held = "SELECT r.id, r.worker, c.id FROM savme.runs r JOIN savme.campaigns c ON c.id = r.campaign_id
+                 WHERE c.name = 'a' AND r.state = 'running' ORDER BY r.id LIMIT 1";
+    wait_until(
+        "the honest worker to hold a run",
+        Duration::from_secs(60),
+        || admin.query_opt(held, &[]).unwrap().is_some(),
+    );
+    let row = admin.query_one(held, &[]).unwrap();
+    let (run, victim, a_id): (i64, String, i32) = (row.get(0), row.get(1), row.get(2));
+    assert_eq!(a_id, b_id + 1);
+
+    // 3. A result under the honest worker's name, its lease renewed forever, its run handed
+    // back: refused or no effect.
+    let finish_sql = "SELECT * FROM savme.finish_and_claim($1, $2, $3, $4, $5, $6, $7, $8, NULL, NULL, $9, false)";
+    let forged = a.query(
+        finish_sql,
+        &[
+            &a_id,
+            &run,
+            &victim,
+            &"guess",
+            &"done",
+            &Some(true),
+            &Some(0.1f64),
+            &Some(1i64),
+            &30.0f64,
+        ],
+    );
+    let (code, message) = refusal(forged, "a result under another worker's name");
+    assert_eq!(code, "SV001");
+    assert!(
+        message.contains(&format!("run {run} "))
+            && message.contains(&victim)
+            && message.contains("claimed by another process"),
+        "{message}"
+    );
+    let renew = "SELECT savme.renew($1, ARRAY[$2::bigint], 'guess', $3)";
+    for lease in [f64::INFINITY, 1e9, f64::NAN, -1.0] {
+        let (code, message) = refusal(a.query_one(renew, &[&a_id, &run, &lease]), "renew");
+        assert_eq!(code, "22023", "{lease}: {message}");
+    }
+    let renewed: i32 = a.query_one(renew, &[&a_id, &run, &30.0f64]).unwrap().get(0);
+    assert_eq!(renewed, 0);
+    let released: i32 = a
+        .query_one(
+            "SELECT savme.release($1, $2, $3, 'guess')",
+            &[&a_id, &run, &victim],
+        )
+        .unwrap()
+        .get(0);
+    assert_eq!(released, 0);
+    let claim = "SELECT * FROM savme.claim($1, 'attacker', 'tok', $2)";
+    for lease in [f64::INFINITY, 1e9] {
+        let (code, message) = refusal(a.query(claim, &[&a_id, &lease]), "an endless lease");
+        assert_eq!(code, "22023", "{message}");
+        assert!(message.contains("at most 3600 s"), "{message}");
+    }
+
+    // 2. A corrupt result on a run the attacker claimed itself (a lease of 1 s: the honest
+    // worker runs it once it expires): refused, naming the run and the worker.
+    let mine: i64 = loop {
+        if let Some(r) = a.query(claim, &[&a_id, &1.0f64]).unwrap().first() {
+            break r.get(0);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    type Corrupt<'a> = (&'a str, Option<bool>, Option<f64>, Option<i64>, &'a str);
+    let corrupt: [Corrupt; 5] = [
+        ("done", Some(false), Some(0.1), None, "work is NULL"),
+        (
+            "done",
+            Some(false),
+            Some(0.1),
+            Some(-5),
+            "work = -5 is negative",
+        ),
+        (
+            "done",
+            Some(false),
+            Some(f64::NAN),
+            Some(1),
+            "wall_seconds = NaN",
+        ),
+        ("done", None, Some(0.1), Some(1), "failure is NULL"),
+        (
+            "won",
+            Some(true),
+            Some(0.1),
+            Some(1),
+            "neither done nor failed",
+        ),
+    ];
+    for (state, failure, wall, work, why) in corrupt {
+        let r = a.query(
+            finish_sql,
+            &[
+                &a_id,
+                &mine,
+                &"attacker",
+                &"tok",
+                &state,
+                &failure,
+                &wall,
+                &work,
+                &30.0f64,
+            ],
+        );
+        let (code, message) = refusal(r, why);
+        assert_eq!(code, "SV001", "{message}");
+        assert!(
+            message.contains(&format!("refused the result of run {mine} "))
+                && message.contains("from worker attacker")
+                && message.contains(why),
+            "{message}"
+        );
+    }
+    drop(a);
+
+    // Neither campaign stopped: A ends with the local run's trials, and B resumes (the
+    // attacker's advisory locks are gone with its session, but they never mattered).
+    let o = coordinator_a.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    finish(honest, "worker_a");
+    assert_eq!(db_trials(&mut admin, "a"), expected);
+    let mut a = config.connect(postgres::NoTls).unwrap();
+    assert!(a
+        .query_one("SELECT pg_try_advisory_lock(29558, $1)", &[&b_id])
+        .unwrap()
+        .get::<_, bool>(0));
+    let wb = worker(&server.url_for("worker_b", "pw", "attack"), "b", &[]);
+    let o = Command::new(EXE)
+        .args([
+            "toy",
+            "--storage",
+            &url,
+            "--campaign",
+            "b",
+            "--remote",
+            "--resume",
+        ])
+        .args(["--quiet", "--out"])
+        .arg(&out_b)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    finish(wb, "worker_b");
+    assert_eq!(db_trials(&mut admin, "b"), expected);
+    drop(a);
+    for d in [local, out_a, out_b] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// A finished row the coordinator cannot use — written by hand, or before the server checked
+/// results (a NULL or a negative work count in a work-unit campaign) — is queued again with a
+/// message naming the run and the worker, and the campaign ends as the local run does (it used
+/// to stop the campaign for good, or wrap the work count to 1.8e19).
+#[test]
+fn a_corrupt_result_row_is_queued_again_and_the_campaign_goes_on() {
+    let Some(dist) = Distributed::set_up("corrupt", 20) else {
+        return;
+    };
+    let (url, expected) = (dist.url.clone(), dist.expected.clone());
+    let coordinator = dist.coordinator("x", Stdio::piped());
+    let mut client = dist.client();
+    let queued = "SELECT count(*) FROM savme.runs WHERE state = 'queued'";
+    wait_until("runs to be queued", Duration::from_secs(60), || {
+        query_i64(&mut client, queued) >= 2
+    });
+    let ids: Vec<i64> = client
+        .query("SELECT id FROM savme.runs ORDER BY id LIMIT 2", &[])
+        .unwrap()
+        .iter()
+        .map(|r| r.get(0))
+        .collect();
+    // As a table owner can still write them (the server's checks are in the workers' functions).
+    for (id, work) in ids.iter().zip([None, Some(-5i64)]) {
+        client
+            .execute(
+                "UPDATE savme.runs SET state = 'done', failure = false, wall_seconds = 0.1,
+                        work = $2, worker = 'forger', finished_at = now() WHERE id = $1",
+                &[id, &work],
+            )
+            .unwrap();
+    }
+    client.execute("NOTIFY savme_done_1", &[]).unwrap();
+    let w = worker(&url, "x", &[]);
+    let said = finish(coordinator, "the coordinator");
+    finish(w, "the worker");
+    for (id, why) in ids.iter().zip(["work is NULL", "work = -5 is negative"]) {
+        assert!(
+            said.contains(&format!("refused the result of run {id} "))
+                && said.contains("from worker \"forger\"")
+                && said.contains(why)
+                && said.contains("queued again"),
+            "{said}"
+        );
+    }
+    assert_eq!(db_trials(&mut client, "x"), expected);
+    dist.clean();
+}
+
+/// Standard error of `child`, line by line as it comes, with the time each line came.
+fn timed_lines(child: &mut Child) -> std::sync::mpsc::Receiver<(std::time::Instant, String)> {
+    let err = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufRead::lines(std::io::BufReader::new(err)).map_while(Result::ok) {
+            if tx.send((std::time::Instant::now(), line)).is_err() {
+                return;
+            }
+        }
+    });
+    rx
+}
+
+/// The first line of `lines` containing `needle` (within 30 s), and when it came.
+fn first_line_with(
+    lines: &std::sync::mpsc::Receiver<(std::time::Instant, String)>,
+    needle: &str,
+) -> (std::time::Instant, String) {
+    loop {
+        let (at, line) = lines
+            .recv_timeout(Duration::from_secs(30))
+            .unwrap_or_else(|_| panic!("no line with {needle:?} in 30 s"));
+        if line.contains(needle) {
+            return (at, line);
+        }
+    }
+}
+
+/// A worker says within 2 s that its coordinator's heartbeat stopped (the coordinator stopped
+/// with SIGSTOP: it still holds its lock), that it is back, and that it is gone (SIGKILL).
+#[cfg(unix)]
+#[test]
+fn a_worker_says_within_2_s_that_its_coordinators_heartbeat_stopped() {
+    let Some(dist) = Distributed::set_up("heartbeat", 100) else {
+        return;
+    };
+    let mut w = worker(&dist.url, "h", &["--grace", "60"]);
+    let lines = timed_lines(&mut w);
+    let coordinator = dist.coordinator("h", Stdio::null());
+    let mut client = dist.client();
+    wait_until("trials to be stored", Duration::from_secs(60), || {
+        query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= 2
+    });
+    send(&coordinator, "STOP");
+    let stopped = std::time::Instant::now();
+    let (at, line) = first_line_with(&lines, "no heartbeat from its coordinator");
+    let said_after = at - stopped;
+    eprintln!("stopped coordinator: said after {said_after:?}: {line}");
+    assert!(said_after < Duration::from_millis(2500), "{said_after:?}");
+    send(&coordinator, "CONT");
+    first_line_with(&lines, "its coordinator is back");
+    let mut coordinator = coordinator;
+    coordinator.kill().unwrap(); // SIGKILL
+    let killed = std::time::Instant::now();
+    coordinator.wait().unwrap();
+    let (at, line) = first_line_with(&lines, "has no coordinator running");
+    let said_after = at - killed;
+    eprintln!("killed coordinator: said after {said_after:?}: {line}");
+    assert!(said_after < Duration::from_millis(2500), "{said_after:?}");
+    let _ = w.kill();
+    let _ = w.wait();
+    dist.clean();
+}
+
+/// An immediate restart of the database (as a crash: what its write-ahead log had not written
+/// is lost — workers commit without waiting for the disk) mid-campaign, three times: the
+/// campaign ends with the local run's trials and no run is left `running` or `queued` — a run
+/// whose finish was lost although the coordinator had read and told it is written back, and a
+/// run whose holder did not come back is queued again.
+#[test]
+fn runs_orphaned_by_an_immediate_database_restart_are_reconciled() {
+    let Some(mut server) = Server::start("crash") else {
+        return;
+    };
+    let url = server.create_db("crash");
+    let protocol = [
+        "--iterations",
+        "60",
+        "--eval-iterations",
+        "10",
+        "--test-iterations",
+        "30",
+        "--baseline-iterations",
+        "20",
+        "--baseline-test-iterations",
+        "10",
+        "--cost",
+        "work",
+        "--seed",
+        "5",
+        "--quiet",
+        "--sleep-ms",
+        "20",
+    ];
+    let local = temp_dir("crash-local");
+    let o = Command::new(EXE)
+        .args(["toy", "--out"])
+        .arg(&local)
+        .args(protocol)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let expected = file_trials(&local);
+    let out = temp_dir("crash-out");
+    let w = worker(&url, "z", &["--jobs", "4", "--lease", "30"]);
+    let coordinator = Command::new(EXE)
+        .args([
+            "toy",
+            "--storage",
+            &url,
+            "--campaign",
+            "z",
+            "--remote",
+            "--out",
+        ])
+        .arg(&out)
+        .args(protocol)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    for at in [20, 60, 100] {
+        {
+            let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+            wait_until("trials to be stored", Duration::from_secs(120), || {
+                query_i64(&mut client, "SELECT count(*) FROM savme.trials") >= at
+            });
+        }
+        server.crash_and_restart();
+    }
+    let said = finish(coordinator, "the coordinator");
+    finish(w, "the worker");
+    let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
+    assert_eq!(db_trials(&mut client, "z"), expected);
+    let open: Vec<String> = client
+        .query(
+            "SELECT format('run %s (%s, trial %s, %s): %s, %s attempts, seen %s, server started %s',
+                           id, stage, trial_id, role, state, attempts, seen_at, pg_postmaster_start_time())
+               FROM savme.runs WHERE state <> 'done' ORDER BY id",
+            &[],
+        )
+        .unwrap()
+        .iter()
+        .map(|r| r.get(0))
+        .collect();
+    assert!(open.is_empty(), "runs left open: {open:#?}\n{said}");
+    eprintln!("{said}");
+    for d in [local, out] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// A database of schema version 3 (before the worker functions), with a worker role set up as
+/// the former instructions said (`SELECT`/`UPDATE` on the tables, row-level security) and
+/// listed for a campaign: a worker of this savme waits until a coordinator migrates it; the
+/// role then works through the functions, has lost its table rights, and the campaign ends as
+/// the local run does.
+#[test]
+fn a_schema_version_3_database_is_migrated_and_its_worker_role_keeps_working() {
+    let Some(dist) = Distributed::set_up("migrate", 20) else {
+        return;
+    };
+    let expected = dist.expected.clone();
+    let mut admin = dist.client();
+    savme::postgres::schema::migrate_to(&mut admin, 3).unwrap();
+    admin
+        .batch_execute(
+            "CREATE ROLE old_worker LOGIN PASSWORD 'pw';
+             GRANT CONNECT ON DATABASE migrate TO old_worker;
+             GRANT USAGE ON SCHEMA savme TO old_worker;
+             GRANT SELECT ON savme.campaigns, savme.campaign_workers TO old_worker;
+             GRANT SELECT, UPDATE (state, worker, attempts, lease_until, started_at, failure,
+                                   wall_seconds, work, error, finished_at, robustness)
+                ON savme.runs TO old_worker;
+             INSERT INTO savme.campaigns (name) VALUES ('m');
+             INSERT INTO savme.campaign_workers VALUES (1, 'old_worker');",
+        )
+        .unwrap();
+    let version = "SELECT max(version)::bigint FROM savme.schema_version";
+    assert_eq!(query_i64(&mut admin, version), 3);
+    let w = worker(
+        &dist.server.url_for("old_worker", "pw", "migrate"),
+        "m",
+        &[],
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    let coordinator = dist.coordinator("m", Stdio::piped());
+    finish(coordinator, "the coordinator");
+    let said = finish(w, "the worker");
+    assert!(said.contains("waiting for campaign \"m\""), "{said}");
+    assert_eq!(db_trials(&mut admin, "m"), expected);
+    assert_eq!(query_i64(&mut admin, version), 4);
+    let rights = admin
+        .query_one(
+            "SELECT has_table_privilege('old_worker', 'savme.runs', 'SELECT'),
+                    has_any_column_privilege('old_worker', 'savme.runs', 'UPDATE'),
+                    has_table_privilege('old_worker', 'savme.campaigns', 'SELECT'),
+                    has_function_privilege('old_worker', 'savme.claim(integer, text, text, double precision)', 'EXECUTE')",
+            &[],
+        )
+        .unwrap();
+    let rights: [bool; 4] = [rights.get(0), rights.get(1), rights.get(2), rights.get(3)];
+    assert_eq!(rights, [false, false, false, true]);
+    let ran = query_i64(
+        &mut admin,
+        "SELECT count(*) FROM savme.runs WHERE claimed_by = 'old_worker' AND state = 'done'",
+    );
+    let runs = expected.len() + expected.iter().filter(|t| !t["lf"].is_null()).count();
+    assert_eq!(ran, runs as i64);
+    dist.clean();
 }

@@ -217,10 +217,12 @@ fn a_campaign_in_the_database_equals_the_directory_campaign_and_is_queryable() {
         .query_one("SELECT id FROM savme.campaigns WHERE name = 'tiny'", &[])
         .unwrap()
         .get(0);
-    let lock = savme::postgres::schema::LOCK_CLASS;
-    client
-        .execute("SELECT pg_advisory_lock($1, $2)", &[&lock, &id])
-        .unwrap();
+    // (The coordinator's lock: the campaign's row of savme.coordinators, naming this session.)
+    let took: bool = client
+        .query_one("SELECT savme.take_lock($1)", &[&id])
+        .unwrap()
+        .get(0);
+    assert!(took);
     let list = |args: &[&str]| {
         let o = savme(args);
         assert!(o.status.success(), "{args:?}: {}", text(&o));
@@ -461,9 +463,11 @@ fn the_password_never_appears_in_output_errors_or_stored_data() {
         .query_one("SELECT id FROM savme.campaigns WHERE name = 's'", &[])
         .unwrap()
         .get(0);
-    locked
-        .execute("SELECT pg_advisory_lock(29558, $1)", &[&id])
-        .unwrap();
+    let took: bool = locked
+        .query_one("SELECT savme.take_lock($1)", &[&id])
+        .unwrap()
+        .get(0);
+    assert!(took);
     let o = savme(&[
         "reproduce",
         "--storage",
@@ -645,6 +649,19 @@ fn storage_flags_are_checked() {
                 "0",
             ],
             "--lease: 0 is not a positive number of seconds",
+        ),
+        // A lease has an upper bound (issue 41): the server refuses a longer one too.
+        (
+            vec![
+                "worker",
+                "--storage",
+                url,
+                "--campaign",
+                "x",
+                "--lease",
+                "3601",
+            ],
+            "--lease: 3601 s is longer than a worker may hold a run (3600 s",
         ),
         // Refused values (issue 28): a worker checks a campaign name by the coordinator's
         // rule, with its message, at once; an unknown URL option; verify-full without a root

@@ -36,9 +36,10 @@ pub struct CampaignStorageArgs {
     /// started, or the workers stopped), then keep waiting.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub(super) worker_wait: f64,
-    /// With --remote: a database role allowed to work on this campaign (repeatable). A role
-    /// that may not write trials (a worker role) sees and changes only the campaigns it is
-    /// allowed on (row-level security; docs/DISTRIBUTED.md).
+    /// With --remote: a database role allowed to work on this campaign (repeatable). It is
+    /// granted savme's worker functions and no right on any table: a role that may not write
+    /// trials (a worker role) works only on the campaigns it is allowed on, and the server
+    /// checks its results (docs/DISTRIBUTED.md).
     #[arg(long, value_name = "ROLE")]
     pub(super) worker_role: Vec<String>,
 }

@@ -23,7 +23,8 @@ pub struct Args {
     #[arg(long)]
     config: Option<PathBuf>,
     /// Seconds a claimed run stays this worker's without a heartbeat (heartbeats come every
-    /// third of it); a killed worker's runs are taken over after this long.
+    /// third of it, every second at most); a killed worker's runs are taken over after this
+    /// long. At most 3600.
     #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
     lease: f64,
     /// Seconds to wait for the campaign's coordinator to create the campaign.
@@ -123,6 +124,13 @@ fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
         }
     };
     let (lease, wait_for_campaign) = (seconds("lease", a.lease)?, seconds("wait", a.wait)?);
+    let longest = savme::postgres::queue::MAX_LEASE.as_secs();
+    if lease.as_secs_f64() > longest as f64 {
+        return Err(usage(format!(
+            "--lease: {} s is longer than a worker may hold a run ({longest} s: the server refuses a longer lease)",
+            a.lease
+        )));
+    }
     let grace = seconds("grace", a.grace)?;
     let stop = super::signals::stop_on_signals_saying(
         "stopping after the runs in flight (their results are written; the campaign goes on with the other workers); a second signal quits at once (its runs are taken over when their lease expires)",

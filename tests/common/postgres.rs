@@ -306,6 +306,17 @@ impl Server {
         )
     }
 
+    /// The postmaster's process id (benchmarks add up the server's CPU time from it).
+    pub fn postmaster_pid(&self) -> Option<u32> {
+        std::fs::read_to_string(self.dir.join("data/postmaster.pid"))
+            .ok()?
+            .lines()
+            .next()?
+            .trim()
+            .parse()
+            .ok()
+    }
+
     /// The TCP port.
     pub fn port(&self) -> u16 {
         self.port
@@ -358,6 +369,22 @@ impl Server {
         }
         let _ = child.kill();
         let _ = child.wait();
+    }
+
+    /// Stops the server as a crash would (`pg_ctl stop -m immediate`: SIGQUIT to the
+    /// postmaster — no checkpoint, and what the write-ahead log had not written yet is lost;
+    /// the next start recovers), then starts it again.
+    pub fn crash_and_restart(&mut self) {
+        let pid = std::fs::read_to_string(self.dir.join("data/postmaster.pid"))
+            .ok()
+            .and_then(|t| t.lines().next().map(str::to_string))
+            .expect("the postmaster's pid");
+        let ok = Command::new("kill").args(["-QUIT", &pid]).status().unwrap();
+        assert!(ok.success());
+        if let Some(mut child) = self.child.take() {
+            let _ = child.wait();
+        }
+        self.run();
     }
 
     /// Starts the stopped server again (same data, same port).

@@ -68,21 +68,12 @@ pub fn find_campaign(client: &mut Client, name: &str) -> Result<Option<i32>, pos
 }
 
 /// The simulator label of campaign `name`'s stored protocol — None while the database has no
-/// savme schema, no such campaign or no protocol yet (a worker waits for its coordinator).
+/// savme schema (or one older than this savme's, not yet migrated by a coordinator), no such
+/// campaign, no protocol yet, or this session's role may not work on it (a worker waits for
+/// its coordinator). Read through `savme.worker_campaign`, which a worker role may call.
 pub fn stored_simulator(
     client: &mut Client,
     name: &str,
 ) -> Result<Option<String>, postgres::Error> {
-    let exists: bool = client
-        .query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])?
-        .get(0);
-    if !exists {
-        return Ok(None);
-    }
-    Ok(client
-        .query_opt(
-            "SELECT protocol->>'simulator' FROM savme.campaigns WHERE name = $1",
-            &[&name],
-        )?
-        .and_then(|r| r.get(0)))
+    Ok(crate::queue::worker_campaign(client, name)?.and_then(|c| c.simulator))
 }

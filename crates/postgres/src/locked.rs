@@ -1,5 +1,5 @@
 //! [`Locked`]: the coordinator's one connection to its campaign — it holds the campaign's
-//! advisory lock, knows the last stored line, and commits **batches**: the trial lines told
+//! coordinator lock (its row of `savme.coordinators`, naming this server session), knows the last stored line, and commits **batches**: the trial lines told
 //! since the last commit together with the runs asked for meanwhile, in one transaction.
 //!
 //! A [`PostgresStore`](crate::PostgresStore) on its own commits each append at once. Once a
@@ -32,6 +32,10 @@ pub(crate) struct Locked {
     pending: Vec<(String, Columns)>,
     /// Whether appends wait for the next batch ([`Locked::commit`]).
     deferred: bool,
+    /// The connection was replaced since the last commit (the server may have restarted and
+    /// lost workers' finishes that were not yet on disk: the next commit writes back the
+    /// results the coordinator read since its last commit).
+    reconnected: bool,
 }
 
 impl Locked {
@@ -49,6 +53,7 @@ impl Locked {
             prepared: HashMap::new(),
             pending: Vec::new(),
             deferred: false,
+            reconnected: false,
         };
         locked.attach()?;
         // Until a Remote says otherwise, this coordinator runs its trials itself (its
@@ -83,8 +88,8 @@ impl Locked {
         let locked: bool = self
             .client
             .query_one(
-                "SELECT pg_try_advisory_lock($1, $2)",
-                &[&schema::LOCK_CLASS, &self.campaign],
+                "SELECT coalesce(savme.take_lock($1), false)",
+                &[&self.campaign],
             )
             .map_err(|e| err(self, e))?
             .get(0);
@@ -109,22 +114,27 @@ impl Locked {
             .get(0))
     }
 
-    /// Who holds the campaign's lock, as far as the server shows it.
+    /// Who holds the campaign's lock, as the server identifies its session: the role it
+    /// logged in as, its backend pid, its address, and the name the client gave
+    /// (`application_name`: savme puts its pid and host there).
     fn holder(&mut self) -> String {
         let row = self.client.query_opt(
-            "SELECT a.application_name, coalesce(host(a.client_addr), 'local socket')
-               FROM pg_locks l JOIN pg_stat_activity a ON a.pid = l.pid
-              WHERE l.locktype = 'advisory' AND l.granted AND l.objsubid = 2
-                AND l.classid = ($1::int)::oid AND l.objid = ($2::int)::oid",
-            &[&schema::LOCK_CLASS, &self.campaign],
+            "SELECT application, client, usename::text, pid FROM savme.coordinators
+              WHERE campaign_id = $1",
+            &[&self.campaign],
         );
         match row {
             Ok(Some(r)) => {
                 let app: Option<String> = r.get(0);
                 let addr: Option<String> = r.get(1);
+                let (user, pid): (String, i32) = (r.get(2), r.get(3));
+                let session = format!(
+                    "connected from {} as role {user}, server process {pid}",
+                    addr.unwrap_or_default()
+                );
                 match app.filter(|a| !a.is_empty()) {
-                    Some(app) => format!("{app}, connected from {}", addr.unwrap_or_default()),
-                    None => "a session not started by savme".into(),
+                    Some(app) => format!("{app}, {session}"),
+                    None => format!("a session not started by savme, {session}"),
                 }
             }
             _ => "a process this role may not see".into(),
@@ -161,11 +171,17 @@ impl Locked {
                     );
                     self.client = self.db.connect(&application_name("coordinator"))?;
                     self.prepared.clear();
+                    self.reconnected = true;
                     self.attach()?;
                 }
                 Err(e) => return Err(self.db.error(&self.location, &e)),
             }
         }
+    }
+
+    /// Whether lines wait for the next commit.
+    pub(crate) fn has_pending(&self) -> bool {
+        !self.pending.is_empty()
     }
 
     /// Appends lines: at once (one transaction), or, deferred, at the next commit.
@@ -174,20 +190,28 @@ impl Locked {
         if self.deferred {
             return Ok(());
         }
-        self.commit(&[]).map(|_| ())
+        self.commit(&[], &[]).map(|_| ())
     }
 
     /// Commits the pending lines and queues `tasks` (their row ids returned, in order) in one
     /// transaction. After a reconnect, lines that reached the table are not inserted again
     /// (this connection holds the lock: nobody else writes them); the queue upsert is
-    /// idempotent.
-    pub(crate) fn commit(&mut self, tasks: &[Task]) -> Result<Vec<i64>, StoreError> {
+    /// idempotent; and `told` — the results read since the last commit, which the told lines
+    /// were made from — is written back into rows that lost them (a crashed server loses a
+    /// worker's finish that was not on disk yet, although the coordinator read it).
+    pub(crate) fn commit(
+        &mut self,
+        tasks: &[Task],
+        told: &[queue::RowResult],
+    ) -> Result<Vec<i64>, StoreError> {
         if self.pending.is_empty() && tasks.is_empty() {
             return Ok(Vec::new());
         }
         let rows = std::mem::take(&mut self.pending);
         let first = self.lines + 1;
         let last = self.lines + rows.len() as i64;
+        let mut restored = 0;
+        let lost = self.reconnected;
         let result = self.retrying(|client, prepared, campaign, retry| {
             let mut tx = client.transaction()?;
             let stored: i64 = match retry && !rows.is_empty() {
@@ -211,12 +235,22 @@ impl Locked {
                     queue::submit(&mut tx, &statement, campaign, tasks)?
                 }
             };
+            if (retry || lost) && !told.is_empty() {
+                restored = queue::write_back(&mut tx, campaign, told)?;
+            }
             tx.commit()?;
             Ok(ids)
         });
         match result {
             Ok(ids) => {
                 self.lines = last;
+                self.reconnected = false;
+                if restored > 0 {
+                    eprintln!(
+                        "savme: {}: the database lost {restored} result(s) it had committed (a crash before they reached its disk); the coordinator had told their trials and wrote them back",
+                        self.location
+                    );
+                }
                 Ok(ids)
             }
             Err(e) => {
@@ -251,7 +285,7 @@ impl Drop for Locked {
             return;
         }
         let n = self.pending.len();
-        if let Err(e) = self.commit(&[]) {
+        if let Err(e) = self.commit(&[], &[]) {
             eprintln!(
                 "savme: {}: {n} told trial(s) could not be stored ({e}); --resume runs them again",
                 self.location

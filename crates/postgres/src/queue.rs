@@ -5,20 +5,23 @@
 //!   (an upsert on `(campaign, stage, trial, role)`: on
 //!   `--resume` the same trials are asked again and find their rows — finished ones are used,
 //!   not repeated) and `NOTIFY`s `savme_tasks_<campaign>`;
-//! - a worker **claims** the oldest run that is queued or whose lease has expired (`FOR UPDATE
-//!   SKIP LOCKED`: two workers never get the same row), holding a lease it renews by
-//!   **heartbeat**;
-//! - it **finishes** the run only while it still holds it (a worker whose lease expired and was
-//!   taken over writes nothing), and `NOTIFY`s `savme_done_<campaign>` in the same
-//!   transaction — and claims its next run in that same statement (one round trip per run);
-//! - the coordinator reads the **finished** rows of the runs it waits for.
+//! - a worker acts only through savme's server-side functions (`sql/v4.sql`), which check once
+//!   per call that its session's role may work on the campaign: it **claims** the oldest run
+//!   that is queued or whose lease has expired (`FOR UPDATE SKIP LOCKED`: two workers never get
+//!   the same row), recording its role and its process's secret token, holding a lease (at
+//!   most [`MAX_LEASE`]) it renews by **heartbeat**;
+//! - it **finishes** the run only while its process still holds it (a worker whose lease
+//!   expired and was taken over writes nothing); the server refuses a result that is not valid
+//!   ([`REFUSED`]); the same call `NOTIFY`s `savme_done_<campaign>` and claims its next run
+//!   (one round trip per run);
+//! - the coordinator reads the **finished** rows of the runs it waits for, queues again a row
+//!   it cannot use, and after a database restart reconciles the runs the crash orphaned.
 
 use super::Conn;
 use postgres::{Client, GenericClient};
 use savme_campaign::executor::Task;
 use savme_kernel::Role;
 use savme_kernel::{Assignment, SimError, SimResult};
-use std::sync::OnceLock;
 use std::time::Duration;
 
 /// The channel workers listen on for new runs of campaign `id`.
@@ -96,7 +99,7 @@ pub(crate) fn submit(
 }
 
 /// Wakes the workers listening for runs of `campaign`.
-pub fn wake_workers(client: &mut Client, campaign: i32) -> Result<(), postgres::Error> {
+pub fn wake_workers(client: &mut impl GenericClient, campaign: i32) -> Result<(), postgres::Error> {
     client
         .execute("SELECT pg_notify($1, '')", &[&tasks_channel(campaign)])
         .map(|_| ())
@@ -111,39 +114,176 @@ pub struct Finished {
     pub result: Result<SimResult, SimError>,
 }
 
-/// The finished runs among `ids`.
-pub fn finished(c: &mut Conn<'_>, ids: &[i64]) -> Result<Vec<Finished>, postgres::Error> {
+/// A finished row the coordinator cannot use (written before the server checked results, or
+/// by hand): it is queued again, or, after [`MAX_ATTEMPTS`], failed with the reason.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Unusable {
+    /// Its row id.
+    pub id: i64,
+    /// The worker that wrote it.
+    pub worker: String,
+    /// How many times it was claimed.
+    pub attempts: i32,
+    /// What is wrong with it.
+    pub reason: String,
+}
+
+/// How many claims of a run whose results the coordinator cannot use before it fails the run
+/// (the campaign's `on_error` then applies) instead of queueing it again.
+pub const MAX_ATTEMPTS: i32 = 3;
+
+/// The finished runs among `ids`, and those whose rows hold no usable result.
+pub fn finished(
+    c: &mut Conn<'_>,
+    ids: &[i64],
+) -> Result<(Vec<Finished>, Vec<Unusable>), postgres::Error> {
     let statement = c.prepared(
-        "SELECT id, state, failure, wall_seconds, work, error, robustness FROM savme.runs
-          WHERE id = ANY($1) AND state IN ('done', 'failed')",
+        "SELECT r.id, r.state, r.failure, r.wall_seconds, r.work, r.error, r.robustness,
+                coalesce(r.worker, 'unknown'), r.attempts, coalesce(c.protocol->>'cost' = 'work', false)
+           FROM savme.runs r JOIN savme.campaigns c ON c.id = r.campaign_id
+          WHERE r.id = ANY($1) AND r.state IN ('done', 'failed')",
     )?;
     let rows = c.query(&statement, &[&ids])?;
-    Ok(rows
-        .iter()
-        .map(|r| {
-            let state: &str = r.get(1);
-            let result = if state == "done" {
-                let work: Option<i64> = r.get(4);
-                let result = SimResult::new(
-                    r.get::<_, Option<bool>>(2).unwrap_or(false),
-                    r.get::<_, Option<f64>>(3).unwrap_or(0.0),
-                    work.map(|w| w as u64),
-                );
-                Ok(match r.get::<_, Option<f64>>(6) {
-                    Some(rho) => result.with_robustness(rho),
-                    None => result,
-                })
-            } else {
-                Err(SimError::Failed(
-                    r.get::<_, Option<String>>(5).unwrap_or_default(),
-                ))
-            };
-            Finished {
-                id: r.get(0),
-                result,
-            }
-        })
-        .collect())
+    let (mut good, mut bad) = (Vec::new(), Vec::new());
+    for r in &rows {
+        let id: i64 = r.get(0);
+        match read_result(r) {
+            Ok(result) => good.push(Finished { id, result }),
+            Err(reason) => bad.push(Unusable {
+                id,
+                worker: r.get(7),
+                attempts: r.get(8),
+                reason,
+            }),
+        }
+    }
+    Ok((good, bad))
+}
+
+/// The result in a row of [`finished`]'s statement, or why it cannot be used (never a wrapped
+/// or made-up value).
+fn read_result(r: &postgres::Row) -> Result<Result<SimResult, SimError>, String> {
+    if r.get::<_, &str>(1) != "done" {
+        let error = r.get::<_, Option<String>>(5);
+        return Ok(Err(SimError::Failed(error.unwrap_or_else(|| {
+            "the run failed (its row gives no reason)".into()
+        }))));
+    }
+    let failure: bool = r.get::<_, Option<bool>>(2).ok_or("failure is NULL")?;
+    let wall = r.get::<_, Option<f64>>(3).ok_or("wall_seconds is NULL")?;
+    if !(wall.is_finite() && wall >= 0.0) {
+        return Err(format!(
+            "wall_seconds = {wall} is not a finite number of seconds >= 0"
+        ));
+    }
+    let work = match r.get::<_, Option<i64>>(4) {
+        Some(w) => Some(u64::try_from(w).map_err(|_| format!("work = {w} is negative"))?),
+        None if r.get::<_, bool>(9) => {
+            return Err("work is NULL, but this campaign's cost is work units".into())
+        }
+        None => None,
+    };
+    let result = SimResult::new(failure, wall, work);
+    Ok(Ok(match r.get::<_, Option<f64>>(6) {
+        Some(rho) if rho.is_finite() => result.with_robustness(rho),
+        Some(rho) => return Err(format!("robustness = {rho} is not finite")),
+        None => result,
+    }))
+}
+
+/// Queues the finished runs `ids` of `campaign` again (their rows held no usable result:
+/// `reason` is kept in `error`) and wakes the workers.
+pub fn requeue(
+    c: &mut Conn<'_>,
+    campaign: i32,
+    ids: &[i64],
+    reason: &str,
+) -> Result<u64, postgres::Error> {
+    let n = c.execute(
+        "UPDATE savme.runs SET state = 'queued', lease_until = NULL, token = NULL,
+                failure = NULL, wall_seconds = NULL, work = NULL, robustness = NULL,
+                error = $3, finished_at = NULL
+          WHERE id = ANY($1) AND campaign_id = $2 AND state IN ('done', 'failed')",
+        &[&ids, &campaign, &reason],
+    )?;
+    wake_workers(&mut **c, campaign)?;
+    Ok(n)
+}
+
+/// Queues again the runs among `ids` of `campaign` that are `running` but whose holder has not
+/// shown itself alive since the database server started (a claim or lease renewal before a
+/// restart, none after it): their worker's finish was lost with the server, or the worker is
+/// gone. How many.
+pub fn requeue_orphans(
+    c: &mut Conn<'_>,
+    campaign: i32,
+    ids: &[i64],
+) -> Result<u64, postgres::Error> {
+    let n = c.execute(
+        "UPDATE savme.runs SET state = 'queued', lease_until = NULL, token = NULL,
+                started_at = NULL
+          WHERE id = ANY($1) AND campaign_id = $2 AND state = 'running'
+            AND (seen_at IS NULL OR seen_at < pg_postmaster_start_time())",
+        &[&ids, &campaign],
+    )?;
+    if n > 0 {
+        wake_workers(&mut **c, campaign)?;
+    }
+    Ok(n)
+}
+
+/// A result as the columns of its row, for [`write_back`].
+#[derive(Debug, Clone)]
+pub(crate) struct RowResult {
+    id: i64,
+    columns: Columns,
+}
+
+impl RowResult {
+    /// Run `id`'s `result`.
+    pub(crate) fn new(id: i64, result: &Result<SimResult, SimError>) -> RowResult {
+        RowResult {
+            id,
+            columns: columns(result),
+        }
+    }
+}
+
+/// Writes `results` (runs whose results the coordinator read and told) back into rows that no
+/// longer hold them — after a database crash lost a worker's finish (workers commit without
+/// waiting for the disk) though the coordinator had read it. How many rows.
+pub(crate) fn write_back(
+    tx: &mut impl GenericClient,
+    campaign: i32,
+    results: &[RowResult],
+) -> Result<u64, postgres::Error> {
+    let ids: Vec<i64> = results.iter().map(|r| r.id).collect();
+    let states: Vec<&str> = results.iter().map(|r| r.columns.0).collect();
+    let failures: Vec<Option<bool>> = results.iter().map(|r| r.columns.1).collect();
+    let walls: Vec<Option<f64>> = results.iter().map(|r| r.columns.2).collect();
+    let works: Vec<Option<i64>> = results.iter().map(|r| r.columns.3).collect();
+    let errors: Vec<Option<&str>> = results.iter().map(|r| r.columns.4.as_deref()).collect();
+    let robustness: Vec<Option<f64>> = results.iter().map(|r| r.columns.5).collect();
+    tx.execute(
+        "UPDATE savme.runs r
+            SET state = u.state, failure = u.failure, wall_seconds = u.wall, work = u.work,
+                error = u.error, robustness = u.robustness, lease_until = NULL,
+                finished_at = clock_timestamp()
+           FROM unnest($2::bigint[], $3::text[], $4::boolean[], $5::float8[], $6::bigint[],
+                       $7::text[], $8::float8[])
+                AS u(id, state, failure, wall, work, error, robustness)
+          WHERE r.id = u.id AND r.campaign_id = $1 AND r.state IN ('queued', 'running')",
+        &[
+            &campaign,
+            &ids,
+            &states,
+            &failures,
+            &walls,
+            &works,
+            &errors,
+            &robustness,
+        ],
+    )
 }
 
 /// How many runs of `campaign` a worker has ever started (to tell a coordinator whose workers
@@ -171,13 +311,6 @@ pub fn set_finished(
     wake_workers(client, campaign)
 }
 
-/// Whether the coordinator marked the campaign finished.
-pub fn is_finished(c: &mut Conn<'_>, campaign: i32) -> Result<bool, postgres::Error> {
-    let statement =
-        c.prepared("SELECT finished_at IS NOT NULL FROM savme.campaigns WHERE id = $1")?;
-    Ok(c.query_one(&statement, &[&campaign])?.get(0))
-}
-
 /// A run a worker claimed.
 #[derive(Debug, Clone)]
 pub struct Claimed {
@@ -189,32 +322,36 @@ pub struct Claimed {
     pub attempts: i32,
 }
 
-/// The claim of the oldest run of campaign `$1` that is queued or whose lease expired, for
-/// worker `$2` with a lease of `$3` seconds (`exclude`: a further condition on the row).
-fn claim_sql(exclude: &str) -> String {
-    format!(
-        "UPDATE savme.runs SET state = 'running', worker = $2, attempts = attempts + 1,
-                lease_until = clock_timestamp() + make_interval(secs => $3),
-                started_at = clock_timestamp()
-          WHERE id = (SELECT id FROM savme.runs
-                       WHERE campaign_id = $1 {exclude}
-                         AND (state = 'queued' OR (state = 'running' AND lease_until < clock_timestamp()))
-                       ORDER BY id LIMIT 1 FOR UPDATE SKIP LOCKED)
-          RETURNING id, stage, trial_id, role, scenario, phi::text, fidelity::text, attempts"
-    )
+/// The longest lease a worker may take (the server refuses a longer one: a run cannot be held
+/// forever by a worker that stopped renewing it).
+pub const MAX_LEASE: Duration = Duration::from_secs(3600);
+
+/// The SQLSTATE of a result the server refused (`savme.finish_and_claim`): not a result this
+/// worker may write, or not a valid one; the message names the run and the worker.
+pub const REFUSED: &str = "SV001";
+
+/// Whether `e` is the server refusing a result ([`REFUSED`]).
+pub fn refused(e: &postgres::Error) -> Option<String> {
+    e.as_db_error()
+        .filter(|db| db.code().code() == REFUSED)
+        .map(|db| db.message().to_string())
 }
 
-/// Claims the oldest run of `campaign` that is queued or whose lease expired, for `worker`,
-/// with a lease of `lease`.
+/// Claims the oldest run of `campaign` that is queued or whose lease expired, for `worker` of
+/// the process holding `token`, with a lease of `lease` (`savme.claim`: the server checks that
+/// this session's role may work on the campaign).
 pub fn claim(
     c: &mut Conn<'_>,
     campaign: i32,
     worker: &str,
+    token: &str,
     lease: Duration,
 ) -> Result<Option<Claimed>, postgres::Error> {
-    static SQL: OnceLock<String> = OnceLock::new();
-    let statement = c.prepared(SQL.get_or_init(|| claim_sql("")))?;
-    let row = c.query_opt(&statement, &[&campaign, &worker, &lease.as_secs_f64()])?;
+    let statement = c.prepared("SELECT * FROM savme.claim($1, $2, $3, $4)")?;
+    let row = c.query_opt(
+        &statement,
+        &[&campaign, &worker, &token, &lease.as_secs_f64()],
+    )?;
     Ok(row.and_then(|r| claimed(&r, 0)))
 }
 
@@ -230,9 +367,11 @@ fn claimed(r: &postgres::Row, at: usize) -> Option<Claimed> {
         let which = Role::from_key(key).ok_or_else(|| {
             format!("savme.runs row {id}: role {key:?} is neither \"hf\" nor \"lf\"")
         })?;
+        let trial = r.get::<_, i64>(at + 2);
         Ok(Task {
             stage: r.get::<_, &str>(at + 1).into(),
-            trial: r.get::<_, i64>(at + 2) as u64,
+            trial: u64::try_from(trial)
+                .map_err(|_| format!("savme.runs row {id}: trial id {trial} is negative"))?,
             which,
             scenario: r.get::<_, &str>(at + 4).into(),
             phi: parse(5, "phi")?,
@@ -246,92 +385,118 @@ fn claimed(r: &postgres::Row, at: usize) -> Option<Claimed> {
     })
 }
 
-/// Renews the leases of the runs `ids` that a worker whose name starts with `worker` (a
-/// process: its threads' names extend it) still holds.
+/// Renews the leases of the runs `ids` of `campaign` that the worker process holding `token`
+/// still holds (`savme.renew`); also what shows the server, after a restart, that the process
+/// is alive.
 pub fn heartbeat(
     client: &mut Client,
+    campaign: i32,
     ids: &[i64],
-    worker: &str,
+    token: &str,
     lease: Duration,
-) -> Result<u64, postgres::Error> {
-    client.execute(
-        "UPDATE savme.runs SET lease_until = clock_timestamp() + make_interval(secs => $3)
-          WHERE id = ANY($1) AND starts_with(worker, $2) AND state = 'running'",
-        &[&ids, &worker, &lease.as_secs_f64()],
-    )
+) -> Result<i32, postgres::Error> {
+    Ok(client
+        .query_one(
+            "SELECT savme.renew($1, $2, $3, $4)",
+            &[&campaign, &ids, &token, &lease.as_secs_f64()],
+        )?
+        .get(0))
 }
 
-/// Writes the result of run `id` if `worker` still holds it (false: its lease expired and
-/// another worker took it over — the result is dropped), tells the coordinator, and claims the
-/// worker's next run (as [`claim`], lease `lease`) — one statement, one round trip per run.
+/// A result as the columns of `savme.runs` hold it: state, failure, wall seconds, work, error,
+/// robustness.
+type Columns = (
+    &'static str,
+    Option<bool>,
+    Option<f64>,
+    Option<i64>,
+    Option<String>,
+    Option<f64>,
+);
+
+/// `result` as the columns of its row (a work count beyond the column's range is a failed run
+/// saying so).
+fn columns(result: &Result<SimResult, SimError>) -> Columns {
+    match result {
+        Ok(r) => match r.work.map(i64::try_from).transpose() {
+            Ok(work) => (
+                "done",
+                Some(r.failure),
+                Some(r.wall_seconds),
+                work,
+                None,
+                r.robustness,
+            ),
+            Err(_) => failed(format!(
+                "the simulator counted {} work units, more than the database stores (at most {})",
+                r.work.unwrap_or_default(),
+                i64::MAX
+            )),
+        },
+        // Read back as `SimError::Failed(error)`: its own message, not "simulation failed: …"
+        // twice.
+        Err(SimError::Failed(m)) => failed(m.clone()),
+        Err(e) => failed(e.to_string()),
+    }
+}
+
+fn failed(message: String) -> Columns {
+    ("failed", None, None, None, Some(message), None)
+}
+
+/// Writes the result of run `id` if `worker` of the process holding `token` still holds it
+/// (false: its lease expired and another worker took it over — the result is dropped), tells
+/// the coordinator, and, if `next`, claims the worker's next run (as [`claim`], lease `lease`)
+/// — one statement, one round trip per run (`savme.finish_and_claim`). The server refuses a
+/// result that is not valid with SQLSTATE [`REFUSED`] ([`refused`] reads its message).
+#[allow(clippy::too_many_arguments)]
 pub fn finish_and_claim(
     c: &mut Conn<'_>,
     campaign: i32,
     id: i64,
     worker: &str,
+    token: &str,
     result: &Result<SimResult, SimError>,
     lease: Duration,
+    next: bool,
 ) -> Result<(bool, Option<Claimed>), postgres::Error> {
-    let (state, failure, wall, work, error) = match result {
-        Ok(r) => (
-            "done",
-            Some(r.failure),
-            Some(r.wall_seconds),
-            r.work.map(|w| w as i64),
-            None,
-        ),
-        // Read back as `SimError::Failed(error)`: its own message, not "simulation failed: …"
-        // twice.
-        Err(SimError::Failed(m)) => ("failed", None, None, None, Some(m.clone())),
-        Err(e) => ("failed", None, None, None, Some(e.to_string())),
-    };
-    let robustness = result.as_ref().ok().and_then(|r| r.robustness);
-    // The finished row is still `running` in the statement's snapshot (and excluded), so the
-    // claim takes another. `note` runs only because the final SELECT reads it.
-    static SQL: OnceLock<String> = OnceLock::new();
-    let sql = SQL.get_or_init(|| {
-        format!(
-            "WITH fin AS (
-                UPDATE savme.runs SET state = $5, failure = $6, wall_seconds = $7, work = $8,
-                       error = $9, robustness = $11, finished_at = clock_timestamp(),
-                       lease_until = NULL
-                 WHERE id = $4 AND worker = $2 AND state = 'running'
-                RETURNING id),
-             note AS (SELECT pg_notify($10, id::text) FROM fin),
-             next AS ({})
-             SELECT (SELECT count(*) FROM note), next.* FROM (SELECT 1) AS one LEFT JOIN next ON true",
-            claim_sql("AND id <> $4")
-        )
-    });
-    let statement = c.prepared(sql)?;
+    let (state, failure, wall, work, error, robustness) = columns(result);
+    let statement = c.prepared(
+        "SELECT * FROM savme.finish_and_claim($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12)",
+    )?;
     let row = c.query_one(
         &statement,
         &[
             &campaign,
-            &worker,
-            &lease.as_secs_f64(),
             &id,
+            &worker,
+            &token,
             &state,
             &failure,
             &wall,
             &work,
             &error,
-            &done_channel(campaign),
             &robustness,
+            &lease.as_secs_f64(),
+            &next,
         ],
     )?;
-    Ok((row.get::<_, i64>(0) == 1, claimed(&row, 1)))
+    Ok((row.get::<_, bool>(0), claimed(&row, 1)))
 }
 
-/// Queues run `id` again if `worker` still holds it (a stopping worker hands back a run it
-/// claimed but did not start; the claim does not count as an attempt).
-pub fn release(c: &mut Conn<'_>, id: i64, worker: &str) -> Result<u64, postgres::Error> {
-    let statement = c.prepared(
-        "UPDATE savme.runs SET state = 'queued', lease_until = NULL, started_at = NULL,
-                attempts = greatest(attempts - 1, 0)
-          WHERE id = $1 AND worker = $2 AND state = 'running'",
-    )?;
-    c.execute(&statement, &[&id, &worker])
+/// Queues run `id` again if `worker` of the process holding `token` still holds it (a stopping
+/// worker hands back a run it claimed but did not start; the claim does not count as an
+/// attempt).
+pub fn release(
+    c: &mut Conn<'_>,
+    campaign: i32,
+    id: i64,
+    worker: &str,
+    token: &str,
+) -> Result<i32, postgres::Error> {
+    let statement = c.prepared("SELECT savme.release($1, $2, $3, $4)")?;
+    Ok(c.query_one(&statement, &[&campaign, &id, &worker, &token])?
+        .get(0))
 }
 
 /// Starts listening on `channel` on this connection.
@@ -340,7 +505,9 @@ pub fn listen(client: &mut impl GenericClient, channel: &str) -> Result<(), post
     client.batch_execute(&format!("LISTEN \"{channel}\""))
 }
 
-/// Lets database role `role` work on `campaign` (false: there is no such role).
+/// Lets database role `role` work on `campaign` (false: there is no such role): lists it in
+/// `savme.campaign_workers` and grants it the worker functions (`savme.grant_worker`: usage of
+/// the schema, EXECUTE on the functions; no right on any table).
 pub fn add_worker_role(
     client: &mut Client,
     campaign: i32,
@@ -358,6 +525,7 @@ pub fn add_worker_role(
              ON CONFLICT DO NOTHING",
             &[&campaign, &role],
         )?;
+        client.execute("SELECT savme.grant_worker($1::text::name)", &[&role])?;
     }
     Ok(exists)
 }
@@ -415,19 +583,13 @@ pub struct Coordinator {
 }
 
 /// The state of `campaign`'s coordinator (None: the campaign's row is gone, or this role may no
-/// longer see it).
+/// longer see it): `savme.coordinator_state`, whose lock check is the server's (a live session
+/// holding the campaign's row of `savme.coordinators`).
 pub fn coordinator(
     c: &mut Conn<'_>,
     campaign: i32,
 ) -> Result<Option<Coordinator>, postgres::Error> {
-    let statement = c.prepared(
-        "SELECT finished_at IS NOT NULL, remote,
-                extract(epoch FROM clock_timestamp() - coordinator_seen_at)::float8,
-                EXISTS (SELECT 1 FROM pg_locks l WHERE l.locktype = 'advisory' AND l.granted
-                          AND l.objsubid = 2 AND l.classid = 29558::oid AND l.objid = id::oid),
-                resume_command
-           FROM savme.campaigns WHERE id = $1",
-    )?;
+    let statement = c.prepared("SELECT * FROM savme.coordinator_state($1)")?;
     let row = c.query_opt(&statement, &[&campaign])?;
     Ok(row.map(|r| Coordinator {
         finished: r.get(0),
@@ -438,22 +600,62 @@ pub fn coordinator(
     }))
 }
 
-/// Whether run `id` is finished and was last held by `worker` (its result is the one stored:
-/// after a reconnect, the finish that seemed lost had committed).
-pub fn finished_by(c: &mut Conn<'_>, id: i64, worker: &str) -> Result<bool, postgres::Error> {
-    let row = c.query_opt(
-        "SELECT state IN ('done', 'failed') AND worker = $2 FROM savme.runs WHERE id = $1",
-        &[&id, &worker],
+/// Whether run `id` is finished and was last held by `worker` of the process holding `token`
+/// (its result is the one stored: after a reconnect, the finish that seemed lost had
+/// committed).
+pub fn finished_by(
+    c: &mut Conn<'_>,
+    campaign: i32,
+    id: i64,
+    worker: &str,
+    token: &str,
+) -> Result<bool, postgres::Error> {
+    let row = c.query_one(
+        "SELECT savme.finished_by($1, $2, $3, $4)",
+        &[&campaign, &id, &worker, &token],
     )?;
-    Ok(row.is_some_and(|r| r.get(0)))
+    Ok(row.get(0))
 }
 
-/// The window of `campaign`'s stored protocol (trials in flight at once), if saved.
-pub fn window(client: &mut Client, campaign: i32) -> Result<Option<i64>, postgres::Error> {
+/// A campaign as a worker sees it (`savme.worker_campaign`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WorkerCampaign {
+    /// Its id.
+    pub id: i32,
+    /// The simulator label of its stored protocol (None: not saved yet).
+    pub simulator: Option<String>,
+    /// The window of its stored protocol.
+    pub window: Option<i64>,
+}
+
+/// Campaign `name` as a worker sees it — None while the database has no savme schema (or one
+/// older than version 4, whose coordinator has not migrated it yet), no such campaign, or this
+/// session's role may not work on it.
+pub fn worker_campaign(
+    client: &mut Client,
+    name: &str,
+) -> Result<Option<WorkerCampaign>, postgres::Error> {
+    // (Lazily: without USAGE of the schema, even looking a function up in it is refused.)
+    let ready: bool = client
+        .query_one(
+            "SELECT CASE WHEN to_regnamespace('savme') IS NULL
+                           OR NOT has_schema_privilege('savme', 'USAGE') THEN false
+                         WHEN to_regprocedure('savme.worker_campaign(text)') IS NULL THEN false
+                         ELSE has_function_privilege('savme.worker_campaign(text)', 'EXECUTE') END",
+            &[],
+        )?
+        .get(0);
+    if !ready {
+        return Ok(None);
+    }
     Ok(client
         .query_opt(
-            "SELECT (protocol->>'window')::bigint FROM savme.campaigns WHERE id = $1",
-            &[&campaign],
+            "SELECT id, simulator, \"window\" FROM savme.worker_campaign($1)",
+            &[&name],
         )?
-        .and_then(|r| r.get(0)))
+        .map(|r| WorkerCampaign {
+            id: r.get(0),
+            simulator: r.get(1),
+            window: r.get(2),
+        }))
 }

@@ -12,6 +12,13 @@
 //! [`HEARTBEAT`]; a worker that sees no fresh stamp says so and, after its grace period,
 //! exits naming the command that resumes the campaign (stored in `resume_command`).
 //!
+//! **Results it cannot use** (a row written by hand or before the server checked results: a
+//! NULL or negative work count, a NULL failure, a wall time that is not finite) are queued
+//! again with a message naming the run and its worker, and failed after
+//! [`queue::MAX_ATTEMPTS`] claims — never the end of the campaign. **After a database crash**
+//! it writes back the results it told whose rows lost them, and queues again the runs whose
+//! holder did not come back ([`RECONCILE_AFTER`]).
+//!
 //! If no run finishes for [`Remote::worker_wait`], the coordinator says so on stderr — that no
 //! worker ever started a run of this campaign (with the command to start one), or that the
 //! workers stopped — and keeps waiting.
@@ -27,8 +34,14 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-/// How often the coordinator stamps its heartbeat.
-pub const HEARTBEAT: Duration = Duration::from_secs(2);
+/// How often the coordinator stamps its heartbeat (workers judge it stale after
+/// [`crate::worker::STALE`]).
+pub const HEARTBEAT: Duration = Duration::from_millis(400);
+
+/// How long after the coordinator's queue connection came back (the server restarted) it
+/// queues again the runs it waits for whose holder has not renewed its lease since (workers
+/// renew every second at most; see [`queue::requeue_orphans`]).
+pub const RECONCILE_AFTER: Duration = Duration::from_secs(5);
 
 /// How a coordinator runs its campaign through the queue.
 #[derive(Debug, Clone)]
@@ -40,7 +53,8 @@ pub struct RemoteOptions {
     /// no password).
     pub resume_command: String,
     /// Database roles allowed to work on this campaign (registered in
-    /// `savme.campaign_workers`; a worker role sees only the campaigns it is listed for).
+    /// `savme.campaign_workers` and granted the worker functions, `savme.grant_worker`; a
+    /// worker role works only on the campaigns it is listed for).
     pub worker_roles: Vec<String>,
 }
 
@@ -58,6 +72,12 @@ pub struct Remote {
     worker_wait: Duration,
     last_progress: Instant,
     heartbeat: Option<(Sender<()>, JoinHandle<()>)>,
+    /// Results read since the last commit (written back after a crash: [`Locked::commit`]).
+    told: Vec<queue::RowResult>,
+    /// The queue connection's reconnects seen, and when to look for orphaned runs after the
+    /// last one.
+    reconnects: u64,
+    reconcile_at: Option<Instant>,
 }
 
 impl Remote {
@@ -93,6 +113,9 @@ impl Remote {
             worker_wait: options.worker_wait,
             last_progress: Instant::now(),
             heartbeat: Some(beat(db.clone(), campaign)),
+            told: Vec::new(),
+            reconnects: 0,
+            reconcile_at: None,
         })
     }
 
@@ -105,7 +128,15 @@ impl Remote {
     /// (one transaction, one notification).
     fn flush(&mut self) -> Result<(), CampaignError> {
         let tasks = std::mem::take(&mut self.pending);
-        let ids = lock(&self.locked).commit(&tasks)?;
+        let mut locked = lock(&self.locked);
+        // The results read are kept until a commit (of lines or runs) flushes the log past
+        // their finishes: until then a crash may lose those.
+        let flushes = !tasks.is_empty() || locked.has_pending();
+        let ids = locked.commit(&tasks, &self.told)?;
+        drop(locked);
+        if flushes {
+            self.told.clear();
+        }
         for (id, task) in ids.into_iter().zip(&tasks) {
             if id < 0 {
                 return Err(CampaignError::Store(savme_store::StoreError::Database {
@@ -123,18 +154,84 @@ impl Remote {
         Ok(())
     }
 
-    /// Moves the finished runs among those waited for to `ready`.
+    /// Moves the finished runs among those waited for to `ready`; a row holding no usable
+    /// result is queued again (or, after [`queue::MAX_ATTEMPTS`] claims, failed), saying so.
     fn collect(&mut self) -> Result<(), CampaignError> {
         let ids: Vec<i64> = self.waiting.keys().copied().collect();
-        let finished = self.session.run(|c| queue::finished(c, &ids))?;
+        let (finished, unusable) = self.session.run(|c| queue::finished(c, &ids))?;
         for f in finished {
             if let Some((trial, which)) = self.waiting.remove(&f.id) {
+                self.told.push(queue::RowResult::new(f.id, &f.result));
                 self.ready.push_back(Done {
                     trial,
                     which,
                     result: f.result,
                 });
             }
+        }
+        for u in unusable {
+            self.refuse(u)?;
+        }
+        Ok(())
+    }
+
+    /// A finished row whose result cannot be used: queued again with a message naming the run
+    /// and its worker — or, once it was claimed [`queue::MAX_ATTEMPTS`] times, failed with
+    /// that message (the campaign's `on_error` applies, as to a simulator that keeps failing).
+    fn refuse(&mut self, u: queue::Unusable) -> Result<(), CampaignError> {
+        let Some(&(trial, which)) = self.waiting.get(&u.id) else {
+            return Ok(());
+        };
+        let message = format!(
+            "savme: campaign {:?}: refused the result of run {} ({} of trial {trial}) from worker {:?}: {}",
+            self.name,
+            u.id,
+            which.key(),
+            u.worker,
+            u.reason
+        );
+        if u.attempts >= queue::MAX_ATTEMPTS {
+            self.waiting.remove(&u.id);
+            self.ready.push_back(Done {
+                trial,
+                which,
+                result: Err(savme_kernel::SimError::Failed(format!(
+                    "{message} (claimed {} times)",
+                    u.attempts
+                ))),
+            });
+            return Ok(());
+        }
+        eprintln!("{message}; the run is queued again");
+        let campaign = self.campaign;
+        self.session
+            .run(|c| queue::requeue(c, campaign, &[u.id], &message))?;
+        Ok(())
+    }
+
+    /// After the queue connection came back from a lost one (a database restart), and
+    /// [`RECONCILE_AFTER`] more: queues again the runs waited for whose holder has not shown
+    /// itself alive since the server started.
+    fn reconcile(&mut self) -> Result<(), CampaignError> {
+        let reconnects = self.session.reconnects();
+        if reconnects != self.reconnects {
+            self.reconnects = reconnects;
+            self.reconcile_at = Some(Instant::now() + RECONCILE_AFTER);
+        }
+        if self.reconcile_at.is_none_or(|at| Instant::now() < at) {
+            return Ok(());
+        }
+        self.reconcile_at = None;
+        let ids: Vec<i64> = self.waiting.keys().copied().collect();
+        let campaign = self.campaign;
+        let n = self
+            .session
+            .run(|c| queue::requeue_orphans(c, campaign, &ids))?;
+        if n > 0 {
+            eprintln!(
+                "savme: campaign {:?}: {n} run(s) held before the database restarted were not renewed since by any worker; they are queued again",
+                self.name
+            );
         }
         Ok(())
     }
@@ -216,6 +313,7 @@ impl Runner for Remote {
                 return Err(CampaignError::WorkersGone);
             }
             self.collect()?;
+            self.reconcile()?;
             if !self.ready.is_empty() {
                 continue;
             }

@@ -10,10 +10,12 @@
 use postgres::Client;
 
 /// The schema version this savme writes.
-pub const VERSION: i32 = 3;
+pub const VERSION: i32 = 4;
 
-/// The advisory-lock class of savme's locks (`pg_try_advisory_lock(CLASS, campaign id)`):
-/// "sv" in ASCII.
+/// The advisory-lock class of the migration lock (`pg_advisory_xact_lock(CLASS, 0)`): "sv" in
+/// ASCII. (Before schema version 4 a coordinator also held `pg_try_advisory_lock(CLASS, campaign
+/// id)`; any role can take an advisory lock, so the coordinator's lock is now a row of
+/// `savme.coordinators`, which only a coordinator may write.)
 pub const LOCK_CLASS: i32 = 0x7376;
 
 /// The migrations, in order: migration `i` brings the schema to version `i + 1`.
@@ -135,6 +137,9 @@ CREATE POLICY by_role ON savme.campaign_workers
 -- one; the trial lines keep it in `body`.
 ALTER TABLE savme.runs ADD COLUMN robustness double precision;
 "#,
+    // Version 4: workers act through functions that check their caller; the coordinator's lock
+    // is a row naming its server session; results are checked by the server.
+    include_str!("sql/v4.sql"),
 ];
 
 /// Why the schema cannot be used.
@@ -172,8 +177,17 @@ fn current(client: &mut Client) -> Result<i32, postgres::Error> {
 
 /// Brings the schema to [`VERSION`], or refuses a newer one.
 pub fn migrate(client: &mut Client) -> Result<(), SchemaError> {
+    migrate_to(client, VERSION)
+}
+
+/// Brings the schema to `version` (at most [`VERSION`]), or refuses a newer one than this
+/// savme's: [`migrate`] for the tests of a migration, which need a database as an older savme
+/// left it.
+#[doc(hidden)]
+pub fn migrate_to(client: &mut Client, version: i32) -> Result<(), SchemaError> {
+    let version = version.min(VERSION);
     let found = current(client)?;
-    if found == VERSION {
+    if found >= version && found <= VERSION {
         return Ok(());
     }
     if found > VERSION {
@@ -196,7 +210,8 @@ pub fn migrate(client: &mut Client) -> Result<(), SchemaError> {
     if found > VERSION {
         return Err(SchemaError::TooNew(found));
     }
-    for (i, sql) in MIGRATIONS.iter().enumerate().skip(found.max(0) as usize) {
+    let wanted = MIGRATIONS.iter().take(version.max(0) as usize);
+    for (i, sql) in wanted.enumerate().skip(found.max(0) as usize) {
         tx.batch_execute(sql)?;
         let version = i as i32 + 1;
         tx.execute(

@@ -54,6 +54,8 @@ pub struct Session {
     settings: Vec<String>,
     /// Statements prepared on `client` (forgotten when it is replaced).
     prepared: HashMap<&'static str, Statement>,
+    /// How many times the connection was replaced.
+    reconnects: u64,
 }
 
 impl Session {
@@ -67,6 +69,7 @@ impl Session {
             channels: Vec::new(),
             settings: Vec::new(),
             prepared: HashMap::new(),
+            reconnects: 0,
         })
     }
 
@@ -75,11 +78,23 @@ impl Session {
         &self.db
     }
 
+    /// How many times the connection was lost and made again.
+    pub fn reconnects(&self) -> u64 {
+        self.reconnects
+    }
+
     /// Listens on `channel` (again after every reconnect).
     pub fn listen(&mut self, channel: &str) -> Result<(), StoreError> {
         self.channels.push(channel.into());
         let channel = channel.to_string();
         self.run(|c| queue::listen(&mut **c, &channel))
+    }
+
+    /// Stops listening on `channel`.
+    pub fn unlisten(&mut self, channel: &str) -> Result<(), StoreError> {
+        self.channels.retain(|c| c != channel);
+        let sql = format!("UNLISTEN \"{channel}\"");
+        self.run(|c| c.batch_execute(&sql))
     }
 
     /// Makes session setting `sql` (e.g. `SET synchronous_commit = off`), again after every
@@ -122,6 +137,7 @@ impl Session {
     fn reconnect(&mut self) -> Result<(), StoreError> {
         self.client = self.db.connect(&application_name(&self.role))?;
         self.prepared.clear();
+        self.reconnects += 1;
         for sql in self.settings.clone() {
             self.client
                 .batch_execute(&sql)

@@ -4,10 +4,12 @@
 //! - **Schema**: created and migrated by savme in the schema `savme` ([`schema`]): `campaigns`
 //!   (name, protocol), `trials` (every line, with each field of a trial line as a column for
 //!   SQL), `runs` (the work queue), `schema_version`.
-//! - **One coordinator**: opening takes the session-level advisory lock
-//!   `pg_try_advisory_lock(schema::LOCK_CLASS, campaign id)`; a second opener is refused at
-//!   once, naming the holder's `application_name` (savme puts its pid and host there). The
-//!   server releases the lock when the holder's session ends, even after `kill -9`.
+//! - **One coordinator**: opening takes the campaign's coordinator lock — its row of
+//!   `savme.coordinators`, naming this server session (`savme.take_lock`); a second opener is
+//!   refused at once, naming the holder as the server identifies its session (its role, address
+//!   and server process, and the `application_name` where savme puts its pid and host). The lock
+//!   is held while the session lives, so it goes with it, even after `kill -9`; a worker role,
+//!   which may not write the table, can neither take nor fake it.
 //! - **One connection**: the lock belongs to a session, so the store keeps exactly one
 //!   connection for its life rather than a pool (a pooled connection could be another
 //!   session). If it breaks (the server restarts), the store reconnects with backoff, takes
@@ -177,7 +179,7 @@ impl TrialStore for PostgresStore {
 
     fn load(&mut self) -> Result<Loaded, StoreError> {
         let mut locked = self.lock();
-        locked.commit(&[])?;
+        locked.commit(&[], &[])?;
         let rows = locked.retrying(|c, _, id, _| c.query(SELECT_LINES, &[&id]))?;
         lines_of(&self.location, &rows)
     }

@@ -1,9 +1,13 @@
 //! The worker's side of the work queue (`savme worker`): `jobs` threads, each with its own
 //! connection and simulator, claim runs of one campaign (`FOR UPDATE SKIP LOCKED`), run them
-//! and write their results; one more thread renews the leases of the runs in progress. A
-//! worker killed mid-run stops renewing: its lease expires and another worker runs the run
-//! again. Idle threads wait on `LISTEN savme_tasks_<campaign>` (re-checking every second);
-//! the worker exits once the coordinator marks the campaign finished.
+//! and write their results — all through savme's server-side functions, which check that the
+//! session's role may work on the campaign and that a result is valid, and let only this
+//! process (its secret token) finish, renew or hand back the runs it claimed; one more thread
+//! renews the leases of the runs in progress. A worker killed mid-run stops renewing: its lease
+//! expires and another worker runs the run again. Idle threads (only they: every notification
+//! wakes every listening session) wait on `LISTEN savme_tasks_<campaign>` (re-checking every
+//! second); a watch thread looks at the coordinator every [`WATCH`] and says within 2 s when
+//! its heartbeat stops; the worker exits once the coordinator marks the campaign finished.
 //!
 //! A worker whose host cannot build the campaign's simulator (its FMUs are missing there) still
 //! works, on an [`Unavailable`] simulator: every run it claims fails with the reason, naming
@@ -20,10 +24,7 @@
 //! # Ok::<(), savme_postgres::worker::WorkerError>(())
 //! ```
 
-use crate::{
-    application_name, find_campaign, queue, shell_quote, worker_command, worker_url, Database,
-    Session,
-};
+use crate::{application_name, queue, shell_quote, worker_command, worker_url, Database, Session};
 use savme_campaign::executor::simulate;
 use savme_campaign::Stop;
 use savme_kernel::{Assignment, Role, SimError, SimResult, Simulator};
@@ -171,20 +172,25 @@ where
     S: Simulator + Clone + Send,
 {
     let mut session = Session::connect(db, "worker")?;
-    let campaign = wait_for_campaign(&mut session, name, options.wait_for_campaign)?;
-    if let Some(window) = session.run(|c| queue::window(c, campaign))? {
-        if let Some(warning) = window_warning(name, window, options.jobs) {
-            eprintln!("{warning}");
-        }
+    let found = wait_for_campaign(&mut session, name, options.wait_for_campaign)?;
+    let campaign = found.id;
+    if let Some(warning) = found
+        .window
+        .and_then(|w| window_warning(name, w, options.jobs))
+    {
+        eprintln!("{warning}");
     }
     let held = Mutex::new(HashSet::new());
     let stop = AtomicBool::new(false);
     let watch = Watch::default();
     let (runs, dropped) = (AtomicU64::new(0), AtomicU64::new(0));
-    let lease = options.lease.max(Duration::from_millis(300));
+    let lease = (options.lease).clamp(Duration::from_millis(300), queue::MAX_LEASE);
     let restart = options.restart.as_deref();
+    // This process's secret: only the process that claimed a run may finish, renew or hand it
+    // back.
+    let token = &*token();
     std::thread::scope(|scope| -> Result<(), WorkerError> {
-        let beat = scope.spawn(|| heartbeat(db, &held, &stop, lease));
+        let beat = scope.spawn(|| heartbeat(db, campaign, token, &held, &stop, lease));
         let watcher = scope.spawn(|| {
             watch_coordinator(
                 session,
@@ -204,7 +210,7 @@ where
                 scope.spawn(move || {
                     work_thread(
                         db,
-                        campaign,
+                        (campaign, token),
                         k,
                         &mut sim,
                         lease,
@@ -215,18 +221,7 @@ where
                 })
             })
             .collect();
-        let mut first_error = Ok(());
-        for t in threads {
-            let r = t.join().unwrap_or_else(|_| {
-                Err(StoreError::Database {
-                    store: db.location().into(),
-                    message: "a worker thread panicked".into(),
-                })
-            });
-            if first_error.is_ok() {
-                first_error = r;
-            }
-        }
+        let first_error = join_all(db, threads);
         stop.store(true, Ordering::Relaxed);
         let _ = beat.join();
         let _ = watcher.join();
@@ -243,13 +238,105 @@ where
     })
 }
 
+/// Waits for the worker threads; the first error (a panic is one, naming the database).
+fn join_all(
+    db: &Database,
+    threads: Vec<std::thread::ScopedJoinHandle<'_, Result<(), StoreError>>>,
+) -> Result<(), StoreError> {
+    let mut first_error = Ok(());
+    for t in threads {
+        let r = t.join().unwrap_or_else(|_| {
+            Err(StoreError::Database {
+                store: db.location().into(),
+                message: "a worker thread panicked".into(),
+            })
+        });
+        if first_error.is_ok() {
+            first_error = r;
+        }
+    }
+    first_error
+}
+
+/// A random secret of 128 bits, as hex (the kernel's random source; the clock and the pid
+/// hashed by a randomly keyed hasher where there is none).
+fn token() -> String {
+    use std::hash::{BuildHasher, Hasher};
+    use std::io::Read;
+    let mut bytes = [0u8; 16];
+    let read = std::fs::File::open("/dev/urandom").and_then(|mut f| f.read_exact(&mut bytes));
+    if read.is_err() {
+        for half in bytes.chunks_mut(8) {
+            let mut h = std::collections::hash_map::RandomState::new().build_hasher();
+            h.write_u128(
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_nanos()),
+            );
+            h.write_u32(std::process::id());
+            half.copy_from_slice(&h.finish().to_le_bytes());
+        }
+    }
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
 /// A stopping thread's claimed but unstarted run, queued again for another worker (without
 /// waiting for its lease to expire).
-fn hand_back(s: &mut Session, run: Option<queue::Claimed>, me: &str) -> Result<(), StoreError> {
+fn hand_back(
+    s: &mut Session,
+    (campaign, token): (i32, &str),
+    run: Option<queue::Claimed>,
+    me: &str,
+) -> Result<(), StoreError> {
     if let Some(run) = run {
-        s.run(|c| queue::release(c, run.id, me))?;
+        s.run(|c| queue::release(c, campaign, run.id, me, token))?;
     }
     Ok(())
+}
+
+/// Writes run `id`'s `result` and claims the next run (none if `next` is false) in one round
+/// trip; whether the result was kept. A result the server refuses (not a valid one: e.g. a
+/// work count where the campaign counts none) is written as the run's failure, with the
+/// server's message, so that the coordinator applies the campaign's `on_error`.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    s: &mut Session,
+    (campaign, token): (i32, &str),
+    id: i64,
+    me: &str,
+    result: &Result<SimResult, SimError>,
+    lease: Duration,
+    next: bool,
+) -> Result<(bool, Option<queue::Claimed>), StoreError> {
+    let mut tried = false;
+    let mut refusal = None;
+    let done = s.run(|c| {
+        let retry = std::mem::replace(&mut tried, true);
+        match queue::finish_and_claim(c, campaign, id, me, token, result, lease, next) {
+            Ok((kept, next)) => {
+                // After a reconnect the finish may have committed before the connection broke.
+                let kept = kept || (retry && queue::finished_by(c, campaign, id, me, token)?);
+                Ok(Some((kept, next)))
+            }
+            Err(e) => match queue::refused(&e) {
+                Some(message) => {
+                    refusal = Some(message);
+                    Ok(None)
+                }
+                None => Err(e),
+            },
+        }
+    })?;
+    if let Some(done) = done {
+        return Ok(done);
+    }
+    let message = refusal.unwrap_or_default();
+    eprintln!(
+        "savme worker: {}",
+        message.strip_prefix("savme: ").unwrap_or(&message)
+    );
+    let failed = Err(SimError::Failed(message));
+    s.run(|c| queue::finish_and_claim(c, campaign, id, me, token, &failed, lease, next))
 }
 
 /// One worker thread: claims, runs and finishes runs until the watch says stop, or until
@@ -258,7 +345,7 @@ fn hand_back(s: &mut Session, run: Option<queue::Claimed>, me: &str) -> Result<(
 #[allow(clippy::too_many_arguments)]
 fn work_thread<S: Simulator>(
     db: &Database,
-    campaign: i32,
+    (campaign, token): (i32, &str),
     k: usize,
     sim: &mut S,
     lease: Duration,
@@ -269,27 +356,43 @@ fn work_thread<S: Simulator>(
     let me = format!("{} #{k}", application_name("worker"));
     let mut s = Session::connect(db, "worker")?;
     // A result lost in a server crash only costs running its run again (its row stays
-    // `running` and its lease expires); the coordinator's own commits, which store the
-    // trials, are durable and flush every result they were made from.
+    // `running` and its lease expires), or is written back by the coordinator if it had read
+    // it; the coordinator's own commits, which store the trials, are durable and flush every
+    // result they were made from.
     s.set("SET synchronous_commit = off")?;
-    s.listen(&queue::tasks_channel(campaign))?;
     let mut claimed = None;
+    let ours = (campaign, token);
+    // Listening only while idle: the server wakes every session listening in the database at
+    // each notification (each finished run notifies the coordinator), so a busy thread that
+    // listened would cost the server a wake-up per run of every other thread.
+    let channel = queue::tasks_channel(campaign);
+    let mut listening = false;
     loop {
         if stop.is_requested() {
-            return hand_back(&mut s, claimed.take(), &me);
+            return hand_back(&mut s, ours, claimed.take(), &me);
         }
         if claimed.is_none() {
             if watch.stop() {
                 return Ok(());
             }
-            claimed = s.run(|c| queue::claim(c, campaign, &me, lease))?;
+            claimed = s.run(|c| queue::claim(c, campaign, &me, token, lease))?;
         }
         let Some(run) = claimed.take() else {
-            s.wait(Duration::from_secs(1))?;
+            if !listening {
+                // Then claim again: a run queued before the LISTEN sent no wake-up to us.
+                s.listen(&channel)?;
+                listening = true;
+            } else {
+                s.wait(Duration::from_secs(1))?;
+            }
             continue;
         };
+        if listening {
+            s.unlisten(&channel)?;
+            listening = false;
+        }
         if stop.is_requested() {
-            return hand_back(&mut s, Some(run), &me);
+            return hand_back(&mut s, ours, Some(run), &me);
         }
         lock(held).insert(run.id);
         let result = match &run.task {
@@ -297,14 +400,7 @@ fn work_thread<S: Simulator>(
             Err(message) => Err(SimError::Failed(message.clone())),
         };
         // The result, and the next run, in one round trip (none once told to stop).
-        let mut tried = false;
-        let (kept, next) = s.run(|c| {
-            let retry = std::mem::replace(&mut tried, true);
-            let (kept, next) = queue::finish_and_claim(c, campaign, run.id, &me, &result, lease)?;
-            // After a reconnect the finish may have committed before the connection broke.
-            let kept = kept || (retry && queue::finished_by(c, run.id, &me)?);
-            Ok((kept, next))
-        })?;
+        let (kept, next) = finish(&mut s, ours, run.id, &me, &result, lease, true)?;
         let mut held = lock(held);
         held.remove(&run.id);
         if let Some(next) = &next {
@@ -317,10 +413,10 @@ fn work_thread<S: Simulator>(
     }
 }
 
-/// Watches the campaign's coordinator once a second until `stop`: marks the campaign finished,
-/// says on stderr when no live coordinator runs it through the queue (at once when one runs it
-/// without `--remote`), and gives up after `grace` without one (naming `restart`, the command
-/// that starts this worker again, if given).
+/// Watches the campaign's coordinator every [`WATCH`] until `stop`: marks the campaign
+/// finished, says on stderr when no live coordinator runs it through the queue (at once when one
+/// runs it without `--remote`), and gives up after `grace` without one (naming `restart`, the
+/// command that starts this worker again, if given).
 fn watch_coordinator(
     mut s: Session,
     campaign: i32,
@@ -332,6 +428,9 @@ fn watch_coordinator(
 ) {
     let mut lost: Option<Instant> = None;
     let mut said = None;
+    // Until a live coordinator was seen, one that is starting is given [`SETTLE`]; once one
+    // was, its absence is said at once.
+    let mut seen_live = false;
     while !stop.load(Ordering::Relaxed) {
         let state = match s.run(|c| queue::coordinator(c, campaign)) {
             Ok(Some(state)) => state,
@@ -339,24 +438,25 @@ fn watch_coordinator(
                 finished: true,
                 ..gone_state()
             },
-            // The sessions reconnect by themselves; try again in a second.
+            // The sessions reconnect by themselves; try again shortly.
             Err(_) => gone_state(),
         };
         if state.finished {
             watch.finished.store(true, Ordering::Relaxed);
             return;
         }
-        let live = state.remote && state.seen_ago.is_some_and(|a| a < STALE.as_secs_f64());
-        if live {
+        if live(&state) {
             if said.take().is_some() {
                 eprintln!("savme worker: campaign {name:?}: its coordinator is back");
             }
             lost = None;
+            seen_live = true;
         } else {
             let since = *lost.get_or_insert_with(Instant::now);
             let left = grace.saturating_sub(since.elapsed()).as_secs();
             let why = absence(&state, name, left);
-            if said.as_ref() != Some(&why) && since.elapsed() >= SETTLE {
+            let settled = seen_live || since.elapsed() >= SETTLE;
+            if said.as_ref() != Some(&why) && settled {
                 eprintln!("{why}");
                 said = Some(why);
             }
@@ -376,8 +476,14 @@ fn watch_coordinator(
                 return;
             }
         }
-        std::thread::sleep(Duration::from_secs(1));
+        std::thread::sleep(WATCH);
     }
+}
+
+/// Whether `state` is a live coordinator running the campaign through the queue: it holds the
+/// campaign's lock (its server session is alive) and its heartbeat is fresh.
+fn live(state: &queue::Coordinator) -> bool {
+    state.remote && state.locked && state.seen_ago.is_some_and(|a| a < STALE.as_secs_f64())
 }
 
 /// A warning when `jobs` threads are more than campaign `name`'s window keeps busy: at most
@@ -396,10 +502,17 @@ pub fn window_warning(name: &str, window: i64, jobs: usize) -> Option<String> {
     ))
 }
 
-/// How long a coordinator's heartbeat stays fresh.
-pub const STALE: Duration = Duration::from_secs(10);
-/// How long a worker lets a coordinator that is starting settle before it says anything.
+/// How long a coordinator's heartbeat stays fresh (it stamps one every
+/// [`crate::HEARTBEAT`]): a worker says within this and [`WATCH`] that the heartbeat stopped.
+pub const STALE: Duration = Duration::from_millis(1500);
+/// How often a worker looks at its coordinator.
+pub const WATCH: Duration = Duration::from_millis(250);
+/// How long a worker lets a coordinator that is starting settle before it says anything (only
+/// before it has seen a live one).
 const SETTLE: Duration = Duration::from_secs(2);
+/// How often a worker renews the leases of its runs at most (a third of the lease if shorter):
+/// also how soon after a database restart it shows the server that it is alive.
+const RENEW: Duration = Duration::from_secs(1);
 
 fn gone_state() -> queue::Coordinator {
     queue::Coordinator {
@@ -435,25 +548,18 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|p| p.into_inner())
 }
 
-/// The campaign's id, waiting (with a message) until a coordinator has created it.
+/// The campaign as this worker may see it, waiting (with a message) until a coordinator has
+/// created it (and migrated the schema to this savme's version) and lets this role work on it.
 fn wait_for_campaign(
     session: &mut Session,
     name: &str,
     patience: Duration,
-) -> Result<i32, StoreError> {
+) -> Result<queue::WorkerCampaign, StoreError> {
     let start = Instant::now();
     let mut said = false;
     loop {
-        let schema: bool = session.run(|c| {
-            Ok(
-                c.query_one("SELECT to_regclass('savme.campaigns') IS NOT NULL", &[])?
-                    .get(0),
-            )
-        })?;
-        if schema {
-            if let Some(id) = session.run(|c| find_campaign(c, name))? {
-                return Ok(id);
-            }
+        if let Some(found) = session.run(|c| queue::worker_campaign(c, name))? {
+            return Ok(found);
         }
         if start.elapsed() >= patience {
             return Err(StoreError::Database {
@@ -477,16 +583,24 @@ fn wait_for_campaign(
     }
 }
 
-/// Renews the leases of the runs in `held` every third of `lease` until `stop`.
-fn heartbeat(db: &Database, held: &Mutex<HashSet<i64>>, stop: &AtomicBool, lease: Duration) {
+/// Renews the leases of the runs in `held` every third of `lease` (every [`RENEW`] at most)
+/// until `stop`.
+fn heartbeat(
+    db: &Database,
+    campaign: i32,
+    token: &str,
+    held: &Mutex<HashSet<i64>>,
+    stop: &AtomicBool,
+    lease: Duration,
+) {
     let Ok(mut s) = Session::connect(db, "worker heartbeat") else {
         return;
     };
-    let me_prefix = application_name("worker");
+    let every = (lease / 3).min(RENEW);
     let mut last = Instant::now();
     while !stop.load(Ordering::Relaxed) {
         std::thread::sleep(Duration::from_millis(50));
-        if last.elapsed() < lease / 3 {
+        if last.elapsed() < every {
             continue;
         }
         last = Instant::now();
@@ -495,6 +609,6 @@ fn heartbeat(db: &Database, held: &Mutex<HashSet<i64>>, stop: &AtomicBool, lease
             continue;
         }
         // A failed heartbeat is retried at the next beat; the lease outlasts two misses.
-        let _ = s.run(|c| queue::heartbeat(c, &ids, &me_prefix, lease));
+        let _ = s.run(|c| queue::heartbeat(c, campaign, &ids, token, lease));
     }
 }
