@@ -345,9 +345,10 @@ impl Archive {
                 } else {
                     tried.get(&*cell).map_or(0, |c| c.0)
                 };
-                let mut score = self.failure_odds(&u, m, &weights) / (1.0 + f64::from(visits));
-                if let Some(mean) = mean_cost {
-                    score /= self.expected_cost(&u, m, mean);
+                let (odds, cost) = self.parzen(&u, m, &weights, mean_cost);
+                let mut score = odds / (1.0 + f64::from(visits));
+                if let Some(cost) = cost {
+                    score /= cost;
                 }
                 if m.crowding > 0.0 && !in_flight.is_empty() {
                     score /= 1.0 + m.crowding * crowd(&u, in_flight, m.bandwidth);
@@ -370,17 +371,31 @@ impl Archive {
         }
     }
 
-    /// The Parzen estimate of the failure probability at `u`: Σ K·w / (Σ K + 1) + ½-prior,
-    /// with `w` = 1 for failures, the near-miss weight for near-misses, 0 otherwise.
-    fn failure_odds(&self, u: &[f64], m: &EliteMixture, weights: &[f64]) -> f64 {
+    /// The Parzen estimates at `u`, in one pass over the archive (one kernel value per point):
+    /// the failure probability Σ K·w / (Σ K + 1) + ½-prior, with `w` = 1 for failures, the
+    /// near-miss weight for near-misses, 0 otherwise; and, given the archive's `mean_cost`, a
+    /// trial's cost Σ K·c / Σ K over the points that carry one, shrunk towards `mean_cost` with
+    /// the weight of one trial. Each sum adds its terms in archive order, as two passes would.
+    fn parzen(
+        &self,
+        u: &[f64],
+        m: &EliteMixture,
+        weights: &[f64],
+        mean_cost: Option<f64>,
+    ) -> (f64, Option<f64>) {
         let inv = -0.5 / (m.bandwidth * m.bandwidth);
         let (mut hit, mut all) = (0.5, 1.0);
+        let (mut cost, mut costed) = (mean_cost.unwrap_or(0.0), 1.0);
         for (p, w) in self.points.iter().zip(weights) {
             let k = (squared_distance(&p.u, u) * inv).exp();
             hit += k * w;
             all += k;
+            if let (Some(_), Some(c)) = (mean_cost, p.cost) {
+                cost += k * c;
+                costed += k;
+            }
         }
-        hit / all
+        (hit / all, mean_cost.map(|_| cost / costed))
     }
 
     /// The mean cost of the archived trials that carry one (None: none does).
@@ -391,21 +406,6 @@ impl Archive {
             .filter_map(|p| p.cost)
             .fold((0usize, 0.0), |(n, s), c| (n + 1, s + c));
         (n > 0 && sum > 0.0).then(|| sum / n as f64)
-    }
-
-    /// The Parzen estimate of a trial's cost at `u`: Σ K·c / Σ K, shrunk towards the
-    /// archive's `mean` cost with the weight of one trial.
-    fn expected_cost(&self, u: &[f64], m: &EliteMixture, mean: f64) -> f64 {
-        let inv = -0.5 / (m.bandwidth * m.bandwidth);
-        let (mut sum, mut all) = (mean, 1.0);
-        for p in &self.points {
-            if let Some(c) = p.cost {
-                let k = (squared_distance(&p.u, u) * inv).exp();
-                sum += k * c;
-                all += k;
-            }
-        }
-        sum / all
     }
 
     /// Per joint cell in the archive: (trials, failures).
