@@ -159,6 +159,51 @@ impl Allocate {
     }
 }
 
+/// How evaluation and screening choose θ_LF* from the meta-training posterior.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ThetaLfChoice {
+    /// The paper's: the MAP arm of every fidelity variable (it trusts an arm tried once).
+    #[default]
+    Map,
+    /// From evidence: the highest lower 10 % quantile of each arm's Beta belief, every false
+    /// alarm charged as 1 / C_budget losses (the kernel's `Estimator::Evidence`).
+    Evidence,
+}
+
+impl ThetaLfChoice {
+    /// The kernel's estimator.
+    pub fn kernel(self) -> savme_kernel::Estimator {
+        match self {
+            ThetaLfChoice::Map => savme_kernel::Estimator::Map,
+            ThetaLfChoice::Evidence => savme_kernel::Estimator::Evidence,
+        }
+    }
+
+    fn is_map(&self) -> bool {
+        *self == ThetaLfChoice::Map
+    }
+}
+
+/// How strongly meta-testing's learned prior carries the meta-training evidence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Transfer {
+    /// `prior_strength` for every fidelity variable (the paper's: 1).
+    #[default]
+    Fixed,
+    /// Per fidelity variable, the strength whose prior from the other training scenarios best
+    /// predicts each held-out training scenario's fidelity outcomes (leave-one-scenario-out;
+    /// 0, the uniform prior, when the scenarios disagree).
+    Auto,
+}
+
+impl Transfer {
+    fn is_fixed(&self) -> bool {
+        *self == Transfer::Fixed
+    }
+}
+
 /// What a campaign searches with before any other value is given: savme's search by cost
 /// (`savme run`, Python, `savme serve`'s example configuration) or the paper's SAVME (`savme
 /// reproduce`).
@@ -166,12 +211,14 @@ impl Allocate {
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// savme's: the elite search with candidates ranked per expected cost, the cost-rate
-    /// allocation over scenarios, a deployed search that exploits and keeps learning, and LF
-    /// screening only where it pays.
+    /// allocation over scenarios, a deployed search that exploits and keeps learning, LF
+    /// screening only where it pays, θ_LF* from evidence and the transfer strength chosen by
+    /// leave-one-scenario-out.
     #[default]
     Tuned,
     /// The paper's SAVME: independent bins, scenarios from p(s), a frozen deployment, LF
-    /// screening of every trial.
+    /// screening of every trial, θ_LF* = MAP, the meta-training posterior transferred at
+    /// `prior_strength`.
     Paper,
 }
 
@@ -185,6 +232,8 @@ impl Method {
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
                 p.allocation = Allocate::CostRate;
+                p.theta_lf_choice = ThetaLfChoice::Evidence;
+                p.transfer = Transfer::Auto;
             }
             Method::Paper => {
                 p.search = Search::Bins;
@@ -192,6 +241,8 @@ impl Method {
                 p.deployment = Deploy::Frozen;
                 p.screen_lf = ScreenLf::Always;
                 p.allocation = Allocate::Weights;
+                p.theta_lf_choice = ThetaLfChoice::Map;
+                p.transfer = Transfer::Fixed;
             }
         }
     }
@@ -299,6 +350,12 @@ pub struct Protocol {
     /// when `screen_iterations` is 0. None: iterations (not written).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deploy_budget: Option<f64>,
+    /// How θ_LF* is chosen (map, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "ThetaLfChoice::is_map")]
+    pub theta_lf_choice: ThetaLfChoice,
+    /// How meta-testing's learned prior is weighted (fixed, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "Transfer::is_fixed")]
+    pub transfer: Transfer,
 }
 
 fn default_floor() -> f64 {
@@ -393,6 +450,8 @@ impl Protocol {
             coverage_floor: default_floor(),
             search_budget: None,
             deploy_budget: None,
+            theta_lf_choice: ThetaLfChoice::Map,
+            transfer: Transfer::Fixed,
         }
     }
 
