@@ -301,8 +301,9 @@ pub struct Protocol {
     pub on_error: OnError,
     /// The prior-strength ablation of meta-testing: the strengths (≥ 0) whose learned-prior
     /// meta-testing is compared. Strength 0 is the uniform prior (the `test-uniform` stage)
-    /// and `prior_strength` is the `test-learned` stage; every other one adds a stage per
-    /// budget (`test-learned-s0.1@0.3`). Empty: no ablation.
+    /// and `prior_strength` is the `test-learned` stage (with `transfer = auto` it gets a
+    /// stage of its own); every other one adds a stage per budget (`test-learned-s0.1@0.3`).
+    /// Empty: no ablation.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub prior_strengths: Vec<f64>,
     /// LF screening trials per budget after the evaluation (φ ~ p_ψ, θ_LF*; HF only to
@@ -716,11 +717,13 @@ impl Protocol {
     }
 
     /// The strengths of `prior_strengths` that need a stage of their own: not 0 (that is
-    /// `test-uniform`) and not `prior_strength` (that is `test-learned`).
+    /// `test-uniform`) and not `prior_strength` (that is `test-learned`, unless `transfer =
+    /// auto` chooses its strengths: then every strength but 0 has its own stage).
     pub fn ablation_strengths(&self) -> impl Iterator<Item = &f64> {
+        let fixed = self.transfer == Transfer::Fixed;
         self.prior_strengths
             .iter()
-            .filter(move |&&s| s != 0.0 && s != self.prior_strength)
+            .filter(move |&&s| s != 0.0 && (s != self.prior_strength || !fixed))
     }
 
     /// Total trials over all stages (saturating: an unvalidated protocol may ask for more than
@@ -838,6 +841,19 @@ mod tests {
         assert_eq!(
             labels[at + 1..at + 3],
             ["test-learned-s0.1@0.2", "test-learned-s0.3@0.2"]
+        );
+        // With transfer = auto, strength 1 is a stage of its own (the paper's transfer, next
+        // to the strengths auto chose).
+        p.transfer = Transfer::Auto;
+        let labels: Vec<String> = p.stages().iter().map(Stage::label).collect();
+        assert_eq!(labels.len(), 1 + 3 * 2 + 1 + 3 * 5);
+        assert!(
+            labels.contains(&"test-learned-s1@0.3".to_string()),
+            "{labels:?}"
+        );
+        assert_eq!(
+            crate::report::ablation::stage_id(&p, 0.3, 1.0).to_string(),
+            "test-learned-s1@0.3"
         );
         // An old protocol.json (no key) reads as no ablation, and writes no key.
         let json = serde_json::to_string(&Protocol::paper("t", vec![], vec![])).unwrap();
