@@ -286,7 +286,8 @@ pub struct Protocol {
     pub cost: Cost,
     /// Bins per continuous fidelity setting.
     pub fidelity_bins: u32,
-    /// Weight of the meta-training evidence in the meta-testing prior (power prior).
+    /// Weight of the meta-training evidence in the meta-testing prior (power prior); with
+    /// `transfer = auto` the largest weight auto may choose per setting.
     pub prior_strength: f64,
     /// Trials in flight at once (asked, not yet told). Trials are told in ask order, so the
     /// campaign depends on this, the seed and the cost measure — not on the number of jobs.

@@ -214,7 +214,8 @@ protocol_values! {
     fidelity_bins: u32, flag = "fidelity-bins", aliases = [], stages = "all but the baselines",
         to = protocol;
     /// Strength of the transferred fidelity prior in meta-testing (power prior; 1 = the
-    /// meta-training posterior as is).
+    /// meta-training posterior as is); with transfer = auto, the largest strength auto may
+    /// choose (its candidates are 0, 0.03, 0.1, 0.3, 0.6 and 1 times it).
     prior_strength: f64, flag = "prior-strength", aliases = [], stages = "test-learned",
         to = protocol;
     /// Trials in flight at once: asked, not yet told (at most 2 runs each). Keeps up to about
@@ -427,12 +428,6 @@ impl Overrides {
             return idle(
                 "elite",
                 "the elite parameters would do nothing: the search is the paper's bins; give search = elite too, or leave elite out".into(),
-            );
-        }
-        if let (Some(x), Transfer::Auto) = (self.prior_strength, p.transfer) {
-            return idle(
-                "prior_strength",
-                format!("{x} would do nothing: transfer is auto (the strength is chosen from the meta-training data); give transfer = fixed too, or leave prior_strength out"),
             );
         }
         if let (Some(n), true) = (self.pair_settle, p.pair_fraction == 1.0) {

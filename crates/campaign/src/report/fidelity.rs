@@ -93,13 +93,15 @@ pub fn train_lines<'a>(p: &Protocol, lines: &'a [TrialLine], budget: f64) -> Vec
 
 /// The transfer of budget `budget`: the strengths `test-learned` uses (fixed: the protocol's
 /// `prior_strength` for every setting; auto: [`choose_strengths`] on the meta-training
-/// evidence, 0 where it cannot choose).
+/// evidence among [`STRENGTHS`](savme_kernel::evidence::STRENGTHS) × `prior_strength`, 0 where
+/// it cannot choose).
 pub fn transfer(p: &Protocol, train: &[&TrialLine], space: &Space) -> TransferReport {
+    let candidates = savme_kernel::evidence::STRENGTHS.map(|c| c * p.prior_strength);
     let choice = choose_strengths(
         &evidence(p, train, space),
         space,
         PriorCounts::UNIFORM,
-        &savme_kernel::evidence::STRENGTHS,
+        &candidates,
     );
     let strengths = match (p.transfer, &choice) {
         (Transfer::Fixed, _) => vec![p.prior_strength; space.len()],
