@@ -48,7 +48,6 @@ pub const EVIDENCE_QUANTILE: f64 = 0.1;
 pub const STRENGTHS: [f64; 6] = [0.0, 0.03, 0.1, 0.3, 0.6, 1.0];
 
 /// What the learning trials that drew one arm of one fidelity variable showed.
-#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ArmTally {
@@ -225,7 +224,6 @@ pub fn evidence_score(arm: &Arm, tally: &ArmTally, budget: f64) -> f64 {
 }
 
 /// The transfer strength chosen for one fidelity variable, and why.
-#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct VariableTransfer {
     /// The fidelity variable.
@@ -239,7 +237,6 @@ pub struct VariableTransfer {
 
 /// Per fidelity variable, the strength of the transferred prior chosen by leave-one-scenario-
 /// out on the training scenarios ([`choose_strengths`]).
-#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TransferChoice {
     /// The candidate strengths, ascending.
