@@ -15,7 +15,8 @@
 //!   candidates under which the evidence of the other training scenarios best predicts each
 //!   held-out training scenario's fidelity outcomes (its Beta–Binomial log marginal
 //!   likelihood, summed over the held-out scenarios). Strength 0 (the uniform prior) wins when
-//!   the scenarios disagree.
+//!   the scenarios disagree, and unless another strength gains at least
+//!   [`MIN_GAIN_PER_SCENARIO`] nats per held-out scenario over it.
 //!
 //! ```
 //! use savme_kernel::evidence::{choose_strengths, FidelityEvidence};
@@ -42,6 +43,12 @@ use statrs::function::beta::{inv_beta_reg, ln_beta};
 
 /// The lower quantile of an arm's Beta belief that θ_LF* by evidence maximises.
 pub const EVIDENCE_QUANTILE: f64 = 0.1;
+
+/// The held-out log-likelihood (in nats) per held-out scenario that a strength above 0 must
+/// gain over the uniform prior (strength 0) to be chosen: evidence that predicts the held-out
+/// scenarios only marginally better than no evidence is not transferred, so that a transfer
+/// the training scenarios barely support cannot hurt.
+pub const MIN_GAIN_PER_SCENARIO: f64 = 1.0;
 
 /// The candidate strengths of the transferred fidelity prior, ascending (0: the uniform
 /// prior; 1: the meta-training posterior as learned, the paper's).
@@ -228,7 +235,8 @@ pub fn evidence_score(arm: &Arm, tally: &ArmTally, budget: f64) -> f64 {
 pub struct VariableTransfer {
     /// The fidelity variable.
     pub variable: String,
-    /// The chosen strength (the best held-out log-likelihood; ties to the weaker).
+    /// The chosen strength (the best held-out log-likelihood, ties to the weaker; 0 unless it
+    /// beats 0 by [`MIN_GAIN_PER_SCENARIO`] per held-out scenario).
     pub strength: f64,
     /// Held-out log marginal likelihood per candidate strength (summed over the held-out
     /// scenarios), in the order of [`TransferChoice::candidates`].
@@ -263,7 +271,9 @@ impl TransferChoice {
 /// others' trials, so that λ means what it will mean with every scenario's evidence) scores
 /// the held-out scenario's successes and losses per arm by their Beta–Binomial log marginal
 /// likelihood `ln B(a + s, b + l) − ln B(a, b)`. The strength with the highest sum wins, ties
-/// to the weaker. None with fewer than two scenarios with evidence or no candidate.
+/// to the weaker — unless it beats strength 0 (when a candidate) by less than
+/// [`MIN_GAIN_PER_SCENARIO`] nats per held-out scenario: then 0, the uniform prior. None with
+/// fewer than two scenarios with evidence or no candidate.
 pub fn choose_strengths(
     evidence: &FidelityEvidence,
     space: &Space,
@@ -318,7 +328,11 @@ pub fn choose_strengths(
                 }
             }
         }
-        let best = best_index(&ll);
+        let mut best = best_index(&ll);
+        let need = MIN_GAIN_PER_SCENARIO * held.len() as f64;
+        if cands[0] == 0.0 && ll[best] - ll[0] < need {
+            best = 0;
+        }
         variables.push(VariableTransfer {
             variable: var.name.to_string(),
             strength: cands[best],
@@ -377,12 +391,32 @@ mod tests {
         }
         let t = choose_strengths(&e, &sp, PriorCounts::UNIFORM, &STRENGTHS).unwrap();
         assert_eq!(t.scenarios, 4);
-        // (A weak prior still carries the shared base rate: every arm mostly fails.)
-        assert!(t.variables[0].strength <= 0.03, "{:?}", t.variables[0]);
+        assert_eq!(t.variables[0].strength, 0.0, "{:?}", t.variables[0]);
         assert!(t.variables[1].strength >= 0.6, "{:?}", t.variables[1]);
         // The margins are wide, not knife-edge.
         let ll = &t.variables[0].log_likelihood;
         assert!(ll[0] > ll[5] + 10.0, "{ll:?}");
+    }
+
+    #[test]
+    fn a_marginal_gain_over_the_uniform_prior_transfers_nothing() {
+        // Four scenarios that agree on thin evidence (each arm tried twice per scenario, one
+        // success): transferring it predicts the held-out scenarios a little better, by less
+        // than a nat per held-out scenario, so nothing is transferred.
+        let sp = Space::new(vec![Variable::boolean("shadows")]).unwrap();
+        let mut e = FidelityEvidence::new(4, &sp);
+        for s in 0..4 {
+            for arm in [0, 1] {
+                e.record(s, &[arm], Outcome::TN, true, 0.1);
+                e.record(s, &[arm], Outcome::FP, false, 0.1);
+            }
+        }
+        let t = choose_strengths(&e, &sp, PriorCounts::UNIFORM, &STRENGTHS).unwrap();
+        let ll = &t.variables[0].log_likelihood;
+        let best = ll.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        assert!(best > ll[0], "some strength predicts better: {ll:?}");
+        assert!(best - ll[0] < 4.0 * MIN_GAIN_PER_SCENARIO, "{ll:?}");
+        assert_eq!(t.variables[0].strength, 0.0);
     }
 
     #[test]

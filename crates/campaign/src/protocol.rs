@@ -194,7 +194,8 @@ pub enum Transfer {
     Fixed,
     /// Per fidelity variable, the strength whose prior from the other training scenarios best
     /// predicts each held-out training scenario's fidelity outcomes (leave-one-scenario-out;
-    /// 0, the uniform prior, when the scenarios disagree).
+    /// 0, the uniform prior, when the scenarios disagree or no strength gains a nat per
+    /// held-out scenario over it).
     Auto,
 }
 

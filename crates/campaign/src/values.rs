@@ -294,7 +294,8 @@ protocol_values! {
     /// How strongly meta-testing's learned prior carries the meta-training evidence: fixed
     /// (`prior_strength` for every setting, the paper's) or auto (per setting, the strength
     /// whose prior from the other training scenarios best predicts each held-out one,
-    /// leave-one-scenario-out; 0, the uniform prior, where they disagree).
+    /// leave-one-scenario-out; 0, the uniform prior, where they disagree or gain less than a
+    /// nat per held-out scenario).
     transfer: Transfer, flag = "transfer", aliases = [], stages = "test-learned", to = protocol,
         cli(value_enum);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in

@@ -319,8 +319,10 @@ fn transfer_md(s: &mut String, budget: f64, f: &FidelityReport) {
         s,
         "Held-out log-likelihood of each of the {} meta-training scenarios' fidelity outcomes \
          under the prior from the others, summed, per candidate strength (0 = the uniform \
-         prior; higher is better){}.\n",
+         prior; higher is better; a strength above 0 is taken only if it gains at least {} nat \
+         per held-out scenario over 0){}.\n",
         c.scenarios,
+        savme_kernel::evidence::MIN_GAIN_PER_SCENARIO,
         if t.mode == Transfer::Fixed {
             "; auto would take the best, the campaign used the fixed strength"
         } else {
