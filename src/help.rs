@@ -141,6 +141,8 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("log_bins", None) => Some("savme".into()),
         ("elite", None) => Some(elite_defaults()),
         ("allocation", None) => Some("weights".into()),
+        ("theta_lf_choice", None) => Some("map".into()),
+        ("transfer", None) => Some("fixed".into()),
         ("coverage_floor", None) => Some(p.coverage_floor.to_string()),
         ("search_budget" | "deploy_budget", None) => Some("none (the iterations)".into()),
         (_, Some(x)) => Some(shown(x)),

@@ -241,11 +241,16 @@ fn same_seed_and_work_cost_give_the_same_campaign_whatever_the_jobs() {
 
 /// Starts the TINY campaign (2 jobs) into `dir` and returns once `lines` trials are stored.
 fn start_and_wait_for_lines(dir: &Path, lines: usize) -> std::process::Child {
+    start_with(dir, lines, &[])
+}
+
+/// [`start_and_wait_for_lines`] with `extra` flags.
+fn start_with(dir: &Path, lines: usize, extra: &[&str]) -> std::process::Child {
     let mut child = Command::new(EXE)
         .arg("reproduce")
         .arg("--out")
         .arg(dir)
-        .args(args(&["--jobs", "2"]))
+        .args(args(&[&["--jobs", "2"], extra].concat()))
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
@@ -346,6 +351,91 @@ fn a_killed_or_interrupted_campaign_resumes_without_losing_or_repeating_a_trial(
         table
     );
     for d in [full, dir, torn] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+/// Method tuned: θ_LF* from evidence and the transfer chosen by leave-one-scenario-out are
+/// reported in fidelity.md and summary.json (per setting: the arm, its tries, false-alarm and
+/// miss rates; per candidate strength: the held-out likelihood), the learned prior uses the
+/// strengths reported, and a campaign killed during meta-testing resumes to the same trials.
+#[test]
+fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() {
+    let tuned = ["--method", "tuned"];
+    let full = temp_dir("tuned-full");
+    let (ok, _, err) = reproduce(&full, &tuned);
+    assert!(ok, "{err}");
+    let expected = without_wall(trial_lines(&full));
+    let md = std::fs::read_to_string(full.join("fidelity.md")).unwrap();
+    for says in [
+        "chosen from evidence",
+        "## θ_LF* at C_budget = 0.3: the evidence per setting",
+        "| setting | arm | tried | successes | false alarms | misses | mean LF cost |",
+        "## Transfer to meta-testing at C_budget = 0.3 (auto: per setting, leave-one-scenario-out)",
+        "| (all settings) |",
+    ] {
+        assert!(md.contains(says), "fidelity.md lacks {says:?}:\n{md}");
+    }
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(full.join("summary.json")).unwrap()).unwrap();
+    let f = &summary["report"]["budgets"][0]["fidelity"];
+    assert_eq!(f["choice"], "evidence", "{f}");
+    let settings = f["settings"].as_array().unwrap();
+    assert_eq!(settings.len(), 16, "{f}");
+    for s in settings {
+        for key in [
+            "variable",
+            "arm",
+            "tried",
+            "fp",
+            "fn",
+            "false_alarm_rate",
+            "miss_rate",
+        ] {
+            assert!(s.get(key).is_some(), "{key} missing: {s}");
+        }
+    }
+    // Each setting's tries are meta-training trials: at most the 16 of TINY.
+    assert!(settings.iter().all(|s| s["tried"].as_u64().unwrap() <= 16));
+    let t = &f["transfer"];
+    assert_eq!(t["mode"], "auto", "{t}");
+    let strengths = t["strengths"].as_array().unwrap();
+    assert_eq!(strengths.len(), 16);
+    let choice = &t["choice"];
+    assert_eq!(choice["candidates"].as_array().unwrap().len(), 6, "{t}");
+    for (v, s) in choice["variables"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(strengths)
+    {
+        assert_eq!(&v["strength"], s, "the campaign used what the report says");
+        assert_eq!(v["log_likelihood"].as_array().unwrap().len(), 6);
+    }
+    assert!(f["evaluation"]["trials"] == 6, "{f}");
+
+    // kill -9 during meta-testing (after training's 14 + 16 and evaluation's 6 lines).
+    let dir = temp_dir("tuned-killed");
+    let mut child = start_with(&dir, 40, &tuned);
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let (ok, _, err) = resume(&dir);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trial_lines(&dir)), expected);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("fidelity.md")).unwrap(),
+        md
+    );
+    // The paper's method keeps the MAP and the fixed strength, and says so.
+    let paper = temp_dir("tuned-paper");
+    assert!(reproduce(&paper, &[]).0);
+    let md = std::fs::read_to_string(paper.join("fidelity.md")).unwrap();
+    assert!(md.contains("θ_LF* = MAP of p_ω"), "{md}");
+    assert!(
+        md.contains("(fixed: `prior_strength` for every setting)"),
+        "{md}"
+    );
+    for d in [full, dir, paper] {
         let _ = std::fs::remove_dir_all(d);
     }
 }

@@ -2,6 +2,7 @@
 
 use crate::allocation::{self, Allocation, Ledger};
 use crate::deployment::Deployment;
+use crate::evidence::FidelityEvidence;
 use crate::outcome::{Credit, Observation, Outcome};
 use crate::pairing::{Pairing, PairingError};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
@@ -385,6 +386,8 @@ impl Kernel {
             Allocation::Weights => Vec::new(),
             Allocation::CostRate(_) => vec![Ledger::default(); config.scenarios.len()],
         };
+        let evidence = (config.estimator == Estimator::Evidence)
+            .then(|| FidelityEvidence::new(config.scenarios.len(), &config.fidelity));
         Ok(Kernel {
             state: Snapshot {
                 config,
@@ -397,6 +400,7 @@ impl Kernel {
                 rng,
                 search,
                 ledgers,
+                evidence,
             },
             cumulative,
         })
@@ -468,8 +472,30 @@ impl Kernel {
     /// θ_LF* — the greedy fidelity settings under `estimator` (continuous variables at their
     /// bin's expected value). What evaluation asks use, with the configured estimator.
     pub fn fidelity_estimate(&self, estimator: Estimator) -> Assignment {
-        let arms = self.state.fidelity.best_arms(estimator);
+        let arms = self.fidelity_arms(estimator);
         self.state.config.fidelity.representatives(&arms)
+    }
+
+    /// The arms of θ_LF* under `estimator`, one per fidelity variable. [`Estimator::Evidence`]
+    /// charges the false alarms of the kept tallies (none kept: none charged).
+    pub fn fidelity_arms(&self, estimator: Estimator) -> Vec<u16> {
+        let st = &self.state;
+        match (estimator, &st.evidence) {
+            (Estimator::Evidence, Some(e)) => {
+                let totals = e.totals();
+                let budget = st.config.budget;
+                st.fidelity.best_arms_by(|v, k, a| {
+                    crate::evidence::evidence_score(a, &totals[v][k], budget)
+                })
+            }
+            _ => st.fidelity.best_arms(estimator),
+        }
+    }
+
+    /// Per scenario, per fidelity arm, what the paired learning trials showed; kept with
+    /// [`Estimator::Evidence`] only.
+    pub fn fidelity_evidence(&self) -> Option<&FidelityEvidence> {
+        self.state.evidence.as_ref()
     }
 
     /// Trials asked and not yet told or cancelled, in id order.
@@ -498,7 +524,7 @@ impl Kernel {
         let theta_lf = match phase {
             Phase::Baseline => None,
             Phase::Evaluate => {
-                arms.extend(st.fidelity.best_arms(st.config.estimator));
+                arms.extend(self.fidelity_arms(st.config.estimator));
                 Some(st.config.fidelity.representatives(&arms[n_phi..]))
             }
             Phase::Train | Phase::Test => {

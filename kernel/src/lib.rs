@@ -42,6 +42,7 @@
 mod allocation;
 mod deployment;
 pub mod estimation;
+pub mod evidence;
 pub mod journal;
 mod kernel;
 pub mod metrics;

@@ -103,6 +103,11 @@ pub enum Estimator {
     /// The arm with the highest posterior mean `α/(α+β)`: forty out of fifty (0.79) beats one
     /// out of one (0.67). Steadier when some arms were tried only a few times.
     Mean,
+    /// θ_LF* from evidence: the arm with the highest lower 10 % quantile of its Beta belief,
+    /// a false alarm (LF fails, HF passes) charged as `1 / C_budget` losses
+    /// ([`crate::evidence`]); a kernel with it keeps per-arm tallies of its learning trials.
+    /// Forty out of fifty (0.71) beats one out of one (0.32).
+    Evidence,
 }
 
 /// Why a posterior cannot be built, updated or transferred.
@@ -117,7 +122,7 @@ pub enum PosteriorError {
         losses: f64,
     },
     /// The prior strength must be finite and positive.
-    #[error("prior strength must be finite and > 0, got {0}")]
+    #[error("prior strength must be finite and > 0 (≥ 0 per variable), got {0}")]
     BadStrength(f64),
     /// A posterior does not fit the space it is used with.
     #[error("posterior does not fit the space: {0}")]
@@ -299,21 +304,34 @@ impl Posterior {
     /// The greedy arm of every variable under `estimator`. Ties (equal scores) go to the arm
     /// with the higher posterior mean, then to the lower arm index — so an untried variable
     /// (all arms at the base prior) returns arm 0.
+    ///
+    /// Without tallies, [`Estimator::Evidence`] charges no false alarm (the kernel passes its
+    /// tallies: [`Posterior::best_arms_by`]).
     pub fn best_arms(&self, estimator: Estimator) -> Vec<u16> {
+        let none = crate::evidence::ArmTally::default();
+        self.best_arms_by(|_, _, a| match estimator {
+            Estimator::Map => a.mode(),
+            Estimator::Mean => a.mean(),
+            Estimator::Evidence => crate::evidence::evidence_score(a, &none, 1.0),
+        })
+    }
+
+    /// The arm of every variable with the highest `score(variable, arm, belief)`; ties as in
+    /// [`Posterior::best_arms`].
+    pub fn best_arms_by(&self, score: impl Fn(usize, usize, &Arm) -> f64) -> Vec<u16> {
         self.data
             .arms
             .iter()
-            .map(|arms| {
-                let score = |a: &Arm| match estimator {
-                    Estimator::Map => a.mode(),
-                    Estimator::Mean => a.mean(),
-                };
+            .enumerate()
+            .map(|(v, arms)| {
                 let mut best = 0usize;
+                let mut sb = score(v, 0, &arms[0]);
                 for (k, a) in arms.iter().enumerate().skip(1) {
                     let b = &arms[best];
-                    let (sa, sb) = (score(a), score(b));
+                    let sa = score(v, k, a);
                     if sa > sb || (sa == sb && a.mean() > b.mean()) {
                         best = k;
+                        sb = sa;
                     }
                 }
                 best as u16
@@ -354,16 +372,47 @@ impl Posterior {
     /// # Ok::<(), Box<dyn std::error::Error>>(())
     /// ```
     pub fn as_prior(&self, base: PriorCounts, strength: f64) -> Result<Posterior, PosteriorError> {
-        base.validate()?;
         if !(strength.is_finite() && strength > 0.0) {
             return Err(PosteriorError::BadStrength(strength));
+        }
+        self.as_prior_per_variable(base, &vec![strength; self.data.arms.len()])
+    }
+
+    /// [`Posterior::as_prior`] with a strength per variable, in space order; strength 0 gives
+    /// that variable the base prior alone (each strength finite and ≥ 0).
+    ///
+    /// ```
+    /// use savme_kernel::{Posterior, PriorCounts, Space, Variable};
+    /// let space = Space::new(vec![Variable::boolean("a"), Variable::boolean("b")])?;
+    /// let mut learned = Posterior::new(&space, PriorCounts::UNIFORM)?;
+    /// for _ in 0..4 { learned.update(&[1, 1], true); }
+    /// let p = learned.as_prior_per_variable(PriorCounts::UNIFORM, &[0.0, 0.5])?;
+    /// assert_eq!((p.arms()[0][1].alpha, p.arms()[1][1].alpha), (1.0, 3.0));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn as_prior_per_variable(
+        &self,
+        base: PriorCounts,
+        strengths: &[f64],
+    ) -> Result<Posterior, PosteriorError> {
+        base.validate()?;
+        if strengths.len() != self.data.arms.len() {
+            return Err(PosteriorError::Shape(format!(
+                "{} strengths for {} variables",
+                strengths.len(),
+                self.data.arms.len()
+            )));
+        }
+        if let Some(&bad) = strengths.iter().find(|s| !(s.is_finite() && **s >= 0.0)) {
+            return Err(PosteriorError::BadStrength(bad));
         }
         let own = self.data.prior;
         let arms = self
             .data
             .arms
             .iter()
-            .map(|var| {
+            .zip(strengths)
+            .map(|(var, &strength)| {
                 var.iter()
                     .map(|a| Arm {
                         alpha: base.successes + strength * (a.alpha - own.successes).max(0.0),

@@ -13,7 +13,7 @@ _V = TypeVar("_V", bool, int, float, str)
 """The kind asked of a value by `Trial.phi_as` / `Trial.theta_as`."""
 
 _Phase = Literal["train", "evaluate", "baseline", "test"]
-_EstimatorName = Literal["map", "mean"]
+_EstimatorName = Literal["map", "mean", "evidence"]
 _RunResult = Tuple[bool, float]
 _RunArg = Union[Tuple[bool, float], Tuple[bool, float, float]]
 """One simulation's result as (failure, runtime); runtimes finite and > 0, on a common scale."""
@@ -249,7 +249,8 @@ class Kernel:
         fidelity: the fidelity space; theta_hf: the high-fidelity settings (every variable);
         scenarios: {name: φ-space} (equal weights) or [(name, φ-space, weight), …];
         budget: C_budget in (0, 1], the largest cost ratio t_LF / t_HF credited;
-        estimator: how evaluation picks θ_LF ("map" as in the paper, or "mean");
+        estimator: how evaluation picks θ_LF ("map" as in the paper, "mean", or "evidence":
+            the highest lower 10 % Beta quantile, false alarms charged as 1 / C_budget losses);
         prior: base Beta prior counts (successes, losses) of every arm, default (1, 1);
         fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
         kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
@@ -495,6 +496,8 @@ class Protocol:
         coverage_floor: Optional[float] = None,
         search_budget: Optional[float] = None,
         deploy_budget: Optional[float] = None,
+        theta_lf_choice: Optional[Literal["map", "evidence"]] = None,
+        transfer: Optional[Literal["fixed", "auto"]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:

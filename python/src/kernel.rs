@@ -53,8 +53,9 @@ fn parse_estimator(estimator: &str) -> PyResult<Estimator> {
     match estimator {
         "map" => Ok(Estimator::Map),
         "mean" => Ok(Estimator::Mean),
+        "evidence" => Ok(Estimator::Evidence),
         other => Err(PyValueError::new_err(format!(
-            "unknown estimator {other:?}: expected \"map\" or \"mean\""
+            "unknown estimator {other:?}: expected \"map\", \"mean\" or \"evidence\""
         ))),
     }
 }

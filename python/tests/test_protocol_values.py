@@ -46,6 +46,8 @@ SAMPLES = {
     "coverage_floor": 0.5,
     "search_budget": 1e9,
     "deploy_budget": 2e8,
+    "theta_lf_choice": "evidence",
+    "transfer": "auto",
     "repeat": 2,
 }
 

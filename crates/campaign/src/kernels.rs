@@ -3,7 +3,9 @@
 //! uniform fidelity prior). All are configured before the first run, so that a configuration
 //! error comes before any simulation.
 
-use super::protocol::{Compact, Protocol, Stage, StageId, StageKind};
+use super::log::{LogLine, TrialLine};
+use super::protocol::{Compact, Protocol, Stage, StageId, StageKind, Transfer};
+use super::report::fidelity;
 use super::{CampaignError, Problem};
 use savme_kernel::{Kernel, KernelBuilder, Space};
 
@@ -19,6 +21,11 @@ pub(crate) struct StageKernels<'a> {
     kernels: Vec<Kernel>,
     /// The current meta-testing kernel.
     test: Option<Kernel>,
+}
+
+/// A transferred prior that cannot be built (a bad strength), as the kernel would say it.
+fn prior_error(e: savme_kernel::PosteriorError) -> CampaignError {
+    CampaignError::Kernel(savme_kernel::ConfigError::Prior(e))
 }
 
 /// The spaces of the scenarios `names`, or an error naming an unknown one.
@@ -77,7 +84,7 @@ impl<'a> StageKernels<'a> {
         );
         k.kernels = kernels;
         // The meta-testing kernels are built per stage; build one now to check them too.
-        k.test_kernel(StageKind::TestUniform, protocol.budgets[0], None)?;
+        k.test_kernel(StageKind::TestUniform, protocol.budgets[0], None, &[])?;
         Ok(k)
     }
 
@@ -91,7 +98,8 @@ impl<'a> StageKernels<'a> {
             .search(p.search.model(p.elite))
             .pairing(p.pairing())
             .deployment(p.deployment.kernel())
-            .allocation(p.allocation.kernel(p.coverage_floor));
+            .allocation(p.allocation.kernel(p.coverage_floor))
+            .estimator(p.theta_lf_choice.kernel());
         for (name, space) in scenarios {
             b = b.scenario(name, space.clone(), p.weight(name));
         }
@@ -110,26 +118,44 @@ impl<'a> StageKernels<'a> {
     /// prior (learned), or a uniform one. Both share a seed: common random numbers make the
     /// comparison fairer.
     /// A prior-strength ablation stage (`strength`) is a learned-prior kernel with another
-    /// strength, from the same seed too.
+    /// strength, from the same seed too. With `transfer = auto` the learned prior's strength
+    /// per fidelity setting comes from the meta-training lines among `lines`
+    /// ([`report::fidelity::transfer`], which the report shows).
     fn test_kernel(
         &self,
         kind: StageKind,
         b: f64,
         strength: Option<f64>,
+        lines: &[LogLine],
     ) -> Result<Kernel, CampaignError> {
         let mut builder = self.builder(&self.test_spaces, b, &format!("test@{}", Compact(b)));
         if kind == StageKind::TestLearned {
-            let trained = &self.kernels[1 + self.budget_index(b)];
-            builder = builder.fidelity_prior(
-                trained.fidelity_posterior().clone(),
-                strength.unwrap_or(self.protocol.prior_strength),
-            );
+            let trained = self.kernels[1 + self.budget_index(b)].fidelity_posterior();
+            let p = self.protocol;
+            builder = match (strength, p.transfer) {
+                (None, Transfer::Auto) => {
+                    let trials: Vec<TrialLine> =
+                        lines.iter().filter_map(|l| l.trial().cloned()).collect();
+                    let train = fidelity::train_lines(p, &trials, b);
+                    let strengths = fidelity::transfer(p, &train, &self.problem.fidelity).strengths;
+                    let prior = trained
+                        .as_prior_per_variable(trained.prior(), &strengths)
+                        .map_err(prior_error)?;
+                    builder.fidelity_prior(prior, 1.0)
+                }
+                _ => builder.fidelity_prior(trained.clone(), strength.unwrap_or(p.prior_strength)),
+            };
         }
         Ok(builder.build()?)
     }
 
     /// The kernel that runs `stage` (a meta-testing stage gets a new one).
-    pub(crate) fn for_stage(&mut self, stage: &Stage) -> Result<&mut Kernel, CampaignError> {
+    /// `lines`: every stage's lines so far (the transfer of `transfer = auto` reads them).
+    pub(crate) fn for_stage(
+        &mut self,
+        stage: &Stage,
+        lines: &[LogLine],
+    ) -> Result<&mut Kernel, CampaignError> {
         let n = self.protocol.budgets.len();
         match (stage.kind, stage.budget) {
             (StageKind::BaselineTrain, _) => Ok(&mut self.kernels[0]),
@@ -139,7 +165,7 @@ impl<'a> StageKernels<'a> {
             }
             (StageKind::BaselineTest, _) => Ok(&mut self.kernels[1 + n]),
             (kind, b) => {
-                let kernel = self.test_kernel(kind, b.unwrap_or(1.0), stage.strength)?;
+                let kernel = self.test_kernel(kind, b.unwrap_or(1.0), stage.strength, lines)?;
                 Ok(self.test.insert(kernel))
             }
         }
@@ -161,7 +187,7 @@ mod tests {
         let (p, problem) = config::toy(config::TOY, &over).expect("toy protocol");
         let mut kernels = StageKernels::new(&p, &problem).expect("kernels");
         for stage in p.stages() {
-            let k = kernels.for_stage(&stage).expect("a kernel");
+            let k = kernels.for_stage(&stage, &[]).expect("a kernel");
             let baseline = matches!(
                 stage.kind,
                 StageKind::BaselineTrain | StageKind::BaselineTest

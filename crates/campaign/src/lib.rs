@@ -54,7 +54,10 @@ pub use builder::Campaign;
 pub use error::{CampaignError, SimulationError};
 pub use observer::{Observer, ProgressBars, ProgressLines};
 pub use outputs::{load_protocol, Outputs};
-pub use protocol::{Allocate, Cost, Deploy, LogBins, Method, OnError, Protocol, ScreenLf, Search};
+pub use protocol::{
+    Allocate, Cost, Deploy, LogBins, Method, OnError, Protocol, ScreenLf, Search, ThetaLfChoice,
+    Transfer,
+};
 pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;
 pub use stage::{Stage, StageId, StageKind};

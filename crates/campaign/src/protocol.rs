@@ -185,6 +185,52 @@ impl LogBins {
     }
 }
 
+/// How evaluation and screening choose θ_LF* from the meta-training posterior.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum ThetaLfChoice {
+    /// The paper's: the MAP arm of every fidelity variable (it trusts an arm tried once).
+    #[default]
+    Map,
+    /// From evidence: the highest lower 10 % quantile of each arm's Beta belief, every false
+    /// alarm charged as 1 / C_budget losses (the kernel's `Estimator::Evidence`).
+    Evidence,
+}
+
+impl ThetaLfChoice {
+    /// The kernel's estimator.
+    pub fn kernel(self) -> savme_kernel::Estimator {
+        match self {
+            ThetaLfChoice::Map => savme_kernel::Estimator::Map,
+            ThetaLfChoice::Evidence => savme_kernel::Estimator::Evidence,
+        }
+    }
+
+    fn is_map(&self) -> bool {
+        *self == ThetaLfChoice::Map
+    }
+}
+
+/// How strongly meta-testing's learned prior carries the meta-training evidence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Transfer {
+    /// `prior_strength` for every fidelity variable (the paper's: 1).
+    #[default]
+    Fixed,
+    /// Per fidelity variable, the strength whose prior from the other training scenarios best
+    /// predicts each held-out training scenario's fidelity outcomes (leave-one-scenario-out;
+    /// 0, the uniform prior, when the scenarios disagree or no strength gains a nat per
+    /// held-out scenario over it).
+    Auto,
+}
+
+impl Transfer {
+    fn is_fixed(&self) -> bool {
+        *self == Transfer::Fixed
+    }
+}
+
 /// What a campaign searches with before any other value is given: savme's search by cost
 /// (`savme run`, Python, `savme serve`'s example configuration) or the paper's SAVME (`savme
 /// reproduce`).
@@ -192,12 +238,14 @@ impl LogBins {
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// savme's: the elite search with candidates ranked per expected cost, the cost-rate
-    /// allocation over scenarios, a deployed search that exploits and keeps learning, and LF
-    /// screening only where it pays.
+    /// allocation over scenarios, a deployed search that exploits and keeps learning, LF
+    /// screening only where it pays, θ_LF* from evidence and the transfer strength chosen by
+    /// leave-one-scenario-out.
     #[default]
     Tuned,
     /// The paper's SAVME: independent bins, scenarios from p(s), a frozen deployment, LF
-    /// screening of every trial.
+    /// screening of every trial, θ_LF* = MAP, the meta-training posterior transferred at
+    /// `prior_strength`.
     Paper,
 }
 
@@ -211,6 +259,8 @@ impl Method {
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
                 p.allocation = Allocate::CostRate;
+                p.theta_lf_choice = ThetaLfChoice::Evidence;
+                p.transfer = Transfer::Auto;
             }
             Method::Paper => {
                 p.search = Search::Bins;
@@ -218,6 +268,8 @@ impl Method {
                 p.deployment = Deploy::Frozen;
                 p.screen_lf = ScreenLf::Always;
                 p.allocation = Allocate::Weights;
+                p.theta_lf_choice = ThetaLfChoice::Map;
+                p.transfer = Transfer::Fixed;
             }
         }
     }
@@ -261,7 +313,8 @@ pub struct Protocol {
     pub cost: Cost,
     /// Bins per continuous fidelity setting.
     pub fidelity_bins: u32,
-    /// Weight of the meta-training evidence in the meta-testing prior (power prior).
+    /// Weight of the meta-training evidence in the meta-testing prior (power prior); with
+    /// `transfer = auto` the largest weight auto may choose per setting.
     pub prior_strength: f64,
     /// Trials in flight at once (asked, not yet told). Trials are told in ask order, so the
     /// campaign depends on this, the seed and the cost measure — not on the number of jobs.
@@ -276,8 +329,9 @@ pub struct Protocol {
     pub on_error: OnError,
     /// The prior-strength ablation of meta-testing: the strengths (≥ 0) whose learned-prior
     /// meta-testing is compared. Strength 0 is the uniform prior (the `test-uniform` stage)
-    /// and `prior_strength` is the `test-learned` stage; every other one adds a stage per
-    /// budget (`test-learned-s0.1@0.3`). Empty: no ablation.
+    /// and `prior_strength` is the `test-learned` stage (with `transfer = auto` it gets a
+    /// stage of its own); every other one adds a stage per budget (`test-learned-s0.1@0.3`).
+    /// Empty: no ablation.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub prior_strengths: Vec<f64>,
     /// LF screening trials per budget after the evaluation (φ ~ p_ψ, θ_LF*; HF only to
@@ -328,6 +382,12 @@ pub struct Protocol {
     /// when `screen_iterations` is 0. None: iterations (not written).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub deploy_budget: Option<f64>,
+    /// How θ_LF* is chosen (map, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "ThetaLfChoice::is_map")]
+    pub theta_lf_choice: ThetaLfChoice,
+    /// How meta-testing's learned prior is weighted (fixed, the paper's, is not written).
+    #[serde(default, skip_serializing_if = "Transfer::is_fixed")]
+    pub transfer: Transfer,
 }
 
 fn default_floor() -> f64 {
@@ -453,6 +513,8 @@ impl Protocol {
             coverage_floor: default_floor(),
             search_budget: None,
             deploy_budget: None,
+            theta_lf_choice: ThetaLfChoice::Map,
+            transfer: Transfer::Fixed,
         }
     }
 
@@ -717,11 +779,13 @@ impl Protocol {
     }
 
     /// The strengths of `prior_strengths` that need a stage of their own: not 0 (that is
-    /// `test-uniform`) and not `prior_strength` (that is `test-learned`).
+    /// `test-uniform`) and not `prior_strength` (that is `test-learned`, unless `transfer =
+    /// auto` chooses its strengths: then every strength but 0 has its own stage).
     pub fn ablation_strengths(&self) -> impl Iterator<Item = &f64> {
+        let fixed = self.transfer == Transfer::Fixed;
         self.prior_strengths
             .iter()
-            .filter(move |&&s| s != 0.0 && s != self.prior_strength)
+            .filter(move |&&s| s != 0.0 && (s != self.prior_strength || !fixed))
     }
 
     /// Total trials over all stages (saturating: an unvalidated protocol may ask for more than
@@ -839,6 +903,19 @@ mod tests {
         assert_eq!(
             labels[at + 1..at + 3],
             ["test-learned-s0.1@0.2", "test-learned-s0.3@0.2"]
+        );
+        // With transfer = auto, strength 1 is a stage of its own (the paper's transfer, next
+        // to the strengths auto chose).
+        p.transfer = Transfer::Auto;
+        let labels: Vec<String> = p.stages().iter().map(Stage::label).collect();
+        assert_eq!(labels.len(), 1 + 3 * 2 + 1 + 3 * 5);
+        assert!(
+            labels.contains(&"test-learned-s1@0.3".to_string()),
+            "{labels:?}"
+        );
+        assert_eq!(
+            crate::report::ablation::stage_id(&p, 0.3, 1.0).to_string(),
+            "test-learned-s1@0.3"
         );
         // An old protocol.json (no key) reads as no ablation, and writes no key.
         let json = serde_json::to_string(&Protocol::paper("t", vec![], vec![])).unwrap();

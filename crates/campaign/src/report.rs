@@ -10,6 +10,7 @@ use serde::Serialize;
 
 pub mod ablation;
 pub mod failures;
+pub mod fidelity;
 pub mod intervals;
 pub mod repeated;
 pub mod screening;
@@ -128,6 +129,10 @@ pub struct BudgetReport {
     /// LF screening with HF confirmation (None without a screening stage, or until it ran).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub screening: Option<screening::Screening>,
+    /// What stands behind θ_LF* (per setting: tries, false-alarm and miss rates) and the
+    /// learned prior's strength (None until the campaign's outputs are written).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fidelity: Option<fidelity::FidelityReport>,
 }
 
 /// The campaign's results.
@@ -329,6 +334,7 @@ impl Report {
                     meta_testing: meta_testing(&learned, &uniform, &base_test),
                     ablation: ablation::at_budget(protocol, lines, b),
                     screening: None,
+                    fidelity: None,
                 }
             })
             .collect();
@@ -337,6 +343,17 @@ impl Report {
             baseline_train,
             baseline_test,
             budgets,
+        }
+    }
+
+    /// Adds, per budget that meta-trained, what stands behind θ_LF* and the learned prior
+    /// ([`fidelity::at_budget`]; `trials`: every trial of the campaign).
+    pub fn add_fidelity(&mut self, space: &savme_kernel::Space, trials: &[TrialLine]) {
+        let p = &self.protocol;
+        for b in &mut self.budgets {
+            if b.training.is_some() {
+                b.fidelity = Some(fidelity::at_budget(p, trials, b.budget, space));
+            }
         }
     }
 

@@ -25,7 +25,10 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use super::{Allocate, CampaignError, Cost, Deploy, LogBins, Method, Protocol, ScreenLf, Search};
+use super::{
+    Allocate, CampaignError, Cost, Deploy, LogBins, Method, Protocol, ScreenLf, Search,
+    ThetaLfChoice, Transfer,
+};
 use savme_kernel::EliteMixture;
 use serde::Deserialize;
 
@@ -216,7 +219,8 @@ protocol_values! {
     log_bins: LogBins, flag = "log-bins", aliases = [], stages = "all", to = protocol,
         cli(value_enum);
     /// Strength of the transferred fidelity prior in meta-testing (power prior; 1 = the
-    /// meta-training posterior as is).
+    /// meta-training posterior as is); with transfer = auto, the largest strength auto may
+    /// choose (its candidates are 0, 0.03, 0.1, 0.3, 0.6 and 1 times it).
     prior_strength: f64, flag = "prior-strength", aliases = [], stages = "test-learned",
         to = protocol;
     /// Trials in flight at once: asked, not yet told (at most 2 runs each). Keeps up to about
@@ -287,6 +291,18 @@ protocol_values! {
     /// adds the screening stage if `screen_iterations` is 0.
     deploy_budget: f64, flag = "deploy-budget", aliases = [], stages = "screen",
         to = optional, cli(value_name = "COST", allow_negative_numbers = true);
+    /// How evaluation and screening choose θ_LF*: map (the paper's: the MAP arm of each
+    /// fidelity variable) or evidence (the highest lower 10 % quantile of each arm's Beta
+    /// belief, every false alarm charged as 1 / C_budget losses).
+    theta_lf_choice: ThetaLfChoice, flag = "theta-lf-choice", aliases = [],
+        stages = "evaluate, screen", to = protocol, cli(value_enum);
+    /// How strongly meta-testing's learned prior carries the meta-training evidence: fixed
+    /// (`prior_strength` for every setting, the paper's) or auto (per setting, the strength
+    /// whose prior from the other training scenarios best predicts each held-out one,
+    /// leave-one-scenario-out; 0, the uniform prior, where they disagree or gain less than a
+    /// nat per held-out scenario).
+    transfer: Transfer, flag = "transfer", aliases = [], stages = "test-learned", to = protocol,
+        cli(value_enum);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -460,6 +476,8 @@ mod tests {
             coverage_floor: 0.5,
             search_budget: Some(1e9),
             deploy_budget: Some(1e8),
+            theta_lf_choice: ThetaLfChoice::Evidence,
+            transfer: Transfer::Auto,
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -658,6 +676,8 @@ mod tests {
             coverage_floor: Some(0.5),
             search_budget: Some(1e9),
             deploy_budget: Some(2e8),
+            theta_lf_choice: Some(ThetaLfChoice::Evidence),
+            transfer: Some(Transfer::Auto),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();

@@ -5,7 +5,8 @@
 use super::validation::validate_config;
 use super::{ConfigError, Kernel, KernelConfig, KernelStats, Pending, Phase};
 use crate::allocation::{Allocation, Ledger};
-use crate::posterior::Posterior;
+use crate::evidence::FidelityEvidence;
+use crate::posterior::{Estimator, Posterior};
 use crate::search::{Archive, SearchModel};
 use crate::space::Space;
 use rand_pcg::Pcg64 as Rng64;
@@ -30,6 +31,10 @@ pub struct Snapshot {
     /// the paper's p(s), and then left out of the JSON).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(super) ledgers: Vec<Ledger>,
+    /// Per scenario, per fidelity arm, what the learning trials showed (kept with
+    /// [`crate::Estimator::Evidence`] only; otherwise None and left out of the JSON).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub(super) evidence: Option<FidelityEvidence>,
 }
 
 impl Kernel {
@@ -56,6 +61,17 @@ impl Kernel {
         }
         check_archives(&snapshot)?;
         check_ledgers(&snapshot)?;
+        let keeps = cfg.estimator == Estimator::Evidence;
+        match &snapshot.evidence {
+            None if !keeps => {}
+            Some(e) if keeps && e.fits(cfg.scenarios.len(), &cfg.fidelity) => {}
+            _ => {
+                return Err(state(format!(
+                    "the fidelity evidence does not fit the estimator `{}` (kept with `evidence` only), the scenarios or the fidelity space",
+                    serde_json::to_string(&cfg.estimator).unwrap_or_default()
+                )))
+            }
+        }
         let mut last = None;
         for p in &snapshot.pending {
             let t = &p.trial;

@@ -112,6 +112,13 @@ impl Kernel {
         }
         if let Some(ok) = assessed.credit.fidelity {
             self.state.fidelity.update(theta_arms, ok);
+            if let (Some(e), Some(o), Some(r)) = (
+                self.state.evidence.as_mut(),
+                assessed.outcome,
+                assessed.cost_ratio,
+            ) {
+                e.record(s, theta_arms, o, ok, r);
+            }
         }
         self.state.stats.told += 1;
         TrialRecord {

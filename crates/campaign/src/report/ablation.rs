@@ -1,6 +1,6 @@
 //! The prior-strength ablation of meta-testing: for each strength of the transferred fidelity
-//! prior (0 = the uniform prior, the protocol's `prior_strength` = the learned prior, and every
-//! other listed strength its own stage), the failures found by a common runtime horizon.
+//! prior (0 = the uniform prior, the protocol's `prior_strength` = the learned prior unless
+//! `transfer = auto` chooses the strengths, and every other listed strength its own stage), the failures found by a common runtime horizon.
 
 use super::{curve_as, paired_stats, stage_lines, TrialLine};
 use crate::protocol::{Protocol, Stage, StageId, StageKind};
@@ -39,7 +39,7 @@ pub struct Ablation {
 pub fn stage_id(p: &Protocol, b: f64, s: f64) -> StageId {
     let (kind, strength) = if s == 0.0 {
         (StageKind::TestUniform, None)
-    } else if s == p.prior_strength {
+    } else if s == p.prior_strength && p.transfer == crate::protocol::Transfer::Fixed {
         (StageKind::TestLearned, None)
     } else {
         (StageKind::TestLearned, Some(s))
