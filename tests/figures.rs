@@ -4,48 +4,12 @@
 //! fails when a generator's inputs changed after its figures were drawn, when a PNG is not
 //! the one recorded, and when a PNG under docs/ has no entry. A figure the manifest marks
 //! `stale` (with the reason it could not be redrawn) is listed loudly instead.
+mod common;
+
+use common::manifest::{hex, inputs_hash, root};
 use serde_json::Value;
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// Every file under `path` (itself if a file), relative to the repository, in byte order.
-fn files(path: &str, out: &mut Vec<String>) {
-    let full = root().join(path);
-    if full.is_dir() {
-        for entry in std::fs::read_dir(&full).unwrap() {
-            let name = entry.unwrap().file_name().to_string_lossy().into_owned();
-            files(&format!("{path}/{name}"), out);
-        }
-    } else {
-        out.push(path.to_string());
-    }
-}
-
-/// The hash `scripts/figures` records: sha256 over, per input file in byte order of its path,
-/// the path, a NUL, the contents and a NUL.
-fn inputs_hash(inputs: &[Value]) -> String {
-    let mut all = Vec::new();
-    for i in inputs {
-        files(i.as_str().expect("an input path"), &mut all);
-    }
-    all.sort();
-    let mut h = Sha256::new();
-    for f in &all {
-        h.update(f.as_bytes());
-        h.update([0]);
-        h.update(std::fs::read(root().join(f)).unwrap());
-        h.update([0]);
-    }
-    hex(&h.finalize())
-}
 
 /// Every PNG under docs/.
 fn pngs(dir: &Path, out: &mut Vec<PathBuf>) {

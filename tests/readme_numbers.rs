@@ -5,46 +5,14 @@
 //! when a recorded phrase is not in README.md or is not its template rendered with its values,
 //! and when a generator's inputs changed after its numbers were measured (run
 //! `scripts/numbers`). A number marked `stale` (with the reason) is listed loudly instead.
-use serde_json::Value;
-use sha2::{Digest, Sha256};
-use std::path::Path;
+mod common;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
+use common::manifest::{inputs_hash, root};
+use serde_json::Value;
 
 /// `text` with every run of whitespace one space.
 fn normalised(text: &str) -> String {
     text.split_whitespace().collect::<Vec<_>>().join(" ")
-}
-
-/// The sha256 `scripts/numbers` and `scripts/figures` record: over each input file in byte
-/// order of its path, the path, a NUL, the contents and a NUL.
-fn inputs_hash(inputs: &[Value]) -> String {
-    fn walk(path: &str, out: &mut Vec<String>) {
-        let full = root().join(path);
-        if full.is_dir() {
-            for e in std::fs::read_dir(&full).unwrap() {
-                let name = e.unwrap().file_name().to_string_lossy().into_owned();
-                walk(&format!("{path}/{name}"), out);
-            }
-        } else {
-            out.push(path.to_string());
-        }
-    }
-    let mut all = Vec::new();
-    for i in inputs {
-        walk(i.as_str().expect("an input path"), &mut all);
-    }
-    all.sort();
-    let mut h = Sha256::new();
-    for f in &all {
-        h.update(f.as_bytes());
-        h.update([0]);
-        h.update(std::fs::read(root().join(f)).unwrap());
-        h.update([0]);
-    }
-    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Byte spans of every time figure in `text`: a number (digits with `.`, `,`, `–`, `~`)

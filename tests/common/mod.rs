@@ -3,6 +3,7 @@
 
 pub mod braking;
 pub mod campaign;
+pub mod manifest;
 pub mod postgres;
 pub mod serve;
 
