@@ -673,6 +673,22 @@ fn a_worker_whose_coordinator_was_killed_stops_after_its_grace_naming_the_resume
     dist.clean();
 }
 
+/// savme's schema in database `database` at `url`, and the documented worker role created twice,
+/// as `worker_a` and `worker_b` (password `pw`); the owner's connection.
+fn with_worker_roles(url: &str, database: &str) -> postgres::Client {
+    let mut admin = postgres::Client::connect(url, postgres::NoTls).unwrap();
+    let db = savme::postgres::Database::parse(url).unwrap();
+    drop(savme::postgres::PostgresStore::open(&db, "setup").unwrap());
+    for role in ["worker_a", "worker_b"] {
+        let sql = common::doc_sql("worker-role")
+            .replace("savme_worker", role)
+            .replace("change-me", "pw")
+            .replace("DATABASE safety", &format!("DATABASE {database}"));
+        admin.batch_execute(&sql).unwrap();
+    }
+    admin
+}
+
 #[test]
 fn a_worker_role_sees_and_changes_only_the_campaigns_it_is_allowed_on() {
     let Some(server) = Server::start("rls") else {
@@ -681,16 +697,7 @@ fn a_worker_role_sees_and_changes_only_the_campaigns_it_is_allowed_on() {
     let url = server.create_db("rls");
     let local = temp_dir("rls-local");
     let expected = toy_local(&local, &["--sleep-ms", "30"]);
-    let mut admin = postgres::Client::connect(&url, postgres::NoTls).unwrap();
-    let db = savme::postgres::Database::parse(&url).unwrap();
-    drop(savme::postgres::PostgresStore::open(&db, "setup").unwrap());
-    for role in ["worker_a", "worker_b"] {
-        let sql = common::doc_sql("worker-role")
-            .replace("savme_worker", role)
-            .replace("change-me", "pw")
-            .replace("DATABASE safety", "DATABASE rls");
-        admin.batch_execute(&sql).unwrap();
-    }
+    let mut admin = with_worker_roles(&url, "rls");
     // Campaign B: its coordinator allows worker_b only; no worker yet, so its runs wait.
     let out_b = temp_dir("rls-b");
     let coordinator_b = toy_coordinator(&url, "b", &out_b, &["--sleep-ms", "30"])
@@ -951,15 +958,8 @@ fn every_attack_of_a_worker_role_is_refused_and_no_campaign_stops() {
     let url = server.create_db("attack");
     let local = temp_dir("attack-local");
     let expected = toy_local(&local, &["--sleep-ms", "200"]);
-    let mut admin = postgres::Client::connect(&url, postgres::NoTls).unwrap();
-    let db = savme::postgres::Database::parse(&url).unwrap();
-    drop(savme::postgres::PostgresStore::open(&db, "setup").unwrap());
+    let mut admin = with_worker_roles(&url, "attack");
     for role in ["worker_a", "worker_b"] {
-        let sql = common::doc_sql("worker-role")
-            .replace("savme_worker", role)
-            .replace("change-me", "pw")
-            .replace("DATABASE safety", "DATABASE attack");
-        admin.batch_execute(&sql).unwrap();
         // As when it was allowed on an earlier campaign: the worker functions, no table.
         admin
             .execute("SELECT savme.grant_worker($1::text::name)", &[&role])
