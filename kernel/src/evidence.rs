@@ -39,9 +39,10 @@ use crate::outcome::Outcome;
 use crate::posterior::{Arm, PriorCounts};
 use crate::space::Space;
 use serde::{Deserialize, Serialize};
-use statrs::function::beta::ln_beta;
+use statrs::function::beta::{inv_beta_reg, ln_beta};
 
-pub use crate::posterior::EVIDENCE_QUANTILE;
+/// The lower quantile of an arm's Beta belief that θ_LF* by evidence maximises.
+pub const EVIDENCE_QUANTILE: f64 = 0.1;
 
 /// The held-out log-likelihood (in nats) per held-out scenario that a strength above 0 must
 /// gain over the uniform prior (strength 0) to be chosen: evidence that predicts the held-out
@@ -221,7 +222,12 @@ impl FidelityEvidence {
 /// ```
 pub fn evidence_score(arm: &Arm, tally: &ArmTally, budget: f64) -> f64 {
     let charge = tally.fp as f64 * (1.0 / budget - 1.0).max(0.0);
-    arm.quantile(EVIDENCE_QUANTILE, charge)
+    let q = inv_beta_reg(arm.alpha, arm.beta + charge, EVIDENCE_QUANTILE);
+    if q.is_finite() {
+        q
+    } else {
+        0.0
+    }
 }
 
 /// The transfer strength chosen for one fidelity variable, and why.

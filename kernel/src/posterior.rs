@@ -23,28 +23,7 @@ pub struct Arm {
     pub beta: f64,
 }
 
-/// The lower quantile of an arm's Beta belief that θ_LF* by evidence maximises
-/// ([`Estimator::Evidence`], [`crate::evidence`]).
-pub const EVIDENCE_QUANTILE: f64 = 0.1;
-
 impl Arm {
-    /// The lower `p` quantile of `Beta(α, β + extra_losses)` (0 where it cannot be computed):
-    /// what θ_LF* by evidence ranks arms by, `extra_losses` being its charge for false alarms.
-    ///
-    /// ```
-    /// use savme_kernel::Arm;
-    /// let solid = Arm { alpha: 41.0, beta: 11.0 }.quantile(0.1, 0.0);
-    /// assert!(solid > Arm { alpha: 2.0, beta: 1.0 }.quantile(0.1, 0.0));
-    /// ```
-    pub fn quantile(&self, p: f64, extra_losses: f64) -> f64 {
-        let q = statrs::function::beta::inv_beta_reg(self.alpha, self.beta + extra_losses, p);
-        if q.is_finite() {
-            q
-        } else {
-            0.0
-        }
-    }
-
     /// The mode of `Beta(alpha, beta)`, the paper's MAP score `(α−1)/(α+β−2)`, extended to where
     /// that formula is undefined:
     /// - `α ≥ 1, β ≥ 1, α+β > 2`: `(α−1)/(α+β−2)` (so `Beta(1, β>1)` → 0, `Beta(α>1, 1)` → 1);
@@ -329,10 +308,11 @@ impl Posterior {
     /// Without tallies, [`Estimator::Evidence`] charges no false alarm (the kernel passes its
     /// tallies: [`Posterior::best_arms_by`]).
     pub fn best_arms(&self, estimator: Estimator) -> Vec<u16> {
+        let none = crate::evidence::ArmTally::default();
         self.best_arms_by(|_, _, a| match estimator {
             Estimator::Map => a.mode(),
             Estimator::Mean => a.mean(),
-            Estimator::Evidence => a.quantile(EVIDENCE_QUANTILE, 0.0),
+            Estimator::Evidence => crate::evidence::evidence_score(a, &none, 1.0),
         })
     }
 
