@@ -137,19 +137,7 @@ fn fmpy(python: &str, fmu: &Path, case: &Case, thresholds: &[f64]) -> Vec<(bool,
         case.stop,
         case.h,
     );
-    let o = std::process::Command::new(python)
-        .arg("-c")
-        .arg(&script)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| {
-            let (f, n) = l.split_once(' ').unwrap();
-            (f == "True", n.parse().unwrap())
-        })
-        .collect()
+    fmpy_verdicts(python, &script)
 }
 
 /// Runs `case` at each threshold on both versions, in this process and isolated, with the
@@ -846,19 +834,7 @@ fn fmpy_runs(python: &str, fmu: &Path, starts: &[String], stop: f64, h: f64) -> 
         starts.join(", "),
         fmu.display(),
     );
-    let o = std::process::Command::new(python)
-        .arg("-c")
-        .arg(&script)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout)
-        .lines()
-        .map(|l| {
-            let (f, n) = l.split_once(' ').unwrap();
-            (f == "True", n.parse().unwrap())
-        })
-        .collect()
+    fmpy_verdicts(python, &script)
 }
 
 /// A spec whose one scenario binds φ `name` to the FMU variable of that name, with the
@@ -1204,4 +1180,21 @@ fn an_int64_output_is_recorded_through_its_own_getter() {
         )
         .unwrap();
     assert_eq!(trace.series("ticket"), Some(&[0.0, 0.0, 0.0][..]));
+}
+
+/// Runs `script` in FMPy's Python; each line it prints is `True|False STEPS`.
+fn fmpy_verdicts(python: &str, script: &str) -> Vec<(bool, u64)> {
+    let o = std::process::Command::new(python)
+        .arg("-c")
+        .arg(script)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout)
+        .lines()
+        .map(|l| {
+            let (f, n) = l.split_once(' ').unwrap();
+            (f == "True", n.parse().unwrap())
+        })
+        .collect()
 }
