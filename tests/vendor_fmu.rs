@@ -265,12 +265,7 @@ fn fmu_validate_lists_every_problem() {
         ),
         "{text}"
     );
-    let left: Vec<_> = std::fs::read_dir(&tmp)
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .collect();
-    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
+    assert_nothing_left_in(&tmp);
 }
 
 /// `braking.fmu` in `dir` whose library dies of SIGBUS while it is loaded (its constructor:
@@ -319,12 +314,7 @@ fn an_fmu_that_crashes_on_load_is_named_before_an_in_process_campaign() {
             && err.contains("`isolate = true` in [fmu] runs the FMU in worker processes"),
         "{err}"
     );
-    let left: Vec<_> = std::fs::read_dir(&tmp)
-        .unwrap()
-        .flatten()
-        .map(|e| e.path())
-        .collect();
-    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
+    assert_nothing_left_in(&tmp);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -618,4 +608,14 @@ fn a_campaigns_int64_values_are_exact_in_the_store_and_the_fmu() {
         assert!(judged > 10, "{judged} runs judged: {text}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The private `$TMPDIR` of a test holds nothing (no unpacked FMU left behind).
+fn assert_nothing_left_in(tmp: &std::path::Path) {
+    let left: Vec<_> = std::fs::read_dir(tmp)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    assert!(left.is_empty(), "left in $TMPDIR: {left:?}");
 }
