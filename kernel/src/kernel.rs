@@ -6,7 +6,7 @@ use crate::evidence::FidelityEvidence;
 use crate::outcome::{Credit, Observation, Outcome};
 use crate::pairing::{Pairing, PairingError};
 use crate::posterior::{Estimator, Posterior, PosteriorError, PriorCounts};
-use crate::search::{Archive, SearchError, SearchModel};
+use crate::search::{Archive, InFlight, SearchError, SearchModel};
 use crate::space::{Space, SpaceError};
 use crate::value::Assignment;
 use rand::{RngExt, SeedableRng};
@@ -596,11 +596,17 @@ impl Kernel {
                 Some(archive),
             ) => {
                 let exploit = phase == Phase::Evaluate && st.config.deployment.exploit;
-                let in_flight: Vec<Vec<f64>> = if m.crowding > 0.0 {
+                let in_flight: Vec<InFlight> = if m.crowding > 0.0 || m.fantasies {
                     st.pending
                         .iter()
                         .filter(|p| p.trial.scenario_index == s)
-                        .map(|p| space.unit_of(&p.trial.phi, &p.arms[..space.len()]))
+                        .map(|p| {
+                            let cell = &p.arms[..space.len()];
+                            InFlight {
+                                u: space.unit_of(&p.trial.phi, cell),
+                                cell: cell.to_vec(),
+                            }
+                        })
                         .collect()
                 } else {
                     Vec::new()
