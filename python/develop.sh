@@ -19,8 +19,7 @@ venv="${SAVME_PY_VENV:-$target/py-venv}"
 if ! [ -x "$venv/bin/python" ]; then
   python3 -m venv "$venv"
 fi
-"$venv/bin/pip" install -q --disable-pip-version-check "maturin>=1.9,<2" "pytest>=7" "mypy>=1.18" numpy pandas \
-  "ray>=2.40,<3"
+"$venv/bin/pip" install -q --disable-pip-version-check -r python/requirements-test.txt
 if [ "${1:-}" = "--wheel" ]; then
   shift
   wheels="$target/wheels/test"
