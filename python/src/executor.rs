@@ -87,6 +87,29 @@ impl ExecutorRunner {
         }
     }
 
+    /// One `poll` of the executor: what it gives goes to `ready`.
+    fn poll(&mut self) -> Result<(), CampaignError> {
+        Python::attach(|py| -> Result<(), CampaignError> {
+            let polled = self
+                .executor
+                .call_method1(py, "poll", (POLL_SECONDS,))
+                .map_err(|e| self.error(py, "poll", e))?;
+            let items = polled
+                .bind(py)
+                .try_iter()
+                .map_err(|e| self.error(py, "poll() must give a list", e))?;
+            for item in items {
+                let item = item.map_err(|e| self.error(py, "poll", e))?;
+                let done = Self::done(&item).map_err(|m| CampaignError::Executor {
+                    executor: name_of(py, &self.executor),
+                    message: m,
+                })?;
+                self.ready.push_back(done);
+            }
+            Ok(())
+        })
+    }
+
     fn error(&self, py: Python<'_>, what: &str, e: PyErr) -> CampaignError {
         CampaignError::Executor {
             executor: name_of(py, &self.executor),
@@ -162,25 +185,25 @@ impl Runner for ExecutorRunner {
             if let Some(done) = self.ready.pop_front() {
                 return Ok(done);
             }
-            Python::attach(|py| -> Result<(), CampaignError> {
-                let polled = self
-                    .executor
-                    .call_method1(py, "poll", (POLL_SECONDS,))
-                    .map_err(|e| self.error(py, "poll", e))?;
-                let items = polled
-                    .bind(py)
-                    .try_iter()
-                    .map_err(|e| self.error(py, "poll() must give a list", e))?;
-                for item in items {
-                    let item = item.map_err(|e| self.error(py, "poll", e))?;
-                    let done = Self::done(&item).map_err(|m| CampaignError::Executor {
-                        executor: name_of(py, &self.executor),
-                        message: m,
-                    })?;
-                    self.ready.push_back(done);
-                }
-                Ok(())
-            })?;
+            self.poll()?;
+        }
+    }
+
+    /// Polls until a run is finished or `stop` is requested (Ctrl-C): the runs still in
+    /// flight are then left to the executor's `finish`, which cancels them — a stop waits at
+    /// most one poll ([`POLL_SECONDS`]), not for a run that may take minutes.
+    fn next_done_unless(
+        &mut self,
+        stop: &savme::campaign::Stop,
+    ) -> Result<Option<Done>, CampaignError> {
+        loop {
+            if let Some(done) = self.ready.pop_front() {
+                return Ok(Some(done));
+            }
+            if stop.is_requested() {
+                return Ok(None);
+            }
+            self.poll()?;
         }
     }
 }
