@@ -101,3 +101,19 @@ class SlowsDown(Toy):
     def __call__(self, scenario: str, phi: Dict[str, Any], theta: Dict[str, Any]) -> Any:
         time.sleep(self.slow if os.path.exists(self.switch) else self.fast)
         return super().__call__(scenario, phi, theta)
+
+
+class TracedSleeper(Sleeper):
+    """The benchmark's sleeper that also appends each run's start and end (time.time()) to
+    `<trace>/<pid>`: where a worker's time goes (runs, and the gaps between them)."""
+
+    def __init__(self, seconds: float, trace: str) -> None:
+        super().__init__(seconds)
+        self.trace = trace
+
+    def __call__(self, scenario: str, phi: Dict[str, Any], theta: Dict[str, Any]) -> Any:
+        start = time.time()
+        out = super().__call__(scenario, phi, theta)
+        with open(os.path.join(self.trace, str(os.getpid())), "a") as f:
+            f.write(f"{start} {time.time()}\n")
+        return out
