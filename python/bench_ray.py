@@ -2,8 +2,9 @@
 """The Ray executor's benchmark (issue 28 item 6, issue 41 item 4): campaigns on a local Ray
 cluster (a head and a worker node on this machine, 2 + 2 CPUs) with 1 and with 4 runs at once,
 on a simulator that only sleeps (so that 4 workers on a 2-core machine scale as they would on 4
-cores); the same with Ray tasks instead of the default actors; and the executor's overhead per
-run on a simulator that returns at once, against the same campaign on one local thread.
+cores) — the default (tasks, two handed per slot), one run per slot, and actors; and the
+executor's overhead per run on a simulator that returns at once, against the same campaign on
+one local thread.
 
     target/py-venv/bin/python python/bench_ray.py --bench                  # docs/BENCHMARKS.md
     target/py-venv/bin/python python/bench_ray.py --bench --quick          # one repetition
@@ -106,17 +107,19 @@ def main() -> None:
         print(f"cluster: {ray.cluster_resources().get('CPU')} CPUs on "
               f"{len([n for n in ray.nodes() if n['Alive']])} nodes", file=sys.stderr)
         # Warm up: Ray's worker processes start once.
-        campaign(tmp / "warm", 9, 0.0, args, executor=savme.RayExecutor(workers=4, tasks=True))
+        campaign(tmp / "warm", 9, 0.0, args, executor=savme.RayExecutor())
         for label, sleep, slots, make in [
-            ("sleeping, 1 Ray worker", args.sleep, 1, lambda: savme.RayExecutor(workers=1)),
-            ("sleeping, 4 Ray workers", args.sleep, 4, lambda: savme.RayExecutor(workers=4)),
-            ("sleeping, 1 Ray worker, tasks", args.sleep, 1,
-             lambda: savme.RayExecutor(workers=1, tasks=True)),
-            ("sleeping, 4 Ray workers, tasks", args.sleep, 4,
-             lambda: savme.RayExecutor(workers=4, tasks=True)),
+            ("sleeping, 1 Ray worker (workers=1)", args.sleep, 1,
+             lambda: savme.RayExecutor(workers=1)),
+            ("sleeping, 1 Ray actor (actors=1)", args.sleep, 1, lambda: savme.RayExecutor(actors=1)),
+            ("sleeping, 4 Ray workers (the whole cluster, default)", args.sleep, 4,
+             lambda: savme.RayExecutor()),
+            ("sleeping, 4 Ray workers, one run per slot (workers=4)", args.sleep, 4,
+             lambda: savme.RayExecutor(workers=4)),
+            ("sleeping, 4 Ray actors (actors=4)", args.sleep, 4, lambda: savme.RayExecutor(actors=4)),
             ("null, 1 local thread", 0.0, 1, None),
-            ("null, 1 Ray worker", 0.0, 1, lambda: savme.RayExecutor(workers=1)),
-            ("null, 4 Ray workers", 0.0, 4, lambda: savme.RayExecutor(workers=4)),
+            ("null, 1 Ray worker (workers=1)", 0.0, 1, lambda: savme.RayExecutor(workers=1)),
+            ("null, 4 Ray workers (default)", 0.0, 4, lambda: savme.RayExecutor()),
         ]:
             times, trials, runs, split = [], 0, 0, []
             for seed in seeds:
@@ -141,13 +144,13 @@ def main() -> None:
         print(f"| {label} | {wall:.2f} | {trials} | {runs} | {1000 * wall / runs:.1f} | "
               f"{w['busy']:.2f} | {w['gaps']:.2f} | {w['before']:.2f} | {w['after']:.2f} | "
               f"{100 * w['utilisation']:.0f} % |")
-    for kind in ("", ", tasks"):
-        one = by[f"sleeping, 1 Ray worker{kind}"][1]
-        four = by[f"sleeping, 4 Ray workers{kind}"][1]
-        print(f"\nspeed-up, 4 Ray workers over 1{kind or ' (actors)'} (sleeping {args.sleep} s): "
-              f"{one / four:.2f}×")
+    ones = {k: v[1] for k, v in by.items() if k.startswith("sleeping, 1 ")}
+    best_one = min(ones.values())
+    for label in [k for k in by if k.startswith("sleeping, 4 ")]:
+        print(f"\nspeed-up, {label[10:]} over the faster 1-worker row ({best_one:.2f} s): "
+              f"{best_one / by[label][1]:.2f}×")
     local = by["null, 1 local thread"]
-    for label in ("null, 1 Ray worker", "null, 4 Ray workers"):
+    for label in ("null, 1 Ray worker (workers=1)", "null, 4 Ray workers (default)"):
         wall, trials, runs = by[label][1:4]
         print(f"executor overhead, {label}: {1000 * (wall - local[1]) / runs:.1f} ms per run "
               f"(vs 1 local thread)")

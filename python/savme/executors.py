@@ -9,11 +9,12 @@ are written once per node). The trials are told in ask order, so the same seed g
 trials as a local run under ``cost="work"`` (under wall-clock cost, the measured runtimes differ
 as they do between two local runs).
 
-By default the runs go to a pool of Ray **actors**, one per worker (``workers=N``, default: the
-cluster's CPUs // ``num_cpus``), each keeping one simulator instance for the whole campaign and
-holding up to two runs: the one it runs and the next, so that it never waits for the driver
-between runs. ``tasks=True`` makes each run a Ray task instead (no actor to start, and nodes
-that join mid-campaign are used, but every run waits for Ray's dispatch).
+By default each run is a Ray **task** on Ray's warm worker processes; when the executor uses the
+whole cluster (no ``workers=``), up to two runs per CPU slot are handed to Ray at once, so that
+a worker that finishes a run is given the next by Ray itself, without waiting for the driver.
+``actors=N`` runs them on N Ray actors instead, each keeping one simulator instance for the
+whole campaign and holding up to two runs (the one it runs and the next): for simulators that
+are expensive to start; each campaign then starts N worker processes first.
 
 Ray is an optional dependency: ``pip install ray`` (or ``"ray[default]"`` for the dashboard) on
 the driver and on every node; ``import savme`` never imports it.
@@ -21,12 +22,15 @@ the driver and on every node; ``import savme`` never imports it.
 Semantics, per run:
 
 - **timeout** (``timeout=`` seconds): a run still going after that long is stopped (its Ray
-  worker process is killed: the actor restarted, or the task cancelled with ``force=True``) and
+  worker process is killed: the task cancelled with ``force=True``, or the actor restarted) and
   fails with "timed out" — what follows is the protocol's ``on_error``: ``"abort"`` stops the
   campaign naming the trial, ``"skip"`` withdraws the trial (replaced by a new one). The clock
-  starts when the run is handed to an idle worker, or, for a run waiting behind another on the
-  same actor, when the driver sees that one finish; so it measures the run, plus Ray's dispatch
-  (milliseconds) and, on first use, the start of a worker process (about a second).
+  starts when the run is handed to Ray (a task), or to an idle actor or, behind another run on
+  the same actor, when the driver sees that one finish; so it measures the run, plus Ray's
+  dispatch (milliseconds), on first use the start of a worker process (about a second), and,
+  for a task handed over while every CPU is busy (the whole cluster: two runs per slot), the
+  wait for a free one — at most the run before it: give a timeout of at least twice the
+  longest run.
 - **a lost worker** (the process running the run died — killed, out of memory, its node gone):
   the run is re-run once, on any worker; its trial is told once, with the re-run's result. A run
   whose worker is lost twice fails ("lost twice"), then ``on_error`` applies. A run that was
@@ -64,6 +68,8 @@ log = logging.getLogger("savme.ray")
 _FINISH_GRACE_S = 2.0
 # Runs an actor holds at once: the one it runs and the next.
 _ACTOR_DEPTH = 2
+# Runs per CPU slot handed to Ray as tasks when the executor uses the whole cluster.
+_TASK_DEPTH = 2
 
 Outcome = Tuple[Any, ...]
 Polled = List[Tuple[int, str, Outcome]]
@@ -295,37 +301,38 @@ class RayExecutor:
     None uses ``RAY_ADDRESS`` or, without it, starts a local single-node Ray. Ray already
     initialised by the caller (``ray.init(...)``) is used as it is.
 
-    ``workers``: runs that execute at once (default: the cluster's CPUs // ``num_cpus`` when
-    the campaign starts). Each worker is a Ray actor holding one copy of the simulator for the
-    whole campaign — state a callable opens lazily (a connection to a simulator server, a
-    loaded model, an FMU) is opened once per worker, not once per run — and up to two runs, so
-    that it starts its next run without waiting for the driver. ``actors=N`` is the same as
-    ``workers=N``. ``tasks=True`` runs each run as a Ray task instead (the callables shipped
-    once through the object store; at most ``workers`` runs handed to Ray at once).
-    ``num_cpus``: CPUs a run reserves. ``timeout``: seconds a run may take (None: no limit).
-    ``init``: more keyword arguments of ``ray.init``.
+    ``actors``: None runs each run as a Ray task (the callables shipped once through the object
+    store); N keeps N Ray actors, each holding one copy of the simulator callables for the whole
+    campaign — state a callable opens lazily (a connection to a simulator server, a loaded
+    model) is then opened once per actor, not once per run — and up to two runs at a time.
+
+    ``workers``: runs that execute at once with tasks (default: the cluster's CPUs //
+    ``num_cpus`` when the campaign starts, with two runs per slot handed to Ray so that a worker
+    never waits for the driver between runs; ``workers=N`` hands exactly N). ``num_cpus``: CPUs
+    a run reserves. ``timeout``: seconds a run may take (None: no limit). ``init``: more keyword
+    arguments of ``ray.init``.
 
     After a campaign, ``stats`` counts the runs submitted, finished, re-run after a lost
     worker, timed out and lost twice.
     """
 
-    def __init__(self, address: Optional[str] = None, *, workers: Optional[int] = None,
-                 tasks: bool = False, actors: Optional[int] = None, num_cpus: float = 1,
+    def __init__(self, address: Optional[str] = None, *, actors: Optional[int] = None,
+                 workers: Optional[int] = None, num_cpus: float = 1,
                  timeout: Optional[float] = None, init: Optional[Dict[str, Any]] = None) -> None:
         for name, value in (("actors", actors), ("workers", workers)):
             if value is not None and (not isinstance(value, int) or isinstance(value, bool)
                                       or value < 1):
                 raise ValueError(f"RayExecutor: {name} must be a positive integer, got {value!r}")
-        if actors is not None and (tasks or (workers is not None and workers != actors)):
-            raise ValueError("RayExecutor: actors=N is workers=N with actors; give one of them "
-                             "(and not with tasks=True)")
+        if actors is not None and workers is not None and workers != actors:
+            raise ValueError(f"RayExecutor: actors={actors} runs {actors} at once: "
+                             f"workers={workers} contradicts it (give one of them)")
         if timeout is not None and not (timeout > 0):
             raise ValueError(f"RayExecutor: timeout must be positive seconds, got {timeout!r}")
         if not (num_cpus > 0):
             raise ValueError(f"RayExecutor: num_cpus must be positive, got {num_cpus!r}")
         self.address = address
-        self.workers = workers if workers is not None else actors
-        self.tasks = bool(tasks)
+        self.actors = actors
+        self.workers = workers
         self.num_cpus = num_cpus
         self.timeout = timeout
         self.init = dict(init or {})
@@ -333,11 +340,6 @@ class RayExecutor:
         self._ray: Any = None
         self._started_ray = False
         self._reset()
-
-    @property
-    def actors(self) -> Optional[int]:
-        """The number of actors asked for (None: tasks, or one per cluster slot)."""
-        return None if self.tasks else self.workers
 
     def _reset(self) -> None:
         self._queue: Deque[_Run] = collections.deque()
@@ -350,9 +352,8 @@ class RayExecutor:
         self._capacity = 0
 
     def __repr__(self) -> str:
-        mode = "tasks" if self.tasks else "actors"
-        return (f"RayExecutor(address={self.address!r}, workers={self.workers}, {mode}, "
-                f"timeout={self.timeout})")
+        mode = f"actors={self.actors}" if self.actors else f"tasks, workers={self.workers}"
+        return f"RayExecutor(address={self.address!r}, {mode}, timeout={self.timeout})"
 
     # The executor contract (called by savme.Campaign.run).
 
@@ -369,16 +370,17 @@ class RayExecutor:
         for f in (hf, lf):
             if isinstance(f, _NativeRun):
                 f.shipment.ship(ray)
-        n = self.workers or self._cluster_slots()
-        if self.tasks:
-            self._sims = ray.put((hf, lf))
-            self._task = ray.remote(num_cpus=self.num_cpus, max_retries=0)(_call)
-            self._capacity = n
-        else:
+        if self.actors:
             cls = ray.remote(num_cpus=self.num_cpus, max_restarts=-1,
                              max_task_retries=0)(_SimulatorActor)
-            self._pool = [_Worker(cls.remote(hf, lf)) for _ in range(n)]
-            self._capacity = n * _ACTOR_DEPTH
+            self._pool = [_Worker(cls.remote(hf, lf)) for _ in range(self.actors)]
+        else:
+            self._sims = ray.put((hf, lf))
+            self._task = ray.remote(num_cpus=self.num_cpus, max_retries=0)(_call)
+            # The whole cluster: Ray runs at most a run per slot, and the second run handed
+            # per slot waits in Ray, which gives it to the first worker free (no round trip
+            # to this driver). With workers=N, exactly N.
+            self._capacity = self.workers or _TASK_DEPTH * self._cluster_slots()
 
     def submit(self, trial: int, which: str, scenario: str, phi: Dict[str, Any],
                theta: Dict[str, Any]) -> None:
@@ -462,7 +464,7 @@ class RayExecutor:
 
     def _dispatch(self) -> None:
         self._check_restarting()
-        if self.tasks:
+        if not self.actors:
             while self._queue and len(self._running) < self._capacity:
                 run = self._queue.popleft()
                 run.attempts += 1
