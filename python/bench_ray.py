@@ -8,6 +8,7 @@ one local thread.
 
     target/py-venv/bin/python python/bench_ray.py --bench                  # docs/BENCHMARKS.md
     target/py-venv/bin/python python/bench_ray.py --bench --quick          # one repetition
+    target/py-venv/bin/python python/bench_ray.py --bench --scale 4 --only "1 Ray" --only default
 
 Each sleeping run appends its start and end to a trace file per worker process, so the table
 also says where the workers' time went: running, idle between two runs (waiting for the
@@ -95,6 +96,8 @@ def main() -> None:
     ap.add_argument("--sleep", type=float, default=0.05, help="seconds a sleeping run takes (0.05)")
     ap.add_argument("--scale", type=int, default=2, help="stage lengths × this (2: 260 trials)")
     ap.add_argument("--window", type=int, default=8, help="trials in flight (8)")
+    ap.add_argument("--only", action="append", default=[],
+                    help="run only the rows whose label contains this (repeatable)")
     args = ap.parse_args()
     if not args.bench:
         ap.print_help()
@@ -121,6 +124,8 @@ def main() -> None:
             ("null, 1 Ray worker (workers=1)", 0.0, 1, lambda: savme.RayExecutor(workers=1)),
             ("null, 4 Ray workers (default)", 0.0, 4, lambda: savme.RayExecutor()),
         ]:
+            if args.only and not any(o in label for o in args.only):
+                continue
             times, trials, runs, split = [], 0, 0, []
             for seed in seeds:
                 load = os.getloadavg()[0]
@@ -145,12 +150,15 @@ def main() -> None:
               f"{w['busy']:.2f} | {w['gaps']:.2f} | {w['before']:.2f} | {w['after']:.2f} | "
               f"{100 * w['utilisation']:.0f} % |")
     ones = {k: v[1] for k, v in by.items() if k.startswith("sleeping, 1 ")}
+    if not ones:
+        return
     best_one = min(ones.values())
     for label in [k for k in by if k.startswith("sleeping, 4 ")]:
         print(f"\nspeed-up, {label[10:]} over the faster 1-worker row ({best_one:.2f} s): "
               f"{best_one / by[label][1]:.2f}×")
-    local = by["null, 1 local thread"]
-    for label in ("null, 1 Ray worker (workers=1)", "null, 4 Ray workers (default)"):
+    local = by.get("null, 1 local thread")
+    for label in [k for k in ("null, 1 Ray worker (workers=1)", "null, 4 Ray workers (default)")
+                  if local and k in by]:
         wall, trials, runs = by[label][1:4]
         print(f"executor overhead, {label}: {1000 * (wall - local[1]) / runs:.1f} ms per run "
               f"(vs 1 local thread)")

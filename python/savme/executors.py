@@ -38,9 +38,9 @@ Semantics, per run:
 - **an exception** raised by the simulator fails the run (``on_error``), with the exception's
   type and message, as a local run does; a native simulator's error is the one a local run
   stores.
-- **Ctrl-C** (or SIGTERM) stops the campaign within a poll (0.2 s): the runs in flight are
-  stopped, every told trial is stored, and the ``KeyboardInterrupt`` names the call that resumes
-  it.
+- **Ctrl-C** (or SIGTERM) stops the campaign within seconds (a poll of 0.2 s; the runs in
+  flight get 2 s to end, then are stopped), every told trial is stored, and the
+  ``KeyboardInterrupt`` names the call that resumes it.
 
 Any object with ``start``, ``submit``, ``poll`` and ``finish`` methods can be an executor (see
 ``savme._savme``'s ``executor`` module documentation for their contract); ``RayExecutor`` is the
