@@ -22,7 +22,8 @@ __version__: str
 __all__ = [
     "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
     "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Estimation", "Protocol", "PROTOCOL_VALUES", "Problem",
-    "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator", "ParameterVariation",
+    "Campaign", "CampaignResult", "load_campaign", "Driving", "NativeSimulator",
+    "Simulator", "ParameterVariation",
     "read_openscenario",
 ]
 
