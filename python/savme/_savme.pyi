@@ -599,9 +599,10 @@ class Campaign:
         from the URL, PGPASSWORD or ~/.pgpass is never shown), tables and figures still go
         to `out`. A malformed URL raises ValueError; a database that cannot be reached, or a
         campaign another process holds, CampaignError. executor="ray" or
-        savme.RayExecutor(address=..., actors=..., timeout=...) runs each HF and LF run of
-        Python simulator callables on a Ray cluster (the kernel and store stay here; the
-        same trials as a local run under cost="work"); not with jobs= or repeat=."""
+        savme.RayExecutor(address=..., actors=..., timeout=...) runs each HF and LF run on a
+        Ray cluster — of Python simulator callables, the bundled simulator (sim=) or a
+        campaign file's FMUs (the kernel and store stay here; the same trials as a local run
+        under cost="work"); not with jobs= or repeat=."""
     def run(
         self,
         simulate: Optional[_SimulatorFn] = None,

@@ -369,14 +369,14 @@ def test_the_bundled_simulator_runs_on_an_executor_with_the_local_trials(tmp_pat
     assert strip_wall(result.files["trials"]) == strip_wall(reference.files["trials"])
 
 
-def fmu_campaign(savme_bin, tmp_path):
+def fmu_campaign(savme_bin, tmp_path, scale=2):
     """examples/fmu/campaign.toml on savme's packed FMU (in-process), work cost, a small
-    campaign."""
+    campaign (stage lengths × `scale`)."""
     cfg, text = fmu_campaign_file(savme_bin, tmp_path)
     text = text.replace('cost = "wall" ', 'cost = "work" ')
-    for key, n in [("train_iterations", 12), ("eval_iterations", 4), ("test_iterations", 8),
-                   ("baseline_train_iterations", 10), ("baseline_test_iterations", 6)]:
-        text = re.sub(rf"^{key} = \d+", f"{key} = {n}", text, flags=re.M)
+    for key, n in [("train_iterations", 6), ("eval_iterations", 2), ("test_iterations", 4),
+                   ("baseline_train_iterations", 5), ("baseline_test_iterations", 3)]:
+        text = re.sub(rf"^{key} = \d+", f"{key} = {n * scale}", text, flags=re.M)
     cfg.write_text(text)
     return cfg
 
@@ -433,11 +433,11 @@ def test_an_fmu_campaign_on_ray_gives_the_local_trials_under_a_killed_worker_and
 
 
 def test_an_executor_takes_a_campaign_files_fmus_only_without_repeat_or_jobs(savme_bin, tmp_path):
-    cfg = fmu_campaign(savme_bin, tmp_path)
+    cfg = fmu_campaign(savme_bin, tmp_path, scale=1)
     with pytest.raises(ValueError, match="jobs="):
         savme.campaign.load(cfg, out=tmp_path / "o", jobs=2, executor=InProcess())
     # An executor that calls the simulator in this process: the FMU's own file, as locally.
     executor = InProcess()
     result = savme.campaign.load(cfg, out=tmp_path / "i", executor=executor).run()
-    local = savme.campaign.load(cfg, out=tmp_path / "l", jobs=1).run()
+    local = savme.campaign.load(cfg, out=tmp_path / "l", jobs=2).run()
     assert strip_wall(result.files["trials"]) == strip_wall(local.files["trials"])
