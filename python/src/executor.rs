@@ -6,7 +6,9 @@
 //!
 //! An executor is any object with these methods (what `savme.RayExecutor` implements):
 //! - `start(hf, lf)`: before the campaign, on the main thread — `hf` and `lf` are the
-//!   simulator callables `(scenario, phi, theta) -> failure | (failure, work)`;
+//!   simulator callables `(scenario, phi, theta) -> failure | (failure, work)` (for the bundled
+//!   simulator and a campaign file's FMUs, `savme.executors.native`'s: an executor calls them
+//!   like any other, or ships their files as `RayExecutor` does, see `native.rs`);
 //! - `submit(trial, which, scenario, phi, theta)`: start a run (`which` is `"hf"` or `"lf"`);
 //! - `poll(timeout_s)`: the runs finished since the last poll (waiting up to `timeout_s` for
 //!   one), each `(trial, which, outcome)` with `outcome` one of `("ok", value, wall_seconds)`
