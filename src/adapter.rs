@@ -102,6 +102,8 @@ pub trait FileSimulator: std::fmt::Debug + Send + Sync {
     fn frames(&self, _worker: &dyn Fn() -> Result<Vec<String>, String>) -> Result<Frames, String> {
         Ok(Frames::none())
     }
+    /// The adapter's own reading of the file (to read what only it has).
+    fn as_any(&self) -> &dyn Any;
     /// The adapter's own reading of the file (to set an option only it has).
     fn as_any_mut(&mut self) -> &mut dyn Any;
     /// The same, owned.
@@ -340,6 +342,9 @@ impl FileSimulator for FmuCampaignFile {
             self.record.clone(),
             signal(&self.init.spec.failure),
         ))
+    }
+    fn as_any(&self) -> &dyn Any {
+        self
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
         self

@@ -22,7 +22,8 @@ __version__: str
 __all__ = [
     "__version__", "TellError", "JournalError", "CampaignError", "Variable", "Space", "Discrete",
     "Boolean", "Continuous", "Trial", "Record", "Posterior", "Kernel", "Estimation", "Protocol", "PROTOCOL_VALUES", "Problem",
-    "Campaign", "CampaignResult", "load_campaign", "Driving", "Simulator", "ParameterVariation",
+    "Campaign", "CampaignResult", "load_campaign", "Driving", "NativeSimulator",
+    "Simulator", "ParameterVariation",
     "read_openscenario",
 ]
 
@@ -598,9 +599,10 @@ class Campaign:
         from the URL, PGPASSWORD or ~/.pgpass is never shown), tables and figures still go
         to `out`. A malformed URL raises ValueError; a database that cannot be reached, or a
         campaign another process holds, CampaignError. executor="ray" or
-        savme.RayExecutor(address=..., actors=..., timeout=...) runs each HF and LF run of
-        Python simulator callables on a Ray cluster (the kernel and store stay here; the
-        same trials as a local run under cost="work"); not with jobs= or repeat=."""
+        savme.RayExecutor(address=..., actors=..., timeout=...) runs each HF and LF run on a
+        Ray cluster — of Python simulator callables, the bundled simulator (sim=) or a
+        campaign file's FMUs (the kernel and store stay here; the same trials as a local run
+        under cost="work"); not with jobs= or repeat=."""
     def run(
         self,
         simulate: Optional[_SimulatorFn] = None,
@@ -608,11 +610,13 @@ class Campaign:
         hf: Optional[_SimulatorFn] = None,
         lf: Optional[_SimulatorFn] = None,
         sim: Optional[Union[Driving, Simulator]] = None,
+        executor: Any = None,
     ) -> CampaignResult:
         """Runs (or resumes) the campaign: one `simulate` callable for both runs, or `hf=`
         and `lf=` callables, or a bundled simulator `sim=`; a campaign from
         `savme.campaign.load` runs its file's simulator (`run()`; a simulator given is a
-        TypeError). Raises CampaignError (a failed simulation names the trial and the
+        TypeError). `executor=` ("ray", savme.RayExecutor(...)) runs this call's runs there,
+        whatever the simulator (Python callables, `sim=`, a campaign file's FMUs). Raises CampaignError (a failed simulation names the trial and the
         exception, a bad result the part and its value), ValueError for a bad protocol.
         Ctrl-C stops the campaign between trials (the runs in flight finish) and raises
         KeyboardInterrupt saying where it stopped and the call that resumes it; SIGTERM
@@ -639,10 +643,12 @@ def load_campaign(
     progress: bool = False,
     storage: Optional[str] = None,
     campaign: Optional[str] = None,
+    executor: Any = None,
 ) -> Campaign:
     """A campaign file (TOML, as `savme run --config` reads) as a campaign with its FMUs
     bound (`savme.campaign.load`): its protocol, `repeat` and `[estimate]` stage are those
-    `savme run --config` runs; storage and campaign as for Campaign. Run it with `run()`: it
+    `savme run --config` runs; storage, campaign and executor as for Campaign (executor=
+    runs the FMUs where the executor runs its runs: "ray" ships them to a Ray cluster). Run it with `run()`: it
     refuses a Python simulator (its protocol and outputs name the file's simulator) — for
     one, make a `Campaign` with a `Protocol` and `Problem` of its own."""
 
@@ -669,6 +675,17 @@ class Driving:
     @staticmethod
     def theta_hf() -> Dict[str, _Value]:
         """θ_HF of Table I."""
+
+@final
+class NativeSimulator:
+    """A campaign file's FMUs or the bundled simulator built on the node that runs them
+    (savme.executors makes one per Ray worker process)."""
+
+    def __new__(cls, spec: str, files: Mapping[str, Union[str, PathLike[str]]]) -> NativeSimulator: ...
+    def run(
+        self, which: str, scenario: str, phi: Mapping[str, _Value], theta: Mapping[str, _Value]
+    ) -> Tuple[Any, ...]:
+        """One run: ("ok", value, wall_seconds) or ("error", message)."""
 
 @final
 class Simulator:

@@ -6,6 +6,7 @@ use crate::callables::{PySimulator, Raised};
 use crate::convert;
 use crate::errors;
 use crate::executor::{executor_of, ExecutorRunner};
+use crate::native::NativeSpec;
 use crate::problem::PyProblem;
 use crate::protocol::PyProtocol;
 use crate::result::{Finished, PyCampaignResult};
@@ -22,8 +23,10 @@ use savme::campaign::store::{ProtocolKeeper, StoreError, TrialStore};
 use savme::campaign::{Campaign, Problem, ProgressLines, Protocol, Repeated, Stop};
 use savme::compose;
 use savme::postgres::{check_name, Database, PostgresStore};
+use savme_fmu::campaign_file::FmuCampaignFile;
 use savme_kernel::Simulator;
 use savme_sim::sim::DrivingSimulator;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
@@ -80,6 +83,14 @@ enum BoundSim {
     File(PathBuf, Box<dyn savme::adapter::FileSimulator>),
 }
 
+/// A native simulator as an executor runs it: its spec, the files to ship (by role), and the
+/// same simulator built here (the campaign's local simulator: an `[estimate]` stage runs on it).
+struct Native<S> {
+    spec: NativeSpec,
+    files: BTreeMap<String, PathBuf>,
+    local: S,
+}
+
 /// A campaign: a protocol, a problem, an output directory.
 #[pyclass(name = "Campaign", module = "savme", frozen)]
 pub struct PyCampaign {
@@ -99,12 +110,61 @@ impl PyCampaign {
         sim: PySimulator,
         executor: &Arc<Py<PyAny>>,
     ) -> PyResult<PyCampaignResult> {
-        executor.call_method1(py, "start", (sim.hf.clone_ref(py), sim.lf.clone_ref(py)))?;
-        let result = self.run_python(py, sim);
-        let finished = executor.call_method0(py, "finish");
-        let result = result?;
-        finished?;
-        Ok(result)
+        let (hf, lf) = (sim.hf.clone_ref(py), sim.lf.clone_ref(py));
+        executed(py, executor, hf, lf, || {
+            self.run_python(py, sim, Some(executor))
+        })
+    }
+
+    /// Runs the campaign with the runs of a native simulator (a campaign file's FMUs, the
+    /// bundled simulator) on `executor`: `savme.executors.native` makes its `hf`/`lf`
+    /// callables, which build the same simulator where the executor runs them.
+    fn run_native<S: Simulator + Clone + Send + 'static>(
+        &self,
+        py: Python<'_>,
+        native: Native<S>,
+        executor: &Arc<Py<PyAny>>,
+    ) -> PyResult<PyCampaignResult> {
+        let (hf, lf) = native.spec.callables(py, &native.files)?;
+        executed(py, executor, hf, lf, || {
+            self.run_thread(py, native.local, Stop::new(), Some(executor))
+        })
+    }
+
+    /// [`PyCampaign::run_native`] on `sim=` (the bundled simulator, an FMU campaign's
+    /// `savme.fmu.Simulator`) or on the simulator of the campaign file this campaign was
+    /// loaded from.
+    fn run_native_on(
+        &self,
+        py: Python<'_>,
+        sim: Option<&Bound<'_, PyAny>>,
+        executor: &Arc<Py<PyAny>>,
+    ) -> PyResult<PyCampaignResult> {
+        if let Some(s) = sim {
+            if let Ok(d) = s.cast::<PyDriving>() {
+                let local: DrivingSimulator = d.get().sim;
+                let spec = NativeSpec::driving(&local);
+                let files = BTreeMap::new();
+                return self.run_native(py, Native { spec, files, local }, executor);
+            }
+            if let Ok(f) = s.cast::<PyFmuSimulator>() {
+                let f = f.get();
+                let (spec, files) = f.native();
+                let local = f.backend()?;
+                return self.run_native(py, Native { spec, files, local }, executor);
+            }
+            return Err(PyTypeError::new_err(
+                "sim= takes savme.sim.Driving or savme.fmu.Simulator",
+            ));
+        }
+        let BoundSim::File(path, file) = &self.bound else {
+            return Err(PyTypeError::new_err(
+                "give the simulator: run(simulate), run(hf=..., lf=...) or run(sim=...)",
+            ));
+        };
+        let (spec, files) = native_of_file(path, file.as_ref())?;
+        let local = crate::sim::file_simulator(file.as_ref())?;
+        self.run_native(py, Native { spec, files, local }, executor)
     }
 
     /// Runs the Rust campaign loop on `sim` on a thread of its own, with the GIL released
@@ -117,16 +177,21 @@ impl PyCampaign {
         py: Python<'_>,
         sim: S,
     ) -> PyResult<PyCampaignResult> {
-        self.run_thread(py, sim, Stop::new())
+        self.run_thread(py, sim, Stop::new(), None)
     }
 
     /// [`PyCampaign::run_on`] a Python simulator: a campaign that failed on an exception it
     /// raised is chained to that exception (its `__cause__`, with the traceback); a
     /// `KeyboardInterrupt` or `SystemExit` it raised stops the campaign and is raised itself.
-    fn run_python(&self, py: Python<'_>, sim: PySimulator) -> PyResult<PyCampaignResult> {
+    fn run_python(
+        &self,
+        py: Python<'_>,
+        sim: PySimulator,
+        executor: Option<&Arc<Py<PyAny>>>,
+    ) -> PyResult<PyCampaignResult> {
         let (raised, interrupt) = (sim.raised.clone(), sim.interrupt.clone());
         let stop = sim.stop.clone();
-        let outcome = self.run_thread(py, sim, stop);
+        let outcome = self.run_thread(py, sim, stop, executor);
         let take = |slot: &Raised| slot.lock().unwrap_or_else(|p| p.into_inner()).take();
         if let Some(exc) = take(&interrupt) {
             let told = outcome.as_ref().err().map(|e| e.value(py).to_string());
@@ -146,9 +211,11 @@ impl PyCampaign {
         py: Python<'_>,
         sim: S,
         stop: Stop,
+        executor: Option<&Arc<Py<PyAny>>>,
     ) -> PyResult<PyCampaignResult> {
         let _sigterm = signals::SigtermStops::install(py)?;
-        let plan = self.plan.clone();
+        let mut plan = self.plan.clone();
+        plan.executor = executor.cloned();
         let stop_campaign = stop.clone();
         let (tx, rx) = crossbeam_channel::bounded(1);
         let campaign = std::thread::Builder::new()
@@ -234,6 +301,39 @@ impl PyCampaign {
             BoundSim::None => format!("savme.Campaign(None, problem, {args}).run(...)"),
         }
     }
+}
+
+/// `executor.start(hf, lf)`, then `campaign()`, then `executor.finish()` however the campaign
+/// ended (an error of the campaign's is raised before one of `finish`).
+fn executed(
+    py: Python<'_>,
+    executor: &Arc<Py<PyAny>>,
+    hf: Py<PyAny>,
+    lf: Py<PyAny>,
+    campaign: impl FnOnce() -> PyResult<PyCampaignResult>,
+) -> PyResult<PyCampaignResult> {
+    executor.call_method1(py, "start", (hf, lf))?;
+    let result = campaign();
+    let finished = executor.call_method0(py, "finish");
+    let result = result?;
+    finished?;
+    Ok(result)
+}
+
+/// An executor's campaign runs one seed with the executor's workers: refuses `repeat` (a
+/// protocol's or a campaign file's) and `jobs=`.
+fn check_executor(repeat: Option<u32>, jobs: Option<usize>) -> PyResult<()> {
+    if repeat.is_some() {
+        return Err(PyValueError::new_err(
+            "repeat runs its seeds on local threads: not with executor=",
+        ));
+    }
+    if jobs.is_some() {
+        return Err(PyValueError::new_err(
+            "jobs= sets local worker threads; with executor= the executor decides how many runs go at once (e.g. savme.RayExecutor(workers=N))",
+        ));
+    }
+    Ok(())
 }
 
 /// Adds `note` to `e` (`BaseException.add_note`, Python ≥ 3.11: shown under its traceback);
@@ -356,15 +456,8 @@ impl PyCampaign {
         let repeat = repeat.map(|n| convert::whole("repeat", n)).transpose()?;
         let out = out.unwrap_or_else(|| PathBuf::from("savme-results"));
         let executor = executor_of(executor)?;
-        if executor.is_some() && repeat.is_some() {
-            return Err(PyValueError::new_err(
-                "repeat runs its seeds on local threads: not with executor=",
-            ));
-        }
-        if executor.is_some() && jobs.is_some() {
-            return Err(PyValueError::new_err(
-                "jobs= sets local worker threads; with executor= the executor decides how many runs go at once (e.g. savme.RayExecutor(workers=N))",
-            ));
+        if executor.is_some() {
+            check_executor(repeat, jobs)?;
         }
         let storage = storage_of(storage, campaign)?;
         let repeat = check_repeat(repeat).map_err(errors::value)?;
@@ -413,7 +506,10 @@ impl PyCampaign {
     /// Ctrl-C stops the campaign between trials and raises `KeyboardInterrupt`, SIGTERM
     /// `SystemExit(143)`, each saying the call that resumes it (the told trials are stored:
     /// `resume=True` continues).
-    #[pyo3(signature = (simulate = None, *, hf = None, lf = None, sim = None))]
+    ///
+    /// `executor=` (`"ray"`, `savme.RayExecutor(...)`, …) runs this call's runs there instead
+    /// of where the campaign was made to run them.
+    #[pyo3(signature = (simulate = None, *, hf = None, lf = None, sim = None, executor = None))]
     fn run(
         &self,
         py: Python<'_>,
@@ -421,7 +517,15 @@ impl PyCampaign {
         hf: Option<Py<PyAny>>,
         lf: Option<Py<PyAny>>,
         sim: Option<&Bound<'_, PyAny>>,
+        executor: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyCampaignResult> {
+        let executor = match executor_of(executor)? {
+            Some(e) => {
+                check_executor(self.plan.repeat, self.plan.jobs)?;
+                Some(e)
+            }
+            None => self.executor.clone(),
+        };
         let given = [
             simulate.is_some(),
             hf.is_some() || lf.is_some(),
@@ -458,15 +562,13 @@ impl PyCampaign {
             }
         };
         if let Some(sim) = callables {
-            return match &self.executor {
+            return match &executor {
                 Some(executor) => self.run_executed(py, sim, executor),
-                None => self.run_python(py, sim),
+                None => self.run_python(py, sim, None),
             };
         }
-        if self.executor.is_some() {
-            return Err(PyTypeError::new_err(
-                "executor= runs Python simulator callables: give run(simulate) or run(hf=..., lf=...) (sim= and campaign files' FMUs run on local threads)",
-            ));
+        if let Some(executor) = &executor {
+            return self.run_native_on(py, sim, executor);
         }
         if let Some(s) = sim {
             if let Ok(d) = s.cast::<PyDriving>() {
@@ -523,7 +625,8 @@ impl PyCampaign {
 /// `storage` and `campaign` as for `Campaign`.
 #[pyfunction]
 #[pyo3(signature = (path, *, out = None, resume = false, jobs = None, progress = false,
-    storage = None, campaign = None))]
+    storage = None, campaign = None, executor = None))]
+#[allow(clippy::too_many_arguments)]
 pub fn load_campaign(
     path: PathBuf,
     out: Option<PathBuf>,
@@ -532,8 +635,10 @@ pub fn load_campaign(
     progress: bool,
     storage: Option<&str>,
     campaign: Option<String>,
+    executor: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<PyCampaign> {
     let jobs = jobs_of(jobs)?;
+    let executor = executor_of(executor)?;
     let storage = storage_of(storage, campaign)?;
     let c = compose::campaign_file(&path, &Overrides::default()).map_err(errors::campaign)?;
     // Build the simulator now (for FMUs: open them), so that a campaign that cannot run fails
@@ -543,6 +648,10 @@ pub fn load_campaign(
         .or(c.file.common().campaign.out.clone())
         .unwrap_or_else(|| PathBuf::from("savme-fmu-results"));
     let estimate = c.estimate_settings().map_err(errors::campaign_message)?;
+    if executor.is_some() {
+        check_executor(c.repeat, jobs)?;
+        native_of_file(&path, c.file.as_ref())?;
+    }
     Ok(PyCampaign {
         plan: Plan {
             protocol: c.protocol,
@@ -554,9 +663,24 @@ pub fn load_campaign(
             storage,
             repeat: c.repeat,
             estimate,
-            executor: None,
+            executor: executor.clone(),
         },
-        executor: None,
+        executor,
         bound: BoundSim::File(path, c.file),
     })
+}
+
+/// The native spec of a campaign file's simulator: its FMUs, shipped to the executor's nodes.
+fn native_of_file(
+    path: &std::path::Path,
+    file: &dyn savme::adapter::FileSimulator,
+) -> PyResult<(NativeSpec, BTreeMap<String, PathBuf>)> {
+    match file.as_any().downcast_ref::<FmuCampaignFile>() {
+        Some(fmu) => Ok(NativeSpec::fmu(&fmu.init, fmu.isolate, fmu.timeout)),
+        None => Err(PyTypeError::new_err(format!(
+            "{}: its simulator ({}) cannot run on an executor (FMU campaigns can)",
+            path.display(),
+            file.label()
+        ))),
+    }
 }

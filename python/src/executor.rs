@@ -6,7 +6,9 @@
 //!
 //! An executor is any object with these methods (what `savme.RayExecutor` implements):
 //! - `start(hf, lf)`: before the campaign, on the main thread — `hf` and `lf` are the
-//!   simulator callables `(scenario, phi, theta) -> failure | (failure, work)`;
+//!   simulator callables `(scenario, phi, theta) -> failure | (failure, work)` (for the bundled
+//!   simulator and a campaign file's FMUs, `savme.executors.native`'s: an executor calls them
+//!   like any other, or ships their files as `RayExecutor` does, see `native.rs`);
 //! - `submit(trial, which, scenario, phi, theta)`: start a run (`which` is `"hf"` or `"lf"`);
 //! - `poll(timeout_s)`: the runs finished since the last poll (waiting up to `timeout_s` for
 //!   one), each `(trial, which, outcome)` with `outcome` one of `("ok", value, wall_seconds)`
@@ -87,6 +89,29 @@ impl ExecutorRunner {
         }
     }
 
+    /// One `poll` of the executor: what it gives goes to `ready`.
+    fn poll(&mut self) -> Result<(), CampaignError> {
+        Python::attach(|py| -> Result<(), CampaignError> {
+            let polled = self
+                .executor
+                .call_method1(py, "poll", (POLL_SECONDS,))
+                .map_err(|e| self.error(py, "poll", e))?;
+            let items = polled
+                .bind(py)
+                .try_iter()
+                .map_err(|e| self.error(py, "poll() must give a list", e))?;
+            for item in items {
+                let item = item.map_err(|e| self.error(py, "poll", e))?;
+                let done = Self::done(&item).map_err(|m| CampaignError::Executor {
+                    executor: name_of(py, &self.executor),
+                    message: m,
+                })?;
+                self.ready.push_back(done);
+            }
+            Ok(())
+        })
+    }
+
     fn error(&self, py: Python<'_>, what: &str, e: PyErr) -> CampaignError {
         CampaignError::Executor {
             executor: name_of(py, &self.executor),
@@ -162,25 +187,25 @@ impl Runner for ExecutorRunner {
             if let Some(done) = self.ready.pop_front() {
                 return Ok(done);
             }
-            Python::attach(|py| -> Result<(), CampaignError> {
-                let polled = self
-                    .executor
-                    .call_method1(py, "poll", (POLL_SECONDS,))
-                    .map_err(|e| self.error(py, "poll", e))?;
-                let items = polled
-                    .bind(py)
-                    .try_iter()
-                    .map_err(|e| self.error(py, "poll() must give a list", e))?;
-                for item in items {
-                    let item = item.map_err(|e| self.error(py, "poll", e))?;
-                    let done = Self::done(&item).map_err(|m| CampaignError::Executor {
-                        executor: name_of(py, &self.executor),
-                        message: m,
-                    })?;
-                    self.ready.push_back(done);
-                }
-                Ok(())
-            })?;
+            self.poll()?;
+        }
+    }
+
+    /// Polls until a run is finished or `stop` is requested (Ctrl-C): the runs still in
+    /// flight are then left to the executor's `finish`, which cancels them — a stop waits at
+    /// most one poll ([`POLL_SECONDS`]), not for a run that may take minutes.
+    fn next_done_unless(
+        &mut self,
+        stop: &savme::campaign::Stop,
+    ) -> Result<Option<Done>, CampaignError> {
+        loop {
+            if let Some(done) = self.ready.pop_front() {
+                return Ok(Some(done));
+            }
+            if stop.is_requested() {
+                return Ok(None);
+            }
+            self.poll()?;
         }
     }
 }

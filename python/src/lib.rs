@@ -6,7 +6,7 @@
 //! by importance sampling from a kernel's posteriors), `protocol`, `problem`,
 //! `history` (the told records a kernel keeps), `campaign` (the campaign loop), `callables` (Python callables as its simulator), `result`
 //! (what it returns), `sim` (the bundled driving simulator
-//! and FMUs), `openscenario` (OpenSCENARIO parameter variations), `convert` (values
+//! and FMUs), `native` (those simulators built and run on an executor's nodes), `openscenario` (OpenSCENARIO parameter variations), `convert` (values
 //! between Rust and Python) and `errors` (Rust errors as Python exceptions).
 
 use pyo3::prelude::*;
@@ -19,6 +19,7 @@ mod estimation;
 mod executor;
 mod history;
 mod kernel;
+mod native;
 mod openscenario;
 mod problem;
 mod protocol;
@@ -54,6 +55,7 @@ fn _savme(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(campaign::load_campaign, m)?)?;
     m.add_class::<sim::PyDriving>()?;
     m.add_class::<sim::PyFmuSimulator>()?;
+    m.add_class::<native::PyNativeSimulator>()?;
     m.add_class::<openscenario::PyParameterVariation>()?;
     m.add_function(wrap_pyfunction!(openscenario::read_openscenario, m)?)?;
     Ok(())

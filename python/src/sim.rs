@@ -158,7 +158,7 @@ impl PyDriving {
 
 /// The worker process of a simulator that isolates its runs (`[fmu] isolate = true`):
 /// `$SAVME_FMU_WORKER`, else `savme-fmu-worker` on the PATH.
-fn worker_command() -> Result<Vec<String>, String> {
+pub(crate) fn worker_command() -> Result<Vec<String>, String> {
     let command = std::env::var("SAVME_FMU_WORKER").unwrap_or_else(|_| "savme-fmu-worker".into());
     Ok(command.split_whitespace().map(String::from).collect())
 }
@@ -192,6 +192,16 @@ pub struct PyFmuSimulator {
 impl PyFmuSimulator {
     pub fn backend(&self) -> PyResult<FmuBackend> {
         fmu_backend(&self.file)
+    }
+
+    /// Its spec and FMUs for an executor's nodes.
+    pub fn native(
+        &self,
+    ) -> (
+        crate::native::NativeSpec,
+        std::collections::BTreeMap<String, PathBuf>,
+    ) {
+        crate::native::NativeSpec::fmu(&self.file.init, self.file.isolate, self.file.timeout)
     }
 }
 

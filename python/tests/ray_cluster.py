@@ -42,6 +42,7 @@ class LocalRayCluster:
         self.worker_cpus = [1] if worker_cpus is None else worker_cpus
         self.dir = pathlib.Path(tempfile.mkdtemp(prefix="savme-ray-", dir="/tmp"))
         self.nodes: List[subprocess.Popen] = []
+        self.names: List[str] = []
         self.address = ""
         self.env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0")
         self.env.pop("RAY_ADDRESS", None)
@@ -60,10 +61,44 @@ class LocalRayCluster:
                f"--object-store-memory={OBJECT_STORE_BYTES}", "--disable-usage-stats",
                "--include-log-monitor=false",
                *ports, *args]
-        p = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=self.env,
+        # Each node has a file cache of its own, as separate hosts would (savme.executors
+        # writes the FMUs shipped to a node there).
+        env = dict(self.env, SAVME_RAY_CACHE=str(self.cache(name)))
+        p = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env,
                              start_new_session=True)
         self.nodes.append(p)
+        self.names.append(name)
         return p
+
+    def cache(self, name: str) -> pathlib.Path:
+        """The file cache of node `name` ("head", "worker0", …)."""
+        return self.dir / f"cache-{name}"
+
+    def add_worker(self, cpus: int) -> str:
+        """Starts one more worker node; its name once it is up."""
+        name = f"worker{len(self.nodes) - 1}"
+        p = self._node(name, [f"--address={self.address}", f"--num-cpus={cpus}"])
+        self._wait_started(p, name, time.monotonic() + START_SECONDS)
+        return name
+
+    def kill_node(self, name: str) -> List[int]:
+        """SIGKILLs node `name` as a lost host goes: its `ray start` process, its raylet and
+        every process under them (its Ray workers), at once. The pids killed."""
+        root = self.nodes[self.names.index(name)].pid
+        children: dict = {}
+        for pid, ppid in _parents().items():
+            children.setdefault(ppid, []).append(pid)
+        tree, todo = [], [root]
+        while todo:
+            pid = todo.pop()
+            tree.append(pid)
+            todo.extend(children.get(pid, []))
+        for pid in tree:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+        return tree
 
     def start(self) -> "LocalRayCluster":
         try:
@@ -84,12 +119,14 @@ class LocalRayCluster:
         self.address = marker.read_text().strip()
         for i, cpus in enumerate(self.worker_cpus):
             self._node(f"worker{i}", [f"--address={self.address}", f"--num-cpus={cpus}"])
+        for p, name in zip(self.nodes, self.names):
+            self._wait_started(p, name, deadline)
+
+    def _wait_started(self, p: subprocess.Popen, name: str, deadline: float) -> None:
         # `ray start --block` prints "Ray runtime started." once its node is up.
-        for i, p in enumerate(self.nodes):
-            name = "head" if i == 0 else f"worker{i - 1}"
-            while b"Ray runtime started" not in (self.dir / f"{name}.log").read_bytes():
-                self._check(p, name, deadline)
-                time.sleep(0.2)
+        while b"Ray runtime started" not in (self.dir / f"{name}.log").read_bytes():
+            self._check(p, name, deadline)
+            time.sleep(0.2)
 
     def _check(self, p: subprocess.Popen, name: str, deadline: float) -> None:
         if p.poll() is not None:
@@ -174,3 +211,16 @@ class LocalRayCluster:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+def _parents() -> dict:
+    """Every process's parent: {pid: ppid}."""
+    out = {}
+    for entry in pathlib.Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            out[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    return out

@@ -88,3 +88,32 @@ class Sleeper:
         if self.seconds:
             time.sleep(self.seconds)
         return phi["speed"] ** 2 / 14.0 > phi["gap"], int(theta["rate_hz"] * 10)
+
+
+class SlowsDown(Toy):
+    """The toy, each run taking `fast` seconds until the file `switch` exists, then `slow`
+    seconds (a campaign whose runs in flight take minutes, for the Ctrl-C test)."""
+
+    def __init__(self, role: str, switch: str, fast: float = 0.01, slow: float = 120.0) -> None:
+        super().__init__(role)
+        self.switch, self.fast, self.slow = switch, fast, slow
+
+    def __call__(self, scenario: str, phi: Dict[str, Any], theta: Dict[str, Any]) -> Any:
+        time.sleep(self.slow if os.path.exists(self.switch) else self.fast)
+        return super().__call__(scenario, phi, theta)
+
+
+class TracedSleeper(Sleeper):
+    """The benchmark's sleeper that also appends each run's start and end (time.time()) to
+    `<trace>/<pid>`: where a worker's time goes (runs, and the gaps between them)."""
+
+    def __init__(self, seconds: float, trace: str) -> None:
+        super().__init__(seconds)
+        self.trace = trace
+
+    def __call__(self, scenario: str, phi: Dict[str, Any], theta: Dict[str, Any]) -> Any:
+        start = time.time()
+        out = super().__call__(scenario, phi, theta)
+        with open(os.path.join(self.trace, str(os.getpid())), "a") as f:
+            f.write(f"{start} {time.time()}\n")
+        return out

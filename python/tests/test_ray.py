@@ -2,7 +2,9 @@
 cluster started here (a head node and a worker node, as processes on this machine) — the same
 trials as a local run under work cost, a Ray worker killed mid-run (its run re-run once, its
 trial told once), a run lost twice (the aborted campaign then resumed on Ray), a run past the
-timeout, a simulator that raises — and the
+timeout, a simulator that raises, Ctrl-C (a real SIGINT to a driver process) while runs of
+minutes are in flight; a campaign file's FMUs and the bundled simulator on Ray (the FMU written
+once per node; a killed worker and a lost node give the local run's trials) — and the
 executor contract and its bad inputs without Ray.
 
 Without Ray installed the cluster tests skip loudly; scripts/test installs Ray into the test
@@ -14,7 +16,9 @@ import collections
 import json
 import os
 import pathlib
+import re
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -22,7 +26,7 @@ import time
 import pytest
 
 import savme
-from test_campaign import problem, protocol, strip_wall
+from test_campaign import fmu_campaign_file, problem, protocol, strip_wall
 import ray_sims
 
 HERE = pathlib.Path(__file__).parent
@@ -249,10 +253,11 @@ def test_bad_executor_arguments_are_refused_with_their_name(tmp_path):
         savme.Campaign(p, pr, executor=InProcess(), jobs=4)
     with pytest.raises(ValueError, match="repeat"):
         savme.Campaign(p, pr, executor=InProcess(), repeat=2)
-    with pytest.raises(TypeError, match="executor= runs Python simulator callables"):
-        savme.Campaign(p, pr, out=tmp_path / "d", executor=InProcess()).run(sim=savme.sim.Driving())
+    with pytest.raises(ValueError, match="jobs="):
+        savme.Campaign(p, pr, jobs=2).run(ray_sims.Toy("x"), executor=InProcess())
     for kw, name in [({"actors": 0}, "actors"), ({"workers": -1}, "workers"),
-                     ({"timeout": 0}, "timeout"), ({"num_cpus": 0}, "num_cpus")]:
+                     ({"timeout": 0}, "timeout"), ({"num_cpus": 0}, "num_cpus"),
+                     ({"actors": 2, "workers": 3}, "workers=3 contradicts")]:
         with pytest.raises(ValueError, match=name):
             savme.RayExecutor(**kw)
     # "local" is the default: threads in this process.
@@ -266,3 +271,173 @@ def test_without_ray_the_executor_says_how_to_install_it(tmp_path, monkeypatch):
     with pytest.raises(ImportError, match="pip install ray"):
         savme.Campaign(small(), problem(), out=tmp_path / "n", executor=executor).run(ray_sims.Toy("x"))
     assert not (tmp_path / "n" / "trials.jsonl").exists()
+
+
+# Ctrl-C on Ray: a real driver process, a real SIGINT, runs of two minutes in flight.
+
+INTERRUPTED_DRIVER = """
+import sys
+sys.path.insert(0, sys.argv[3])
+import ray_sims, savme
+from test_ray import small
+from test_campaign import problem
+sim = ray_sims.SlowsDown("x", switch=sys.argv[2])
+executor = savme.RayExecutor(address=sys.argv[4])
+savme.Campaign(small(), problem(), out=sys.argv[1], executor=executor).run(sim)
+print("the campaign finished")
+"""
+
+
+def test_ctrl_c_stops_a_ray_campaign_at_once_with_the_resume_call_and_it_resumes_to_the_local_trials(tmp_path, cluster):
+    """SIGINT to a driver whose runs on Ray take two minutes each: it stopped only when a run
+    finished (the campaign loop waited for the next finished run before it looked at the
+    stop). Now it stops within seconds, raising KeyboardInterrupt with the call that resumes
+    it; the Ray workers running the runs are stopped; the resumed campaign gives the local
+    run's trials."""
+    out, switch = tmp_path / "c", tmp_path / "slow"
+    trials = out / "trials.jsonl"
+    child = subprocess.Popen(
+        [sys.executable, "-c", INTERRUPTED_DRIVER, str(out), str(switch), str(HERE), cluster.address],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 180
+    while time.monotonic() < deadline and child.poll() is None:
+        if trials.exists() and len(lines(trials)) >= 10:
+            break
+        time.sleep(0.05)
+    assert child.poll() is None, child.communicate()
+    switch.touch()  # from now on every run takes two minutes
+    busy = []
+    while time.monotonic() < deadline and not busy:  # a run of two minutes has started
+        busy = [pid for pid in cluster.worker_pids() if running_a_run(pid)]
+        time.sleep(0.05)
+    assert busy, "no Ray worker started a slow run"
+    time.sleep(0.5)
+    stored = len(lines(trials))
+    os.killpg(child.pid, signal.SIGINT)  # what Ctrl-C in a terminal sends
+    start = time.monotonic()
+    stdout, stderr = child.communicate(timeout=60)
+    took = time.monotonic() - start
+    print(f"Ctrl-C stopped the Ray campaign in {took:.1f} s")
+    assert took < 20, f"Ctrl-C took {took:.1f} s to stop the campaign"
+    assert "the campaign finished" not in stdout
+    resume = f'resume it with savme.Campaign(None, problem, out="{out}", resume=True).run(...)'
+    assert "KeyboardInterrupt: stopped in " in stderr and resume in stderr, stderr
+    assert "(every told trial is stored)" in stderr, stderr
+    assert len(lines(trials)) == stored < small().total_trials
+    gone = time.monotonic() + 30
+    while time.monotonic() < gone and any(pathlib.Path(f"/proc/{pid}").exists() for pid in busy):
+        time.sleep(0.2)
+    assert not any(pathlib.Path(f"/proc/{pid}").exists() for pid in busy), "a slow run outlived Ctrl-C"
+    switch.unlink()
+    resumed = savme.Campaign(None, problem(), out=out, resume=True,
+                             executor=savme.RayExecutor()).run(ray_sims.Toy("x"))
+    assert resumed.replayed == stored and resumed.replayed + resumed.ran == small().total_trials
+    assert strip_wall(resumed.files["trials"]) == strip_wall(local_reference(tmp_path, small()).files["trials"])
+
+
+def running_a_run(pid: int) -> bool:
+    """Whether Ray worker `pid` is running a run (a task of savme's, or an actor's run)."""
+    return _title(pid).startswith(("ray::_call", "ray::_SimulatorActor.run"))
+
+
+def _title(pid: int) -> str:
+    """A process's title (Ray workers retitle themselves `ray::Class.method` while they run)."""
+    try:
+        return pathlib.Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return ""
+
+
+# The bundled simulator and a campaign file's FMUs on Ray.
+
+
+def driving_protocol():
+    names = [s["name"] for s in savme.sim.Driving.scenarios()]
+    return savme.Protocol([names[0], names[6]], [names[8]], preset="quick", simulator="savme-sim/ideal",
+                          cost="work", train_iterations=10, eval_iterations=3, test_iterations=6,
+                          baseline_train_iterations=6, baseline_test_iterations=4)
+
+
+@pytest.mark.parametrize("where", ["ray", "in-process"])
+def test_the_bundled_simulator_runs_on_an_executor_with_the_local_trials(tmp_path, cluster, where):
+    p, sim = driving_protocol(), savme.sim.Driving("ideal")
+    reference = savme.Campaign(p, savme.Problem.driving(), out=tmp_path / "local", jobs=2).run(sim=sim)
+    executor = savme.RayExecutor() if where == "ray" else InProcess()
+    result = savme.Campaign(p, savme.Problem.driving(), out=tmp_path / where,
+                            executor=executor).run(sim=sim)
+    assert result.ran == p.total_trials
+    assert strip_wall(result.files["trials"]) == strip_wall(reference.files["trials"])
+
+
+def fmu_campaign(savme_bin, tmp_path, scale=2):
+    """examples/fmu/campaign.toml on savme's packed FMU (in-process), work cost, a small
+    campaign (stage lengths × `scale`)."""
+    cfg, text = fmu_campaign_file(savme_bin, tmp_path)
+    text = text.replace('cost = "wall" ', 'cost = "work" ')
+    for key, n in [("train_iterations", 6), ("eval_iterations", 2), ("test_iterations", 4),
+                   ("baseline_train_iterations", 5), ("baseline_test_iterations", 3)]:
+        text = re.sub(rf"^{key} = \d+", f"{key} = {n * scale}", text, flags=re.M)
+    cfg.write_text(text)
+    return cfg
+
+
+def test_an_fmu_campaign_on_ray_gives_the_local_trials_under_a_killed_worker_and_a_lost_node(
+        savme_bin, tmp_path, cluster):
+    """savme.campaign.load(file).run(executor=...): the FMU goes through Ray's object store,
+    is written once into each node's cache (each test node has its own, as separate hosts
+    would), and each Ray worker builds the local run's simulator from it. A Ray worker killed
+    mid-run (SIGKILL) and then the whole worker node lost (its raylet and workers SIGKILLed)
+    cost re-runs only: the trials are the local run's."""
+    cfg = fmu_campaign(savme_bin, tmp_path)
+    reference = savme.campaign.load(cfg, out=tmp_path / "local", jobs=2).run()
+    campaign = savme.campaign.load(cfg, out=tmp_path / "ray")
+    total = campaign.protocol.total_trials
+    trials = tmp_path / "ray" / "trials.jsonl"
+    killed: dict = {}
+
+    def faults():
+        deadline = time.monotonic() + 600
+        for at, fault in ((8, "worker"), (total // 2, "node")):
+            while time.monotonic() < deadline and not (trials.exists() and len(lines(trials)) >= at):
+                time.sleep(0.02)
+            if fault == "worker":
+                while time.monotonic() < deadline and "worker" not in killed:
+                    for pid in cluster.worker_pids():
+                        if running_a_run(pid):
+                            os.kill(pid, signal.SIGKILL)  # mid-run: it is running a run
+                            killed["worker"] = pid
+                            break
+                    time.sleep(0.005)
+            else:
+                killed["node"] = cluster.kill_node("worker0")
+
+    watcher = threading.Thread(target=faults, daemon=True)
+    watcher.start()
+    executor = savme.RayExecutor()
+    try:
+        result = campaign.run(executor=executor)
+        watcher.join(timeout=5)
+    finally:
+        if "node" in killed:  # the next tests want two nodes again
+            cluster.add_worker(2)
+    assert "worker" in killed and "node" in killed, killed
+    assert executor.stats.reruns >= 2 and executor.stats.lost_twice == 0, executor.stats
+    assert result.ran == total
+    assert told_once(trials) and not [d for d in lines(trials) if "error" in d]
+    assert strip_wall(trials) == strip_wall(reference.files["trials"])
+    # Written once per node: one fetch in each node's cache, whatever the number of workers
+    # (and the restarted one) that used it there.
+    for node in ("head", "worker0"):
+        fetched = (cluster.cache(node) / "fetched.log").read_text().splitlines()
+        assert len(fetched) == 1 and "savme-sim.fmu" in fetched[0], (node, fetched)
+
+
+def test_an_executor_takes_a_campaign_files_fmus_only_without_repeat_or_jobs(savme_bin, tmp_path):
+    cfg = fmu_campaign(savme_bin, tmp_path, scale=1)
+    with pytest.raises(ValueError, match="jobs="):
+        savme.campaign.load(cfg, out=tmp_path / "o", jobs=2, executor=InProcess())
+    # An executor that calls the simulator in this process: the FMU's own file, as locally.
+    executor = InProcess()
+    result = savme.campaign.load(cfg, out=tmp_path / "i", executor=executor).run()
+    local = savme.campaign.load(cfg, out=tmp_path / "l", jobs=2).run()
+    assert strip_wall(result.files["trials"]) == strip_wall(local.files["trials"])

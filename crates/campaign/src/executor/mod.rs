@@ -57,6 +57,12 @@ pub trait Runner {
     fn submit(&mut self, task: Task) -> Result<(), CampaignError>;
     /// Waits for the next finished run (any of those submitted, each returned once).
     fn next_done(&mut self) -> Result<Done, CampaignError>;
+    /// [`Runner::next_done`], or `None` once `stop` is requested while it waits: for a runner
+    /// that can leave its runs in flight (a cluster that cancels them), so that a stop does not
+    /// wait for a run that may take minutes. The default waits for the run.
+    fn next_done_unless(&mut self, _stop: &crate::Stop) -> Result<Option<Done>, CampaignError> {
+        self.next_done().map(Some)
+    }
 }
 
 /// A [`Runner`] whose runs execute outside this process (e.g. `savme worker` processes
@@ -193,7 +199,9 @@ pub fn run_stage(
         if run.cx.stop.is_requested() {
             return Err(run.stopped());
         }
-        let done = run.pool.next_done()?;
+        let Some(done) = run.pool.next_done_unless(run.cx.stop)? else {
+            return Err(run.stopped());
+        };
         run.receive(done)?;
     }
     Ok(run.lines)
