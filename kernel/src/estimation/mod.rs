@@ -76,7 +76,7 @@ mod proposal;
 mod statistic;
 
 pub use config::{
-    EstimationConfig, EstimationError, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
+    EstimationConfig, EstimationError, Fidelity, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
     MAX_COMPONENTS, REFINE_SMOOTHING,
 };
 pub use nominal::Nominal;
@@ -118,6 +118,11 @@ pub struct EstimationTrial {
     /// The cross-entropy pilot round (0, 1, …) this trial belongs to; None for a trial of
     /// the estimate itself.
     pub round: Option<u32>,
+    /// The fidelity to run it at: `hf`, except the pilot rounds of a multi-fidelity
+    /// estimation ([`EstimationConfig::pilot_fidelity`] = `lf`), whose outcomes only fit the
+    /// proposal.
+    #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
+    pub fidelity: Fidelity,
 }
 
 /// The importance-sampling estimation of P(failure) under the nominal: asks φ from the fixed
@@ -139,6 +144,8 @@ pub struct Estimation {
     sums: Vec<Sums>,
     pilot: Option<Pilot>,
     pilot_sums: Vec<Sums>,
+    /// The fidelity of the pilot rounds' runs.
+    pilot_fidelity: Fidelity,
 }
 
 /// A trial asked and not yet told.
@@ -269,6 +276,7 @@ impl Estimation {
             sums: vec![Sums::default(); scenarios.len()],
             pilot,
             pilot_sums: vec![Sums::default(); scenarios.len()],
+            pilot_fidelity: config.pilot_fidelity,
         })
     }
 
@@ -345,6 +353,10 @@ impl Estimation {
             p: d.p,
             weight,
             round,
+            fidelity: match round {
+                Some(_) => self.pilot_fidelity,
+                None => Fidelity::Hf,
+            },
         };
         self.next_id += 1;
         self.asked[s] += 1;
@@ -363,8 +375,8 @@ impl Estimation {
         Some(trial)
     }
 
-    /// Takes the HF outcome of trial `id`. The last outcome of a refinement round refits the
-    /// proposals.
+    /// Takes the outcome of trial `id` at its [`EstimationTrial::fidelity`] (HF, except an
+    /// LF pilot's). The last outcome of a refinement round refits the proposals.
     pub fn tell(&mut self, id: u64, failure: bool) -> Result<(), EstimationError> {
         self.tell_run(id, failure, None)
     }
@@ -392,7 +404,9 @@ impl Estimation {
             return Ok(());
         };
         self.pilot_sums[s].add(t.weight, failure);
-        if round + pilot.refine.reuse >= pilot.refine.rounds {
+        // An LF pilot is never reused (refused when the estimation is built); checked here
+        // too so that no LF outcome can enter the HF estimate.
+        if self.pilot_fidelity.is_hf() && round + pilot.refine.reuse >= pilot.refine.rounds {
             self.sums[s].add(t.weight, failure);
         }
         if let Some(j) = pilot.joint.as_mut() {
