@@ -38,6 +38,13 @@
 //! trials are out, [`Estimation::ask`] returns None until they are told, so the proposal —
 //! and every trial — does not depend on the order in which parallel runs finish.
 //!
+//! **Multi-fidelity pilot** ([`EstimationConfig::pilot_fidelity`] = [`Fidelity::Lf`]): the
+//! pilot rounds' trials are marked to run at the learned low fidelity θ_LF* (multi-fidelity
+//! importance sampling: Peherstorfer, Cui, Marzouk & Willcox 2016). Their outcomes only fit
+//! the proposal — never the estimate, which stays the HF-weighted mean of the trials drawn
+//! from the proposal frozen after the pilot — so it is unbiased for the HF probability
+//! whatever the LF's errors (q ≥ ε·p keeps every weight finite).
+//!
 //! Estimation is a phase of its own type rather than a [`crate::Phase`]: it needs ε and the
 //! nominal, must never change the posterior it was built from, and its trials carry densities.
 //!
