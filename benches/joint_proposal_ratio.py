@@ -13,6 +13,12 @@ plain Monte Carlo reference (--mc-runs, the example's own sampler). For every es
 HF runs it made (training + pilot + estimate), the HF runs plain Monte Carlo needs for the same
 relative width at the reference P, z²(1 − P)/(t² P), their ratio, and whether the 95 %
 interval covers the reference.
+
+Variants `product-lf` and `joint-lf` are the multi-fidelity estimator (`--pilot-fidelity lf`):
+the pilot rounds run LF at the campaign's learned θ_LF*, the estimate HF; their runs are
+charged in HF runs of equal cost (`charged_runs` in the example's check.json: every run at its
+work-unit cost, each training trial as 2 HF runs). docs/RESULTS.md ("Failure probability from
+cheap runs") records what it printed.
 """
 import argparse
 import json
@@ -75,12 +81,17 @@ def main():
     for variant in o.variants.split(","):
         for seed in (int(s) for s in o.seeds.split(",")):
             extra = ["--estimate-seed", str(seed), "--mc-runs", "0"]
-            if variant == "joint":
+            if variant.startswith("joint"):
                 extra += ["--proposal", "joint", "--joint-components", str(o.components)]
+            if variant.endswith("-lf"):
+                extra += ["--pilot-fidelity", "lf"]
             check, secs, cmd = run(o.exe, os.path.join(o.out, f"{variant}-{seed}"), common + extra)
             is_ = check["importance_sampling"]
-            made = is_["hf_runs"] + is_["pilot_hf_runs"] - is_["pilot_hf_runs_reused"] \
-                + is_["training_hf_runs"]
+            if variant.endswith("-lf"):
+                made = round(is_["charged_runs"])
+            else:
+                made = is_["hf_runs"] + is_["pilot_hf_runs"] - is_["pilot_hf_runs_reused"] \
+                    + is_["training_hf_runs"]
             width = is_["relative_half_width"]
             need = z * z * (1 - p_ref) / (width ** 2 * p_ref)
             covers = is_["lo"] <= p_ref <= is_["hi"]
@@ -91,7 +102,7 @@ def main():
                   f"ratio {need / made:.2f}×, covers {covers}, failure ESS "
                   f"{is_['failure_ess']:.0f}, {secs:.0f} s", flush=True)
             load.append(os.getloadavg()[0])
-    print(f"\n| proposal | seed | estimate [95 % interval] | ± | HF runs made | ratio MC / IS | covers |")
+    print(f"\n| proposal | seed | estimate [95 % interval] | ± | HF(-equivalent) runs | ratio MC / IS | covers |")
     print("|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r[0]} | {r[1]} | {r[2]:.3e} [{r[3]:.3e}, {r[4]:.3e}] | {100 * r[5]:.1f} % "

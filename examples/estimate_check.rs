@@ -16,7 +16,12 @@
 //!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
 //!     [--refine-rounds 0 --refine-runs 0 --refine-reuse 0] [--noise-sd 0.1] [--jobs 2] [--seed 1]
 //!     [--mc-seed 12648430] [--proposal joint --joint-components 8] [--estimate-seed N]
+//!     [--pilot-fidelity lf]
 //! ```
+//!
+//! `--pilot-fidelity lf` runs the pilot rounds at the campaign's learned θ_LF* (the
+//! multi-fidelity estimator); the ratio then charges every run at its cost in HF runs
+//! (`hf_equivalent_runs`) and each training trial as 2 HF runs (its HF and LF runs).
 //!
 //! `--proposal joint` makes the pilot rounds fit a joint proposal (a mixture over the whole
 //! of φ; docs/ESTIMATION.md) instead of refitting each variable's bins. `--estimate-seed`
@@ -30,7 +35,7 @@ use rand::{RngExt, SeedableRng};
 use savme::campaign::estimate::{parse_nominal, EstimateRun, EstimateSettings};
 use savme::campaign::{Campaign, Cost, Problem, Protocol};
 use savme::compose;
-use savme_kernel::estimation::{z95, Nominal, ProposalKind, Tilt};
+use savme_kernel::estimation::{z95, Fidelity, Nominal, ProposalKind, Tilt};
 use savme_kernel::{Assignment, Domain, Role, Simulator};
 use savme_sim::sim::DrivingSimulator;
 use statrs::distribution::{ContinuousCDF, Normal};
@@ -58,6 +63,7 @@ struct Options {
     proposal: ProposalKind,
     joint_components: Option<u32>,
     estimate_seed: Option<u64>,
+    pilot_fidelity: Fidelity,
 }
 
 fn options() -> Result<Options, String> {
@@ -81,6 +87,7 @@ fn options() -> Result<Options, String> {
         proposal: ProposalKind::Product,
         joint_components: None,
         estimate_seed: None,
+        pilot_fidelity: Fidelity::Hf,
     };
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
@@ -110,6 +117,10 @@ fn options() -> Result<Options, String> {
             "--proposal" => {
                 o.proposal = serde_json::from_value(serde_json::Value::String(value))
                     .map_err(|e| format!("--proposal: {e}"))?
+            }
+            "--pilot-fidelity" => {
+                o.pilot_fidelity = serde_json::from_value(serde_json::Value::String(value))
+                    .map_err(|e| format!("--pilot-fidelity: {e}"))?
             }
             "--nominal" => {
                 let (_, variable, n) = parse_nominal(&value).map_err(|e| e.to_string())?;
@@ -162,6 +173,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         proposal: o.proposal,
         joint_components: o.joint_components,
         seed: o.estimate_seed,
+        pilot_fidelity: o.pilot_fidelity,
         ..EstimateSettings::default()
     };
     let t1 = Instant::now();
@@ -179,8 +191,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let reached = total.relative_half_width();
     let z = z95();
     let mc_needed = |p: f64| z * z * (1.0 - p) / (reached * reached * p);
-    let is_runs = (est.estimate_hf_runs + est.pilot_hf_runs - est.pilot_hf_runs_reused
-        + est.training_hf_runs) as f64;
+    // With an LF pilot, every run in HF runs of equal cost (`hf_equivalent_runs`), and each
+    // training trial charged as 2 HF runs (its HF run and its LF run, which costs less).
+    let is_runs = if o.pilot_fidelity == Fidelity::Lf {
+        est.hf_equivalent_runs + 2.0 * est.training_hf_runs as f64
+    } else {
+        (est.estimate_hf_runs + est.pilot_hf_runs - est.pilot_hf_runs_reused + est.training_hf_runs)
+            as f64
+    };
     let mut report = serde_json::json!({
         "scenario": o.scenario,
         "nominal": o.nominal,
@@ -200,6 +218,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "training_hf_runs": est.training_hf_runs, "stopped": est.stopped,
             "pilot_hf_runs": est.pilot_hf_runs, "pilot_failures": est.pilot_failures,
             "pilot_hf_runs_reused": est.pilot_hf_runs_reused,
+            "pilot_fidelity": o.pilot_fidelity, "pilot_lf_runs": est.pilot_lf_runs,
+            "pilot_lf_cost": est.pilot_lf_cost, "theta_lf": est.theta_lf,
+            "hf_equivalent_runs": est.hf_equivalent_runs, "charged_runs": is_runs,
             "failures": est.estimate.failures,
             "ess": est.estimate.scenarios[0].ess,
             "failure_ess": est.estimate.scenarios[0].failure_ess,

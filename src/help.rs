@@ -78,7 +78,7 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("fidelity", "savme fidelity\n  savme fidelity --json"),
     ("reproduce", "savme reproduce --quick --out results\n  savme reproduce --quick --perception ideal --cost work --seed 3\n  savme reproduce --repeat 5 --out results-5\n  savme reproduce --resume results"),
     ("run", "savme run --config examples/fmu/campaign.toml --out fmu-results\n  savme run --config examples/fmu/campaign.toml --resume fmu-results"),
-    ("estimate", "savme reproduce --quick --perception ideal --cost work --out results\n  savme estimate results --target-width 0.1\n  savme estimate results --max-runs 2000 --no-target --out estimate-2000 --json\n  savme estimate results --nominal lead_vehicle_brakes.ego_speed=normal:20,3 --out estimate-nominal"),
+    ("estimate", "savme reproduce --quick --perception ideal --cost work --out results\n  savme estimate results --target-width 0.1\n  savme estimate results --max-runs 2000 --no-target --out estimate-2000 --json\n  savme estimate results --nominal lead_vehicle_brakes.ego_speed=normal:20,3 --out estimate-nominal\n  savme estimate results --refine-rounds 2 --refine-runs 500 --pilot-fidelity lf --out estimate-mf"),
     ("failures", "savme reproduce --quick --perception ideal --cost work --out results\n  savme failures results\n  savme failures results --stage train@0.3 --json"),
     ("fmu pack", "savme fmu pack --out savme-sim.fmu\n  savme fmu pack --fmi 3 --out savme-sim3.fmu"),
     ("fmu info", "savme fmu pack --out model.fmu\n  savme fmu info model.fmu\n  savme fmu info model.fmu --json"),

@@ -356,6 +356,131 @@ fn a_joint_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
     );
 }
 
+/// The multi-fidelity estimate (`--pilot-fidelity lf`, 3 pilot rounds of 400 runs, the
+/// declared rare nominal): the pilot runs LF at the campaign's learned θ_LF* (its evaluation
+/// stage's), the estimate HF only; `--jobs 1` and a `--jobs 2` run killed (SIGKILL) inside
+/// the first round and resumed give the same lines; the summary charges the LF runs at their
+/// cost (`hf_equivalent_runs`); a resume that changes `pilot_fidelity`, or a line whose run
+/// is at the other fidelity, is refused naming it.
+#[test]
+fn a_low_fidelity_pilot_runs_at_the_learned_fidelity_and_resumes_identically_after_a_kill() {
+    let args = [
+        "--max-runs",
+        "1800",
+        "--no-target",
+        "--refine-rounds",
+        "3",
+        "--refine-runs",
+        "400",
+        "--nominal",
+        "lead_vehicle_brakes.ego_speed=normal:12,2",
+        "--pilot-fidelity",
+        "lf",
+    ];
+    let (one, killed) = one_job_and_killed("lf-pilot", &args, 200);
+    let ls = trial_lines(&one);
+    for (i, l) in ls.iter().enumerate() {
+        let pilot = i < 1200;
+        assert_eq!(
+            l["round"].as_u64(),
+            pilot.then_some(i as u64 / 400),
+            "line {}",
+            i + 1
+        );
+        assert_eq!(
+            (l.get("lf").is_some(), l.get("hf").is_some()),
+            (pilot, !pilot),
+            "line {}",
+            i + 1
+        );
+    }
+    // θ_LF* is the campaign's: what its evaluation stage ran.
+    let eval = trial_lines(campaign())
+        .into_iter()
+        .find(|l| l["stage"] == "evaluate@0.3")
+        .expect("the campaign's evaluation");
+    let s = summary(&killed);
+    assert_eq!(s["theta_lf"], eval["theta_lf"]);
+    assert_eq!(s["settings"]["pilot_fidelity"], "lf");
+    assert_eq!(
+        (
+            &s["pilot_lf_runs"],
+            &s["pilot_hf_runs"],
+            &s["estimate"]["runs"]
+        ),
+        (&Value::from(1200), &Value::from(0), &Value::from(600))
+    );
+    let cost = |run: &str| -> f64 { ls.iter().filter_map(|l| l[run]["runtime"].as_f64()).sum() };
+    let (lf, hf) = (cost("lf"), cost("hf"));
+    assert!((s["pilot_lf_cost"].as_f64().unwrap() - lf).abs() < 1e-9 * lf);
+    assert!(
+        lf / 1200.0 < hf / 600.0,
+        "the LF runs are the cheaper ones: {lf} vs {hf}"
+    );
+    let equivalent = 600.0 + lf / (hf / 600.0);
+    assert!((s["hf_equivalent_runs"].as_f64().unwrap() - equivalent).abs() < 1e-9 * equivalent);
+    let failures = ls[..1200]
+        .iter()
+        .filter(|l| l["lf"]["failure"].as_bool().unwrap())
+        .count();
+    assert_eq!(s["pilot_failures"], failures as u64);
+    let table = std::fs::read_to_string(killed.join("table.md")).unwrap();
+    assert!(
+        table.contains("Multi-fidelity: the cross-entropy refinement ran 3 rounds of 400 LF runs"),
+        "{table}"
+    );
+    let (code, _, err) = estimate(&killed, &["--resume", "--pilot-fidelity", "hf"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains(
+            "the estimate was started with `pilot_fidelity` = \"lf\", and this resume gives \"hf\""
+        ),
+        "{err}"
+    );
+    // A pilot line turned into an HF run is refused on resume, naming the line.
+    let path = killed.join("trials.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut ls: Vec<String> = text.lines().map(String::from).collect();
+    let mut l: Value = serde_json::from_str(&ls[2]).unwrap();
+    let lf_run = l["lf"].clone();
+    l.as_object_mut().unwrap().remove("lf");
+    l["hf"] = lf_run;
+    ls[2] = l.to_string();
+    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    let (code, _, err) = estimate(&killed, &["--resume"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("trials.jsonl, line 3: `hf/lf` is an HF run but the estimate asks an LF run"),
+        "{err}"
+    );
+    // A campaign cut after its training, before its evaluation stage: no θ_LF* to run the
+    // pilot at (the protocol record, baseline-train and the 200 trials of train@0.3 kept).
+    let dir = temp_dir("no-eval");
+    std::fs::create_dir_all(&dir).unwrap();
+    let c = campaign();
+    std::fs::copy(c.join("protocol.json"), dir.join("protocol.json")).unwrap();
+    let text = std::fs::read_to_string(c.join("trials.jsonl")).unwrap();
+    let kept: Vec<&str> = text.lines().take(202).collect();
+    assert!(!kept.iter().any(|l| l.contains("evaluate@0.3")));
+    std::fs::write(dir.join("trials.jsonl"), kept.join("\n") + "\n").unwrap();
+    let d = dir.display().to_string();
+    let (code, _, err) = run(&[
+        "estimate",
+        &d,
+        "--refine-rounds",
+        "2",
+        "--refine-runs",
+        "10",
+        "--pilot-fidelity",
+        "lf",
+    ]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("runs the pilot at the learned θ_LF* of budget 0.3, which the campaign's stage `evaluate@0.3` has not run yet"),
+        "{err}"
+    );
+}
+
 /// Runs the estimate with `args` once with `--jobs 1`, and once with `--jobs 2` killed
 /// (SIGKILL) after ≥ 200 stored lines and resumed; asserts the two agree line by line.
 fn one_job_and_killed(name: &str, args: &[&str], kill_at: usize) -> (PathBuf, PathBuf) {
@@ -391,7 +516,11 @@ fn one_job_and_killed(name: &str, args: &[&str], kill_at: usize) -> (PathBuf, Pa
             .map(|mut l| {
                 // Measured wall time differs between runs (and the store's checksum, which
                 // covers it); everything else must be equal.
-                l["hf"]["wall_seconds"] = Value::Null;
+                for run in ["hf", "lf"] {
+                    if l.get(run).is_some() {
+                        l[run]["wall_seconds"] = Value::Null;
+                    }
+                }
                 if let Some(o) = l.as_object_mut() {
                     o.remove("c");
                 }
@@ -537,6 +666,27 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
                 "65",
             ],
             "`joint_components`: must lie in 1..=64, got 65",
+        ),
+        (
+            &["--pilot-fidelity", "lf"],
+            "`pilot_fidelity`: `lf` runs the cross-entropy pilot rounds at the campaign's learned θ_LF*: give `refine_rounds` and `refine_runs` too",
+        ),
+        (
+            &[
+                "--pilot-fidelity",
+                "lf",
+                "--refine-rounds",
+                "2",
+                "--refine-runs",
+                "5",
+                "--refine-reuse",
+                "1",
+            ],
+            "`refine_reuse`: 1 pilot rounds to reuse, but the pilot runs at LF",
+        ),
+        (
+            &["--pilot-fidelity", "mf"],
+            "invalid value 'mf' for '--pilot-fidelity",
         ),
     ];
     for (args, message) in cases {

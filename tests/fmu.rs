@@ -756,6 +756,24 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &(TINY.to_string() + "\n[estimate]\nproposal = \"diagonal\"\n"),
         &["unknown variant `diagonal`, expected `product` or `joint`"],
     );
+    let lf = "\n[estimate]\npilot_fidelity = \"lf\"\n";
+    let line = format!(
+        "line {}, key `estimate.pilot_fidelity`",
+        TINY.lines().count() + 3
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + lf),
+        &[
+            &line,
+            "`lf` runs the cross-entropy pilot rounds at the campaign's learned θ_LF*",
+        ],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\npilot_fidelity = \"mf\"\n"),
+        &["unknown variant `mf`, expected `hf` or `lf`"],
+    );
 }
 
 #[test]

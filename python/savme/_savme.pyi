@@ -381,6 +381,7 @@ class Kernel:
         refine: Optional[Tuple[int, int]] = None,
         refine_reuse: int = 0,
         joint_components: Optional[int] = None,
+        pilot_fidelity: Literal["hf", "lf"] = "hf",
     ) -> Estimation:
         """An importance-sampling estimation of P(failure) under the nominal distribution
         from the current φ posteriors (docs/ESTIMATION.md): `epsilon` is the nominal's share
@@ -389,9 +390,11 @@ class Kernel:
         that are not uniform; `refine=(rounds, runs)` adds cross-entropy pilot rounds,
         `refine_reuse=k` counts the last k of them in the estimate too, and
         `joint_components=K` (with `refine`) makes the pilot fit a joint proposal — a mixture
-        of at most K components over the whole of φ — instead of per-variable bins.
-        ValueError names ε, the refinement, the scenario or the variable. The kernel is not
-        changed."""
+        of at most K components over the whole of φ — instead of per-variable bins, and
+        `pilot_fidelity="lf"` (with `refine`) marks the pilot's trials "fidelity": "lf": run
+        them at the learned θ_LF* (the multi-fidelity estimator; the estimate's trials stay
+        HF). ValueError names ε, the refinement, the scenario or the variable. The kernel is
+        not changed."""
     def fidelity_posterior(self) -> Posterior:
         """p_ω(θ_LF); pass it as `fidelity_prior=` to a meta-testing kernel."""
     def scenario_posterior(self, name: str) -> Posterior:
@@ -431,11 +434,13 @@ class Estimation:
 
     def ask(self) -> Optional[Dict[str, Any]]:
         """The next trial: {"id", "scenario", "scenario_index", "phi", "q", "p", "weight",
-        "round"} ("round": the refinement round, None for a trial of the estimate); None
-        while a refinement round waits for the outcomes of the trials it asked."""
+        "round"} ("round": the refinement round, None for a trial of the estimate), and
+        "fidelity": "lf" on a multi-fidelity estimation's pilot trials (run them at θ_LF*;
+        every other trial runs HF); None while a refinement round waits for the outcomes of
+        the trials it asked."""
     def tell(self, id: int, failure: bool, *, robustness: Optional[float] = None) -> None:
-        """The HF outcome of trial `id` (savme.TellError if it is not pending), with the
-        run's robustness if any (a joint proposal's pilot aims at the near-misses)."""
+        """The outcome of trial `id` — HF, or LF for a trial marked "fidelity": "lf"
+        (savme.TellError if it is not pending), with the run's robustness if any (a joint proposal's pilot aims at the near-misses)."""
     def estimate(self) -> Dict[str, Any]:
         """{"total": {"mean", "std_error", "half_width", "lo", "hi"}, "runs", "failures",
         "scenarios": [...]} from the trials after the refinement."""

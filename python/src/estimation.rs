@@ -8,7 +8,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use savme_kernel::estimation::{
-    Estimation, EstimationConfig, Joint, Nominal, Refine, Tilt, MAX_COMPONENTS,
+    Estimation, EstimationConfig, Fidelity, Joint, Nominal, Refine, Tilt, MAX_COMPONENTS,
 };
 use savme_kernel::Kernel;
 use std::collections::BTreeMap;
@@ -34,7 +34,27 @@ pub fn config(
     refine: Option<(u32, u64)>,
     refine_reuse: u32,
     joint_components: Option<u32>,
+    pilot_fidelity: &str,
 ) -> PyResult<EstimationConfig> {
+    let pilot_fidelity = match pilot_fidelity {
+        "hf" => Fidelity::Hf,
+        "lf" if refine.is_none() => {
+            return Err(PyValueError::new_err(
+                "pilot_fidelity: \"lf\" runs the cross-entropy pilot rounds at the learned low fidelity: give refine=(rounds, runs) too",
+            ))
+        }
+        "lf" if refine_reuse > 0 => {
+            return Err(PyValueError::new_err(format!(
+                "refine_reuse: {refine_reuse} pilot rounds to reuse, but the pilot runs at low fidelity (pilot_fidelity=\"lf\"): LF outcomes are not the HF failures the estimate is about; leave it at 0"
+            )))
+        }
+        "lf" => Fidelity::Lf,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "pilot_fidelity: expected \"hf\" or \"lf\", got {other:?}"
+            )))
+        }
+    };
     if refine.is_none() && refine_reuse > 0 {
         return Err(PyValueError::new_err(format!(
             "refine_reuse: {refine_reuse} pilot rounds to reuse, but no refine=(rounds, runs)"
@@ -90,6 +110,7 @@ pub fn config(
             reuse: refine_reuse,
         }),
         joint: joint_components.map(|components| Joint { components }),
+        pilot_fidelity,
     })
 }
 
@@ -114,15 +135,17 @@ impl PyEstimation {
 
 #[pymethods]
 impl PyEstimation {
-    /// The next trial as a dict — `id`, `scenario`, `phi`, `q`, `p`, `weight` and `round`
-    /// (the refinement round, None for a trial of the estimate) — or None while a refinement
-    /// round has asked all its trials and waits for their outcomes.
+    /// The next trial as a dict — `id`, `scenario`, `phi`, `q`, `p`, `weight`, `round`
+    /// (the refinement round, None for a trial of the estimate) and, for a pilot trial of a
+    /// multi-fidelity estimation, `"fidelity": "lf"` (run it at θ_LF*; every other trial
+    /// runs HF) — or None while a refinement round has asked all its trials and waits for
+    /// their outcomes.
     fn ask<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let trial = self.with(|e| Ok(e.ask()))?;
         trial.map(|t| convert::json_to_py(py, &t)).transpose()
     }
 
-    /// Takes the HF outcome of trial `id` (`savme.TellError` for a trial not pending), with
+    /// Takes the outcome of trial `id` (HF; LF for a trial marked `"fidelity": "lf"`) (`savme.TellError` for a trial not pending), with
     /// the run's robustness if it has one (a joint proposal's pilot aims at near-misses).
     #[pyo3(signature = (id, failure, *, robustness = None))]
     fn tell(&self, id: i128, failure: bool, robustness: Option<f64>) -> PyResult<()> {

@@ -623,8 +623,10 @@ impl PyKernel {
     /// `refine=(rounds, runs)` adds cross-entropy pilot rounds, `refine_reuse=k` counts
     /// the last k of them in the estimate too, and `joint_components=K` makes the pilot fit a
     /// joint proposal (a mixture of at most K components over the whole of φ) instead of
-    /// refitting each variable's bins. The kernel is not changed.
-    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0, joint_components = None))]
+    /// refitting each variable's bins, and `pilot_fidelity="lf"` (with `refine`) marks the
+    /// pilot rounds' trials `"fidelity": "lf"`: run them at the learned θ_LF* (the
+    /// multi-fidelity estimator; the estimate's trials stay HF). The kernel is not changed.
+    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0, joint_components = None, pilot_fidelity = "hf"))]
     // Python keyword arguments, one parameter each.
     #[allow(clippy::too_many_arguments)]
     fn estimation(
@@ -637,6 +639,7 @@ impl PyKernel {
         refine: Option<(i128, i128)>,
         refine_reuse: i128,
         joint_components: Option<i128>,
+        pilot_fidelity: &str,
     ) -> PyResult<PyEstimation> {
         let refine = refine
             .map(|(rounds, runs)| {
@@ -657,6 +660,7 @@ impl PyKernel {
             joint_components
                 .map(|k| convert::whole("joint_components", k))
                 .transpose()?,
+            pilot_fidelity,
         )?;
         self.with(|s| PyEstimation::of(s.kernel(), &config))
     }

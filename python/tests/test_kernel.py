@@ -402,6 +402,24 @@ def test_a_joint_estimation_fits_a_mixture_from_failures_and_robustness():
         est.tell(t["id"], False, robustness=float("nan"))
 
 
+def test_a_multi_fidelity_estimation_runs_its_pilot_at_lf_and_estimates_from_hf():
+    # The LF fails below 20 m (false alarms on 15–20 m); the HF below 15 m: P = 2/9.
+    k = trained_kernel()
+    est = k.estimation(epsilon=0.2, seed=4, refine=(2, 100), pilot_fidelity="lf")
+    while est.told < 200:
+        t = est.ask()
+        assert t["fidelity"] == "lf" and t["round"] is not None
+        est.tell(t["id"], t["phi"]["gap_m"] < 20.0)
+    assert est.estimate()["runs"] == 0, "no LF outcome is in the estimate"
+    while est.told < 3200:
+        t = est.ask()
+        assert "fidelity" not in t and t["round"] is None
+        est.tell(t["id"], t["phi"]["gap_m"] < 15.0)
+    e = est.estimate()
+    assert e["runs"] == 3000
+    assert e["total"]["lo"] <= 2 / 9 <= e["total"]["hi"], e["total"]
+
+
 def test_bad_estimation_arguments_name_what_is_wrong():
     k = trained_kernel()
     with pytest.raises(ValueError, match=r"epsilon .* must lie in \(0, 1\], got 0"):
@@ -424,6 +442,12 @@ def test_bad_estimation_arguments_name_what_is_wrong():
         k.estimation(joint_components=4)
     with pytest.raises(ValueError, match=r"joint_components: must lie in 1..=64, got 0"):
         k.estimation(refine=(2, 10), joint_components=0)
+    with pytest.raises(ValueError, match=r"pilot_fidelity: \"lf\" runs .* give refine=\(rounds, runs\) too"):
+        k.estimation(pilot_fidelity="lf")
+    with pytest.raises(ValueError, match=r"refine_reuse: 1 pilot rounds to reuse, but the pilot runs at low fidelity"):
+        k.estimation(refine=(2, 10), refine_reuse=1, pilot_fidelity="lf")
+    with pytest.raises(ValueError, match=r'pilot_fidelity: expected "hf" or "lf", got "mf"'):
+        k.estimation(pilot_fidelity="mf")
 
 
 def test_extreme_but_finite_ranges_are_refused_naming_the_variable():

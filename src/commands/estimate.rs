@@ -7,7 +7,7 @@ use savme::campaign::estimate::{
 };
 use savme::campaign::Problem;
 use savme::compose;
-use savme_kernel::estimation::{ProposalKind, Tilt};
+use savme_kernel::estimation::{Fidelity, ProposalKind, Tilt};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -82,6 +82,12 @@ pub struct Args {
     /// The most mixture components of a joint proposal (with --proposal joint) [default: 8].
     #[arg(long)]
     joint_components: Option<u32>,
+    /// The fidelity of the pilot rounds: hf, or lf — the multi-fidelity estimator: the
+    /// proposal is fitted on LF runs at the campaign's learned θ_LF* (charged at their cost),
+    /// the estimate itself uses HF runs only (unbiased for the HF probability); needs
+    /// --refine-rounds [default: hf].
+    #[arg(long, value_enum)]
+    pilot_fidelity: Option<FidelityArg>,
     /// The campaign file of an FMU campaign (savme run): its problem and HF simulator. Its
     /// `[estimate]` section, if any, gives the settings; flags given here override its keys.
     #[arg(long, value_name = "FILE")]
@@ -159,6 +165,12 @@ enum ProposalArg {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+enum FidelityArg {
+    Hf,
+    Lf,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 enum TiltArg {
     Posterior,
     NominalWeighted,
@@ -198,6 +210,12 @@ impl Args {
             };
         }
         s.joint_components = self.joint_components.or(s.joint_components);
+        if let Some(f) = self.pilot_fidelity {
+            s.pilot_fidelity = match f {
+                FidelityArg::Hf => Fidelity::Hf,
+                FidelityArg::Lf => Fidelity::Lf,
+            };
+        }
         // A flag overrides the file's declaration of its variable; a second flag for the
         // same variable is refused rather than silently winning.
         let mut given = std::collections::BTreeSet::new();
@@ -272,6 +290,11 @@ impl Args {
             "joint_components",
             self.joint_components.is_some(),
             s.joint_components.is_some(),
+        );
+        add(
+            "pilot_fidelity",
+            self.pilot_fidelity.is_some(),
+            s.pilot_fidelity.is_some(),
         );
         names
     }

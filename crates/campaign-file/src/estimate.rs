@@ -15,13 +15,14 @@
 //! refine_runs = 2000     # … of this many HF runs
 //! proposal = "joint"     # or "product" (the default): what the pilot fits
 //! joint_components = 8   # the joint proposal's most mixture components
+//! pilot_fidelity = "lf"  # or "hf" (the default): the pilot runs at the learned θ_LF*
 //! [estimate.nominal.cut_in]
 //! gap = { distribution = "normal", mean = 5.0, sd = 1.0 }
 //! lane = { distribution = "weights", weights = [4, 2, 1] }
 //! ```
 
 use crate::Source;
-use savme_kernel::estimation::{Nominal, ProposalKind, Tilt};
+use savme_kernel::estimation::{Fidelity, Nominal, ProposalKind, Tilt};
 use std::collections::BTreeMap;
 use toml::Spanned;
 
@@ -47,6 +48,7 @@ pub(crate) mod raw {
         pub refine_reuse: Option<Spanned<u32>>,
         pub proposal: Option<Spanned<super::ProposalKind>>,
         pub joint_components: Option<Spanned<u32>>,
+        pub pilot_fidelity: Option<Spanned<super::Fidelity>>,
         #[serde(default)]
         pub nominal: BTreeMap<String, BTreeMap<String, Spanned<Nominal>>>,
     }
@@ -82,6 +84,9 @@ pub struct EstimateSection {
     pub proposal: Option<ProposalKind>,
     /// `joint_components`: the joint proposal's most mixture components.
     pub joint_components: Option<u32>,
+    /// `pilot_fidelity`: `"hf"` or `"lf"` (the multi-fidelity estimator: pilot rounds at the
+    /// campaign's learned θ_LF*).
+    pub pilot_fidelity: Option<Fidelity>,
     /// `[estimate.nominal.<scenario>] <variable> = { distribution = … }`.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
     /// The 1-based line of the `[estimate]` table.
@@ -128,6 +133,7 @@ pub(crate) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> Estimat
         refine_reuse: field!(refine_reuse),
         proposal: field!(proposal),
         joint_components: field!(joint_components),
+        pilot_fidelity: field!(pilot_fidelity),
         nominal: BTreeMap::new(),
         line,
         lines: BTreeMap::new(),

@@ -20,8 +20,8 @@
 //! | `{"op":"posterior"}` | `{"ok":true,"fidelity":{…},"scenarios":{…}}` |
 //! | `{"op":"stats"}` | `{"ok":true,"stats":{…},"pending":[ids]}` |
 //! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
-//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine` = `{"rounds","runs","reuse"}`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
-//! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}`, or `"trial":null` while a refinement round waits for its outcomes |
+//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine` = `{"rounds","runs","reuse"}`, `joint`, `pilot_fidelity` = `"lf"`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
+//! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}` (with `"fidelity":"lf"` on a multi-fidelity estimation's pilot trials: run them at θ_LF*), or `"trial":null` while a refinement round waits for its outcomes |
 //! | `{"op":"estimation_tell","id":0,"failure":true}` (also `"robustness":0.4`: a joint proposal's pilot aims at the near-misses) | `{"ok":true}` |
 //! | `{"op":"estimation_result"}` | `{"ok":true,"estimate":{"total":{"mean","lo","hi",…},…},"told":n,"round":r}` |
 //!
@@ -534,6 +534,37 @@ mod tests {
         assert_eq!(r[2]["ok"], true);
         assert!(r[3]["theta_lf"]["rate_hz"].is_number());
         assert!(r[4]["scenarios"]["braking_lead"].is_object());
+    }
+
+    /// A multi-fidelity estimation (`pilot_fidelity` = `lf`): its pilot trials say to run at
+    /// LF, the estimate's do not (HF); without `refine` it is refused, naming the setting.
+    #[test]
+    fn a_multi_fidelity_estimation_marks_its_pilot_trials_lf() {
+        let mut s = trained();
+        let input = "{\"op\":\"estimation\",\"epsilon\":0.2,\"seed\":5,\"refine\":{\"rounds\":1,\"runs\":2},\"pilot_fidelity\":\"lf\"}\n\
+                     {\"op\":\"estimation_ask\"}\n{\"op\":\"estimation_ask\"}\n\
+                     {\"op\":\"estimation_tell\",\"id\":0,\"failure\":true}\n\
+                     {\"op\":\"estimation_tell\",\"id\":1,\"failure\":false}\n\
+                     {\"op\":\"estimation_ask\"}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.2,\"seed\":5,\"pilot_fidelity\":\"lf\"}\n";
+        let r = run(&mut s, input);
+        assert_eq!(
+            (&r[1]["trial"]["fidelity"], &r[2]["trial"]["round"]),
+            (&json!("lf"), &json!(0))
+        );
+        assert_eq!(
+            r[5]["trial"]["fidelity"],
+            Value::Null,
+            "the estimate runs HF"
+        );
+        assert!(
+            r[6]["error"]
+                .as_str()
+                .unwrap()
+                .contains("pilot_fidelity: `lf` runs the cross-entropy pilot rounds"),
+            "{}",
+            r[6]
+        );
     }
 
     /// Trains the toy session on 60 paired trials (the failure rule: trial id divisible by 3).

@@ -30,6 +30,49 @@ pub struct EstimationConfig {
     /// posterior's bins, refitted per variable by the pilot). Needs `refine`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint: Option<Joint>,
+    /// The fidelity the cross-entropy pilot rounds run at: `hf` (default) or `lf` — the
+    /// multi-fidelity estimator: the proposal is fitted on cheap LF runs and the estimate
+    /// still uses HF runs only, so it stays unbiased for the HF probability whatever the LF's
+    /// errors (the defensive share keeps q > 0 wherever p > 0). Needs `refine`; pilot runs
+    /// at LF are never part of the estimate (`refine.reuse` must be 0).
+    #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
+    pub pilot_fidelity: Fidelity,
+}
+
+/// Which simulator fidelity an estimation trial runs at: `hf` (θ_HF, the truth the estimate
+/// is about) or `lf` (the campaign's learned θ_LF*: only the pilot rounds of a multi-fidelity
+/// estimation, [`EstimationConfig::pilot_fidelity`]).
+///
+/// ```
+/// use savme_kernel::estimation::Fidelity;
+/// assert_eq!(Fidelity::default(), Fidelity::Hf);
+/// assert_eq!(serde_json::to_string(&Fidelity::Lf).unwrap(), "\"lf\"");
+/// assert_eq!(serde_json::from_str::<Fidelity>("\"hf\"").unwrap(), Fidelity::Hf);
+/// ```
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Fidelity {
+    /// High fidelity, θ_HF.
+    #[default]
+    Hf,
+    /// The learned low fidelity, θ_LF*.
+    Lf,
+}
+
+impl Fidelity {
+    /// Whether this is [`Fidelity::Hf`] (the default, left out of serialised forms).
+    pub fn is_hf(&self) -> bool {
+        *self == Fidelity::Hf
+    }
+
+    /// `hf` or `lf`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Fidelity::Hf => "hf",
+            Fidelity::Lf => "lf",
+        }
+    }
 }
 
 /// The joint proposal: after each pilot round, every scenario's learned part p̂ becomes a
@@ -124,6 +167,7 @@ impl EstimationConfig {
             tilt: Tilt::Posterior,
             refine: None,
             joint: None,
+            pilot_fidelity: Fidelity::Hf,
         }
     }
 }
@@ -197,6 +241,12 @@ pub enum EstimationError {
     /// A joint proposal with no components or too many.
     #[error("joint.components: must lie in 1..={MAX_COMPONENTS}, got {0}")]
     BadComponents(u32),
+    /// An LF pilot without pilot rounds.
+    #[error("pilot_fidelity: `lf` runs the cross-entropy pilot rounds at the learned low fidelity: give `refine` (at least 1 round) too, or leave pilot_fidelity at `hf`")]
+    LowFidelityNeedsRefine,
+    /// LF pilot rounds to reuse in the (HF) estimate.
+    #[error("refine reuse: {0} pilot rounds to reuse, but the pilot runs at low fidelity (pilot_fidelity = `lf`) and LF outcomes are not the HF failures the estimate is about: reuse must be 0")]
+    ReuseLowFidelity(u32),
     /// A robustness that is NaN or infinite.
     #[error("estimation trial {id}: robustness must be a finite number, got {robustness}")]
     BadRobustness {
@@ -227,6 +277,13 @@ pub(crate) fn check_config(config: &EstimationConfig) -> Result<(), EstimationEr
         }
         if reuse > rounds {
             return Err(EstimationError::BadReuse { reuse, rounds });
+        }
+    }
+    if config.pilot_fidelity == Fidelity::Lf {
+        match config.refine {
+            None => return Err(EstimationError::LowFidelityNeedsRefine),
+            Some(r) if r.reuse > 0 => return Err(EstimationError::ReuseLowFidelity(r.reuse)),
+            Some(_) => {}
         }
     }
     if let Some(j) = config.joint {

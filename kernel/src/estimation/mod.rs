@@ -38,6 +38,13 @@
 //! trials are out, [`Estimation::ask`] returns None until they are told, so the proposal —
 //! and every trial — does not depend on the order in which parallel runs finish.
 //!
+//! **Multi-fidelity pilot** ([`EstimationConfig::pilot_fidelity`] = [`Fidelity::Lf`]): the
+//! pilot rounds' trials are marked to run at the learned low fidelity θ_LF* (multi-fidelity
+//! importance sampling: Peherstorfer, Cui, Marzouk & Willcox 2016). Their outcomes only fit
+//! the proposal — never the estimate, which stays the HF-weighted mean of the trials drawn
+//! from the proposal frozen after the pilot — so it is unbiased for the HF probability
+//! whatever the LF's errors (q ≥ ε·p keeps every weight finite).
+//!
 //! Estimation is a phase of its own type rather than a [`crate::Phase`]: it needs ε and the
 //! nominal, must never change the posterior it was built from, and its trials carry densities.
 //!
@@ -76,7 +83,7 @@ mod proposal;
 mod statistic;
 
 pub use config::{
-    EstimationConfig, EstimationError, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
+    EstimationConfig, EstimationError, Fidelity, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
     MAX_COMPONENTS, REFINE_SMOOTHING,
 };
 pub use nominal::Nominal;
@@ -118,6 +125,11 @@ pub struct EstimationTrial {
     /// The cross-entropy pilot round (0, 1, …) this trial belongs to; None for a trial of
     /// the estimate itself.
     pub round: Option<u32>,
+    /// The fidelity to run it at: `hf`, except the pilot rounds of a multi-fidelity
+    /// estimation ([`EstimationConfig::pilot_fidelity`] = `lf`), whose outcomes only fit the
+    /// proposal.
+    #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
+    pub fidelity: Fidelity,
 }
 
 /// The importance-sampling estimation of P(failure) under the nominal: asks φ from the fixed
@@ -139,6 +151,8 @@ pub struct Estimation {
     sums: Vec<Sums>,
     pilot: Option<Pilot>,
     pilot_sums: Vec<Sums>,
+    /// The fidelity of the pilot rounds' runs.
+    pilot_fidelity: Fidelity,
 }
 
 /// A trial asked and not yet told.
@@ -269,6 +283,7 @@ impl Estimation {
             sums: vec![Sums::default(); scenarios.len()],
             pilot,
             pilot_sums: vec![Sums::default(); scenarios.len()],
+            pilot_fidelity: config.pilot_fidelity,
         })
     }
 
@@ -345,6 +360,10 @@ impl Estimation {
             p: d.p,
             weight,
             round,
+            fidelity: match round {
+                Some(_) => self.pilot_fidelity,
+                None => Fidelity::Hf,
+            },
         };
         self.next_id += 1;
         self.asked[s] += 1;
@@ -363,8 +382,8 @@ impl Estimation {
         Some(trial)
     }
 
-    /// Takes the HF outcome of trial `id`. The last outcome of a refinement round refits the
-    /// proposals.
+    /// Takes the outcome of trial `id` at its [`EstimationTrial::fidelity`] (HF, except an
+    /// LF pilot's). The last outcome of a refinement round refits the proposals.
     pub fn tell(&mut self, id: u64, failure: bool) -> Result<(), EstimationError> {
         self.tell_run(id, failure, None)
     }
@@ -392,7 +411,9 @@ impl Estimation {
             return Ok(());
         };
         self.pilot_sums[s].add(t.weight, failure);
-        if round + pilot.refine.reuse >= pilot.refine.rounds {
+        // An LF pilot is never reused (refused when the estimation is built); checked here
+        // too so that no LF outcome can enter the HF estimate.
+        if self.pilot_fidelity.is_hf() && round + pilot.refine.reuse >= pilot.refine.rounds {
             self.sums[s].add(t.weight, failure);
         }
         if let Some(j) = pilot.joint.as_mut() {

@@ -654,3 +654,94 @@ fn reused_pilot_rounds_join_the_estimate_and_keep_it_unbiased() {
     // the earlier round's proposal is further from the final one, its terms spread more).
     assert!(width_one < 0.95 * width_none, "{width_one} vs {width_none}");
 }
+
+/// The multi-fidelity estimation's LF: it fails past 0.6 (false alarms on (0.6, 0.7]) unless
+/// y > 0.8 (misses: a fifth of the HF failures), so a proposal fitted on it is off.
+fn fails_lf(t: &EstimationTrial) -> bool {
+    t.phi.get_f64("x").unwrap() > 0.6 && t.phi.get_f64("y").unwrap() <= 0.8
+}
+
+fn lf_pilot(rounds: u32, runs: u64) -> Option<Refine> {
+    Some(Refine {
+        rounds,
+        runs,
+        reuse: 0,
+    })
+}
+
+/// An LF pilot without rounds, or reused in the estimate, is refused naming the setting.
+#[test]
+fn a_low_fidelity_pilot_needs_rounds_and_is_never_reused() {
+    let (s, p) = scenario("s", vec![Variable::boolean("b")], 1.0);
+    let mut c = EstimationConfig::new(0.1, 0);
+    c.pilot_fidelity = Fidelity::Lf;
+    let m = err(&[(s.clone(), p.clone())], &c);
+    assert!(
+        m.starts_with("pilot_fidelity: `lf`") && m.contains("give `refine`"),
+        "{m}"
+    );
+    c.refine = Some(Refine {
+        rounds: 2,
+        runs: 10,
+        reuse: 1,
+    });
+    let m = err(&[(s, p)], &c);
+    assert!(
+        m.contains("reuse must be 0") && m.contains("1 pilot rounds"),
+        "{m}"
+    );
+}
+
+/// Pilot trials run at LF, the estimate's at HF; the LF outcomes fit the proposal and never
+/// enter the estimate.
+#[test]
+fn a_low_fidelity_pilot_runs_at_lf_and_stays_out_of_the_estimate() {
+    let (mut e, _) = rare(3, lf_pilot(2, 40));
+    e.pilot_fidelity = Fidelity::Lf;
+    for _ in 0..80 {
+        let t = e.ask().expect("told one by one");
+        assert_eq!((t.fidelity, t.round.is_some()), (Fidelity::Lf, true));
+        e.tell(t.id, fails_lf(&t)).unwrap();
+    }
+    assert_eq!(e.estimate().runs, 0, "no LF outcome is in the estimate");
+    let t = e.ask().expect("the estimate");
+    assert_eq!((t.fidelity, t.round), (Fidelity::Hf, None));
+    assert!(!serde_json::to_string(&t).unwrap().contains("fidelity"));
+}
+
+/// The multi-fidelity estimate is unbiased for the HF probability however wrong the LF is:
+/// over 60 seeds (fixed), the proposal fitted on the biased LF's failures (false alarms and
+/// misses), the interval of 2,000 HF runs covers the exact HF tail probability in 53–60 of
+/// them (measured: 57) and the mean estimate is within 3 % of it (measured: 0.4 %). (Its
+/// width, ±11.1 %, is no better than the unrefined proposal's ±11.0 % here: this LF's false
+/// alarms pull the proposal below the HF threshold.)
+#[test]
+fn a_low_fidelity_pilot_keeps_the_hf_estimate_unbiased() {
+    let run = |seed: u64, refine: Option<Refine>| {
+        let (mut e, truth) = rare(seed, refine);
+        e.pilot_fidelity = Fidelity::Lf;
+        let mut hf_runs = 0;
+        while hf_runs < 2000 {
+            let t = e.ask().expect("told one by one");
+            let f = match t.fidelity {
+                Fidelity::Lf => fails_lf(&t),
+                Fidelity::Hf => {
+                    hf_runs += 1;
+                    fails(&t)
+                }
+            };
+            e.tell(t.id, f).unwrap();
+        }
+        (e.estimate().total, truth)
+    };
+    let seeds = 60;
+    let (mut covered, mut mean, mut truth) = (0, 0.0, 0.0);
+    for seed in 0..seeds {
+        let (est, t) = run(seed, lf_pilot(3, 400));
+        truth = t;
+        covered += u32::from(est.lo <= t && t <= est.hi);
+        mean += est.mean / seeds as f64;
+    }
+    assert!((53..=60).contains(&covered), "covered {covered} of {seeds}");
+    assert!((mean / truth - 1.0).abs() < 0.03, "{mean} vs {truth}");
+}

@@ -275,6 +275,7 @@ impl<'p> EstimateRun<'p> {
                     lines: &mut lines,
                     cost: protocol.cost.measure(),
                     theta_hf: &self.problem.theta_hf,
+                    theta_lf: trained.theta_lf.as_ref(),
                     report: &mut report,
                     stop: &self.stop,
                 };

@@ -6,13 +6,14 @@ use super::{EstimateError, EstimateSettings};
 use crate::log::RunLine;
 use crate::outputs::FORMAT_VERSION;
 use crate::CampaignError;
-use savme_kernel::estimation::{Estimate, Estimation, EstimationTrial};
+use savme_kernel::estimation::{Estimate, Estimation, EstimationTrial, Fidelity};
 use savme_kernel::Assignment;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::PathBuf;
 
-/// One HF run of an estimate, as stored in its `trials.jsonl`.
+/// One run of an estimate, as stored in its `trials.jsonl`: an HF run (`hf`), or the LF run
+/// (`lf`) of a multi-fidelity estimate's pilot round.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EstimateLine {
@@ -31,12 +32,21 @@ pub struct EstimateLine {
     /// The cross-entropy pilot round of a refinement trial (not part of the estimate).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub round: Option<u32>,
-    /// The HF run.
-    pub hf: RunLine,
+    /// The HF run (every trial but an LF pilot's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hf: Option<RunLine>,
+    /// The LF run at θ_LF* of a pilot trial with `pilot_fidelity` = `lf`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf: Option<RunLine>,
 }
 
 impl EstimateLine {
-    pub(crate) fn new(t: &EstimationTrial, hf: RunLine) -> Self {
+    /// The line of trial `t`, whose run (at `t.fidelity`) is `run`.
+    pub(crate) fn new(t: &EstimationTrial, run: RunLine) -> Self {
+        let (hf, lf) = match t.fidelity {
+            Fidelity::Hf => (Some(run), None),
+            Fidelity::Lf => (None, Some(run)),
+        };
         EstimateLine {
             id: t.id,
             scenario: t.scenario.to_string(),
@@ -46,6 +56,15 @@ impl EstimateLine {
             weight: t.weight,
             round: t.round,
             hf,
+            lf,
+        }
+    }
+
+    /// The line's run (HF or LF), if it has exactly one.
+    pub fn run(&self) -> Option<&RunLine> {
+        match (&self.hf, &self.lf) {
+            (Some(r), None) | (None, Some(r)) => Some(r),
+            _ => None,
         }
     }
 
@@ -73,6 +92,18 @@ impl EstimateLine {
         }
         if self.phi != asked.phi {
             return differs("phi", self.phi.to_string(), asked.phi.to_string());
+        }
+        let stored = match (&self.hf, &self.lf) {
+            (Some(_), None) => Fidelity::Hf,
+            (None, Some(_)) => Fidelity::Lf,
+            _ => return Err("a line holds exactly one run, `hf` or `lf`".into()),
+        };
+        if stored != asked.fidelity {
+            return differs(
+                "hf/lf",
+                format!("an {} run", stored.key().to_uppercase()),
+                format!("an {} run", asked.fidelity.key().to_uppercase()),
+            );
         }
         for (field, stored, now) in [
             ("q", self.q, asked.q),
@@ -131,6 +162,18 @@ pub struct EstimateOutcome {
     pub pilot_failures: u64,
     /// Their summed HF cost.
     pub pilot_hf_cost: f64,
+    /// LF runs of the pilot rounds at θ_LF* (`pilot_fidelity` = `lf`; else 0 and absent).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub pilot_lf_runs: u64,
+    /// Their summed cost (the campaign's cost measure; absent without LF runs).
+    #[serde(default, skip_serializing_if = "is_zero_cost")]
+    pub pilot_lf_cost: f64,
+    /// θ_LF*, the LF pilot's fidelity settings (absent without an LF pilot).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub theta_lf: Option<Assignment>,
+    /// Every run made, HF and LF, in HF runs of equal cost: (HF cost + LF cost) / the mean
+    /// cost of one HF run here. Without an LF pilot, the HF runs made.
+    pub hf_equivalent_runs: f64,
     /// Runs replayed from `trials.jsonl` (resume).
     pub replayed: u64,
     /// Seconds this process spent running.
@@ -143,6 +186,14 @@ pub struct EstimateOutcome {
     /// `table.md`'s text.
     #[serde(skip)]
     pub table_md: String,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
+}
+
+fn is_zero_cost(c: &f64) -> bool {
+    *c == 0.0
 }
 
 /// `summary.json` of an estimate: its `format_version`, then the outcome's fields.
@@ -201,9 +252,19 @@ impl EstimateOutcome {
             (Some(_), None) => false,
         };
         let cost = |lines: &mut dyn Iterator<Item = &EstimateLine>| -> f64 {
-            lines.map(|l| l.hf.runtime).sum()
+            lines.filter_map(EstimateLine::run).map(|r| r.runtime).sum()
         };
         let pilot = estimation.pilot_runs();
+        let lf_pilot = settings.pilot_fidelity == Fidelity::Lf;
+        let pilot_runs: u64 = pilot.iter().map(|p| p.0).sum();
+        let hf_lines = || lines.iter().filter(|l| l.hf.is_some());
+        let lf_cost = cost(&mut lines.iter().filter(|l| l.lf.is_some()));
+        let (hf_runs, hf_cost) = (hf_lines().count(), cost(&mut hf_lines()));
+        let hf_equivalent_runs = if hf_runs > 0 && hf_cost > 0.0 {
+            hf_runs as f64 + lf_cost / (hf_cost / hf_runs as f64)
+        } else {
+            hf_runs as f64
+        };
         let mut o = EstimateOutcome {
             settings: settings.clone(),
             stopped,
@@ -213,13 +274,17 @@ impl EstimateOutcome {
             training_hf_runs_of_scenarios: trained.scenario_runs,
             estimate_hf_runs: estimate.runs,
             estimate_hf_cost: cost(&mut lines.iter().filter(|l| in_estimate(l))),
-            pilot_hf_runs: pilot.iter().map(|p| p.0).sum(),
+            pilot_hf_runs: if lf_pilot { 0 } else { pilot_runs },
             pilot_failures: pilot.iter().map(|p| p.1).sum(),
             pilot_hf_runs_reused: lines
                 .iter()
                 .filter(|l| l.round.is_some() && in_estimate(l))
                 .count() as u64,
-            pilot_hf_cost: cost(&mut lines.iter().filter(|l| l.round.is_some())),
+            pilot_hf_cost: cost(&mut lines.iter().filter(|l| l.round.is_some() && l.hf.is_some())),
+            pilot_lf_runs: if lf_pilot { pilot_runs } else { 0 },
+            pilot_lf_cost: lf_cost,
+            theta_lf: trained.theta_lf.clone(),
+            hf_equivalent_runs,
             estimate,
             replayed,
             elapsed_seconds,
@@ -312,11 +377,23 @@ impl EstimateOutcome {
                     self.pilot_hf_runs_reused
                 ),
             };
-            let _ = writeln!(
-                t,
-                "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); {used}.",
-                r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
-            );
+            if self.settings.pilot_fidelity == Fidelity::Lf {
+                let theta = self
+                    .theta_lf
+                    .as_ref()
+                    .map_or_else(String::new, |t| format!(" {t}"));
+                let _ = writeln!(
+                    t,
+                    "Multi-fidelity: the cross-entropy refinement ran {} rounds of {} LF runs at the campaign's learned θ_LF*{theta} ({} runs made, {} LF failures, cost {:.4e}); they fit the proposal and are not part of the estimate, which uses HF runs only. Every run made is worth {:.0} HF runs (LF runs charged at their cost).",
+                    r.rounds, r.runs, self.pilot_lf_runs, self.pilot_failures, self.pilot_lf_cost, self.hf_equivalent_runs
+                );
+            } else {
+                let _ = writeln!(
+                    t,
+                    "Cross-entropy refinement before the estimate: {} rounds of {} HF runs ({} runs made, {} failures); {used}.",
+                    r.rounds, r.runs, self.pilot_hf_runs, self.pilot_failures
+                );
+            }
             if let Some(j) = self.settings.config(0).joint {
                 let _ = writeln!(
                     t,

@@ -18,6 +18,30 @@ pub(crate) struct Trained {
     pub stage_runs: u64,
     /// Told trials of the estimated scenarios in those stages.
     pub scenario_runs: u64,
+    /// θ_LF* at the budget (the evaluation stage's θ_LF), for an LF pilot; None when the
+    /// estimate does not need it.
+    pub theta_lf: Option<savme_kernel::Assignment>,
+}
+
+/// The campaign's learned θ_LF* at `budget`: the θ_LF of its evaluation stage (which runs
+/// θ_LF* on every trial). Refused, naming the stage, when that stage has no such trial.
+fn learned_theta(
+    campaign: &str,
+    lines: Lines<'_>,
+    budget: f64,
+) -> Result<savme_kernel::Assignment, EstimateError> {
+    let stage = StageId::new(StageKind::Evaluate, Some(budget));
+    lines
+        .1
+        .iter()
+        .filter_map(|(_, l)| l.trial())
+        .find(|t| t.stage == stage && t.theta_lf.is_some())
+        .and_then(|t| t.theta_lf.clone())
+        .ok_or_else(|| EstimateError::NoLearnedFidelity {
+            campaign: campaign.to_string(),
+            budget,
+            stage: stage.to_string(),
+        })
 }
 
 /// The trial lines of a campaign with the name of their store (for errors).
@@ -71,7 +95,12 @@ pub(crate) fn trained(
             used.push(*s);
         }
     }
+    let theta_lf = match settings.pilot_fidelity {
+        savme_kernel::estimation::Fidelity::Lf => Some(learned_theta(campaign, lines, budget)?),
+        savme_kernel::estimation::Fidelity::Hf => None,
+    };
     Ok(Trained {
+        theta_lf,
         stage_runs: used.iter().map(told_in).sum(),
         scenario_runs,
         stages: stages

@@ -9,7 +9,7 @@ use crate::executor::{Runner, Task};
 use crate::log::RunLine;
 use crate::store::{JsonlStore, TrialStore};
 use crate::CampaignError;
-use savme_kernel::estimation::{Estimation, EstimationTrial};
+use savme_kernel::estimation::{Estimation, EstimationTrial, Fidelity};
 use savme_kernel::Role;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -36,7 +36,10 @@ pub(super) fn replay(
             .ask()
             .ok_or_else(|| diverged("the refinement round waits for outcomes here".into()))?;
         line.check(&asked).map_err(diverged)?;
-        estimation.tell_run(asked.id, line.hf.failure, line.hf.robustness)?;
+        let run = line
+            .run()
+            .ok_or_else(|| diverged("a line holds exactly one run, `hf` or `lf`".into()))?;
+        estimation.tell_run(asked.id, run.failure, run.robustness)?;
         lines.push(line);
     }
     // Checked after the lines (their check names the field that differs, if one does).
@@ -99,6 +102,8 @@ pub(super) struct Running<'a, 'p> {
     pub(super) lines: &'a mut Vec<EstimateLine>,
     pub(super) cost: savme_kernel::CostMeasure,
     pub(super) theta_hf: &'a savme_kernel::Assignment,
+    /// θ_LF*, for an LF pilot's runs (None: every run is HF).
+    pub(super) theta_lf: Option<&'a savme_kernel::Assignment>,
     pub(super) report: &'a mut Reporter<'p>,
     pub(super) stop: &'a crate::Stop,
 }
@@ -125,13 +130,17 @@ impl Running<'_, '_> {
                 let Some(t) = self.estimation.ask() else {
                     break;
                 };
+                let (which, theta) = match (t.fidelity, self.theta_lf) {
+                    (Fidelity::Lf, Some(theta_lf)) => (Role::Learned, theta_lf),
+                    _ => (Role::High, self.theta_hf),
+                };
                 pool.submit(Task {
                     stage: stage.clone(),
                     trial: t.id,
-                    which: Role::High,
+                    which,
                     scenario: t.scenario.clone(),
                     phi: t.phi.clone(),
-                    fidelity: self.theta_hf.clone(),
+                    fidelity: theta.clone(),
                 })?;
                 flight.push_back((t, None));
                 asked += 1;
@@ -188,7 +197,8 @@ impl Running<'_, '_> {
         // Refused before the line is stored, so a resume does not meet it again.
         if let Some(x) = r.robustness.filter(|x| !x.is_finite()) {
             return Err(simulation(format!(
-                "the HF run's robustness must be a finite number, got {x}"
+                "the {} run's robustness must be a finite number, got {x}",
+                t.fidelity.key().to_uppercase()
             )));
         }
         let line = EstimateLine::new(t, RunLine::new(r, run.runtime));

@@ -2,7 +2,8 @@
 
 use crate::CampaignError;
 use savme_kernel::estimation::{
-    EstimationError, Joint, Nominal, ProposalKind, Refine, Tilt, DEFAULT_COMPONENTS, MAX_COMPONENTS,
+    EstimationError, Fidelity, Joint, Nominal, ProposalKind, Refine, Tilt, DEFAULT_COMPONENTS,
+    MAX_COMPONENTS,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -24,7 +25,7 @@ pub struct EstimateSettings {
     /// Stop once the total's 95 % interval is within ± this fraction of the estimate (and
     /// `min_failures` failures were seen); None: run `max_runs`.
     pub target_width: Option<f64>,
-    /// The most HF runs to make.
+    /// The most runs to make (HF, and the pilot's LF runs with `pilot_fidelity` = `lf`).
     pub max_runs: u64,
     /// Failures needed before the target width may stop the estimate (a normal interval on
     /// a handful of failures is not trustworthy).
@@ -42,8 +43,8 @@ pub struct EstimateSettings {
     /// Cross-entropy pilot rounds that refit the proposal before the estimate (0: none).
     #[serde(default)]
     pub refine_rounds: u32,
-    /// HF runs per pilot round (counted in `max_runs`; not part of the estimate unless
-    /// reused).
+    /// Runs per pilot round (HF, or LF with `pilot_fidelity` = `lf`; counted in `max_runs`;
+    /// not part of the estimate unless reused).
     #[serde(default)]
     pub refine_runs: u64,
     /// How many of the last pilot rounds also count toward the estimate, each trial with its
@@ -59,6 +60,12 @@ pub struct EstimateSettings {
     /// `joint`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub joint_components: Option<u32>,
+    /// The fidelity of the pilot rounds: `hf` (default) or `lf` — the multi-fidelity
+    /// estimator: the proposal is fitted on LF runs at the campaign's learned θ_LF* (cheap),
+    /// the estimate uses HF runs only (unbiased for the HF probability). Needs
+    /// `refine_rounds`; `refine_reuse` must be 0.
+    #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
+    pub pilot_fidelity: Fidelity,
 }
 
 fn is_zero(n: &u32) -> bool {
@@ -71,12 +78,18 @@ fn is_product(p: &ProposalKind) -> bool {
 
 /// The settings left out of `estimate.json` at their default (so that older files read the
 /// same).
-const SKIPPED_AT_DEFAULT: &[&str] = &["refine_reuse", "proposal", "joint_components"];
+const SKIPPED_AT_DEFAULT: &[&str] = &[
+    "refine_reuse",
+    "proposal",
+    "joint_components",
+    "pilot_fidelity",
+];
 
 /// The stored value of a setting left out of `estimate.json` because it has its default.
 fn absent(name: &str) -> serde_json::Value {
     match name {
         "proposal" => serde_json::Value::from("product"),
+        "pilot_fidelity" => serde_json::Value::from("hf"),
         "joint_components" => serde_json::Value::Null,
         _ => serde_json::Value::from(0),
     }
@@ -102,6 +115,7 @@ impl Default for EstimateSettings {
             refine_reuse: 0,
             proposal: ProposalKind::Product,
             joint_components: None,
+            pilot_fidelity: Fidelity::Hf,
         }
     }
 }
@@ -190,6 +204,7 @@ impl EstimateSettings {
             joint: (self.proposal == ProposalKind::Joint).then(|| Joint {
                 components: self.joint_components.unwrap_or(DEFAULT_COMPONENTS),
             }),
+            pilot_fidelity: self.pilot_fidelity,
         }
     }
 
@@ -279,6 +294,23 @@ impl EstimateSettings {
             }
             _ => {}
         }
+        if self.pilot_fidelity == Fidelity::Lf {
+            if self.refine_rounds == 0 {
+                return bad(
+                    "pilot_fidelity",
+                    "`lf` runs the cross-entropy pilot rounds at the campaign's learned θ_LF*: give `refine_rounds` and `refine_runs` too".into(),
+                );
+            }
+            if self.refine_reuse > 0 {
+                return bad(
+                    "refine_reuse",
+                    format!(
+                        "{} pilot rounds to reuse, but the pilot runs at LF (`pilot_fidelity` = \"lf\") and the estimate is about HF failures: leave it at 0",
+                        self.refine_reuse
+                    ),
+                );
+            }
+        }
         if self.refine_reuse > self.refine_rounds {
             return bad(
                 "refine_reuse",
@@ -341,6 +373,17 @@ pub enum EstimateError {
         told: u64,
         /// The protocol's iterations.
         needed: u64,
+    },
+    /// A multi-fidelity estimate (`pilot_fidelity` = `lf`) of a campaign that has no learned
+    /// θ_LF* at the budget (its evaluation stage, which runs θ_LF*, has no trial yet).
+    #[error("{campaign}: `pilot_fidelity` = \"lf\" runs the pilot at the learned θ_LF* of budget {budget}, which the campaign's stage `{stage}` has not run yet (no trial with θ_LF there); finish the campaign, or use `pilot_fidelity` = \"hf\"")]
+    NoLearnedFidelity {
+        /// The campaign.
+        campaign: String,
+        /// The budget.
+        budget: f64,
+        /// The evaluation stage.
+        stage: String,
     },
     /// The campaign has no directory of its own (it is kept in a database): the estimate
     /// needs an output directory.
@@ -456,6 +499,7 @@ impl EstimateSettings {
             refine_reuse: section.refine_reuse.unwrap_or(0),
             proposal: section.proposal.unwrap_or_default(),
             joint_components: section.joint_components,
+            pilot_fidelity: section.pilot_fidelity.unwrap_or_default(),
         };
         let error = |key: String, message: String| savme_campaign_file::ConfigError {
             file: file.display().to_string(),
