@@ -629,7 +629,11 @@ mod tests {
         let mut archive = Archive::default();
         for i in 0..3000 {
             let u: Vec<f64> = (0..3).map(|_| rng.random()).collect();
-            let cost = if i % 997 == 0 { 1e9 } else { rng.random::<f64>() };
+            let cost = if i % 997 == 0 {
+                1e9
+            } else {
+                rng.random::<f64>()
+            };
             archive.points.push_back(Point {
                 u,
                 cell: vec![0; 3],
@@ -641,7 +645,11 @@ mod tests {
         let mut view = View::new(&archive, &m, &[]);
         view.weights.iter_mut().step_by(7).for_each(|w| *w = 3.0);
         let w_max = view.weights.iter().copied().fold(0.0, f64::max);
-        let c_max = view.points.iter().filter_map(|p| p.cost).fold(0.0, f64::max);
+        let c_max = view
+            .points
+            .iter()
+            .filter_map(|p| p.cost)
+            .fold(0.0, f64::max);
         view.ln_cut = ln_cut(w_max, view.mean_cost.map(|mean| (mean, c_max)));
         assert!(view.ln_cut > -800.0, "{}", view.ln_cut);
         let mut skipped = 0;
