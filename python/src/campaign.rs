@@ -195,7 +195,11 @@ impl PyCampaign {
         let take = |slot: &Raised| slot.lock().unwrap_or_else(|p| p.into_inner()).take();
         if let Some(exc) = take(&interrupt) {
             let told = outcome.as_ref().err().map(|e| e.value(py).to_string());
-            add_note(py, &exc, &self.stopped_note(told.as_deref()));
+            add_note(
+                py,
+                &exc,
+                &self.stopped_note(told.as_deref(), executor.is_some()),
+            );
             return Err(exc);
         }
         if let (Err(e), Some(cause)) = (&outcome, take(&raised)) {
@@ -240,7 +244,7 @@ impl PyCampaign {
                     Ok(Err(e)) => Some(e.value(py).to_string()),
                     _ => None,
                 };
-                return Err(self.stopped(py, signal, told.as_deref()));
+                return Err(self.stopped(py, signal, told.as_deref(), executor.is_some()));
             }
         };
         let _ = py.detach(|| campaign.join());
@@ -251,9 +255,9 @@ impl PyCampaign {
     /// said when it stopped): SIGINT's `KeyboardInterrupt` again, its message saying where the
     /// campaign stopped and how to resume it; SIGTERM a `SystemExit(143)` (exit status 128 + 15,
     /// as `savme run`), the same said on stderr; what a handler of the caller's raised, with
-    /// that as a note.
-    fn stopped(&self, py: Python<'_>, signal: PyErr, told: Option<&str>) -> PyErr {
-        let note = self.stopped_note(told);
+    /// that as a note. `executed`: the runs went to an executor (the resume call names it).
+    fn stopped(&self, py: Python<'_>, signal: PyErr, told: Option<&str>, executed: bool) -> PyErr {
+        let note = self.stopped_note(told, executed);
         if signal.is_instance_of::<PyKeyboardInterrupt>(py) {
             return PyKeyboardInterrupt::new_err(note);
         }
@@ -273,16 +277,17 @@ impl PyCampaign {
 
     /// Where a stopped campaign stopped (`told`: the campaign's own words, if it said) and
     /// the call that resumes it.
-    fn stopped_note(&self, told: Option<&str>) -> String {
+    fn stopped_note(&self, told: Option<&str>, executed: bool) -> String {
         let told = match told {
             Some(t) if t.contains("stopped") => t.to_string(),
             _ => "the campaign stopped between trials (every told trial is stored)".to_string(),
         };
-        format!("{told}; resume it with {}", self.resume_call())
+        format!("{told}; resume it with {}", self.resume_call(executed))
     }
 
-    /// The Python call that resumes this campaign where it stopped.
-    fn resume_call(&self) -> String {
+    /// The Python call that resumes this campaign where it stopped (on an executor again when
+    /// `executed`).
+    fn resume_call(&self, executed: bool) -> String {
         let plan = &self.plan;
         let mut args = vec![format!("out={:?}", plan.out.display().to_string())];
         if let Some((_, name)) = &plan.storage {
@@ -293,11 +298,15 @@ impl PyCampaign {
         }
         args.push("resume=True".into());
         let args = args.join(", ");
+        let on = if executed { "executor=..." } else { "" };
         match &self.bound {
             BoundSim::File(path, _) => format!(
-                "savme.campaign.load({:?}, {args}).run()",
+                "savme.campaign.load({:?}, {args}).run({on})",
                 path.display().to_string()
             ),
+            BoundSim::None if executed => {
+                format!("savme.Campaign(None, problem, {args}).run(..., {on})")
+            }
             BoundSim::None => format!("savme.Campaign(None, problem, {args}).run(...)"),
         }
     }

@@ -320,7 +320,8 @@ def test_ctrl_c_stops_a_ray_campaign_at_once_with_the_resume_call_and_it_resumes
     print(f"Ctrl-C stopped the Ray campaign in {took:.1f} s")
     assert took < 20, f"Ctrl-C took {took:.1f} s to stop the campaign"
     assert "the campaign finished" not in stdout
-    resume = f'resume it with savme.Campaign(None, problem, out="{out}", resume=True).run(...)'
+    resume = (f'resume it with savme.Campaign(None, problem, out="{out}", resume=True)'
+              '.run(..., executor=...)')
     assert "KeyboardInterrupt: stopped in " in stderr and resume in stderr, stderr
     assert "(every told trial is stored)" in stderr, stderr
     assert len(lines(trials)) == stored < small().total_trials
