@@ -155,17 +155,16 @@ fn run_column(run: &str, camera: &str, view3d: &str, props: &mut Props) -> Verti
     let cam = Spatial2DView::new(camera)
         .with_origin(format!("/{run}/ego/camera"))
         .with_contents(["$origin/**"]);
-    // The camera's image and box stay in the camera view: drawn in 3D, on the pinhole's image
-    // plane ahead of the ego, they would hide the vehicles.
+    // The camera (its pinhole, image and box) stays in the camera view: drawn in 3D, its
+    // frustum and image plane reach ahead of the ego's bumper and, at a closest approach, over
+    // the other vehicle.
     let (v3, path) = child(
         Spatial3DView::new(view3d)
             .with_origin(format!("/{run}/ego"))
             .with_contents([
                 "/world/**".to_string(),
                 format!("/{run}/**"),
-                format!("- /{run}/ego/camera/image"),
-                format!("- /{run}/ego/camera/detection"),
-                format!("- /{run}/ego/camera/note"),
+                format!("- /{run}/ego/camera/**"),
             ]),
     );
     prop(props, &path, "EyeControls3D", &chase_eye());
