@@ -4,7 +4,8 @@
 //!
 //! The viewer's drawing rules these checks model (rerun 0.36, `re_view_spatial::ui`): a label
 //! hangs below its anchor — a 3D point, or a 2D box's bottom centre — its background from 1 px to
-//! [`LABEL_PX`] px below it, centred, [`CHAR_PX`] px per character plus 12 px wide; a 3D view's
+//! [`LABEL_PX`] px below it (its text from ~5 px to ~21 px), centred, [`CHAR_PX`] px per
+//! character plus 12 px wide; a 3D view's
 //! default vertical field of view is 55°. Pixel sizes are those of the default window
 //! (1600×1000, `docs/screenshots.sh`), measured on `docs/rerun_trial.png` and
 //! `docs/rerun_campaign.png`.
@@ -21,8 +22,9 @@ use rerun::external::re_types_core::{Component, ComponentIdentifier};
 /// Height of a label's background below its anchor, px (5 px offset, a 13 px font's 16 px
 /// line, 4 px padding).
 const LABEL_PX: f32 = 26.0;
-/// Width per character of a label's text, px (a generous average of the viewer's font).
-const CHAR_PX: f32 = 7.5;
+/// Width per character of a label's text, px (the viewer's font averages ~6.1 px on the
+/// grids' names in the screenshot).
+const CHAR_PX: f32 = 6.5;
 /// The 3D views' default vertical field of view, radians.
 const FOV_Y: f32 = 55.0 * std::f32::consts::PI / 180.0;
 /// Size of each 3D view of the trial view in the default window, px.
@@ -68,12 +70,14 @@ fn latest<C: Clone>(rows: &[(i64, Vec<C>)], t: i64) -> Option<(i64, Vec<C>)> {
     rows.iter().rev().find(|(at, _)| *at <= t).cloned()
 }
 
-/// A view of a blueprint: its origin, its contents' query, its eye (position, look target).
+/// A view of a blueprint: its origin, its contents' query, its eye (position, look target),
+/// its 2D bounds (`[x_min, x_max, y_min, y_max]`).
 #[derive(Debug, Default)]
 struct View {
     origin: String,
     query: Vec<String>,
     eye: Option<([f32; 3], [f32; 3])>,
+    bounds: Option<[f32; 4]>,
 }
 
 /// The views of the blueprint of `app` in `stores`, by name.
@@ -89,7 +93,8 @@ fn views(stores: &Rrd, app: &str) -> BTreeMap<String, View> {
             let e = chunk.entity_path().to_string();
             let view = e
                 .trim_end_matches("/ViewContents")
-                .trim_end_matches("/EyeControls3D");
+                .trim_end_matches("/EyeControls3D")
+                .trim_end_matches("/VisualBounds2D");
             let v = by_path.entry(view.to_string()).or_default();
             for x in chunk.iter_component::<rerun::components::Name>(
                 ViewBlueprint::descriptor_display_name().component,
@@ -118,6 +123,14 @@ fn views(stores: &Rrd, app: &str) -> BTreeMap<String, View> {
                 )
                 .flat_map(|x| x.to_vec())
                 .next();
+            for x in chunk
+                .iter_component::<bc::VisualBounds2D>(VisualBounds2D::descriptor_range().component)
+            {
+                if let Some(r) = x.first() {
+                    let (rx, ry) = (r.0.x_range.0, r.0.y_range.0);
+                    v.bounds = Some([rx[0], rx[1], ry[0], ry[1]].map(|c| c as f32));
+                }
+            }
             if let (Some(p), Some(t)) = (pos, target) {
                 eyes.insert(view.to_string(), (p.0.into(), t.0.into()));
             }
@@ -422,6 +435,164 @@ fn at_the_closest_approach_no_label_or_frustum_covers_a_vehicle() {
                         intruder.t
                     );
                 }
+            }
+        }
+    }
+}
+
+/// Size of the posterior grids' pane in the campaign view in the default window, px (measured
+/// on docs/rerun_campaign.png: a θ grid row is ~54 px there).
+const GRID_PANE_PX: (f32, f32) = (875.0, 915.0);
+
+/// The last row of component `C` at `entity` (on any timeline).
+fn last_row<C: Component>(stores: &Rrd, entity: &str, component: ComponentIdentifier) -> Vec<C> {
+    let mut last = Vec::new();
+    for (id, store) in stores {
+        if id.is_blueprint() {
+            continue;
+        }
+        for chunk in store.iter_physical_chunks() {
+            if chunk.entity_path().to_string() == entity {
+                if let Some(x) = chunk.iter_component::<C>(component).last() {
+                    last = x.to_vec();
+                }
+            }
+        }
+    }
+    last
+}
+
+/// The boxes of a 2D `entity`: (min x, min y, max x, max y), its radius, its labels (none when
+/// hidden).
+fn boxes_2d(stores: &Rrd, entity: &str) -> (Vec<Rect>, f32, Vec<String>) {
+    let centres = last_row::<rerun::components::Position2D>(
+        stores,
+        entity,
+        a::Boxes2D::descriptor_centers().component,
+    );
+    let halves = last_row::<rerun::components::HalfSize2D>(
+        stores,
+        entity,
+        a::Boxes2D::descriptor_half_sizes().component,
+    );
+    let rects = centres
+        .iter()
+        .zip(halves.iter().cycle())
+        .map(|(c, h)| {
+            let (c, h): ([f32; 2], [f32; 2]) = (c.0.into(), h.0.into());
+            [c[0] - h[0], c[1] - h[1], c[0] + h[0], c[1] + h[1]]
+        })
+        .collect();
+    let radius = last_row::<rerun::components::Radius>(
+        stores,
+        entity,
+        a::Boxes2D::descriptor_radii().component,
+    )
+    .first()
+    .map_or(-1.0, |r| r.0 .0);
+    let shown = last_row::<rerun::components::ShowLabels>(
+        stores,
+        entity,
+        a::Boxes2D::descriptor_show_labels().component,
+    )
+    .first()
+    .is_none_or(|s| s.0 .0);
+    let labels = if shown {
+        last_row::<rerun::components::Text>(
+            stores,
+            entity,
+            a::Boxes2D::descriptor_labels().component,
+        )
+        .iter()
+        .map(|t| t.as_str().to_string())
+        .collect()
+    } else {
+        Vec::new()
+    };
+    (rects, radius, labels)
+}
+
+// The issue's complaint: the φ/θ grids' cell borders ran through the posterior-mean values.
+#[test]
+fn no_border_of_a_posterior_grid_runs_through_its_text() {
+    let dir = made_dir("grids");
+    let (rrd, _) = campaign(&dir, "1000", "0");
+    let stores = load(&rrd);
+    let camp = recordings(&stores, savme::viewer::CAMPAIGN_APP)[0];
+    let rrd = open(&rrd);
+    let views = views(&rrd, savme::viewer::CAMPAIGN_APP);
+    let grids: Vec<(&String, &View)> = views
+        .iter()
+        .filter(|(n, _)| n.starts_with("θ posterior") || n.starts_with("φ-bins "))
+        .filter(|(_, v)| v.bounds.is_some())
+        .collect();
+    assert!(
+        grids.iter().any(|(n, _)| n.starts_with("θ")),
+        "{:?}",
+        views.keys()
+    );
+    assert!(
+        grids.iter().any(|(n, _)| n.starts_with("φ")),
+        "{:?}",
+        views.keys()
+    );
+    for (name, view) in grids {
+        let [x0, x1, y0, y1] = view.bounds.unwrap();
+        // The view frames its bounds whole: units to px.
+        let ppu = (GRID_PANE_PX.0 / (x1 - x0)).min(GRID_PANE_PX.1 / (y1 - y0));
+        let (mut borders, mut texts, mut cells) = (Vec::new(), Vec::new(), Vec::new());
+        for entity in camp
+            .rows
+            .keys()
+            .filter(|e| e.starts_with(&format!("{}/", view.origin)))
+        {
+            let (rects, radius, labels) = boxes_2d(&rrd, entity);
+            // A radius: positive in scene units, negative in UI points (the default: ~1.5).
+            let half = if radius < 0.0 {
+                1.5 / ppu
+            } else {
+                radius.max(0.5 / ppu)
+            };
+            for (k, r) in rects.iter().enumerate() {
+                if radius != 0.0 && r[3] - r[1] > 0.1 {
+                    // Its four edges, as thin rectangles.
+                    borders.push(([r[0] - half, r[1] - half, r[2] + half, r[1] + half], entity));
+                    borders.push(([r[0] - half, r[3] - half, r[2] + half, r[3] + half], entity));
+                    borders.push(([r[0] - half, r[1] - half, r[0] + half, r[3] + half], entity));
+                    borders.push(([r[2] - half, r[1] - half, r[2] + half, r[3] + half], entity));
+                }
+                if entity.ends_with("/cells") {
+                    cells.push(*r);
+                }
+                if let Some(text) = labels.get(k) {
+                    // The text's glyphs: ~5 to ~21 px below the box's bottom centre.
+                    let x = (r[0] + r[2]) / 2.0;
+                    let w = text.chars().count() as f32 * CHAR_PX / 2.0 / ppu;
+                    let glyphs = [x - w, r[3] + 5.0 / ppu, x + w, r[3] + 21.0 / ppu];
+                    texts.push((glyphs, text.clone(), entity.clone()));
+                }
+            }
+        }
+        assert!(
+            !texts.is_empty() && !cells.is_empty(),
+            "{name}: nothing drawn"
+        );
+        for (glyphs, text, entity) in &texts {
+            for (border, of) in &borders {
+                assert!(
+                    !overlap(*glyphs, *border),
+                    "{name}: a border of {of} ({border:?}) runs through `{text}` of {entity} \
+                     ({glyphs:?}, {ppu:.1} px per unit)"
+                );
+            }
+            if entity.ends_with("/cells/means") || entity.ends_with("/cells/labels") {
+                assert!(
+                    cells.iter().any(|c| glyphs[0] >= c[0]
+                        && glyphs[2] <= c[2]
+                        && glyphs[1] >= c[1]
+                        && glyphs[3] <= c[3]),
+                    "{name}: `{text}` of {entity} ({glyphs:?}) is not inside a cell"
+                );
             }
         }
     }

@@ -307,7 +307,8 @@ fn posterior_tabs(plan: &CampaignPlan, props: &mut Props) -> Vec<ContainerLike> 
 }
 
 /// The campaign view: the stage key above the curves (found failures, fidelity success, cost
-/// ratio) on the left; the posterior grids (a tab per grid) above the summary on the right.
+/// ratio) and the summary on the left; the posterior grids (a tab per grid, the whole height)
+/// on the right.
 pub fn campaign(plan: &CampaignPlan) -> Layout {
     use names::*;
     let mut props = Vec::new();
@@ -321,23 +322,22 @@ pub fn campaign(plan: &CampaignPlan) -> Layout {
         no_legend(&mut props, &path);
         c
     };
-    let curves = Vertical::new([
+    let key = Spatial2DView::new(KEY).with_origin("/campaign/key");
+    let left = Vertical::new([
+        key.into(),
         whole(FAILURES, "/campaign/found_failures"),
         whole(SUCCESS, "/campaign/fidelity_success"),
         whole(COST, "/campaign/cost_ratio"),
-    ])
-    .with_row_shares([0.42, 0.29, 0.29]);
-    let key = Spatial2DView::new(KEY).with_origin("/campaign/key");
-    let left = Vertical::new([key.into(), curves.into()]).with_row_shares([0.13, 0.87]);
-    let right = Vertical::new([
-        Tabs::new(posterior_tabs(plan, &mut props)).into(),
         TextDocumentView::new(CAMPAIGN)
             .with_origin("/campaign/summary")
             .with_contents(["$origin"])
             .into(),
     ])
-    .with_row_shares([0.7, 0.3]);
-    let root = Horizontal::new([left.into(), right.into()]).with_column_shares([0.5, 0.5]);
+    .with_row_shares([0.11, 0.3, 0.19, 0.19, 0.21]);
+    // The grids take the whole height: the viewer draws their text at a fixed pixel size, so
+    // a θ grid's row needs the height for its two lines inside the cell's borders.
+    let right = Tabs::new(posterior_tabs(plan, &mut props));
+    let root = Horizontal::new([left.into(), right.into()]).with_column_shares([0.45, 0.55]);
     Layout {
         blueprint: Blueprint::new(root)
             // The time panel folded, to give the views the room.
