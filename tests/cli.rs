@@ -460,6 +460,9 @@ fn a_huge_number_is_echoed_in_exponent_form() {
     let phi = "ego_speed=1e308,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
     let (ok, _, err) = savme(&["simulate", "--scenario", "7", "--phi", phi]);
     assert!(!ok);
-    assert!(err.contains("value 1e308 is outside variable `ego_speed`"), "{err}");
+    assert!(
+        err.contains("value 1e308 is outside variable `ego_speed`"),
+        "{err}"
+    );
     assert!(err.len() < 300, "{err}");
 }
