@@ -438,6 +438,7 @@ fn at_the_closest_approach_no_label_or_frustum_covers_a_vehicle() {
             }
         }
     }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Size of the posterior grids' pane in the campaign view in the default window, px (measured
@@ -596,4 +597,5 @@ fn no_border_of_a_posterior_grid_runs_through_its_text() {
             }
         }
     }
+    std::fs::remove_dir_all(&dir).ok();
 }
