@@ -453,3 +453,16 @@ fn color_flag_and_no_color_decide_the_escapes() {
     // A wrong value is a usage error.
     assert_eq!(run(&["--color", "sometimes", "scenarios"], &[]).0, Some(2));
 }
+
+// Issue 40 item 5: a number like 1e308 was echoed as its 309 digits.
+#[test]
+fn a_huge_number_is_echoed_in_exponent_form() {
+    let phi = "ego_speed=1e308,lead_speed=10,gap=8,lead_decel=9,brake_time=0.5";
+    let (ok, _, err) = savme(&["simulate", "--scenario", "7", "--phi", phi]);
+    assert!(!ok);
+    assert!(
+        err.contains("value 1e308 is outside variable `ego_speed`"),
+        "{err}"
+    );
+    assert!(err.len() < 300, "{err}");
+}

@@ -3,6 +3,8 @@
 //! informative-first rule), their blueprints, Ctrl-C, and `--connect` to nowhere.
 #![cfg(feature = "rerun")]
 mod common;
+#[path = "record/views.rs"]
+mod views;
 
 use common::{made_dir, EXE};
 use rerun::external::re_sdk_types::blueprint::archetypes::ViewBlueprint;
@@ -67,6 +69,7 @@ fn load(path: &Path) -> Vec<Store> {
         a::Points2D::descriptor_labels().component,
         a::Points3D::descriptor_labels().component,
         a::Boxes3D::descriptor_labels().component,
+        a::LineStrips3D::descriptor_labels().component,
         a::SeriesLines::descriptor_names().component,
     ];
     let name_ids = [
@@ -292,7 +295,8 @@ fn simulate_records_hf_and_lf_side_by_side_with_the_trial_view() {
             "intruder/body",
             "lidar",
             "ego_path",
-            "closest_approach/marker",
+            "closest_approach",
+            "ego/captions/closest_approach",
             "events",
         ] {
             assert!(
@@ -331,7 +335,7 @@ fn simulate_records_hf_and_lf_side_by_side_with_the_trial_view() {
         assert!(braking.contains(&1.0), "the ego brakes in this scenario");
         let speed: Vec<f64> = frames.iter().map(|f| f.ego.speed).collect();
         assert_eq!(r.scalars[&format!("/plots/speed/{run}")], speed);
-        // The collision, as a warning and a labelled marker.
+        // The collision, as a warning and a caption.
         let t = expect.collision_time.expect("this φ collides");
         let warning = format!("{}: collision at {t:.2} s", run.to_uppercase());
         assert!(
@@ -340,9 +344,9 @@ fn simulate_records_hf_and_lf_side_by_side_with_the_trial_view() {
             r.texts
         );
         assert_eq!(
-            r.texts[&format!("/{run}/closest_approach/marker")],
+            r.texts[&format!("/{run}/ego/captions/closest_approach")],
             [format!("collision at {t:.2} s")],
-            "one label per marker"
+            "one caption"
         );
         // The detector's box carries its class label.
         if sensors.iter().any(|s| s.detection.is_some()) {

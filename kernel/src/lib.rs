@@ -68,7 +68,7 @@ pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
 pub use search::{EliteMixture, SearchError, SearchModel};
 pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};
 pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
-pub use value::{Assignment, Value};
+pub use value::{Assignment, Num, Value};
 
 /// The crate README's example, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]

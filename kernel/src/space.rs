@@ -19,7 +19,7 @@
 //! bin representable) and [`Space`] (an ordered list of them, with the same checks across
 //! variables) are one concept; most of the length is the documented edge cases of binning.
 
-use crate::value::{Assignment, Value};
+use crate::value::{Assignment, Num, Value};
 use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -542,7 +542,7 @@ pub enum SpaceError {
         variable: String,
     },
     /// A continuous bound is NaN or infinite.
-    #[error("continuous variable `{variable}` has a non-finite bound: lo = {lo}, hi = {hi}")]
+    #[error("continuous variable `{variable}` has a non-finite bound: lo = {}, hi = {}", Num(*lo), Num(*hi))]
     NonFiniteBound {
         /// The variable.
         variable: String,
@@ -552,7 +552,7 @@ pub enum SpaceError {
         hi: f64,
     },
     /// `lo >= hi`.
-    #[error("continuous variable `{variable}` needs lo < hi, got lo = {lo}, hi = {hi}")]
+    #[error("continuous variable `{variable}` needs lo < hi, got lo = {}, hi = {}", Num(*lo), Num(*hi))]
     EmptyRange {
         /// The variable.
         variable: String,
@@ -563,9 +563,11 @@ pub enum SpaceError {
     },
     /// A range too wide (or too narrow) to compute with although both bounds are finite.
     #[error(
-        "continuous variable `{variable}` has a range too wide to compute with: lo = {lo}, hi = {hi} \
+        "continuous variable `{variable}` has a range too wide to compute with: lo = {lo_}, hi = {hi_} \
          (hi − lo, or hi / lo on a log scale, must be a finite number, at most {max:e}, and a \
          bin's width must be above {min:e}; narrow the range, or rescale the variable)",
+        lo_ = Num(*lo),
+        hi_ = Num(*hi),
         max = f64::MAX,
         min = 1.0 / f64::MAX
     )]
@@ -593,8 +595,9 @@ pub enum SpaceError {
     },
     /// A log-scaled variable whose range is not strictly positive.
     #[error(
-        "log-scaled variable `{variable}` needs 0 < lo, got lo = {lo} \
-         (shift the variable, or use a linear scale)"
+        "log-scaled variable `{variable}` needs 0 < lo, got lo = {lo_} \
+         (shift the variable, or use a linear scale)",
+        lo_ = Num(*lo)
     )]
     LogRangeNotPositive {
         /// The variable.
@@ -881,6 +884,6 @@ fn describe(d: &Domain) -> String {
             let vs: Vec<String> = values.iter().map(Value::to_string).collect();
             format!("one of {{{}}}", vs.join(", "))
         }
-        Domain::Continuous { lo, hi, .. } => format!("a number in [{lo}, {hi}]"),
+        Domain::Continuous { lo, hi, .. } => format!("a number in [{}, {}]", Num(*lo), Num(*hi)),
     }
 }

@@ -86,12 +86,38 @@ impl Value {
     }
 }
 
+/// A number as savme shows it to a user: as Rust writes it (`30`, `0.25`, shortest round
+/// trip), except very large or very small magnitudes in exponent form (`1e308`, not 309
+/// digits; `2.5e-9`, not ten zeros first).
+///
+/// ```
+/// use savme_kernel::Num;
+/// assert_eq!(Num(1e308).to_string(), "1e308");
+/// assert_eq!(Num(-2.5e-9).to_string(), "-2.5e-9");
+/// assert_eq!(Num(30.0).to_string(), "30");
+/// assert_eq!(Num(0.125).to_string(), "0.125");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Num(pub f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let x = self.0;
+        let a = x.abs();
+        if x.is_finite() && (a >= 1e16 || (a != 0.0 && a < 1e-6)) {
+            write!(f, "{x:e}")
+        } else {
+            write!(f, "{x}")
+        }
+    }
+}
+
 impl fmt::Display for Value {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Value::Bool(b) => write!(f, "{b}"),
             Value::Int(i) => write!(f, "{i}"),
-            Value::Real(x) => write!(f, "{x}"),
+            Value::Real(x) => write!(f, "{}", Num(*x)),
             Value::Label(s) => f.write_str(s),
         }
     }

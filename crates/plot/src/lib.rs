@@ -201,13 +201,53 @@ fn figure<S>(
         for (panel, area) in panels.iter().zip(areas.iter()) {
             draw(area, panel)?;
         }
-        root.present().map_err(|e| e.to_string())
+        root.present().map_err(png_error)
     })();
     drawn.map_err(PlotError::Draw)
 }
 
+/// The PNG backend's error type (plotters does not re-export its name).
+type PngError = <BitMapBackend<'static> as DrawingBackend>::ErrorType;
+
+/// Why writing the PNG failed, in words: plotters' own text for its bitmap errors is their
+/// Rust debug form (`ImageError(IoError(Os { code: 2, .. }))`).
+fn png_error(e: DrawingAreaErrorKind<PngError>) -> String {
+    use plotters_backend::DrawingErrorKind;
+    match e {
+        DrawingAreaErrorKind::BackendError(DrawingErrorKind::DrawingError(b)) => match b {
+            PngError::IOError(io) => format!("could not write the PNG: {io}"),
+            PngError::ImageError(image) => format!("could not write the PNG: {image}"),
+            PngError::InvalidBuffer => "the image buffer has the wrong size".into(),
+            #[allow(unreachable_patterns)] // other variants exist with other plotters features
+            other => format!("could not write the PNG ({})", other),
+        },
+        other => other.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    // Issue 40: a failed PNG write showed plotters' debug text, "ImageError(IoError(Os {…}))".
+    #[test]
+    fn a_png_that_cannot_be_written_says_why_in_words() {
+        let dir = std::env::temp_dir().join(format!("savme-plot-{}-missing", std::process::id()));
+        let path = dir.join("no-such-dir").join("f.png");
+        let panel = Panel {
+            title: "t".into(),
+            series: Vec::<Curve>::new(),
+            x_max: Some(1.0),
+        };
+        let e = curves(&path, (200, 150), CostMeasure::Wall, &[panel]).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.starts_with("could not write the PNG: No such file or directory"),
+            "{text}"
+        );
+        assert!(!text.contains("Error(") && !text.contains("Os {"), "{text}");
+    }
+
     #[test]
     fn ticks_have_the_decimals_their_axis_needs() {
         use super::tick;

@@ -20,7 +20,7 @@
 
 use super::palette::{self, heat, rgb};
 use super::plan::entity_label;
-use super::plan::{name_box, CampaignPlan, CELL};
+use super::plan::{name_box, CampaignPlan, CELL, CELL_FILL};
 use super::stream::{err, RecordError, RecordOptions};
 use rerun::RecordingStream;
 use savme_campaign::log::{ScreenLine, TrialLine};
@@ -33,9 +33,32 @@ use std::fmt::Write as _;
 /// Boxes as (mins, sizes).
 type BoxList = (Vec<(f32, f32)>, Vec<(f32, f32)>);
 
-/// Labels shown inside boxes `mins` + `sizes`: the viewer draws a 2D box's label just below
-/// the box, so each label hangs from a flat box along the top edge of its box (`path`, in the
-/// box's colour; its outline drawn 0 wide, so that it draws no line through the label above).
+/// Where a grid cell's labels hang from, as a share of the cell's height below its top: the
+/// viewer draws a label's text from ~5 px to ~21 px below its anchor, so in a ~50 px row the
+/// arm's name (from the top) and its posterior mean (from 0.45) both sit inside the cell's box
+/// with no border through them, and a one-line label (a row's name, a key cell) from 0.22 is
+/// centred.
+const NAME_LINE: f32 = 0.0;
+const MEAN_LINE: f32 = 0.45;
+const ONE_LINE: f32 = 0.22;
+/// How far the white θ_HF outline lies outside its cell's box (the magenta MAP outline is the
+/// box's own edge): in the gap between cells, clear of the cell's text.
+const HF_MARGIN: f32 = 0.3;
+
+/// The box of a grid cell (or a key cell) at `min`: [`CELL`] times [`CELL_FILL`].
+fn cell_box() -> (f32, f32) {
+    (CELL.0 * CELL_FILL, CELL.1 * CELL_FILL)
+}
+
+/// `mins` moved down by `share` of a cell's height: where labels of those cells hang from.
+fn lines(mins: &[(f32, f32)], share: f32) -> Vec<(f32, f32)> {
+    mins.iter().map(|(x, y)| (*x, y + share * CELL.1)).collect()
+}
+
+/// Labels hung from the points `boxes.0` (each centred over the width `boxes.1` of its box):
+/// the viewer draws a 2D box's label just below the box, so each label hangs from a flat box
+/// ending at its point (`path`, in the box's colour; its outline drawn 0 wide, so that it draws
+/// no line through the label above).
 fn log_labels(
     rec: &RecordingStream,
     path: String,
@@ -44,9 +67,10 @@ fn log_labels(
     labels: Vec<String>,
 ) -> Result<(), RecordError> {
     let flat: Vec<(f32, f32)> = boxes.1.iter().map(|(w, _)| (*w, 0.02)).collect();
+    let mins: Vec<(f32, f32)> = boxes.0.iter().map(|(x, y)| (*x, y - 0.02)).collect();
     rec.log(
         path,
-        &rerun::Boxes2D::from_mins_and_sizes(boxes.0, flat)
+        &rerun::Boxes2D::from_mins_and_sizes(mins, flat)
             .with_colors(colours)
             .with_radii([0.0f32])
             .with_labels(labels)
@@ -354,7 +378,7 @@ fn log_key(
     let y = (rows as f32 + 0.4) * h;
     let steps = [0.0, 0.25, 0.5, 0.75, 1.0];
     let mins: Vec<(f32, f32)> = (0..steps.len()).map(|k| (k as f32 * w, y)).collect();
-    let sizes = vec![(w * 0.95, h * 0.9); steps.len()];
+    let sizes = vec![cell_box(); steps.len()];
     rec.log_static(
         format!("{path}/key/scale"),
         &rerun::Boxes2D::from_mins_and_sizes(mins.clone(), sizes.clone())
@@ -371,14 +395,14 @@ fn log_key(
                 "{path}/key/{}",
                 name.replace('θ', "theta").replace(' ', "_")
             ),
-            &rerun::Boxes2D::from_mins_and_sizes([min], [(w * 0.95, h * 0.9)])
+            &rerun::Boxes2D::from_mins_and_sizes([min], [cell_box()])
                 .with_colors([c])
                 .with_radii([0.3f32])
                 .with_draw_order(2.0),
         )
         .map_err(err)?;
         lmins.push(min);
-        lsizes.push((w * 0.95, h * 0.9));
+        lsizes.push(cell_box());
         colours.push(c);
         labels.push(name.to_string());
         Ok(())
@@ -395,7 +419,7 @@ fn log_key(
     log_labels(
         rec,
         format!("{path}/key/labels"),
-        (lmins, lsizes),
+        (lines(&lmins, ONE_LINE), lsizes),
         colours,
         labels,
     )
@@ -422,19 +446,17 @@ fn log_grid(
     )
     .map_err(err)?;
     // Two one-line labels per cell: the arm's name at the top, its mean below.
-    let h = CELL.1;
-    let lower: Vec<(f32, f32)> = g.mins.iter().map(|(x, y)| (*x, y + h * 0.4)).collect();
     log_labels(
         rec,
         format!("{path}/cells/means"),
-        (lower, g.sizes.clone()),
+        (lines(&g.mins, MEAN_LINE), g.sizes.clone()),
         g.colours.clone(),
         g.means,
     )?;
     log_labels(
         rec,
         format!("{path}/cells/labels"),
-        (g.mins, g.sizes),
+        (lines(&g.mins, NAME_LINE), g.sizes),
         g.colours,
         g.labels,
     )?;
@@ -442,7 +464,7 @@ fn log_grid(
     log_labels(
         rec,
         format!("{path}/names"),
-        (g.name_mins, g.name_sizes),
+        (lines(&g.name_mins, ONE_LINE), g.name_sizes),
         grey,
         g.names,
     )?;
@@ -490,7 +512,7 @@ impl GridBoxes {
                 .push(row_name(space, i, &p.names()[i], highlight.is_none()));
             for (a, arm) in arms.iter().enumerate() {
                 g.mins.push((a as f32 * w, y));
-                g.sizes.push((w * 0.95, h * 0.9));
+                g.sizes.push(cell_box());
                 g.colours.push(heat(arm.mean()));
                 g.labels.push(arm_name(space, i, a));
                 g.means.push(format!("{:.2}", arm.mean()));
@@ -499,40 +521,40 @@ impl GridBoxes {
                 g.hf_mins.push((*hf as f32 * w, y));
             }
             if let Some(m) = map.get(i) {
-                g.map_mins.push((f32::from(*m) * w + 0.3, y + 0.2));
+                g.map_mins.push((f32::from(*m) * w, y));
             }
         }
         g
     }
 }
 
-/// The magenta MAP outline in every row and, for the θ grid, the white θ_HF outline.
+/// The magenta MAP outline in every row (on its cell's edge) and, for the θ grid, the white
+/// θ_HF outline (just outside its cell): neither through the cell's text.
 fn log_outlines(
     rec: &RecordingStream,
     path: &str,
     map_mins: Vec<(f32, f32)>,
     hf_mins: Vec<(f32, f32)>,
 ) -> Result<(), RecordError> {
-    let (w, h) = CELL;
+    let (w, h) = cell_box();
     let n_map = map_mins.len();
     rec.log(
         format!("{path}/map"),
-        &rerun::Boxes2D::from_mins_and_sizes(
-            map_mins,
-            vec![(w * 0.95 - 0.6, h * 0.9 - 0.4); n_map],
-        )
-        .with_colors([rerun::Color::from_rgb(255, 0, 255)])
-        .with_radii([0.25f32])
-        .with_labels(["MAP"])
-        .with_show_labels(false)
-        .with_draw_order(3.0),
+        &rerun::Boxes2D::from_mins_and_sizes(map_mins, vec![(w, h); n_map])
+            .with_colors([rerun::Color::from_rgb(255, 0, 255)])
+            .with_radii([0.25f32])
+            .with_labels(["MAP"])
+            .with_show_labels(false)
+            .with_draw_order(3.0),
     )
     .map_err(err)?;
     if !hf_mins.is_empty() {
         let n = hf_mins.len();
+        let m = HF_MARGIN;
+        let mins: Vec<(f32, f32)> = hf_mins.iter().map(|(x, y)| (x - m, y - m)).collect();
         rec.log_static(
             format!("{path}/theta_hf"),
-            &rerun::Boxes2D::from_mins_and_sizes(hf_mins, vec![(w * 0.95, h * 0.9); n])
+            &rerun::Boxes2D::from_mins_and_sizes(mins, vec![(w + 2.0 * m, h + 2.0 * m); n])
                 .with_colors([rerun::Color::from_rgb(255, 255, 255)])
                 .with_radii([0.35f32])
                 .with_labels(["θ_HF"])

@@ -2,8 +2,10 @@
 //! trial view (`super::layout::trial`): under `/hf` or `/lf`, the ego and the intruder as
 //! transforms over `sim_time` with their bodies below them, the camera as a pinhole on the ego
 //! (JPEG image, detector box with its class label), the lidar cloud coloured by range, planned
-//! paths and trajectories, the planner's prediction, the closest approach or collision (a 3D
-//! marker and a warning in `/{run}/events`); and the time series `/plots/distance/{run}` —
+//! paths and trajectories, the planner's prediction, the closest approach or collision (a line
+//! between the bodies and a warning in `/{run}/events`), the texts of those two as captions in
+//! the ego's frame under `/{run}/ego/captions` (drawn below the ego in the 3D view, never over
+//! the other vehicle); and the time series `/plots/distance/{run}` —
 //! the distance between the bodies, the quantity the failure (a collision: 0 m, drawn as
 //! `/plots/distance/collision`) is judged on, at every step and at the run's closest approach
 //! (the swept contact check's sample, which may fall between steps), so that its minimum is
@@ -290,26 +292,75 @@ fn log_frames(
 fn log_prediction(rec: &RecordingStream, base: &str, f: &Frame) -> Result<(), RecordError> {
     let path = format!("{base}/predicted_closest_approach");
     match f.predicted {
-        Some(pr) => rec.log(
-            path,
-            &rerun::LineStrips3D::new([[
-                (pr.ego.x as f32, pr.ego.y as f32, 1.2f32),
-                (pr.obstacle.x as f32, pr.obstacle.y as f32, 1.2),
-            ]])
-            .with_colors([rerun::Color::from_rgb(255, 0, 255)])
-            .with_labels([format!(
-                "predicted clearance {:.1} m in {:.1} s",
-                pr.clearance,
-                pr.time - f.time
-            )]),
-        ),
-        None => rec.log(path, &rerun::Clear::flat()),
+        Some(pr) => rec
+            .log(
+                path,
+                &rerun::LineStrips3D::new([[
+                    (pr.ego.x as f32, pr.ego.y as f32, 1.2f32),
+                    (pr.obstacle.x as f32, pr.obstacle.y as f32, 1.2),
+                ]])
+                .with_colors([prediction_colour()]),
+            )
+            .and_then(|()| {
+                caption(
+                    rec,
+                    base,
+                    "prediction",
+                    PREDICTION_CAPTION,
+                    prediction_colour(),
+                    format!(
+                        "predicted clearance {:.1} m in {:.1} s",
+                        pr.clearance,
+                        pr.time - f.time
+                    ),
+                )
+            }),
+        None => rec
+            .log(path, &rerun::Clear::flat())
+            .and_then(|()| rec.log(caption_path(base, "prediction"), &rerun::Clear::flat())),
     }
     .map_err(err)
 }
 
-/// The collision, or else the closest approach: a marker in 3D between the bodies where they
-/// were nearest, with one label above it, and a warning in the events.
+/// Where a caption hangs in the ego's frame (x forward, z up): on the road behind the ego, so
+/// that from the 3D view's chase eye (behind and above the ego, see `super::layout`) its text
+/// shows below the ego and never over the other vehicle or the gap between them, wherever
+/// that vehicle is. The viewer draws a label below its anchor.
+pub const CLOSEST_CAPTION: [f32; 3] = [-4.0, 0.0, 0.0];
+/// The planner's prediction's caption, below the closest approach's.
+pub const PREDICTION_CAPTION: [f32; 3] = [-7.5, 0.0, 0.0];
+/// The planner's prediction's colour.
+fn prediction_colour() -> rerun::Color {
+    rerun::Color::from_rgb(255, 0, 255)
+}
+
+/// The entity of a run's caption `name`, in the ego's frame.
+fn caption_path(base: &str, name: &str) -> String {
+    format!("{base}/ego/captions/{name}")
+}
+
+/// A caption: `text` in `colour`, hanging from an invisible point at `at` in the ego's frame.
+fn caption(
+    rec: &RecordingStream,
+    base: &str,
+    name: &str,
+    at: [f32; 3],
+    colour: rerun::Color,
+    text: String,
+) -> rerun::RecordingStreamResult<()> {
+    rec.log(
+        caption_path(base, name),
+        &rerun::Points3D::new([at])
+            .with_radii([0.0f32])
+            .with_colors([colour])
+            .with_labels([text])
+            .with_show_labels(true),
+    )
+}
+
+/// The collision, or else the closest approach: a line in 3D between the bodies where they
+/// were nearest, a caption under the ego (see [`CLOSEST_CAPTION`]) and a warning in the
+/// events.
 fn log_closest_approach(
     rec: &RecordingStream,
     run: RunSide,
@@ -338,7 +389,6 @@ fn log_closest_approach(
     };
     rec.set_duration_secs("sim_time", c.time);
     let (a, b) = (c.ego.center(), c.intruder.center());
-    let mid = ((a.x + b.x) as f32 / 2.0, (a.y + b.y) as f32 / 2.0);
     rec.log(
         format!("{base}/closest_approach"),
         &rerun::LineStrips3D::new([[
@@ -349,12 +399,13 @@ fn log_closest_approach(
         .with_radii([0.12f32]),
     )
     .map_err(err)?;
-    rec.log(
-        format!("{base}/closest_approach/marker"),
-        &rerun::Points3D::new([(mid.0, mid.1, 4.0f32)])
-            .with_colors([marker])
-            .with_radii([0.5f32])
-            .with_labels([label]),
+    caption(
+        rec,
+        base,
+        "closest_approach",
+        CLOSEST_CAPTION,
+        marker,
+        label,
     )
     .map_err(err)?;
     rec.log(

@@ -155,17 +155,16 @@ fn run_column(run: &str, camera: &str, view3d: &str, props: &mut Props) -> Verti
     let cam = Spatial2DView::new(camera)
         .with_origin(format!("/{run}/ego/camera"))
         .with_contents(["$origin/**"]);
-    // The camera's image and box stay in the camera view: drawn in 3D, on the pinhole's image
-    // plane ahead of the ego, they would hide the vehicles.
+    // The camera (its pinhole, image and box) stays in the camera view: drawn in 3D, its
+    // frustum and image plane reach ahead of the ego's bumper and, at a closest approach, over
+    // the other vehicle.
     let (v3, path) = child(
         Spatial3DView::new(view3d)
             .with_origin(format!("/{run}/ego"))
             .with_contents([
                 "/world/**".to_string(),
                 format!("/{run}/**"),
-                format!("- /{run}/ego/camera/image"),
-                format!("- /{run}/ego/camera/detection"),
-                format!("- /{run}/ego/camera/note"),
+                format!("- /{run}/ego/camera/**"),
             ]),
     );
     prop(props, &path, "EyeControls3D", &chase_eye());
@@ -308,7 +307,8 @@ fn posterior_tabs(plan: &CampaignPlan, props: &mut Props) -> Vec<ContainerLike> 
 }
 
 /// The campaign view: the stage key above the curves (found failures, fidelity success, cost
-/// ratio) on the left; the posterior grids (a tab per grid) above the summary on the right.
+/// ratio) and the summary on the left; the posterior grids (a tab per grid, the whole height)
+/// on the right.
 pub fn campaign(plan: &CampaignPlan) -> Layout {
     use names::*;
     let mut props = Vec::new();
@@ -322,23 +322,22 @@ pub fn campaign(plan: &CampaignPlan) -> Layout {
         no_legend(&mut props, &path);
         c
     };
-    let curves = Vertical::new([
+    let key = Spatial2DView::new(KEY).with_origin("/campaign/key");
+    let left = Vertical::new([
+        key.into(),
         whole(FAILURES, "/campaign/found_failures"),
         whole(SUCCESS, "/campaign/fidelity_success"),
         whole(COST, "/campaign/cost_ratio"),
-    ])
-    .with_row_shares([0.42, 0.29, 0.29]);
-    let key = Spatial2DView::new(KEY).with_origin("/campaign/key");
-    let left = Vertical::new([key.into(), curves.into()]).with_row_shares([0.13, 0.87]);
-    let right = Vertical::new([
-        Tabs::new(posterior_tabs(plan, &mut props)).into(),
         TextDocumentView::new(CAMPAIGN)
             .with_origin("/campaign/summary")
             .with_contents(["$origin"])
             .into(),
     ])
-    .with_row_shares([0.7, 0.3]);
-    let root = Horizontal::new([left.into(), right.into()]).with_column_shares([0.5, 0.5]);
+    .with_row_shares([0.11, 0.3, 0.19, 0.19, 0.21]);
+    // The grids take the whole height: the viewer draws their text at a fixed pixel size, so
+    // a θ grid's row needs the height for its two lines inside the cell's borders.
+    let right = Tabs::new(posterior_tabs(plan, &mut props));
+    let root = Horizontal::new([left.into(), right.into()]).with_column_shares([0.45, 0.55]);
     Layout {
         blueprint: Blueprint::new(root)
             // The time panel folded, to give the views the room.

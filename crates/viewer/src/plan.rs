@@ -6,8 +6,13 @@
 use savme_campaign::{Problem, Protocol, StageKind};
 use savme_kernel::Space;
 
-/// Cell size of the posterior grids (2D view units; tall enough for two lines of label).
-pub(crate) const CELL: (f32, f32) = (10.0, 6.0);
+/// Cell size of the posterior grids (2D view units). A cell's box takes [`CELL_FILL`] of it;
+/// the viewer draws labels at a fixed pixel size, so a cell is as tall as it is wide: in the
+/// default window (1600×1000) a θ grid row is then ~50 px, room for its two lines of text
+/// (name and posterior mean, ~16 px each) inside its borders.
+pub(crate) const CELL: (f32, f32) = (10.0, 10.0);
+/// The share of a cell its box takes (the rest is the gap between boxes).
+pub(crate) const CELL_FILL: f32 = 0.95;
 /// Columns the key row under a grid takes: five steps of the colour scale, θ_HF, MAP.
 pub(crate) const KEY_CELLS: usize = 7;
 /// Width of the column of row names left of a grid, in cells (a label is centred on its box,
@@ -17,7 +22,10 @@ pub(crate) const NAME_CELLS: f32 = 4.0;
 /// The box of a row's name: `NAME_CELLS` cells wide, left of the grid's first column, at `y`.
 pub(crate) fn name_box(y: f32) -> ((f32, f32), (f32, f32)) {
     let (w, h) = CELL;
-    ((-(NAME_CELLS + 0.1) * w, y), (NAME_CELLS * w, h * 0.9))
+    (
+        (-(NAME_CELLS + 0.1) * w, y),
+        (NAME_CELLS * w, h * CELL_FILL),
+    )
 }
 
 /// The part of the 2D plane a grid of `space` takes (with its names and key row), as
@@ -37,7 +45,7 @@ pub fn grid_bounds(space: &Space) -> [f32; 4] {
         -(NAME_CELLS + 0.4) * w,
         (cols + 0.3) * w,
         -0.4 * h,
-        (rows + 2.0) * h,
+        (rows + 1.6) * h,
     ]
 }
 
