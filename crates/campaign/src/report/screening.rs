@@ -108,6 +108,7 @@ mod tests {
             scenario: "s".into(),
             phi: Default::default(),
             theta_lf: None,
+            ladder: Vec::new(),
             screen,
             lf: Some(lf),
             hf,
