@@ -134,6 +134,7 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("search", None) => Some("bins".into()),
         ("screen_iterations", None) => Some("0".into()),
         ("prior_strengths", None) => Some("none".into()),
+        ("ladder", None) => Some("none (two-level screening at each budget)".into()),
         ("pair_fraction", None) => Some(p.pair_fraction.to_string()),
         ("pair_settle", None) => Some(p.pair_settle.to_string()),
         ("deployment", None) => Some(p.deployment.name().into()),

@@ -2,7 +2,7 @@
 //! against savme on the same FMU, and `savme run --config` with good and bad campaign files.
 mod common;
 
-use common::{fmpy_python, made_dir, savme};
+use common::{fmpy_python, made_dir, savme, trial_lines};
 use savme::kernel::{Assignment, Space};
 use savme_fmu::instance::Instance;
 use savme_fmu::FmuFile;
@@ -385,6 +385,34 @@ fn bad_campaign_files_name_the_file_line_and_key() {
         &TINY.replace("budgets = [0.3]", "budgets = [0.3]\nfidelity_bins = 0"),
         &["line 13", "campaign.fidelity_bins", "must be at least 1"],
     );
+    // Fidelity ladders: out of order, a level not trained, no screening to use it.
+    let ladder = |budgets: &str, ladder: &str, screen: &str| {
+        TINY.replace(
+            "budgets = [0.3]",
+            &format!("budgets = {budgets}\n{screen}ladder = {ladder}"),
+        )
+    };
+    let screens = "screen_iterations = 4\n";
+    check(
+        &ladder("[0.1, 0.3]", "[0.3, 0.1]", screens),
+        &["line 14", "campaign.ladder", "cheapest first"],
+    );
+    check(
+        &ladder("[0.3]", "[0.1, 0.3]", screens),
+        &[
+            "line 14",
+            "campaign.ladder",
+            "0.1 is not one of budgets (0.3)",
+        ],
+    );
+    check(
+        &ladder("[0.1, 0.3]", "[0.1, 0.3]", ""),
+        &["line 13", "campaign.ladder", "screen_iterations is 0"],
+    );
+    check(
+        &ladder("[0.1, 0.3]", "\"0.1\"", screens),
+        &["line 14", "campaign.ladder"],
+    );
     check(
         &TINY.replace(
             "step = { rate_of = \"simulation_rate_hz\" }",
@@ -392,6 +420,42 @@ fn bad_campaign_files_name_the_file_line_and_key() {
         ),
         &["fmu.step.rate_of", "`fps`"],
     );
+}
+
+/// A campaign file declares a three-level ladder (HF, C = 0.5, C = 0.2): each level is
+/// meta-trained at its budget, and the screening stage at the top screens down the ladder.
+#[test]
+fn a_campaign_file_declares_a_fidelity_ladder() {
+    let dir = made_dir("ladder");
+    let body = TINY.replace(
+        "budgets = [0.3]",
+        "budgets = [0.2, 0.5]\nladder = [0.2, 0.5]\nscreen_iterations = 6\naudit_fraction = 0.5",
+    );
+    let config = campaign_file(&dir, &body);
+    let out = dir.join("out");
+    let (ok, _, err) = savme(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(ok, "{err}");
+    let lines = trial_lines(&out);
+    let top: Vec<&serde_json::Value> = lines
+        .iter()
+        .filter(|l| l["stage"] == "screen@0.5")
+        .collect();
+    assert_eq!(top.len(), 6);
+    for l in &top {
+        assert_eq!(l["ladder"][0]["budget"], 0.2, "{l}");
+        assert!(
+            l["ladder"][0]["lf"].is_object() || l["screen"] == "direct",
+            "{l}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

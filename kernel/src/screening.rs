@@ -3,6 +3,10 @@
 //! positive); a random audit fraction α of the LF passes is also run on HF, to estimate how
 //! many failures the LF simulator misses (its FN rate among passes).
 //!
+//! A fidelity ladder generalises this to several LF levels, cheapest first ([`plan`]: which
+//! levels pay; [`next`]: what a trial runs next): a level's failure is confirmed at the next
+//! level up, HF last. The two-level screening is the ladder of one level.
+//!
 //! Screening asks what evaluation asks (φ ~ p_ψ, θ_LF*) and credits nothing, so it is not a
 //! phase of its own: a harness asks [`Phase::Evaluate`](crate::Phase::Evaluate) trials, runs
 //! LF, decides with [`decide`] and tells a paired observation when HF ran, or
@@ -213,9 +217,16 @@ impl Economy {
 
     /// Adds a direct trial (HF only).
     pub fn add_direct(&mut self, hf: &Run) {
-        self.direct += 1;
-        self.direct_failures += u64::from(hf.failure);
+        self.add_skipped(hf);
         self.saw_hf(hf);
+    }
+
+    /// Adds a trial that skipped this level of a [ladder](plan) (it did not pay): `next` is
+    /// the run that was made instead — the next level's LF run, or the HF run — whose verdict
+    /// stands in for this level's in the failure share.
+    pub fn add_skipped(&mut self, next: &Run) {
+        self.direct += 1;
+        self.direct_failures += u64::from(next.failure);
     }
 
     /// The estimated share of failures among the next trials.
@@ -227,12 +238,108 @@ impl Economy {
     /// Whether the next trial should run LF first: during the warm-up, without a known HF
     /// pass cost, or while `c_LF < (1 − p) · c_HF,pass`.
     pub fn screen_pays(&self) -> bool {
-        if self.screened < Self::WARMUP || self.hf_passes == 0 {
-            return true;
+        self.pays_against(self.hf_pass_cost())
+    }
+
+    /// The mean cost of the HF passes seen (None before any).
+    pub fn hf_pass_cost(&self) -> Option<f64> {
+        (self.hf_passes > 0).then(|| self.hf_pass_cost / self.hf_passes as f64)
+    }
+
+    /// The mean cost of this level's LF runs (None before any).
+    pub fn lf_run_cost(&self) -> Option<f64> {
+        (self.screened > 0).then(|| self.lf_cost / self.screened as f64)
+    }
+
+    /// Whether running this level first pays when a pass saves `saved` (the expected cost of
+    /// what would run after it; None: not known yet): during the warm-up, without `saved`, or
+    /// while `c_LF < (1 − p) · saved`.
+    pub fn pays_against(&self, saved: Option<f64>) -> bool {
+        match (self.screened < Self::WARMUP, self.lf_run_cost(), saved) {
+            (false, Some(lf), Some(saved)) => lf < (1.0 - self.failure_share()) * saved,
+            _ => true,
         }
-        let lf = self.lf_cost / self.screened as f64;
-        let pass = self.hf_pass_cost / self.hf_passes as f64;
-        lf < (1.0 - self.failure_share()) * pass
+    }
+}
+
+/// Which levels of a fidelity ladder the next trial runs, from each level's [`Economy`]
+/// (cheapest level first; the last is the one nearest HF). A screened trial runs the levels
+/// of the plan in order; a level's failure is confirmed at the next planned level up, HF last;
+/// a pass ends the trial (unless it is audited). A level pays while its LF run costs less than
+/// the share of passes times what a pass saves: the expected cost of the plan above it
+/// (`c + p · rest` for each planned level above, the HF pass cost at the top, which the last
+/// level's economy keeps). A ladder of one level is the two-level screening:
+/// `plan(&[e]) == [e.screen_pays()]`.
+///
+/// ```
+/// use savme_kernel::screening::{plan, Economy};
+/// use savme_kernel::Run;
+/// let mut top = Economy::default();
+/// top.saw_hf(&Run::new(false, 10.0)); // an HF pass costs 10
+/// let mut low = Economy::default();
+/// assert_eq!(plan(&[low, top]), [true, true], "both screen until measured");
+/// for _ in 0..Economy::WARMUP {
+///     low.add_screened(&Run::new(false, 0.5), None); // the cheap level passes everything
+///     top.add_screened(&Run::new(true, 3.0), None); // what reaches the top fails there
+/// }
+/// // The top, where nearly everything fails, no longer pays (its failures go to HF at once);
+/// // the bottom, which passes nearly everything, saves those HF runs: it pays.
+/// assert_eq!(plan(&[low, top]), [true, false]);
+/// assert_eq!(plan(&[top]), [top.screen_pays()]);
+/// ```
+pub fn plan(levels: &[Economy]) -> Vec<bool> {
+    let mut runs = vec![true; levels.len()];
+    // What a pass at the level below saves: the expected cost of the plan from here up.
+    let mut rest = levels.last().and_then(Economy::hf_pass_cost);
+    for (i, e) in levels.iter().enumerate().rev() {
+        runs[i] = e.pays_against(rest);
+        if runs[i] {
+            rest = match (e.lf_run_cost(), rest) {
+                (Some(c), Some(r)) => Some(c + e.failure_share() * r),
+                _ => None,
+            };
+        }
+    }
+    runs
+}
+
+/// What a screened trial on a ladder runs next ([`next`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Step {
+    /// The LF run at this level of the ladder (0: the cheapest).
+    Level(usize),
+    /// The HF run: to confirm the last level's failure, for the audit, or directly.
+    Hf,
+    /// Nothing more: a pass, not audited.
+    Stop,
+}
+
+/// The next run of a screened trial on a ladder with `plan` ([`plan`]: which levels run),
+/// after `last` (the last level run and whether its LF run failed; None: nothing ran yet):
+/// the first planned level (HF directly if none is), after a failure the next planned level
+/// up (HF after the top), after a pass HF if the trial is `audited`, else nothing.
+///
+/// ```
+/// use savme_kernel::screening::{next, Step};
+/// let plan = [true, false, true];
+/// assert_eq!(next(&plan, None, false), Step::Level(0));
+/// assert_eq!(next(&plan, Some((0, true)), false), Step::Level(2)); // level 1 does not pay
+/// assert_eq!(next(&plan, Some((2, true)), false), Step::Hf);
+/// assert_eq!(next(&plan, Some((0, false)), false), Step::Stop);
+/// assert_eq!(next(&plan, Some((0, false)), true), Step::Hf); // the audit
+/// assert_eq!(next(&[false], None, false), Step::Hf); // direct
+/// ```
+pub fn next(plan: &[bool], last: Option<(usize, bool)>, audited: bool) -> Step {
+    let from = match last {
+        None => 0,
+        Some((_, false)) if audited => return Step::Hf,
+        Some((_, false)) => return Step::Stop,
+        Some((level, true)) => level + 1,
+    };
+    match (from..plan.len()).find(|&i| plan[i]) {
+        Some(i) => Step::Level(i),
+        None => Step::Hf,
     }
 }
 
@@ -428,6 +535,77 @@ mod tests {
         assert_eq!((c.margin_checks, c.margin_found, c.found()), (2, 1, 2));
         assert_eq!(c.passes(), 1);
         assert_eq!(c.confirmed_per_runtime(), Some(2.0 / 16.0));
+    }
+
+    /// Economies of every kind: in and after the warm-up, with and without HF passes, cheap
+    /// and dear LF runs, rare and frequent failures, skipped trials.
+    fn economies() -> Vec<Economy> {
+        let mut all = vec![Economy::default()];
+        for (n, fail_every, lf, hf_pass, skipped) in [
+            (3u64, 2u64, 1.0, Some(10.0), 0u64),
+            (12, 2, 1.0, Some(10.0), 0),
+            (12, 1, 3.0, Some(10.0), 5),
+            (40, 5, 2.0, Some(4.0), 0),
+            (40, 10, 0.2, None, 3),
+            (25, 3, 6.0, Some(5.0), 8),
+        ] {
+            let mut e = Economy::default();
+            if let Some(c) = hf_pass {
+                e.saw_hf(&Run::new(false, c));
+            }
+            for i in 0..n {
+                e.add_screened(&Run::new(i % fail_every == 0, lf), None);
+            }
+            for i in 0..skipped {
+                e.add_direct(&Run::new(i % 2 == 0, 9.0));
+            }
+            all.push(e);
+        }
+        all
+    }
+
+    #[test]
+    fn a_ladder_of_one_level_is_the_two_level_screening() {
+        for e in economies() {
+            assert_eq!(plan(&[e]), [e.screen_pays()], "{e:?}");
+        }
+        assert!(plan(&[]).is_empty());
+    }
+
+    #[test]
+    fn a_level_pays_against_the_plan_above_it() {
+        let mut top = Economy::default();
+        top.saw_hf(&Run::new(false, 10.0));
+        let mut mid = top;
+        let mut low = top;
+        for i in 0..20 {
+            // The cheapest level flags half, the middle one confirms a fifth of those: both
+            // save HF runs.
+            low.add_screened(&Run::new(i % 2 == 0, 0.1), None);
+            mid.add_screened(&Run::new(i % 5 == 0, 1.0), None);
+            top.add_screened(&Run::new(i % 5 == 0, 3.0), None);
+        }
+        assert_eq!(plan(&[low, mid, top]), [true, true, true]);
+        // A middle level that costs as much as what it saves above it is skipped; the levels
+        // below it then save against the level above it instead.
+        let mut dear = Economy::default();
+        for _ in 0..20 {
+            dear.add_screened(&Run::new(false, 50.0), None);
+        }
+        assert_eq!(plan(&[low, dear, top]), [true, false, true]);
+        // A bottom level that flags everything saves nothing.
+        let mut flags = Economy::default();
+        for _ in 0..20 {
+            flags.add_screened(&Run::new(true, 0.5), None);
+        }
+        assert_eq!(plan(&[flags, mid, top]), [false, true, true]);
+        // Skipped trials count the verdict of the run made instead, not as an HF pass.
+        let mut skip = Economy::default();
+        skip.add_skipped(&Run::new(true, 4.0));
+        assert_eq!(
+            (skip.direct, skip.direct_failures, skip.hf_passes),
+            (1, 1, 0)
+        );
     }
 
     #[test]

@@ -504,6 +504,7 @@ class Protocol:
         deploy_budget: Optional[float] = None,
         theta_lf_choice: Optional[Literal["map", "evidence"]] = None,
         transfer: Optional[Literal["fixed", "auto"]] = None,
+        ladder: Optional[Sequence[float]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:
@@ -513,6 +514,8 @@ class Protocol:
         (default) measures each call's wall-clock time. search_budget / deploy_budget: run each
         search / deployed stage until its runs have cost this much (in the cost's unit).
         window: trials in flight; on_error="skip" withdraws a trial whose simulation raised.
+        ladder: a fidelity ladder, two or more of the budgets cheapest first (each level
+        meta-trained with its own θ_LF); the screening stage at its top budget screens down it.
         weights: p(s) per scenario (a scenario not listed weighs 1); a name that is not one of
         the protocol's scenarios is a KeyError naming it. A value that is NaN, infinite or an
         int beyond 64 bits, or a str for a list of scenarios, is refused naming the value."""

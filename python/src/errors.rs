@@ -64,9 +64,10 @@ pub fn session(e: SessionError) -> PyErr {
     match e {
         SessionError::Refused(e) => TellError::new_err(e.to_string()),
         SessionError::Journal(e) => store(e),
-        SessionError::BadBatch(_) | SessionError::Estimation(_) | SessionError::NoEstimation => {
-            PyValueError::new_err(e.to_string())
-        }
+        SessionError::BadBatch(_)
+        | SessionError::Estimation(_)
+        | SessionError::NoEstimation
+        | SessionError::NoSuchLevel { .. } => PyValueError::new_err(e.to_string()),
     }
 }
 

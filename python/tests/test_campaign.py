@@ -380,3 +380,33 @@ def test_a_campaign_with_cost_budgets_spends_them_and_resumes_identically(tmp_pa
     resumed = savme.Campaign(None, problem(), out=part, resume=True, jobs=2).run(toy)
     assert resumed.replayed == stored
     assert strip_wall(part / "trials.jsonl") == strip_wall(whole.files["trials"])
+
+
+def test_a_fidelity_ladder_screens_down_its_levels_each_with_its_own_theta(tmp_path):
+    """ladder=[0.2, 0.5]: HF plus two LF levels, each meta-trained at its budget; the screening
+    stage at 0.5 runs the 0.2 level first and sends its failures up to 0.5, then HF."""
+    p = protocol(budgets=[0.2, 0.5], ladder=[0.2, 0.5], screen_iterations=30, test_iterations=2,
+                 baseline_test_iterations=2)
+    assert p.to_dict()["ladder"] == [0.2, 0.5]
+    lf_rates = []
+
+    def lf(scenario, phi, theta):
+        lf_rates.append(theta["rate_hz"])
+        return toy(scenario, phi, theta)
+
+    result = savme.Campaign(p, problem(), out=tmp_path / "a", jobs=2).run(hf=toy, lf=lf)
+    lines = trial_records(result.files["trials"])
+    evaluated = {b: next(d for d in lines if d["stage"] == f"evaluate@{b}")["theta_lf"] for b in ("0.2", "0.5")}
+    top = [d for d in lines if d["stage"] == "screen@0.5"]
+    assert len(top) == 30
+    for d in top:
+        (rung,) = d["ladder"]
+        assert rung["budget"] == 0.2 and rung["theta_lf"] == evaluated["0.2"]
+        assert d["theta_lf"] == evaluated["0.5"]
+        # In order: the 0.5 level only after a failure at 0.2.
+        assert ("lf" in d) == bool(rung.get("lf", {}).get("failure")), d
+    levels = result.report["budgets"][1]["screening"]["levels"]
+    assert [lv["budget"] for lv in levels] == [0.2, 0.5]
+    assert levels[0]["runs"] == sum(1 for d in top if "lf" in d["ladder"][0])
+    with pytest.raises(ValueError, match=r"`ladder`: .*cheapest first"):
+        protocol(budgets=[0.2, 0.5], ladder=[0.5, 0.2], screen_iterations=3)

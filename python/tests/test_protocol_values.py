@@ -48,6 +48,7 @@ SAMPLES = {
     "deploy_budget": 2e8,
     "theta_lf_choice": "evidence",
     "transfer": "auto",
+    "ladder": [0.25, 0.5],
     "repeat": 2,
 }
 
@@ -55,7 +56,8 @@ SAMPLES = {
 # elite parameters the elite search, pair_settle a pairing of fewer than every trial).
 COMPANIONS = {"audit_fraction": {"screen_iterations": 7}, "elite": {"search": "elite"},
               "pair_settle": {"pair_fraction": 0.5}, "deployment": {"search": "elite"},
-              "screen_lf": {"screen_iterations": 7}}
+              "screen_lf": {"screen_iterations": 7},
+              "ladder": {"budgets": [0.25, 0.5], "screen_iterations": 7}}
 # Values that set another one: the elite search stores its default parameters.
 DERIVED = {"search": {"elite"}, "deployment": {"elite"}}
 

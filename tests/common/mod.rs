@@ -92,6 +92,14 @@ pub fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
                 r.remove("wall_seconds");
             }
         }
+        // A fidelity ladder's lower levels (screening lines).
+        if let Some(rungs) = v.get_mut("ladder").and_then(Value::as_array_mut) {
+            for rung in rungs {
+                if let Some(r) = rung["lf"].as_object_mut() {
+                    r.remove("wall_seconds");
+                }
+            }
+        }
     }
     t
 }

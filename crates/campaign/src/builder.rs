@@ -394,9 +394,15 @@ fn protocol_differences(saved: &Protocol, given: &Protocol) -> String {
     diffs.join("; ")
 }
 
-/// Each scenario's screening economy at the start of the screening stage at `budget`: the HF
-/// passes of the search at that budget (what a screened pass saves).
-fn economy(kernel: &Kernel, lines: &[LogLine], budget: Option<f64>) -> Vec<Economy> {
+/// Each scenario's screening economy at the start of the screening stage at `budget`, one per
+/// level of its ladder (`levels`; one without a ladder): the HF passes of the search at that
+/// budget (what a screened pass saves; the last level's is what counts).
+fn economy(
+    kernel: &Kernel,
+    lines: &[LogLine],
+    budget: Option<f64>,
+    levels: usize,
+) -> Vec<Vec<Economy>> {
     let names: Vec<&str> = kernel.config().scenarios.iter().map(|s| &*s.name).collect();
     let mut economy = vec![Economy::default(); names.len()];
     let search = StageId {
@@ -412,7 +418,7 @@ fn economy(kernel: &Kernel, lines: &[LogLine], budget: Option<f64>) -> Vec<Econo
             }
         }
     }
-    economy
+    economy.into_iter().map(|e| vec![e; levels]).collect()
 }
 
 /// The stages of a campaign run one after the other on one runner, with what they share.
@@ -445,6 +451,7 @@ impl Stages<'_, '_> {
                     o.replaying(stage, replayed);
                 }
             }
+            let rungs = self.kernels.rungs(stage);
             let kernel = self.kernels.for_stage(stage, &all_lines)?;
             let cx = StageContext {
                 stage,
@@ -460,7 +467,8 @@ impl Stages<'_, '_> {
                     seed: p.kernel_seed(&format!("audit:{}", stage.label())),
                     fraction: p.audit_fraction,
                     economy: (p.screen_lf == ScreenLf::WhereItPays)
-                        .then(|| economy(kernel, &all_lines, stage.budget)),
+                        .then(|| economy(kernel, &all_lines, stage.budget, rungs.len() + 1)),
+                    rungs,
                 }),
             };
             let observers = &mut *self.observers;

@@ -7,7 +7,7 @@ use super::log::{LogLine, TrialLine};
 use super::protocol::{Compact, Protocol, Stage, StageId, StageKind, Transfer};
 use super::report::fidelity;
 use super::{CampaignError, Problem};
-use savme_kernel::{Kernel, KernelBuilder, Space};
+use savme_kernel::{Assignment, Kernel, KernelBuilder, Space};
 
 /// Scenario names with their parameter spaces.
 type NamedSpaces = Vec<(String, Space)>;
@@ -147,6 +147,26 @@ impl<'a> StageKernels<'a> {
             };
         }
         Ok(builder.build()?)
+    }
+
+    /// The fidelity ladder's levels below a screening stage's budget, cheapest first: each
+    /// level's budget and the θ_LF* its meta-training kernel deploys (what its evaluation
+    /// asks). Empty for a stage at no ladder's top (the two-level screening) and for every
+    /// other stage. Each level's meta-training comes before (`Protocol::validate`), and
+    /// deployment never changes a kernel's fidelity posterior, so θ_LF* is final here.
+    pub(crate) fn rungs(&self, stage: &Stage) -> Vec<(f64, Assignment)> {
+        let (StageKind::Screen, Some(b)) = (stage.kind, stage.budget) else {
+            return Vec::new();
+        };
+        let mut levels = self.protocol.levels(b);
+        levels.pop();
+        levels
+            .into_iter()
+            .map(|l| {
+                let k = &self.kernels[1 + self.budget_index(l)];
+                (l, k.fidelity_estimate(k.config().estimator))
+            })
+            .collect()
     }
 
     /// The kernel that runs `stage` (a meta-testing stage gets a new one).

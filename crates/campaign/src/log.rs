@@ -141,10 +141,15 @@ pub struct ScreenLine {
     pub phi: Assignment,
     /// θ_LF* (the evaluation's).
     pub theta_lf: Option<Assignment>,
-    /// What the LF result called for (confirm, margin, audit or pass), or `direct`: no LF
-    /// run, screening did not pay.
+    /// A fidelity ladder's levels below this stage's budget, cheapest first, each with its LF
+    /// run if the trial made one (empty: the two-level screening, and not written).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ladder: Vec<RungLine>,
+    /// What the last LF result called for (confirm, margin, audit or pass), or `direct`: no
+    /// LF run, screening did not pay.
     pub screen: savme_kernel::screening::Screen,
-    /// The LF run (none for a direct trial).
+    /// The LF run at this stage's budget (none for a direct trial, or when a lower level of
+    /// the ladder passed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lf: Option<RunLine>,
     /// The HF run (confirmations and audits only).
@@ -158,10 +163,50 @@ fn runs_cost(a: Option<&RunLine>, b: Option<&RunLine>) -> f64 {
     a.map_or(0.0, |r| r.runtime) + b.map_or(0.0, |r| r.runtime)
 }
 
+/// A lower level of a fidelity ladder in a screened trial ([`ScreenLine::ladder`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RungLine {
+    /// The level's budget (its meta-training's).
+    pub budget: f64,
+    /// The level's θ_LF*.
+    pub theta_lf: Assignment,
+    /// Its LF run (none when the trial did not make it: the level did not pay, or a level
+    /// below it passed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lf: Option<RunLine>,
+}
+
 impl ScreenLine {
-    /// What the screened trial's runs cost: the LF run and the HF run, those that were made.
+    /// What the screened trial's runs cost: every LF run of the ladder and the HF run, those
+    /// that were made.
     pub fn cost(&self) -> f64 {
-        runs_cost(self.hf.as_ref(), self.lf.as_ref())
+        let rungs: f64 = self
+            .ladder
+            .iter()
+            .filter_map(|r| r.lf)
+            .map(|r| r.runtime)
+            .sum();
+        rungs + runs_cost(self.hf.as_ref(), self.lf.as_ref())
+    }
+
+    /// The LF run of each level, cheapest first (this stage's own last); None where none was
+    /// made. One level without a ladder.
+    pub fn levels(&self) -> Vec<Option<&RunLine>> {
+        let rungs = self.ladder.iter().map(|r| r.lf.as_ref());
+        rungs.chain([self.lf.as_ref()]).collect()
+    }
+
+    /// The LF side of the trial as one run, as the kernel is told it: the last LF run's
+    /// verdict and robustness, every LF run's cost (None without an LF run). Without a ladder,
+    /// the LF run itself.
+    pub fn lf_run(&self) -> Option<savme_kernel::Run> {
+        let mut made = self.levels().into_iter().flatten().map(RunLine::run);
+        let first = made.next()?;
+        Some(made.fold(first, |sum, r| savme_kernel::Run {
+            runtime: sum.runtime + r.runtime,
+            ..r
+        }))
     }
 }
 

@@ -613,6 +613,7 @@ mod tests {
             scenario: "s".into(),
             phi: Assignment::new(),
             theta_lf: None,
+            ladder: Vec::new(),
             screen: savme_kernel::screening::Screen::Confirm,
             lf: Some(run(true)),
             hf: hf_failure.map(run),

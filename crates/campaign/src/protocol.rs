@@ -388,6 +388,14 @@ pub struct Protocol {
     /// How meta-testing's learned prior is weighted (fixed, the paper's, is not written).
     #[serde(default, skip_serializing_if = "Transfer::is_fixed")]
     pub transfer: Transfer,
+    /// A fidelity ladder: the budgets of two or more LF levels, cheapest first, each one of
+    /// `budgets` (so each is meta-trained with its own θ_LF). The screening stage at the
+    /// ladder's top budget screens down the ladder ([`Protocol::levels`]): the cheapest
+    /// level's LF run first, a failure confirmed at the next level up, HF last. Empty: every
+    /// screening stage screens with its own budget's θ_LF* alone, the two-level campaign (not
+    /// written).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ladder: Vec<f64>,
 }
 
 fn default_floor() -> f64 {
@@ -515,6 +523,7 @@ impl Protocol {
             deploy_budget: None,
             theta_lf_choice: ThetaLfChoice::Map,
             transfer: Transfer::Fixed,
+            ladder: Vec::new(),
         }
     }
 
@@ -543,6 +552,7 @@ impl Protocol {
         self.check_iterations()?;
         self.check_sizes()?;
         self.check_ablation_and_screening()?;
+        self.check_ladder()?;
         for (name, w) in &self.weights {
             if !(*w > 0.0 && w.is_finite()) {
                 return bad("weights", format!("`{name}`: {w} is not a positive weight"));
@@ -660,6 +670,75 @@ impl Protocol {
             );
         }
         self.check_search()
+    }
+
+    /// The fidelity ladder: two or more of the budgets, cheapest first and in the order the
+    /// budgets are trained, with a screening stage to use it.
+    fn check_ladder(&self) -> Result<(), CampaignError> {
+        let l = &self.ladder;
+        if l.is_empty() {
+            return Ok(());
+        }
+        if l.len() < 2 {
+            return bad(
+                "ladder",
+                format!("one level ({}) is the two-level campaign every screening stage already runs: give two or more budgets, cheapest first, or leave ladder out", l[0]),
+            );
+        }
+        let trained = self
+            .budgets
+            .iter()
+            .map(|b| b.to_string())
+            .collect::<Vec<_>>();
+        let mut at = Vec::with_capacity(l.len());
+        for (i, &b) in l.iter().enumerate() {
+            let Some(k) = self.budgets.iter().position(|&x| x == b) else {
+                return bad(
+                    "ladder",
+                    format!("{b} is not one of budgets ({}): each level is meta-trained at its own budget, so add it to budgets", trained.join(", ")),
+                );
+            };
+            if i > 0 && b <= l[i - 1] {
+                return bad(
+                    "ladder",
+                    format!(
+                        "{b} comes after {}: the levels go cheapest first, each budget once",
+                        l[i - 1]
+                    ),
+                );
+            }
+            at.push(k);
+        }
+        if let Some(w) = at.windows(2).find(|w| w[0] > w[1]) {
+            return bad(
+                "ladder",
+                format!("budgets lists {} before {}: list the ladder's budgets in its order there too, so that every level is meta-trained before the ladder's screening", self.budgets[w[1]], self.budgets[w[0]]),
+            );
+        }
+        if self.screen_iterations == 0 && self.deploy_budget.is_none() {
+            return bad(
+                "ladder",
+                "a ladder is used by the screening stage, and there is none (screen_iterations is 0): give screen_iterations or deploy_budget too, or leave ladder out".into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// The LF levels the screening stage at budget `b` screens with, cheapest first: the
+    /// ladder when `b` is its top, else `b` alone (the two-level screening, a ladder of one).
+    ///
+    /// ```
+    /// use savme_campaign::Protocol;
+    /// let mut p = Protocol::paper("sim", vec!["a".into()], vec!["b".into()]);
+    /// assert_eq!(p.levels(0.3), [0.3]);
+    /// p.ladder = vec![0.2, 0.3];
+    /// assert_eq!((p.levels(0.3), p.levels(0.2)), (vec![0.2, 0.3], vec![0.2]));
+    /// ```
+    pub fn levels(&self, b: f64) -> Vec<f64> {
+        match self.ladder.last() {
+            Some(&top) if top == b => self.ladder.clone(),
+            _ => vec![b],
+        }
     }
 
     /// The elite parameters, the pairing and the deployment.
@@ -828,6 +907,39 @@ mod tests {
 
     fn p() -> Protocol {
         Protocol::paper("test", vec!["a".into()], vec!["b".into()])
+    }
+
+    #[test]
+    fn a_bad_ladder_is_refused_naming_the_ladder_and_why() {
+        let with = |budgets: &[f64], ladder: &[f64], screen: u64| Protocol {
+            budgets: budgets.to_vec(),
+            ladder: ladder.to_vec(),
+            screen_iterations: screen,
+            ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
+        };
+        let refused = |p: Protocol, why: &str| match p.validate() {
+            Err(CampaignError::Protocol { field, message }) => {
+                assert_eq!(field, "ladder");
+                assert!(message.contains(why), "{message}");
+            }
+            other => panic!("{other:?}"),
+        };
+        refused(with(&[0.1, 0.3], &[0.3], 5), "one level");
+        refused(
+            with(&[0.1, 0.3], &[0.1, 0.2], 5),
+            "0.2 is not one of budgets (0.1, 0.3)",
+        );
+        refused(with(&[0.1, 0.3], &[0.3, 0.1], 5), "cheapest first");
+        refused(with(&[0.1, 0.3], &[0.1, 0.1], 5), "each budget once");
+        refused(
+            with(&[0.3, 0.1], &[0.1, 0.3], 5),
+            "budgets lists 0.3 before 0.1",
+        );
+        refused(with(&[0.1, 0.3], &[0.1, 0.3], 0), "screen_iterations is 0");
+        let p = with(&[0.05, 0.1, 0.3], &[0.05, 0.1, 0.3], 5);
+        p.validate().expect("a three-level ladder");
+        assert_eq!(p.levels(0.3), [0.05, 0.1, 0.3]);
+        assert_eq!(p.levels(0.1), [0.1]);
     }
 
     #[test]

@@ -303,6 +303,13 @@ protocol_values! {
     /// nat per held-out scenario).
     transfer: Transfer, flag = "transfer", aliases = [], stages = "test-learned", to = protocol,
         cli(value_enum);
+    /// A fidelity ladder: two or more of the budgets, cheapest first, comma-separated (e.g.
+    /// 0.1,0.3). Each level is meta-trained with its own θ_LF; the screening stage at the top
+    /// budget runs the cheapest level's LF first and confirms its failures at the next level
+    /// up, HF last (with screen_lf = where-it-pays, only the levels that pay). Empty: the
+    /// two-level screening at each budget.
+    ladder: Vec<f64>, flag = "ladder", aliases = [], stages = "screen", to = protocol,
+        cli(value_delimiter = ',', value_name = "BUDGETS");
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -478,6 +485,7 @@ mod tests {
             deploy_budget: Some(1e8),
             theta_lf_choice: ThetaLfChoice::Evidence,
             transfer: Transfer::Auto,
+            ladder: vec![0.2, 0.3],
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -678,6 +686,7 @@ mod tests {
             deploy_budget: Some(2e8),
             theta_lf_choice: Some(ThetaLfChoice::Evidence),
             transfer: Some(Transfer::Auto),
+            ladder: Some(vec![0.2, 0.25]),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();

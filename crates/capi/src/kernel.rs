@@ -199,7 +199,7 @@ fn session_failure(e: SessionError) -> Failure {
     let status = match &e {
         SessionError::Refused(_) => SAVME_ERROR_REFUSED,
         SessionError::Journal(_) => SAVME_ERROR_JOURNAL,
-        SessionError::BadBatch(_) => SAVME_ERROR_ARGUMENT,
+        SessionError::BadBatch(_) | SessionError::NoSuchLevel { .. } => SAVME_ERROR_ARGUMENT,
         SessionError::Estimation(_) | SessionError::NoEstimation => SAVME_ERROR_ESTIMATION,
     };
     let message = match e {

@@ -24,6 +24,8 @@
 //! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}` (with `"fidelity":"lf"` on a multi-fidelity estimation's pilot trials: run them at θ_LF*), or `"trial":null` while a refinement round waits for its outcomes |
 //! | `{"op":"estimation_tell","id":0,"failure":true}` (also `"robustness":0.4`: a joint proposal's pilot aims at the near-misses) | `{"ok":true}` |
 //! | `{"op":"estimation_result"}` | `{"ok":true,"estimate":{"total":{"mean","lo","hi",…},…},"told":n,"round":r}` |
+//! | `{"op":"ladder_plan","levels":[{economy},…]}` (each level's [`Economy`], cheapest first) | `{"ok":true,"plan":[true,false]}`: which levels of a fidelity ladder the next screened trial runs ([`savme_kernel::screening::plan`]; one level is the two-level screening) |
+//! | `{"op":"ladder_next","plan":[true,true],"last":{"level":0,"failure":true},"audited":false}` (`last` absent before any run) | `{"ok":true,"next":{"level":1}}`, `"next":"hf"` or `"next":"stop"`: the screened trial's next run ([`savme_kernel::screening::next`]) |
 //!
 //! A bad request — not UTF-8, not JSON, an unknown key, a refused tell — gets
 //! `{"ok":false,"error":"request line N: …"}` and changes nothing; the server goes on. An ask of
@@ -33,11 +35,16 @@
 //! server's memory only (it is not journaled, and it never changes the kernel); its trials
 //! depend only on its request and the outcomes told, so a client that restarts it with the
 //! same request and tells the same outcomes in order gets the same trials again.
+//!
+//! A fidelity ladder is served as a kernel per level: one server per level's budget, each
+//! learning its own θ_LF (`estimate` reads its θ_LF*); `ladder_plan` and `ladder_next` are the
+//! campaign's screening decisions, stateless, for a harness that screens down the levels.
 
 #![warn(missing_docs)]
 
 use savme_kernel::estimation::{Estimation, EstimationConfig};
 use savme_kernel::journal::{Journaled, JournaledTellError};
+use savme_kernel::screening::Economy;
 use savme_kernel::{ConfigError, KernelConfig};
 use savme_kernel::{Estimator, Kernel, Observation, Phase, TellError, Trial, TrialRecord};
 use savme_store::journal::JournalSink;
@@ -82,6 +89,24 @@ enum Request {
         robustness: Option<f64>,
     },
     EstimationResult {},
+    LadderPlan {
+        levels: Vec<Economy>,
+    },
+    LadderNext {
+        plan: Vec<bool>,
+        #[serde(default)]
+        last: Option<LastRun>,
+        #[serde(default)]
+        audited: bool,
+    },
+}
+
+/// The last LF run of a screened trial on a ladder (`ladder_next`).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LastRun {
+    level: usize,
+    failure: bool,
 }
 
 fn one() -> usize {
@@ -118,6 +143,14 @@ pub enum SessionError {
     /// An estimation request before any `estimation` started one.
     #[error("no estimation is running: start one with {{\"op\":\"estimation\",\"epsilon\":0.1,\"seed\":0}}")]
     NoEstimation,
+    /// A `ladder_next` whose last level is not a level of its plan.
+    #[error("last.level {level} is not a level of the plan ({levels} levels, numbered from 0)")]
+    NoSuchLevel {
+        /// The level given.
+        level: usize,
+        /// Levels in the plan.
+        levels: usize,
+    },
 }
 
 /// Why a kernel configuration (JSON, as `savme example-config` prints) was refused.
@@ -338,6 +371,26 @@ impl Session {
                     "round": e.round(),
                 }))
             }
+            Request::LadderPlan { levels } => {
+                Ok(json!({"ok": true, "plan": savme_kernel::screening::plan(&levels)}))
+            }
+            Request::LadderNext {
+                plan,
+                last,
+                audited,
+            } => {
+                let last = match last {
+                    Some(LastRun { level, .. }) if level >= plan.len() => {
+                        return Err(SessionError::NoSuchLevel {
+                            level,
+                            levels: plan.len(),
+                        })
+                    }
+                    l => l.map(|l| (l.level, l.failure)),
+                };
+                let next = savme_kernel::screening::next(&plan, last, audited);
+                Ok(json!({"ok": true, "next": next}))
+            }
             Request::Stats {} => {
                 let k = self.kernel();
                 let pending: Vec<u64> = k.pending().map(|t| t.id).collect();
@@ -513,6 +566,42 @@ mod tests {
             .lines()
             .map(|l| serde_json::from_str(l).unwrap())
             .collect()
+    }
+
+    /// The ladder's decisions over the protocol: the plan from each level's economy (one level
+    /// is the two-level screening's), the next run; a level outside the plan is refused.
+    #[test]
+    fn a_ladders_plan_and_next_step_are_served() {
+        let mut s = session();
+        let dear_top = json!({"screened": 20, "lf_failures": 20, "direct": 0, "direct_failures": 0,
+            "lf_cost": 60.0, "hf_passes": 1, "hf_pass_cost": 10.0});
+        let cheap = json!({"screened": 20, "lf_failures": 2, "direct": 0, "direct_failures": 0,
+            "lf_cost": 2.0, "hf_passes": 0, "hf_pass_cost": 0.0});
+        let input = format!(
+            "{}\n{}\n{}\n{}\n{}\n{}\n",
+            json!({"op": "ladder_plan", "levels": [cheap, dear_top]}),
+            json!({"op": "ladder_plan", "levels": [dear_top]}),
+            json!({"op": "ladder_next", "plan": [true, false]}),
+            json!({"op": "ladder_next", "plan": [true, true], "last": {"level": 0, "failure": true}}),
+            json!({"op": "ladder_next", "plan": [true, true], "last": {"level": 0, "failure": false}, "audited": true}),
+            json!({"op": "ladder_next", "plan": [true], "last": {"level": 1, "failure": true}}),
+        );
+        let r = run(&mut s, &input);
+        assert_eq!(r[0]["plan"], json!([true, false]));
+        let e: Economy = serde_json::from_value(dear_top).unwrap();
+        assert_eq!(r[1]["plan"], json!([e.screen_pays()]));
+        assert_eq!(r[2]["next"], json!({"level": 0}));
+        assert_eq!(r[3]["next"], json!({"level": 1}));
+        assert_eq!(r[4]["next"], "hf");
+        assert_eq!(r[5]["ok"], false);
+        assert!(
+            r[5]["error"]
+                .as_str()
+                .unwrap()
+                .contains("request line 6: last.level 1 is not a level of the plan (1 levels"),
+            "{}",
+            r[5]
+        );
     }
 
     #[test]

@@ -238,7 +238,8 @@ impl CampaignView {
     }
 
     /// Records screening trial number `n` of the campaign: its HF failure (a confirmed LF
-    /// failure, or an audit's miss) on the found-failures plot, at the LF + HF runtime.
+    /// failure, or an audit's miss) on the found-failures plot, at the LF + HF runtime (every
+    /// level of a fidelity ladder).
     pub fn screened(
         &mut self,
         rec: &RecordingStream,
@@ -247,7 +248,8 @@ impl CampaignView {
         line: &ScreenLine,
     ) -> Result<(), RecordError> {
         let seconds = |r: Option<savme_campaign::log::RunLine>| r.map_or(0.0, |r| r.wall_seconds);
-        let runtime = seconds(line.lf) + seconds(line.hf);
+        let rungs: f64 = line.ladder.iter().map(|r| seconds(r.lf)).sum();
+        let runtime = rungs + seconds(line.lf) + seconds(line.hf);
         let failure = line.hf.is_some_and(|h| h.failure);
         self.found(rec, n, stage, runtime, failure).map(|_| ())
     }

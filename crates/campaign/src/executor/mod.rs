@@ -15,7 +15,7 @@ use super::log::LogLine;
 use super::protocol::{OnError, Stage};
 use super::store::{EditedLine, StoreError, TrialStore};
 use super::CampaignError;
-use savme_kernel::screening::Economy;
+use savme_kernel::screening::{Economy, Step};
 use savme_kernel::{Assignment, CostMeasure, Kernel, Role, SimError, SimResult, Simulator, Trial};
 use std::collections::VecDeque;
 use std::panic::AssertUnwindSafe;
@@ -105,8 +105,14 @@ struct Slot {
     error: Option<String>,
     /// In a screening stage: whether the trial belongs to the audit sample.
     audit: Option<bool>,
-    /// In a screening stage: HF runs directly, without an LF run (screening does not pay).
-    direct: bool,
+    /// In a screening stage: the LF runs of the ladder's levels below the stage's budget,
+    /// cheapest first (none without a ladder); the stage's own level's run is `lf`.
+    rungs: Vec<Option<SimResult>>,
+    /// In a screening stage: which levels of the ladder the trial runs
+    /// ([`savme_kernel::screening::plan`]), the stage's own last.
+    plan: Vec<bool>,
+    /// In a screening stage: the run the trial waits for next.
+    awaiting: Step,
 }
 
 impl Slot {
@@ -114,29 +120,47 @@ impl Slot {
         if self.logged.is_some() || self.error.is_some() {
             return true;
         }
-        match (self.audit, &self.lf) {
-            // Screening: HF alone for a direct trial.
-            (Some(_), _) if self.direct => self.hf.is_some(),
-            // Screening: the LF run, then HF only to confirm a failure or for the audit.
-            (Some(audit), Some(lf)) => self.hf.is_some() || !(lf.failure || audit),
-            (Some(_), None) => false,
+        match (self.audit, self.awaiting) {
+            // Screening: down the ladder's levels (one without a ladder), then HF only to
+            // confirm a failure or for the audit (or directly, where no level pays).
+            (Some(_), Step::Stop) => true,
+            (Some(_), Step::Hf) => self.hf.is_some(),
+            (Some(_), Step::Level(_)) => false,
             (None, _) => self.hf.is_some() && (self.lf.is_some() || self.trial.theta_lf.is_none()),
         }
+    }
+
+    /// Files a screened trial's LF run at the level it waits for and moves on to the next
+    /// step; the step, or None if the trial waited for no LF run.
+    fn screened(&mut self, r: SimResult, audit: bool) -> Option<Step> {
+        let Step::Level(level) = self.awaiting else {
+            return None;
+        };
+        let failed = r.failure;
+        match self.rungs.get_mut(level) {
+            Some(rung) => *rung = Some(r),
+            None => self.lf = Some(r),
+        }
+        self.awaiting = savme_kernel::screening::next(&self.plan, Some((level, failed)), audit);
+        Some(self.awaiting)
     }
 }
 
 /// A screening stage's audit: its seed and fraction α ([`savme_kernel::screening::audited`]),
-/// and where LF screening is decided by what it pays.
+/// the fidelity ladder it screens down, and where LF screening is decided by what it pays.
 #[derive(Debug, Clone)]
 pub struct Audit {
     /// Seed of the audit draws.
     pub seed: u64,
     /// Fraction of LF passes run on HF.
     pub fraction: f64,
-    /// Per scenario (kernel order), what its runs have cost so far, when each trial runs LF
-    /// only where it pays ([`savme_kernel::screening::Economy`]); None: every trial runs LF
-    /// first (the paper's).
-    pub economy: Option<Vec<Economy>>,
+    /// The ladder's levels below the stage's budget, cheapest first: each one's budget and
+    /// θ_LF* (empty: the two-level screening, the stage's θ_LF* alone).
+    pub rungs: Vec<(f64, Assignment)>,
+    /// Per scenario (kernel order), per level of the ladder (cheapest first, the stage's own
+    /// last), what its runs have cost so far, when each trial runs only the levels that pay
+    /// ([`savme_kernel::screening::plan`]); None: every trial runs every level (the paper's).
+    pub economy: Option<Vec<Vec<Economy>>>,
 }
 
 /// What a stage needs besides the kernel.
@@ -223,8 +247,8 @@ struct StageRun<'p, 'k, 'c> {
     /// What the told trials cost, and how many were told (a stage with a cost budget).
     spent: f64,
     told: u64,
-    /// A screening stage's economy per scenario, updated as its trials are told.
-    economy: Option<Vec<Economy>>,
+    /// A screening stage's economy per scenario and level, updated as its trials are told.
+    economy: Option<Vec<Vec<Economy>>>,
 }
 
 impl StageRun<'_, '_, '_> {
@@ -246,23 +270,26 @@ impl StageRun<'_, '_, '_> {
             .screen
             .as_ref()
             .map(|a| savme_kernel::screening::audited(a.seed, index, a.fraction));
-        let direct = self
-            .economy
-            .as_ref()
-            .and_then(|e| e.get(trial.scenario_index))
-            .is_some_and(|e| !e.screen_pays());
+        // Screening: the ladder's levels (one without a ladder) that pay for this scenario.
+        let rungs = self.cx.screen.as_ref().map_or(0, |a| a.rungs.len());
+        let plan = match self.economy.as_ref().map(|e| e.get(trial.scenario_index)) {
+            Some(Some(levels)) => savme_kernel::screening::plan(levels),
+            _ => vec![audit.is_some(); rungs + 1],
+        };
+        // HF directly, without an LF run: no level pays.
+        let direct = audit.is_some() && !plan.contains(&true);
+        let awaiting = savme_kernel::screening::next(&plan, None, audit == Some(true));
         match &logged {
             Some((number, l)) => {
                 let at = (self.cx.store.location(), *number);
                 check_logged(l, &trial, self.cx.stage.id(), index, at.clone())?;
                 check_direct(l, direct, at)?;
             }
+            None if audit.is_some() => self.send_step(&trial, awaiting)?,
             None => {
-                if audit.is_none() || direct {
-                    let theta_hf = self.theta_hf.clone();
-                    self.send(&trial, Role::High, &theta_hf)?;
-                }
-                if let Some(theta) = trial.theta_lf.as_ref().filter(|_| !direct) {
+                let theta_hf = self.theta_hf.clone();
+                self.send(&trial, Role::High, &theta_hf)?;
+                if let Some(theta) = trial.theta_lf.as_ref() {
                     self.send(&trial, Role::Learned, theta)?;
                 }
             }
@@ -275,9 +302,38 @@ impl StageRun<'_, '_, '_> {
             logged,
             error: None,
             audit,
-            direct,
+            rungs: vec![None; rungs],
+            plan,
+            awaiting,
         });
         Ok(true)
+    }
+
+    /// Sends a screened trial's next run: the LF run of a level of the ladder (at the level's
+    /// θ_LF*; the stage's own level at the trial's), or the HF run.
+    fn send_step(&mut self, trial: &Trial, step: Step) -> Result<(), CampaignError> {
+        let theta = match step {
+            Step::Stop => return Ok(()),
+            Step::Hf => self.theta_hf.clone(),
+            Step::Level(i) => {
+                let rung = self.cx.screen.as_ref().and_then(|a| a.rungs.get(i));
+                match (rung, &trial.theta_lf) {
+                    (Some((_, theta)), _) | (None, Some(theta)) => theta.clone(),
+                    (None, None) => {
+                        return Err(CampaignError::Diverged {
+                            stage: self.label.clone(),
+                            index: self.asked,
+                            message: format!("screening trial {} has no θ_LF", trial.id),
+                        })
+                    }
+                }
+            }
+        };
+        let role = match step {
+            Step::Hf => Role::High,
+            _ => Role::Learned,
+        };
+        self.send(trial, role, &theta)
     }
 
     /// Whether a stage with a cost budget has spent it: what its told trials cost, plus its
@@ -324,12 +380,15 @@ impl StageRun<'_, '_, '_> {
             };
             let number = slot.logged.as_ref().map(|(n, _)| *n);
             let scenario = slot.trial.scenario_index;
+            let plan = slot.plan.clone();
+            let rungs = self.cx.screen.as_ref().map_or(&[][..], |a| &a.rungs[..]);
             let line = tell(
                 self.kernel,
                 slot,
                 &self.label,
                 self.cx.stage,
                 self.cx.cost,
+                rungs,
                 self.cx.store,
             )?;
             if let Some(e) = self.cx.edited.filter(|e| Some(e.line) == number) {
@@ -341,8 +400,8 @@ impl StageRun<'_, '_, '_> {
                 .into());
             }
             if let (LogLine::Screen(s), Some(economy)) = (&line, self.economy.as_mut()) {
-                if let Some(e) = economy.get_mut(scenario) {
-                    add_screened(e, s);
+                if let Some(levels) = economy.get_mut(scenario) {
+                    add_screened(levels, s, &plan);
                 }
             }
             self.spent += line.cost();
@@ -390,15 +449,17 @@ impl StageRun<'_, '_, '_> {
         match done.result {
             Ok(r) => match done.which {
                 Role::High => slot.hf = Some(r),
-                Role::Learned => {
-                    // Screening: an LF failure is confirmed on HF, an audited pass checked.
-                    let confirm = slot.audit.is_some_and(|audit| r.failure || audit);
-                    slot.lf = Some(r);
-                    if confirm {
-                        let (trial, theta_hf) = (slot.trial.clone(), self.theta_hf.clone());
-                        self.send(&trial, Role::High, &theta_hf)?;
+                Role::Learned => match slot.audit {
+                    // Screening: an LF failure is confirmed at the next level up (HF after
+                    // the last), an audited pass checked on HF.
+                    Some(audit) => {
+                        if let Some(step) = slot.screened(r, audit) {
+                            let trial = slot.trial.clone();
+                            self.send_step(&trial, step)?;
+                        }
                     }
-                }
+                    None => slot.lf = Some(r),
+                },
             },
             Err(source) if self.cx.on_error == OnError::Skip => {
                 slot.error

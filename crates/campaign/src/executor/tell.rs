@@ -3,11 +3,11 @@
 //! line checked against what the kernel asks and credits again.
 
 use super::Slot;
-use crate::log::{FailedLine, LogLine, RunLine, ScreenLine, TrialLine};
+use crate::log::{FailedLine, LogLine, RunLine, RungLine, ScreenLine, TrialLine};
 use crate::protocol::{Compact, Stage, StageId};
 use crate::store::TrialStore;
 use crate::CampaignError;
-use savme_kernel::screening::{Economy, Screen};
+use savme_kernel::screening::{Economy, Screen, Step};
 use savme_kernel::{Assignment, CostMeasure, Kernel, SimError, SimResult, Trial};
 
 pub(super) fn simulation_error(
@@ -95,16 +95,37 @@ pub(super) fn check_direct(
     })
 }
 
-/// Adds a told screening line to its scenario's economy.
-pub(super) fn add_screened(e: &mut Economy, s: &ScreenLine) {
+/// Adds a told screening line to its scenario's economy, one per level of the ladder
+/// (cheapest first): each level's LF run, or — for a level the trial passed by because it did
+/// not pay (`plan`) — the run made in its place; the HF run to the last level's (which keeps
+/// the HF pass cost). Without a ladder: the LF run and the HF run, or a direct HF run.
+pub(super) fn add_screened(levels: &mut [Economy], s: &ScreenLine, plan: &[bool]) {
+    let runs: Vec<Option<savme_kernel::Run>> = s
+        .levels()
+        .into_iter()
+        .map(|r| r.map(RunLine::run))
+        .collect();
     let hf = s.hf.as_ref().map(RunLine::run);
-    match &s.lf {
-        Some(lf) => e.add_screened(&lf.run(), hf.as_ref()),
-        None => {
-            if let Some(hf) = &hf {
-                e.add_direct(hf);
+    for (i, e) in levels.iter_mut().enumerate() {
+        match runs.get(i).copied().flatten() {
+            Some(lf) => e.add_screened(&lf, None),
+            None if !plan.get(i).copied().unwrap_or(true) => {
+                // The run made in this level's place: the next level's that was made, or HF.
+                let instead = runs.iter().skip(i + 1).flatten().next().copied().or(hf);
+                // A level below that passed ended the trial: nothing was made in its place.
+                let reached = runs[..i.min(runs.len())]
+                    .iter()
+                    .flatten()
+                    .all(|r| r.failure);
+                if let (Some(next), true) = (instead, reached) {
+                    e.add_skipped(&next);
+                }
             }
+            None => {}
         }
+    }
+    if let (Some(top), Some(hf)) = (levels.last_mut(), &hf) {
+        top.saw_hf(hf);
     }
 }
 
@@ -184,18 +205,21 @@ fn assignment_difference(
 /// Tells the kernel a trial whose runs are in: its logged line on resume (checked against
 /// what the kernel credits), a withdrawal if a run failed, else its runs — storing the line
 /// (with the kernel's outcome and credit) before the next trial is told.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn tell(
     kernel: &mut Kernel,
     mut slot: Slot,
     label: &str,
     stage: &Stage,
     cost: CostMeasure,
+    rungs: &[(f64, Assignment)],
     store: &mut dyn TrialStore,
 ) -> Result<LogLine, CampaignError> {
     let cx = TellCx {
         label,
         stage,
         cost,
+        rungs,
         index: slot.index,
         id: slot.trial.id,
     };
@@ -210,6 +234,8 @@ struct TellCx<'a> {
     label: &'a str,
     stage: &'a Stage,
     cost: CostMeasure,
+    /// A screening stage's ladder below its budget: each level's budget and θ_LF*.
+    rungs: &'a [(f64, Assignment)],
     index: u64,
     id: u64,
 }
@@ -229,6 +255,45 @@ impl TellCx<'_> {
             index: self.index,
             message: e.to_string(),
         }
+    }
+
+    /// A stored screening line's ladder must be the one this stage screens down: the same
+    /// levels (budgets) with the same θ_LF*; the error names the store line and field.
+    fn check_ladder(
+        &self,
+        l: &ScreenLine,
+        tampered: &dyn Fn(&str, String, String) -> CampaignError,
+    ) -> Result<(), CampaignError> {
+        let levels = |budgets: Vec<f64>| {
+            budgets
+                .iter()
+                .map(|b| Compact(*b).to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if l.ladder.len() != self.rungs.len() {
+            return Err(tampered(
+                "ladder",
+                format!("[{}]", levels(l.ladder.iter().map(|r| r.budget).collect())),
+                format!("[{}]", levels(self.rungs.iter().map(|r| r.0).collect())),
+            ));
+        }
+        for (i, (rung, (budget, theta))) in l.ladder.iter().zip(self.rungs).enumerate() {
+            if rung.budget != *budget {
+                let (a, b) = (Compact(rung.budget), Compact(*budget));
+                return Err(tampered(
+                    &format!("ladder[{i}].budget"),
+                    a.to_string(),
+                    b.to_string(),
+                ));
+            }
+            if rung.theta_lf != *theta {
+                let (field, a, b) =
+                    assignment_difference(&format!("ladder[{i}].theta_lf"), &rung.theta_lf, theta);
+                return Err(tampered(&field, a, b));
+            }
+        }
+        Ok(())
     }
 
     fn withdraw(&self, kernel: &mut Kernel) -> Result<(), CampaignError> {
@@ -264,26 +329,17 @@ impl TellCx<'_> {
                 Ok(LogLine::Failed(f))
             }
             LogLine::Screen(l) => {
-                let expected = match &l.lf {
-                    Some(lf) => {
-                        savme_kernel::screening::decide(lf.failure, slot.audit == Some(true))
-                    }
-                    None => Screen::Direct,
-                };
-                let hf_expected = expected != Screen::Pass;
-                if slot.audit.is_none()
-                    || l.screen != expected
-                    || l.hf.is_some() != hf_expected
-                    || l.lf.is_none() != slot.direct
-                {
+                let audited = slot.audit == Some(true);
+                let expected = final_screen(&l, audited);
+                if slot.audit.is_none() || l.screen != expected || !walks(&l, &slot.plan, audited) {
                     return Err(tampered(
                         "screen",
                         format!("{} (HF run: {})", shown(&l.screen), l.hf.is_some()),
                         shown(&expected),
                     ));
                 }
-                tell_screened(kernel, self.id, l.lf.as_ref(), l.hf.as_ref())
-                    .map_err(cannot_tell)?;
+                self.check_ladder(&l, &tampered)?;
+                tell_screened(kernel, self.id, l.lf_run(), l.hf.as_ref()).map_err(cannot_tell)?;
                 Ok(LogLine::Screen(l))
             }
             LogLine::Trial(l) => {
@@ -327,8 +383,8 @@ impl TellCx<'_> {
                 error,
             })
         } else if let Some(audit) = slot.audit {
-            let l = screen_line(&slot, audit, label, stage, cost)?;
-            tell_screened(kernel, self.id, l.lf.as_ref(), l.hf.as_ref())
+            let l = screen_line(&slot, audit, self.rungs, (label, stage, cost))?;
+            tell_screened(kernel, self.id, l.lf_run(), l.hf.as_ref())
                 .map_err(|e| self.untellable(e))?;
             LogLine::Screen(l)
         } else {
@@ -360,55 +416,83 @@ fn run_line(
     Ok(RunLine::new(r, run.runtime))
 }
 
-/// Tells the kernel a screened trial: paired when both ran, LF or HF alone otherwise.
+/// Tells the kernel a screened trial: paired when both ran, LF or HF alone otherwise. `lf`
+/// is the ladder's LF side as one run ([`ScreenLine::lf_run`]).
 fn tell_screened(
     kernel: &mut Kernel,
     id: u64,
-    lf: Option<&RunLine>,
+    lf: Option<savme_kernel::Run>,
     hf: Option<&RunLine>,
 ) -> Result<(), savme_kernel::TellError> {
     match (lf, hf) {
         (Some(lf), Some(hf)) => kernel
-            .tell(
-                id,
-                savme_kernel::Observation::Paired {
-                    hf: hf.run(),
-                    lf: lf.run(),
-                },
-            )
+            .tell(id, savme_kernel::Observation::Paired { hf: hf.run(), lf })
             .map(|_| ()),
-        (Some(lf), None) => kernel.tell_unconfirmed(id, lf.run()).map(|_| ()),
+        (Some(lf), None) => kernel.tell_unconfirmed(id, lf).map(|_| ()),
         (None, Some(hf)) => kernel.tell_direct(id, hf.run()).map(|_| ()),
         (None, None) => Err(savme_kernel::TellError::NoRun { id }),
     }
 }
 
-/// The line of a screened trial whose runs are in.
+/// What a screened line's last LF run called for (`direct` without one).
+fn final_screen(l: &ScreenLine, audited: bool) -> Screen {
+    match l.levels().into_iter().flatten().last() {
+        Some(lf) => savme_kernel::screening::decide(lf.failure, audited),
+        None => Screen::Direct,
+    }
+}
+
+/// Whether a screened line made exactly the runs the ladder's `plan` and the audit call for,
+/// given the verdicts of the runs it made ([`savme_kernel::screening::next`]).
+fn walks(l: &ScreenLine, plan: &[bool], audited: bool) -> bool {
+    let runs = l.levels();
+    if runs.len() != plan.len() {
+        return false;
+    }
+    let mut made = vec![false; runs.len()];
+    let mut last = None;
+    loop {
+        match savme_kernel::screening::next(plan, last, audited) {
+            Step::Level(i) => match runs[i] {
+                Some(r) => {
+                    made[i] = true;
+                    last = Some((i, r.failure));
+                }
+                None => return false,
+            },
+            Step::Hf => {
+                break l.hf.is_some() && runs.iter().zip(&made).all(|(r, m)| r.is_some() == *m)
+            }
+            Step::Stop => {
+                break l.hf.is_none() && runs.iter().zip(&made).all(|(r, m)| r.is_some() == *m)
+            }
+        }
+    }
+}
+
+/// The line of a screened trial whose runs are in (`rungs`: the ladder's levels below the
+/// stage's budget, each one's budget and θ_LF*).
 fn screen_line(
     slot: &Slot,
     audit: bool,
-    label: &str,
-    stage: &Stage,
-    cost: CostMeasure,
+    rungs: &[(f64, Assignment)],
+    (label, stage, cost): (&str, &Stage, CostMeasure),
 ) -> Result<ScreenLine, CampaignError> {
     let run_line = |r: &SimResult, which| run_line(r, which, slot, label, cost);
-    let lf = match &slot.lf {
-        Some(r) => Some(run_line(r, "LF")?),
-        None if slot.direct => None,
-        None => return Err(CampaignError::WorkersGone),
-    };
-    let hf = match &slot.hf {
-        Some(r) => Some(run_line(r, "HF")?),
-        None => None,
-    };
-    let outcome = hf
-        .zip(lf)
-        .map(|(h, l)| savme_kernel::Outcome::classify(h.failure, l.failure));
-    let screen = match &lf {
-        Some(lf) => savme_kernel::screening::decide(lf.failure, audit),
-        None => Screen::Direct,
-    };
-    Ok(ScreenLine {
+    let made = |r: &Option<SimResult>, which| r.as_ref().map(|r| run_line(r, which)).transpose();
+    let lf = made(&slot.lf, "LF")?;
+    let hf = made(&slot.hf, "HF")?;
+    let rungs = rungs.iter().zip(&slot.rungs);
+    let ladder = rungs
+        .map(|((budget, theta), r)| {
+            Ok(RungLine {
+                budget: *budget,
+                theta_lf: theta.clone(),
+                lf: made(r, "LF")?,
+            })
+        })
+        .collect::<Result<Vec<_>, CampaignError>>()?;
+    let mut line = ScreenLine {
         stage: stage.id(),
         index: slot.index,
         id: slot.trial.id,
@@ -416,11 +500,17 @@ fn screen_line(
         scenario: slot.trial.scenario.to_string(),
         phi: slot.trial.phi.clone(),
         theta_lf: slot.trial.theta_lf.clone(),
-        screen,
+        ladder,
+        screen: Screen::Direct,
         lf,
         hf,
-        outcome,
-    })
+        outcome: None,
+    };
+    line.screen = final_screen(&line, audit);
+    line.outcome = hf
+        .zip(line.lf_run())
+        .map(|(h, l)| savme_kernel::Outcome::classify(h.failure, l.failure));
+    Ok(line)
 }
 
 /// A stored trial's costs must be what the protocol's cost measure gives: its work units, or

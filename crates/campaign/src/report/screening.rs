@@ -31,6 +31,64 @@ pub struct Screening {
     pub vs_paired: Option<f64>,
     /// confirmed_per_runtime / baseline_per_runtime.
     pub vs_baseline: Option<f64>,
+    /// Per LF level the trials screened down, cheapest first (the stage's own budget last):
+    /// one level for the two-level screening, one per budget of a fidelity ladder.
+    pub levels: Vec<Level>,
+}
+
+/// One LF level of a screening stage: what its runs cost and flagged.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Level {
+    /// The level's budget (its meta-training's, whose θ_LF* it runs).
+    pub budget: Option<f64>,
+    /// LF runs made at this level.
+    pub runs: u64,
+    /// Of those, LF failures: sent up the ladder (HF after the last level).
+    pub flagged: u64,
+    /// Trials that passed this level by without running it (it did not pay; `direct` trials
+    /// for the last level).
+    pub skipped: u64,
+    /// The cost of its runs.
+    pub runtime: f64,
+    /// Of its flagged runs, those whose trial ended with an HF failure.
+    pub confirmed: u64,
+}
+
+/// Per level of the ladder (`budgets`, cheapest first), what the screened lines' LF runs
+/// cost and flagged.
+pub fn levels(screened: &[&ScreenLine], budgets: &[Option<f64>]) -> Vec<Level> {
+    let mut out: Vec<Level> = budgets
+        .iter()
+        .map(|&budget| Level {
+            budget,
+            runs: 0,
+            flagged: 0,
+            skipped: 0,
+            runtime: 0.0,
+            confirmed: 0,
+        })
+        .collect();
+    for l in screened {
+        let runs = l.levels();
+        let hf_failed = l.hf.is_some_and(|h| h.failure);
+        for (i, level) in out.iter_mut().enumerate() {
+            match runs.get(i).copied().flatten() {
+                Some(r) => {
+                    level.runs += 1;
+                    level.runtime += r.runtime;
+                    level.flagged += u64::from(r.failure);
+                    level.confirmed += u64::from(r.failure && hf_failed);
+                }
+                None => {
+                    // Reached (every run below it failed) and went on past it.
+                    let below = runs.iter().take(i).flatten().all(|r| r.failure);
+                    let above = runs.iter().skip(i + 1).flatten().next().is_some();
+                    level.skipped += u64::from(below && (above || l.hf.is_some()));
+                }
+            }
+        }
+    }
+    out
 }
 
 /// HF failures per unit of the trials' cost (HF + LF runs).
@@ -57,11 +115,15 @@ pub fn report(
     let mut counts = ScreeningCounts::default();
     for l in screened {
         counts.add(
-            l.lf.map(|lf| lf.run()).as_ref(),
+            l.lf_run().as_ref(),
             l.hf.as_ref().map(|h| h.run()).as_ref(),
             l.screen,
         );
     }
+    let first = screened[0];
+    let budgets: Vec<Option<f64>> = (first.ladder.iter().map(|r| Some(r.budget)))
+        .chain([first.budget])
+        .collect();
     let confirmed_per_runtime = counts.confirmed_per_runtime();
     let paired_per_runtime = failures_per_runtime(evaluation);
     let baseline_per_runtime = failures_per_runtime(baseline);
@@ -80,6 +142,7 @@ pub fn report(
         baseline_per_runtime,
         vs_paired: ratio(confirmed_per_runtime, paired_per_runtime),
         vs_baseline: ratio(confirmed_per_runtime, baseline_per_runtime),
+        levels: levels(screened, &budgets),
     })
 }
 
@@ -108,6 +171,7 @@ mod tests {
             scenario: "s".into(),
             phi: Default::default(),
             theta_lf: None,
+            ladder: Vec::new(),
             screen,
             lf: Some(lf),
             hf,
@@ -164,5 +228,58 @@ mod tests {
         assert_eq!((miss.mean, miss.n), (1.0, 1));
         assert_eq!(r.estimated_misses, Some(2.0));
         assert!(report(&[], &[], &[], 0.1).is_none());
+        // One level: its runs are the LF runs; the failures it flagged, 2 confirmed.
+        let one = r.levels[0];
+        assert_eq!((r.levels.len(), one.budget, one.runs), (1, Some(0.3), 5));
+        assert_eq!((one.flagged, one.confirmed, one.skipped), (3, 2, 0));
+    }
+
+    #[test]
+    fn a_ladders_levels_count_their_runs_what_they_flagged_and_what_passed_them_by() {
+        let rung = |lf: Option<RunLine>| crate::log::RungLine {
+            budget: 0.1,
+            theta_lf: Default::default(),
+            lf,
+        };
+        let on = |low: Option<RunLine>, top: Option<RunLine>, hf: Option<RunLine>| {
+            let mut l = screen(run(false, 0.0), hf, Screen::Pass);
+            l.ladder = vec![rung(low)];
+            l.lf = top;
+            l
+        };
+        let s = [
+            // Flagged at 0.1, cleared at 0.3.
+            on(Some(run(true, 0.1)), Some(run(false, 0.3)), None),
+            // Flagged at both, confirmed on HF.
+            on(
+                Some(run(true, 0.1)),
+                Some(run(true, 0.3)),
+                Some(run(true, 1.0)),
+            ),
+            // Passed at 0.1: the top never ran, and was not skipped.
+            on(Some(run(false, 0.1)), None, None),
+            // 0.1 did not pay: straight to 0.3, which flagged a false alarm.
+            on(None, Some(run(true, 0.3)), Some(run(false, 1.0))),
+            // Neither paid: HF directly.
+            on(None, None, Some(run(true, 1.0))),
+        ];
+        let lines: Vec<&ScreenLine> = s.iter().collect();
+        let [low, top] = levels(&lines, &[Some(0.1), Some(0.3)])[..] else {
+            panic!("two levels")
+        };
+        assert_eq!(
+            (low.runs, low.flagged, low.confirmed, low.skipped),
+            (3, 2, 1, 2)
+        );
+        assert_eq!(
+            (top.runs, top.flagged, top.confirmed, top.skipped),
+            (3, 2, 1, 1)
+        );
+        assert!((low.runtime - 0.3).abs() < 1e-12 && (top.runtime - 0.9).abs() < 1e-12);
+        // The kernel is told the LF side as one run: the last verdict, every LF run's cost.
+        let told = s[1].lf_run().unwrap();
+        assert!(told.failure && (told.runtime - 0.4).abs() < 1e-12);
+        assert!(s[4].lf_run().is_none());
+        assert!((s[1].cost() - 1.4).abs() < 1e-12);
     }
 }

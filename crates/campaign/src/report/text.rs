@@ -73,7 +73,78 @@ impl Report {
             }
         }
         let _ = writeln!(s, "\n{TABLE_III_LEGEND}");
+        self.ladder_md(&mut s);
         s
+    }
+
+    /// The screening stage of a fidelity ladder, per level (Table III above has a row per
+    /// level: each level's own evaluation; Table IV a column), against every two-level
+    /// screening stage of the campaign (Markdown; nothing without a ladder).
+    fn ladder_md(&self, s: &mut String) {
+        let c = self.protocol.cost;
+        let per_cost = |x: &super::screening::Screening| {
+            x.confirmed_per_runtime
+                .map_or("–".into(), |r| format!("{:.3e}", r))
+        };
+        for b in &self.budgets {
+            let Some(x) = b.screening.as_ref().filter(|x| x.levels.len() > 1) else {
+                continue;
+            };
+            let names: Vec<String> = x.levels.iter().map(|l| level_name(l.budget)).collect();
+            let _ = writeln!(
+                s,
+                "\n## Fidelity ladder {} → HF ({} screened trials)\n",
+                names.join(" → "),
+                x.counts.trials
+            );
+            let _ = writeln!(
+                s,
+                "Each level runs the θ_LF* of its own meta-training (Table III's row and Table IV's column of its budget); a level's LF failure goes to the next level up, the last level's to HF.\n"
+            );
+            let _ = writeln!(
+                s,
+                "| level | LF runs | flagged (sent up) | of those, HF failures | skipped (did not pay) | cost of its runs |"
+            );
+            let _ = writeln!(s, "|---|---|---|---|---|---|");
+            for (l, name) in x.levels.iter().zip(&names) {
+                let _ = writeln!(
+                    s,
+                    "| {name} | {} | {} | {} | {} | {} |",
+                    l.runs,
+                    l.flagged,
+                    l.confirmed,
+                    l.skipped,
+                    format_cost(c, l.runtime)
+                );
+            }
+            let hf_runs =
+                x.counts.lf_failures + x.counts.audited + x.counts.margin_checks + x.counts.direct;
+            let _ = writeln!(
+                s,
+                "| HF | {hf_runs} | {} HF failures | | | {} |",
+                x.counts.found() + x.counts.audit_misses,
+                format_cost(c, x.counts.hf_runtime)
+            );
+            let _ = writeln!(
+                s,
+                "\nHF-confirmed failures per unit of cost, every run charged:\n\n- the ladder: {} ({} in {})",
+                per_cost(x),
+                x.counts.found(),
+                format_cost(c, x.counts.runtime())
+            );
+            for other in &self.budgets {
+                if let Some(y) = other.screening.as_ref().filter(|y| y.levels.len() == 1) {
+                    let _ = writeln!(
+                        s,
+                        "- two-level screening at C_budget = {}: {} ({} in {})",
+                        other.budget,
+                        per_cost(y),
+                        y.counts.found(),
+                        format_cost(c, y.counts.runtime())
+                    );
+                }
+            }
+        }
     }
 
     /// Table IV: the learned fidelity setting per budget next to θ_HF (Markdown).
@@ -196,9 +267,18 @@ impl Report {
         for b in &self.budgets {
             if let Some(x) = &b.screening {
                 let times = |v: Option<f64>| v.map_or("n/a".into(), |v| format!("{v:.2} ×"));
+                let ladder = match x.levels.len() {
+                    0 | 1 => String::new(),
+                    _ => format!(
+                        " (ladder {} → HF)",
+                        (x.levels.iter().map(|l| level_name(l.budget)))
+                            .collect::<Vec<_>>()
+                            .join(" → ")
+                    ),
+                };
                 let _ = writeln!(
                     s,
-                    "LF screening with HF confirmation, C_budget = {}: {} confirmed of {} LF failures in {} trials ({}); {} vs the paired evaluation, {} vs the baseline; audit {} of {} LF passes (α = {}): miss rate {}",
+                    "LF screening with HF confirmation, C_budget = {}{ladder}: {} confirmed of {} LF failures in {} trials ({}); {} vs the paired evaluation, {} vs the baseline; audit {} of {} LF passes (α = {}): miss rate {}",
                     b.budget,
                     x.counts.confirmed,
                     x.counts.lf_failures,
@@ -242,6 +322,11 @@ impl Report {
 }
 
 /// A rate as `0.12`, `–` when undefined.
+/// A ladder level as the tables name it: `C = 0.1`.
+fn level_name(budget: Option<f64>) -> String {
+    budget.map_or("LF".into(), |b| format!("C = {b}"))
+}
+
 fn rate(r: Option<f64>) -> String {
     r.map_or("–".into(), |r| format!("{r:.2}"))
 }
