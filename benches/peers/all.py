@@ -82,6 +82,8 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--jobs", type=int, default=1, help="each run.py's --jobs (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="default target/peers/<quick|full>-all")
     ap.add_argument("--no-docs", action="store_true", help="full mode: leave docs/ alone")
+    ap.add_argument("--no-build", action="store_true",
+                    help="no cargo build: target/release's binaries as they are (they must exist)")
     ap.add_argument("--report-only", action="store_true",
                     help="run nothing: the summary (and, full mode, docs) of the families' outputs "
                          "already in --out (e.g. families run by several all.py invocations)")
@@ -92,7 +94,7 @@ def log(msg: str) -> None:
     print(f"[{dt.datetime.now(dt.timezone.utc):%H:%M:%S}] {msg}", file=sys.stderr, flush=True)
 
 
-def prepare() -> tuple[float, float]:
+def prepare(build: bool = True) -> tuple[float, float]:
     """The venv (run.py's), the release build and the FMUs, once before the families run in
     parallel; returns the seconds each took."""
     sys.path.insert(0, str(HERE))
@@ -103,8 +105,9 @@ def prepare() -> tuple[float, float]:
     if not (run.VENV / ".complete").exists():
         subprocess.run([sys.executable, str(HERE / "run.py"), "--setup-only"], check=True)
     t1 = time.monotonic()
-    subprocess.run(["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme",
-                    "--example", "peers_sim", "--example", "peers_fmu"], check=True, cwd=REPO)
+    if build:
+        subprocess.run(["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme",
+                        "--example", "peers_sim", "--example", "peers_fmu"], check=True, cwd=REPO)
     for config in (BRAKING, BALL):
         run.ensure_fmus(REPO / config)
     assert venv_python.exists()
@@ -115,7 +118,7 @@ def family_command(f: Family, args: argparse.Namespace, out: Path) -> list[str]:
     return ["python3", "benches/peers/run.py", *f.args,
             *(["--quick"] if args.quick else f.full),
             *(["--seeds", str(args.seeds)] if args.seeds else []),
-            "--peer-split", "work,trials", "--jobs", str(args.jobs),
+            "--peer-split", "work,trials", "--jobs", str(args.jobs), "--no-build",
             "--out", str((out / f.slug).relative_to(REPO) if out.is_relative_to(REPO) else out / f.slug)]
 
 
@@ -226,7 +229,7 @@ def main() -> int:
         done = [(f, 60 * run_window(out / f.slug / "table.md")[2], table_command(out / f.slug / "table.md"))
                 for f in chosen]
     else:
-        setup = prepare()
+        setup = prepare(not args.no_build)
         with ThreadPoolExecutor(max_workers=args.parallel) as pool:
             done = list(pool.map(lambda f: run_family(f, args, out), chosen))
     windows = [run_window(out / f.slug / "table.md") for f in chosen]

@@ -68,11 +68,21 @@ def ensure_venv() -> None:
     os.execv(str(py), [str(py), str(Path(__file__).resolve()), *sys.argv[1:]])
 
 
+NO_BUILD = False  # `--no-build`: all.py built everything once before its families run
+
+
 def build(profile_dir: Path, example: str) -> tuple[Path, Path]:
-    """`savme` and the simulator process's example, release mode, at low priority."""
+    """`savme` and the simulator process's example, release mode, at low priority (with
+    `--no-build`: the ones already built, which must exist)."""
+    savme_exe, sim_exe = profile_dir / "savme", profile_dir / "examples" / example
+    if NO_BUILD:
+        missing = [str(p) for p in (savme_exe, sim_exe) if not p.exists()]
+        if missing:
+            raise SystemExit(f"--no-build: {', '.join(missing)} not built")
+        return savme_exe, sim_exe
     cmd = ["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme", "--example", example]
     subprocess.run(cmd, check=True, cwd=REPO)
-    return profile_dir / "savme", profile_dir / "examples" / example
+    return savme_exe, sim_exe
 
 
 def parse_args() -> argparse.Namespace:
@@ -100,6 +110,9 @@ def parse_args() -> argparse.Namespace:
                          "named `VerifAI <peer>, by trials`)")
     ap.add_argument("--jobs", type=int, default=2, help="processes at once (savme --jobs, peer runs in parallel)")
     ap.add_argument("--out", type=Path, default=None, help="default target/peers/<mode>")
+    ap.add_argument("--no-build", action="store_true",
+                    help="use target/release's savme and simulator process as they are (all.py "
+                         "builds them once: one cargo per family would wait on cargo's locks)")
     ap.add_argument("--setup-only", action="store_true",
                     help="create target/peers-venv (if missing) and stop (all.py uses it)")
     ap.add_argument("--results-md", type=Path, default=None,
@@ -168,6 +181,8 @@ def main() -> int:
     ensure_venv()
     if args.setup_only:
         return 0
+    global NO_BUILD
+    NO_BUILD = args.no_build
     sys.path.insert(0, str(HERE))
     import report
     import savme_rows
