@@ -94,9 +94,10 @@ def metrics(runs: list[Outcome], per: float = PER) -> dict[str, tuple[float, flo
 
 
 def rate_digits(per: float) -> int:
-    """Decimals of a rate: 1 per 10⁹ wu (the bundled simulator's tables, as always), 2 in the
-    smaller units an FMU's counter gets, where rates are a few per unit."""
-    return 1 if per >= PER else 2
+    """Decimals of a rate: 1 per 10⁹ wu (the bundled simulator's tables, as always), 2 per 10⁶ or
+    10³ wu (an FMU's counter: rates of a few per unit), 4 per work unit (a quick run's budget of
+    a few hundred units)."""
+    return 1 if per >= PER else 2 if per >= 1e3 else 4
 
 
 def main_table(outcomes: list[Outcome], per: float = PER) -> str:

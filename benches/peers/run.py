@@ -68,11 +68,21 @@ def ensure_venv() -> None:
     os.execv(str(py), [str(py), str(Path(__file__).resolve()), *sys.argv[1:]])
 
 
+NO_BUILD = False  # `--no-build`: all.py built everything once before its families run
+
+
 def build(profile_dir: Path, example: str) -> tuple[Path, Path]:
-    """`savme` and the simulator process's example, release mode, at low priority."""
+    """`savme` and the simulator process's example, release mode, at low priority (with
+    `--no-build`: the ones already built, which must exist)."""
+    savme_exe, sim_exe = profile_dir / "savme", profile_dir / "examples" / example
+    if NO_BUILD:
+        missing = [str(p) for p in (savme_exe, sim_exe) if not p.exists()]
+        if missing:
+            raise SystemExit(f"--no-build: {', '.join(missing)} not built")
+        return savme_exe, sim_exe
     cmd = ["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme", "--example", example]
     subprocess.run(cmd, check=True, cwd=REPO)
-    return profile_dir / "savme", profile_dir / "examples" / example
+    return savme_exe, sim_exe
 
 
 def parse_args() -> argparse.Namespace:
@@ -93,14 +103,35 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--savme-variant", action="append", default=None, metavar="NAME[=FLAGS]",
                     help="a savme row: name and extra `savme reproduce` flags (repeatable; default: "
                          "savme=--method tuned, savme-paper=--method paper)")
-    ap.add_argument("--peer-split", choices=("work", "trials"), default="work",
+    ap.add_argument("--peer-split", default="work", type=peer_splits,
                     help="how each peer splits its budget over the scenarios: equal work per scenario "
-                         "(default: a VerifAI user's even split of the budget) or equal trials")
+                         "(default: a VerifAI user's even split of the budget), equal trials, or both "
+                         "(`work,trials`: every peer runs once per split; the trials split's rows are "
+                         "named `VerifAI <peer>, by trials`)")
     ap.add_argument("--jobs", type=int, default=2, help="processes at once (savme --jobs, peer runs in parallel)")
     ap.add_argument("--out", type=Path, default=None, help="default target/peers/<mode>")
+    ap.add_argument("--no-build", action="store_true",
+                    help="use target/release's savme and simulator process as they are (all.py "
+                         "builds them once: one cargo per family would wait on cargo's locks)")
+    ap.add_argument("--setup-only", action="store_true",
+                    help="create target/peers-venv (if missing) and stop (all.py uses it)")
     ap.add_argument("--results-md", type=Path, default=None,
                     help="also write the tables into this markdown file between the peers markers")
     return ap.parse_args()
+
+
+def peer_splits(text: str) -> tuple[str, ...]:
+    """`--peer-split`: `work`, `trials` or both, comma-separated (the first is the main view)."""
+    splits = tuple(dict.fromkeys(t.strip() for t in text.split(",") if t.strip()))
+    bad = [t for t in splits if t not in ("work", "trials")]
+    if not splits or bad:
+        raise argparse.ArgumentTypeError(f"{text!r}: give work, trials or work,trials")
+    return splits
+
+
+def peer_label(method: str, split: str) -> str:
+    """A peer's row: `VerifAI <peer>` split by equal work, `VerifAI <peer>, by trials` by trials."""
+    return f"VerifAI {method}" + ("" if split == "work" else ", by trials")
 
 
 def scenario_keys(arg: str, quick: bool, sets, bundled: bool) -> tuple[str, ...]:
@@ -148,6 +179,10 @@ def ensure_fmus(config: Path) -> None:
 def main() -> int:
     args = parse_args()
     ensure_venv()
+    if args.setup_only:
+        return 0
+    global NO_BUILD
+    NO_BUILD = args.no_build
     sys.path.insert(0, str(HERE))
     import report
     import savme_rows
@@ -201,19 +236,20 @@ def main() -> int:
 
     # The peers: one process per (peer, seed), `--jobs` at once.
     log(f"VerifAI peers {methods} on seeds {seeds}; budgets (wu) {budgets}")
-    jobs = [(m, seed) for m in methods for seed in seeds]
+    jobs = [(m, seed, split) for split in args.peer_split for m in methods for seed in seeds]
     with ProcessPoolExecutor(max_workers=args.jobs) as pool:
         futures = {
             job: pool.submit(verifai_peers.run_peer, job[0], job[1], spaces,
                              budgets[job[1]][0], budgets[job[1]][1], backend.sim_command,
-                             args.peer_split)
+                             job[2])
             for job in jobs
         }
-        for (m, seed), f in futures.items():
+        for (m, seed, split), f in futures.items():
             peer = f.result()
-            save_runs(out / "peers" / f"{m}-seed-{seed}.jsonl", peer)
-            outcomes.append(peer_outcome(peer, report, verifai_peers))
-            log(f"  {m} seed {seed}: {len(peer.search)} + {len(peer.deployed)} HF runs")
+            tail = "" if split == "work" else "-by-trials"
+            save_runs(out / "peers" / f"{m}{tail}-seed-{seed}.jsonl", peer)
+            outcomes.append(peer_outcome(peer, report, verifai_peers, peer_label(m, split)))
+            log(f"  {peer_label(m, split)} seed {seed}: {len(peer.search)} + {len(peer.deployed)} HF runs")
 
     finished = dt.datetime.now(dt.timezone.utc)
     text = render(report, outcomes, names, [v.name for v in variants], dict(
@@ -252,7 +288,7 @@ def savme_outcome(s, sim, report):
     )
 
 
-def peer_outcome(peer, report, verifai_peers):
+def peer_outcome(peer, report, verifai_peers, label=None):
     def tallies(runs):
         out = {}
         for r in runs:
@@ -265,7 +301,7 @@ def peer_outcome(peer, report, verifai_peers):
         return out
 
     return report.Outcome(
-        f"VerifAI {peer.method}", peer.seed, tallies(peer.search), tallies(peer.deployed),
+        label or f"VerifAI {peer.method}", peer.seed, tallies(peer.search), tallies(peer.deployed),
         verifai_peers.overhead_ms(peer),
     )
 
@@ -308,8 +344,11 @@ def render(report, outcomes, names, savme_methods, info) -> str:
         f"{info['problem']}. savme: C_budget {info['budget']}, {info['iterations']} search iterations, "
         f"{info['screen']} screened trials (`--audit-fraction 0`). Budgets per seed (search, deployed; "
         f"{u} wu): " + "; ".join(f"seed {s}: {a / per:.2f}, {b / per:.2f}" for s, (a, b) in info["budgets"].items())
-        + f". Every VerifAI peer gets its seed's budgets on HF only, split over the scenarios by "
-        f"{'equal work' if info['split'] == 'work' else 'equal trials'} (savme allocates its own).",
+        + ". Every VerifAI peer gets its seed's budgets on HF only, split over the scenarios by "
+        + " and, as a second view, ".join({"work": "equal work", "trials": "equal trials"}[x]
+                                          for x in info["split"])
+        + (" (rows `…, by trials`)" if len(info["split"]) > 1 else "")
+        + " (savme allocates its own).",
         "",
         "Commands:",
         "",

@@ -13,8 +13,10 @@ As benches/peers/run.py on the bundled simulator (see README.md there), on seed 
   the adapter's deterministic work units, HF and LF runs both charged); its deployed search is
   the screening stage screen@B (φ ~ p_ψ, an LF run with θ_LF*, each LF failure re-run on HF and
   counted only if HF fails too; audit fraction 0). The other stages get one trial each.
-- every peer (VerifAI's random, halton, cross-entropy, bandit, simulated annealing samplers; one
-  Box feature per φ variable, one sampler per scenario visited in turn; ρ = the run's
+- every peer (VerifAI's random, halton, cross-entropy, bandit, simulated annealing samplers and
+  Bayesian optimisation when GPyOpt installs; one
+  Box feature per φ variable, one sampler per scenario, the budget split by equal work per
+  scenario; ρ = the run's
   robustness: smallest bumper gap, < 0 exactly on a crash) spends the same work on HF runs for
   the search, then the deployed work going on sampling.
 Metrics per 10⁶ work units, mean ± sd over seeds: HF failures in the search, distinct failing
@@ -58,6 +60,8 @@ def ensure_venv() -> None:
         subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
         pip = [str(VENV / "bin" / "pip"), "install", "-q", "--disable-pip-version-check"]
         subprocess.run(pip + ["highway-env==1.12.*", "-r", str(HERE / "requirements.txt")], check=True)
+        if subprocess.run(pip + ["-r", str(HERE / "requirements-bayesopt.txt")]).returncode != 0:
+            print("GPyOpt did not install: Bayesian optimisation is left out", file=sys.stderr)
     subprocess.run([str(VENV / "bin" / "pip"), "install", "-q", "--disable-pip-version-check",
                     "--force-reinstall", "--no-deps", str(wheels[-1])], check=True)
     os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
@@ -160,11 +164,16 @@ def main():
     ap.add_argument("--iterations", type=int, default=30, help="savme's search trials")
     ap.add_argument("--screen-iterations", type=int, default=30, help="savme's deployed trials")
     ap.add_argument("--budget", type=float, default=0.3)
-    ap.add_argument("--peers", nargs="+", default=["random", "halton", "cross-entropy", "bandit", "annealing"])
+    ap.add_argument("--peers", nargs="+", default=None,
+                    help="VerifAI samplers (default: all six; bayesopt only if GPyOpt is installed)")
     ap.add_argument("--out", default=str(REPO / "target" / "peers" / "highway-env"))
     args = ap.parse_args()
     ensure_venv()
     sys.path.insert(0, str(HERE))
+    if args.peers is None:
+        from verifai_peers import PEERS, bayesopt_available
+
+        args.peers = [m for m in PEERS if m != "bayesopt" or bayesopt_available()]
     sp = spaces(args.scenarios)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

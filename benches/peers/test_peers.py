@@ -182,6 +182,34 @@ class Report(unittest.TestCase):
         self.assertEqual((scenario, best), ("b", "VerifAI x"))
         self.assertAlmostEqual(ratio, 0.25)
 
+    def test_families_compare_with_the_peers_of_the_split_asked_for(self) -> None:
+        import families
+
+        def row(method: str, a: int) -> dict:
+            part = {"a": {"failures": a, "work": 100, "cells": a}}
+            return {"method": method, "seed": 1, "search": part, "deployed": part}
+
+        rows = [row("savme", 4), row("VerifAI x", 2), row("VerifAI x, by trials", 8)]
+        self.assertEqual(families.family(rows, "savme", "work")["HF failures / wu, search"][1], "VerifAI x")
+        by_trials = families.family(rows, "savme", "trials")["HF failures / wu, search"]
+        self.assertEqual(by_trials, (0.04, "VerifAI x, by trials", 0.08))
+        table = families.ratio_table([("f", rows)], "savme", "trials")
+        self.assertIn("| f | 0.50× (x) |", table)
+        with self.assertRaises(SystemExit):  # no peer of that split: said, not a wrong table
+            families.family([row("savme", 4), row("VerifAI x", 2)], "savme", "trials")
+
+
+class PeerSplit(unittest.TestCase):
+    def test_both_splits_are_accepted_and_named(self) -> None:
+        import argparse
+
+        self.assertEqual(run.peer_splits("work,trials"), ("work", "trials"))
+        self.assertEqual(run.peer_splits("trials"), ("trials",))
+        with self.assertRaises(argparse.ArgumentTypeError):
+            run.peer_splits("work,cost")
+        self.assertEqual(run.peer_label("bandit", "work"), "VerifAI bandit")
+        self.assertEqual(run.peer_label("bandit", "trials"), "VerifAI bandit, by trials")
+
 
 if __name__ == "__main__":
     unittest.main()

@@ -1,0 +1,249 @@
+#!/usr/bin/env python3
+"""The whole peer benchmark in one command: savme (its defaults) against VerifAI's samplers on
+every simulator family, then the per-family and aggregated tables.
+
+    python3 benches/peers/all.py --quick     # a smoke run of every family: seed 1, short searches
+    python3 benches/peers/all.py             # seeds 1–3, the lengths below; rewrites docs/RESULTS.md's block
+
+From a fresh clone it builds `savme` and the simulator processes (release), the FMUs (the
+braking example, the Reference FMU BouncingBall) and target/peers-venv (VerifAI from PyPI), then
+runs `run.py` once per family — every family in the same time window, `--parallel` at a time —
+with the peers split by equal work per scenario and, as a second view, by equal trials
+(`--peer-split work,trials`), and `families.py` over the outputs. savme's row is savme with its
+defaults (`--method tuned`); it sets each seed's budgets in work units.
+
+Outputs: target/peers/<quick|full>-all/<family>/ (each run.py output: table.md, outcomes.json,
+the peers' runs, savme's campaigns) and target/peers/<quick|full>-all/summary.md. The full mode
+also writes summary.md between the `peers-all` markers of docs/RESULTS.md and copies each
+family's table.md and outcomes.json to docs/results-peers-all/ (`--no-docs`: neither).
+See benches/peers/README.md.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent.parent
+BEGIN, END = "<!-- peers-all:begin -->", "<!-- peers-all:end -->"
+BRAKING = "examples/fmu/braking/campaign.toml"
+BALL = "examples/fmu/bouncing_ball/campaign.toml"
+
+
+@dataclass(frozen=True)
+class Family:
+    """One simulator family: its name in the tables, its directory and run.py's arguments in
+    the full mode (the quick mode adds `--quick`, which shortens them)."""
+
+    name: str
+    slug: str
+    args: tuple[str, ...]
+    full: tuple[str, ...]  # the full mode's lengths
+    unit: float  # the unit of its rates in the tables (work units)
+
+
+FAMILIES = (
+    Family("bundled 1–8", "bundled-train", ("--scenarios", "train"),
+           ("--iterations", "300", "--screen-iterations", "180"), 1e9),
+    Family("bundled 9–10", "bundled-test", ("--scenarios", "test"),
+           ("--iterations", "150", "--screen-iterations", "90"), 1e9),
+    Family("braking FMU, dry+wet", "braking-train",
+           ("--campaign", BRAKING, "--rho-output", "distance", "--scenarios", "train"),
+           ("--iterations", "200", "--screen-iterations", "120"), 1e3),
+    Family("braking FMU, icy", "braking-test",
+           ("--campaign", BRAKING, "--rho-output", "distance", "--scenarios", "test"),
+           ("--iterations", "150", "--screen-iterations", "90"), 1e3),
+    Family("Reference FMU BouncingBall, earth+mars", "ball-train",
+           ("--campaign", BALL, "--scenarios", "train"),
+           ("--iterations", "200", "--screen-iterations", "120"), 1e3),
+    Family("Reference FMU BouncingBall, moon", "ball-test",
+           ("--campaign", BALL, "--scenarios", "test"),
+           ("--iterations", "150", "--screen-iterations", "90"), 1e3),
+)
+
+
+def parse_args() -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="every family with run.py --quick (seed 1)")
+    ap.add_argument("--seeds", type=int, default=None, help="seeds 1..N (default 3; quick 1)")
+    ap.add_argument("--families", default=None,
+                    help="a comma-separated subset of: " + ", ".join(f.slug for f in FAMILIES))
+    ap.add_argument("--parallel", type=int, default=2, help="families run at once (default 2)")
+    ap.add_argument("--jobs", type=int, default=1, help="each run.py's --jobs (default 1)")
+    ap.add_argument("--out", type=Path, default=None, help="default target/peers/<quick|full>-all")
+    ap.add_argument("--no-docs", action="store_true", help="full mode: leave docs/ alone")
+    ap.add_argument("--no-build", action="store_true",
+                    help="no cargo build: target/release's binaries as they are (they must exist)")
+    ap.add_argument("--report-only", action="store_true",
+                    help="run nothing: the summary (and, full mode, docs) of the families' outputs "
+                         "already in --out (e.g. families run by several all.py invocations)")
+    return ap.parse_args()
+
+
+def log(msg: str) -> None:
+    print(f"[{dt.datetime.now(dt.timezone.utc):%H:%M:%S}] {msg}", file=sys.stderr, flush=True)
+
+
+def prepare(build: bool = True) -> tuple[float, float]:
+    """The venv (run.py's), the release build and the FMUs, once before the families run in
+    parallel; returns the seconds each took."""
+    sys.path.insert(0, str(HERE))
+    import run
+
+    t0 = time.monotonic()
+    venv_python = run.VENV / "bin" / "python"
+    if not (run.VENV / ".complete").exists():
+        subprocess.run([sys.executable, str(HERE / "run.py"), "--setup-only"], check=True)
+    t1 = time.monotonic()
+    if build:
+        subprocess.run(["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme",
+                        "--example", "peers_sim", "--example", "peers_fmu"], check=True, cwd=REPO)
+    for config in (BRAKING, BALL):
+        run.ensure_fmus(REPO / config)
+    assert venv_python.exists()
+    return t1 - t0, time.monotonic() - t1
+
+
+def family_command(f: Family, args: argparse.Namespace, out: Path) -> list[str]:
+    return ["python3", "benches/peers/run.py", *f.args,
+            *(["--quick"] if args.quick else f.full),
+            *(["--seeds", str(args.seeds)] if args.seeds else []),
+            "--peer-split", "work,trials", "--jobs", str(args.jobs), "--no-build",
+            "--out", str((out / f.slug).relative_to(REPO) if out.is_relative_to(REPO) else out / f.slug)]
+
+
+def run_window(table: Path) -> tuple[dt.datetime, dt.datetime, float]:
+    """When a family's run.py ran (its table.md's first line: `Run 2026-11-29 10:41–11:52 UTC
+    (71 min wall)`): start, end and wall minutes."""
+    m = re.match(r"Run (\d{4}-\d\d-\d\d) (\d\d:\d\d)–(\d\d:\d\d) UTC \((\d+) min wall\)",
+                 table.read_text())
+    if not m:
+        raise SystemExit(f"{table}: no `Run … UTC (N min wall)` line: not a run.py table")
+    day, a, b, wall = m.groups()
+    start = dt.datetime.fromisoformat(f"{day}T{a}+00:00")
+    end = dt.datetime.fromisoformat(f"{day}T{b}+00:00")
+    return start, end + (dt.timedelta(days=1) if end < start else dt.timedelta()), float(wall)
+
+
+def table_command(table: Path) -> list[str]:
+    """The run.py command a family's table.md says it ran (its first command line)."""
+    for line in table.read_text().splitlines():
+        if line.startswith("python3 benches/peers/run.py"):
+            return shlex.split(line)
+    raise SystemExit(f"{table}: no run.py command in it")
+
+
+def run_family(f: Family, args: argparse.Namespace, out: Path) -> tuple[Family, float, list[str]]:
+    cmd = family_command(f, args, out)
+    log(f"{f.name}: {shlex.join(cmd)}")
+    t0 = time.monotonic()
+    with open(out / f"{f.slug}.log", "w") as logf:
+        subprocess.run([sys.executable, *cmd[1:]], check=True, cwd=REPO, stdout=logf,
+                       stderr=subprocess.STDOUT)
+    wall = time.monotonic() - t0
+    log(f"{f.name}: done in {wall / 60:.1f} min")
+    return f, wall, cmd
+
+
+def summary(args, out: Path, done, started, finished, setup) -> str:
+    import families as fam
+
+    loaded = [(f.name, fam.load(f"{f.name}={out / f.slug}")[1]) for f, _, _ in done]
+    units = {f.name: f.unit for f, _, _ in done}
+    mode = "quick" if args.quick else "full"
+    cmd = shlex.join(["python3", "benches/peers/all.py", *sys.argv[1:]])
+    lines = [
+        f"Generated by `{cmd}` ({mode} mode) on {started:%Y-%m-%d}: every family run "
+        f"{started:%H:%M}–{finished:%H:%M} UTC on one machine ({os.cpu_count()} cores). "
+        + ("" if setup is None else f"Set-up before it: venv {setup[0] / 60:.1f} min, release "
+           f"build and FMUs {setup[1] / 60:.1f} min. ")
+        + 
+        "savme's row is savme with its defaults (`--method tuned`); every peer gets the same "
+        "budgets in work units per seed, split over the scenarios by equal work (first table) "
+        "and, as a second view, by equal trials. Per family, its run.py command and wall time:",
+        "",
+        "```sh",
+        *(f"{shlex.join(c)}   # {w / 60:.0f} min" for _, w, c in done),
+        "```",
+        "",
+        "savme (defaults) against the best VerifAI sampler per family and metric, **peers split "
+        "by equal work per scenario**:",
+        "",
+        fam.ratio_table(loaded, "savme", "work"),
+        "",
+        "The rates behind it (mean ± sd over seeds, per the unit after each family's name):",
+        "",
+        fam.rates_table(loaded, "savme", "work", units),
+        "",
+        "The same with the **peers split by equal trials per scenario**:",
+        "",
+        fam.ratio_table(loaded, "savme", "trials"),
+        "",
+        "`savme-paper` (the paper's SAVME, `--method paper`) against the peers split by equal work:",
+        "",
+        fam.ratio_table(loaded, "savme-paper", "work"),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def write_docs(out: Path, text: str, done) -> None:
+    """The summary into docs/RESULTS.md between the markers; each family's table and outcomes
+    into docs/results-peers-all/<family>/."""
+    md = REPO / "docs" / "RESULTS.md"
+    doc = md.read_text()
+    block = f"{BEGIN}\n{text}\n{END}"
+    if BEGIN in doc and END in doc:
+        head, rest = doc.split(BEGIN, 1)
+        doc = head + block + rest.split(END, 1)[1]
+    else:
+        doc = doc.rstrip("\n") + "\n\n" + block + "\n"
+    md.write_text(doc)
+    for f, _, _ in done:
+        dest = REPO / "docs" / "results-peers-all" / f.slug
+        dest.mkdir(parents=True, exist_ok=True)
+        for name in ("table.md", "outcomes.json"):
+            shutil.copyfile(out / f.slug / name, dest / name)
+
+
+def main() -> int:
+    args = parse_args()
+    chosen = [f for f in FAMILIES if args.families is None or f.slug in args.families.split(",")]
+    if not chosen:
+        sys.exit(f"--families {args.families}: none of " + ", ".join(f.slug for f in FAMILIES))
+    out = (args.out or REPO / "target" / "peers" / ("quick-all" if args.quick else "full-all")).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.monotonic()
+    if args.report_only:
+        setup = None
+        done = [(f, 60 * run_window(out / f.slug / "table.md")[2], table_command(out / f.slug / "table.md"))
+                for f in chosen]
+    else:
+        setup = prepare(not args.no_build)
+        with ThreadPoolExecutor(max_workers=args.parallel) as pool:
+            done = list(pool.map(lambda f: run_family(f, args, out), chosen))
+    windows = [run_window(out / f.slug / "table.md") for f in chosen]
+    started, finished = min(w[0] for w in windows), max(w[1] for w in windows)
+    sys.path.insert(0, str(HERE))
+    text = summary(args, out, done, started, finished, setup)
+    (out / "summary.md").write_text(text)
+    print(text)
+    if not args.quick and not args.no_docs:
+        write_docs(out, text, done)
+        log("docs/RESULTS.md (peers-all block) and docs/results-peers-all/ rewritten")
+    log(f"all families in {(time.monotonic() - t0) / 60:.1f} min (set-up included)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
