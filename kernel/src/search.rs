@@ -475,14 +475,19 @@ impl<'p> View<'p> {
             view.weights.push(0.0);
             view.failures.push(*odds);
         }
-        let w_max = view.weights.iter().copied().fold(0.0, f64::max);
-        let c_max = view
+        view.ln_cut = view.cut();
+        view
+    }
+
+    /// [`ln_cut`] for this view's largest weight and cost.
+    fn cut(&self) -> f64 {
+        let w_max = self.weights.iter().copied().fold(0.0, f64::max);
+        let c_max = self
             .points
             .iter()
             .filter_map(|p| p.cost)
             .fold(0.0, f64::max);
-        view.ln_cut = ln_cut(w_max, view.mean_cost.map(|mean| (mean, c_max)));
-        view
+        ln_cut(w_max, self.mean_cost.map(|mean| (mean, c_max)))
     }
 
     /// Per joint cell: (trials, failure mass).
@@ -644,13 +649,7 @@ mod tests {
         }
         let mut view = View::new(&archive, &m, &[]);
         view.weights.iter_mut().step_by(7).for_each(|w| *w = 3.0);
-        let w_max = view.weights.iter().copied().fold(0.0, f64::max);
-        let c_max = view
-            .points
-            .iter()
-            .filter_map(|p| p.cost)
-            .fold(0.0, f64::max);
-        view.ln_cut = ln_cut(w_max, view.mean_cost.map(|mean| (mean, c_max)));
+        view.ln_cut = view.cut();
         assert!(view.ln_cut > -800.0, "{}", view.ln_cut);
         let mut skipped = 0;
         for _ in 0..200 {
