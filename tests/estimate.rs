@@ -215,23 +215,26 @@ fn jobs_do_not_change_the_trials_and_a_killed_estimate_resumes_identically() {
     assert_eq!(summary(&killed)["pilot_hf_runs"], 0);
 }
 
+/// A refined estimate: 1,800 runs, no target, 3 cross-entropy rounds of 400 runs, a normal
+/// nominal on the ego speed (the kill tests' arguments).
+const REFINED: [&str; 9] = [
+    "--max-runs",
+    "1800",
+    "--no-target",
+    "--refine-rounds",
+    "3",
+    "--refine-runs",
+    "400",
+    "--nominal",
+    "lead_vehicle_brakes.ego_speed=normal:12,2",
+];
+
 /// With cross-entropy refinement (3 rounds of 400 runs, killed inside the first), the pilot
 /// waits for each round: `--jobs 1` and a killed-and-resumed `--jobs 2` give the same lines,
 /// pilot lines carry their round, and the estimate counts only the runs after the pilot.
 #[test]
 fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
-    let args = [
-        "--max-runs",
-        "1800",
-        "--no-target",
-        "--refine-rounds",
-        "3",
-        "--refine-runs",
-        "400",
-        "--nominal",
-        "lead_vehicle_brakes.ego_speed=normal:12,2",
-    ];
-    let (one, killed) = one_job_and_killed("refined", &args, 200);
+    let (one, killed) = one_job_and_killed("refined", &REFINED, 200);
     let ls = trial_lines(&one);
     for (i, l) in ls.iter().enumerate() {
         let round = (i < 1200).then_some(i as u64 / 400);
@@ -254,7 +257,7 @@ fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
     // The refit moved the proposal off the posterior's: its first ego-speed bins (where the
     // nominal's failures are) weigh more than the posterior gives them.
     let plain = temp_dir("refined-plain");
-    let (code, _, err) = estimate(&plain, &[&args[..3], &args[7..]].concat());
+    let (code, _, err) = estimate(&plain, &[&REFINED[..3], &REFINED[7..]].concat());
     assert_eq!(code, Some(0), "{err}");
     let ego = |s: &Value| -> Vec<f64> {
         s["proposal"]["lead_vehicle_brakes"]["ego_speed"]
@@ -364,19 +367,7 @@ fn a_joint_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
 /// is at the other fidelity, is refused naming it.
 #[test]
 fn a_low_fidelity_pilot_runs_at_the_learned_fidelity_and_resumes_identically_after_a_kill() {
-    let args = [
-        "--max-runs",
-        "1800",
-        "--no-target",
-        "--refine-rounds",
-        "3",
-        "--refine-runs",
-        "400",
-        "--nominal",
-        "lead_vehicle_brakes.ego_speed=normal:12,2",
-        "--pilot-fidelity",
-        "lf",
-    ];
+    let args = [&REFINED[..], &["--pilot-fidelity", "lf"]].concat();
     let (one, killed) = one_job_and_killed("lf-pilot", &args, 200);
     let ls = trial_lines(&one);
     for (i, l) in ls.iter().enumerate() {
