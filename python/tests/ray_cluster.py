@@ -81,9 +81,9 @@ class LocalRayCluster:
         self._wait_started(p, name, time.monotonic() + START_SECONDS)
         return name
 
-    def kill_node(self, name: str) -> List[int]:
-        """SIGKILLs node `name` as a lost host goes: its `ray start` process, its raylet and
-        every process under them (its Ray workers), at once. The pids killed."""
+    def node_pids(self, name: str) -> List[int]:
+        """Node `name`'s processes: its `ray start` process, its raylet and every process under
+        them (its Ray workers)."""
         root = self.nodes[self.names.index(name)].pid
         children: dict = {}
         for pid, ppid in _parents().items():
@@ -93,6 +93,12 @@ class LocalRayCluster:
             pid = todo.pop()
             tree.append(pid)
             todo.extend(children.get(pid, []))
+        return tree
+
+    def kill_node(self, name: str) -> List[int]:
+        """SIGKILLs node `name` as a lost host goes: its `ray start` process, its raylet and
+        every process under them (its Ray workers), at once. The pids killed."""
+        tree = self.node_pids(name)
         for pid in tree:
             try:
                 os.kill(pid, signal.SIGKILL)

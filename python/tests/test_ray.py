@@ -401,16 +401,18 @@ def test_an_fmu_campaign_on_ray_gives_the_local_trials_under_a_killed_worker_and
         for at, fault in ((8, "worker"), (total // 2, "node")):
             while time.monotonic() < deadline and not (trials.exists() and len(lines(trials)) >= at):
                 time.sleep(0.02)
-            if fault == "worker":
-                while time.monotonic() < deadline and "worker" not in killed:
-                    for pid in cluster.worker_pids():
-                        if running_a_run(pid):
-                            os.kill(pid, signal.SIGKILL)  # mid-run: it is running a run
-                            killed["worker"] = pid
-                            break
-                    time.sleep(0.005)
-            else:
-                killed["node"] = cluster.kill_node("worker0")
+            while time.monotonic() < deadline and fault not in killed:
+                # Only mid-run: a worker (or node) lost between runs costs no re-run.
+                pids = cluster.worker_pids()
+                if fault == "node":
+                    pids = set(pids) & set(cluster.node_pids("worker0"))
+                busy = [pid for pid in pids if running_a_run(pid)]
+                if busy and fault == "worker":
+                    os.kill(busy[0], signal.SIGKILL)
+                    killed["worker"] = busy[0]
+                elif busy:
+                    killed["node"] = cluster.kill_node("worker0")
+                time.sleep(0.005)
 
     watcher = threading.Thread(target=faults, daemon=True)
     watcher.start()
