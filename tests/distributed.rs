@@ -6,7 +6,7 @@
 mod common;
 
 use common::campaign::{
-    db_trials, file_trials, finish, query_i64, text, toy_coordinator, toy_local, wait_until,
+    db_trials, finish, local_trials, query_i64, text, toy_coordinator, toy_local, wait_until,
     worker, Distributed, TOY,
 };
 use common::postgres::Server;
@@ -45,14 +45,7 @@ fn one_or_three_workers_give_the_trials_of_the_local_run() {
         "--quiet",
     ];
     let local = temp_dir("workers-local");
-    let o = Command::new(EXE)
-        .args(["reproduce", "--out"])
-        .arg(&local)
-        .args(tiny)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", text(&o));
-    let expected = file_trials(&local);
+    let expected = local_trials(&local, &[&["reproduce"][..], &tiny[..]].concat());
     let mut client = postgres::Client::connect(&url, postgres::NoTls).unwrap();
     // The single worker runs under the least-privilege role of docs/DISTRIBUTED.md (the
     // schema must exist for the grants: the coordinator of a first campaign creates it).
@@ -413,17 +406,9 @@ fn fmu_campaign_workers_give_the_trials_of_the_local_run() {
     let url = server.create_db("fmu");
     let dir = temp_dir("fmu");
     let (_, config) = fmu_campaign(&dir, "");
-    let local = dir.join("local");
-    let o = Command::new(EXE)
-        .args(["run", "--quiet", "--config"])
-        .arg(&config)
-        .arg("--out")
-        .arg(&local)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", text(&o));
-    let expected = file_trials(&local);
     let cfg = config.to_str().unwrap();
+    let local = dir.join("local");
+    let expected = local_trials(&local, &["run", "--quiet", "--config", cfg]);
     let workers = [
         worker(&url, "f", &["--config", cfg]),
         worker(&url, "f", &["--config", cfg, "--jobs", "2"]),
@@ -1346,14 +1331,7 @@ fn runs_orphaned_by_an_immediate_database_restart_are_reconciled() {
         "20",
     ];
     let local = temp_dir("crash-local");
-    let o = Command::new(EXE)
-        .args(["toy", "--out"])
-        .arg(&local)
-        .args(protocol)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", text(&o));
-    let expected = file_trials(&local);
+    let expected = local_trials(&local, &[&["toy"][..], &protocol[..]].concat());
     let out = temp_dir("crash-out");
     let w = worker(&url, "z", &["--jobs", "4", "--lease", "30"]);
     let coordinator = Command::new(EXE)

@@ -104,17 +104,21 @@ pub const TOY: &[&str] = &[
     "--quiet",
 ];
 
-/// `savme toy` locally into `out` (the reference), with `extra` flags.
-pub fn toy_local(out: &Path, extra: &[&str]) -> Vec<Value> {
+/// `savme <args> --out <out>` run locally (a reference run): its trial lines.
+pub fn local_trials(out: &Path, args: &[&str]) -> Vec<Value> {
     let o = Command::new(EXE)
-        .args(["toy", "--out"])
+        .args(args)
+        .arg("--out")
         .arg(out)
-        .args(TOY)
-        .args(extra)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", text(&o));
     file_trials(out)
+}
+
+/// `savme toy` locally into `out` (the reference), with `extra` flags.
+pub fn toy_local(out: &Path, extra: &[&str]) -> Vec<Value> {
+    local_trials(out, &[&["toy"], TOY, extra].concat())
 }
 
 /// The coordinator of a toy campaign in the database, its runs done by workers.
