@@ -250,8 +250,19 @@ pub enum Method {
 }
 
 impl Method {
+    /// How this method reads θ_LF* off the fidelity posterior: evidence (tuned) or MAP
+    /// (paper). The one place the choice is made, for a campaign ([`Method::apply`]), `savme
+    /// example-config` (a `savme serve` configuration) and Python's `Kernel` alike.
+    pub fn theta_lf_choice(self) -> ThetaLfChoice {
+        match self {
+            Method::Tuned => ThetaLfChoice::Evidence,
+            Method::Paper => ThetaLfChoice::Map,
+        }
+    }
+
     /// Sets the values this method decides on `p` (the others stay).
     pub fn apply(self, p: &mut Protocol) {
+        p.theta_lf_choice = self.theta_lf_choice();
         match self {
             Method::Tuned => {
                 p.search = Search::Elite;
@@ -259,7 +270,6 @@ impl Method {
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
                 p.allocation = Allocate::CostRate;
-                p.theta_lf_choice = ThetaLfChoice::Evidence;
                 p.transfer = Transfer::Auto;
             }
             Method::Paper => {
@@ -268,7 +278,6 @@ impl Method {
                 p.deployment = Deploy::Frozen;
                 p.screen_lf = ScreenLf::Always;
                 p.allocation = Allocate::Weights;
-                p.theta_lf_choice = ThetaLfChoice::Map;
                 p.transfer = Transfer::Fixed;
             }
         }
