@@ -375,6 +375,7 @@ impl PyKernel {
             pairing,
             deployment,
             allocation,
+            scenario_priors: Vec::new(),
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal, limit)

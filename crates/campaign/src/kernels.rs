@@ -120,7 +120,9 @@ impl<'a> StageKernels<'a> {
     /// A prior-strength ablation stage (`strength`) is a learned-prior kernel with another
     /// strength, from the same seed too. With `transfer = auto` the learned prior's strength
     /// per fidelity setting comes from the meta-training lines among `lines`
-    /// ([`report::fidelity::transfer`], which the report shows).
+    /// ([`report::fidelity::transfer`], which the report shows), and so does p_ψ's prior of
+    /// each test scenario that shares φ variables with training scenarios
+    /// ([`report::fidelity::phi_priors`]).
     fn test_kernel(
         &self,
         kind: StageKind,
@@ -137,11 +139,16 @@ impl<'a> StageKernels<'a> {
                     let trials: Vec<TrialLine> =
                         lines.iter().filter_map(|l| l.trial().cloned()).collect();
                     let train = fidelity::train_lines(p, &trials, b);
-                    let strengths = fidelity::transfer(p, &train, &self.problem.fidelity).strengths;
+                    let strengths = fidelity::transfer(p, &train, self.problem).strengths;
                     let prior = trained
                         .as_prior_per_variable(trained.prior(), &strengths)
                         .map_err(prior_error)?;
-                    builder.fidelity_prior(prior, 1.0)
+                    // p_ψ too, where test scenarios share φ variables with training ones.
+                    let phi = fidelity::phi_priors(p, &train, self.problem).map_err(prior_error)?;
+                    phi.into_iter()
+                        .fold(builder.fidelity_prior(prior, 1.0), |b, (name, prior)| {
+                            b.scenario_prior(&name, prior)
+                        })
                 }
                 _ => builder.fidelity_prior(trained.clone(), strength.unwrap_or(p.prior_strength)),
             };

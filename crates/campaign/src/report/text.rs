@@ -199,6 +199,7 @@ impl Report {
             if let Some(f) = &b.fidelity {
                 evidence_md(&mut s, b.budget, f);
                 transfer_md(&mut s, b.budget, f);
+                phi_transfer_md(&mut s, b.budget, f);
             }
         }
         s
@@ -431,6 +432,84 @@ fn transfer_md(s: &mut String, budget: f64, f: &FidelityReport) {
         row(&v.variable, used.to_string(), &v.log_likelihood);
     }
     row("(all settings)", "".into(), &c.total);
+}
+
+/// The φ (p_ψ) transfer at one budget: per meta-testing scenario and φ variable, the
+/// training scenarios sharing it, the strength and why.
+fn phi_transfer_md(s: &mut String, budget: f64, f: &FidelityReport) {
+    let phi = &f.transfer.phi;
+    if phi.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## φ (p_ψ) transfer to meta-testing at C_budget = {budget}\n"
+    );
+    let shared = phi
+        .iter()
+        .any(|t| t.transfer.variables.iter().any(|v| !v.scenarios.is_empty()));
+    if !shared {
+        let _ = writeln!(
+            s,
+            "No meta-testing scenario shares a φ variable (the same name and domain: range, \
+             bins and scale, or values) with a meta-training scenario: p_ψ starts at the \
+             uniform prior, nothing to transfer."
+        );
+        return;
+    }
+    let candidates = &phi[0].transfer.candidates;
+    let _ = writeln!(
+        s,
+        "Per φ variable a meta-testing scenario shares with meta-training scenarios (same name \
+         and domain), the held-out log-likelihood of each sharing scenario's failures per bin \
+         under the prior from the others, summed, per candidate strength (0 = the uniform \
+         prior; a strength above 0 only if it gains at least {} nat per held-out scenario){}.\n",
+        savme_kernel::evidence::MIN_GAIN_PER_SCENARIO,
+        match f.transfer.mode {
+            Transfer::Fixed => {
+                "; the strengths are what auto would choose: the campaign (transfer fixed) \
+                 transferred no φ"
+            }
+            Transfer::Auto => "",
+        }
+    );
+    let _ = write!(s, "| scenario | φ variable | shared with | strength |");
+    for x in candidates {
+        let _ = write!(s, " {x} |");
+    }
+    let _ = writeln!(s, " why |");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|{}---|",
+        "---|".repeat(candidates.len())
+    );
+    for t in phi {
+        for v in &t.transfer.variables {
+            let _ = write!(
+                s,
+                "| {} | {} | {} | {} |",
+                t.scenario,
+                v.variable,
+                if v.scenarios.is_empty() {
+                    "–".to_string()
+                } else {
+                    v.scenarios.join(", ")
+                },
+                v.strength
+            );
+            for c in 0..candidates.len() {
+                match v.log_likelihood.get(c) {
+                    Some(x) => {
+                        let _ = write!(s, " {x:.1} |");
+                    }
+                    None => {
+                        let _ = write!(s, " – |");
+                    }
+                }
+            }
+            let _ = writeln!(s, " {} |", v.why());
+        }
+    }
 }
 
 /// A gain as a signed percentage (`+59 %`), `n/a` when there is none.
