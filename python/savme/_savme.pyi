@@ -512,6 +512,7 @@ class Protocol:
         theta_lf_choice: Optional[Literal["map", "evidence"]] = None,
         transfer: Optional[Literal["fixed", "auto"]] = None,
         ladder: Optional[Sequence[float]] = None,
+        ladder_training: Optional[Literal["separate", "shared"]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:
@@ -523,6 +524,9 @@ class Protocol:
         window: trials in flight; on_error="skip" withdraws a trial whose simulation raised.
         ladder: a fidelity ladder, two or more of the budgets cheapest first (each level
         meta-trained with its own θ_LF); the screening stage at its top budget screens down it.
+        ladder_training="shared": only the ladder's top level (one of the budgets) meta-trains;
+        the levels below (not budgets) read their θ_LF* off its trials re-credited at their
+        budgets.
         weights: p(s) per scenario (a scenario not listed weighs 1); a name that is not one of
         the protocol's scenarios is a KeyError naming it. A value that is NaN, infinite or an
         int beyond 64 bits, or a str for a list of scenarios, is refused naming the value."""

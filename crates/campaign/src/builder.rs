@@ -451,7 +451,7 @@ impl Stages<'_, '_> {
                     o.replaying(stage, replayed);
                 }
             }
-            let rungs = self.kernels.rungs(stage);
+            let rungs = self.kernels.rungs(stage, &all_lines);
             let kernel = self.kernels.for_stage(stage, &all_lines)?;
             let cx = StageContext {
                 stage,

@@ -4,7 +4,7 @@
 //! error comes before any simulation.
 
 use super::log::{LogLine, TrialLine};
-use super::protocol::{Compact, Protocol, Stage, StageId, StageKind, Transfer};
+use super::protocol::{Compact, LadderTraining, Protocol, Stage, StageId, StageKind, Transfer};
 use super::report::fidelity;
 use super::{CampaignError, Problem};
 use savme_kernel::{Assignment, Kernel, KernelBuilder, Space};
@@ -158,15 +158,33 @@ impl<'a> StageKernels<'a> {
 
     /// The fidelity ladder's levels below a screening stage's budget, cheapest first: each
     /// level's budget and the θ_LF* its meta-training kernel deploys (what its evaluation
-    /// asks). Empty for a stage at no ladder's top (the two-level screening) and for every
-    /// other stage. Each level's meta-training comes before (`Protocol::validate`), and
-    /// deployment never changes a kernel's fidelity posterior, so θ_LF* is final here.
-    pub(crate) fn rungs(&self, stage: &Stage) -> Vec<(f64, Assignment)> {
+    /// asks) — with `ladder_training = shared`, the θ_LF* read off the top level's meta-training
+    /// lines among `lines` re-credited at the level's budget
+    /// ([`fidelity::shared_level_theta`]). Empty for a stage at no ladder's top (the two-level
+    /// screening) and for every other stage. Each level's meta-training comes before
+    /// (`Protocol::validate`), and deployment never changes a kernel's fidelity posterior, so
+    /// θ_LF* is final here.
+    pub(crate) fn rungs(&self, stage: &Stage, lines: &[LogLine]) -> Vec<(f64, Assignment)> {
         let (StageKind::Screen, Some(b)) = (stage.kind, stage.budget) else {
             return Vec::new();
         };
-        let mut levels = self.protocol.levels(b);
+        let p = self.protocol;
+        let mut levels = p.levels(b);
         levels.pop();
+        if levels.is_empty() {
+            return Vec::new();
+        }
+        if p.ladder_training == LadderTraining::Shared {
+            let trials: Vec<TrialLine> = lines.iter().filter_map(|l| l.trial().cloned()).collect();
+            let train = fidelity::train_lines(p, &trials, b);
+            return levels
+                .into_iter()
+                .map(|l| {
+                    let theta = fidelity::shared_level_theta(p, &train, &self.problem.fidelity, l);
+                    (l, theta)
+                })
+                .collect();
+        }
         levels
             .into_iter()
             .map(|l| {

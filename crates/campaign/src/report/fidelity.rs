@@ -106,6 +106,52 @@ pub fn evidence(p: &Protocol, lines: &[&TrialLine], space: &Space) -> FidelityEv
     e
 }
 
+/// θ_LF* of a level below the top of a shared ladder (`ladder_training = shared`): the
+/// protocol's choice (MAP, or evidence with every false alarm charged at the level's budget) on
+/// the top level's `train@top` lines `train`, every paired trial that credited p_ω re-credited
+/// at `level` (Table I: a success when HF and LF agree and t_LF / t_HF ≤ `level`), from the
+/// uniform prior — what a kernel meta-trained at `level` on those same trials would choose.
+pub fn shared_level_theta(
+    p: &Protocol,
+    train: &[&TrialLine],
+    space: &Space,
+    level: f64,
+) -> savme_kernel::Assignment {
+    let mut posterior =
+        Posterior::new(space, PriorCounts::UNIFORM).expect("the uniform prior is valid");
+    let mut tallies = FidelityEvidence::new(1, space);
+    for l in train {
+        let (Some(theta), Some(_), Some(o), Some(r)) =
+            (&l.theta_lf, l.credit.fidelity, l.outcome, l.cost_ratio)
+        else {
+            continue;
+        };
+        let Ok(arms) = space.arms_of(theta) else {
+            continue;
+        };
+        let arms: Vec<u16> = arms.into_iter().map(|a| a as u16).collect();
+        let success = o.fidelity_success(r, level);
+        posterior.update(&arms, success);
+        tallies.record(0, &arms, o, success, r);
+    }
+    let arms = match p.theta_lf_choice {
+        ThetaLfChoice::Map => posterior.best_arms(savme_kernel::Estimator::Map),
+        ThetaLfChoice::Evidence => {
+            let totals = tallies.totals();
+            posterior.best_arms_by(|v, k, a| {
+                savme_kernel::evidence::evidence_score(a, &totals[v][k], level)
+            })
+        }
+    };
+    space
+        .variables()
+        .iter()
+        .zip(arms)
+        .fold(savme_kernel::Assignment::new(), |a, (var, arm)| {
+            a.with(&var.name, var.representative(usize::from(arm)))
+        })
+}
+
 /// The `train@budget` lines of `lines`.
 pub fn train_lines<'a>(p: &Protocol, lines: &'a [TrialLine], budget: f64) -> Vec<&'a TrialLine> {
     stage_lines(lines, &super::stage_of(p, StageKind::Train, Some(budget)))

@@ -4,7 +4,7 @@
 
 use super::fidelity::FidelityReport;
 use super::{intervals, Report};
-use crate::protocol::{Cost, Protocol, ThetaLfChoice, Transfer};
+use crate::protocol::{Cost, LadderTraining, Protocol, ThetaLfChoice, Transfer};
 use savme_kernel::{Assignment, Space};
 use std::fmt::Write as _;
 
@@ -99,7 +99,11 @@ impl Report {
             );
             let _ = writeln!(
                 s,
-                "Each level runs the θ_LF* of its own meta-training (Table III's row and Table IV's column of its budget); a level's LF failure goes to the next level up, the last level's to HF.\n"
+                "{}; a level's LF failure goes to the next level up, the last level's to HF.\n",
+                match self.protocol.ladder_training {
+                    LadderTraining::Separate => "Each level runs the θ_LF* of its own meta-training (Table III's row and Table IV's column of its budget)",
+                    LadderTraining::Shared => "Only the top level meta-trained (ladder_training = shared): each level below runs the θ_LF* read off the top level's meta-training trials re-credited at its own budget, so the ladder cost the meta-training of one level",
+                }
             );
             let _ = writeln!(
                 s,
