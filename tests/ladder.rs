@@ -373,6 +373,15 @@ fn a_shared_ladder_meta_trains_the_top_level_only_and_resumes_to_the_same_trials
             .unwrap();
     let levels = &summary["report"]["budgets"][0]["screening"]["levels"];
     assert_eq!(levels.as_array().unwrap().len(), 2, "{levels}");
+    // Table IV's column of the level below, as the report computes it from the lines.
+    let shared_levels = &summary["report"]["budgets"][0]["fidelity"]["shared_levels"];
+    assert_eq!(shared_levels[0]["budget"], 0.2, "{shared_levels}");
+    assert_eq!(shared_levels[0]["theta_lf"], low, "{shared_levels}");
+    let md = std::fs::read_to_string(whole.join("fidelity.md")).unwrap();
+    assert!(
+        md.contains("## The ladder's levels below C_budget = 0.5 (shared meta-training)"),
+        "{md}"
+    );
     // Killed twice mid-screening (the rung's θ_LF* recomputed from the replayed lines).
     let killed = made_dir("shared-killed");
     let _ = std::fs::remove_dir_all(&killed);

@@ -8,7 +8,7 @@
 
 use super::stage_lines;
 use crate::log::TrialLine;
-use crate::protocol::{Protocol, StageKind, ThetaLfChoice, Transfer};
+use crate::protocol::{LadderTraining, Protocol, StageKind, ThetaLfChoice, Transfer};
 use crate::Problem;
 use savme_kernel::evidence::{choose_strengths, ArmTally, FidelityEvidence, TransferChoice};
 use savme_kernel::phi_transfer::{choose_phi_transfer, PhiTransfer, TrainingScenario};
@@ -82,6 +82,20 @@ pub struct FidelityReport {
     pub evaluation: Option<JointRates>,
     /// The learned prior's strength.
     pub transfer: TransferReport,
+    /// With `ladder_training = shared` at the ladder's top budget: each level below, cheapest
+    /// first, with the θ_LF* read off this budget's meta-training ([`shared_level_theta`]);
+    /// empty otherwise (and left out of the JSON).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub shared_levels: Vec<SharedLevel>,
+}
+
+/// A level of a shared ladder below its top and the θ_LF* it screens with.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SharedLevel {
+    /// The level's budget.
+    pub budget: f64,
+    /// Its θ_LF*.
+    pub theta_lf: savme_kernel::Assignment,
 }
 
 /// The meta-training evidence of budget `budget` from its `train@budget` lines: per training
@@ -333,10 +347,23 @@ pub fn at_budget(
             miss_rate: t.miss_rate(),
         }
     });
+    let mut levels = p.levels(budget);
+    levels.pop();
+    let shared_levels = match p.ladder_training {
+        LadderTraining::Shared => levels
+            .into_iter()
+            .map(|l| SharedLevel {
+                budget: l,
+                theta_lf: shared_level_theta(p, &train, space, l),
+            })
+            .collect(),
+        LadderTraining::Separate => Vec::new(),
+    };
     FidelityReport {
         choice: p.theta_lf_choice,
         settings,
         evaluation,
         transfer: transfer(p, &train, problem),
+        shared_levels,
     }
 }

@@ -199,6 +199,7 @@ impl Report {
             }
             let _ = writeln!(s);
         }
+        self.shared_levels_md(&mut s, space);
         for b in &self.budgets {
             if let Some(f) = &b.fidelity {
                 evidence_md(&mut s, b.budget, f);
@@ -207,6 +208,38 @@ impl Report {
             }
         }
         s
+    }
+
+    /// Table IV's columns of a shared ladder's levels below its top (nothing without one).
+    fn shared_levels_md(&self, s: &mut String, space: &Space) {
+        for b in &self.budgets {
+            let Some(f) = b.fidelity.as_ref().filter(|f| !f.shared_levels.is_empty()) else {
+                continue;
+            };
+            let _ = writeln!(
+                s,
+                "\n## The ladder's levels below C_budget = {} (shared meta-training)\n\n\
+                 θ_LF* of each level, read off the meta-training trials of C_budget = {} \
+                 re-credited at the level's budget (`ladder_training = shared`).\n",
+                b.budget, b.budget
+            );
+            let _ = write!(s, "| setting |");
+            for l in &f.shared_levels {
+                let _ = write!(s, " C = {} |", l.budget);
+            }
+            let _ = writeln!(s, "\n|---|{}", "---|".repeat(f.shared_levels.len()));
+            for var in space.variables() {
+                let _ = write!(s, "| {} |", var.name);
+                for l in &f.shared_levels {
+                    let v = l
+                        .theta_lf
+                        .get(&var.name)
+                        .map_or("–".into(), |v| format_value(var, v, true));
+                    let _ = write!(s, " {v} |");
+                }
+                let _ = writeln!(s);
+            }
+        }
     }
 
     /// The human summary printed at the end: break-even times, meta-testing gains, the
