@@ -380,6 +380,11 @@ fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() 
     ] {
         assert!(md.contains(says), "fidelity.md lacks {says:?}:\n{md}");
     }
+    let table = std::fs::read_to_string(full.join("table.md")).unwrap();
+    assert!(
+        table.contains("with θ_LF* chosen from evidence (fidelity.md) and φ ~ p_ψ"),
+        "{table}"
+    );
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(full.join("summary.json")).unwrap()).unwrap();
     let f = &summary["report"]["budgets"][0]["fidelity"];
@@ -442,6 +447,8 @@ fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() 
     assert!(reproduce(&paper, &[]).0);
     let md = std::fs::read_to_string(paper.join("fidelity.md")).unwrap();
     assert!(md.contains("θ_LF* = MAP of p_ω"), "{md}");
+    let table = std::fs::read_to_string(paper.join("table.md")).unwrap();
+    assert!(table.contains("with θ_LF = MAP of p_ω and φ ~ p_ψ"), "{table}");
     assert!(
         md.contains("(fixed: `prior_strength` for every setting)"),
         "{md}"

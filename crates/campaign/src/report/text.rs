@@ -17,10 +17,14 @@ impl Report {
         let _ = writeln!(s, "# Meta-training results (the paper's Table III)\n");
         let _ = writeln!(
             s,
-            "Evaluation: {} trials per budget with θ_LF = MAP of p_ω and φ ~ p_ψ, after {} \
+            "Evaluation: {} trials per budget with {} and φ ~ p_ψ, after {} \
              meta-training iterations on {}. Baseline: {} trials with φ uniform, \
              high fidelity only. Cost: {}. Seed {}. {}\n",
             p.eval_iterations,
+            match p.theta_lf_choice {
+                ThetaLfChoice::Map => "θ_LF = MAP of p_ω",
+                ThetaLfChoice::Evidence => "θ_LF* chosen from evidence (fidelity.md)",
+            },
             p.train_iterations,
             scenarios(p.train_scenarios.len()),
             p.baseline_train_iterations,
