@@ -448,7 +448,10 @@ fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() 
     let md = std::fs::read_to_string(paper.join("fidelity.md")).unwrap();
     assert!(md.contains("θ_LF* = MAP of p_ω"), "{md}");
     let table = std::fs::read_to_string(paper.join("table.md")).unwrap();
-    assert!(table.contains("with θ_LF = MAP of p_ω and φ ~ p_ψ"), "{table}");
+    assert!(
+        table.contains("with θ_LF = MAP of p_ω and φ ~ p_ψ"),
+        "{table}"
+    );
     assert!(
         md.contains("(fixed: `prior_strength` for every setting)"),
         "{md}"
