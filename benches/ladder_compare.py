@@ -3,7 +3,8 @@
 
     python3 benches/ladder_compare.py LADDER_OUT TWO_LEVEL_OUT
 
-LADDER_OUT and TWO_LEVEL_OUT: two `savme reproduce --repeat N` directories of the same protocol,
+LADDER_OUT and TWO_LEVEL_OUT: two `savme reproduce --repeat N` directories of the same protocol
+(the ladder's may meta-train its top budget only: `--ladder-training shared`),
 the first with `--ladder`. Per seed: confirmed failures per unit cost of each screening stage (HF-confirmed failures /
 every run's cost), the ladder's against the best two-level one; and per level of the ladder."""
 import json, sys, pathlib, statistics as st
@@ -42,3 +43,44 @@ for seed_dir in sorted(lad.glob("seed-*")):
 ratios = [r[1][2] / r[3][1][2] for r in rows]
 print("ratio ladder / best two-level per seed:", [f"{x:.3f}" for x in ratios],
       "mean", f"{st.mean(ratios):.3f}", "sd", f"{st.stdev(ratios):.3f}" if len(ratios) > 1 else "")
+
+# With meta-training charged too: each screening stage's found failures over the cost of the
+# stages it needs — its budget's train@ and evaluate@ and itself; a ladder with separate
+# meta-training also each lower level's train@ and evaluate@ (with ladder_training = shared
+# those stages do not exist, so they cost nothing).
+def stage_costs(d):
+    costs = {}
+    for line in (d / "trials.jsonl").read_text().splitlines():
+        t = json.loads(line)
+        st_ = t.get("stage")
+        if st_ is None:
+            continue
+        c = sum((t.get(k) or {}).get("runtime", 0.0) for k in ("hf", "lf"))
+        c += sum((r.get("lf") or {}).get("runtime", 0.0) for r in t.get("ladder") or [])
+        costs[st_] = costs.get(st_, 0.0) + c
+    return costs
+
+
+def need(costs, b, levels=()):
+    total = 0.0
+    for x in (b, *levels):
+        for kind in ("train", "evaluate"):
+            total += costs.get(f"{kind}@{x:g}", 0.0)
+    return total + costs.get(f"screen@{b:g}", 0.0)
+
+
+charged = []
+for s, ladder, b, best, _ in rows:
+    ca, cb = stage_costs(lad / s), stage_costs(two / s)
+    top = max(k for k in [lv["budget"] for lv in ladder[3]])
+    lower = [lv["budget"] for lv in ladder[3][:-1]]
+    lad_rate = ladder[0] / need(ca, top, lower)
+    two_rates = {k: v[0] / need(cb, k) for k, v in b.items()}
+    k_best = max(two_rates, key=two_rates.get)
+    charged.append(lad_rate / two_rates[k_best])
+    print(f"{s}, meta-training and evaluation charged: ladder {lad_rate*1e9:.1f}/1e9 wu "
+          f"(train+evaluate {sum(v for k, v in ca.items() if k.startswith(('train@', 'evaluate@'))):.3e}); " +
+          "; ".join(f"two-level {k}: {r*1e9:.1f}" for k, r in sorted(two_rates.items())) +
+          f"; ratio vs best ({k_best}) {charged[-1]:.3f}")
+print("ratio with meta-training charged, per seed:", [f"{x:.3f}" for x in charged],
+      "mean", f"{st.mean(charged):.3f}", "sd", f"{st.stdev(charged):.3f}" if len(charged) > 1 else "")

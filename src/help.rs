@@ -144,6 +144,7 @@ fn default_of(p: &Protocol, name: &str) -> Option<String> {
         ("allocation", None) => Some("weights".into()),
         ("theta_lf_choice", None) => Some("map".into()),
         ("transfer", None) => Some("fixed".into()),
+        ("ladder_training", None) => Some("separate".into()),
         ("coverage_floor", None) => Some(p.coverage_floor.to_string()),
         ("search_budget" | "deploy_budget", None) => Some("none (the iterations)".into()),
         (_, Some(x)) => Some(shown(x)),

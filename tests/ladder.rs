@@ -303,3 +303,119 @@ fn bad_ladders_are_refused_naming_the_flag_and_why() {
         assert!(!out.exists(), "{extra:?}: a campaign started");
     }
 }
+
+/// The MAP arm of `simulation_rate_hz` (2, 4, 6, 8, 10 Hz) over `train`'s paired trials
+/// re-credited at `level` (Table I: HF and LF agree and t_LF / t_HF ≤ level), from the uniform
+/// prior: the kernel's rule (highest mode, then highest mean, then the lower arm), written out.
+fn recredited_map_rate(train: &[&Value], level: f64) -> u64 {
+    let rates = [2u64, 4, 6, 8, 10];
+    let mut counts = [(1.0f64, 1.0f64); 5];
+    for l in train.iter().filter(|l| !l["credit"]["fidelity"].is_null()) {
+        let rate = l["theta_lf"]["simulation_rate_hz"].as_u64().unwrap();
+        let k = rates.iter().position(|&r| r == rate).unwrap();
+        let agree = matches!(l["outcome"].as_str(), Some("TP" | "TN"));
+        let success = agree && l["cost_ratio"].as_f64().unwrap() <= level;
+        if success {
+            counts[k].0 += 1.0;
+        } else {
+            counts[k].1 += 1.0;
+        }
+    }
+    let mode = |(a, b): (f64, f64)| match (a, b) {
+        (a, b) if a == 1.0 && b == 1.0 => 0.5,
+        (a, b) => (a - 1.0) / (a + b - 2.0),
+    };
+    let mean = |(a, b): (f64, f64)| a / (a + b);
+    let mut best = 0;
+    for k in 1..5 {
+        let (m, mb) = (mode(counts[k]), mode(counts[best]));
+        if m > mb || (m == mb && mean(counts[k]) > mean(counts[best])) {
+            best = k;
+        }
+    }
+    rates[best]
+}
+
+#[test]
+fn a_shared_ladder_meta_trains_the_top_level_only_and_resumes_to_the_same_trials() {
+    // `--ladder-training shared`: only C = 0.5 is a budget and meta-trains; the 0.2 level reads
+    // its θ_LF* off train@0.5's trials re-credited at 0.2 — no train@0.2 or evaluate@0.2 stage.
+    let shared = |dir: &Path| {
+        let mut a = args(dir);
+        let i = a.iter().position(|x| x == "--budgets").unwrap();
+        a[i + 1] = "0.5".into();
+        a.extend(["--ladder-training".to_string(), "shared".to_string()]);
+        a
+    };
+    let whole = temp_dir("shared");
+    let (code, _, err) = run(&shared(&whole));
+    assert_eq!(code, Some(0), "{err}");
+    let lines = trial_lines(&whole);
+    assert!(stage(&lines, "train@0.2").is_empty() && stage(&lines, "evaluate@0.2").is_empty());
+    let train = stage(&lines, "train@0.5");
+    assert_eq!(train.len(), 60);
+    let screened = stage(&lines, "screen@0.5");
+    assert_eq!(screened.len(), 120);
+    let low = screened[0]["ladder"][0]["theta_lf"].clone();
+    let rate = recredited_map_rate(&train, 0.2);
+    assert_eq!(low["simulation_rate_hz"], rate, "{low}");
+    assert_ne!(
+        rate,
+        recredited_map_rate(&train, 0.5),
+        "the test needs the levels to choose differently"
+    );
+    for l in &screened {
+        assert_eq!(l["ladder"][0]["budget"], 0.2);
+        assert_eq!(l["ladder"][0]["theta_lf"], low);
+    }
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(whole.join("summary.json")).unwrap())
+            .unwrap();
+    let levels = &summary["report"]["budgets"][0]["screening"]["levels"];
+    assert_eq!(levels.as_array().unwrap().len(), 2, "{levels}");
+    // Table IV's column of the level below, as the report computes it from the lines.
+    let shared_levels = &summary["report"]["budgets"][0]["fidelity"]["shared_levels"];
+    assert_eq!(shared_levels[0]["budget"], 0.2, "{shared_levels}");
+    assert_eq!(shared_levels[0]["theta_lf"], low, "{shared_levels}");
+    let md = std::fs::read_to_string(whole.join("fidelity.md")).unwrap();
+    assert!(
+        md.contains("## The ladder's levels below C_budget = 0.5 (shared meta-training)"),
+        "{md}"
+    );
+    // Killed twice mid-screening (the rung's θ_LF* recomputed from the replayed lines).
+    let killed = made_dir("shared-killed");
+    let _ = std::fs::remove_dir_all(&killed);
+    for n in [20, 70] {
+        if killed.join("protocol.json").exists() {
+            kill_after(&killed, &[], "screen@0.5", n);
+        } else {
+            let mut cmd = Command::new(EXE);
+            let mut child = cmd
+                .args(shared(&killed))
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .unwrap();
+            let trials = killed.join("trials.jsonl");
+            let start = std::time::Instant::now();
+            while std::fs::read_to_string(&trials)
+                .map_or(0, |s| s.matches("\"stage\":\"screen@0.5\"").count())
+                < n
+            {
+                assert!(start.elapsed().as_secs() < 120, "no progress");
+                assert!(
+                    child.try_wait().unwrap().is_none(),
+                    "finished before the kill"
+                );
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+            child.kill().unwrap();
+            child.wait().unwrap();
+        }
+    }
+    let (ok, _, err) = resume(&killed);
+    assert!(ok, "{err}");
+    assert_eq!(without_wall(trial_lines(&killed)), without_wall(lines));
+    let _ = std::fs::remove_dir_all(&whole);
+    let _ = std::fs::remove_dir_all(&killed);
+}

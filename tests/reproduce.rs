@@ -4,7 +4,7 @@
 mod common;
 
 use common::{resume, run, temp_dir, trial_lines, without_wall, EXE, TINY_PROTOCOL};
-use serde_json::Value;
+use serde_json::{json, Value};
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -373,9 +373,18 @@ fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() 
         "| setting | arm | tried | successes | false alarms | misses | mean LF cost |",
         "## Transfer to meta-testing at C_budget = 0.3 (auto: per setting, leave-one-scenario-out)",
         "| (all settings) |",
+        // The bundled simulator's test scenarios share no φ variable's domain with a training
+        // scenario: p_ψ is not transferred, and the report says why.
+        "## φ (p_ψ) transfer to meta-testing at C_budget = 0.3",
+        "No meta-testing scenario shares a φ variable",
     ] {
         assert!(md.contains(says), "fidelity.md lacks {says:?}:\n{md}");
     }
+    let table = std::fs::read_to_string(full.join("table.md")).unwrap();
+    assert!(
+        table.contains("with θ_LF* chosen from evidence (fidelity.md) and φ ~ p_ψ"),
+        "{table}"
+    );
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(full.join("summary.json")).unwrap()).unwrap();
     let f = &summary["report"]["budgets"][0]["fidelity"];
@@ -413,6 +422,13 @@ fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() 
         assert_eq!(v["log_likelihood"].as_array().unwrap().len(), 6);
     }
     assert!(f["evaluation"]["trials"] == 6, "{f}");
+    for phi in t["phi"].as_array().unwrap() {
+        assert_eq!(phi["used"], false, "{phi}");
+        for v in phi["variables"].as_array().unwrap() {
+            assert_eq!(v["scenarios"], json!([]), "{v}");
+            assert_eq!(v["strength"], 0.0, "{v}");
+        }
+    }
 
     // kill -9 during meta-testing (after training's 14 + 16 and evaluation's 6 lines).
     let dir = temp_dir("tuned-killed");
@@ -431,6 +447,11 @@ fn a_tuned_campaign_reports_its_evidence_and_transfer_and_resumes_identically() 
     assert!(reproduce(&paper, &[]).0);
     let md = std::fs::read_to_string(paper.join("fidelity.md")).unwrap();
     assert!(md.contains("θ_LF* = MAP of p_ω"), "{md}");
+    let table = std::fs::read_to_string(paper.join("table.md")).unwrap();
+    assert!(
+        table.contains("with θ_LF = MAP of p_ω and φ ~ p_ψ"),
+        "{table}"
+    );
     assert!(
         md.contains("(fixed: `prior_strength` for every setting)"),
         "{md}"

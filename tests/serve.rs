@@ -488,3 +488,91 @@ fn the_elite_search_learns_from_told_robustness_and_resumes_from_its_journal_exa
     assert!(c.child.wait().unwrap().success());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A paired observation of a toy trial whose LF run raises false alarms at 5 Hz (above an ego
+/// speed of 15 m/s) and costs `rate_hz / 100` of the HF run.
+fn observation_with_false_alarms(trial: &Value) -> Value {
+    let speed = trial["phi"]["ego_speed"].as_f64().unwrap();
+    let rate = trial["theta_lf"]["rate_hz"].as_f64().unwrap();
+    let hf = json!({"failure": speed > 28.0, "runtime": 1.0});
+    let lf =
+        json!({"failure": speed > 28.0 || (rate == 5.0 && speed > 15.0), "runtime": rate / 100.0});
+    json!({"paired": {"hf": hf, "lf": lf}})
+}
+
+#[test]
+fn the_tuned_example_configuration_chooses_theta_lf_by_evidence_as_a_tuned_campaign_does() {
+    // `savme example-config` (tuned) serves θ_LF* by evidence — a tuned campaign's
+    // `--theta-lf-choice` — with each chosen arm's tries, false alarms and misses; `--method
+    // paper` serves the paper's MAP, and `"estimator":"map"` is one request away.
+    let dir = made_dir("evidence");
+    let config_of = |method: &str| {
+        let out = Command::new(EXE)
+            .args(["example-config", "--method", method])
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        let config: Value = serde_json::from_slice(&out.stdout).unwrap();
+        let path = dir.join(format!("{method}.json"));
+        std::fs::write(&path, config.to_string()).unwrap();
+        (config, path)
+    };
+    let (tuned, tuned_path) = config_of("tuned");
+    assert_eq!(tuned["estimator"], "evidence");
+    let (paper, paper_path) = config_of("paper");
+    assert_eq!(paper["estimator"], "map");
+
+    let mut s = Server::start(&["--config", tuned_path.to_str().unwrap()]);
+    let mut differed = 0;
+    for _ in 0..60 {
+        let t = s.call(json!({"op": "ask"}))["trials"][0].clone();
+        let obs = observation_with_false_alarms(&t);
+        let r = s.call(json!({"op": "tell", "id": t["id"], "observation": obs}));
+        assert_eq!(r["ok"], true, "{r}");
+        let default = s.call(json!({"op": "estimate"}));
+        let evidence = s.call(json!({"op": "estimate", "estimator": "evidence"}));
+        let map = s.call(json!({"op": "estimate", "estimator": "map"}));
+        assert_eq!(default["estimator"], "evidence", "{default}");
+        assert_eq!(default["theta_lf"], evidence["theta_lf"]);
+        assert_eq!(map["estimator"], "map", "{map}");
+        differed += usize::from(map["theta_lf"] != evidence["theta_lf"]);
+        let settings = default["settings"].as_array().expect("settings");
+        assert_eq!(settings.len(), 4, "{default}");
+        for one in settings {
+            let n = |k: &str| one[k].as_u64().unwrap();
+            assert_eq!(n("tried"), n("tp") + n("tn") + n("fp") + n("fn"), "{one}");
+            let passes = n("fp") + n("tn");
+            if passes > 0 {
+                let rate = one["false_alarm_rate"].as_f64().unwrap();
+                assert_eq!(rate, n("fp") as f64 / passes as f64, "{one}");
+            } else {
+                assert!(one["false_alarm_rate"].is_null(), "{one}");
+            }
+        }
+    }
+    assert!(
+        differed > 0,
+        "the test needs a state where MAP and evidence choose differently"
+    );
+    drop(s.stdin);
+    assert!(s.child.wait().unwrap().success());
+
+    // The paper's configuration: MAP, and no tallies kept.
+    let mut p = Server::start(&["--config", paper_path.to_str().unwrap()]);
+    for _ in 0..10 {
+        let t = p.call(json!({"op": "ask"}))["trials"][0].clone();
+        let obs = observation_with_false_alarms(&t);
+        assert_eq!(
+            p.call(json!({"op": "tell", "id": t["id"], "observation": obs}))["ok"],
+            true
+        );
+    }
+    let default = p.call(json!({"op": "estimate"}));
+    let map = p.call(json!({"op": "estimate", "estimator": "map"}));
+    assert_eq!(default["estimator"], "map", "{default}");
+    assert_eq!(default["theta_lf"], map["theta_lf"]);
+    assert!(default.get("settings").is_none(), "{default}");
+    drop(p.stdin);
+    assert!(p.child.wait().unwrap().success());
+    let _ = std::fs::remove_dir_all(&dir);
+}

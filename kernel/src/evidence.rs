@@ -280,13 +280,7 @@ pub fn choose_strengths(
     base: PriorCounts,
     candidates: &[f64],
 ) -> Option<TransferChoice> {
-    let mut cands: Vec<f64> = candidates
-        .iter()
-        .copied()
-        .filter(|c| c.is_finite() && *c >= 0.0)
-        .collect();
-    cands.sort_by(f64::total_cmp);
-    cands.dedup();
+    let cands = clean_candidates(candidates);
     let tried = |sc: &[Vec<ArmTally>]| sc.first().map_or(0, |v| v.iter().map(|t| t.tried).sum());
     let held: Vec<usize> = (0..evidence.scenarios())
         .filter(|&s| evidence.scenario(s).is_some_and(|sc| tried(sc) > 0))
@@ -294,48 +288,23 @@ pub fn choose_strengths(
     if held.len() < 2 || cands.is_empty() || !evidence.fits(evidence.scenarios(), space) {
         return None;
     }
-    let totals = evidence.totals();
-    let all: u64 = totals
-        .first()
-        .map_or(0, |v| v.iter().map(|t| t.tried).sum());
     let mut variables = Vec::with_capacity(space.len());
     for (v, var) in space.variables().iter().enumerate() {
-        let mut ll = vec![0.0; cands.len()];
-        for &s in &held {
-            let Some(sc) = evidence.scenario(s) else {
-                continue;
-            };
-            let others = all - tried(sc);
-            let m = if others > 0 {
-                all as f64 / others as f64
-            } else {
-                0.0
-            };
-            for (k, own) in sc[v].iter().enumerate() {
-                let total = &totals[v][k];
-                let (s_o, l_o) = (
-                    (total.successes - own.successes) as f64,
-                    (total.losses() - own.losses()) as f64,
-                );
-                let (s_h, l_h) = (own.successes as f64, own.losses() as f64);
-                if s_h + l_h == 0.0 {
-                    continue;
-                }
-                for (c, &lambda) in cands.iter().enumerate() {
-                    let a = base.successes + lambda * m * s_o;
-                    let b = base.losses + lambda * m * l_o;
-                    ll[c] += ln_beta(a + s_h, b + l_h) - ln_beta(a, b);
-                }
-            }
-        }
-        let mut best = best_index(&ll);
-        let need = MIN_GAIN_PER_SCENARIO * held.len() as f64;
-        if cands[0] == 0.0 && ll[best] - ll[0] < need {
-            best = 0;
-        }
+        // Per held-out scenario, per arm: (successes, losses) of this variable.
+        let counts: Vec<Vec<(f64, f64)>> = held
+            .iter()
+            .filter_map(|&s| evidence.scenario(s))
+            .map(|sc| {
+                sc[v]
+                    .iter()
+                    .map(|t| (t.successes as f64, t.losses() as f64))
+                    .collect()
+            })
+            .collect();
+        let (strength, ll) = choose_one(&counts, base, &cands);
         variables.push(VariableTransfer {
             variable: var.name.to_string(),
-            strength: cands[best],
+            strength,
             log_likelihood: ll,
         });
     }
@@ -348,6 +317,63 @@ pub fn choose_strengths(
         variables,
         total,
     })
+}
+
+/// Candidate strengths as [`choose_strengths`] takes them: finite, ≥ 0, sorted, deduplicated.
+pub(crate) fn clean_candidates(candidates: &[f64]) -> Vec<f64> {
+    let mut cands: Vec<f64> = candidates
+        .iter()
+        .copied()
+        .filter(|c| c.is_finite() && *c >= 0.0)
+        .collect();
+    cands.sort_by(f64::total_cmp);
+    cands.dedup();
+    cands
+}
+
+/// Leave-one-scenario-out for one variable: `counts[scenario][arm]` = (successes, losses) of
+/// each scenario with evidence, `cands` clean ([`clean_candidates`]). Every scenario is held
+/// out once against `base + λ · m · the others' counts` (m = all trials / the others'); returns
+/// the chosen strength (the best summed Beta–Binomial log marginal likelihood, ties to the
+/// weaker; 0 unless it gains [`MIN_GAIN_PER_SCENARIO`] nats per held-out scenario over 0) and
+/// the log-likelihood of every candidate.
+pub(crate) fn choose_one(
+    counts: &[Vec<(f64, f64)>],
+    base: PriorCounts,
+    cands: &[f64],
+) -> (f64, Vec<f64>) {
+    let arms = counts.iter().map(Vec::len).max().unwrap_or(0);
+    let mut total = vec![(0.0, 0.0); arms];
+    for sc in counts {
+        for (t, &(s, l)) in total.iter_mut().zip(sc) {
+            t.0 += s;
+            t.1 += l;
+        }
+    }
+    let all: f64 = total.iter().map(|(s, l)| s + l).sum();
+    let mut ll = vec![0.0; cands.len()];
+    for sc in counts {
+        let own: f64 = sc.iter().map(|(s, l)| s + l).sum();
+        let others = all - own;
+        let m = if others > 0.0 { all / others } else { 0.0 };
+        for (&(s_h, l_h), &(s_t, l_t)) in sc.iter().zip(&total) {
+            if s_h + l_h == 0.0 {
+                continue;
+            }
+            let (s_o, l_o) = (s_t - s_h, l_t - l_h);
+            for (c, &lambda) in cands.iter().enumerate() {
+                let a = base.successes + lambda * m * s_o;
+                let b = base.losses + lambda * m * l_o;
+                ll[c] += ln_beta(a + s_h, b + l_h) - ln_beta(a, b);
+            }
+        }
+    }
+    let mut best = best_index(&ll);
+    let need = MIN_GAIN_PER_SCENARIO * counts.len() as f64;
+    if cands.first() == Some(&0.0) && ll[best] - ll[0] < need {
+        best = 0;
+    }
+    (cands.get(best).copied().unwrap_or(0.0), ll)
 }
 
 /// The index of the largest value, the first of equal ones.

@@ -124,6 +124,17 @@ pub struct FidelityPrior {
     pub strength: f64,
 }
 
+/// A φ prior carried over to one scenario (meta-testing's p_ψ transfer:
+/// [`crate::phi_transfer`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioPrior {
+    /// The scenario it is for.
+    pub scenario: Arc<str>,
+    /// Its p_ψ before any trial (must fit the scenario's φ-space).
+    pub posterior: Posterior,
+}
+
 /// Everything that defines a kernel before its first ask. Serialisable: it heads every journal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -158,6 +169,10 @@ pub struct KernelConfig {
     /// How each ask chooses its scenario (default: from p(s), the paper's; then left out).
     #[serde(default, skip_serializing_if = "Allocation::is_weights")]
     pub allocation: Allocation,
+    /// φ priors carried over to some scenarios (default none, the paper's: every p_ψ starts at
+    /// the base prior; then left out).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub scenario_priors: Vec<ScenarioPrior>,
 }
 
 /// Why a kernel cannot be built or restored.
@@ -203,6 +218,14 @@ pub enum ConfigError {
     /// Bad prior counts, a bad prior strength, or a fidelity prior that does not fit.
     #[error("fidelity prior: {0}")]
     Prior(PosteriorError),
+    /// A φ prior names no scenario of the kernel, names one twice, or does not fit its space.
+    #[error("φ prior of scenario `{scenario}`: {problem}")]
+    ScenarioPrior {
+        /// The scenario it names.
+        scenario: String,
+        /// What is wrong.
+        problem: String,
+    },
     /// A restored state is inconsistent.
     #[error("inconsistent kernel state: {0}")]
     State(String),
@@ -357,6 +380,7 @@ impl Kernel {
                 pairing: Pairing::default(),
                 deployment: Deployment::FROZEN,
                 allocation: Allocation::Weights,
+                scenario_priors: Vec::new(),
             },
         }
     }
@@ -374,7 +398,12 @@ impl Kernel {
         let scenarios = config
             .scenarios
             .iter()
-            .map(|s| Posterior::new(&s.space, config.prior))
+            .map(
+                |s| match config.scenario_priors.iter().find(|p| p.scenario == s.name) {
+                    Some(p) => Ok(p.posterior.clone()),
+                    None => Posterior::new(&s.space, config.prior),
+                },
+            )
             .collect::<Result<Vec<_>, _>>()
             .map_err(ConfigError::Prior)?;
         let rng = Rng64::seed_from_u64(config.seed);

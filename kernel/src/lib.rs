@@ -48,6 +48,7 @@ mod kernel;
 pub mod metrics;
 mod outcome;
 mod pairing;
+pub mod phi_transfer;
 mod posterior;
 mod sampler;
 pub mod screening;
@@ -60,7 +61,7 @@ pub use allocation::{Allocation, AllocationError, CostRate, Ledger};
 pub use deployment::Deployment;
 pub use kernel::{
     ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase,
-    RestoreError, Scenario, Snapshot, TellError, Trial, TrialRecord,
+    RestoreError, Scenario, ScenarioPrior, Snapshot, TellError, Trial, TrialRecord,
 };
 pub use outcome::{Credit, Observation, Outcome, Run};
 pub use pairing::{Pairing, PairingError};

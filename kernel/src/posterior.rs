@@ -279,6 +279,33 @@ impl Posterior {
         Ok(())
     }
 
+    /// A posterior over `space` whose arm `k` of variable `v` is `base + extra(v, k)`, `extra`
+    /// giving (successes, losses) added to the base prior (the φ transfer's prior:
+    /// [`crate::phi_transfer`]). Each added count must be finite and ≥ 0.
+    pub(crate) fn with_extra(
+        space: &Space,
+        base: PriorCounts,
+        extra: impl Fn(usize, usize) -> (f64, f64),
+    ) -> Result<Self, PosteriorError> {
+        let mut p = Posterior::new(space, base)?;
+        for (v, arms) in p.data.arms.iter_mut().enumerate() {
+            for (k, a) in arms.iter_mut().enumerate() {
+                let (s, l) = extra(v, k);
+                a.alpha += s;
+                a.beta += l;
+                if !a.valid() {
+                    return Err(PosteriorError::BadArm {
+                        variable: p.data.names[v].clone(),
+                        arm: k,
+                        alpha: a.alpha,
+                        beta: a.beta,
+                    });
+                }
+            }
+        }
+        Ok(p.data.into())
+    }
+
     /// A Thompson draw: for every variable, one sample of every arm's Beta; the argmax arm is
     /// appended to `out` (one per variable, in order). Variables with a single arm take it
     /// without drawing.

@@ -232,7 +232,7 @@ class Kernel:
         scenarios: Union[Mapping[str, Space], Sequence[Union[Tuple[str, Space], Tuple[str, Space, float]]]],
         budget: float = 0.3,
         seed: int = 0,
-        estimator: _EstimatorName = "map",
+        estimator: Optional[_EstimatorName] = None,
         prior: Optional[Tuple[float, float]] = None,
         fidelity_prior: Optional[Posterior] = None,
         prior_strength: float = 1.0,
@@ -250,16 +250,18 @@ class Kernel:
         fidelity: the fidelity space; theta_hf: the high-fidelity settings (every variable);
         scenarios: {name: φ-space} (equal weights) or [(name, φ-space, weight), …];
         budget: C_budget in (0, 1], the largest cost ratio t_LF / t_HF credited;
-        estimator: how evaluation picks θ_LF ("map" as in the paper, "mean", or "evidence":
-            the highest lower 10 % Beta quantile, false alarms charged as 1 / C_budget losses);
+        estimator: how evaluation picks θ_LF* — "evidence" (the highest lower 10 % Beta
+            quantile, false alarms charged as 1 / C_budget losses; the default with method
+            "tuned", as `savme run` and `savme example-config`), "map" (the paper's; the
+            default with method "paper") or "mean";
         prior: base Beta prior counts (successes, losses) of every arm, default (1, 1);
         fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
         kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
         journal: a journal file, created or resumed (it must hold the same configuration);
-        method: what search, deployment and allocation default to — "tuned" (the default:
-        savme's search by cost — search "elite", deployment "adaptive", allocation
-        "cost-rate") or "paper" (the paper's SAVME — "bins", "frozen", "weights"); a value
-        given below wins over the method's;
+        method: what search, deployment, allocation and estimator default to — "tuned" (the
+        default: savme's search by cost — search "elite", deployment "adaptive", allocation
+        "cost-rate", estimator "evidence") or "paper" (the paper's SAVME — "bins", "frozen",
+        "weights", "map"); a value given wins over the method's;
         search: how train and test draw φ — "bins" (the paper's independent bins), "elite" (a
         joint proposal around failures, candidates ranked per expected cost, paired with the
         same fidelity bandit), or a dict of elite-mixture parameters (e.g. {"explore": 0.1};
@@ -371,6 +373,11 @@ class Kernel:
     def estimate(self, estimator: Optional[_EstimatorName] = None) -> Dict[str, _Value]:
         """θ_LF*: the greedy fidelity settings (default: the kernel's estimator), continuous
         settings at their bin's expected value."""
+    def estimate_evidence(self, estimator: Optional[_EstimatorName] = None) -> Optional[List[Dict[str, Any]]]:
+        """What stands behind θ_LF* (default: the kernel's estimator): per fidelity setting
+        {"variable", "arm", "tried", "successes", "tp", "tn", "fp", "fn", "cost",
+        "false_alarm_rate", "miss_rate"} over the learning trials; None unless the kernel's
+        estimator is "evidence" (the only one that keeps these tallies)."""
     def estimation(
         self,
         *,
@@ -505,6 +512,7 @@ class Protocol:
         theta_lf_choice: Optional[Literal["map", "evidence"]] = None,
         transfer: Optional[Literal["fixed", "auto"]] = None,
         ladder: Optional[Sequence[float]] = None,
+        ladder_training: Optional[Literal["separate", "shared"]] = None,
         weights: Optional[Mapping[str, float]] = None,
         on_error: Optional[Literal["abort", "skip"]] = None,
     ) -> Protocol:
@@ -516,6 +524,9 @@ class Protocol:
         window: trials in flight; on_error="skip" withdraws a trial whose simulation raised.
         ladder: a fidelity ladder, two or more of the budgets cheapest first (each level
         meta-trained with its own θ_LF); the screening stage at its top budget screens down it.
+        ladder_training="shared": only the ladder's top level (one of the budgets) meta-trains;
+        the levels below (not budgets) read their θ_LF* off its trials re-credited at their
+        budgets.
         weights: p(s) per scenario (a scenario not listed weighs 1); a name that is not one of
         the protocol's scenarios is a KeyError naming it. A value that is NaN, infinite or an
         int beyond 64 bits, or a str for a list of scenarios, is refused naming the value."""

@@ -283,7 +283,7 @@ impl PyKernel {
 #[pymethods]
 impl PyKernel {
     #[new]
-    #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
+    #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = None,
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
         pair_fraction = 1.0, pair_settle = 30, deployment = None, allocation = None,
         method = "tuned", history = None))]
@@ -295,7 +295,7 @@ impl PyKernel {
         scenarios: &Bound<'_, PyAny>,
         budget: f64,
         seed: i128,
-        estimator: &str,
+        estimator: Option<&str>,
         prior: Option<(f64, f64)>,
         fidelity_prior: Option<PyRef<'_, PyPosterior>>,
         prior_strength: f64,
@@ -309,9 +309,9 @@ impl PyKernel {
         history: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let limit = history::limit_of(history)?;
-        let tuned = match method {
-            "tuned" => true,
-            "paper" => false,
+        let (tuned, method) = match method {
+            "tuned" => (true, savme::campaign::Method::Tuned),
+            "paper" => (false, savme::campaign::Method::Paper),
             other => {
                 return Err(PyValueError::new_err(format!(
                     "method = {other:?}: give \"tuned\" (savme's search by cost) or \"paper\" (the paper's SAVME)"
@@ -362,7 +362,11 @@ impl PyKernel {
                 successes,
                 losses,
             }),
-            estimator: parse_estimator(estimator)?,
+            // The method's θ_LF* choice, as a campaign and `savme example-config` make it.
+            estimator: match estimator {
+                Some(e) => parse_estimator(e)?,
+                None => method.theta_lf_choice().kernel(),
+            },
             fidelity_prior: fidelity_prior.map(|p| FidelityPrior {
                 posterior: p.posterior.clone(),
                 strength: prior_strength,
@@ -371,6 +375,7 @@ impl PyKernel {
             pairing,
             deployment,
             allocation,
+            scenario_priors: Vec::new(),
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal, limit)
@@ -599,8 +604,8 @@ impl PyKernel {
         self.with(|s| Ok(s.kernel().phase().to_string()))
     }
 
-    /// θ_LF*: the greedy fidelity settings ("map", the paper's, or "mean"; default: the
-    /// kernel's estimator), continuous settings at their bin's expected value.
+    /// θ_LF*: the greedy fidelity settings ("evidence", "map" — the paper's — or "mean";
+    /// default: the kernel's estimator), continuous settings at their bin's expected value.
     #[pyo3(signature = (estimator = None))]
     fn estimate<'py>(
         &self,
@@ -613,6 +618,28 @@ impl PyKernel {
             Ok(k.fidelity_estimate(est.unwrap_or(k.config().estimator)))
         })?;
         convert::dict(py, &theta)
+    }
+
+    /// What stands behind θ_LF* under `estimator` (default: the kernel's): per fidelity
+    /// setting its arm, the learning trials' tally of that arm (`tried`, `successes`, `tp`,
+    /// `tn`, `fp`, `fn`, `cost`) and its false-alarm and miss rates — `savme serve`'s
+    /// `estimate` answer's `settings`. None unless the kernel's estimator is "evidence" (the
+    /// only one that keeps the tallies).
+    #[pyo3(signature = (estimator = None))]
+    fn estimate_evidence<'py>(
+        &self,
+        py: Python<'py>,
+        estimator: Option<&str>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let est = estimator.map(parse_estimator).transpose()?;
+        let settings = self.with(|s| {
+            let k = s.kernel();
+            Ok(savme::serve::chosen_settings(
+                k,
+                est.unwrap_or(k.config().estimator),
+            ))
+        })?;
+        settings.map(|v| convert::json_to_py(py, &v)).transpose()
     }
 
     /// An importance-sampling estimation of P(failure) under the nominal distribution from

@@ -49,6 +49,7 @@ SAMPLES = {
     "theta_lf_choice": "evidence",
     "transfer": "auto",
     "ladder": [0.25, 0.5],
+    "ladder_training": "shared",
     "repeat": 2,
 }
 
@@ -57,7 +58,8 @@ SAMPLES = {
 COMPANIONS = {"audit_fraction": {"screen_iterations": 7}, "elite": {"search": "elite"},
               "pair_settle": {"pair_fraction": 0.5}, "deployment": {"search": "elite"},
               "screen_lf": {"screen_iterations": 7},
-              "ladder": {"budgets": [0.25, 0.5], "screen_iterations": 7}}
+              "ladder": {"budgets": [0.25, 0.5], "screen_iterations": 7},
+              "ladder_training": {"budgets": [0.5], "ladder": [0.25, 0.5], "screen_iterations": 7}}
 # Values that set another one: the elite search stores its default parameters.
 DERIVED = {"search": {"elite"}, "deployment": {"elite"}}
 

@@ -135,8 +135,13 @@ pub struct ExampleArgs {
     method: savme::campaign::Method,
 }
 
+/// The toy simulator's kernel configuration under `--method`: the tuned one reads θ_LF* by
+/// evidence, as a tuned campaign does ([`savme::campaign::Method::theta_lf_choice`]); the
+/// paper's by MAP.
 pub fn example_config(a: ExampleArgs) -> Result<(), String> {
-    let builder = savme::toy::kernel_builder().seed(1);
+    let builder = savme::toy::kernel_builder()
+        .seed(1)
+        .estimator(a.method.theta_lf_choice().kernel());
     let builder = match a.method {
         savme::campaign::Method::Paper => builder,
         savme::campaign::Method::Tuned => builder

@@ -216,7 +216,7 @@ impl<'o> Campaign<'o> {
         let failed = all_lines.iter().filter(|l| !l.is_told()).count();
         let mut report = Report::from_trials(p, &trials);
         report.add_screening(&screened, &trials);
-        report.add_fidelity(&self.problem.fidelity, &trials);
+        report.add_fidelity(problem, &trials);
         let elapsed = clock.elapsed().as_secs_f64();
         outputs::write(&report, &trials, failed, &files, problem, elapsed)?;
         Ok(CampaignOutcome {
@@ -451,7 +451,7 @@ impl Stages<'_, '_> {
                     o.replaying(stage, replayed);
                 }
             }
-            let rungs = self.kernels.rungs(stage);
+            let rungs = self.kernels.rungs(stage, &all_lines);
             let kernel = self.kernels.for_stage(stage, &all_lines)?;
             let cx = StageContext {
                 stage,

@@ -4,7 +4,7 @@
 //! error comes before any simulation.
 
 use super::log::{LogLine, TrialLine};
-use super::protocol::{Compact, Protocol, Stage, StageId, StageKind, Transfer};
+use super::protocol::{Compact, LadderTraining, Protocol, Stage, StageId, StageKind, Transfer};
 use super::report::fidelity;
 use super::{CampaignError, Problem};
 use savme_kernel::{Assignment, Kernel, KernelBuilder, Space};
@@ -120,7 +120,9 @@ impl<'a> StageKernels<'a> {
     /// A prior-strength ablation stage (`strength`) is a learned-prior kernel with another
     /// strength, from the same seed too. With `transfer = auto` the learned prior's strength
     /// per fidelity setting comes from the meta-training lines among `lines`
-    /// ([`report::fidelity::transfer`], which the report shows).
+    /// ([`report::fidelity::transfer`], which the report shows), and so does p_ψ's prior of
+    /// each test scenario that shares φ variables with training scenarios
+    /// ([`report::fidelity::phi_priors`]).
     fn test_kernel(
         &self,
         kind: StageKind,
@@ -137,11 +139,16 @@ impl<'a> StageKernels<'a> {
                     let trials: Vec<TrialLine> =
                         lines.iter().filter_map(|l| l.trial().cloned()).collect();
                     let train = fidelity::train_lines(p, &trials, b);
-                    let strengths = fidelity::transfer(p, &train, &self.problem.fidelity).strengths;
+                    let strengths = fidelity::transfer(p, &train, self.problem).strengths;
                     let prior = trained
                         .as_prior_per_variable(trained.prior(), &strengths)
                         .map_err(prior_error)?;
-                    builder.fidelity_prior(prior, 1.0)
+                    // p_ψ too, where test scenarios share φ variables with training ones.
+                    let phi = fidelity::phi_priors(p, &train, self.problem).map_err(prior_error)?;
+                    phi.into_iter()
+                        .fold(builder.fidelity_prior(prior, 1.0), |b, (name, prior)| {
+                            b.scenario_prior(&name, prior)
+                        })
                 }
                 _ => builder.fidelity_prior(trained.clone(), strength.unwrap_or(p.prior_strength)),
             };
@@ -151,15 +158,33 @@ impl<'a> StageKernels<'a> {
 
     /// The fidelity ladder's levels below a screening stage's budget, cheapest first: each
     /// level's budget and the θ_LF* its meta-training kernel deploys (what its evaluation
-    /// asks). Empty for a stage at no ladder's top (the two-level screening) and for every
-    /// other stage. Each level's meta-training comes before (`Protocol::validate`), and
-    /// deployment never changes a kernel's fidelity posterior, so θ_LF* is final here.
-    pub(crate) fn rungs(&self, stage: &Stage) -> Vec<(f64, Assignment)> {
+    /// asks) — with `ladder_training = shared`, the θ_LF* read off the top level's meta-training
+    /// lines among `lines` re-credited at the level's budget
+    /// ([`fidelity::shared_level_theta`]). Empty for a stage at no ladder's top (the two-level
+    /// screening) and for every other stage. Each level's meta-training comes before
+    /// (`Protocol::validate`), and deployment never changes a kernel's fidelity posterior, so
+    /// θ_LF* is final here.
+    pub(crate) fn rungs(&self, stage: &Stage, lines: &[LogLine]) -> Vec<(f64, Assignment)> {
         let (StageKind::Screen, Some(b)) = (stage.kind, stage.budget) else {
             return Vec::new();
         };
-        let mut levels = self.protocol.levels(b);
+        let p = self.protocol;
+        let mut levels = p.levels(b);
         levels.pop();
+        if levels.is_empty() {
+            return Vec::new();
+        }
+        if p.ladder_training == LadderTraining::Shared {
+            let trials: Vec<TrialLine> = lines.iter().filter_map(|l| l.trial().cloned()).collect();
+            let train = fidelity::train_lines(p, &trials, b);
+            return levels
+                .into_iter()
+                .map(|l| {
+                    let theta = fidelity::shared_level_theta(p, &train, &self.problem.fidelity, l);
+                    (l, theta)
+                })
+                .collect();
+        }
         levels
             .into_iter()
             .map(|l| {

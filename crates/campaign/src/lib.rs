@@ -55,8 +55,8 @@ pub use error::{CampaignError, SimulationError};
 pub use observer::{Observer, ProgressBars, ProgressLines};
 pub use outputs::{load_protocol, Outputs};
 pub use protocol::{
-    Allocate, Cost, Deploy, LogBins, Method, OnError, Protocol, ScreenLf, Search, ThetaLfChoice,
-    Transfer,
+    Allocate, Cost, Deploy, LadderTraining, LogBins, Method, OnError, Protocol, ScreenLf, Search,
+    ThetaLfChoice, Transfer,
 };
 pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;

@@ -231,6 +231,26 @@ impl Transfer {
     }
 }
 
+/// How a fidelity ladder's levels are meta-trained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum LadderTraining {
+    /// Each level is one of the budgets, meta-trained on its own trials (`train@B` each).
+    #[default]
+    Separate,
+    /// Only the ladder's top level meta-trains (`train@top`); each level below reads its
+    /// θ_LF* off those paired trials, every one re-credited at the level's own budget (Table
+    /// I: a fidelity success when HF and LF agree and t_LF / t_HF ≤ the level's budget) — the
+    /// same HF runs, no trial of its own.
+    Shared,
+}
+
+impl LadderTraining {
+    fn is_separate(&self) -> bool {
+        *self == LadderTraining::Separate
+    }
+}
+
 /// What a campaign searches with before any other value is given: savme's search by cost
 /// (`savme run`, Python, `savme serve`'s example configuration) or the paper's SAVME (`savme
 /// reproduce`).
@@ -250,8 +270,19 @@ pub enum Method {
 }
 
 impl Method {
+    /// How this method reads θ_LF* off the fidelity posterior: evidence (tuned) or MAP
+    /// (paper). The one place the choice is made, for a campaign ([`Method::apply`]), `savme
+    /// example-config` (a `savme serve` configuration) and Python's `Kernel` alike.
+    pub fn theta_lf_choice(self) -> ThetaLfChoice {
+        match self {
+            Method::Tuned => ThetaLfChoice::Evidence,
+            Method::Paper => ThetaLfChoice::Map,
+        }
+    }
+
     /// Sets the values this method decides on `p` (the others stay).
     pub fn apply(self, p: &mut Protocol) {
+        p.theta_lf_choice = self.theta_lf_choice();
         match self {
             Method::Tuned => {
                 p.search = Search::Elite;
@@ -259,7 +290,6 @@ impl Method {
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
                 p.allocation = Allocate::CostRate;
-                p.theta_lf_choice = ThetaLfChoice::Evidence;
                 p.transfer = Transfer::Auto;
             }
             Method::Paper => {
@@ -268,7 +298,6 @@ impl Method {
                 p.deployment = Deploy::Frozen;
                 p.screen_lf = ScreenLf::Always;
                 p.allocation = Allocate::Weights;
-                p.theta_lf_choice = ThetaLfChoice::Map;
                 p.transfer = Transfer::Fixed;
             }
         }
@@ -396,6 +425,9 @@ pub struct Protocol {
     /// written).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub ladder: Vec<f64>,
+    /// How the ladder's levels are meta-trained (separate, the default, is not written).
+    #[serde(default, skip_serializing_if = "LadderTraining::is_separate")]
+    pub ladder_training: LadderTraining,
 }
 
 fn default_floor() -> f64 {
@@ -524,6 +556,7 @@ impl Protocol {
             theta_lf_choice: ThetaLfChoice::Map,
             transfer: Transfer::Fixed,
             ladder: Vec::new(),
+            ladder_training: LadderTraining::Separate,
         }
     }
 
@@ -677,6 +710,12 @@ impl Protocol {
     fn check_ladder(&self) -> Result<(), CampaignError> {
         let l = &self.ladder;
         if l.is_empty() {
+            if self.ladder_training == LadderTraining::Shared {
+                return bad(
+                    "ladder_training",
+                    "shared would do nothing without a ladder: give ladder too, or leave ladder_training out".into(),
+                );
+            }
             return Ok(());
         }
         if l.len() < 2 {
@@ -690,12 +729,15 @@ impl Protocol {
             .iter()
             .map(|b| b.to_string())
             .collect::<Vec<_>>();
+        if self.ladder_training == LadderTraining::Shared {
+            return self.check_shared_ladder();
+        }
         let mut at = Vec::with_capacity(l.len());
         for (i, &b) in l.iter().enumerate() {
             let Some(k) = self.budgets.iter().position(|&x| x == b) else {
                 return bad(
                     "ladder",
-                    format!("{b} is not one of budgets ({}): each level is meta-trained at its own budget, so add it to budgets", trained.join(", ")),
+                    format!("{b} is not one of budgets ({}): each level is meta-trained at its own budget, so add it to budgets (or give ladder_training = shared: the levels below the top then read the top level's meta-training)", trained.join(", ")),
                 );
             };
             if i > 0 && b <= l[i - 1] {
@@ -714,6 +756,47 @@ impl Protocol {
                 "ladder",
                 format!("budgets lists {} before {}: list the ladder's budgets in its order there too, so that every level is meta-trained before the ladder's screening", self.budgets[w[1]], self.budgets[w[0]]),
             );
+        }
+        if self.screen_iterations == 0 && self.deploy_budget.is_none() {
+            return bad(
+                "ladder",
+                "a ladder is used by the screening stage, and there is none (screen_iterations is 0): give screen_iterations or deploy_budget too, or leave ladder out".into(),
+            );
+        }
+        Ok(())
+    }
+
+    /// A ladder whose levels share the top level's meta-training: the top one of the budgets,
+    /// every level below it in (0, top), ascending, and none of them a budget (it would be
+    /// meta-trained on its own trials, which the ladder would not use).
+    fn check_shared_ladder(&self) -> Result<(), CampaignError> {
+        let l = &self.ladder;
+        let top = l[l.len() - 1];
+        if !self.budgets.contains(&top) {
+            return bad(
+                "ladder",
+                format!("its top level {top} is not one of budgets: with ladder_training = shared the top level is meta-trained and the levels below read their θ_LF* off its trials; add {top} to budgets"),
+            );
+        }
+        for (i, &b) in l.iter().enumerate() {
+            if !(b > 0.0 && b <= 1.0) {
+                return bad("ladder", format!("{b} is outside (0, 1]"));
+            }
+            if i > 0 && b <= l[i - 1] {
+                return bad(
+                    "ladder",
+                    format!(
+                        "{b} comes after {}: the levels go cheapest first, each budget once",
+                        l[i - 1]
+                    ),
+                );
+            }
+            if i + 1 < l.len() && self.budgets.contains(&b) {
+                return bad(
+                    "ladder",
+                    format!("{b} is one of budgets: with ladder_training = shared the levels below the top are not meta-trained on their own (they read the top level's trials); leave {b} out of budgets, or give ladder_training = separate"),
+                );
+            }
         }
         if self.screen_iterations == 0 && self.deploy_budget.is_none() {
             return bad(
@@ -940,6 +1023,30 @@ mod tests {
         p.validate().expect("a three-level ladder");
         assert_eq!(p.levels(0.3), [0.05, 0.1, 0.3]);
         assert_eq!(p.levels(0.1), [0.1]);
+        // Shared meta-training: only the top level is a budget.
+        let shared = |budgets: &[f64], ladder: &[f64]| Protocol {
+            ladder_training: LadderTraining::Shared,
+            ..with(budgets, ladder, 5)
+        };
+        shared(&[0.3], &[0.1, 0.3])
+            .validate()
+            .expect("a shared ladder");
+        shared(&[0.05, 0.3], &[0.1, 0.3])
+            .validate()
+            .expect("another budget beside it");
+        refused(
+            shared(&[0.1], &[0.1, 0.3]),
+            "top level 0.3 is not one of budgets",
+        );
+        refused(shared(&[0.1, 0.3], &[0.1, 0.3]), "0.1 is one of budgets");
+        refused(shared(&[0.3], &[0.2, 0.1, 0.3]), "cheapest first");
+        refused(shared(&[0.3], &[0.0, 0.3]), "0 is outside (0, 1]");
+        let json = serde_json::to_value(shared(&[0.3], &[0.1, 0.3])).unwrap();
+        assert_eq!(json["ladder_training"], "shared");
+        assert!(serde_json::to_value(with(&[0.1, 0.3], &[0.1, 0.3], 5))
+            .unwrap()
+            .get("ladder_training")
+            .is_none());
     }
 
     #[test]

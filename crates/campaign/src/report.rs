@@ -346,13 +346,14 @@ impl Report {
         }
     }
 
-    /// Adds, per budget that meta-trained, what stands behind θ_LF* and the learned prior
-    /// ([`fidelity::at_budget`]; `trials`: every trial of the campaign).
-    pub fn add_fidelity(&mut self, space: &savme_kernel::Space, trials: &[TrialLine]) {
+    /// Adds, per budget that meta-trained, what stands behind θ_LF* and the learned priors
+    /// ([`fidelity::at_budget`]; `problem` binned as the campaign ran it; `trials`: every trial
+    /// of the campaign).
+    pub fn add_fidelity(&mut self, problem: &crate::Problem, trials: &[TrialLine]) {
         let p = &self.protocol;
         for b in &mut self.budgets {
             if b.training.is_some() {
-                b.fidelity = Some(fidelity::at_budget(p, trials, b.budget, space));
+                b.fidelity = Some(fidelity::at_budget(p, trials, b.budget, problem));
             }
         }
     }

@@ -26,8 +26,8 @@
 //! ```
 
 use super::{
-    Allocate, CampaignError, Cost, Deploy, LogBins, Method, Protocol, ScreenLf, Search,
-    ThetaLfChoice, Transfer,
+    Allocate, CampaignError, Cost, Deploy, LadderTraining, LogBins, Method, Protocol, ScreenLf,
+    Search, ThetaLfChoice, Transfer,
 };
 use savme_kernel::EliteMixture;
 use serde::Deserialize;
@@ -310,6 +310,12 @@ protocol_values! {
     /// two-level screening at each budget.
     ladder: Vec<f64>, flag = "ladder", aliases = [], stages = "screen", to = protocol,
         cli(value_delimiter = ',', value_name = "BUDGETS");
+    /// How a ladder's levels are meta-trained: separate (each level its own `train@B` stage
+    /// and trials) or shared (only the top level meta-trains; each level below reads its θ_LF*
+    /// off the top level's paired trials re-credited at its own budget, so the ladder costs
+    /// the meta-training of one level; the levels below the top are then not in budgets).
+    ladder_training: LadderTraining, flag = "ladder-training", aliases = [],
+        stages = "screen", to = protocol, cli(value_enum);
     /// Run the protocol with N seeds (seed, seed + 1, …), in parallel, each in
     /// `OUT/seed-<s>/`; OUT gets the results over the seeds with 95 % intervals.
     repeat: u32, flag = "repeat", aliases = [], stages = "all (one campaign per seed)",
@@ -486,6 +492,7 @@ mod tests {
             theta_lf_choice: ThetaLfChoice::Evidence,
             transfer: Transfer::Auto,
             ladder: vec![0.2, 0.3],
+            ladder_training: LadderTraining::Shared,
             ..Protocol::paper("s", vec!["a".into()], vec!["b".into()])
         };
         let json = serde_json::to_value(&p).unwrap();
@@ -687,6 +694,7 @@ mod tests {
             theta_lf_choice: Some(ThetaLfChoice::Evidence),
             transfer: Some(Transfer::Auto),
             ladder: Some(vec![0.2, 0.25]),
+            ladder_training: Some(LadderTraining::Shared),
             repeat: Some(2),
         };
         let json = serde_json::to_value(&given).unwrap();

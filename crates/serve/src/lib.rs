@@ -16,7 +16,7 @@
 //! | a run may carry `"robustness":0.4` (how close it came to failing, `≤ 0` failed) next to `failure` | learned from by the elite search (the configuration's `"search":{"model":"elite_mixture",…}`), journaled with the tell |
 //! | `{"op":"cancel","id":5}` | `{"ok":true,"trial":{…}}` |
 //! | `{"op":"phase","phase":"evaluate"}` (train, evaluate, baseline, test) | `{"ok":true}` |
-//! | `{"op":"estimate"}` or `{"op":"estimate","estimator":"mean"}` | `{"ok":true,"theta_lf":{…},"evidence":n,"learned":bool}` |
+//! | `{"op":"estimate"}` or `{"op":"estimate","estimator":"mean"}` (`map`, `mean`, `evidence`; default the configuration's) | `{"ok":true,"theta_lf":{…},"estimator":"evidence","evidence":n,"learned":bool,"settings":[{"variable","arm","tried","fp","false_alarm_rate","miss_rate",…}]}` (`settings` when the configuration's estimator is `evidence`, which keeps the tallies) |
 //! | `{"op":"posterior"}` | `{"ok":true,"fidelity":{…},"scenarios":{…}}` |
 //! | `{"op":"stats"}` | `{"ok":true,"stats":{…},"pending":[ids]}` |
 //! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
@@ -439,22 +439,63 @@ impl Session {
     }
 }
 
-/// The answer to `estimate`: θ_LF* with the evidence behind it.
+/// The answer to `estimate`: θ_LF* with the evidence behind it — the estimator used and, when
+/// the kernel keeps tallies (its configuration's estimator is `evidence`), per fidelity
+/// setting the chosen arm, how often the learning trials tried it and its false-alarm and
+/// miss rates on HF.
 fn estimate(k: &Kernel, estimator: Option<Estimator>) -> Value {
     let est = estimator.unwrap_or(k.config().estimator);
     let evidence = evidence(k.fidelity_posterior());
     let mut answer = json!({
         "ok": true,
         "theta_lf": k.fidelity_estimate(est),
+        "estimator": est,
         "evidence": evidence,
         "learned": evidence > 0.0,
     });
+    if let Some(settings) = chosen_settings(k, est) {
+        answer["settings"] = settings;
+    }
     if evidence == 0.0 {
         answer["warning"] = json!(
                 "nothing has been learned yet (no credited trial and no transferred prior): this is the untrained prior's choice"
             );
     }
     answer
+}
+
+/// Per fidelity setting, θ_LF*'s arm under `est` with its tally over every scenario's learning
+/// trials (`tried`, `successes`, `tp`, `tn`, `fp`, `fn`, `cost`) and its false-alarm and miss
+/// rates (null without an HF pass or failure); None when the kernel keeps no tallies. What
+/// `estimate` answers as `settings` and Python's `Kernel.estimate_evidence()` returns.
+pub fn chosen_settings(k: &Kernel, est: Estimator) -> Option<Value> {
+    let totals = k.fidelity_evidence()?.totals();
+    let arms = k.fidelity_arms(est);
+    let settings = k
+        .config()
+        .fidelity
+        .variables()
+        .iter()
+        .zip(&arms)
+        .enumerate()
+        .map(|(v, (var, &arm))| {
+            let tally = totals
+                .get(v)
+                .and_then(|t| t.get(usize::from(arm)))
+                .copied()
+                .unwrap_or_default();
+            let mut one = json!({"variable": var.name.to_string(), "arm": arm});
+            if let (Value::Object(o), Ok(Value::Object(t))) =
+                (&mut one, serde_json::to_value(tally))
+            {
+                o.extend(t);
+            }
+            one["false_alarm_rate"] = json!(tally.false_alarm_rate());
+            one["miss_rate"] = json!(tally.miss_rate());
+            one
+        })
+        .collect();
+    Some(Value::Array(settings))
 }
 
 /// The answer to `posterior`: the fidelity posterior and every scenario's.

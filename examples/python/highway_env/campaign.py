@@ -24,6 +24,10 @@ def main():
     ap.add_argument("--iterations", type=int, default=40,
                     help="meta-training iterations (evaluation n/4, meta-testing n/2, "
                          "baselines n+n/4 and 3n/4, as the quick preset's proportions)")
+    for stage, default in (("eval", "n/4"), ("test", "n/2"), ("baseline", "n+n/4"),
+                           ("baseline-test", "3n/4")):
+        ap.add_argument(f"--{stage}-iterations", type=int, default=None,
+                        help=f"that stage's trials (default {default})")
     ap.add_argument("--budgets", type=float, nargs="+", default=[0.3],
                     help="cost budgets (fractions of the HF cost)")
     ap.add_argument("--train", nargs="+", default=["highway", "merge", "roundabout"])
@@ -39,9 +43,11 @@ def main():
     n = a.iterations
     protocol = None if a.resume else savme.Protocol(
         a.train, a.test, preset="quick", simulator="highway-env", cost=a.cost, seed=a.seed,
-        budgets=a.budgets, train_iterations=n, eval_iterations=max(n // 4, 1),
-        test_iterations=max(n // 2, 1), baseline_train_iterations=n + n // 4,
-        baseline_test_iterations=max(3 * n // 4, 1))
+        budgets=a.budgets, train_iterations=n,
+        eval_iterations=a.eval_iterations or max(n // 4, 1),
+        test_iterations=a.test_iterations or max(n // 2, 1),
+        baseline_train_iterations=a.baseline_iterations or n + n // 4,
+        baseline_test_iterations=a.baseline_test_iterations or max(3 * n // 4, 1))
     campaign = savme.Campaign(protocol, problem, out=a.out, resume=a.resume, jobs=a.jobs,
                               progress=True)
     result = campaign.run(hw.campaign_simulator(cost=a.cost))

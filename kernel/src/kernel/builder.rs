@@ -61,6 +61,20 @@ impl KernelBuilder {
         self
     }
 
+    /// Starts p_ψ(φ | `scenario`) from `posterior` instead of the base prior (meta-testing's
+    /// φ transfer: [`crate::phi_transfer::PhiTransfer::prior`]); it must fit the scenario's
+    /// φ-space ([`ConfigError::ScenarioPrior`](crate::ConfigError::ScenarioPrior) otherwise).
+    pub fn scenario_prior(mut self, scenario: &str, posterior: Posterior) -> Self {
+        self.config
+            .scenario_priors
+            .retain(|p| &*p.scenario != scenario);
+        self.config.scenario_priors.push(super::ScenarioPrior {
+            scenario: scenario.into(),
+            posterior,
+        });
+        self
+    }
+
     /// Sets how the train and test phases draw φ (default [`SearchModel::IndependentBins`],
     /// the paper's).
     ///

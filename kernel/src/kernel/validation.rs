@@ -47,6 +47,24 @@ pub(crate) fn validate_config(c: &KernelConfig) -> Result<Vec<f64>, ConfigError>
             return Err(ConfigError::Prior(PosteriorError::BadStrength(fp.strength)));
         }
     }
+    for (i, p) in c.scenario_priors.iter().enumerate() {
+        let bad = |problem: String| ConfigError::ScenarioPrior {
+            scenario: p.scenario.to_string(),
+            problem,
+        };
+        let Some(s) = c.scenarios.iter().find(|s| s.name == p.scenario) else {
+            return Err(bad("no scenario has this name".into()));
+        };
+        if c.scenario_priors[..i]
+            .iter()
+            .any(|q| q.scenario == p.scenario)
+        {
+            return Err(bad("given twice".into()));
+        }
+        p.posterior
+            .check_fits(&s.space)
+            .map_err(|e| bad(e.to_string()))?;
+    }
     let total: f64 = c.scenarios.iter().map(|s| s.weight).sum();
     let mut acc = 0.0;
     let mut cumulative: Vec<f64> = c

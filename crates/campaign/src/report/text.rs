@@ -4,7 +4,7 @@
 
 use super::fidelity::FidelityReport;
 use super::{intervals, Report};
-use crate::protocol::{Cost, Protocol, ThetaLfChoice, Transfer};
+use crate::protocol::{Cost, LadderTraining, Protocol, ThetaLfChoice, Transfer};
 use savme_kernel::{Assignment, Space};
 use std::fmt::Write as _;
 
@@ -17,10 +17,14 @@ impl Report {
         let _ = writeln!(s, "# Meta-training results (the paper's Table III)\n");
         let _ = writeln!(
             s,
-            "Evaluation: {} trials per budget with θ_LF = MAP of p_ω and φ ~ p_ψ, after {} \
+            "Evaluation: {} trials per budget with {} and φ ~ p_ψ, after {} \
              meta-training iterations on {}. Baseline: {} trials with φ uniform, \
              high fidelity only. Cost: {}. Seed {}. {}\n",
             p.eval_iterations,
+            match p.theta_lf_choice {
+                ThetaLfChoice::Map => "θ_LF = MAP of p_ω",
+                ThetaLfChoice::Evidence => "θ_LF* chosen from evidence (fidelity.md)",
+            },
             p.train_iterations,
             scenarios(p.train_scenarios.len()),
             p.baseline_train_iterations,
@@ -99,7 +103,11 @@ impl Report {
             );
             let _ = writeln!(
                 s,
-                "Each level runs the θ_LF* of its own meta-training (Table III's row and Table IV's column of its budget); a level's LF failure goes to the next level up, the last level's to HF.\n"
+                "{}; a level's LF failure goes to the next level up, the last level's to HF.\n",
+                match self.protocol.ladder_training {
+                    LadderTraining::Separate => "Each level runs the θ_LF* of its own meta-training (Table III's row and Table IV's column of its budget)",
+                    LadderTraining::Shared => "Only the top level meta-trained (ladder_training = shared): each level below runs the θ_LF* read off the top level's meta-training trials re-credited at its own budget, so the ladder cost the meta-training of one level",
+                }
             );
             let _ = writeln!(
                 s,
@@ -195,13 +203,47 @@ impl Report {
             }
             let _ = writeln!(s);
         }
+        self.shared_levels_md(&mut s, space);
         for b in &self.budgets {
             if let Some(f) = &b.fidelity {
                 evidence_md(&mut s, b.budget, f);
                 transfer_md(&mut s, b.budget, f);
+                phi_transfer_md(&mut s, b.budget, f);
             }
         }
         s
+    }
+
+    /// Table IV's columns of a shared ladder's levels below its top (nothing without one).
+    fn shared_levels_md(&self, s: &mut String, space: &Space) {
+        for b in &self.budgets {
+            let Some(f) = b.fidelity.as_ref().filter(|f| !f.shared_levels.is_empty()) else {
+                continue;
+            };
+            let _ = writeln!(
+                s,
+                "\n## The ladder's levels below C_budget = {} (shared meta-training)\n\n\
+                 θ_LF* of each level, read off the meta-training trials of C_budget = {} \
+                 re-credited at the level's budget (`ladder_training = shared`).\n",
+                b.budget, b.budget
+            );
+            let _ = write!(s, "| setting |");
+            for l in &f.shared_levels {
+                let _ = write!(s, " C = {} |", l.budget);
+            }
+            let _ = writeln!(s, "\n|---|{}", "---|".repeat(f.shared_levels.len()));
+            for var in space.variables() {
+                let _ = write!(s, "| {} |", var.name);
+                for l in &f.shared_levels {
+                    let v = l
+                        .theta_lf
+                        .get(&var.name)
+                        .map_or("–".into(), |v| format_value(var, v, true));
+                    let _ = write!(s, " {v} |");
+                }
+                let _ = writeln!(s);
+            }
+        }
     }
 
     /// The human summary printed at the end: break-even times, meta-testing gains, the
@@ -431,6 +473,84 @@ fn transfer_md(s: &mut String, budget: f64, f: &FidelityReport) {
         row(&v.variable, used.to_string(), &v.log_likelihood);
     }
     row("(all settings)", "".into(), &c.total);
+}
+
+/// The φ (p_ψ) transfer at one budget: per meta-testing scenario and φ variable, the
+/// training scenarios sharing it, the strength and why.
+fn phi_transfer_md(s: &mut String, budget: f64, f: &FidelityReport) {
+    let phi = &f.transfer.phi;
+    if phi.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\n## φ (p_ψ) transfer to meta-testing at C_budget = {budget}\n"
+    );
+    let shared = phi
+        .iter()
+        .any(|t| t.transfer.variables.iter().any(|v| !v.scenarios.is_empty()));
+    if !shared {
+        let _ = writeln!(
+            s,
+            "No meta-testing scenario shares a φ variable (the same name and domain: range, \
+             bins and scale, or values) with a meta-training scenario: p_ψ starts at the \
+             uniform prior, nothing to transfer."
+        );
+        return;
+    }
+    let candidates = &phi[0].transfer.candidates;
+    let _ = writeln!(
+        s,
+        "Per φ variable a meta-testing scenario shares with meta-training scenarios (same name \
+         and domain), the held-out log-likelihood of each sharing scenario's failures per bin \
+         under the prior from the others, summed, per candidate strength (0 = the uniform \
+         prior; a strength above 0 only if it gains at least {} nat per held-out scenario){}.\n",
+        savme_kernel::evidence::MIN_GAIN_PER_SCENARIO,
+        match f.transfer.mode {
+            Transfer::Fixed => {
+                "; the strengths are what auto would choose: the campaign (transfer fixed) \
+                 transferred no φ"
+            }
+            Transfer::Auto => "",
+        }
+    );
+    let _ = write!(s, "| scenario | φ variable | shared with | strength |");
+    for x in candidates {
+        let _ = write!(s, " {x} |");
+    }
+    let _ = writeln!(s, " why |");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---|{}---|",
+        "---|".repeat(candidates.len())
+    );
+    for t in phi {
+        for v in &t.transfer.variables {
+            let _ = write!(
+                s,
+                "| {} | {} | {} | {} |",
+                t.scenario,
+                v.variable,
+                if v.scenarios.is_empty() {
+                    "–".to_string()
+                } else {
+                    v.scenarios.join(", ")
+                },
+                v.strength
+            );
+            for c in 0..candidates.len() {
+                match v.log_likelihood.get(c) {
+                    Some(x) => {
+                        let _ = write!(s, " {x:.1} |");
+                    }
+                    None => {
+                        let _ = write!(s, " – |");
+                    }
+                }
+            }
+            let _ = writeln!(s, " {} |", v.why());
+        }
+    }
 }
 
 /// A gain as a signed percentage (`+59 %`), `n/a` when there is none.
