@@ -469,33 +469,29 @@ impl ShadowMap {
         let scale = size as f32 / (2.0 * half);
         for range in objects {
             // Height along the sun of every corner; rasterise the object's footprint.
-            let pts: Vec<(f32, f32, f32)> = faces[range.clone()]
-                .iter()
-                .flat_map(|f| f.corners.iter())
-                .map(|&p| {
-                    let d = p - centre;
-                    (
-                        (d.dot(&u) + half) * scale,
-                        (d.dot(&v) + half) * scale,
-                        d.dot(&s),
-                    )
-                })
-                .collect();
-            let (lo_u, hi_u) = pts
-                .iter()
-                .fold((f32::MAX, f32::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
-            let (lo_v, hi_v) = pts
-                .iter()
-                .fold((f32::MAX, f32::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+            let (mut lo_u, mut hi_u) = (f32::MAX, f32::MIN);
+            let (mut lo_v, mut hi_v) = (f32::MAX, f32::MIN);
+            let mut h = f32::MIN;
+            for &p in faces[range.clone()].iter().flat_map(|f| f.corners.iter()) {
+                let d = p - centre;
+                let (x, y) = ((d.dot(&u) + half) * scale, (d.dot(&v) + half) * scale);
+                (lo_u, hi_u) = (lo_u.min(x), hi_u.max(x));
+                (lo_v, hi_v) = (lo_v.min(y), hi_v.max(y));
+                h = h.max(d.dot(&s));
+            }
             if hi_u < 0.0 || hi_v < 0.0 || lo_u >= size as f32 || lo_v >= size as f32 {
                 continue;
             }
-            let h = pts.iter().map(|p| p.2).fold(f32::MIN, f32::max);
-            for y in (lo_v.max(0.0) as usize)..(hi_v.ceil().min(size as f32) as usize) {
-                for x in (lo_u.max(0.0) as usize)..(hi_u.ceil().min(size as f32) as usize) {
-                    *work += 1;
-                    let i = y * size + x;
-                    depth[i] = depth[i].max(h);
+            let span = |lo: f32, hi: f32| {
+                let start = lo.max(0.0) as usize;
+                start..(hi.ceil().min(size as f32) as usize).max(start)
+            };
+            let (columns, rows) = (span(lo_u, hi_u), span(lo_v, hi_v));
+            *work += (rows.len() * columns.len()) as u64;
+            for y in rows {
+                let row = &mut depth[y * size..(y + 1) * size];
+                for d in &mut row[columns.clone()] {
+                    *d = d.max(h);
                 }
             }
         }
@@ -541,6 +537,8 @@ pub fn render<R: Rng + ?Sized>(
 #[derive(Debug, Default, Clone)]
 pub struct Camera {
     buffers: Buffers,
+    /// The light of each face of the frame.
+    lights: Vec<f32>,
     spare: Vec<[f32; 3]>,
     glow: [Vec<[f32; 3]>; 2],
 }
@@ -584,32 +582,40 @@ impl Camera {
         let yaw = pose.rotation();
         let sun = sun();
         let layout = scene.world.layout();
+        // The light of each face and of the ground (a pixel's light depends only on its normal
+        // and, below, on its shadow), computed once per frame.
+        let light_of = |normal: Vector3<f32>| 0.35 + 0.75 * normal.dot(&sun).max(0.0);
+        self.lights.clear();
+        self.lights.extend(list.iter().map(|f| light_of(f.normal)));
+        let ground_light = light_of(Vector3::z());
+        let lit = !settings.disable_lighting;
         for v in 0..HEIGHT {
             // Sky colour of this row.
             let t = (HEIGHT - v) as f32 / HEIGHT as f32;
             let sky = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
-            for u in 0..WIDTH {
-                let i = v * WIDTH + u;
+            let row = v * WIDTH..(v + 1) * WIDTH;
+            for (u, ((pixel, &cover), &depth)) in image.pixels[row.clone()]
+                .iter_mut()
+                .zip(&b.cover[row.clone()])
+                .zip(&b.depth[row])
+                .enumerate()
+            {
                 work += 1;
-                let cover = b.cover[i];
                 if cover == SKY {
-                    image.pixels[i] = sky;
+                    *pixel = sky;
                     continue;
                 }
                 let point =
-                    pose.eye + yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5)) * b.depth[i];
-                let (albedo, normal) = match cover {
-                    GROUND => (ground_colour(layout, point.x, point.y), Vector3::z()),
-                    face => {
-                        let f = &list[face as usize];
-                        (f.albedo, f.normal)
-                    }
+                    pose.eye + yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5)) * depth;
+                let (albedo, face_light) = match cover {
+                    GROUND => (ground_colour(layout, point.x, point.y), ground_light),
+                    face => (list[face as usize].albedo, self.lights[face as usize]),
                 };
-                let mut light = if settings.disable_lighting {
-                    1.0
-                } else {
+                let mut light = if lit {
                     work += 1;
-                    0.35 + 0.75 * normal.dot(&sun).max(0.0)
+                    face_light
+                } else {
+                    1.0
                 };
                 if let Some(map) = &shadows {
                     work += 1;
@@ -617,7 +623,7 @@ impl Camera {
                         light *= 0.45;
                     }
                 }
-                image.pixels[i] = albedo.map(|a| a * light);
+                *pixel = albedo.map(|a| a * light);
             }
         }
         self.post_process(image, settings, rng, &mut work);

@@ -202,10 +202,15 @@ pub(super) fn bloom(
     blur.down_columns(across, bright, work);
     let glow = bright;
     let w = blur.w;
-    for (i, p) in img.pixels.iter_mut().enumerate() {
-        let g = glow[(i / WIDTH / scale) * w + (i % WIDTH) / scale];
-        for c in 0..3 {
-            p[c] += 1.5 * g[c];
+    // Each glow pixel brightens a `scale` × `scale` block of the image.
+    for (v, row) in img.pixels.chunks_exact_mut(WIDTH).enumerate() {
+        let glow_row = &glow[(v / scale) * w..(v / scale + 1) * w];
+        for (block, g) in row.chunks_exact_mut(scale).zip(glow_row) {
+            for p in block {
+                for c in 0..3 {
+                    p[c] += 1.5 * g[c];
+                }
+            }
         }
     }
 }
@@ -248,13 +253,48 @@ struct BoxBlur {
 }
 
 impl BoxBlur {
-    /// The pass along each row.
+    /// The pass along each row (in groups of [`ROWS`] rows, whose running sums are independent:
+    /// one row's chain of additions would leave the processor waiting on each).
     #[inline]
     fn across_rows(&self, src: &[[f32; 3]], out: &mut Vec<[f32; 3]>, work: &mut u64) {
+        const ROWS: usize = 4;
         let (w, radius, norm) = (self.w, self.radius, self.norm);
         out.clear();
         out.resize(src.len(), [0.0; 3]);
-        for (row, o) in src.chunks_exact(w).zip(out.chunks_exact_mut(w)) {
+        let mut groups = src
+            .chunks_exact(w * ROWS)
+            .zip(out.chunks_exact_mut(w * ROWS));
+        for (rows, o) in groups.by_ref() {
+            let mut acc = [[0.0f32; 3]; ROWS];
+            for k in 0..radius.min(w) {
+                for (r, a) in acc.iter_mut().enumerate() {
+                    for c in 0..3 {
+                        a[c] += rows[r * w + k][c];
+                    }
+                }
+            }
+            for k in 0..w {
+                for (r, a) in acc.iter_mut().enumerate() {
+                    let row = &rows[r * w..(r + 1) * w];
+                    if k + radius < w {
+                        for c in 0..3 {
+                            a[c] += row[k + radius][c];
+                        }
+                    }
+                    if k > radius {
+                        for c in 0..3 {
+                            a[c] -= row[k - radius - 1][c];
+                        }
+                    }
+                    o[r * w + k] = a.map(|x| x * norm);
+                }
+            }
+        }
+        let rest = src.len() / (w * ROWS) * (w * ROWS);
+        for (row, o) in src[rest..]
+            .chunks_exact(w)
+            .zip(out[rest..].chunks_exact_mut(w))
+        {
             let mut acc = [0.0f32; 3];
             for p in &row[..radius.min(w)] {
                 for c in 0..3 {
