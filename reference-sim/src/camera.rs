@@ -589,24 +589,30 @@ impl Camera {
         self.lights.extend(list.iter().map(|f| light_of(f.normal)));
         let ground_light = light_of(Vector3::z());
         let lit = !settings.disable_lighting;
+        // A pixel's viewing direction in the world: x and y depend on its column only, z (which
+        // the yaw leaves) on its row only.
+        let columns: [(f32, f32); WIDTH] = std::array::from_fn(|u| {
+            let d = yaw.to_world(pixel_dir(u as f32 + 0.5, 0.5));
+            (d.x, d.y)
+        });
         for v in 0..HEIGHT {
             // Sky colour of this row.
             let t = (HEIGHT - v) as f32 / HEIGHT as f32;
             let sky = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
+            let dz = pixel_dir(0.5, v as f32 + 0.5).z;
             let row = v * WIDTH..(v + 1) * WIDTH;
-            for (u, ((pixel, &cover), &depth)) in image.pixels[row.clone()]
+            for (((pixel, &cover), &depth), &(dx, dy)) in image.pixels[row.clone()]
                 .iter_mut()
                 .zip(&b.cover[row.clone()])
                 .zip(&b.depth[row])
-                .enumerate()
+                .zip(&columns)
             {
                 work += 1;
                 if cover == SKY {
                     *pixel = sky;
                     continue;
                 }
-                let point =
-                    pose.eye + yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5)) * depth;
+                let point = pose.eye + Vector3::new(dx, dy, dz) * depth;
                 let (albedo, face_light) = match cover {
                     GROUND => (ground_colour(layout, point.x, point.y), ground_light),
                     face => (list[face as usize].albedo, self.lights[face as usize]),

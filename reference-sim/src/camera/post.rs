@@ -146,35 +146,110 @@ pub(super) fn depth_of_field(
         .zip(out.chunks_exact_mut(WIDTH))
         .enumerate()
     {
-        for (u, (&z, o)) in row_depth.iter().zip(row_out).enumerate() {
+        let mut u = 0;
+        while u < WIDTH {
+            let z = row_depth[u];
             if z >= near_limit {
+                u += 1;
                 continue; // in focus: the sharp pixel
             }
+            // A run of pixels at this depth (a ground row is one): they share their taps.
+            let end = u + 1 + row_depth[u + 1..].iter().take_while(|&&d| d == z).count();
             if z != cached.0 {
                 cached = (z, taps_of(z));
             }
-            *work += DOF_SAMPLES as u64;
-            let mut acc = [0.0f32; 3];
-            for &(dx, dy, fu, fv) in &cached.1 {
-                let (x, y) = (u as isize + dx, v as isize + dy);
-                let tap = if x >= 0 && y >= 0 && x < WIDTH as isize - 1 && y < HEIGHT as isize - 1 {
-                    Tap {
-                        index: y as usize * WIDTH + x as usize,
-                        fu,
-                        fv,
-                    }
-                } else {
-                    Tap::at(x as f32 + fu, y as f32 + fv)
-                };
-                let p = tap.read(src);
-                for k in 0..3 {
-                    acc[k] += p[k];
-                }
+            let taps = &cached.1;
+            *work += (DOF_SAMPLES * (end - u)) as u64;
+            // Where every tap's 2×2 block lies inside the image: the whole span at once.
+            let (lo, hi) = interior(taps, v, u, end);
+            for x in (u..lo).chain(hi.max(lo)..end) {
+                row_out[x] = blurred_pixel(src, taps, x, v, third);
             }
-            *o = acc.map(|a| a * third);
+            if lo < hi {
+                blurred_span(src, taps, &mut row_out[lo..hi], lo, v, third);
+            }
+            u = end;
         }
     }
     *work += depth.len() as u64;
+}
+
+/// A depth-of-field tap relative to a pixel: whole-pixel offset and bilinear weights.
+type DofTap = (isize, isize, f32, f32);
+
+/// The pixels of `u..end` in row `v` whose taps all read 2×2 blocks inside the image
+/// (`lo..hi`, empty when none).
+fn interior(taps: &[DofTap], v: usize, u: usize, end: usize) -> (usize, usize) {
+    let (mut lo, mut hi) = (u as isize, end as isize);
+    for &(dx, dy, _, _) in taps {
+        let y = v as isize + dy;
+        if y < 0 || y >= HEIGHT as isize - 1 {
+            return (u, u);
+        }
+        lo = lo.max(-dx);
+        hi = hi.min(WIDTH as isize - 1 - dx);
+    }
+    if lo >= hi {
+        return (u, u);
+    }
+    (lo as usize, hi as usize)
+}
+
+/// One blurred pixel: the mean of its taps (each clamped to the image).
+#[inline]
+fn blurred_pixel(src: &[[f32; 3]], taps: &[DofTap], u: usize, v: usize, third: f32) -> [f32; 3] {
+    let mut acc = [0.0f32; 3];
+    for &(dx, dy, fu, fv) in taps {
+        let (x, y) = (u as isize + dx, v as isize + dy);
+        let tap = if x >= 0 && y >= 0 && x < WIDTH as isize - 1 && y < HEIGHT as isize - 1 {
+            Tap {
+                index: y as usize * WIDTH + x as usize,
+                fu,
+                fv,
+            }
+        } else {
+            Tap::at(x as f32 + fu, y as f32 + fv)
+        };
+        let p = tap.read(src);
+        for k in 0..3 {
+            acc[k] += p[k];
+        }
+    }
+    acc.map(|a| a * third)
+}
+
+/// [`blurred_pixel`] for the span of row `v` starting at column `lo` that `out` covers, every
+/// tap inside the image: the same operations per channel, over the span's channels as one
+/// array (a pixel's right neighbour is three floats on), which the compiler vectorises.
+fn blurred_span(
+    src: &[[f32; 3]],
+    taps: &[DofTap],
+    out: &mut [[f32; 3]],
+    lo: usize,
+    v: usize,
+    third: f32,
+) {
+    let out = out.as_flattened_mut();
+    let n = out.len();
+    out.fill(0.0);
+    let src = src.as_flattened();
+    for &(dx, dy, fu, fv) in taps {
+        let index = 3 * ((v as isize + dy) as usize * WIDTH + (lo as isize + dx) as usize);
+        let top = &src[index..index + n + 3];
+        let bottom = &src[index + 3 * WIDTH..index + 3 * WIDTH + n + 3];
+        for ((o, (a, b)), (c, d)) in out
+            .iter_mut()
+            .zip(top.iter().zip(&top[3..]))
+            .zip(bottom.iter().zip(&bottom[3..]))
+        {
+            let upper = a + (b - a) * fu;
+            let lower = c + (d - c) * fu;
+            *o += upper + (lower - upper) * fv;
+        }
+    }
+    for o in out {
+        *o *= third;
+    }
 }
 
 /// Bloom: bright pixels glow into their neighbours. The glow pass is a box blur of the bright
@@ -203,6 +278,13 @@ pub(super) fn bloom(
     let glow = bright;
     let w = blur.w;
     // Each glow pixel brightens a `scale` × `scale` block of the image.
+    if scale == 1 {
+        let pixels = img.pixels.as_flattened_mut();
+        for (p, g) in pixels.iter_mut().zip(glow.as_flattened()) {
+            *p += 1.5 * g;
+        }
+        return;
+    }
     for (v, row) in img.pixels.chunks_exact_mut(WIDTH).enumerate() {
         let glow_row = &glow[(v / scale) * w..(v / scale + 1) * w];
         for (block, g) in row.chunks_exact_mut(scale).zip(glow_row) {
@@ -221,6 +303,27 @@ pub(super) fn bloom(
 fn bright_pass(img: &Image, scale: usize, bright: &mut Vec<[f32; 3]>, work: &mut u64) {
     let (w, h) = (WIDTH / scale, HEIGHT / scale);
     bright.clear();
+    if scale == 1 {
+        // The same operations per channel, in two passes the compiler vectorises: each
+        // pixel's luminance, then every channel's share above the threshold.
+        let luminance = |p: &[f32; 3]| 0.3 * p[0] + 0.59 * p[1] + 0.11 * p[2];
+        bright.extend(img.pixels.iter().map(|p| [luminance(p); 3]));
+        for (b, &c) in bright
+            .as_flattened_mut()
+            .iter_mut()
+            .zip(img.pixels.as_flattened())
+        {
+            let l = *b;
+            let share = if l > 0.62 {
+                0.0 + c * (l - 0.62) / l
+            } else {
+                0.0
+            };
+            *b = share / 1.0;
+        }
+        *work += (WIDTH * HEIGHT) as u64;
+        return;
+    }
     bright.resize(w * h, [0.0; 3]);
     for y in 0..h {
         for x in 0..w {
@@ -324,37 +427,30 @@ impl BoxBlur {
         let (w, h, radius, norm) = (self.w, self.h, self.radius, self.norm);
         out.clear();
         out.resize(src.len(), [0.0; 3]);
-        let mut acc = vec![[0.0f32; 3]; w];
-        for row in src.chunks_exact(w).take(radius.min(h)) {
-            for (a, p) in acc.iter_mut().zip(row) {
-                for c in 0..3 {
-                    a[c] += p[c];
-                }
+        *work += src.len() as u64;
+        // One running sum per column and channel, over rows of 3·w floats (vectorised).
+        let (src, out) = (src.as_flattened(), out.as_flattened_mut());
+        let row = |k: usize| &src[k * 3 * w..(k + 1) * 3 * w];
+        let mut acc = vec![0.0f32; 3 * w];
+        for k in 0..radius.min(h) {
+            for (a, p) in acc.iter_mut().zip(row(k)) {
+                *a += p;
             }
         }
-        for k in 0..h {
+        for (k, o) in out.chunks_exact_mut(3 * w).enumerate() {
             if k + radius < h {
-                for (a, p) in acc
-                    .iter_mut()
-                    .zip(&src[(k + radius) * w..(k + radius + 1) * w])
-                {
-                    for c in 0..3 {
-                        a[c] += p[c];
-                    }
+                for (a, p) in acc.iter_mut().zip(row(k + radius)) {
+                    *a += p;
                 }
             }
             if k > radius {
-                let gone = k - radius - 1;
-                for (a, p) in acc.iter_mut().zip(&src[gone * w..(gone + 1) * w]) {
-                    for c in 0..3 {
-                        a[c] -= p[c];
-                    }
+                for (a, p) in acc.iter_mut().zip(row(k - radius - 1)) {
+                    *a -= p;
                 }
             }
-            for (o, a) in out[k * w..(k + 1) * w].iter_mut().zip(&acc) {
-                *o = a.map(|x| x * norm);
+            for (o, a) in o.iter_mut().zip(&acc) {
+                *o = a * norm;
             }
         }
-        *work += src.len() as u64;
     }
 }
