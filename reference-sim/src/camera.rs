@@ -454,10 +454,12 @@ impl ShadowMap {
 
     /// Builds the map from the faces of each object (one footprint per object: the rectangle,
     /// in sun-aligned coordinates, around all its corners, at its highest point towards the sun).
+    /// `depth` is a buffer to reuse (a previous map's).
     fn build(
         objects: &[std::ops::Range<usize>],
         faces: &[Face],
         centre: Point3<f32>,
+        mut depth: Vec<f32>,
         work: &mut u64,
     ) -> Self {
         let s = sun();
@@ -465,7 +467,8 @@ impl ShadowMap {
         let v = s.cross(&u).normalize();
         let size = Self::SIZE;
         let half = 50.0;
-        let mut depth = vec![f32::NEG_INFINITY; size * size];
+        depth.clear();
+        depth.resize(size * size, f32::NEG_INFINITY);
         let scale = size as f32 / (2.0 * half);
         for range in objects {
             // Height along the sun of every corner; rasterise the object's footprint.
@@ -539,6 +542,8 @@ pub struct Camera {
     buffers: Buffers,
     /// The light of each face of the frame.
     lights: Vec<f32>,
+    /// The shadow map's depths (kept between frames, as the other buffers).
+    shadow_depth: Vec<f32>,
     spare: Vec<[f32; 3]>,
     glow: [Vec<[f32; 3]>; 2],
 }
@@ -574,8 +579,10 @@ impl Camera {
         let near = settings.camera_near_clip as f32;
         let (list, objects) = visible_faces(scene, pose, settings, far);
         work += list.len() as u64;
-        let shadows = (!settings.disable_shadows)
-            .then(|| ShadowMap::build(&objects, &list, pose.eye, &mut work));
+        let shadows = (!settings.disable_shadows).then(|| {
+            let buffer = std::mem::take(&mut self.shadow_depth);
+            ShadowMap::build(&objects, &list, pose.eye, buffer, &mut work)
+        });
         let b = &mut self.buffers;
         rasterise(b, &list, pose, near, far, &mut work);
         image.pixels.resize(WIDTH * HEIGHT, [0.0; 3]);
@@ -631,6 +638,9 @@ impl Camera {
                 }
                 *pixel = albedo.map(|a| a * light);
             }
+        }
+        if let Some(map) = shadows {
+            self.shadow_depth = map.depth;
         }
         self.post_process(image, settings, rng, &mut work);
         work
