@@ -179,6 +179,10 @@ const GROUND: Cover = u32::MAX - 1;
 struct Buffers {
     depth: Vec<f32>,
     cover: Vec<Cover>,
+    /// The light of each face of the frame.
+    lights: Vec<f32>,
+    /// The shadow map's depths (kept between frames, as the other buffers).
+    shadow_depth: Vec<f32>,
 }
 
 /// A polygon of an object with its albedo.
@@ -539,11 +543,8 @@ pub fn render<R: Rng + ?Sized>(
 /// A camera with reusable buffers: after the first frame, rendering allocates nothing large.
 #[derive(Debug, Default, Clone)]
 pub struct Camera {
-    buffers: Buffers,
-    /// The light of each face of the frame.
-    lights: Vec<f32>,
-    /// The shadow map's depths (kept between frames, as the other buffers).
-    shadow_depth: Vec<f32>,
+    /// Boxed: a camera sits in [`crate::sim::Perceiver`] next to much smaller perceptions.
+    buffers: Box<Buffers>,
     spare: Vec<[f32; 3]>,
     glow: [Vec<[f32; 3]>; 2],
 }
@@ -580,10 +581,10 @@ impl Camera {
         let (list, objects) = visible_faces(scene, pose, settings, far);
         work += list.len() as u64;
         let shadows = (!settings.disable_shadows).then(|| {
-            let buffer = std::mem::take(&mut self.shadow_depth);
+            let buffer = std::mem::take(&mut self.buffers.shadow_depth);
             ShadowMap::build(&objects, &list, pose.eye, buffer, &mut work)
         });
-        let b = &mut self.buffers;
+        let b = &mut *self.buffers;
         rasterise(b, &list, pose, near, far, &mut work);
         image.pixels.resize(WIDTH * HEIGHT, [0.0; 3]);
         let yaw = pose.rotation();
@@ -592,8 +593,8 @@ impl Camera {
         // The light of each face and of the ground (a pixel's light depends only on its normal
         // and, below, on its shadow), computed once per frame.
         let light_of = |normal: Vector3<f32>| 0.35 + 0.75 * normal.dot(&sun).max(0.0);
-        self.lights.clear();
-        self.lights.extend(list.iter().map(|f| light_of(f.normal)));
+        b.lights.clear();
+        b.lights.extend(list.iter().map(|f| light_of(f.normal)));
         let ground_light = light_of(Vector3::z());
         let lit = !settings.disable_lighting;
         // A pixel's viewing direction in the world: x and y depend on its column only, z (which
@@ -622,7 +623,7 @@ impl Camera {
                 let point = pose.eye + Vector3::new(dx, dy, dz) * depth;
                 let (albedo, face_light) = match cover {
                     GROUND => (ground_colour(layout, point.x, point.y), ground_light),
-                    face => (list[face as usize].albedo, self.lights[face as usize]),
+                    face => (list[face as usize].albedo, b.lights[face as usize]),
                 };
                 let mut light = if lit {
                     work += 1;
@@ -640,7 +641,7 @@ impl Camera {
             }
         }
         if let Some(map) = shadows {
-            self.shadow_depth = map.depth;
+            b.shadow_depth = map.depth;
         }
         self.post_process(image, settings, rng, &mut work);
         work
