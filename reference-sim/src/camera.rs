@@ -423,18 +423,41 @@ fn tri(
         let start = ((lo - 1.5).floor().max(min_u as f32) as usize).max(min_u);
         let end = ((hi + 1.5).ceil().max(0.0) as usize).min(max_u);
         let row = v * WIDTH;
-        for u in start..end {
+        let (depths, covers) = (
+            &mut b.depth[row..row + WIDTH],
+            &mut b.cover[row..row + WIDTH],
+        );
+        let fragment = |u: usize| {
             let x = u as f32 + 0.5;
             let w0 = a0 * x + b0 * y + c0;
             let w1 = a1 * x + b1 * y + c1;
             let w2 = 1.0 - w0 - w1;
-            if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
+            let inside = w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0;
+            (inside, 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2))
+        };
+        // LANES pixels at a time without branches (the depth computed for every lane, kept
+        // where the pixel is covered and nearer), which the compiler vectorises; the rest of
+        // the span one by one.
+        const LANES: usize = 4;
+        let lanes_end = start + (end - start) / LANES * LANES;
+        for u in (start..lanes_end).step_by(LANES) {
+            let f: [(bool, f32); LANES] = std::array::from_fn(|k| fragment(u + k));
+            let (d, c) = (&mut depths[u..u + LANES], &mut covers[u..u + LANES]);
+            for k in 0..LANES {
+                let (inside, depth) = f[k];
+                *work += u64::from(inside);
+                let nearer = inside && depth < d[k] && depth <= far;
+                d[k] = if nearer { depth } else { d[k] };
+                c[k] = if nearer { cover } else { c[k] };
+            }
+        }
+        for u in lanes_end..end {
+            let (inside, depth) = fragment(u);
+            if inside {
                 *work += 1;
-                let depth = 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2);
-                let i = row + u;
-                if depth < b.depth[i] && depth <= far {
-                    b.depth[i] = depth;
-                    b.cover[i] = cover;
+                if depth < depths[u] && depth <= far {
+                    depths[u] = depth;
+                    covers[u] = cover;
                 }
             }
         }
