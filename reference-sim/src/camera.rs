@@ -179,6 +179,10 @@ const GROUND: Cover = u32::MAX - 1;
 struct Buffers {
     depth: Vec<f32>,
     cover: Vec<Cover>,
+    /// The light of each face of the frame.
+    lights: Vec<f32>,
+    /// The shadow map's depths (kept between frames, as the other buffers).
+    shadow_depth: Vec<f32>,
 }
 
 /// A polygon of an object with its albedo.
@@ -419,18 +423,41 @@ fn tri(
         let start = ((lo - 1.5).floor().max(min_u as f32) as usize).max(min_u);
         let end = ((hi + 1.5).ceil().max(0.0) as usize).min(max_u);
         let row = v * WIDTH;
-        for u in start..end {
+        let (depths, covers) = (
+            &mut b.depth[row..row + WIDTH],
+            &mut b.cover[row..row + WIDTH],
+        );
+        let fragment = |u: usize| {
             let x = u as f32 + 0.5;
             let w0 = a0 * x + b0 * y + c0;
             let w1 = a1 * x + b1 * y + c1;
             let w2 = 1.0 - w0 - w1;
-            if w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0 {
+            let inside = w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0;
+            (inside, 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2))
+        };
+        // LANES pixels at a time without branches (the depth computed for every lane, kept
+        // where the pixel is covered and nearer), which the compiler vectorises; the rest of
+        // the span one by one.
+        const LANES: usize = 4;
+        let lanes_end = start + (end - start) / LANES * LANES;
+        for u in (start..lanes_end).step_by(LANES) {
+            let f: [(bool, f32); LANES] = std::array::from_fn(|k| fragment(u + k));
+            let (d, c) = (&mut depths[u..u + LANES], &mut covers[u..u + LANES]);
+            for k in 0..LANES {
+                let (inside, depth) = f[k];
+                *work += u64::from(inside);
+                let nearer = inside && depth < d[k] && depth <= far;
+                d[k] = if nearer { depth } else { d[k] };
+                c[k] = if nearer { cover } else { c[k] };
+            }
+        }
+        for u in lanes_end..end {
+            let (inside, depth) = fragment(u);
+            if inside {
                 *work += 1;
-                let depth = 1.0 / (w0 * p0.2 + w1 * p1.2 + w2 * p2.2);
-                let i = row + u;
-                if depth < b.depth[i] && depth <= far {
-                    b.depth[i] = depth;
-                    b.cover[i] = cover;
+                if depth < depths[u] && depth <= far {
+                    depths[u] = depth;
+                    covers[u] = cover;
                 }
             }
         }
@@ -454,10 +481,12 @@ impl ShadowMap {
 
     /// Builds the map from the faces of each object (one footprint per object: the rectangle,
     /// in sun-aligned coordinates, around all its corners, at its highest point towards the sun).
+    /// `depth` is a buffer to reuse (a previous map's).
     fn build(
         objects: &[std::ops::Range<usize>],
         faces: &[Face],
         centre: Point3<f32>,
+        mut depth: Vec<f32>,
         work: &mut u64,
     ) -> Self {
         let s = sun();
@@ -465,37 +494,34 @@ impl ShadowMap {
         let v = s.cross(&u).normalize();
         let size = Self::SIZE;
         let half = 50.0;
-        let mut depth = vec![f32::NEG_INFINITY; size * size];
+        depth.clear();
+        depth.resize(size * size, f32::NEG_INFINITY);
         let scale = size as f32 / (2.0 * half);
         for range in objects {
             // Height along the sun of every corner; rasterise the object's footprint.
-            let pts: Vec<(f32, f32, f32)> = faces[range.clone()]
-                .iter()
-                .flat_map(|f| f.corners.iter())
-                .map(|&p| {
-                    let d = p - centre;
-                    (
-                        (d.dot(&u) + half) * scale,
-                        (d.dot(&v) + half) * scale,
-                        d.dot(&s),
-                    )
-                })
-                .collect();
-            let (lo_u, hi_u) = pts
-                .iter()
-                .fold((f32::MAX, f32::MIN), |a, p| (a.0.min(p.0), a.1.max(p.0)));
-            let (lo_v, hi_v) = pts
-                .iter()
-                .fold((f32::MAX, f32::MIN), |a, p| (a.0.min(p.1), a.1.max(p.1)));
+            let (mut lo_u, mut hi_u) = (f32::MAX, f32::MIN);
+            let (mut lo_v, mut hi_v) = (f32::MAX, f32::MIN);
+            let mut h = f32::MIN;
+            for &p in faces[range.clone()].iter().flat_map(|f| f.corners.iter()) {
+                let d = p - centre;
+                let (x, y) = ((d.dot(&u) + half) * scale, (d.dot(&v) + half) * scale);
+                (lo_u, hi_u) = (lo_u.min(x), hi_u.max(x));
+                (lo_v, hi_v) = (lo_v.min(y), hi_v.max(y));
+                h = h.max(d.dot(&s));
+            }
             if hi_u < 0.0 || hi_v < 0.0 || lo_u >= size as f32 || lo_v >= size as f32 {
                 continue;
             }
-            let h = pts.iter().map(|p| p.2).fold(f32::MIN, f32::max);
-            for y in (lo_v.max(0.0) as usize)..(hi_v.ceil().min(size as f32) as usize) {
-                for x in (lo_u.max(0.0) as usize)..(hi_u.ceil().min(size as f32) as usize) {
-                    *work += 1;
-                    let i = y * size + x;
-                    depth[i] = depth[i].max(h);
+            let span = |lo: f32, hi: f32| {
+                let start = lo.max(0.0) as usize;
+                start..(hi.ceil().min(size as f32) as usize).max(start)
+            };
+            let (columns, rows) = (span(lo_u, hi_u), span(lo_v, hi_v));
+            *work += (rows.len() * columns.len()) as u64;
+            for y in rows {
+                let row = &mut depth[y * size..(y + 1) * size];
+                for d in &mut row[columns.clone()] {
+                    *d = d.max(h);
                 }
             }
         }
@@ -540,7 +566,8 @@ pub fn render<R: Rng + ?Sized>(
 /// A camera with reusable buffers: after the first frame, rendering allocates nothing large.
 #[derive(Debug, Default, Clone)]
 pub struct Camera {
-    buffers: Buffers,
+    /// Boxed: a camera sits in [`crate::sim::Perceiver`] next to much smaller perceptions.
+    buffers: Box<Buffers>,
     spare: Vec<[f32; 3]>,
     glow: [Vec<[f32; 3]>; 2],
 }
@@ -576,40 +603,56 @@ impl Camera {
         let near = settings.camera_near_clip as f32;
         let (list, objects) = visible_faces(scene, pose, settings, far);
         work += list.len() as u64;
-        let shadows = (!settings.disable_shadows)
-            .then(|| ShadowMap::build(&objects, &list, pose.eye, &mut work));
-        let b = &mut self.buffers;
+        let shadows = (!settings.disable_shadows).then(|| {
+            let buffer = std::mem::take(&mut self.buffers.shadow_depth);
+            ShadowMap::build(&objects, &list, pose.eye, buffer, &mut work)
+        });
+        let b = &mut *self.buffers;
         rasterise(b, &list, pose, near, far, &mut work);
         image.pixels.resize(WIDTH * HEIGHT, [0.0; 3]);
         let yaw = pose.rotation();
         let sun = sun();
         let layout = scene.world.layout();
+        // The light of each face and of the ground (a pixel's light depends only on its normal
+        // and, below, on its shadow), computed once per frame.
+        let light_of = |normal: Vector3<f32>| 0.35 + 0.75 * normal.dot(&sun).max(0.0);
+        b.lights.clear();
+        b.lights.extend(list.iter().map(|f| light_of(f.normal)));
+        let ground_light = light_of(Vector3::z());
+        let lit = !settings.disable_lighting;
+        // A pixel's viewing direction in the world: x and y depend on its column only, z (which
+        // the yaw leaves) on its row only.
+        let columns: [(f32, f32); WIDTH] = std::array::from_fn(|u| {
+            let d = yaw.to_world(pixel_dir(u as f32 + 0.5, 0.5));
+            (d.x, d.y)
+        });
         for v in 0..HEIGHT {
             // Sky colour of this row.
             let t = (HEIGHT - v) as f32 / HEIGHT as f32;
             let sky = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
-            for u in 0..WIDTH {
-                let i = v * WIDTH + u;
+            let dz = pixel_dir(0.5, v as f32 + 0.5).z;
+            let row = v * WIDTH..(v + 1) * WIDTH;
+            for (((pixel, &cover), &depth), &(dx, dy)) in image.pixels[row.clone()]
+                .iter_mut()
+                .zip(&b.cover[row.clone()])
+                .zip(&b.depth[row])
+                .zip(&columns)
+            {
                 work += 1;
-                let cover = b.cover[i];
                 if cover == SKY {
-                    image.pixels[i] = sky;
+                    *pixel = sky;
                     continue;
                 }
-                let point =
-                    pose.eye + yaw.to_world(pixel_dir(u as f32 + 0.5, v as f32 + 0.5)) * b.depth[i];
-                let (albedo, normal) = match cover {
-                    GROUND => (ground_colour(layout, point.x, point.y), Vector3::z()),
-                    face => {
-                        let f = &list[face as usize];
-                        (f.albedo, f.normal)
-                    }
+                let point = pose.eye + Vector3::new(dx, dy, dz) * depth;
+                let (albedo, face_light) = match cover {
+                    GROUND => (ground_colour(layout, point.x, point.y), ground_light),
+                    face => (list[face as usize].albedo, b.lights[face as usize]),
                 };
-                let mut light = if settings.disable_lighting {
-                    1.0
-                } else {
+                let mut light = if lit {
                     work += 1;
-                    0.35 + 0.75 * normal.dot(&sun).max(0.0)
+                    face_light
+                } else {
+                    1.0
                 };
                 if let Some(map) = &shadows {
                     work += 1;
@@ -617,8 +660,11 @@ impl Camera {
                         light *= 0.45;
                     }
                 }
-                image.pixels[i] = albedo.map(|a| a * light);
+                *pixel = albedo.map(|a| a * light);
             }
+        }
+        if let Some(map) = shadows {
+            b.shadow_depth = map.depth;
         }
         self.post_process(image, settings, rng, &mut work);
         work

@@ -2,7 +2,7 @@
 //! fidelity settings: shot noise, ambient (sunlight) returns, translucency, subsample count,
 //! ray-tracing bounces and near clipping.
 
-use crate::scene::{Scene, SceneHit, Surface};
+use crate::scene::{Caster, Scene, SceneHit, Surface};
 use crate::settings::Settings;
 use nalgebra::{Point3, Vector3};
 use rand::{Rng, RngExt};
@@ -74,14 +74,6 @@ const SUBSAMPLE: [(f32, f32); 5] = [
     (-0.5, 0.5),
 ];
 
-fn direction(azimuth: f32, elevation: f32) -> Vector3<f32> {
-    Vector3::new(
-        azimuth.cos() * elevation.cos(),
-        azimuth.sin() * elevation.cos(),
-        elevation.sin(),
-    )
-}
-
 fn reflect(d: Vector3<f32>, n: Vector3<f32>) -> Vector3<f32> {
     d - n * (2.0 * d.dot(&n))
 }
@@ -94,30 +86,77 @@ pub fn scan<R: Rng + ?Sized>(
     settings: &Settings,
     rng: &mut R,
 ) -> LidarScan {
+    let subsamples = settings.subsamples.clamp(1, SUBSAMPLE.len() as u32) as usize;
+    let div = DIVERGENCE_DEG.to_radians();
+    let steps = (2.0 * HALF_FOV_DEG / AZIMUTH_STEP_DEG).round() as i32;
+    let azimuths: Vec<f32> = (0..=steps)
+        .map(|k| heading + (-HALF_FOV_DEG + k as f32 * AZIMUTH_STEP_DEG).to_radians())
+        .collect();
+    let elevations = ELEVATIONS_DEG.map(f32::to_radians);
+    // The sines and cosines of every beam's and subsample ray's angles, computed once per
+    // sweep (each azimuth serves 8 channels, each elevation 31 beams).
+    let angles = |base: &[f32], offset: fn(&(f32, f32)) -> f32| -> Vec<Trig> {
+        base.iter()
+            .flat_map(|&b| {
+                std::iter::once(Trig::of(b)).chain(
+                    SUBSAMPLE[..subsamples]
+                        .iter()
+                        .map(move |o| Trig::of(b + offset(o) * div)),
+                )
+            })
+            .collect()
+    };
     let sweep = Sweep {
+        caster: scene.caster(),
         scene,
         origin,
         settings,
         noise: Normal::new(0.0f32, RANGE_NOISE).expect("valid noise"),
         near: settings.lidar_near_clip as f32,
-        subsamples: settings.subsamples.clamp(1, SUBSAMPLE.len() as u32) as usize,
-        div: DIVERGENCE_DEG.to_radians(),
+        subsamples,
+        azimuths: angles(&azimuths, |o| o.0),
+        elevations: angles(&elevations, |o| o.1),
     };
     let mut out = LidarScan::default();
-    let steps = (2.0 * HALF_FOV_DEG / AZIMUTH_STEP_DEG).round() as i32;
-    for el_deg in ELEVATIONS_DEG {
-        let el = el_deg.to_radians();
-        for k in 0..=steps {
-            let az = heading + (-HALF_FOV_DEG + k as f32 * AZIMUTH_STEP_DEG).to_radians();
+    for el in 0..elevations.len() {
+        for az in 0..azimuths.len() {
             sweep.beam(az, el, rng, &mut out);
         }
     }
     out
 }
 
+/// The sine and cosine of an angle.
+#[derive(Debug, Clone, Copy)]
+struct Trig {
+    sin: f32,
+    cos: f32,
+}
+
+impl Trig {
+    #[inline]
+    fn of(angle: f32) -> Trig {
+        Trig {
+            sin: angle.sin(),
+            cos: angle.cos(),
+        }
+    }
+}
+
+/// The unit vector at an azimuth and an elevation.
+#[inline]
+fn direction(azimuth: Trig, elevation: Trig) -> Vector3<f32> {
+    Vector3::new(
+        azimuth.cos * elevation.cos,
+        azimuth.sin * elevation.cos,
+        elevation.sin,
+    )
+}
+
 /// What every beam of a sweep shares.
 struct Sweep<'a> {
     scene: &'a Scene<'a>,
+    caster: Caster<'a>,
     origin: Point3<f32>,
     settings: &'a Settings,
     noise: Normal<f32>,
@@ -125,8 +164,10 @@ struct Sweep<'a> {
     near: f32,
     /// Subsample rays per beam.
     subsamples: usize,
-    /// The beam divergence, radians.
-    div: f32,
+    /// Per beam azimuth: its own [`Trig`], then those of its subsample rays' azimuths.
+    azimuths: Vec<Trig>,
+    /// Per channel: its elevation's [`Trig`], then those of its subsample rays' elevations.
+    elevations: Vec<Trig>,
 }
 
 /// The subsample rays of a beam that hit: the first one's hit, and their mean range and
@@ -141,8 +182,13 @@ impl Sweep<'_> {
     /// One beam at azimuth `az`, elevation `el`: its surface return with what glass lets
     /// through and the multi-path ghosts of shiny surfaces, then a possible sunlight return.
     #[inline]
-    fn beam<R: Rng + ?Sized>(&self, az: f32, el: f32, rng: &mut R, out: &mut LidarScan) {
-        let beam = direction(az, el);
+    fn beam<R: Rng + ?Sized>(&self, az: usize, el: usize, rng: &mut R, out: &mut LidarScan) {
+        let stride = self.subsamples + 1;
+        let (az, el) = (
+            &self.azimuths[az * stride..(az + 1) * stride],
+            &self.elevations[el * stride..(el + 1) * stride],
+        );
+        let beam = direction(az[0], el[0]);
         if let Some(hit) = self.subsample(az, el, rng, out) {
             let (h, range) = (hit.first, hit.range);
             if range >= self.near {
@@ -169,23 +215,23 @@ impl Sweep<'_> {
         }
     }
 
-    /// Casts the beam's subsample rays and averages the ranges (with shot noise) and
-    /// intensities of those that hit; `None` when none hits.
+    /// Casts the beam's subsample rays (at the angles `az[1..]`, `el[1..]`) and averages the
+    /// ranges (with shot noise) and intensities of those that hit; `None` when none hits.
     #[inline]
     fn subsample<R: Rng + ?Sized>(
         &self,
-        az: f32,
-        el: f32,
+        az: &[Trig],
+        el: &[Trig],
         rng: &mut R,
         out: &mut LidarScan,
     ) -> Option<BeamHit> {
-        let (scene, settings, div) = (self.scene, self.settings, self.div);
+        let (scene, settings) = (self.scene, self.settings);
         let (mut sum_d, mut sum_i, mut hits) = (0.0f32, 0.0f32, 0u32);
         let mut first: Option<SceneHit> = None;
-        for &(da, de) in &SUBSAMPLE[..self.subsamples] {
-            let dir = direction(az + da * div, el + de * div);
+        for (&a, &e) in az[1..].iter().zip(&el[1..]) {
+            let dir = direction(a, e);
             out.rays += 1;
-            if let Some(h) = scene.cast(self.origin, dir, MAX_RANGE, None) {
+            if let Some(h) = self.caster.cast(self.origin, dir, MAX_RANGE, None) {
                 let mut d = h.distance;
                 if !settings.lidar_disable_shot_noise {
                     out.draws += 1;
@@ -221,7 +267,7 @@ impl Sweep<'_> {
     ) {
         out.rays += 1;
         let from = hit_point + beam * 0.05;
-        if let Some(t) = self.scene.cast(from, beam, MAX_RANGE, Some(h.surface)) {
+        if let Some(t) = self.caster.cast(from, beam, MAX_RANGE, Some(h.surface)) {
             out.points.push(LidarPoint {
                 position: from + beam * t.distance,
                 intensity: 0.5 * self.scene.reflectivity(&t),
@@ -250,7 +296,10 @@ impl Sweep<'_> {
         for _ in 0..self.settings.bounces {
             dir = reflect(dir, normal);
             out.rays += 1;
-            let Some(b) = scene.cast(at + dir * 0.05, dir, MAX_RANGE, Some(last)) else {
+            let Some(b) = self
+                .caster
+                .cast(at + dir * 0.05, dir, MAX_RANGE, Some(last))
+            else {
                 break;
             };
             path += b.distance;

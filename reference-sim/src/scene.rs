@@ -2,7 +2,7 @@
 
 use crate::vehicle::{self, VehicleState};
 use crate::world::{ObjectKind, World};
-use nalgebra::{Point3, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3};
 use parry3d::query::{Ray, RayCast};
 
 /// What a ray hit.
@@ -47,42 +47,16 @@ impl Scene<'_> {
         max: f32,
         skip: Option<Surface>,
     ) -> Option<SceneHit> {
-        let skip_object = match skip {
-            Some(Surface::Object(i)) => Some(i),
-            _ => None,
-        };
-        let mut best = self
-            .world
-            .cast_ray_normal(origin, dir, max, skip_object)
-            .map(|h| SceneHit {
-                distance: h.distance,
-                normal: h.normal,
-                surface: h.object.map_or(Surface::Ground, Surface::Object),
-                glass: false,
-            });
-        let body = vehicle::body();
-        let ray = Ray::new(origin, dir);
-        for (k, v) in self.vehicles.iter().enumerate() {
-            if skip == Some(Surface::Vehicle(k)) {
-                continue;
-            }
-            let limit = best.map_or(max, |b| b.distance);
-            if let Some(h) = body.cast_ray_and_get_normal(&v.pose(), &ray, limit, true) {
-                best = Some(SceneHit {
-                    distance: h.time_of_impact,
-                    normal: h.normal,
-                    surface: Surface::Vehicle(k),
-                    glass: false,
-                });
-            }
-        }
-        best.map(|mut h| {
-            let p = origin + dir * h.distance;
-            h.glass = self.is_glass(h.surface, p);
-            h
-        })
+        self.caster().cast(origin, dir, max, skip)
     }
 
+    /// A [`Caster`] for many rays through this scene.
+    pub fn caster(&self) -> Caster<'_> {
+        Caster {
+            scene: self,
+            poses: self.vehicles.iter().map(VehicleState::pose).collect(),
+        }
+    }
     /// Windows: the upper part of a car body; a grid of windows on building facades.
     fn is_glass(&self, surface: Surface, p: Point3<f32>) -> bool {
         match surface {
@@ -112,5 +86,60 @@ impl Scene<'_> {
                 ObjectKind::Tree => 0.3,
             },
         }
+    }
+}
+
+/// Casts rays through a [`Scene`] with the vehicles' poses computed once (a lidar sweep casts
+/// over a thousand rays through the same scene).
+#[derive(Debug, Clone)]
+pub struct Caster<'a> {
+    scene: &'a Scene<'a>,
+    poses: Vec<Isometry3<f32>>,
+}
+
+impl Caster<'_> {
+    /// The nearest hit within `max`, ignoring `skip` (as [`Scene::cast`]).
+    pub fn cast(
+        &self,
+        origin: Point3<f32>,
+        dir: Vector3<f32>,
+        max: f32,
+        skip: Option<Surface>,
+    ) -> Option<SceneHit> {
+        let scene = self.scene;
+        let skip_object = match skip {
+            Some(Surface::Object(i)) => Some(i),
+            _ => None,
+        };
+        let mut best = scene
+            .world
+            .cast_ray_normal(origin, dir, max, skip_object)
+            .map(|h| SceneHit {
+                distance: h.distance,
+                normal: h.normal,
+                surface: h.object.map_or(Surface::Ground, Surface::Object),
+                glass: false,
+            });
+        let body = vehicle::body();
+        let ray = Ray::new(origin, dir);
+        for (k, pose) in self.poses.iter().enumerate() {
+            if skip == Some(Surface::Vehicle(k)) {
+                continue;
+            }
+            let limit = best.map_or(max, |b| b.distance);
+            if let Some(h) = body.cast_ray_and_get_normal(pose, &ray, limit, true) {
+                best = Some(SceneHit {
+                    distance: h.time_of_impact,
+                    normal: h.normal,
+                    surface: Surface::Vehicle(k),
+                    glass: false,
+                });
+            }
+        }
+        best.map(|mut h| {
+            let p = origin + dir * h.distance;
+            h.glass = scene.is_glass(h.surface, p);
+            h
+        })
     }
 }
