@@ -60,7 +60,7 @@ mod value;
 pub use allocation::{Allocation, AllocationError, CostRate, Ledger};
 pub use deployment::Deployment;
 pub use kernel::{
-    ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase,
+    ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase, Preset,
     RestoreError, Scenario, ScenarioPrior, Snapshot, TellError, Trial, TrialRecord,
 };
 pub use outcome::{Credit, Observation, Outcome, Run};

@@ -309,26 +309,28 @@ impl PyKernel {
         history: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let limit = history::limit_of(history)?;
-        let (tuned, method) = match method {
-            "tuned" => (true, savme::campaign::Method::Tuned),
-            "paper" => (false, savme::campaign::Method::Paper),
+        let method = match method {
+            "tuned" => savme::campaign::Method::Tuned,
+            "paper" => savme::campaign::Method::Paper,
             other => {
                 return Err(PyValueError::new_err(format!(
                     "method = {other:?}: give \"tuned\" (savme's search by cost) or \"paper\" (the paper's SAVME)"
                 )))
             }
         };
+        // The method's kernel settings (`Preset`, as `savme example-config` and the C ABI's
+        // builder take them), each overridden by its keyword.
+        let preset = method.preset();
         let search = match search {
             Some(s) => search_model(Some(s))?,
-            None if tuned => SearchModel::EliteMixture(EliteMixture::default()),
-            None => SearchModel::IndependentBins,
+            None => preset.search(),
         };
-        let deployment =
-            self::deployment(deployment.unwrap_or(if tuned { "adaptive" } else { "frozen" }))?;
-        let allocation = match allocation.unwrap_or(if tuned { "cost-rate" } else { "weights" }) {
-            "weights" => Allocation::Weights,
-            "cost-rate" => Allocation::CostRate(CostRate::default()),
-            other => {
+        let deployment = deployment.map_or(Ok(preset.deployment()), self::deployment)?;
+        let allocation = match allocation {
+            None => preset.allocation(),
+            Some("weights") => Allocation::Weights,
+            Some("cost-rate") => Allocation::CostRate(CostRate::default()),
+            Some(other) => {
                 return Err(PyValueError::new_err(format!(
                     "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's) or \"cost-rate\" (by HF failures per unit cost)"
                 )))
@@ -365,7 +367,7 @@ impl PyKernel {
             // The method's θ_LF* choice, as a campaign and `savme example-config` make it.
             estimator: match estimator {
                 Some(e) => parse_estimator(e)?,
-                None => method.theta_lf_choice().kernel(),
+                None => preset.estimator(),
             },
             fidelity_prior: fidelity_prior.map(|p| FidelityPrior {
                 posterior: p.posterior.clone(),
