@@ -21,7 +21,7 @@ mod snapshot;
 mod tell;
 mod validation;
 
-pub use builder::KernelBuilder;
+pub use builder::{KernelBuilder, Preset};
 pub use snapshot::{RestoreError, Snapshot};
 
 /// The phase a trial belongs to; it fixes how the trial is drawn and what its tell updates.

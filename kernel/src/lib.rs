@@ -8,7 +8,23 @@
 //! are binned. Beyond the paper, [`SearchModel::EliteMixture`] replaces the independent φ bins
 //! of the learning phases with a joint proposal learned from failures (and, optionally,
 //! near-misses by a run's [`Run::robustness`]); [`SearchModel::IndependentBins`], the paper's,
-//! stays the default.
+//! stays the default of [`Kernel::builder`].
+//!
+//! **Defaults.** [`Kernel::builder`] starts from the paper's SAVME ([`Preset::Paper`]: θ_LF* =
+//! MAP, independent bins, a frozen deployment, scenarios from p(s)), so that a kernel built in
+//! Rust reproduces the paper unless told otherwise; `.preset(Preset::Tuned)`
+//! ([`KernelBuilder::preset`]) takes savme's tuned settings (θ_LF* from evidence, the elite
+//! search, an adaptive deployment, the cost-rate allocation). Each entry point's default:
+//!
+//! | entry point | default |
+//! |---|---|
+//! | [`Kernel::builder`] (Rust) | paper (MAP) |
+//! | a configuration's JSON ([`KernelConfig`]: `savme serve --config`, `Kernel.from_config`, `savme_kernel_new`) | as written: `"estimator"` is required; a missing `search`, `deployment` or `allocation` is the paper's |
+//! | `savme example-config` | tuned (evidence); `--method paper` |
+//! | Python's `savme.Kernel(...)` | tuned (evidence); `method="paper"` or `estimator="map"` |
+//! | the C ABI's builder (`savme_builder_*`) | tuned (evidence); `savme_builder_method(b, SAVME_METHOD_PAPER)` or `savme_builder_estimator(b, SAVME_ESTIMATOR_MAP)` |
+//! | a campaign (`savme run`, a campaign file, Python's `Campaign`) | tuned (evidence); `--method paper` |
+//! | `savme reproduce` | paper (MAP) |
 //!
 //! The kernel is pure: it suggests trials ([`Kernel::ask`]) and ingests their outcomes
 //! ([`Kernel::tell`]); the harness runs the simulators, in any language, in any order.
@@ -60,7 +76,7 @@ mod value;
 pub use allocation::{Allocation, AllocationError, CostRate, Ledger};
 pub use deployment::Deployment;
 pub use kernel::{
-    ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase,
+    ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase, Preset,
     RestoreError, Scenario, ScenarioPrior, Snapshot, TellError, Trial, TrialRecord,
 };
 pub use outcome::{Credit, Observation, Outcome, Run};

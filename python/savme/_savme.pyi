@@ -2,7 +2,7 @@
 
 from os import PathLike
 from typing import (Any, Callable, Dict, Iterable, List, Literal, Mapping, Optional, Sequence, Tuple, Type,
-                    TypeVar, Union, final, overload)
+                    TypedDict, TypeVar, Union, final, overload)
 
 from .history import Trials
 
@@ -181,6 +181,13 @@ class Record:
     def __reduce__(self) -> Tuple[Callable[[str], Record], Tuple[str]]:
         """Pickling (`multiprocessing`, copy.deepcopy): the record exactly."""
 
+class _ScenarioPrior(TypedDict):
+    """One φ prior carried over to a scenario (meta-testing's p_ψ transfer): the shape of a
+    configuration's `scenario_priors` items."""
+
+    scenario: str
+    posterior: Posterior
+
 @final
 class Posterior:
     """Beta beliefs over the arms of a space: p_ω(θ_LF), or a scenario's p_ψ(φ | s)."""
@@ -244,6 +251,7 @@ class Kernel:
         allocation: Optional[Literal["weights", "cost-rate"]] = None,
         method: Literal["tuned", "paper"] = "tuned",
         history: Union[bool, int, None] = None,
+        scenario_priors: Optional[Sequence[_ScenarioPrior]] = None,
     ) -> Kernel:
         """Builds a kernel in the "train" phase.
 
@@ -257,6 +265,11 @@ class Kernel:
         prior: base Beta prior counts (successes, losses) of every arm, default (1, 1);
         fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
         kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
+        scenario_priors: meta-testing's φ transfer — [{"scenario": name, "posterior":
+        Posterior}, …] (a configuration's `scenario_priors`, `KernelBuilder::scenario_prior`):
+        start that scenario's p_ψ(φ | s) from the posterior (e.g. an earlier kernel's
+        `scenario_posterior(name)`, or `PhiTransfer`'s prior) instead of the base prior; each
+        must name a scenario of the kernel once and fit its φ-space (ValueError otherwise);
         journal: a journal file, created or resumed (it must hold the same configuration);
         method: what search, deployment, allocation and estimator default to — "tuned" (the
         default: savme's search by cost — search "elite", deployment "adaptive", allocation

@@ -19,7 +19,8 @@ use savme::campaign::store::{journal, JsonlStore};
 use savme::serve::Session;
 use savme_kernel::{
     Allocation, CostRate, Deployment, EliteMixture, Estimator, FidelityPrior, Kernel, KernelConfig,
-    Observation, Pairing, Phase, PriorCounts, Run, Scenario, SearchModel, Space, TrialRecord,
+    Observation, Pairing, Phase, PriorCounts, Run, Scenario, ScenarioPrior, SearchModel, Space,
+    TrialRecord,
 };
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
@@ -94,6 +95,57 @@ fn scenarios(arg: &Bound<'_, PyAny>) -> PyResult<Vec<Scenario>> {
                 3 => one(&t.get_item(0)?, &t.get_item(1)?, t.get_item(2)?.extract()?),
                 _ => Err(bad()),
             }
+        })
+        .collect()
+}
+
+/// `scenario_priors=`: a list of {"scenario": name, "posterior": Posterior} dicts, the shape of
+/// a configuration's `scenario_priors` (`KernelConfig::scenario_priors`); the kernel checks
+/// each names one of its scenarios once and fits its φ-space.
+fn scenario_priors(arg: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<ScenarioPrior>> {
+    let Some(arg) = arg else {
+        return Ok(Vec::new());
+    };
+    let bad = |at: String| {
+        PyTypeError::new_err(format!(
+            "scenario_priors{at}: give a list of {{\"scenario\": name, \"posterior\": savme.Posterior}} dicts"
+        ))
+    };
+    if arg.is_instance_of::<PyDict>() || arg.extract::<String>().is_ok() {
+        return Err(bad(String::new()));
+    }
+    arg.try_iter()
+        .map_err(|_| bad(String::new()))?
+        .enumerate()
+        .map(|(i, item)| {
+            let item = item?;
+            let d = item.cast::<PyDict>().map_err(|_| bad(format!("[{i}]")))?;
+            if let Some(key) = d
+                .keys()
+                .iter()
+                .filter_map(|k| k.extract::<String>().ok())
+                .find(|k| k != "scenario" && k != "posterior")
+            {
+                return Err(PyValueError::new_err(format!(
+                    "scenario_priors[{i}]: unknown key {key:?} (the keys are \"scenario\" and \"posterior\")"
+                )));
+            }
+            let missing = |key: &str| {
+                PyValueError::new_err(format!("scenario_priors[{i}]: no {key:?} key"))
+            };
+            let scenario: String = d
+                .get_item("scenario")?
+                .ok_or_else(|| missing("scenario"))?
+                .extract()
+                .map_err(|_| bad(format!("[{i}][\"scenario\"]")))?;
+            let posterior = d.get_item("posterior")?.ok_or_else(|| missing("posterior"))?;
+            let posterior = posterior
+                .cast::<PyPosterior>()
+                .map_err(|_| bad(format!("[{i}][\"posterior\"]")))?;
+            Ok(ScenarioPrior {
+                scenario: scenario.as_str().into(),
+                posterior: posterior.get().posterior.clone(),
+            })
         })
         .collect()
 }
@@ -286,7 +338,7 @@ impl PyKernel {
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = None,
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
         pair_fraction = 1.0, pair_settle = 30, deployment = None, allocation = None,
-        method = "tuned", history = None))]
+        method = "tuned", history = None, scenario_priors = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -307,28 +359,31 @@ impl PyKernel {
         allocation: Option<&str>,
         method: &str,
         history: Option<&Bound<'_, PyAny>>,
+        scenario_priors: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
         let limit = history::limit_of(history)?;
-        let (tuned, method) = match method {
-            "tuned" => (true, savme::campaign::Method::Tuned),
-            "paper" => (false, savme::campaign::Method::Paper),
+        let method = match method {
+            "tuned" => savme::campaign::Method::Tuned,
+            "paper" => savme::campaign::Method::Paper,
             other => {
                 return Err(PyValueError::new_err(format!(
                     "method = {other:?}: give \"tuned\" (savme's search by cost) or \"paper\" (the paper's SAVME)"
                 )))
             }
         };
+        // The method's kernel settings (`Preset`, as `savme example-config` and the C ABI's
+        // builder take them), each overridden by its keyword.
+        let preset = method.preset();
         let search = match search {
             Some(s) => search_model(Some(s))?,
-            None if tuned => SearchModel::EliteMixture(EliteMixture::default()),
-            None => SearchModel::IndependentBins,
+            None => preset.search(),
         };
-        let deployment =
-            self::deployment(deployment.unwrap_or(if tuned { "adaptive" } else { "frozen" }))?;
-        let allocation = match allocation.unwrap_or(if tuned { "cost-rate" } else { "weights" }) {
-            "weights" => Allocation::Weights,
-            "cost-rate" => Allocation::CostRate(CostRate::default()),
-            other => {
+        let deployment = deployment.map_or(Ok(preset.deployment()), self::deployment)?;
+        let allocation = match allocation {
+            None => preset.allocation(),
+            Some("weights") => Allocation::Weights,
+            Some("cost-rate") => Allocation::CostRate(CostRate::default()),
+            Some(other) => {
                 return Err(PyValueError::new_err(format!(
                     "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's) or \"cost-rate\" (by HF failures per unit cost)"
                 )))
@@ -365,7 +420,7 @@ impl PyKernel {
             // The method's θ_LF* choice, as a campaign and `savme example-config` make it.
             estimator: match estimator {
                 Some(e) => parse_estimator(e)?,
-                None => method.theta_lf_choice().kernel(),
+                None => preset.estimator(),
             },
             fidelity_prior: fidelity_prior.map(|p| FidelityPrior {
                 posterior: p.posterior.clone(),
@@ -375,7 +430,7 @@ impl PyKernel {
             pairing,
             deployment,
             allocation,
-            scenario_priors: Vec::new(),
+            scenario_priors: self::scenario_priors(scenario_priors)?,
         };
         Kernel::new(config.clone()).map_err(errors::value)?;
         PyKernel::open(py, Some(config), journal, limit)

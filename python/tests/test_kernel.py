@@ -700,3 +700,34 @@ def test_an_adaptive_deployment_keeps_teaching_the_search_in_the_evaluate_phase(
         "deployment"] == {"learn": False, "exploit": True}
     with pytest.raises(ValueError, match='deployment = "greedy": give "frozen", "exploit"'):
         kernel(deployment="greedy")
+
+
+def test_scenario_priors_start_p_psi_from_a_transferred_posterior_as_the_json_configuration_does():
+    # Meta-testing's φ transfer: the keyword has the name and shape of a configuration's
+    # `scenario_priors` ([{"scenario": name, "posterior": Posterior}]).
+    learned = trained_kernel().scenario_posterior("lead_brakes")
+    base = dict(fidelity=fidelity(), theta_hf=THETA_HF, scenarios={"lead_brakes": phi(), "cut_in": phi()}, seed=5)
+    fresh = savme.Kernel(**base)
+    k = savme.Kernel(**base, scenario_priors=[{"scenario": "lead_brakes", "posterior": learned}])
+    assert k.scenario_posterior("lead_brakes").to_json() == learned.to_json()
+    assert k.scenario_posterior("lead_brakes").to_json() != fresh.scenario_posterior("lead_brakes").to_json()
+    assert k.scenario_posterior("cut_in").to_json() == fresh.scenario_posterior("cut_in").to_json()
+    # The same kernel as the JSON configuration carrying it (Kernel.from_config, savme serve).
+    config = json.loads(fresh.config_json())
+    config["scenario_priors"] = [{"scenario": "lead_brakes", "posterior": json.loads(learned.to_json())}]
+    from_json = savme.Kernel.from_config(json.dumps(config))
+    assert json.loads(from_json.config_json()) == json.loads(k.config_json())
+    assert [from_json.ask().phi for _ in range(20)] == [k.ask().phi for _ in range(20)]
+    # Refused, named.
+    with pytest.raises(ValueError, match="φ prior of scenario `ghost`"):
+        savme.Kernel(**base, scenario_priors=[{"scenario": "ghost", "posterior": learned}])
+    with pytest.raises(ValueError, match="φ prior of scenario `cut_in`"):
+        savme.Kernel(**base, scenario_priors=[{"scenario": "cut_in", "posterior": fresh.fidelity_posterior()}])
+    with pytest.raises(ValueError, match=r"scenario_priors\[0\]: no \"posterior\" key"):
+        savme.Kernel(**base, scenario_priors=[{"scenario": "cut_in"}])
+    with pytest.raises(ValueError, match=r"scenario_priors\[0\]: unknown key \"weight\""):
+        savme.Kernel(**base, scenario_priors=[{"scenario": "cut_in", "posterior": learned, "weight": 1}])
+    with pytest.raises(TypeError, match=r"scenario_priors\[0\]\[\"posterior\"\]: give a list"):
+        savme.Kernel(**base, scenario_priors=[{"scenario": "cut_in", "posterior": learned.to_json()}])
+    with pytest.raises(TypeError, match="scenario_priors: give a list"):
+        savme.Kernel(**base, scenario_priors={"lead_brakes": learned})

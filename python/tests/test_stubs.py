@@ -42,6 +42,9 @@ def test_typical_use_type_checks_and_mistakes_are_caught(tmp_path):
         "r = k.tell(t, hf=(True, 1.0), lf=(False, 0.1))\n"
         "outcome: str | None = r.outcome\n"
         "theta: dict[str, bool | int | float | str] = k.estimate('mean')\n"
+        "k2 = savme.Kernel(fidelity=fid, theta_hf={'rate_hz': 10, 'v': 9.0},\n"
+        "                  scenarios={'s': savme.Space([savme.Boolean('rain')])},\n"
+        "                  scenario_priors=[{'scenario': 's', 'posterior': k.scenario_posterior('s')}])\n"
     )
     bad = tmp_path / "bad.py"
     bad.write_text(
@@ -49,6 +52,9 @@ def test_typical_use_type_checks_and_mistakes_are_caught(tmp_path):
         "k = savme.Kernel.resume('j')\n"
         "k.tel(0, hf=(True, 1.0))\n"
         "k.set_phase('warmup')\n"
+        "fid = savme.Space([savme.Boolean('x')])\n"
+        "savme.Kernel(fidelity=fid, theta_hf={'x': True}, scenarios={'s': fid},\n"
+        "             scenario_priors=[{'scenario': 's', 'posterior': 'p'}])\n"
     )
     run = lambda f: subprocess.run(
         [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(f)], capture_output=True, text=True, cwd=tmp_path
@@ -58,6 +64,7 @@ def test_typical_use_type_checks_and_mistakes_are_caught(tmp_path):
     wrong = run(bad)
     assert 'has no attribute "tel"' in wrong.stdout, wrong.stdout
     assert 'to "set_phase" of "Kernel" has incompatible type "Literal[\'warmup\']"' in wrong.stdout, wrong.stdout
+    assert 'TypedDict item "posterior" has type "Posterior"' in wrong.stdout, wrong.stdout
 
 
 def python_blocks(markdown):

@@ -135,21 +135,15 @@ pub struct ExampleArgs {
     method: savme::campaign::Method,
 }
 
-/// The toy simulator's kernel configuration under `--method`: the tuned one reads θ_LF* by
-/// evidence, as a tuned campaign does ([`savme::campaign::Method::theta_lf_choice`]); the
-/// paper's by MAP.
+/// The toy simulator's kernel configuration under `--method`: the method's
+/// [`savme::kernel::Preset`] ([`savme::campaign::Method::preset`]): the tuned one reads θ_LF*
+/// by evidence, as a tuned campaign does; the paper's by MAP.
 pub fn example_config(a: ExampleArgs) -> Result<(), String> {
-    let builder = savme::toy::kernel_builder()
+    let kernel = savme::toy::kernel_builder()
         .seed(1)
-        .estimator(a.method.theta_lf_choice().kernel());
-    let builder = match a.method {
-        savme::campaign::Method::Paper => builder,
-        savme::campaign::Method::Tuned => builder
-            .search(savme::kernel::SearchModel::EliteMixture(Default::default()))
-            .deployment(savme::kernel::Deployment::ADAPTIVE)
-            .allocation(savme::kernel::Allocation::CostRate(Default::default())),
-    };
-    let kernel = builder.build().map_err(|e| e.to_string())?;
+        .preset(a.method.preset())
+        .build()
+        .map_err(|e| e.to_string())?;
     let json = serde_json::to_string_pretty(kernel.config()).map_err(|e| e.to_string())?;
     super::print(&format!("{json}\n"))
 }

@@ -274,9 +274,18 @@ impl Method {
     /// (paper). The one place the choice is made, for a campaign ([`Method::apply`]), `savme
     /// example-config` (a `savme serve` configuration) and Python's `Kernel` alike.
     pub fn theta_lf_choice(self) -> ThetaLfChoice {
+        match self.preset().estimator() {
+            savme_kernel::Estimator::Evidence => ThetaLfChoice::Evidence,
+            _ => ThetaLfChoice::Map,
+        }
+    }
+
+    /// The kernel-level part of this method (estimator, search, deployment, allocation), as
+    /// `savme example-config`, Python's `Kernel` and the C ABI's builder build it.
+    pub fn preset(self) -> savme_kernel::Preset {
         match self {
-            Method::Tuned => ThetaLfChoice::Evidence,
-            Method::Paper => ThetaLfChoice::Map,
+            Method::Tuned => savme_kernel::Preset::Tuned,
+            Method::Paper => savme_kernel::Preset::Paper,
         }
     }
 

@@ -52,7 +52,8 @@ typedef enum {
  */
 typedef enum {
   /**
-   * The configuration's (`"estimator"`, MAP unless set).
+   * The configuration's (`"estimator"`; the builder's method's: evidence for the tuned
+   * one, MAP for the paper's).
    */
   SAVME_ESTIMATOR_CONFIGURED = 0,
   /**
@@ -63,7 +64,29 @@ typedef enum {
    * The arm with the highest posterior mean.
    */
   SAVME_ESTIMATOR_MEAN = 2,
+  /**
+   * savme's tuned one: the arm with the highest lower 10 % quantile of its Beta belief,
+   * every false alarm charged as 1 / C_budget losses (needs a kernel configured with it to
+   * have the false-alarm tallies; otherwise it counts none).
+   */
+  SAVME_ESTIMATOR_EVIDENCE = 3,
 } savme_estimator;
+
+/**
+ * Which method's settings a builder's kernel starts from (`savme_builder_method`).
+ */
+typedef enum {
+  /**
+   * savme's (the builder's default): θ_LF* from evidence, the elite search, a deployment that
+   * keeps learning, scenarios by cost rate — `savme example-config`'s and Python's.
+   */
+  SAVME_METHOD_TUNED = 0,
+  /**
+   * The paper's SAVME: θ_LF* = MAP, independent bins, a frozen deployment, scenarios from
+   * p(s) (`savme example-config --method paper`, Python's `method="paper"`).
+   */
+  SAVME_METHOD_PAPER = 1,
+} savme_method;
 
 /**
  * How the HF and LF runs of a paired trial compare.
@@ -415,6 +438,21 @@ savme_status savme_builder_new(uint64_t seed, double budget, savme_builder **out
 savme_status savme_builder_free(savme_builder *b);
 
 /**
+ * Picks the method whose settings the kernel starts from: a `savme_method`
+ * (`SAVME_METHOD_TUNED`, the default, or `SAVME_METHOD_PAPER`). It sets θ_LF*'s choice too
+ * unless `savme_builder_estimator` set it.
+ */
+savme_status savme_builder_method(savme_builder *b, int32_t method);
+
+/**
+ * Picks how θ_LF* is read off the fidelity posterior: a `savme_estimator`
+ * (`SAVME_ESTIMATOR_MAP` for the paper's with the tuned method's other settings,
+ * `SAVME_ESTIMATOR_MEAN`, `SAVME_ESTIMATOR_EVIDENCE`; `SAVME_ESTIMATOR_CONFIGURED`: the
+ * method's again) — the configuration's `"estimator"`, Python's `estimator=`.
+ */
+savme_status savme_builder_estimator(savme_builder *b, int32_t estimator);
+
+/**
  * Adds a fidelity setting taking the `n` integers at `values` (e.g. a rate in Hz), `hf`
  * being its θ_HF value. `SAVME_ERROR_CONFIG` names a bad variable (no values, repeated ones).
  */
@@ -629,6 +667,16 @@ savme_status savme_estimate(const savme_kernel *k,
                             int32_t estimator,
                             savme_assignment *out,
                             double *evidence);
+
+/**
+ * The evidence behind θ_LF* under `estimator` (a `savme_estimator`), as JSON into `*json`
+ * (free it with `savme_string_free`): per fidelity setting the chosen arm, how often the
+ * learning trials tried it (`tried`, `successes`, `tp`, `tn`, `fp`, `fn`, `cost`) and its
+ * `false_alarm_rate` and `miss_rate` on HF (null without an HF pass or failure) — the
+ * `settings` of `savme serve`'s `estimate`, Python's `Kernel.estimate_evidence()`; `null`
+ * when the kernel keeps no tallies (its configuration's estimator is not evidence).
+ */
+savme_status savme_estimate_evidence(const savme_kernel *k, int32_t estimator, char **json);
 
 /**
  * How many scenarios the kernel has into `*count`.

@@ -233,6 +233,16 @@ public:
     check(savme_builder_phi_bool(get(), scenario, name));
     return *this;
   }
+  /// The method the kernel starts from (default `SAVME_METHOD_TUNED`: θ_LF* by evidence).
+  builder &method(savme_method m) {
+    check(savme_builder_method(get(), m));
+    return *this;
+  }
+  /// θ_LF*'s choice alone (`SAVME_ESTIMATOR_MAP`: the paper's; `_CONFIGURED`: the method's).
+  builder &estimator(savme_estimator e) {
+    check(savme_builder_estimator(get(), e));
+    return *this;
+  }
   /// The configuration as JSON (for a journal, or `savme serve --config`).
   std::string config() const {
     char *json;
@@ -307,6 +317,15 @@ public:
     double evidence;
     check(savme_estimate(get(), e, out.get(), &evidence));
     return evidence;
+  }
+  /// Per fidelity setting, θ_LF*'s arm with its tries and false-alarm and miss rates (JSON;
+  /// `null` when the kernel keeps no tallies) — serve's `estimate` `settings`.
+  std::string estimate_evidence(savme_estimator e = SAVME_ESTIMATOR_CONFIGURED) const {
+    char *json;
+    check(savme_estimate_evidence(get(), e, &json));
+    std::string out(json);
+    savme_string_free(json);
+    return out;
   }
   std::string snapshot() const {
     char *data;

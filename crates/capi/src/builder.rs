@@ -1,14 +1,17 @@
 //! A kernel built variable by variable, for the common case (no JSON to write): fidelity
 //! settings with their θ_HF values, scenarios with their parameters φ, a seed and a budget.
-//! Everything else takes the configuration's defaults (the paper's method); for the rest, write
-//! the JSON configuration (`savme_builder_config` prints what a builder holds).
+//! The method's settings are savme's tuned ones (θ_LF* from evidence, the elite search, an
+//! adaptive deployment, scenarios by cost rate — `savme example-config`'s and Python's
+//! `Kernel`'s, one [`Preset`]) unless `savme_builder_method` picks the paper's;
+//! `savme_builder_estimator` overrides θ_LF*'s choice alone. For the rest, write the JSON
+//! configuration (`savme_builder_config` prints what a builder holds).
 
 use crate::kernel::{register_plain, savme_kernel};
 use crate::registry::{Kind, Registry};
 use crate::status::*;
 use crate::strings::give_string;
 use crate::values::{lock, lookup_failure};
-use ::savme_kernel::{Assignment, Kernel, Scale, Space, Value, Variable};
+use ::savme_kernel::{Assignment, Estimator, Kernel, Preset, Scale, Space, Value, Variable};
 use std::ffi::c_char;
 
 /// A kernel configuration being put together (`savme_builder_new`), turned into a kernel by
@@ -25,6 +28,22 @@ struct Builder {
     fidelity: Vec<Variable>,
     theta_hf: Assignment,
     scenarios: Vec<(String, Vec<Variable>, f64)>,
+    preset: Preset,
+    /// θ_LF*'s choice when not the preset's.
+    estimator: Option<Estimator>,
+}
+
+/// Which method's settings a builder's kernel starts from (`savme_builder_method`).
+#[allow(non_camel_case_types)]
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum savme_method {
+    /// savme's (the builder's default): θ_LF* from evidence, the elite search, a deployment that
+    /// keeps learning, scenarios by cost rate — `savme example-config`'s and Python's.
+    SAVME_METHOD_TUNED = 0,
+    /// The paper's SAVME: θ_LF* = MAP, independent bins, a frozen deployment, scenarios from
+    /// p(s) (`savme example-config --method paper`, Python's `method="paper"`).
+    SAVME_METHOD_PAPER = 1,
 }
 
 static BUILDERS: Registry<Builder> = Registry::new(Kind::Builder);
@@ -126,7 +145,11 @@ impl Builder {
         let fidelity = Space::new(self.fidelity.clone()).map_err(|e| invalid(e.to_string()))?;
         let mut builder = Kernel::builder(fidelity, self.theta_hf.clone())
             .seed(self.seed)
-            .budget(self.budget);
+            .budget(self.budget)
+            .preset(self.preset);
+        if let Some(estimator) = self.estimator {
+            builder = builder.estimator(estimator);
+        }
         for (name, space, weight) in &self.scenarios {
             let space = Space::new(space.clone())
                 .map_err(|e| invalid(format!("scenario `{name}`: {e}")))?;
@@ -152,6 +175,8 @@ pub unsafe extern "C" fn savme_builder_new(
             fidelity: Vec::new(),
             theta_hf: Assignment::new(),
             scenarios: Vec::new(),
+            preset: Preset::Tuned,
+            estimator: None,
         });
         *out = std::ptr::without_provenance_mut(handle);
         Ok(())
@@ -169,6 +194,44 @@ pub unsafe extern "C" fn savme_builder_free(b: *mut savme_builder) -> savme_stat
         BUILDERS
             .remove(b as usize)
             .map_err(|l| lookup_failure(l, "b", "savme_builder"))
+    })
+}
+
+/// Picks the method whose settings the kernel starts from: a `savme_method`
+/// (`SAVME_METHOD_TUNED`, the default, or `SAVME_METHOD_PAPER`). It sets θ_LF*'s choice too
+/// unless `savme_builder_estimator` set it.
+#[no_mangle]
+pub unsafe extern "C" fn savme_builder_method(b: *mut savme_builder, method: i32) -> savme_status {
+    with_builder("savme_builder_method", b, |s| {
+        s.preset = match method {
+            0 => Preset::Tuned,
+            1 => Preset::Paper,
+            _ => {
+                return Err(Failure::new(
+                    SAVME_ERROR_ARGUMENT,
+                    format!("`method` must be a savme_method (0 or 1), got {method}"),
+                ))
+            }
+        };
+        Ok(())
+    })
+}
+
+/// Picks how θ_LF* is read off the fidelity posterior: a `savme_estimator`
+/// (`SAVME_ESTIMATOR_MAP` for the paper's with the tuned method's other settings,
+/// `SAVME_ESTIMATOR_MEAN`, `SAVME_ESTIMATOR_EVIDENCE`; `SAVME_ESTIMATOR_CONFIGURED`: the
+/// method's again) — the configuration's `"estimator"`, Python's `estimator=`.
+#[no_mangle]
+pub unsafe extern "C" fn savme_builder_estimator(
+    b: *mut savme_builder,
+    estimator: i32,
+) -> savme_status {
+    with_builder("savme_builder_estimator", b, |s| {
+        s.estimator = match estimator {
+            0 => None,
+            e => Some(crate::kernel::estimator_of(e)?),
+        };
+        Ok(())
     })
 }
 

@@ -127,12 +127,30 @@ pub struct savme_stats {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum savme_estimator {
-    /// The configuration's (`"estimator"`, MAP unless set).
+    /// The configuration's (`"estimator"`; the builder's method's: evidence for the tuned
+    /// one, MAP for the paper's).
     SAVME_ESTIMATOR_CONFIGURED = 0,
     /// The paper's: the arm with the highest posterior mode.
     SAVME_ESTIMATOR_MAP = 1,
     /// The arm with the highest posterior mean.
     SAVME_ESTIMATOR_MEAN = 2,
+    /// savme's tuned one: the arm with the highest lower 10 % quantile of its Beta belief,
+    /// every false alarm charged as 1 / C_budget losses (needs a kernel configured with it to
+    /// have the false-alarm tallies; otherwise it counts none).
+    SAVME_ESTIMATOR_EVIDENCE = 3,
+}
+
+/// The estimator a `savme_estimator` other than `SAVME_ESTIMATOR_CONFIGURED` names.
+pub(crate) fn estimator_of(estimator: i32) -> Outcome<Estimator> {
+    match estimator {
+        1 => Ok(Estimator::Map),
+        2 => Ok(Estimator::Mean),
+        3 => Ok(Estimator::Evidence),
+        _ => Err(Failure::new(
+            SAVME_ERROR_ARGUMENT,
+            format!("`estimator` must be a savme_estimator (0 to 3), got {estimator}"),
+        )),
+    }
 }
 
 pub(crate) struct KernelState {
@@ -643,14 +661,7 @@ pub unsafe extern "C" fn savme_estimate(
         let kernel = s.session.kernel();
         let est = match estimator {
             0 => kernel.config().estimator,
-            1 => Estimator::Map,
-            2 => Estimator::Mean,
-            _ => {
-                return Err(Failure::new(
-                    SAVME_ERROR_ARGUMENT,
-                    format!("`estimator` must be a savme_estimator (0 to 2), got {estimator}"),
-                ))
-            }
+            e => estimator_of(e)?,
         };
         let held = assignment_of(out)?;
         *lock(&held) = Some(kernel.fidelity_estimate(est));
@@ -658,6 +669,33 @@ pub unsafe extern "C" fn savme_estimate(
         if let Some(e) = unsafe { evidence.as_mut() } {
             *e = savme_serve::evidence(kernel.fidelity_posterior());
         }
+        Ok(())
+    })
+}
+
+/// The evidence behind θ_LF* under `estimator` (a `savme_estimator`), as JSON into `*json`
+/// (free it with `savme_string_free`): per fidelity setting the chosen arm, how often the
+/// learning trials tried it (`tried`, `successes`, `tp`, `tn`, `fp`, `fn`, `cost`) and its
+/// `false_alarm_rate` and `miss_rate` on HF (null without an HF pass or failure) — the
+/// `settings` of `savme serve`'s `estimate`, Python's `Kernel.estimate_evidence()`; `null`
+/// when the kernel keeps no tallies (its configuration's estimator is not evidence).
+#[no_mangle]
+pub unsafe extern "C" fn savme_estimate_evidence(
+    k: *const savme_kernel,
+    estimator: i32,
+    json: *mut *mut c_char,
+) -> savme_status {
+    with_kernel("savme_estimate_evidence", k, |s| {
+        let kernel = s.session.kernel();
+        let est = match estimator {
+            0 => kernel.config().estimator,
+            e => estimator_of(e)?,
+        };
+        let json = required(json, "json")?;
+        let settings = savme_serve::chosen_settings(kernel, est);
+        let text = serde_json::to_string(&settings)
+            .map_err(|e| Failure::new(SAVME_ERROR_INTERNAL, e.to_string()))?;
+        *json = give_string(text);
         Ok(())
     })
 }

@@ -193,3 +193,149 @@ fn bad_variables_scenarios_and_settings_are_refused_naming_them() {
         assert_eq!(savme_builder_free(b), SAVME_OK);
     }
 }
+
+/// The kernel-level settings of `preset` as a configuration's JSON keys.
+fn preset_keys(preset: ::savme_kernel::Preset) -> serde_json::Value {
+    let fidelity =
+        ::savme_kernel::Space::new(vec![::savme_kernel::Variable::discrete("r", [1, 2])]).unwrap();
+    let phi = ::savme_kernel::Space::new(vec![::savme_kernel::Variable::boolean("x")]).unwrap();
+    let kernel =
+        ::savme_kernel::Kernel::builder(fidelity, ::savme_kernel::Assignment::new().with("r", 2))
+            .scenario("s", phi, 1.0)
+            .preset(preset)
+            .build()
+            .unwrap();
+    let config = serde_json::to_value(kernel.config()).unwrap();
+    keys(&config)
+}
+
+fn keys(config: &serde_json::Value) -> serde_json::Value {
+    let pick = |k: &str| config.get(k).cloned().unwrap_or(serde_json::Value::Null);
+    serde_json::json!({
+        "estimator": pick("estimator"),
+        "search": pick("search"),
+        "deployment": pick("deployment"),
+        "allocation": pick("allocation"),
+    })
+}
+
+#[test]
+fn a_built_kernel_takes_the_tuned_method_and_the_paper_or_map_is_one_call_away() {
+    unsafe {
+        let mut b = null_mut();
+        assert_eq!(savme_builder_new(7, 0.3, &mut b), SAVME_OK);
+        example(b);
+        let built = |b| {
+            let mut k = null_mut();
+            assert_eq!(savme_builder_build(b, &mut k), SAVME_OK, "{}", last());
+            let config = config_of(k);
+            assert_eq!(savme_kernel_free(k), SAVME_OK);
+            config
+        };
+        // The default: savme's tuned settings, θ_LF* by evidence (as `savme example-config`
+        // and Python's Kernel).
+        let tuned = built(b);
+        assert_eq!(tuned["estimator"], "evidence");
+        assert_eq!(keys(&tuned), preset_keys(::savme_kernel::Preset::Tuned));
+        // The paper's: MAP and the paper's search, deployment and allocation.
+        assert_eq!(savme_builder_method(b, 1), SAVME_OK);
+        let paper = built(b);
+        assert_eq!(paper["estimator"], "map");
+        assert_eq!(keys(&paper), preset_keys(::savme_kernel::Preset::Paper));
+        // MAP alone, with the tuned method's other settings.
+        assert_eq!(savme_builder_method(b, 0), SAVME_OK);
+        assert_eq!(savme_builder_estimator(b, 1), SAVME_OK);
+        let map = built(b);
+        assert_eq!(map["estimator"], "map");
+        assert_eq!(map["search"], tuned["search"]);
+        assert_eq!(map["allocation"], tuned["allocation"]);
+        // Back to the method's.
+        assert_eq!(savme_builder_estimator(b, 0), SAVME_OK);
+        assert_eq!(built(b)["estimator"], "evidence");
+        refused(
+            savme_builder_method(b, 2),
+            SAVME_ERROR_ARGUMENT,
+            "savme_builder_method: `method` must be a savme_method (0 or 1), got 2",
+        );
+        refused(
+            savme_builder_estimator(b, 4),
+            SAVME_ERROR_ARGUMENT,
+            "savme_builder_estimator: `estimator` must be a savme_estimator (0 to 3), got 4",
+        );
+        assert_eq!(savme_builder_free(b), SAVME_OK);
+    }
+}
+
+#[test]
+fn the_estimate_reports_each_chosen_settings_evidence_as_serve_does() {
+    unsafe {
+        let mut b = null_mut();
+        assert_eq!(savme_builder_new(3, 0.3, &mut b), SAVME_OK);
+        example(b);
+        let mut k = null_mut();
+        assert_eq!(savme_builder_build(b, &mut k), SAVME_OK, "{}", last());
+        assert_eq!(savme_builder_free(b), SAVME_OK);
+        let mut t = null_mut();
+        assert_eq!(savme_trial_new(&mut t), SAVME_OK);
+        // 40 learning trials: HF fails on every other one; LF always says pass (false alarms
+        // none, misses half).
+        for i in 0..40 {
+            assert_eq!(savme_ask(k, t), SAVME_OK, "{}", last());
+            let mut id = 0;
+            assert_eq!(savme_trial_id(t, &mut id), SAVME_OK);
+            let run = |failure, runtime| savme_run {
+                failure,
+                runtime,
+                has_robustness: false,
+                robustness: 0.0,
+            };
+            let status =
+                savme_tell_paired(k, id, run(i % 2 == 0, 1.0), run(false, 0.1), null_mut());
+            assert_eq!(status, SAVME_OK, "{}", last());
+        }
+        let mut json = null_mut();
+        assert_eq!(
+            savme_estimate_evidence(k, 0, &mut json),
+            SAVME_OK,
+            "{}",
+            last()
+        );
+        let ours: serde_json::Value =
+            serde_json::from_str(CStr::from_ptr(json).to_str().unwrap()).unwrap();
+        assert_eq!(savme_string_free(json), SAVME_OK);
+        let mut response = null_mut();
+        assert_eq!(
+            savme_request(k, c(r#"{"op":"estimate"}"#).as_ptr(), &mut response),
+            SAVME_OK
+        );
+        let served: serde_json::Value =
+            serde_json::from_str(CStr::from_ptr(response).to_str().unwrap()).unwrap();
+        assert_eq!(savme_string_free(response), SAVME_OK);
+        assert_eq!(served["estimator"], "evidence");
+        assert_eq!(ours, served["settings"]);
+        let settings = ours.as_array().unwrap();
+        assert_eq!(settings.len(), 4, "{ours}");
+        let tried: u64 = settings.iter().map(|s| s["tried"].as_u64().unwrap()).sum();
+        assert!(tried > 0, "{ours}");
+        for s in settings {
+            assert_eq!(s["fp"], 0, "{s}");
+            assert!(
+                s["miss_rate"].is_number() || s["miss_rate"].is_null(),
+                "{s}"
+            );
+        }
+        // Under MAP the same kernel names MAP's arms, still with their tallies.
+        assert_eq!(savme_estimate_evidence(k, 1, &mut json), SAVME_OK);
+        let map: serde_json::Value =
+            serde_json::from_str(CStr::from_ptr(json).to_str().unwrap()).unwrap();
+        assert_eq!(savme_string_free(json), SAVME_OK);
+        assert_eq!(map.as_array().unwrap().len(), 4);
+        refused(
+            savme_estimate_evidence(k, 4, &mut json),
+            SAVME_ERROR_ARGUMENT,
+            "`estimator` must be a savme_estimator (0 to 3), got 4",
+        );
+        assert_eq!(savme_trial_free(t), SAVME_OK);
+        assert_eq!(savme_kernel_free(k), SAVME_OK);
+    }
+}

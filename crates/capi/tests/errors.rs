@@ -162,6 +162,11 @@ fn null_pointers_are_refused_naming_the_argument_and_change_nothing() {
             &["`json` is NULL"],
         );
         refused(
+            savme_estimate_evidence(k, 0, null_mut()),
+            SAVME_ERROR_NULL,
+            &["savme_estimate_evidence", "`json` is NULL"],
+        );
+        refused(
             savme_request(k, null(), &mut null_mut()),
             SAVME_ERROR_NULL,
             &["`request` is NULL"],
@@ -367,9 +372,9 @@ fn refused_argument_values_are_named() {
         let mut a = null_mut();
         assert_eq!(savme_assignment_new(&mut a), SAVME_OK);
         refused(
-            savme_estimate(k, 3, a, null_mut()),
+            savme_estimate(k, 4, a, null_mut()),
             SAVME_ERROR_ARGUMENT,
-            &["`estimator` must be a savme_estimator (0 to 2), got 3"],
+            &["`estimator` must be a savme_estimator (0 to 3), got 4"],
         );
         refused(
             savme_assignment_count(a, &mut 0),

@@ -263,7 +263,10 @@ fn replay(output: &str, counts: [u64; 3], batch: u64) -> Vec<String> {
             }
         }
     }
-    let best = k.fidelity_estimate(Estimator::Map);
+    // The configuration's estimator (examples/config.json: evidence, the tuned default).
+    let estimator = k.config().estimator;
+    assert_eq!(estimator, Estimator::Evidence);
+    let best = k.fidelity_estimate(estimator);
     let evidence = savme_serve::evidence(k.fidelity_posterior());
     out.push(format!(
         "theta_lf* {} evidence={}",
@@ -271,6 +274,13 @@ fn replay(output: &str, counts: [u64; 3], batch: u64) -> Vec<String> {
         hex(evidence)
     ));
     assert_eq!(lines[next], out.last().unwrap());
+    let settings = savme_serve::chosen_settings(&k, estimator);
+    assert!(settings.is_some(), "an evidence kernel keeps tallies");
+    out.push(format!(
+        "settings {}",
+        serde_json::to_string(&settings).unwrap()
+    ));
+    assert_eq!(lines[next + 1], out.last().unwrap());
     // The estimation: the same trials from the same posteriors and configuration.
     let mut e = k.estimation(&EstimationConfig::new(0.2, 3)).unwrap();
     for line in lines
@@ -325,7 +335,7 @@ fn the_c_and_cpp_harnesses_run_clean_under_the_sanitizers_and_ask_what_the_rust_
     // The campaign found failures and learned: some HF failures, evidence behind θ_LF*.
     assert!(c.matches(" hf=1/").count() > 10, "{c}");
     let replayed = replay(&c, [60, 20, 20], 1);
-    assert_eq!(replayed.len(), 100 + 1 + 30);
+    assert_eq!(replayed.len(), 100 + 2 + 30);
 }
 
 #[test]

@@ -10,6 +10,56 @@ use crate::search::SearchModel;
 use crate::space::Space;
 use std::sync::Arc;
 
+/// The settings a kernel starts from before any other is given: savme's tuned method or the
+/// paper's SAVME. [`Kernel::builder`] starts from the paper's ([`Preset::Paper`]);
+/// [`KernelBuilder::preset`] switches. The one place the kernel-level part of each method is
+/// written: `savme example-config`, Python's `Kernel`, the C ABI's builder and a campaign's
+/// `Method` (θ_LF*'s choice) all read it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Preset {
+    /// savme's: θ_LF* from evidence ([`Estimator::Evidence`]), the elite search
+    /// ([`SearchModel::EliteMixture`]), a deployment that keeps learning
+    /// ([`Deployment::ADAPTIVE`]) and scenarios by cost rate ([`Allocation::CostRate`]).
+    Tuned,
+    /// The paper's SAVME: θ_LF* = MAP, independent bins, a frozen deployment, scenarios from
+    /// p(s).
+    Paper,
+}
+
+impl Preset {
+    /// How θ_LF* is read off the fidelity posterior.
+    pub fn estimator(self) -> Estimator {
+        match self {
+            Preset::Tuned => Estimator::Evidence,
+            Preset::Paper => Estimator::Map,
+        }
+    }
+
+    /// How the learning phases draw φ.
+    pub fn search(self) -> SearchModel {
+        match self {
+            Preset::Tuned => SearchModel::EliteMixture(Default::default()),
+            Preset::Paper => SearchModel::IndependentBins,
+        }
+    }
+
+    /// What the evaluate phase learns.
+    pub fn deployment(self) -> Deployment {
+        match self {
+            Preset::Tuned => Deployment::ADAPTIVE,
+            Preset::Paper => Deployment::FROZEN,
+        }
+    }
+
+    /// How each ask chooses its scenario.
+    pub fn allocation(self) -> Allocation {
+        match self {
+            Preset::Tuned => Allocation::CostRate(Default::default()),
+            Preset::Paper => Allocation::Weights,
+        }
+    }
+}
+
 /// Builds a [`Kernel`]; see [`Kernel::builder`].
 #[derive(Debug, Clone)]
 pub struct KernelBuilder {
@@ -37,6 +87,27 @@ impl KernelBuilder {
     pub fn seed(mut self, seed: u64) -> Self {
         self.config.seed = seed;
         self
+    }
+
+    /// Sets the estimator, search, deployment and allocation `preset` decides (the other
+    /// settings stay; a later call overrides one of them).
+    ///
+    /// ```
+    /// use savme_kernel::{Assignment, Estimator, Kernel, Preset, Scale, Space, Variable};
+    /// let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 10])])?;
+    /// let phi = Space::new(vec![Variable::continuous("gap", 0.0, 1.0, 10, Scale::Linear)])?;
+    /// let kernel = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+    ///     .scenario("s", phi, 1.0)
+    ///     .preset(Preset::Tuned)
+    ///     .build()?;
+    /// assert_eq!(kernel.config().estimator, Estimator::Evidence);
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn preset(self, preset: Preset) -> Self {
+        self.estimator(preset.estimator())
+            .search(preset.search())
+            .deployment(preset.deployment())
+            .allocation(preset.allocation())
     }
 
     /// Sets the base prior counts of every arm (default uniform, 1 and 1).

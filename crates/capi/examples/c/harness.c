@@ -216,7 +216,8 @@ static void report(savme_kernel *k) {
   double evidence;
   size_t n;
   CHECK(savme_assignment_new(&best));
-  CHECK(savme_estimate(k, SAVME_ESTIMATOR_MAP, best, &evidence));
+  /* The configuration's estimator (evidence in config.json, savme's tuned default). */
+  CHECK(savme_estimate(k, SAVME_ESTIMATOR_CONFIGURED, best, &evidence));
   CHECK(savme_assignment_count(best, &n));
   printf("theta_lf* [");
   for (size_t i = 0; i < n; i++) {
@@ -227,6 +228,11 @@ static void report(savme_kernel *k) {
   }
   printf("] evidence=%016" PRIx64 "\n", bits(evidence));
   CHECK(savme_assignment_free(best));
+  /* Each chosen setting's tries, false-alarm and miss rates (serve's estimate `settings`). */
+  char *settings;
+  CHECK(savme_estimate_evidence(k, SAVME_ESTIMATOR_CONFIGURED, &settings));
+  printf("settings %s\n", settings);
+  CHECK(savme_string_free(settings));
   CHECK(savme_posterior_count(k, NULL, &n));
   for (size_t var = 0; var < n; var++) {
     savme_str name;

@@ -108,13 +108,14 @@ void campaign(savme::kernel &k, const options &o) {
 
 void report(const savme::kernel &k) {
   savme::assignment best;
-  double evidence = k.estimate(best, SAVME_ESTIMATOR_MAP);
+  double evidence = k.estimate(best); // the configuration's estimator: evidence in config.json
   std::printf("theta_lf* [");
   for (size_t i = 0; i < best.size(); i++) {
     if (i) std::printf(",");
     print_value(best.at(i));
   }
   std::printf("] evidence=%016" PRIx64 "\n", bits(evidence));
+  std::printf("settings %s\n", k.estimate_evidence().c_str());
   for (size_t var = 0; var < k.posterior_size(nullptr); var++) {
     auto [name, arms] = k.posterior_variable(nullptr, var);
     std::printf("posterior %.*s", static_cast<int>(name.size()), name.data());
