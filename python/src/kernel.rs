@@ -139,22 +139,20 @@ fn search_model(arg: Option<&Bound<'_, PyAny>>) -> PyResult<SearchModel> {
                 "search: give \"bins\", \"elite\" or a dict {{parameter: number}} of the elite mixture, got {arg}"
             ))
         })?;
-    let json = serde_json::Value::Object(
-        params
-            .into_iter()
-            .map(|(k, v)| {
-                // Integer parameters (tries, archive, near_miss_until) take whole numbers.
-                let n = if v.fract() == 0.0 && (0.0..9e15).contains(&v) {
-                    serde_json::Value::from(v as u64)
-                } else {
-                    serde_json::Value::from(v)
-                };
-                (k, n)
-            })
-            .collect(),
-    );
-    let m: EliteMixture =
-        serde_json::from_value(json).map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
+    let given: serde_json::Map<String, serde_json::Value> = params
+        .into_iter()
+        .map(|(k, v)| {
+            // Integer parameters (tries, archive, near_miss_until) take whole numbers.
+            let n = if v.fract() == 0.0 && (0.0..9e15).contains(&v) {
+                serde_json::Value::from(v as u64)
+            } else {
+                serde_json::Value::from(v)
+            };
+            (k, n)
+        })
+        .collect();
+    // The defaults with the given parameters in their place (the switches left out stay on).
+    let m = EliteMixture::with(given).map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
     m.validate()
         .map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
     Ok(SearchModel::EliteMixture(m))
@@ -285,7 +283,7 @@ impl PyKernel {
     #[new]
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
-        pair_fraction = 1.0, pair_settle = 30, deployment = None, allocation = None,
+        pair_fraction = None, pair_settle = 30, deployment = None, allocation = None,
         method = "tuned", history = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -301,7 +299,7 @@ impl PyKernel {
         prior_strength: f64,
         journal: Option<PathBuf>,
         search: Option<&Bound<'_, PyAny>>,
-        pair_fraction: f64,
+        pair_fraction: Option<f64>,
         pair_settle: i128,
         deployment: Option<&str>,
         allocation: Option<&str>,
@@ -335,6 +333,11 @@ impl PyKernel {
             }
         };
         let seed: u64 = convert::whole("seed", seed)?;
+        let pair_fraction = pair_fraction.unwrap_or(if tuned {
+            savme::campaign::TUNED_PAIR_FRACTION
+        } else {
+            1.0
+        });
         let pairing = Pairing {
             fraction: pair_fraction,
             settle: convert::whole("pair_settle", pair_settle)?,

@@ -353,8 +353,7 @@ pub fn parse_elite(s: &str) -> Result<EliteMixture, String> {
         };
         map.insert(key.trim().to_string(), number);
     }
-    let m: EliteMixture =
-        serde_json::from_value(map.into()).map_err(|e| format!("elite parameters: {e}"))?;
+    let m = EliteMixture::with(map).map_err(|e| format!("elite parameters: {e}"))?;
     m.validate().map_err(|e| e.to_string())?;
     Ok(m)
 }
