@@ -269,8 +269,8 @@ protocol_values! {
         cli(value_enum);
     /// What the campaign searches with, before the values given here: tuned (savme's search
     /// by cost: search = elite, allocation = cost-rate, deployment = adaptive, screen_lf =
-    /// where-it-pays; the default of `savme run`, Python and `savme serve`'s example) or
-    /// paper (the paper's SAVME; the default of `savme reproduce`).
+    /// where-it-pays, pair_fraction = 0.25; the default of `savme run`, Python and `savme
+    /// serve`'s example) or paper (the paper's SAVME; the default of `savme reproduce`).
     method: Method, flag = "method", aliases = [], stages = "train, evaluate, screen, test-*",
         to = command, cli(value_enum);
     /// How each trial's scenario is chosen: weights (drawn from p(s): the same share of the
