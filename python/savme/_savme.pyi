@@ -238,7 +238,7 @@ class Kernel:
         prior_strength: float = 1.0,
         journal: Optional[Union[str, PathLike[str]]] = None,
         search: Union[Literal["bins", "elite"], Mapping[str, float], None] = None,
-        pair_fraction: Optional[float] = None,
+        pair_fraction: float = 1.0,
         pair_settle: int = 30,
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
         allocation: Optional[Literal["weights", "cost-rate"]] = None,
@@ -256,18 +256,18 @@ class Kernel:
         fidelity_prior, prior_strength: meta-testing — start p_ω(θ_LF) from an earlier
         kernel's `fidelity_posterior()`, its evidence scaled by the strength (1 = as learned);
         journal: a journal file, created or resumed (it must hold the same configuration);
-        method: what search, deployment, allocation and pair_fraction default to — "tuned"
-        (the default: savme's search by cost — search "elite" with the ρ model, deployment
-        "adaptive", allocation "cost-rate", pair_fraction 0.25) or "paper" (the paper's SAVME —
-        "bins", "frozen", "weights", 1); a value given below wins over the method's;
+        method: what search, deployment and allocation default to — "tuned" (the default:
+        savme's search by cost — search "elite" with the ρ model, deployment "adaptive",
+        allocation "cost-rate") or "paper" (the paper's SAVME — "bins", "frozen", "weights"); a
+        value given below wins over the method's;
         search: how train and test draw φ — "bins" (the paper's independent bins), "elite" (a
         joint proposal around failures, candidates ranked per expected cost and, where runs
         report a robustness, by a Gaussian process of it; paired with the same fidelity
         bandit), or a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at
         defaults, switches included);
         pair_fraction, pair_settle: once the greedy arm of every fidelity variable holds
-        pair_settle observations, only this share of the learning trials is paired (default:
-        0.25 with method "tuned", 1 with "paper"); the others
+        pair_settle observations, only this share of the learning trials is paired (default 1:
+        every trial, so a harness always gets theta_lf; a campaign's tuned method uses 0.25); the others
         have no theta_lf (`trial.paired` is False) and are told with the HF run alone;
         deployment: what the "evaluate" phase (evaluation, LF screening) does with what the
         search learned — "frozen" (the paper's), "exploit" (the elite proposal draws for

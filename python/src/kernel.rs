@@ -283,7 +283,7 @@ impl PyKernel {
     #[new]
     #[pyo3(signature = (*, fidelity, theta_hf, scenarios, budget = 0.3, seed = 0, estimator = "map",
         prior = None, fidelity_prior = None, prior_strength = 1.0, journal = None, search = None,
-        pair_fraction = None, pair_settle = 30, deployment = None, allocation = None,
+        pair_fraction = 1.0, pair_settle = 30, deployment = None, allocation = None,
         method = "tuned", history = None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -299,7 +299,7 @@ impl PyKernel {
         prior_strength: f64,
         journal: Option<PathBuf>,
         search: Option<&Bound<'_, PyAny>>,
-        pair_fraction: Option<f64>,
+        pair_fraction: f64,
         pair_settle: i128,
         deployment: Option<&str>,
         allocation: Option<&str>,
@@ -333,11 +333,6 @@ impl PyKernel {
             }
         };
         let seed: u64 = convert::whole("seed", seed)?;
-        let pair_fraction = pair_fraction.unwrap_or(if tuned {
-            savme::campaign::TUNED_PAIR_FRACTION
-        } else {
-            1.0
-        });
         let pairing = Pairing {
             fraction: pair_fraction,
             settle: convert::whole("pair_settle", pair_settle)?,

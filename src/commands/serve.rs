@@ -142,11 +142,7 @@ pub fn example_config(a: ExampleArgs) -> Result<(), String> {
         savme::campaign::Method::Tuned => builder
             .search(savme::kernel::SearchModel::EliteMixture(Default::default()))
             .deployment(savme::kernel::Deployment::ADAPTIVE)
-            .allocation(savme::kernel::Allocation::CostRate(Default::default()))
-            .pairing(savme::kernel::Pairing {
-                fraction: savme::campaign::TUNED_PAIR_FRACTION,
-                ..Default::default()
-            }),
+            .allocation(savme::kernel::Allocation::CostRate(Default::default())),
     };
     let kernel = builder.build().map_err(|e| e.to_string())?;
     let json = serde_json::to_string_pretty(kernel.config()).map_err(|e| e.to_string())?;
