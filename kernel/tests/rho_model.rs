@@ -157,3 +157,27 @@ fn replay_and_snapshots_give_the_same_asks() {
         assert_eq!(restored.ask(), t);
     }
 }
+
+/// The price of the ρ model per ask + tell with a full archive (4,096 trials told with a
+/// robustness, most of them failures near the band): run with `--release -- --ignored`.
+#[test]
+#[ignore = "a timing, printed"]
+fn print_ask_tell_time_with_a_full_archive() {
+    for m in [EliteMixture::default(), without_model()] {
+        let mut k = Kernel::new(config(m, 3)).unwrap();
+        let tell = |k: &mut Kernel| {
+            let t = k.ask();
+            let o = observe(&t, true);
+            k.tell(t.id, o).unwrap();
+        };
+        for _ in 0..5000 {
+            tell(&mut k);
+        }
+        let start = std::time::Instant::now();
+        for _ in 0..500 {
+            tell(&mut k);
+        }
+        let per = start.elapsed().as_secs_f64() / 500.0 * 1e6;
+        println!("rho_model {}: {per:.0} µs per ask + tell", m.rho_model);
+    }
+}
