@@ -19,7 +19,13 @@ fn config(deployment: Deployment, seed: u64) -> KernelConfig {
     .unwrap();
     Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
         .scenario("s", phi, 1.0)
-        .search(SearchModel::EliteMixture(EliteMixture::default()))
+        // Without the ρ model (issue 42), as when the figures below were measured: with it the
+        // frozen proposal also lands in the corner (seed 1: exploiting 1.43 against frozen
+        // 1.33 confirmed failures per unit cost), which is not what these tests measure.
+        .search(SearchModel::EliteMixture(EliteMixture {
+            rho_model: false,
+            ..EliteMixture::default()
+        }))
         .deployment(deployment)
         .seed(seed)
         .build()

@@ -272,15 +272,17 @@ class Kernel:
         must name a scenario of the kernel once and fit its φ-space (ValueError otherwise);
         journal: a journal file, created or resumed (it must hold the same configuration);
         method: what search, deployment, allocation and estimator default to — "tuned" (the
-        default: savme's search by cost — search "elite", deployment "adaptive", allocation
-        "cost-rate", estimator "evidence") or "paper" (the paper's SAVME — "bins", "frozen",
-        "weights", "map"); a value given wins over the method's;
+        default: savme's search by cost — search "elite" with the ρ model, deployment
+        "adaptive", allocation "cost-rate", estimator "evidence") or "paper" (the paper's SAVME —
+        "bins", "frozen", "weights", "map"); a value given below wins over the method's;
         search: how train and test draw φ — "bins" (the paper's independent bins), "elite" (a
-        joint proposal around failures, candidates ranked per expected cost, paired with the
-        same fidelity bandit), or a dict of elite-mixture parameters (e.g. {"explore": 0.1};
-        the rest at defaults);
+        joint proposal around failures, candidates ranked per expected cost and, where runs
+        report a robustness, by a Gaussian process of it; paired with the same fidelity
+        bandit), or a dict of elite-mixture parameters (e.g. {"explore": 0.1}; the rest at
+        defaults, switches included);
         pair_fraction, pair_settle: once the greedy arm of every fidelity variable holds
-        pair_settle observations, only this share of the learning trials is paired; the others
+        pair_settle observations, only this share of the learning trials is paired (default 1:
+        every trial, so a harness always gets theta_lf; a campaign's tuned method uses 0.25); the others
         have no theta_lf (`trial.paired` is False) and are told with the HF run alone;
         deployment: what the "evaluate" phase (evaluation, LF screening) does with what the
         search learned — "frozen" (the paper's), "exploit" (the elite proposal draws for

@@ -191,22 +191,20 @@ fn search_model(arg: Option<&Bound<'_, PyAny>>) -> PyResult<SearchModel> {
                 "search: give \"bins\", \"elite\" or a dict {{parameter: number}} of the elite mixture, got {arg}"
             ))
         })?;
-    let json = serde_json::Value::Object(
-        params
-            .into_iter()
-            .map(|(k, v)| {
-                // Integer parameters (tries, archive, near_miss_until) take whole numbers.
-                let n = if v.fract() == 0.0 && (0.0..9e15).contains(&v) {
-                    serde_json::Value::from(v as u64)
-                } else {
-                    serde_json::Value::from(v)
-                };
-                (k, n)
-            })
-            .collect(),
-    );
-    let m: EliteMixture =
-        serde_json::from_value(json).map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
+    let given: serde_json::Map<String, serde_json::Value> = params
+        .into_iter()
+        .map(|(k, v)| {
+            // Integer parameters (tries, archive, near_miss_until) take whole numbers.
+            let n = if v.fract() == 0.0 && (0.0..9e15).contains(&v) {
+                serde_json::Value::from(v as u64)
+            } else {
+                serde_json::Value::from(v)
+            };
+            (k, n)
+        })
+        .collect();
+    // The defaults with the given parameters in their place (the switches left out stay on).
+    let m = EliteMixture::with(given).map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
     m.validate()
         .map_err(|e| PyValueError::new_err(format!("search: {e}")))?;
     Ok(SearchModel::EliteMixture(m))

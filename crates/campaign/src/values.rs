@@ -154,7 +154,19 @@ macro_rules! protocol_values {
                         key: key.to_string(),
                         message: e.to_string(),
                     };
+                    // The generic arm of `elite` is shadowed by its own.
+                    #[allow(unreachable_patterns)]
                     match key {
+                        // The elite parameters a user names, over the defaults: the switches
+                        // left out stay on (`EliteMixture::with`).
+                        "elite" => {
+                            let given = serde_json::Map::<String, serde_json::Value>::deserialize(value)
+                                .map_err(bad)?;
+                            o.elite = Some(EliteMixture::with(given).map_err(|e| ValueError {
+                                key: key.to_string(),
+                                message: format!("elite parameters: {e}"),
+                            })?);
+                        }
                         $(stringify!($name) => {
                             o.$name = Some(<$ty>::deserialize(value).map_err(bad)?)
                         })+
@@ -269,8 +281,8 @@ protocol_values! {
         cli(value_enum);
     /// What the campaign searches with, before the values given here: tuned (savme's search
     /// by cost: search = elite, allocation = cost-rate, deployment = adaptive, screen_lf =
-    /// where-it-pays; the default of `savme run`, Python and `savme serve`'s example) or
-    /// paper (the paper's SAVME; the default of `savme reproduce`).
+    /// where-it-pays, pair_fraction = 0.25; the default of `savme run` and Python campaigns)
+    /// or paper (the paper's SAVME; the default of `savme reproduce`).
     method: Method, flag = "method", aliases = [], stages = "train, evaluate, screen, test-*",
         to = command, cli(value_enum);
     /// How each trial's scenario is chosen: weights (drawn from p(s): the same share of the
@@ -359,8 +371,7 @@ pub fn parse_elite(s: &str) -> Result<EliteMixture, String> {
         };
         map.insert(key.trim().to_string(), number);
     }
-    let m: EliteMixture =
-        serde_json::from_value(map.into()).map_err(|e| format!("elite parameters: {e}"))?;
+    let m = EliteMixture::with(map).map_err(|e| format!("elite parameters: {e}"))?;
     m.validate().map_err(|e| e.to_string())?;
     Ok(m)
 }
@@ -463,6 +474,28 @@ impl Overrides {
 mod tests {
     use super::*;
     use clap::CommandFactory;
+
+    /// Elite parameters named in a campaign file, in Python or with `--elite` keep the
+    /// defaults of the others, switches included (they read as off before).
+    #[test]
+    fn named_elite_parameters_keep_the_other_defaults() {
+        let want = EliteMixture {
+            explore: 0.1,
+            ..EliteMixture::default()
+        };
+        assert!(want.per_cost && want.rho_model);
+        let table: toml::Table = toml::from_str("elite = { explore = 0.1 }").unwrap();
+        let o = Overrides::from_entries(table).unwrap();
+        assert_eq!(o.elite, Some(want));
+        assert_eq!(parse_elite("explore=0.1"), Ok(want));
+        let off = parse_elite("explore=0.1,rho_model=false").unwrap();
+        assert!(!off.rho_model && off.per_cost);
+        let e = Overrides::from_entries(
+            toml::from_str::<toml::Table>("elite = { explor = 1 }").unwrap(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("explor"), "{e}");
+    }
 
     #[derive(Debug, clap::Parser)]
     struct Cli {
