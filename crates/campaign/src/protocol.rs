@@ -1163,6 +1163,29 @@ mod tests {
         assert!(back.prior_strengths.is_empty());
     }
 
+    /// `Method::apply` (in protocol terms) and the kernel's `Preset` (in kernel terms) are two
+    /// spellings of one method: a protocol set by a method builds the kernels its preset builds
+    /// (`savme example-config`, Python's `Kernel` and the C ABI take the preset).
+    #[test]
+    fn each_method_sets_what_its_kernel_preset_sets() {
+        for method in [Method::Tuned, Method::Paper] {
+            let p = Protocol::quick("t", vec!["s".into()], vec![]).with_method(method);
+            let preset = method.preset();
+            assert_eq!(
+                p.search.model(p.elite.clone()),
+                preset.search(),
+                "{method:?}"
+            );
+            assert_eq!(p.deployment.kernel(), preset.deployment(), "{method:?}");
+            assert_eq!(
+                p.allocation.kernel(p.coverage_floor),
+                preset.allocation(),
+                "{method:?}"
+            );
+            assert_eq!(p.theta_lf_choice.kernel(), preset.estimator(), "{method:?}");
+        }
+    }
+
     /// Issue 40 item 3: a stored protocol whose simulator label the matcher takes for the given
     /// one (an FMU campaign's label with its paths spelled otherwise) is the same campaign;
     /// any other difference still is not.
