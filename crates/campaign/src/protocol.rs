@@ -1171,11 +1171,7 @@ mod tests {
         for method in [Method::Tuned, Method::Paper] {
             let p = Protocol::quick("t", vec!["s".into()], vec![]).with_method(method);
             let preset = method.preset();
-            assert_eq!(
-                p.search.model(p.elite.clone()),
-                preset.search(),
-                "{method:?}"
-            );
+            assert_eq!(p.search.model(p.elite), preset.search(), "{method:?}");
             assert_eq!(p.deployment.kernel(), preset.deployment(), "{method:?}");
             assert_eq!(
                 p.allocation.kernel(p.coverage_floor),
