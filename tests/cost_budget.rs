@@ -3,10 +3,10 @@
 //! an uninterrupted one, progress speaks in the budget, and bad budgets are named.
 mod common;
 
-use common::{made_dir, run, temp_dir, trial_lines, without_wall, EXE};
+use common::{kill_once_written, made_dir, run, temp_dir, trial_lines, without_wall, EXE};
 use serde_json::Value;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Command;
 
 /// A tuned campaign on the bundled simulator with ideal perception (≈ 160 work units a
 /// trial): the search stages get 40,000 wu (≈ 250 trials), the deployed search 20,000.
@@ -118,23 +118,7 @@ fn kill_after(dir: &Path, stage: &str, n: usize) {
         let _ = std::fs::remove_dir_all(dir);
         cmd.args(args(dir)).arg("--quiet");
     }
-    let mut child = cmd
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let trials = dir.join("trials.jsonl");
-    let start = std::time::Instant::now();
-    while std::fs::read_to_string(&trials).map_or(0, |s| s.matches(stage).count()) < n {
-        assert!(start.elapsed().as_secs() < 120, "no progress");
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "finished before the kill"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(2));
-    }
-    child.kill().unwrap(); // SIGKILL
-    child.wait().unwrap();
+    kill_once_written(cmd, &dir.join("trials.jsonl"), stage, n);
 }
 
 #[test]

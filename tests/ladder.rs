@@ -5,7 +5,9 @@
 //! edited ladder line and bad ladders are refused, naming what is wrong.
 mod common;
 
-use common::{made_dir, resume, run, savme, temp_dir, trial_lines, without_wall, EXE};
+use common::{
+    kill_once_written, made_dir, resume, run, savme, temp_dir, trial_lines, without_wall, EXE,
+};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -164,24 +166,8 @@ fn kill_after(dir: &Path, extra: &[&str], stage: &str, n: usize) {
         let _ = std::fs::remove_dir_all(dir);
         cmd.args(args(dir)).args(extra);
     }
-    let mut child = cmd
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let trials = dir.join("trials.jsonl");
-    let start = std::time::Instant::now();
     let label = format!("\"stage\":\"{stage}\"");
-    while std::fs::read_to_string(&trials).map_or(0, |s| s.matches(&label).count()) < n {
-        assert!(start.elapsed().as_secs() < 120, "no progress");
-        assert!(
-            child.try_wait().unwrap().is_none(),
-            "finished before the kill"
-        );
-        std::thread::sleep(std::time::Duration::from_millis(2));
-    }
-    child.kill().unwrap(); // SIGKILL
-    child.wait().unwrap();
+    kill_once_written(cmd, &dir.join("trials.jsonl"), &label, n);
 }
 
 #[test]

@@ -160,3 +160,25 @@ pub fn send(child: &std::process::Child, signal: &str) {
         .unwrap();
     assert!(sent.success());
 }
+
+/// Spawns `cmd` (a campaign writing `trials`) and kills it with SIGKILL once `trials` holds
+/// `needle` `n` times; it must not finish first, and must make progress within 120 s.
+pub fn kill_once_written(mut cmd: std::process::Command, trials: &Path, needle: &str, n: usize) {
+    use std::process::Stdio;
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(trials).map_or(0, |s| s.matches(needle).count()) < n {
+        assert!(start.elapsed().as_secs() < 120, "no progress");
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "finished before the kill"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+}
