@@ -7,11 +7,14 @@ use pyo3::prelude::*;
 use pyo3::types::PyBool;
 use savme_kernel::TrialRecord;
 use std::collections::VecDeque;
+use std::sync::Arc;
 
 /// The records of the trials told, in tell order, at most `limit` of them (the latest).
+/// Each is shared with the `Record` that `tell` returned (an `Arc`, not a copy: a deep copy
+/// of a record cost ~0.5 µs per tell, a tenth of a Python ask + tell).
 #[derive(Debug, Default)]
 pub struct History {
-    records: VecDeque<TrialRecord>,
+    records: VecDeque<Arc<TrialRecord>>,
     /// None: every record is kept.
     limit: Option<usize>,
 }
@@ -20,7 +23,7 @@ impl History {
     /// A history of `records` (a resumed journal's, a pickled kernel's) keeping at most
     /// `limit` (the latest).
     pub fn new(records: Vec<TrialRecord>, limit: Option<usize>) -> Self {
-        let mut records = VecDeque::from(records);
+        let mut records: VecDeque<_> = records.into_iter().map(Arc::new).collect();
         if let Some(n) = limit {
             let excess = records.len().saturating_sub(n);
             records.drain(..excess);
@@ -29,22 +32,22 @@ impl History {
     }
 
     /// Keeps `record` (dropping the oldest when the history is full; nothing when it keeps
-    /// none — without cloning the record).
-    pub fn push(&mut self, record: &TrialRecord) {
+    /// none).
+    pub fn push(&mut self, record: &Arc<TrialRecord>) {
         match self.limit {
             Some(0) => {}
             Some(n) => {
                 if self.records.len() >= n {
                     self.records.pop_front();
                 }
-                self.records.push_back(record.clone());
+                self.records.push_back(Arc::clone(record));
             }
             None => self.records.push_back(record.clone()),
         }
     }
 
     /// The records kept, oldest first.
-    pub fn records(&self) -> impl Iterator<Item = &TrialRecord> {
+    pub fn records(&self) -> impl Iterator<Item = &Arc<TrialRecord>> {
         self.records.iter()
     }
 

@@ -23,7 +23,7 @@ use savme_kernel::{
     TrialRecord,
 };
 use std::path::{Path, PathBuf};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 /// The ask/tell kernel.
 #[pyclass(name = "Kernel", module = "savme", frozen)]
@@ -509,7 +509,7 @@ impl PyKernel {
         let snapshot = me.to_json()?;
         let (records, limit) = {
             let history = me.history()?;
-            let records: Vec<&TrialRecord> = history.records().collect();
+            let records: Vec<&TrialRecord> = history.records().map(|r| &**r).collect();
             (
                 serde_json::to_string(&records).map_err(errors::value)?,
                 history.limit(),
@@ -533,7 +533,7 @@ impl PyKernel {
                 Bound::new(
                     py,
                     PyRecord {
-                        record: record.clone(),
+                        record: Arc::clone(record),
                     },
                 )
             })
@@ -633,7 +633,7 @@ impl PyKernel {
             }
             None => Observation::HfOnly(hf),
         };
-        let record = self.with(|s| s.tell(id, observation).map_err(errors::session))?;
+        let record = Arc::new(self.with(|s| s.tell(id, observation).map_err(errors::session))?);
         self.history()?.push(&record);
         Ok(PyRecord { record })
     }

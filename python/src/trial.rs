@@ -6,6 +6,7 @@ use pyo3::exceptions::{PyKeyError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyString, PyType};
 use savme_kernel::{Assignment, Posterior, Run, Trial, TrialRecord};
+use std::sync::Arc;
 
 /// The value of variable `name` of `a` (`what`: "phi" or "theta_lf") as a `kind` (bool, int,
 /// float or str): an int is taken as a float, nothing else is converted.
@@ -186,7 +187,8 @@ impl PyTrial {
 /// A told trial: the trial, the runs, the outcome, the cost ratio and what was credited.
 #[pyclass(name = "Record", module = "savme", frozen)]
 pub struct PyRecord {
-    pub record: TrialRecord,
+    /// Shared with the kernel's history (`Kernel.trials()`), never changed.
+    pub record: Arc<TrialRecord>,
 }
 
 fn run_tuple(r: &Run) -> (bool, f64) {
@@ -257,7 +259,7 @@ impl PyRecord {
 
     /// The record as a dict (the JSON of `savme serve`'s records and of journal tell lines).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        convert::json_to_py(py, &self.record)
+        convert::json_to_py(py, &*self.record)
     }
 
     /// A record from its JSON (pickling's state).
@@ -265,12 +267,14 @@ impl PyRecord {
     fn _from_json(text: &str) -> PyResult<Self> {
         let record = serde_json::from_str(text)
             .map_err(|e| PyValueError::new_err(format!("Record: {e}")))?;
-        Ok(PyRecord { record })
+        Ok(PyRecord {
+            record: Arc::new(record),
+        })
     }
 
     /// Pickling (`multiprocessing`, `copy.deepcopy`): the record exactly, through its JSON.
     fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, (String,))> {
-        let text = serde_json::to_string(&slf.get().record).map_err(errors::value)?;
+        let text = serde_json::to_string(&*slf.get().record).map_err(errors::value)?;
         Ok((slf.get_type().getattr("_from_json")?, (text,)))
     }
 
