@@ -52,6 +52,7 @@ fn spec(fixed: Vec<Fixed>) -> RunSpec {
         step: StepSize::Fixed(0.05),
         failure: Failure::Boolean {
             variable: "collision".into(),
+            robustness: None,
         },
         stop_on_failure: false,
         cost: CostSource::Output("steps".into()),
