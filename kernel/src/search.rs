@@ -452,18 +452,19 @@ impl Archive {
         if self.points.iter().any(|p| p.failure) {
             return None;
         }
-        let robust: Vec<(f64, &[f64])> = self
+        let robust: Vec<(f64, usize)> = self
             .points
             .iter()
-            .filter_map(|p| p.robustness.map(|r| (r, &p.u[..])))
+            .enumerate()
+            .filter_map(|(i, p)| p.robustness.map(|r| (r, i)))
             .collect();
         if robust.len() < space.len() + 2 {
             return None;
         }
         // The lowest ρ first; the GP sees at most gp::GP_POINTS of them.
-        let robust: Vec<(&[f64], f64)> = gp::lowest(&robust)
+        let robust: Vec<(&[f64], f64)> = gp::lowest(robust)
             .into_iter()
-            .map(|(r, u)| (u, r))
+            .map(|(r, i)| (&self.points[i].u[..], r))
             .collect();
         let best = robust[0].0;
         let gp = Gp::fit(robust, 4.0 * m.bandwidth)?;
@@ -489,21 +490,21 @@ impl Archive {
     /// [`EliteMixture::rho_model`] once failures are known: the process fitted to the (at most
     /// [`gp::GP_POINTS`]) runs with a robustness nearest `centre`; None with fewer than `d + 2`.
     fn local_gp(&self, m: &EliteMixture, centre: &[f64], d: usize) -> Option<Gp<'_>> {
-        let near: Vec<(f64, (&[f64], f64))> = self
+        let near: Vec<(f64, usize)> = self
             .points
             .iter()
-            .filter_map(|p| {
-                let r = p.robustness?;
-                Some((squared_distance(&p.u, centre), (&p.u[..], r)))
-            })
+            .enumerate()
+            .filter(|(_, p)| p.robustness.is_some())
+            .map(|(i, p)| (squared_distance(&p.u, centre), i))
             .collect();
         if near.len() < d + 2 {
             return None;
         }
-        Gp::fit(
-            gp::lowest(&near).into_iter().map(|(_, p)| p).collect(),
-            4.0 * m.bandwidth,
-        )
+        let near = gp::lowest(near).into_iter().filter_map(|(_, i)| {
+            let p = &self.points[i];
+            Some((&p.u[..], p.robustness?))
+        });
+        Gp::fit(near.collect(), 4.0 * m.bandwidth)
     }
 
     /// The trials in flight as the archive expects them to end: each carrying the Parzen cost

@@ -27,13 +27,10 @@ fn sum_start() -> f64 {
     std::iter::empty::<f64>().sum()
 }
 
-/// The (at most [`GP_POINTS`]) entries of `items` with the smallest keys, in ascending key
-/// order, ties in their order in `items` — what a stable sort by key followed by truncation
-/// keeps, found in linear time (`key` must not be NaN-sensitive: it is compared with
-/// `total_cmp`).
-pub(super) fn lowest<T: Copy>(items: &[(f64, T)]) -> Vec<(f64, T)> {
-    // Compact entries (key, position) to select and sort: a quarter of the bytes to move.
-    let mut keyed: Vec<(f64, usize)> = items.iter().enumerate().map(|(i, e)| (e.0, i)).collect();
+/// The (at most [`GP_POINTS`]) entries `(key, position)` of `keyed` with the smallest keys, in
+/// ascending key order, ties by position — what a stable sort by key of the items in position
+/// order, then truncation, keeps — found in linear time. Keys are compared with `total_cmp`.
+pub(super) fn lowest(mut keyed: Vec<(f64, usize)>) -> Vec<(f64, usize)> {
     let order = |a: &(f64, usize), b: &(f64, usize)| -> Ordering {
         a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
     };
@@ -42,7 +39,7 @@ pub(super) fn lowest<T: Copy>(items: &[(f64, T)]) -> Vec<(f64, T)> {
         keyed.truncate(GP_POINTS);
     }
     keyed.sort_unstable_by(order);
-    keyed.into_iter().map(|(_, i)| items[i]).collect()
+    keyed
 }
 
 /// A Gaussian process regression of the robustness ρ (squared-exponential kernel of a fixed
@@ -266,7 +263,7 @@ mod tests {
             let mut sorted = items.clone();
             sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
             sorted.truncate(GP_POINTS);
-            assert_eq!(lowest(&items), sorted, "n = {n}");
+            assert_eq!(lowest(items), sorted, "n = {n}");
         }
     }
 }
