@@ -1,7 +1,7 @@
 //! The ρ model's price per ask + tell (`EliteMixture::rho_model`, issue 42): the thin band of
 //! `kernel/tests/rho_model.rs` (two φ variables, a robustness on every run, most told trials
 //! failures near the band), the archive full (5,000 told, 4,096 kept), with the ρ model and
-//! without it.
+//! without it; and 10 asks + tells after 300 told (the peer benchmark's lengths).
 //!
 //! `cargo bench -p savme-kernel --bench rho_model`
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -89,6 +89,26 @@ fn bench(c: &mut Criterion) {
     g.bench_function("full_archive", |b| b.iter(|| step(&mut with)));
     g.bench_function("same_archive_without", |b| b.iter(|| step(&mut same)));
     g.bench_function("full_archive_without", |b| b.iter(|| step(&mut without)));
+    // At the peer benchmark's lengths (200–300 search trials per family): 300 told. Each
+    // sample restarts from a clone of the warmed kernel, so the archive stays at that size.
+    let mut short = kernel(EliteMixture::default());
+    for _ in 0..300 {
+        step(&mut short);
+    }
+    let short_without = switched(&short, false);
+    for (name, warmed) in [("after_300", &short), ("after_300_without", &short_without)] {
+        g.bench_function(name, |b| {
+            b.iter_batched_ref(
+                || warmed.clone(),
+                |k| {
+                    for _ in 0..10 {
+                        step(k);
+                    }
+                },
+                criterion::BatchSize::SmallInput,
+            )
+        });
+    }
     g.finish();
 }
 
