@@ -799,7 +799,11 @@ fn a_boolean_failures_robustness_output_is_its_smallest_value() {
             assert_eq!(alone.robustness, None);
             let d = run(&mut distance, v).unwrap();
             let s = run(&mut speed, v).unwrap();
-            assert_eq!((d.failure, s.failure), (alone.failure, alone.failure), "v = {v}");
+            assert_eq!(
+                (d.failure, s.failure),
+                (alone.failure, alone.failure),
+                "v = {v}"
+            );
             assert_eq!((d.work, s.work), (alone.work, alone.work), "v = {v}");
             let rho = d.robustness.unwrap();
             assert_eq!(rho <= 0.0, d.failure, "v = {v}: ρ {rho}");
@@ -808,13 +812,19 @@ fn a_boolean_failures_robustness_output_is_its_smallest_value() {
             // Speed falls to 0 while braking (a pass stops: ρ = 0 with no failure), and a
             // collision keeps some speed (ρ > 0 with a failure): both kept as reported.
             let s_rho = s.robustness.unwrap();
-            assert!(s_rho >= 0.0 && (s_rho > 0.0) == s.failure, "v = {v}: {s_rho}");
+            assert!(
+                s_rho >= 0.0 && (s_rho > 0.0) == s.failure,
+                "v = {v}: {s_rho}"
+            );
             failures += usize::from(d.failure);
         }
         assert!((1..6).contains(&failures), "{failures} of 6 failed");
         // The same output twice in a row does not leak between runs (instances are reused).
         let again = run(&mut distance, 5.0).unwrap();
-        assert_eq!(again.robustness, run(&mut distance, 5.0).unwrap().robustness);
+        assert_eq!(
+            again.robustness,
+            run(&mut distance, 5.0).unwrap().robustness
+        );
     }
 }
 
@@ -831,7 +841,9 @@ fn print_braking_run_times() {
         s.step = StepSize::Fixed(h);
         s.stop_on_failure = stop_on_failure;
         let mut sim = simulator(&fmu, s).unwrap();
-        let speeds: Vec<f64> = (0..200).map(|i| 5.0 + 20.0 * f64::from(i) / 199.0).collect();
+        let speeds: Vec<f64> = (0..200)
+            .map(|i| 5.0 + 20.0 * f64::from(i) / 199.0)
+            .collect();
         for &v in &speeds {
             run(&mut sim, v).unwrap();
         }
