@@ -131,7 +131,8 @@ fn runs(trial: &serde_json::Value) -> Vec<(bool, Option<f64>)> {
 /// Issue 42: the braking example names `distance` as the robustness beside its Boolean
 /// `collision`. With the paper's search (which ignores ρ, so both campaigns ask the same
 /// trials) every run's verdict equals the Boolean-only file's, and every run now carries ρ =
-/// its smallest clearance (≤ 0 exactly on a collision); with the default (tuned) search, whose
+/// its smallest clearance (≤ 0 exactly on a collision), in process and through `savme
+/// fmu-worker` processes alike; with the default (tuned) search, whose
 /// ρ model learns from it, the campaign asks, judges and stores exactly what the threshold form
 /// of the same campaign (`benches/peers/braking-threshold.toml`: `distance` below 0) does.
 #[test]
@@ -160,6 +161,10 @@ fn the_braking_examples_robustness_keeps_its_verdicts_and_reaches_the_search() {
         }
     }
     assert!(failures > 20, "{failures} failing runs");
+    // Through `savme fmu-worker` processes (isolation) the runs carry the same ρ.
+    let isolated = example.replacen("[fmu]\n", "[fmu]\nisolate = true\n", 1);
+    assert_ne!(isolated, example);
+    assert_eq!(braking_trials(&dir, "isolated", &isolated, &paper), with);
     // The tuned search (the default) learns from ρ: the threshold form asks the same.
     let threshold = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/peers/braking-threshold.toml"),
