@@ -825,6 +825,7 @@ fn a_boolean_failures_robustness_output_is_its_smallest_value() {
             again.robustness,
             run(&mut distance, 5.0).unwrap().robustness
         );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
 
@@ -860,4 +861,5 @@ fn print_braking_run_times() {
             work as f64 / 2000.0
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
 }
