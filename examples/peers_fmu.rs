@@ -46,7 +46,7 @@ enum PeersError {
     Usage,
     #[error("{0}")]
     Campaign(String),
-    #[error("{file}: [failure] is a Boolean signal and gives no robustness: start peers_fmu with --rho-output OUTPUT (an output whose smallest value measures how close a run came, e.g. distance)")]
+    #[error("{file}: [failure] is a Boolean signal and gives no robustness: name one in the file (`robustness = \"OUTPUT\"` under [failure]) or start peers_fmu with --rho-output OUTPUT (an output whose smallest value measures how close a run came, e.g. distance)")]
     NoRobustness { file: String },
     #[error("--rho-output `{name}`: {message}")]
     RhoOutput { name: String, message: String },
@@ -112,8 +112,9 @@ fn open(config: &Path, rho_output: Option<&str>) -> Result<Bench, PeersError> {
     })
 }
 
-/// ρ's source: `--rho-output` (an output of the HF FMU), else the threshold's margin; a
-/// Boolean failure signal without `--rho-output` is refused.
+/// ρ's source: `--rho-output` (an output of the HF FMU), else the `[failure] robustness`
+/// output of a Boolean signal (the same as `--rho-output` naming it), else the threshold's
+/// margin; a Boolean failure signal without either is refused.
 fn rho_source(file: &FmuCampaignFile, rho_output: Option<&str>) -> Result<Rho, PeersError> {
     match (rho_output, &file.init.spec.failure) {
         (Some(name), _) => {
@@ -126,7 +127,19 @@ fn rho_source(file: &FmuCampaignFile, rho_output: Option<&str>) -> Result<Rho, P
             Ok(Rho::MinOf(name.to_string()))
         }
         (None, Failure::Threshold { .. }) => Ok(Rho::Margin),
-        (None, Failure::Boolean { .. }) => Err(PeersError::NoRobustness {
+        (
+            None,
+            Failure::Boolean {
+                robustness: Some(name),
+                ..
+            },
+        ) => Ok(Rho::MinOf(name.clone())),
+        (
+            None,
+            Failure::Boolean {
+                robustness: None, ..
+            },
+        ) => Err(PeersError::NoRobustness {
             file: file.common.path.display().to_string(),
         }),
     }

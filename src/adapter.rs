@@ -383,7 +383,7 @@ impl savme_viewer::Rerun for FmuRerun {
 /// The campaign file's failure signal as the viewer shows it.
 fn signal(failure: &savme_fmu::Failure) -> savme_viewer::Signal {
     match failure {
-        savme_fmu::Failure::Boolean { variable } => savme_viewer::Signal::Flag {
+        savme_fmu::Failure::Boolean { variable, .. } => savme_viewer::Signal::Flag {
             variable: variable.clone(),
         },
         savme_fmu::Failure::Threshold {

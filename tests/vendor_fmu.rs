@@ -75,6 +75,115 @@ fn step_size_campaign(fmi: u8) {
     assert!(steps.len() > 1, "the LF runs explore the step sizes");
 }
 
+/// `savme run` on `text` (a campaign file written next to the packed braking FMU in `dir` as
+/// `name.toml`), shortened to 60 + 60 + 20 + 3 × 30 trials: the trial lines of its store,
+/// without their wall times and checksums.
+fn braking_trials(dir: &Path, name: &str, text: &str, args: &[&str]) -> Vec<serde_json::Value> {
+    let shorter = text
+        .replace("train_iterations = 120", "train_iterations = 60")
+        .replace("eval_iterations = 40", "eval_iterations = 20")
+        .replace("test_iterations = 60", "test_iterations = 30");
+    assert_eq!(shorter.matches("iterations = ").count(), 5, "{name}");
+    let config = dir.join(format!("{name}.toml"));
+    std::fs::write(&config, shorter).unwrap();
+    let out = dir.join(name);
+    let config = config.to_str().unwrap();
+    let mut all = vec![
+        "run",
+        "--config",
+        config,
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
+    all.extend(args);
+    let (ok, _, err) = savme(&all);
+    assert!(ok, "{name}: {err}");
+    let trials = std::fs::read_to_string(out.join("trials.jsonl")).unwrap();
+    // Without what differs between two runs of one campaign: wall times, the line checksum.
+    let lines: Vec<serde_json::Value> = trials
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let mut v: serde_json::Value = serde_json::from_str(l).unwrap();
+            for run in ["hf", "lf"] {
+                if let Some(r) = v[run].as_object_mut() {
+                    r.remove("wall_seconds");
+                }
+            }
+            v.as_object_mut().unwrap().remove("c");
+            v
+        })
+        .collect();
+    assert_eq!(lines.len(), 60 + 60 + 20 + 3 * 30, "{name}");
+    lines
+}
+
+/// The HF and LF runs of a stored trial: (failure, robustness).
+fn runs(trial: &serde_json::Value) -> Vec<(bool, Option<f64>)> {
+    ["hf", "lf"]
+        .iter()
+        .filter_map(|k| trial.get(*k).filter(|r| !r.is_null()))
+        .map(|r| (r["failure"].as_bool().unwrap(), r["robustness"].as_f64()))
+        .collect()
+}
+
+/// Issue 42: the braking example names `distance` as the robustness beside its Boolean
+/// `collision`. With the paper's search (which ignores ρ, so both campaigns ask the same
+/// trials) every run's verdict equals the Boolean-only file's, and every run now carries ρ =
+/// its smallest clearance (≤ 0 exactly on a collision), in process and through `savme
+/// fmu-worker` processes alike; with the default (tuned) search, whose
+/// ρ model learns from it, the campaign asks, judges and stores exactly what the threshold form
+/// of the same campaign (`benches/peers/braking-threshold.toml`: `distance` below 0) does.
+#[test]
+fn the_braking_examples_robustness_keeps_its_verdicts_and_reaches_the_search() {
+    let dir = made_dir("robustness");
+    pack(&dir, &model_description());
+    let example = std::fs::read_to_string(example().join("campaign.toml")).unwrap();
+    let flag = "boolean = \"collision\"\n";
+    let rho = "robustness = \"distance\"\n";
+    assert!(example.contains(&format!("{flag}# ")) && example.contains(rho));
+    let boolean_only = example.replace(rho, "");
+    let paper = ["--method", "paper"];
+    let with = braking_trials(&dir, "with", &example, &paper);
+    let without = braking_trials(&dir, "without", &boolean_only, &paper);
+    let mut failures = 0;
+    for (a, b) in with.iter().zip(&without) {
+        assert_eq!((&a["phi"], &a["theta_lf"]), (&b["phi"], &b["theta_lf"]));
+        let (ra, rb) = (runs(a), runs(b));
+        assert_eq!(ra.len(), rb.len());
+        for ((fa, rho), (fb, none)) in ra.into_iter().zip(rb) {
+            assert_eq!(fa, fb, "{a}");
+            assert_eq!(none, None, "{b}");
+            let rho = rho.unwrap_or_else(|| panic!("no robustness: {a}"));
+            assert_eq!(rho <= 0.0, fa, "{a}");
+            failures += usize::from(fa);
+        }
+    }
+    assert!(failures > 20, "{failures} failing runs");
+    // Through `savme fmu-worker` processes (isolation) the runs carry the same ρ.
+    let isolated = example.replacen("[fmu]\n", "[fmu]\nisolate = true\n", 1);
+    assert_ne!(isolated, example);
+    assert_eq!(braking_trials(&dir, "isolated", &isolated, &paper), with);
+    // The tuned search (the default) learns from ρ: the threshold form asks the same.
+    let threshold = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/peers/braking-threshold.toml"),
+    )
+    .unwrap()
+    .replace("../../examples/fmu/braking/braking.fmu", "braking.fmu");
+    let tuned = braking_trials(&dir, "tuned", &example, &[]);
+    let margin = braking_trials(&dir, "margin", &threshold, &[]);
+    assert_eq!(tuned, margin);
+    // ... and ρ reaches it: without the robustness output it asks other trials.
+    let blind = braking_trials(&dir, "blind", &boolean_only, &[]);
+    let same_asks = tuned.iter().zip(&blind).all(|(a, b)| a["phi"] == b["phi"]);
+    assert!(
+        !same_asks,
+        "the tuned search asked the same trials without ρ"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Item 4 on the command line: `--fmu-log` prints every message of the FMU, also the
 /// informational ones it sends only with `loggingOn`.
 #[test]
@@ -352,6 +461,7 @@ fn fmpy_compare(python: &str, fmi: u8) {
             tolerance: None,
             failure: Failure::Boolean {
                 variable: "collision".into(),
+                robustness: None,
             },
             stop_on_failure: false,
             cost: CostSource::Output("steps".into()),

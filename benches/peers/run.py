@@ -4,7 +4,7 @@
     python3 benches/peers/run.py --quick              # a few minutes: 1 seed, 2 scenarios
     python3 benches/peers/run.py                      # scenarios 1–8, 3 seeds, paper length
     python3 benches/peers/run.py --scenarios test     # the meta-testing scenarios 9–10
-    python3 benches/peers/run.py --campaign examples/fmu/braking/campaign.toml --rho-output distance
+    python3 benches/peers/run.py --campaign examples/fmu/braking/campaign.toml
 
 Same simulator (the bundled driving simulator, camera + lidar; or the FMU a campaign file
 names, at its θ_HF), same φ-ranges (one VerifAI `Box` per φ variable), same budget in
@@ -93,7 +93,8 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--campaign", type=Path, default=None, metavar="FILE",
                     help="a campaign file with an FMU instead of the bundled simulator (savme run --config FILE)")
     ap.add_argument("--rho-output", default=None, metavar="OUTPUT",
-                    help="with --campaign and a Boolean [failure]: the output whose smallest value is ρ (e.g. distance)")
+                    help="with --campaign and a Boolean [failure]: the output whose smallest value is ρ "
+                         "(default: the file's [failure] robustness output, e.g. distance)")
     ap.add_argument("--seeds", type=int, default=None, help="number of seeds (default 3; quick 1)")
     ap.add_argument("--first-seed", type=int, default=1)
     ap.add_argument("--iterations", type=int, default=None, help="savme search iterations (default 500; quick 40)")

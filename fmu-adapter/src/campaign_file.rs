@@ -8,7 +8,8 @@
 //! Every error is a [`ConfigError`] naming the file and, where known, the line and the key
 //! (an error that names a key always names a line: of the part of a table it is about) — also
 //! for an FMU variable that does not fit, by remembering where each FMU variable name came from
-//! and checking the FMUs one use at a time (failure signal, cost, fidelity, each scenario). Two
+//! and checking the FMUs one use at a time (failure signal, its robustness, cost, fidelity, each
+//! scenario). Two
 //! bindings that would set one FMU variable in the same run (a scenario's φ and fixed
 //! parameters, the fidelity settings) are refused, naming both.
 //!
@@ -33,6 +34,9 @@
 //! boolean = "collision"          # or: threshold = "distance" with above = … / below = …
 //!                                #   (a threshold also gives each run a robustness: its
 //!                                #   smallest margin to the threshold, ≤ 0 = failed)
+//! robustness = "distance"        # optional, with `boolean`: a Real or Integer output whose
+//!                                #   smallest value is the run's robustness (≤ 0 on failure;
+//!                                #   the flag alone decides the verdict)
 //!
 //! # … and the campaign's sections: [campaign], [estimate], [fidelity], [[scenario]]
 //! # (see savme_campaign_file), every savme variable bound to the FMU variable of its name

@@ -50,6 +50,12 @@ pub enum Failure {
     Boolean {
         /// The output.
         variable: String,
+        /// A Real or Integer output reported as the run's robustness ρ (`≤ 0` = failed, as
+        /// the output reports it): its smallest value over the communication points read.
+        /// The flag alone decides the verdict; a run whose flag and ρ disagree keeps both as
+        /// reported.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        robustness: Option<String>,
     },
     /// A Real (or Integer) output crosses a threshold.
     Threshold {
@@ -370,11 +376,19 @@ impl FmuSimulator {
         Ok(())
     }
 
-    /// Whether the failure signal says failed now, and — for a threshold — its margin: how far
-    /// the output is from the threshold on the passing side (`≤ 0` = failed).
+    /// Whether the failure signal says failed now, and its robustness: for a threshold its
+    /// margin, how far the output is from the threshold on the passing side (`≤ 0` = failed);
+    /// for a Boolean the value of its `robustness` output, if it names one.
     fn failed(&self, inst: &mut Instance, plan: &Plan) -> Result<(bool, Option<f64>), FmuError> {
         Ok(match &self.spec.failure {
-            Failure::Boolean { .. } => (inst.boolean(plan.failure.vr)?, None),
+            Failure::Boolean { .. } => {
+                let failed = inst.boolean(plan.failure.vr)?;
+                let rho = match &plan.robustness {
+                    Some(v) => Some(inst.number(v)?),
+                    None => None,
+                };
+                (failed, rho)
+            }
             Failure::Threshold { when, value, .. } => {
                 let x = inst.number(&plan.failure)?;
                 match when {
@@ -578,7 +592,8 @@ struct Ran {
     /// The FMU asked to end the simulation.
     stopped: bool,
     /// The smallest margin of a threshold failure signal over the communication points
-    /// (`≤ 0` = failed); none for a Boolean signal.
+    /// (`≤ 0` = failed), or the smallest value of a Boolean signal's `robustness` output; none
+    /// for a Boolean signal without one.
     robustness: Option<f64>,
 }
 

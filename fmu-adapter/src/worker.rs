@@ -102,7 +102,8 @@ pub enum WorkerResponse {
         wall_seconds: f64,
         /// Work units.
         work: Option<u64>,
-        /// The run's robustness (a threshold failure signal's smallest margin).
+        /// The run's robustness (a threshold failure signal's smallest margin, or the smallest
+        /// value of a Boolean signal's `robustness` output).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         robustness: Option<f64>,
         /// The recorded outputs, when the request asked for some.

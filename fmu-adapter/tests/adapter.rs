@@ -54,6 +54,7 @@ fn spec(fixed_fault: i32, stop_on_failure: bool) -> RunSpec {
         step: StepSize::Fixed(0.01),
         failure: Failure::Boolean {
             variable: "failed".into(),
+            robustness: None,
         },
         stop_on_failure,
         cost: CostSource::Output("steps".into()),
@@ -329,6 +330,7 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
         &|s| {
             s.failure = Failure::Boolean {
                 variable: "enabled".into(),
+                robustness: None,
             }
         },
         "variable `enabled` cannot be used here: expected an output",
@@ -337,6 +339,7 @@ fn unknown_variables_wrong_types_and_causalities_are_named() {
         &|s| {
             s.failure = Failure::Boolean {
                 variable: "x".into(),
+                robustness: None,
             }
         },
         "variable `x` is Real, expected Boolean",

@@ -128,7 +128,9 @@ fn a_good_file_loads_into_its_parts() {
     let spec = &f.init.spec;
     assert_eq!(spec.step, StepSize::RateOf("rate".into()));
     assert_eq!(spec.cost, CostSource::Output("steps".into()));
-    assert!(matches!(&spec.failure, Failure::Boolean { variable } if variable == "failed"));
+    assert!(
+        matches!(&spec.failure, Failure::Boolean { variable, robustness: None } if variable == "failed")
+    );
     let grow = &spec.scenarios[0];
     assert_eq!(grow.phi[0].fmu_variable, "x0");
     let fixed: Vec<(&str, &Value)> = grow
@@ -211,6 +213,42 @@ fn fmu_bindings_are_named_with_their_line_and_key() {
         assert_eq!((e.line, e.key.as_deref()), (Some(line), Some(key)), "{e}");
         assert!(e.message.contains(message), "{message}: {e}");
     }
+}
+
+/// Issue 42: `[failure] robustness` names an output of the FMUs, Real or Integer, checked like
+/// every other binding and named at its line and key; a good one reaches the run
+/// specification.
+#[test]
+fn a_robustness_output_is_checked_at_its_line_and_key() {
+    let flag = "boolean = \"failed\"";
+    for (to, message) in [
+        ("robustness = \"y\"", "no variable `y`"),
+        (
+            "robustness = \"failed\"",
+            "variable `failed` is Boolean, expected Real or Integer",
+        ),
+        (
+            "robustness = \"x0\"",
+            "variable `x0` cannot be used here: expected an output",
+        ),
+    ] {
+        let e = error("robustness", flag, &format!("{flag}\n{to}"));
+        let at = (e.line, e.key.as_deref());
+        assert_eq!(at, (Some(13), Some("failure.robustness")), "{e}");
+        assert!(e.message.contains(message), "{message}: {e}");
+    }
+    let path = campaign(
+        "robustness-good",
+        &GOOD.replacen(flag, &format!("{flag}\nrobustness = \"x\""), 1),
+    );
+    let f = FmuCampaignFile::load(&path, &no_paper).unwrap();
+    let failure = &f.init.spec.failure;
+    let expected = Failure::Boolean {
+        variable: "failed".into(),
+        robustness: Some("x".into()),
+    };
+    assert_eq!(failure, &expected);
+    f.init.simulator().unwrap();
 }
 
 /// An FMU variable used twice is blamed on the binding the error is about: the FMU check looks

@@ -50,6 +50,7 @@ impl Case {
             tolerance: None,
             failure: Failure::Boolean {
                 variable: "failed".into(),
+                robustness: None,
             },
             stop_on_failure: self.stop_on_failure,
             cost,

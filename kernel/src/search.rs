@@ -20,6 +20,9 @@ use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, VecDeque};
 
+mod gp;
+use gp::{squared_distance, Gp};
+
 /// Joint cell → (trials, failure mass): looked up, never iterated, so its order is irrelevant.
 type Cells<'p> = HashMap<&'p [u16], (u32, f64), foldhash::fast::FixedState>;
 
@@ -449,17 +452,20 @@ impl Archive {
         if self.points.iter().any(|p| p.failure) {
             return None;
         }
-        let mut robust: Vec<(&[f64], f64)> = self
+        let robust: Vec<(f64, usize)> = self
             .points
             .iter()
-            .filter_map(|p| p.robustness.map(|r| (&p.u[..], r)))
+            .enumerate()
+            .filter_map(|(i, p)| p.robustness.map(|r| (r, i)))
             .collect();
         if robust.len() < space.len() + 2 {
             return None;
         }
-        // The lowest ρ first; the GP sees at most GP_POINTS of them.
-        robust.sort_by(|a, b| a.1.total_cmp(&b.1));
-        robust.truncate(GP_POINTS);
+        // The lowest ρ first; the GP sees at most gp::GP_POINTS of them.
+        let robust: Vec<(&[f64], f64)> = gp::lowest(robust)
+            .into_iter()
+            .map(|(r, i)| (&self.points[i].u[..], r))
+            .collect();
         let best = robust[0].0;
         let gp = Gp::fit(robust, 4.0 * m.bandwidth)?;
         let sd = 4.0 * m.bandwidth;
@@ -482,25 +488,23 @@ impl Archive {
     }
 
     /// [`EliteMixture::rho_model`] once failures are known: the process fitted to the (at most
-    /// [`GP_POINTS`]) runs with a robustness nearest `centre`; None with fewer than `d + 2`.
+    /// [`gp::GP_POINTS`]) runs with a robustness nearest `centre`; None with fewer than `d + 2`.
     fn local_gp(&self, m: &EliteMixture, centre: &[f64], d: usize) -> Option<Gp<'_>> {
-        let mut near: Vec<(f64, &[f64], f64)> = self
+        let near: Vec<(f64, usize)> = self
             .points
             .iter()
-            .filter_map(|p| {
-                let r = p.robustness?;
-                Some((squared_distance(&p.u, centre), &p.u[..], r))
-            })
+            .enumerate()
+            .filter(|(_, p)| p.robustness.is_some())
+            .map(|(i, p)| (squared_distance(&p.u, centre), i))
             .collect();
         if near.len() < d + 2 {
             return None;
         }
-        near.sort_by(|a, b| a.0.total_cmp(&b.0));
-        near.truncate(GP_POINTS);
-        Gp::fit(
-            near.into_iter().map(|(_, u, r)| (u, r)).collect(),
-            4.0 * m.bandwidth,
-        )
+        let near = gp::lowest(near).into_iter().filter_map(|(_, i)| {
+            let p = &self.points[i];
+            Some((&p.u[..], p.robustness?))
+        });
+        Gp::fit(near.collect(), 4.0 * m.bandwidth)
     }
 
     /// The trials in flight as the archive expects them to end: each carrying the Parzen cost
@@ -709,110 +713,6 @@ pub(crate) struct Draw<'a> {
     pub(crate) space: &'a Space,
     /// The scenario's trials in flight (with crowding or fantasies; else empty).
     pub(crate) in_flight: &'a [InFlight],
-}
-
-/// Most runs [`EliteMixture::rho_model`]'s Gaussian process is fitted to.
-const GP_POINTS: usize = 64;
-
-/// A Gaussian process regression of the robustness ρ (squared-exponential kernel of a fixed
-/// length scale in the unit cube, ρ standardised, a small nugget), as Bayesian optimisation
-/// fits it: its probability that ρ < 0 at a point leads [`EliteMixture::rho_model`].
-struct Gp<'p> {
-    points: Vec<(&'p [f64], f64)>,
-    /// Cholesky factor of the kernel matrix (lower, row-major).
-    chol: Vec<f64>,
-    /// K⁻¹ z, z the standardised ρ.
-    alpha: Vec<f64>,
-    /// −½ / ℓ².
-    inv: f64,
-    /// ρ = 0 in standardised units.
-    zero: f64,
-}
-
-/// The GP's nugget (noise variance in standardised units).
-const NUGGET: f64 = 1e-4;
-
-impl<'p> Gp<'p> {
-    /// Fits `(u, ρ)`; None if the kernel matrix is not positive definite or the weights are
-    /// not finite.
-    fn fit(points: Vec<(&'p [f64], f64)>, length: f64) -> Option<Self> {
-        let n = points.len() as f64;
-        let mean = points.iter().map(|p| p.1).sum::<f64>() / n;
-        let var = points.iter().map(|p| (p.1 - mean).powi(2)).sum::<f64>() / n;
-        let scale = if var > 0.0 { var.sqrt() } else { 1.0 };
-        let inv = -0.5 / (length * length);
-        let k = points.len();
-        let mut chol = vec![0.0; k * k];
-        for i in 0..k {
-            for j in 0..=i {
-                let mut s = (squared_distance(points[i].0, points[j].0) * inv).exp();
-                if i == j {
-                    s += NUGGET;
-                }
-                s -= (0..j)
-                    .map(|l| chol[i * k + l] * chol[j * k + l])
-                    .sum::<f64>();
-                chol[i * k + j] = if i == j {
-                    if s <= 0.0 || !s.is_finite() {
-                        return None;
-                    }
-                    s.sqrt()
-                } else {
-                    s / chol[j * k + j]
-                };
-            }
-        }
-        let z: Vec<f64> = points.iter().map(|p| (p.1 - mean) / scale).collect();
-        let y = forward(&chol, k, &z);
-        let alpha = backward(&chol, k, &y);
-        let zero = -mean / scale;
-        alpha.iter().all(|a| a.is_finite()).then_some(Gp {
-            points,
-            chol,
-            alpha,
-            inv,
-            zero,
-        })
-    }
-
-    /// P(ρ < 0) at `u` under the posterior.
-    fn failure_probability(&self, u: &[f64]) -> f64 {
-        let k = self.points.len();
-        let ks: Vec<f64> = self
-            .points
-            .iter()
-            .map(|p| (squared_distance(p.0, u) * self.inv).exp())
-            .collect();
-        let mu: f64 = ks.iter().zip(&self.alpha).map(|(a, b)| a * b).sum();
-        let v = forward(&self.chol, k, &ks);
-        let var = (1.0 + NUGGET - v.iter().map(|x| x * x).sum::<f64>()).max(1e-12);
-        let t = (self.zero - mu) / var.sqrt();
-        0.5 * statrs::function::erf::erfc(-t / std::f64::consts::SQRT_2)
-    }
-}
-
-/// Solves L y = b (L lower triangular, k × k, row-major).
-fn forward(l: &[f64], k: usize, b: &[f64]) -> Vec<f64> {
-    let mut y = vec![0.0; k];
-    for i in 0..k {
-        let s: f64 = (0..i).map(|j| l[i * k + j] * y[j]).sum();
-        y[i] = (b[i] - s) / l[i * k + i];
-    }
-    y
-}
-
-/// Solves Lᵀ x = y.
-fn backward(l: &[f64], k: usize, y: &[f64]) -> Vec<f64> {
-    let mut x = vec![0.0; k];
-    for i in (0..k).rev() {
-        let s: f64 = (i + 1..k).map(|j| l[j * k + i] * x[j]).sum();
-        x[i] = (y[i] - s) / l[i * k + i];
-    }
-    x
-}
-
-fn squared_distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }
 
 /// Σ K(u, v) over the trials in flight `v` (Gaussian kernels of `bandwidth`).

@@ -733,7 +733,8 @@ class Simulator:
         theta: Optional[Mapping[str, _Value]] = None,
         role: Literal["hf", "lf"] = "hf",
     ) -> Dict[str, Any]:
-        """One run on the HF (or LF) FMU: {"failure", "wall_seconds", "work"}."""
+        """One run on the HF (or LF) FMU: {"failure", "wall_seconds", "work"}, and "robustness"
+        when the file's [failure] gives one (a threshold's margin, a `robustness` output)."""
     @property
     def scenarios(self) -> List[str]:
         """The scenarios' names."""

@@ -52,6 +52,11 @@ fn result_dict<'py>(py: Python<'py>, r: &SimResult) -> PyResult<Bound<'py, PyDic
     d.set_item("failure", r.failure)?;
     d.set_item("wall_seconds", r.wall_seconds)?;
     d.set_item("work", r.work)?;
+    // The run's robustness where the simulator reports one (an FMU campaign file's threshold
+    // margin or `[failure] robustness` output).
+    if let Some(rho) = r.robustness {
+        d.set_item("robustness", rho)?;
+    }
     Ok(d)
 }
 
@@ -222,8 +227,9 @@ impl PyFmuSimulator {
     }
 
     /// Runs scenario `scenario` with `phi` under `theta` (default θ_HF) on the HF FMU, or the
-    /// LF one with `role="lf"`; returns {"failure", "wall_seconds", "work"}. The GIL is released
-    /// while it runs.
+    /// LF one with `role="lf"`; returns {"failure", "wall_seconds", "work"}, and "robustness"
+    /// when the file's `[failure]` gives one (a threshold's margin, a `robustness` output).
+    /// The GIL is released while it runs.
     #[pyo3(signature = (scenario, phi, theta = None, role = "hf"))]
     fn simulate<'py>(
         &self,

@@ -322,6 +322,20 @@ def test_fmu_campaign_files_load_and_simulate(savme_bin, tmp_path):
     with pytest.raises(KeyError, match="unknown scenario `nope`"):
         sim.simulate("nope", {})
     assert scenario in sim.scenarios
+    # [failure] robustness (issue 42): the output's smallest value is each run's robustness,
+    # the flag still the verdict; a robustness that is not a number output is named at load.
+    assert "robustness" not in hf
+    flag = 'boolean = "collision"'
+    rho = tmp_path / "rho.toml"
+    rho.write_text(text.replace(flag, flag + '\nrobustness = "min_distance"', 1))
+    run = savme.fmu.Simulator(rho).simulate(scenario, phi)
+    assert run["failure"] == hf["failure"] and isinstance(run["robustness"], float), run
+    assert savme.campaign.load(rho, out=tmp_path / "rho-out").protocol.to_dict()["simulator"].startswith("fmu:")
+    wrong = tmp_path / "wrong.toml"
+    wrong.write_text(text.replace(flag, flag + '\nrobustness = "collision"', 1))
+    for load in (savme.fmu.Simulator, savme.campaign.load):
+        with pytest.raises(ValueError, match=r"wrong.toml, line \d+, key `failure.robustness`: .*Boolean"):
+            load(wrong)
 
 
 def test_a_simulators_exception_is_chained_with_its_file_and_line(tmp_path):

@@ -77,6 +77,7 @@ pub fn simulator(fmi: u8) -> FmuSimulator {
         step: StepSize::Fixed(0.01),
         failure: Failure::Boolean {
             variable: "failed".into(),
+            robustness: None,
         },
         stop_on_failure: false,
         cost: CostSource::Output("steps".into()),

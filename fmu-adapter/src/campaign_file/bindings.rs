@@ -5,7 +5,7 @@
 use super::raw::FmuSection;
 use super::{ConfigError, Source};
 use crate::worker::WorkerInit;
-use crate::{CostSource, FmuDescription, FmuError, FmuSimulator, RunSpec};
+use crate::{CostSource, Failure, FmuDescription, FmuError, FmuSimulator, RunSpec};
 use toml::Spanned;
 
 /// What a campaign file does with an FMU variable: reads it as the failure signal or the cost,
@@ -14,6 +14,8 @@ use toml::Spanned;
 pub(super) enum Use {
     /// `[failure]`: read.
     Failure,
+    /// `[failure] robustness`: read.
+    Robustness,
     /// `[fmu] cost`: read.
     Cost,
     /// The fidelity settings: set in every run.
@@ -50,7 +52,8 @@ struct Origin {
 pub(super) struct Origins(std::collections::HashMap<String, Vec<Origin>>);
 
 impl Origins {
-    /// Remembers an output the runs read (`used` is [`Use::Failure`] or [`Use::Cost`]).
+    /// Remembers an output the runs read (`used` is [`Use::Failure`], [`Use::Robustness`] or
+    /// [`Use::Cost`]).
     pub(super) fn read(&mut self, fmu_variable: &str, line: usize, key: &str, used: Use) {
         self.0
             .entry(fmu_variable.to_string())
@@ -107,7 +110,7 @@ impl Origins {
 
 /// Reads both FMUs' descriptions (nothing loaded: with isolation the libraries are loaded in
 /// the workers only) and checks every binding and signal against them (types, causalities,
-/// declared bounds and items), one use at a time — the failure signal, the cost, the fidelity
+/// declared bounds and items), one use at a time — the failure signal, its robustness, the cost, the fidelity
 /// settings, each scenario, then the whole run specification — so that an error about an FMU
 /// variable is put on the binding of the use that failed: `cost = "collision"` is blamed, not
 /// `failure.boolean = "collision"`. Returns the descriptions (HF, LF).
@@ -188,15 +191,25 @@ pub(super) fn load_fmus(
 /// The run specifications the FMU check builds in turn, each adding one use to the last (and
 /// the whole specification, with no use of its own, at the end).
 fn stages(spec: &RunSpec) -> Vec<(Option<Use>, RunSpec)> {
-    let failure = RunSpec {
+    let robustness = RunSpec {
         cost: CostSource::Wall,
         fidelity: Vec::new(),
         scenarios: Vec::new(),
         ..spec.clone()
     };
+    let failure = RunSpec {
+        failure: match &spec.failure {
+            Failure::Boolean { variable, .. } => Failure::Boolean {
+                variable: variable.clone(),
+                robustness: None,
+            },
+            other => other.clone(),
+        },
+        ..robustness.clone()
+    };
     let cost = RunSpec {
         cost: spec.cost.clone(),
-        ..failure.clone()
+        ..robustness.clone()
     };
     let fidelity = RunSpec {
         fidelity: spec.fidelity.clone(),
@@ -204,6 +217,7 @@ fn stages(spec: &RunSpec) -> Vec<(Option<Use>, RunSpec)> {
     };
     let mut stages = vec![
         (Some(Use::Failure), failure),
+        (Some(Use::Robustness), robustness),
         (Some(Use::Cost), cost),
         (Some(Use::Fidelity), fidelity.clone()),
     ];

@@ -1,9 +1,10 @@
-//! What a failure is, from `[failure]`: a Boolean output, or a threshold on a real one with one
-//! side (`above` or `below`).
+//! What a failure is, from `[failure]`: a Boolean output (with, optionally, an output read as
+//! the run's robustness), or a threshold on a real one with one side (`above` or `below`).
 
 use super::*;
 
-/// `[failure]`: a Boolean output, or an output against a threshold.
+/// `[failure]`: a Boolean output (and its `robustness` output, if named), or an output against
+/// a threshold.
 pub(super) fn failure(
     src: &Source,
     section: &Spanned<raw::FailureSection>,
@@ -18,11 +19,19 @@ pub(super) fn failure(
                 "failure.boolean",
                 Use::Failure,
             );
+            let robustness = f.robustness.as_ref().map(|r| {
+                let line = src.line(r.span());
+                origins.read(r.get_ref(), line, "failure.robustness", Use::Robustness);
+                r.get_ref().clone()
+            });
             Ok(Failure::Boolean {
                 variable: b.get_ref().clone(),
+                robustness,
             })
         }
-        (None, Some(t), Some(value), None) | (None, Some(t), None, Some(value)) => {
+        (None, Some(t), Some(value), None) | (None, Some(t), None, Some(value))
+            if f.robustness.is_none() =>
+        {
             if !value.get_ref().is_finite() {
                 let side = if f.above.is_some() { "above" } else { "below" };
                 return Err(src.err(
@@ -57,13 +66,19 @@ pub(super) fn failure_error(src: &Source, section: &Spanned<raw::FailureSection>
     let f = section.get_ref();
     let above = f.above.as_ref().map(|a| ("failure.above", a.span()));
     let below = f.below.as_ref().map(|b| ("failure.below", b.span()));
+    let robustness = f
+        .robustness
+        .as_ref()
+        .map(|r| ("failure.robustness", r.span()));
     let culprit = match (&f.boolean, &f.threshold) {
         (Some(_), Some(t)) => Some(("failure.threshold", t.span())),
         (Some(_), None) => above.or(below),
+        // A threshold's robustness is its margin; `robustness` goes with `boolean` only.
+        (None, Some(_)) if robustness.is_some() => robustness,
         (None, Some(t)) => below
             .filter(|_| above.is_some())
             .or(Some(("failure.threshold", t.span()))),
-        (None, None) => None,
+        (None, None) => robustness,
     };
     let (key, span) = culprit.unwrap_or(("failure", section.span()));
     src.err(Some(src.line(span)), Some(key), FAILURE_FORMS)
@@ -71,4 +86,6 @@ pub(super) fn failure_error(src: &Source, section: &Spanned<raw::FailureSection>
 
 /// What a `[failure]` section must be.
 const FAILURE_FORMS: &str =
-    "give `boolean = \"output\"`, or `threshold = \"output\"` with one of `above` / `below`";
+    "give `boolean = \"output\"` (and, if you like, `robustness = \"output\"`, \
+     a Real or Integer output <= 0 on failure), or `threshold = \"output\"` with one of \
+     `above` / `below` (its margin is the robustness)";

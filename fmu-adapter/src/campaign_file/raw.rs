@@ -52,6 +52,8 @@ pub enum StepSection {
 #[serde(deny_unknown_fields)]
 pub struct FailureSection {
     pub boolean: Option<Spanned<String>>,
+    /// With `boolean`: a Real or Integer output read as the run's robustness.
+    pub robustness: Option<Spanned<String>>,
     pub threshold: Option<Spanned<String>>,
     pub above: Option<Spanned<f64>>,
     pub below: Option<Spanned<f64>>,

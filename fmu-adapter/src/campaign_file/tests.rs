@@ -312,6 +312,14 @@ fn a_bad_failure_section_names_the_key_that_does_not_fit() {
                 SIDES,
             ),
             (&[(b, "")], 7, "failure", SIDES),
+            // A robustness output goes with a Boolean only (a threshold's is its margin).
+            (
+                &[(b, "threshold = \"x\"\nbelow = 0.0\nrobustness = \"d\"")],
+                10,
+                "failure.robustness",
+                "`robustness = \"output\"`",
+            ),
+            (&[(b, "robustness = \"d\"")], 8, "failure.robustness", SIDES),
             // A threshold no value crosses (NaN), or every value does, is refused.
             (
                 &[(b, "threshold = \"x\"\nbelow = nan")],

@@ -180,6 +180,8 @@ pub(super) type ScenarioPlan = (String, Vec<Resolved>, Vec<(VarInfo, Value)>);
 #[derive(Debug, Clone)]
 pub(super) struct Plan {
     pub(super) failure: VarInfo,
+    /// A Boolean failure signal's robustness output.
+    pub(super) robustness: Option<VarInfo>,
     pub(super) cost: Option<VarInfo>,
     pub(super) fidelity: Vec<Resolved>,
     pub(super) scenarios: Vec<ScenarioPlan>,
@@ -223,12 +225,19 @@ impl Plan {
         phi: &dyn Fn(&str) -> Option<Space>,
     ) -> Result<Plan, FmuError> {
         let failure = match &spec.failure {
-            Failure::Boolean { variable } => output(file, variable, &[VarType::Boolean])?,
+            Failure::Boolean { variable, .. } => output(file, variable, &[VarType::Boolean])?,
             Failure::Threshold { variable, .. } => output(
                 file,
                 variable,
                 &[VarType::Real, VarType::Integer, VarType::Enumeration],
             )?,
+        };
+        let robustness = match &spec.failure {
+            Failure::Boolean {
+                robustness: Some(v),
+                ..
+            } => Some(output(file, v, &[VarType::Real, VarType::Integer])?),
+            _ => None,
         };
         let cost = match &spec.cost {
             CostSource::Wall => None,
@@ -265,6 +274,7 @@ impl Plan {
             });
         Ok(Plan {
             failure,
+            robustness,
             cost,
             fidelity,
             scenarios,
