@@ -6,7 +6,9 @@ use super::{EstimateError, EstimateSettings};
 use crate::log::RunLine;
 use crate::outputs::FORMAT_VERSION;
 use crate::CampaignError;
-use savme_kernel::estimation::{Estimate, Estimation, EstimationTrial, Fidelity};
+use savme_kernel::estimation::{
+    ControlPart, ControlPlan, Estimate, Estimation, EstimationTrial, Fidelity,
+};
 use savme_kernel::Assignment;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -35,9 +37,14 @@ pub struct EstimateLine {
     /// The HF run (every trial but an LF pilot's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hf: Option<RunLine>,
-    /// The LF run at θ_LF* of a pilot trial with `pilot_fidelity` = `lf`.
+    /// The LF run at θ_LF* of a pilot trial with `pilot_fidelity` = `lf`, or of a control
+    /// variate's run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lf: Option<RunLine>,
+    /// With control variates (`control_calibration`): `calibration` or `paired` (a pair's
+    /// HF or LF run: two consecutive lines, same φ) or `extra` (an LF-only run).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control: Option<ControlPart>,
 }
 
 impl EstimateLine {
@@ -57,6 +64,7 @@ impl EstimateLine {
             round: t.round,
             hf,
             lf,
+            control: t.control,
         }
     }
 
@@ -104,6 +112,14 @@ impl EstimateLine {
                 format!("an {} run", stored.key().to_uppercase()),
                 format!("an {} run", asked.fidelity.key().to_uppercase()),
             );
+        }
+        if self.control != asked.control {
+            let show = |c: Option<ControlPart>| {
+                c.map_or("none".to_string(), |c| {
+                    serde_json::to_string(&c).unwrap_or_default()
+                })
+            };
+            return differs("control", show(self.control), show(asked.control));
         }
         for (field, stored, now) in [
             ("q", self.q, asked.q),
@@ -168,9 +184,23 @@ pub struct EstimateOutcome {
     /// Their summed cost (the campaign's cost measure; absent without LF runs).
     #[serde(default, skip_serializing_if = "is_zero_cost")]
     pub pilot_lf_cost: f64,
-    /// θ_LF*, the LF pilot's fidelity settings (absent without an LF pilot).
+    /// θ_LF*, the LF runs' fidelity settings (absent without LF runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub theta_lf: Option<Assignment>,
+    /// Control variates (`control_calibration`): the calibration pairs' HF runs (their LF
+    /// runs are in `control_lf_runs`); not part of the estimate.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub calibration_hf_runs: u64,
+    /// Control variates: every LF run after the pilot (calibration, pairs, extra).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub control_lf_runs: u64,
+    /// Their summed cost.
+    #[serde(default, skip_serializing_if = "is_zero_cost")]
+    pub control_lf_cost: f64,
+    /// Control variates: what the calibration chose, per scenario (also in each scenario's
+    /// `estimate.scenarios[i].control`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control_plans: Option<BTreeMap<String, ControlPlan>>,
     /// Every run made, HF and LF, in HF runs of equal cost: (HF cost + LF cost) / the mean
     /// cost of one HF run here. Without an LF pilot, the HF runs made.
     pub hf_equivalent_runs: f64,
@@ -247,7 +277,7 @@ impl EstimateOutcome {
         let refine = settings.refine();
         // Whether a line's run counts in the estimate: after the pilot, or a reused round.
         let in_estimate = |l: &EstimateLine| match (l.round, refine) {
-            (None, _) => true,
+            (None, _) => l.control != Some(ControlPart::Calibration),
             (Some(r), Some(refine)) => r + refine.reuse >= refine.rounds,
             (Some(_), None) => false,
         };
@@ -259,6 +289,11 @@ impl EstimateOutcome {
         let pilot_runs: u64 = pilot.iter().map(|p| p.0).sum();
         let hf_lines = || lines.iter().filter(|l| l.hf.is_some());
         let lf_cost = cost(&mut lines.iter().filter(|l| l.lf.is_some()));
+        let control_lf = || lines.iter().filter(|l| l.lf.is_some() && l.round.is_none());
+        let calibration_hf_runs = lines
+            .iter()
+            .filter(|l| l.hf.is_some() && l.control == Some(ControlPart::Calibration))
+            .count() as u64;
         let (hf_runs, hf_cost) = (hf_lines().count(), cost(&mut hf_lines()));
         let hf_equivalent_runs = if hf_runs > 0 && hf_cost > 0.0 {
             hf_runs as f64 + lf_cost / (hf_cost / hf_runs as f64)
@@ -273,7 +308,7 @@ impl EstimateOutcome {
             training_hf_runs: trained.stage_runs,
             training_hf_runs_of_scenarios: trained.scenario_runs,
             estimate_hf_runs: estimate.runs,
-            estimate_hf_cost: cost(&mut lines.iter().filter(|l| in_estimate(l))),
+            estimate_hf_cost: cost(&mut lines.iter().filter(|l| l.hf.is_some() && in_estimate(l))),
             pilot_hf_runs: if lf_pilot { 0 } else { pilot_runs },
             pilot_failures: pilot.iter().map(|p| p.1).sum(),
             pilot_hf_runs_reused: lines
@@ -282,8 +317,19 @@ impl EstimateOutcome {
                 .count() as u64,
             pilot_hf_cost: cost(&mut lines.iter().filter(|l| l.round.is_some() && l.hf.is_some())),
             pilot_lf_runs: if lf_pilot { pilot_runs } else { 0 },
-            pilot_lf_cost: lf_cost,
+            pilot_lf_cost: cost(&mut lines.iter().filter(|l| l.lf.is_some() && l.round.is_some())),
             theta_lf: trained.theta_lf.clone(),
+            calibration_hf_runs,
+            control_lf_runs: control_lf().count() as u64,
+            control_lf_cost: cost(&mut control_lf()),
+            control_plans: estimation.control_plans().map(|plans| {
+                estimation
+                    .scenarios()
+                    .iter()
+                    .zip(plans)
+                    .map(|(n, p)| (n.to_string(), *p))
+                    .collect()
+            }),
             hf_equivalent_runs,
             estimate,
             replayed,
