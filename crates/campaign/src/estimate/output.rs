@@ -448,6 +448,36 @@ impl EstimateOutcome {
                 );
             }
         }
+        if let Some(plans) = &self.control_plans {
+            let _ = writeln!(
+                t,
+                "Control variates: {} calibration pairs (HF and LF at θ_LF*{}, not part of the estimate; {} LF runs after the pilot in all, cost {:.4e}) chose per scenario:",
+                self.settings.control_calibration,
+                self.theta_lf.as_ref().map_or_else(String::new, |t| format!(" {t}")),
+                self.control_lf_runs,
+                self.control_lf_cost
+            );
+            for (scenario, p) in plans {
+                let chosen = if p.use_lf {
+                    format!(
+                        "every estimate draw at HF and LF plus {} extra LF runs, α = {:.4} (predicted cost × variance {:.2} of HF only)",
+                        p.extra, p.alpha, p.predicted_factor
+                    )
+                } else {
+                    "HF runs only (the LF does not pay)".to_string()
+                };
+                let _ = writeln!(
+                    t,
+                    "- {scenario}: ρ(w·f_HF, w·f_LF) = {:.3} over {} pairs ({} HF, {} LF failures), LF/HF cost {:.3}: {chosen}.",
+                    p.rho, p.calibration_pairs, p.calibration_hf_failures, p.calibration_lf_failures, p.cost_ratio
+                );
+            }
+            let _ = writeln!(
+                t,
+                "Every run made is worth {:.0} HF runs (LF runs charged at their cost).",
+                self.hf_equivalent_runs
+            );
+        }
         let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
         t
     }

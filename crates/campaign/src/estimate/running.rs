@@ -88,6 +88,7 @@ impl Reporter<'_> {
             replayed: self.replayed,
             max_runs: self.max_runs,
             round: e.round().map(|r| (r, self.rounds)),
+            calibrating: e.calibrating(),
             estimate: &estimate,
             elapsed_seconds: self.started.elapsed().as_secs_f64(),
         });

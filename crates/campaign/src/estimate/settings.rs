@@ -447,7 +447,7 @@ pub enum EstimateError {
     },
     /// A multi-fidelity estimate (`pilot_fidelity` = `lf`) of a campaign that has no learned
     /// θ_LF* at the budget (its evaluation stage, which runs θ_LF*, has no trial yet).
-    #[error("{campaign}: `pilot_fidelity` = \"lf\" runs the pilot at the learned θ_LF* of budget {budget}, which the campaign's stage `{stage}` has not run yet (no trial with θ_LF there); finish the campaign, or use `pilot_fidelity` = \"hf\"")]
+    #[error("{campaign}: `pilot_fidelity` = \"lf\" runs the pilot at the learned θ_LF* of budget {budget}, which the campaign's stage `{stage}` has not run yet (no trial with θ_LF there), and so do the control variates (`control_calibration`); finish the campaign, or use `pilot_fidelity` = \"hf\" without control variates")]
     NoLearnedFidelity {
         /// The campaign.
         campaign: String,
