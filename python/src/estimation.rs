@@ -22,6 +22,18 @@ pub struct PyEstimation {
     estimation: Mutex<Estimation>,
 }
 
+/// `control_calibration=` and `control_extra=` as the kernel's control variates (the extra
+/// runs alone are refused: they need the calibration).
+fn control_of(given: (Option<u64>, Option<u32>)) -> PyResult<Option<Control>> {
+    match given {
+        (None, None) => Ok(None),
+        (None, Some(k)) => Err(PyValueError::new_err(format!(
+            "control_extra: {k} extra LF runs per pair need control_calibration (the control variates' calibration pairs) too"
+        ))),
+        (Some(calibration), extra) => Ok(Some(Control { calibration, extra })),
+    }
+}
+
 /// The kernel's `estimation(...)` arguments as a configuration; errors name the argument.
 // Python keyword arguments, one parameter each.
 #[allow(clippy::too_many_arguments)]
@@ -37,15 +49,7 @@ pub fn config(
     pilot_fidelity: &str,
     control: (Option<u64>, Option<u32>),
 ) -> PyResult<EstimationConfig> {
-    let control = match control {
-        (None, None) => None,
-        (None, Some(k)) => {
-            return Err(PyValueError::new_err(format!(
-                "control_extra: {k} extra LF runs per pair need control_calibration (the control variates' calibration pairs) too"
-            )))
-        }
-        (Some(calibration), extra) => Some(Control { calibration, extra }),
-    };
+    let control = control_of(control)?;
     let pilot_fidelity = match pilot_fidelity {
         "hf" => Fidelity::Hf,
         "lf" if refine.is_none() => {

@@ -441,7 +441,7 @@ def test_control_variates_pair_hf_and_lf_runs_and_keep_the_estimate_unbiased():
         est.tell(t["id"], t["phi"]["gap_m"] < (15.5 if lf else 15.0), cost=0.05 if lf else 1.0)
     e = est.estimate()
     control = e["scenarios"][0]["control"]
-    assert control["plan"]["use_lf"] and control["plan"]["rho"] > 0.9, control
+    assert control["plan"]["use_lf"] and control["plan"]["rho"] > 0.8, control
     assert control["lf_runs"] > e["runs"] > 100
     assert e["total"]["lo"] <= 2 / 9 <= e["total"]["hi"], e["total"]
     with pytest.raises(savme.TellError, match="cost must be a finite number ≥ 0, got -1"):
@@ -480,7 +480,7 @@ def test_bad_estimation_arguments_name_what_is_wrong():
         k.estimation(control_calibration=1)
     with pytest.raises(ValueError, match=r"control_extra: 3 extra LF runs per pair need control_calibration"):
         k.estimation(control_extra=3)
-    with pytest.raises(ValueError, match=r"extra must lie in 0..=64, got 65"):
+    with pytest.raises(ValueError, match=r"control: extra must lie in 0..=64 LF runs per pair, got 65"):
         k.estimation(control_calibration=10, control_extra=65)
 
 

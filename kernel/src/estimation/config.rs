@@ -254,18 +254,19 @@ pub enum EstimationError {
     /// LF pilot rounds to reuse in the (HF) estimate.
     #[error("refine reuse: {0} pilot rounds to reuse, but the pilot runs at low fidelity (pilot_fidelity = `lf`) and LF outcomes are not the HF failures the estimate is about: reuse must be 0")]
     ReuseLowFidelity(u32),
-    /// Control variates with too few calibration pairs or too many extra LF runs.
-    #[error("control: calibration must be at least 2 pairs per scenario ({scenarios} scenarios: at least {min}), got {calibration}; extra must lie in 0..={MAX_EXTRA}, got {extra}")]
-    BadControl {
+    /// Control variates with too few calibration pairs.
+    #[error("control: calibration must be at least 2 pairs per scenario ({scenarios} scenarios: at least {min}), got {calibration}")]
+    BadCalibration {
         /// Calibration pairs given.
         calibration: u64,
         /// The least allowed.
         min: u64,
         /// Scenarios.
         scenarios: usize,
-        /// Extra LF runs per pair given (0 when not given).
-        extra: u32,
     },
+    /// Control variates with too many extra LF runs per pair.
+    #[error("control: extra must lie in 0..={MAX_EXTRA} LF runs per pair, got {0}")]
+    BadExtra(u32),
     /// Control variates with reused pilot rounds.
     #[error("refine reuse: {0} pilot rounds to reuse, but with control variates (`control`) the estimate is the control-variate estimate of its own pairs: reuse must be 0")]
     ReuseWithControl(u32),
@@ -339,14 +340,15 @@ pub(crate) fn check_config(
 /// At least 2 calibration pairs per scenario, at most [`MAX_EXTRA`] extra LF runs per pair.
 fn check_control(c: Control, scenarios: usize) -> Result<(), EstimationError> {
     let min = 2 * scenarios.max(1) as u64;
-    let extra = c.extra.unwrap_or(0);
-    if c.calibration < min || extra > MAX_EXTRA {
-        return Err(EstimationError::BadControl {
+    if c.calibration < min {
+        return Err(EstimationError::BadCalibration {
             calibration: c.calibration,
             min,
             scenarios,
-            extra,
         });
     }
-    Ok(())
+    match c.extra {
+        Some(k) if k > MAX_EXTRA => Err(EstimationError::BadExtra(k)),
+        _ => Ok(()),
+    }
 }

@@ -54,7 +54,10 @@ fn bad_control_settings_and_costs_are_refused_naming_them() {
         extra: Some(MAX_EXTRA + 1),
     });
     let m = Estimation::new(&s, &c).unwrap_err().to_string();
-    assert!(m.contains("extra must lie in 0..=64, got 65"), "{m}");
+    assert_eq!(
+        m,
+        "control: extra must lie in 0..=64 LF runs per pair, got 65"
+    );
     c.control = Some(Control {
         calibration: 10,
         extra: None,

@@ -33,7 +33,7 @@ mod running;
 use running::{replay, stop_reason, Reporter, Running};
 mod settings;
 
-pub use output::{EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
+pub use output::{ControlOutcome, EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
 pub use settings::{
     resumed as settings_on_resume, EstimateError, EstimateSettings, MAX_RUNS, STOPPING_RULES,
 };

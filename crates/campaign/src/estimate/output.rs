@@ -187,20 +187,9 @@ pub struct EstimateOutcome {
     /// θ_LF*, the LF runs' fidelity settings (absent without LF runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub theta_lf: Option<Assignment>,
-    /// Control variates (`control_calibration`): the calibration pairs' HF runs (their LF
-    /// runs are in `control_lf_runs`); not part of the estimate.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub calibration_hf_runs: u64,
-    /// Control variates: every LF run after the pilot (calibration, pairs, extra).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub control_lf_runs: u64,
-    /// Their summed cost.
-    #[serde(default, skip_serializing_if = "is_zero_cost")]
-    pub control_lf_cost: f64,
-    /// Control variates: what the calibration chose, per scenario (also in each scenario's
-    /// `estimate.scenarios[i].control`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub control_plans: Option<BTreeMap<String, ControlPlan>>,
+    /// The control variates' runs and plans (`control_calibration`; absent without them).
+    #[serde(flatten)]
+    pub control: ControlOutcome,
     /// Every run made, HF and LF, in HF runs of equal cost: (HF cost + LF cost) / the mean
     /// cost of one HF run here. Without an LF pilot, the HF runs made.
     pub hf_equivalent_runs: f64,
@@ -216,6 +205,53 @@ pub struct EstimateOutcome {
     /// `table.md`'s text.
     #[serde(skip)]
     pub table_md: String,
+}
+
+/// The control variates' part of an [`EstimateOutcome`] (its fields appear in
+/// `summary.json` next to the others, each only when non-zero).
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ControlOutcome {
+    /// The calibration pairs' HF runs (their LF runs are in `control_lf_runs`); not part of
+    /// the estimate.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub calibration_hf_runs: u64,
+    /// Every LF run after the pilot (calibration, pairs, extra).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub control_lf_runs: u64,
+    /// Their summed cost.
+    #[serde(skip_serializing_if = "is_zero_cost")]
+    pub control_lf_cost: f64,
+    /// What the calibration chose, per scenario (also in each scenario's
+    /// `estimate.scenarios[i].control`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub control_plans: Option<BTreeMap<String, ControlPlan>>,
+}
+
+impl ControlOutcome {
+    /// The control variates' counts, costs and plans (all zero without them).
+    fn of(estimation: &Estimation, lines: &[EstimateLine]) -> Self {
+        let control_lf = || lines.iter().filter(|l| l.lf.is_some() && l.round.is_none());
+        ControlOutcome {
+            calibration_hf_runs: lines
+                .iter()
+                .filter(|l| l.hf.is_some() && l.control == Some(ControlPart::Calibration))
+                .count() as u64,
+            control_lf_runs: control_lf().count() as u64,
+            control_lf_cost: control_lf()
+                .filter_map(EstimateLine::run)
+                .map(|r| r.runtime)
+                .sum(),
+            control_plans: estimation.control_plans().map(|plans| {
+                estimation
+                    .scenarios()
+                    .iter()
+                    .zip(plans)
+                    .map(|(n, p)| (n.to_string(), *p))
+                    .collect()
+            }),
+        }
+    }
 }
 
 fn is_zero(n: &u64) -> bool {
@@ -289,11 +325,6 @@ impl EstimateOutcome {
         let pilot_runs: u64 = pilot.iter().map(|p| p.0).sum();
         let hf_lines = || lines.iter().filter(|l| l.hf.is_some());
         let lf_cost = cost(&mut lines.iter().filter(|l| l.lf.is_some()));
-        let control_lf = || lines.iter().filter(|l| l.lf.is_some() && l.round.is_none());
-        let calibration_hf_runs = lines
-            .iter()
-            .filter(|l| l.hf.is_some() && l.control == Some(ControlPart::Calibration))
-            .count() as u64;
         let (hf_runs, hf_cost) = (hf_lines().count(), cost(&mut hf_lines()));
         let hf_equivalent_runs = if hf_runs > 0 && hf_cost > 0.0 {
             hf_runs as f64 + lf_cost / (hf_cost / hf_runs as f64)
@@ -319,17 +350,7 @@ impl EstimateOutcome {
             pilot_lf_runs: if lf_pilot { pilot_runs } else { 0 },
             pilot_lf_cost: cost(&mut lines.iter().filter(|l| l.lf.is_some() && l.round.is_some())),
             theta_lf: trained.theta_lf.clone(),
-            calibration_hf_runs,
-            control_lf_runs: control_lf().count() as u64,
-            control_lf_cost: cost(&mut control_lf()),
-            control_plans: estimation.control_plans().map(|plans| {
-                estimation
-                    .scenarios()
-                    .iter()
-                    .zip(plans)
-                    .map(|(n, p)| (n.to_string(), *p))
-                    .collect()
-            }),
+            control: ControlOutcome::of(estimation, &lines),
             hf_equivalent_runs,
             estimate,
             replayed,
@@ -448,37 +469,46 @@ impl EstimateOutcome {
                 );
             }
         }
-        if let Some(plans) = &self.control_plans {
+        t += &self.control_notes();
+        let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
+        t
+    }
+
+    /// The control variates' lines under the table: the calibration's plan per scenario.
+    fn control_notes(&self) -> String {
+        use std::fmt::Write;
+        let mut t = String::new();
+        let Some(plans) = &self.control.control_plans else {
+            return t;
+        };
+        let _ = writeln!(
+            t,
+            "Control variates: {} calibration pairs (HF and LF at θ_LF*{}, not part of the estimate; {} LF runs after the pilot in all, cost {:.4e}) chose per scenario:",
+            self.settings.control_calibration,
+            self.theta_lf.as_ref().map_or_else(String::new, |t| format!(" {t}")),
+            self.control.control_lf_runs,
+            self.control.control_lf_cost
+        );
+        for (scenario, p) in plans {
+            let chosen = if p.use_lf {
+                format!(
+                    "every estimate draw at HF and LF plus {} extra LF runs, α = {:.4} (predicted cost × variance {:.2} of HF only)",
+                    p.extra, p.alpha, p.predicted_factor
+                )
+            } else {
+                "HF runs only (the LF does not pay)".to_string()
+            };
             let _ = writeln!(
                 t,
-                "Control variates: {} calibration pairs (HF and LF at θ_LF*{}, not part of the estimate; {} LF runs after the pilot in all, cost {:.4e}) chose per scenario:",
-                self.settings.control_calibration,
-                self.theta_lf.as_ref().map_or_else(String::new, |t| format!(" {t}")),
-                self.control_lf_runs,
-                self.control_lf_cost
-            );
-            for (scenario, p) in plans {
-                let chosen = if p.use_lf {
-                    format!(
-                        "every estimate draw at HF and LF plus {} extra LF runs, α = {:.4} (predicted cost × variance {:.2} of HF only)",
-                        p.extra, p.alpha, p.predicted_factor
-                    )
-                } else {
-                    "HF runs only (the LF does not pay)".to_string()
-                };
-                let _ = writeln!(
-                    t,
-                    "- {scenario}: ρ(w·f_HF, w·f_LF) = {:.3} over {} pairs ({} HF, {} LF failures), LF/HF cost {:.3}: {chosen}.",
-                    p.rho, p.calibration_pairs, p.calibration_hf_failures, p.calibration_lf_failures, p.cost_ratio
-                );
-            }
-            let _ = writeln!(
-                t,
-                "Every run made is worth {:.0} HF runs (LF runs charged at their cost).",
-                self.hf_equivalent_runs
+                "- {scenario}: ρ(w·f_HF, w·f_LF) = {:.3} over {} pairs ({} HF, {} LF failures), LF/HF cost {:.3}: {chosen}.",
+                p.rho, p.calibration_pairs, p.calibration_hf_failures, p.calibration_lf_failures, p.cost_ratio
             );
         }
-        let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
+        let _ = writeln!(
+            t,
+            "Every run made is worth {:.0} HF runs (LF runs charged at their cost).",
+            self.hf_equivalent_runs
+        );
         t
     }
 
