@@ -19,6 +19,10 @@ the pilot rounds run LF at the campaign's learned θ_LF*, the estimate HF; their
 charged in HF runs of equal cost (`charged_runs` in the example's check.json: every run at its
 work-unit cost, each training trial as 2 HF runs). docs/RESULTS.md ("Failure probability from
 cheap runs") records what it printed.
+
+A `-cv` suffix (`joint-lf-cv`, `joint-cv`) adds LF runs as control variates for the HF estimate
+(`--control-calibration`, docs/ESTIMATION.md), charged the same way; docs/RESULTS.md ("LF runs
+as control variates") records what it printed.
 """
 import argparse
 import json
@@ -58,6 +62,10 @@ def main():
     a.add_argument("--components", type=int, default=8)
     a.add_argument("--max-runs", type=int, default=200000)
     a.add_argument("--jobs", type=int, default=1)
+    a.add_argument("--calibration", type=int, default=2000,
+                   help="control-variate calibration pairs of the `-cv` variants")
+    a.add_argument("--control-extra", type=int,
+                   help="force this many extra LF runs per pair (`-cv` variants)")
     o = a.parse_args()
     os.makedirs(o.out, exist_ok=True)
     load = [os.getloadavg()[0]]
@@ -83,11 +91,15 @@ def main():
             extra = ["--estimate-seed", str(seed), "--mc-runs", "0"]
             if variant.startswith("joint"):
                 extra += ["--proposal", "joint", "--joint-components", str(o.components)]
-            if variant.endswith("-lf"):
+            if "-lf" in variant:
                 extra += ["--pilot-fidelity", "lf"]
+            if "-cv" in variant:
+                extra += ["--control-calibration", str(o.calibration)]
+                if o.control_extra is not None:
+                    extra += ["--control-extra", str(o.control_extra)]
             check, secs, cmd = run(o.exe, os.path.join(o.out, f"{variant}-{seed}"), common + extra)
             is_ = check["importance_sampling"]
-            if variant.endswith("-lf"):
+            if "-lf" in variant or "-cv" in variant:
                 made = round(is_["charged_runs"])
             else:
                 made = is_["hf_runs"] + is_["pilot_hf_runs"] - is_["pilot_hf_runs_reused"] \

@@ -16,12 +16,15 @@
 //!     [--epsilon 0.1] [--nominal SCENARIO.VARIABLE=normal:MEAN,SD]… [--tilt nominal-weighted]
 //!     [--refine-rounds 0 --refine-runs 0 --refine-reuse 0] [--noise-sd 0.1] [--jobs 2] [--seed 1]
 //!     [--mc-seed 12648430] [--proposal joint --joint-components 8] [--estimate-seed N]
-//!     [--pilot-fidelity lf]
+//!     [--pilot-fidelity lf] [--control-calibration 2000 [--control-extra K]]
 //! ```
 //!
 //! `--pilot-fidelity lf` runs the pilot rounds at the campaign's learned θ_LF* (the
 //! multi-fidelity estimator); the ratio then charges every run at its cost in HF runs
 //! (`hf_equivalent_runs`) and each training trial as 2 HF runs (its HF and LF runs).
+//! `--control-calibration N` adds LF runs as control variates for the HF estimate (N
+//! calibration pairs choose α and the LF runs per pair; `--control-extra K` forces K), charged
+//! the same way.
 //!
 //! `--proposal joint` makes the pilot rounds fit a joint proposal (a mixture over the whole
 //! of φ; docs/ESTIMATION.md) instead of refitting each variable's bins. `--estimate-seed`
@@ -64,6 +67,8 @@ struct Options {
     joint_components: Option<u32>,
     estimate_seed: Option<u64>,
     pilot_fidelity: Fidelity,
+    control_calibration: u64,
+    control_extra: Option<u32>,
 }
 
 fn options() -> Result<Options, String> {
@@ -88,6 +93,8 @@ fn options() -> Result<Options, String> {
         joint_components: None,
         estimate_seed: None,
         pilot_fidelity: Fidelity::Hf,
+        control_calibration: 0,
+        control_extra: None,
     };
     let mut args = std::env::args().skip(1);
     while let Some(flag) = args.next() {
@@ -122,6 +129,8 @@ fn options() -> Result<Options, String> {
                 o.pilot_fidelity = serde_json::from_value(serde_json::Value::String(value))
                     .map_err(|e| format!("--pilot-fidelity: {e}"))?
             }
+            "--control-calibration" => o.control_calibration = num(&value)? as u64,
+            "--control-extra" => o.control_extra = Some(num(&value)? as u32),
             "--nominal" => {
                 let (_, variable, n) = parse_nominal(&value).map_err(|e| e.to_string())?;
                 o.nominal.insert(variable, n);
@@ -174,6 +183,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         joint_components: o.joint_components,
         seed: o.estimate_seed,
         pilot_fidelity: o.pilot_fidelity,
+        control_calibration: o.control_calibration,
+        control_extra: o.control_extra,
         ..EstimateSettings::default()
     };
     let t1 = Instant::now();
@@ -193,7 +204,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mc_needed = |p: f64| z * z * (1.0 - p) / (reached * reached * p);
     // With an LF pilot, every run in HF runs of equal cost (`hf_equivalent_runs`), and each
     // training trial charged as 2 HF runs (its HF run and its LF run, which costs less).
-    let is_runs = if o.pilot_fidelity == Fidelity::Lf {
+    let is_runs = if o.pilot_fidelity == Fidelity::Lf || o.control_calibration > 0 {
         est.hf_equivalent_runs + 2.0 * est.training_hf_runs as f64
     } else {
         (est.estimate_hf_runs + est.pilot_hf_runs - est.pilot_hf_runs_reused + est.training_hf_runs)
@@ -221,6 +232,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "pilot_fidelity": o.pilot_fidelity, "pilot_lf_runs": est.pilot_lf_runs,
             "pilot_lf_cost": est.pilot_lf_cost, "theta_lf": est.theta_lf,
             "hf_equivalent_runs": est.hf_equivalent_runs, "charged_runs": is_runs,
+            "control_calibration": o.control_calibration, "control_extra": o.control_extra,
+            "calibration_hf_runs": est.control.calibration_hf_runs,
+            "control_lf_runs": est.control.control_lf_runs, "control_lf_cost": est.control.control_lf_cost,
+            "control": est.estimate.scenarios[0].control,
             "failures": est.estimate.failures,
             "ess": est.estimate.scenarios[0].ess,
             "failure_ess": est.estimate.scenarios[0].failure_ess,

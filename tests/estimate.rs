@@ -472,6 +472,174 @@ fn a_low_fidelity_pilot_runs_at_the_learned_fidelity_and_resumes_identically_aft
     );
 }
 
+/// LF runs as control variates (`--control-calibration 200 --control-extra 2`, the declared
+/// rare nominal, no pilot): 200 calibration pairs (HF then LF at the same φ), then blocks of
+/// an estimate pair and its 2 extra LF runs; `--jobs 1` and a `--jobs 2` run killed (SIGKILL)
+/// inside the estimate and resumed give the same lines; the summary's estimate is the
+/// control-variate estimate ā_n + α·(b̄_m − b̄_n) of the lines with the stored α, and its
+/// costs agree with the lines; a resume that changes `control_calibration`, and a line
+/// whose `control` was edited, are refused naming them.
+#[test]
+fn control_variates_pair_hf_and_lf_runs_and_resume_identically_after_a_kill() {
+    let args = [
+        "--max-runs",
+        "1400",
+        "--no-target",
+        "--control-calibration",
+        "200",
+        "--control-extra",
+        "2",
+        "--nominal",
+        "lead_vehicle_brakes.ego_speed=normal:12,2",
+    ];
+    let (one, killed) = one_job_and_killed("control", &args, 700);
+    let ls = trial_lines(&one);
+    assert_eq!(ls.len(), 1400);
+    let part = |l: &Value| l["control"].as_str().unwrap_or("none").to_string();
+    for (i, l) in ls.iter().enumerate() {
+        let (want, lf) = match i {
+            i if i < 400 => ("calibration", i % 2 == 1),
+            i => match (i - 400) % 4 {
+                0 => ("paired", false),
+                1 => ("paired", true),
+                _ => ("extra", true),
+            },
+        };
+        assert_eq!(
+            (part(l).as_str(), l.get("lf").is_some()),
+            (want, lf),
+            "line {}",
+            i + 1
+        );
+        if want != "extra" && lf {
+            assert_eq!(l["phi"], ls[i - 1]["phi"], "line {}: a pair's φ", i + 1);
+        }
+    }
+    let s = summary(&killed);
+    let plan = &s["control_plans"][SCENARIO];
+    assert_eq!(
+        (plan["extra"].as_u64(), plan["use_lf"].as_bool()),
+        (Some(2), Some(true))
+    );
+    assert_eq!(
+        (
+            &s["calibration_hf_runs"],
+            &s["control_lf_runs"],
+            &s["estimate"]["runs"]
+        ),
+        (&Value::from(200), &Value::from(950), &Value::from(250))
+    );
+    // The control-variate estimate, recomputed from the lines with the stored α.
+    let y = |l: &Value, run: &str| {
+        let f = l[run]["failure"].as_bool().unwrap();
+        if f {
+            l["weight"].as_f64().unwrap()
+        } else {
+            0.0
+        }
+    };
+    let est = &ls[400..];
+    let a: Vec<f64> = est
+        .iter()
+        .filter(|l| l.get("hf").is_some())
+        .map(|l| y(l, "hf"))
+        .collect();
+    let b_pairs: Vec<f64> = est
+        .iter()
+        .filter(|l| part(l) == "paired" && l.get("lf").is_some())
+        .map(|l| y(l, "lf"))
+        .collect();
+    let b_all: Vec<f64> = est
+        .iter()
+        .filter(|l| l.get("lf").is_some())
+        .map(|l| y(l, "lf"))
+        .collect();
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let alpha = plan["alpha"].as_f64().unwrap();
+    let want = mean(&a) + alpha * (mean(&b_all) - mean(&b_pairs));
+    let got = s["estimate"]["total"]["mean"].as_f64().unwrap();
+    assert!(
+        (got - want).abs() <= 1e-12 * want.abs().max(1e-300),
+        "{got} vs {want}"
+    );
+    let cost = |run: &str| -> f64 { ls.iter().filter_map(|l| l[run]["runtime"].as_f64()).sum() };
+    let (lf, hf) = (cost("lf"), cost("hf"));
+    assert!((s["control_lf_cost"].as_f64().unwrap() - lf).abs() < 1e-9 * lf);
+    let equivalent = 450.0 + lf / (hf / 450.0);
+    assert!((s["hf_equivalent_runs"].as_f64().unwrap() - equivalent).abs() < 1e-9 * equivalent);
+    let (code, _, err) = estimate(&killed, &["--resume", "--control-calibration", "300"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains(
+            "the estimate was started with `control_calibration` = 200, and this resume gives 300"
+        ),
+        "{err}"
+    );
+    // An extra LF line turned into a paired one is refused on resume, naming the line.
+    let path = killed.join("trials.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut ls: Vec<String> = text.lines().map(String::from).collect();
+    let mut l: Value = serde_json::from_str(&ls[402]).unwrap();
+    l["control"] = Value::from("paired");
+    ls[402] = l.to_string();
+    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    let (code, _, err) = estimate(&killed, &["--resume"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains(
+            "trials.jsonl, line 403: `control` is \"paired\" but the estimate asks \"extra\" here"
+        ),
+        "{err}"
+    );
+}
+
+/// With the calibration choosing (no `--control-extra`): the plan is stored with its
+/// measured ρ and cost ratio, and the runs after the calibration follow it — blocks of a
+/// pair and its extra LF runs when it uses the LF, plain HF runs (the importance-sampling
+/// estimate) when it does not.
+#[test]
+fn the_calibration_chooses_whether_the_lf_pays_and_the_runs_follow_its_plan() {
+    let out = temp_dir("control-chosen");
+    let (code, _, err) = estimate(
+        &out,
+        &[
+            "--max-runs",
+            "1000",
+            "--no-target",
+            "--control-calibration",
+            "300",
+            "--nominal",
+            "lead_vehicle_brakes.ego_speed=normal:12,2",
+        ],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let s = summary(&out);
+    let plan = &s["control_plans"][SCENARIO];
+    let ratio = plan["cost_ratio"].as_f64().unwrap();
+    assert!(
+        ratio > 0.0 && ratio < 1.0,
+        "the LF is the cheaper run: {ratio}"
+    );
+    assert!(plan["rho"].as_f64().unwrap().abs() <= 1.0);
+    let ls = trial_lines(&out);
+    let after = &ls[600..];
+    if plan["use_lf"].as_bool().unwrap() {
+        let k = plan["extra"].as_u64().unwrap() as usize;
+        assert!(after
+            .iter()
+            .step_by(k + 2)
+            .all(|l| l["control"] == "paired" && l.get("hf").is_some()));
+    } else {
+        assert_eq!(plan["alpha"], 0.0);
+        assert!(after
+            .iter()
+            .all(|l| l.get("control").is_none() && l.get("hf").is_some()));
+        assert_eq!(s["estimate"]["runs"], 400);
+    }
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(table.contains("Control variates:"), "{table}");
+}
+
 /// Runs the estimate with `args` once with `--jobs 1`, and once with `--jobs 2` killed
 /// (SIGKILL) after ≥ 200 stored lines and resumed; asserts the two agree line by line.
 fn one_job_and_killed(name: &str, args: &[&str], kill_at: usize) -> (PathBuf, PathBuf) {
@@ -678,6 +846,35 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
         (
             &["--pilot-fidelity", "mf"],
             "invalid value 'mf' for '--pilot-fidelity",
+        ),
+        (
+            &["--control-calibration", "1"],
+            "`control_calibration`: must be 0 (off) or at least 2 pairs",
+        ),
+        (
+            &["--control-extra", "3"],
+            "`control_extra`: 3 extra LF runs per pair need `control_calibration`",
+        ),
+        (
+            &["--control-calibration", "10", "--control-extra", "65"],
+            "`control_extra`: must lie in 0..=64 extra LF runs per pair, got 65",
+        ),
+        (
+            &[
+                "--control-calibration",
+                "10",
+                "--refine-rounds",
+                "2",
+                "--refine-runs",
+                "5",
+                "--refine-reuse",
+                "1",
+            ],
+            "`refine_reuse`: 1 pilot rounds to reuse, but with control variates",
+        ),
+        (
+            &["--control-calibration", "50", "--max-runs", "50"],
+            "`control_calibration`: 50 calibration pairs (2 runs each) leave no runs of `max_runs` = 50",
         ),
     ];
     for (args, message) in cases {

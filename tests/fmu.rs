@@ -838,6 +838,23 @@ fn an_estimate_section_runs_after_the_campaign_and_bad_ones_are_refused() {
         &(TINY.to_string() + "\n[estimate]\npilot_fidelity = \"mf\"\n"),
         &["unknown variant `mf`, expected `hf` or `lf`"],
     );
+    let line = format!(
+        "line {}, key `estimate.control_extra`",
+        TINY.lines().count() + 3
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\ncontrol_extra = 2\n"),
+        &[&line, "2 extra LF runs per pair need `control_calibration`"],
+    );
+    assert_refused(
+        &bad,
+        &(TINY.to_string() + "\n[estimate]\ncontrol_calibration = 1\n"),
+        &[
+            "key `estimate.control_calibration`",
+            "must be 0 (off) or at least 2 pairs",
+        ],
+    );
 }
 
 #[test]

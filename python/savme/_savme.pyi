@@ -404,6 +404,8 @@ class Kernel:
         refine_reuse: int = 0,
         joint_components: Optional[int] = None,
         pilot_fidelity: Literal["hf", "lf"] = "hf",
+        control_calibration: Optional[int] = None,
+        control_extra: Optional[int] = None,
     ) -> Estimation:
         """An importance-sampling estimation of P(failure) under the nominal distribution
         from the current φ posteriors (docs/ESTIMATION.md): `epsilon` is the nominal's share
@@ -415,8 +417,11 @@ class Kernel:
         of at most K components over the whole of φ — instead of per-variable bins, and
         `pilot_fidelity="lf"` (with `refine`) marks the pilot's trials "fidelity": "lf": run
         them at the learned θ_LF* (the multi-fidelity estimator; the estimate's trials stay
-        HF). ValueError names ε, the refinement, the scenario or the variable. The kernel is
-        not changed."""
+        HF), and `control_calibration=N` adds LF runs as control variates for the HF
+        estimate: N calibration pairs (trials marked "control": "calibration") choose α and
+        `control_extra` (extra LF-only runs per pair; given: forced), or HF only when the LF
+        does not pay — tell each run's `cost`. ValueError names ε, the refinement, the
+        control variates, the scenario or the variable. The kernel is not changed."""
     def fidelity_posterior(self) -> Posterior:
         """p_ω(θ_LF); pass it as `fidelity_prior=` to a meta-testing kernel."""
     def scenario_posterior(self, name: str) -> Posterior:
@@ -460,9 +465,12 @@ class Estimation:
         "fidelity": "lf" on a multi-fidelity estimation's pilot trials (run them at θ_LF*;
         every other trial runs HF); None while a refinement round waits for the outcomes of
         the trials it asked."""
-    def tell(self, id: int, failure: bool, *, robustness: Optional[float] = None) -> None:
+    def tell(
+        self, id: int, failure: bool, *, robustness: Optional[float] = None, cost: Optional[float] = None
+    ) -> None:
         """The outcome of trial `id` — HF, or LF for a trial marked "fidelity": "lf"
-        (savme.TellError if it is not pending), with the run's robustness if any (a joint proposal's pilot aims at the near-misses)."""
+        (savme.TellError if it is not pending), with the run's robustness if any (a joint proposal's pilot aims at the near-misses)
+        and its cost (finite, ≥ 0: the control variates' calibration compares LF and HF costs)."""
     def estimate(self) -> Dict[str, Any]:
         """{"total": {"mean", "std_error", "half_width", "lo", "hi"}, "runs", "failures",
         "scenarios": [...]} from the trials after the refinement."""

@@ -8,7 +8,7 @@ use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use savme_kernel::estimation::{
-    Estimation, EstimationConfig, Fidelity, Joint, Nominal, Refine, Tilt, MAX_COMPONENTS,
+    Control, Estimation, EstimationConfig, Fidelity, Joint, Nominal, Refine, Tilt, MAX_COMPONENTS,
 };
 use savme_kernel::Kernel;
 use std::collections::BTreeMap;
@@ -20,6 +20,18 @@ use std::sync::Mutex;
 #[pyclass(name = "Estimation", module = "savme", frozen)]
 pub struct PyEstimation {
     estimation: Mutex<Estimation>,
+}
+
+/// `control_calibration=` and `control_extra=` as the kernel's control variates (the extra
+/// runs alone are refused: they need the calibration).
+fn control_of(given: (Option<u64>, Option<u32>)) -> PyResult<Option<Control>> {
+    match given {
+        (None, None) => Ok(None),
+        (None, Some(k)) => Err(PyValueError::new_err(format!(
+            "control_extra: {k} extra LF runs per pair need control_calibration (the control variates' calibration pairs) too"
+        ))),
+        (Some(calibration), extra) => Ok(Some(Control { calibration, extra })),
+    }
 }
 
 /// The kernel's `estimation(...)` arguments as a configuration; errors name the argument.
@@ -35,7 +47,9 @@ pub fn config(
     refine_reuse: u32,
     joint_components: Option<u32>,
     pilot_fidelity: &str,
+    control: (Option<u64>, Option<u32>),
 ) -> PyResult<EstimationConfig> {
+    let control = control_of(control)?;
     let pilot_fidelity = match pilot_fidelity {
         "hf" => Fidelity::Hf,
         "lf" if refine.is_none() => {
@@ -111,6 +125,7 @@ pub fn config(
         }),
         joint: joint_components.map(|components| Joint { components }),
         pilot_fidelity,
+        control,
     })
 }
 
@@ -137,28 +152,40 @@ impl PyEstimation {
 impl PyEstimation {
     /// The next trial as a dict — `id`, `scenario`, `phi`, `q`, `p`, `weight`, `round`
     /// (the refinement round, None for a trial of the estimate) and, for a pilot trial of a
-    /// multi-fidelity estimation, `"fidelity": "lf"` (run it at θ_LF*; every other trial
-    /// runs HF) — or None while a refinement round has asked all its trials and waits for
-    /// their outcomes.
+    /// multi-fidelity estimation or an LF run of the control variates, `"fidelity": "lf"`
+    /// (run it at θ_LF*; every other trial runs HF), and with control variates `control`
+    /// (`"calibration"`, `"paired"`: a pair's HF and LF runs, consecutive trials with the
+    /// same φ; `"extra"`: an LF-only run) — or None while a refinement round or the
+    /// calibration has asked all its trials and waits for their outcomes.
     fn ask<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
         let trial = self.with(|e| Ok(e.ask()))?;
         trial.map(|t| convert::json_to_py(py, &t)).transpose()
     }
 
     /// Takes the outcome of trial `id` (HF; LF for a trial marked `"fidelity": "lf"`) (`savme.TellError` for a trial not pending), with
-    /// the run's robustness if it has one (a joint proposal's pilot aims at near-misses).
-    #[pyo3(signature = (id, failure, *, robustness = None))]
-    fn tell(&self, id: i128, failure: bool, robustness: Option<f64>) -> PyResult<()> {
+    /// the run's robustness if it has one (a joint proposal's pilot aims at near-misses),
+    /// and its cost (finite, ≥ 0, any unit: the control variates' calibration compares the
+    /// LF and HF runs' mean costs; without costs it takes them as equal).
+    #[pyo3(signature = (id, failure, *, robustness = None, cost = None))]
+    fn tell(
+        &self,
+        id: i128,
+        failure: bool,
+        robustness: Option<f64>,
+        cost: Option<f64>,
+    ) -> PyResult<()> {
         let id = convert::whole("id", id)?;
         self.with(|e| {
-            e.tell_run(id, failure, robustness)
+            e.tell_measured(id, failure, robustness, cost)
                 .map_err(|e| errors::TellError::new_err(e.to_string()))
         })
     }
 
     /// The estimate so far as a dict: `total` (`mean`, `std_error`, `half_width`, `lo`, `hi`),
-    /// `runs`, `failures` and per scenario the same with the effective sample sizes. Only the
-    /// trials after the refinement count.
+    /// `runs`, `failures` and per scenario the same with the effective sample sizes (and,
+    /// with control variates, `control`: the calibration's `plan` — ρ, α, extra LF runs per
+    /// pair, whether the LF is used — and the LF runs). Only the trials after the refinement
+    /// (and the calibration) count.
     fn estimate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let estimate = self.with(|e| Ok(e.estimate()))?;
         convert::json_to_py(py, &estimate)

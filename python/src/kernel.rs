@@ -705,8 +705,11 @@ impl PyKernel {
     /// joint proposal (a mixture of at most K components over the whole of φ) instead of
     /// refitting each variable's bins, and `pilot_fidelity="lf"` (with `refine`) marks the
     /// pilot rounds' trials `"fidelity": "lf"`: run them at the learned θ_LF* (the
-    /// multi-fidelity estimator; the estimate's trials stay HF). The kernel is not changed.
-    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0, joint_components = None, pilot_fidelity = "hf"))]
+    /// multi-fidelity estimator; the estimate's trials stay HF), and `control_calibration=N`
+    /// adds LF runs as control variates for the HF estimate: N calibration pairs choose α and
+    /// `control_extra` (extra LF runs per pair; given: forced), or HF only when the LF does
+    /// not pay (tell each run's `cost`). The kernel is not changed.
+    #[pyo3(signature = (*, epsilon = 0.1, seed = 0, nominal = None, tilt = "posterior", refine = None, refine_reuse = 0, joint_components = None, pilot_fidelity = "hf", control_calibration = None, control_extra = None))]
     // Python keyword arguments, one parameter each.
     #[allow(clippy::too_many_arguments)]
     fn estimation(
@@ -720,6 +723,8 @@ impl PyKernel {
         refine_reuse: i128,
         joint_components: Option<i128>,
         pilot_fidelity: &str,
+        control_calibration: Option<i128>,
+        control_extra: Option<i128>,
     ) -> PyResult<PyEstimation> {
         let refine = refine
             .map(|(rounds, runs)| {
@@ -741,6 +746,14 @@ impl PyKernel {
                 .map(|k| convert::whole("joint_components", k))
                 .transpose()?,
             pilot_fidelity,
+            (
+                control_calibration
+                    .map(|n| convert::whole("control_calibration", n))
+                    .transpose()?,
+                control_extra
+                    .map(|k| convert::whole("control_extra", k))
+                    .transpose()?,
+            ),
         )?;
         self.with(|s| PyEstimation::of(s.kernel(), &config))
     }

@@ -420,6 +420,34 @@ def test_a_multi_fidelity_estimation_runs_its_pilot_at_lf_and_estimates_from_hf(
     assert e["total"]["lo"] <= 2 / 9 <= e["total"]["hi"], e["total"]
 
 
+def test_control_variates_pair_hf_and_lf_runs_and_keep_the_estimate_unbiased():
+    # HF fails below 15 m (P = 2/9 under the uniform nominal); the LF below 15.5 m, at a
+    # twentieth of the cost: the calibration chooses to use it.
+    k = trained_kernel()
+    est = k.estimation(epsilon=0.2, seed=4, control_calibration=100)
+    calibration = [est.ask() for _ in range(200)]
+    assert est.ask() is None, "the calibration waits for its outcomes"
+    for hf, lf in zip(calibration[::2], calibration[1::2]):
+        assert hf["control"] == lf["control"] == "calibration" and hf["phi"] == lf["phi"]
+        assert "fidelity" not in hf and lf["fidelity"] == "lf"
+    for t in calibration:
+        lf = t.get("fidelity") == "lf"
+        est.tell(t["id"], t["phi"]["gap_m"] < (15.5 if lf else 15.0), cost=0.05 if lf else 1.0)
+    assert est.estimate()["runs"] == 0, "the calibration is not part of the estimate"
+    while est.told < 3200:
+        t = est.ask()
+        lf = t.get("fidelity") == "lf"
+        assert t["control"] in ("paired", "extra")
+        est.tell(t["id"], t["phi"]["gap_m"] < (15.5 if lf else 15.0), cost=0.05 if lf else 1.0)
+    e = est.estimate()
+    control = e["scenarios"][0]["control"]
+    assert control["plan"]["use_lf"] and control["plan"]["rho"] > 0.8, control
+    assert control["lf_runs"] > e["runs"] > 100
+    assert e["total"]["lo"] <= 2 / 9 <= e["total"]["hi"], e["total"]
+    with pytest.raises(savme.TellError, match="cost must be a finite number ≥ 0, got -1"):
+        est.tell(est.ask()["id"], False, cost=-1.0)
+
+
 def test_bad_estimation_arguments_name_what_is_wrong():
     k = trained_kernel()
     with pytest.raises(ValueError, match=r"epsilon .* must lie in \(0, 1\], got 0"):
@@ -448,6 +476,12 @@ def test_bad_estimation_arguments_name_what_is_wrong():
         k.estimation(refine=(2, 10), refine_reuse=1, pilot_fidelity="lf")
     with pytest.raises(ValueError, match=r'pilot_fidelity: expected "hf" or "lf", got "mf"'):
         k.estimation(pilot_fidelity="mf")
+    with pytest.raises(ValueError, match=r"control: calibration must be at least 2 pairs .* got 1"):
+        k.estimation(control_calibration=1)
+    with pytest.raises(ValueError, match=r"control_extra: 3 extra LF runs per pair need control_calibration"):
+        k.estimation(control_extra=3)
+    with pytest.raises(ValueError, match=r"control: extra must lie in 0..=64 LF runs per pair, got 65"):
+        k.estimation(control_calibration=10, control_extra=65)
 
 
 def test_extreme_but_finite_ranges_are_refused_naming_the_variable():

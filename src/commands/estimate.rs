@@ -88,6 +88,17 @@ pub struct Args {
     /// --refine-rounds [default: hf].
     #[arg(long, value_enum)]
     pilot_fidelity: Option<FidelityArg>,
+    /// LF runs at the campaign's learned θ_LF* as control variates for the HF estimate
+    /// (multi-fidelity Monte Carlo): this many calibration pairs (φ run at HF and LF; not in
+    /// the estimate) measure the LF/HF correlation and costs and choose α and the LF runs per
+    /// pair, or HF only when the LF does not pay; every run counts in --max-runs
+    /// [default: 0, off].
+    #[arg(long)]
+    control_calibration: Option<u64>,
+    /// Extra LF-only runs per estimate pair with --control-calibration, 0..=64 (0: HF only
+    /// after the calibration) [default: chosen by the calibration].
+    #[arg(long)]
+    control_extra: Option<u32>,
     /// The campaign file of an FMU campaign (savme run): its problem and HF simulator. Its
     /// `[estimate]` section, if any, gives the settings; flags given here override its keys.
     #[arg(long, value_name = "FILE")]
@@ -216,6 +227,8 @@ impl Args {
                 FidelityArg::Lf => Fidelity::Lf,
             };
         }
+        s.control_calibration = self.control_calibration.unwrap_or(s.control_calibration);
+        s.control_extra = self.control_extra.or(s.control_extra);
         // A flag overrides the file's declaration of its variable; a second flag for the
         // same variable is refused rather than silently winning.
         let mut given = std::collections::BTreeSet::new();
@@ -295,6 +308,16 @@ impl Args {
             "pilot_fidelity",
             self.pilot_fidelity.is_some(),
             s.pilot_fidelity.is_some(),
+        );
+        add(
+            "control_calibration",
+            self.control_calibration.is_some(),
+            s.control_calibration.is_some(),
+        );
+        add(
+            "control_extra",
+            self.control_extra.is_some(),
+            s.control_extra.is_some(),
         );
         names
     }

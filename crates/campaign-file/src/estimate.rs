@@ -16,6 +16,8 @@
 //! proposal = "joint"     # or "product" (the default): what the pilot fits
 //! joint_components = 8   # the joint proposal's most mixture components
 //! pilot_fidelity = "lf"  # or "hf" (the default): the pilot runs at the learned θ_LF*
+//! control_calibration = 2000  # LF runs as control variates: calibration pairs (0: off)
+//! control_extra = 3      # extra LF runs per pair (default: chosen by the calibration)
 //! [estimate.nominal.cut_in]
 //! gap = { distribution = "normal", mean = 5.0, sd = 1.0 }
 //! lane = { distribution = "weights", weights = [4, 2, 1] }
@@ -49,6 +51,8 @@ pub(crate) mod raw {
         pub proposal: Option<Spanned<super::ProposalKind>>,
         pub joint_components: Option<Spanned<u32>>,
         pub pilot_fidelity: Option<Spanned<super::Fidelity>>,
+        pub control_calibration: Option<Spanned<u64>>,
+        pub control_extra: Option<Spanned<u32>>,
         #[serde(default)]
         pub nominal: BTreeMap<String, BTreeMap<String, Spanned<Nominal>>>,
     }
@@ -87,6 +91,10 @@ pub struct EstimateSection {
     /// `pilot_fidelity`: `"hf"` or `"lf"` (the multi-fidelity estimator: pilot rounds at the
     /// campaign's learned θ_LF*).
     pub pilot_fidelity: Option<Fidelity>,
+    /// `control_calibration`: LF runs as control variates, this many calibration pairs.
+    pub control_calibration: Option<u64>,
+    /// `control_extra`: extra LF-only runs per pair of the control variates.
+    pub control_extra: Option<u32>,
     /// `[estimate.nominal.<scenario>] <variable> = { distribution = … }`.
     pub nominal: BTreeMap<String, BTreeMap<String, Nominal>>,
     /// The 1-based line of the `[estimate]` table.
@@ -134,6 +142,8 @@ pub(crate) fn section(src: &Source, e: Spanned<raw::EstimateSection>) -> Estimat
         proposal: field!(proposal),
         joint_components: field!(joint_components),
         pilot_fidelity: field!(pilot_fidelity),
+        control_calibration: field!(control_calibration),
+        control_extra: field!(control_extra),
         nominal: BTreeMap::new(),
         line,
         lines: BTreeMap::new(),

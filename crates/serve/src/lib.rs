@@ -20,9 +20,9 @@
 //! | `{"op":"posterior"}` | `{"ok":true,"fidelity":{…},"scenarios":{…}}` |
 //! | `{"op":"stats"}` | `{"ok":true,"stats":{…},"pending":[ids]}` |
 //! | `{"op":"pending"}` | `{"ok":true,"trials":[…]}`: every trial asked and not yet told (a client restarting after a crash needs them) |
-//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine` = `{"rounds","runs","reuse"}`, `joint`, `pilot_fidelity` = `"lf"`: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
+//! | `{"op":"estimation","epsilon":0.1,"seed":7}` (also `nominal`, `tilt`, `refine` = `{"rounds","runs","reuse"}`, `joint`, `pilot_fidelity` = `"lf"`, `control` = `{"calibration","extra"}`: LF runs as control variates: [`EstimationConfig`]) | `{"ok":true,"scenarios":[…],"probabilities":[…]}`: starts an importance-sampling estimation of P(failure) from the current posteriors (docs/ESTIMATION.md), replacing any earlier one |
 //! | `{"op":"estimation_ask"}` | `{"ok":true,"trial":{"id","scenario","phi","q","p","weight","round",…}}` (with `"fidelity":"lf"` on a multi-fidelity estimation's pilot trials: run them at θ_LF*), or `"trial":null` while a refinement round waits for its outcomes |
-//! | `{"op":"estimation_tell","id":0,"failure":true}` (also `"robustness":0.4`: a joint proposal's pilot aims at the near-misses) | `{"ok":true}` |
+//! | `{"op":"estimation_tell","id":0,"failure":true}` (also `"robustness":0.4`: a joint proposal's pilot aims at the near-misses; `"cost":0.3`: the control variates' calibration compares LF and HF costs) | `{"ok":true}` |
 //! | `{"op":"estimation_result"}` | `{"ok":true,"estimate":{"total":{"mean","lo","hi",…},…},"told":n,"round":r}` |
 //! | `{"op":"ladder_plan","levels":[{economy},…]}` (each level's [`Economy`], cheapest first) | `{"ok":true,"plan":[true,false]}`: which levels of a fidelity ladder the next screened trial runs ([`savme_kernel::screening::plan`]; one level is the two-level screening) |
 //! | `{"op":"ladder_next","plan":[true,true],"last":{"level":0,"failure":true},"audited":false}` (`last` absent before any run) | `{"ok":true,"next":{"level":1}}`, `"next":"hf"` or `"next":"stop"`: the screened trial's next run ([`savme_kernel::screening::next`]) |
@@ -87,6 +87,8 @@ enum Request {
         failure: bool,
         #[serde(default)]
         robustness: Option<f64>,
+        #[serde(default)]
+        cost: Option<f64>,
     },
     EstimationResult {},
     LadderPlan {
@@ -356,9 +358,10 @@ impl Session {
                 id,
                 failure,
                 robustness,
+                cost,
             } => {
                 running(estimation)?
-                    .tell_run(id, failure, robustness)
+                    .tell_measured(id, failure, robustness, cost)
                     .map_err(SessionError::Estimation)?;
                 Ok(json!({"ok": true}))
             }
@@ -694,6 +697,44 @@ mod tests {
                 .contains("pilot_fidelity: `lf` runs the cross-entropy pilot rounds"),
             "{}",
             r[6]
+        );
+    }
+
+    /// Control variates (`control`): calibration pairs say which run is LF, a cost is taken
+    /// with the tell, and a bad calibration is refused naming the setting.
+    #[test]
+    fn an_estimation_with_control_variates_pairs_its_runs() {
+        let mut s = trained();
+        let input = "{\"op\":\"estimation\",\"epsilon\":0.2,\"seed\":5,\"control\":{\"calibration\":4,\"extra\":1}}\n\
+                     {\"op\":\"estimation_ask\"}\n{\"op\":\"estimation_ask\"}\n\
+                     {\"op\":\"estimation_tell\",\"id\":0,\"failure\":true,\"cost\":1.0}\n\
+                     {\"op\":\"estimation_tell\",\"id\":1,\"failure\":true,\"cost\":-0.2}\n\
+                     {\"op\":\"estimation\",\"epsilon\":0.2,\"seed\":5,\"control\":{\"calibration\":1}}\n";
+        let r = run(&mut s, input);
+        assert_eq!(
+            (&r[1]["trial"]["control"], &r[2]["trial"]["control"]),
+            (&json!("calibration"), &json!("calibration"))
+        );
+        assert_eq!(
+            (&r[1]["trial"]["fidelity"], &r[2]["trial"]["fidelity"]),
+            (&Value::Null, &json!("lf"))
+        );
+        assert_eq!(r[3]["ok"], true);
+        assert!(
+            r[4]["error"]
+                .as_str()
+                .unwrap()
+                .contains("cost must be a finite number ≥ 0, got -0.2"),
+            "{}",
+            r[4]
+        );
+        assert!(
+            r[5]["error"]
+                .as_str()
+                .unwrap()
+                .contains("control: calibration must be at least 2 pairs per scenario (2 scenarios: at least 4), got 1"),
+            "{}",
+            r[5]
         );
     }
 

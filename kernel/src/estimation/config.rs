@@ -3,6 +3,7 @@
 
 use super::Nominal;
 use super::Tilt;
+use super::{Control, MAX_EXTRA};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -37,6 +38,11 @@ pub struct EstimationConfig {
     /// at LF are never part of the estimate (`refine.reuse` must be 0).
     #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
     pub pilot_fidelity: Fidelity,
+    /// LF runs at θ_LF* as control variates for the HF estimate (None: HF runs only).
+    /// Calibration pairs choose α and the LF runs per pair; see [`Control`]. `refine.reuse`
+    /// must be 0 with it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control: Option<Control>,
 }
 
 /// Which simulator fidelity an estimation trial runs at: `hf` (θ_HF, the truth the estimate
@@ -168,6 +174,7 @@ impl EstimationConfig {
             refine: None,
             joint: None,
             pilot_fidelity: Fidelity::Hf,
+            control: None,
         }
     }
 }
@@ -247,6 +254,30 @@ pub enum EstimationError {
     /// LF pilot rounds to reuse in the (HF) estimate.
     #[error("refine reuse: {0} pilot rounds to reuse, but the pilot runs at low fidelity (pilot_fidelity = `lf`) and LF outcomes are not the HF failures the estimate is about: reuse must be 0")]
     ReuseLowFidelity(u32),
+    /// Control variates with too few calibration pairs.
+    #[error("control: calibration must be at least 2 pairs per scenario ({scenarios} scenarios: at least {min}), got {calibration}")]
+    BadCalibration {
+        /// Calibration pairs given.
+        calibration: u64,
+        /// The least allowed.
+        min: u64,
+        /// Scenarios.
+        scenarios: usize,
+    },
+    /// Control variates with too many extra LF runs per pair.
+    #[error("control: extra must lie in 0..={MAX_EXTRA} LF runs per pair, got {0}")]
+    BadExtra(u32),
+    /// Control variates with reused pilot rounds.
+    #[error("refine reuse: {0} pilot rounds to reuse, but with control variates (`control`) the estimate is the control-variate estimate of its own pairs: reuse must be 0")]
+    ReuseWithControl(u32),
+    /// A cost that is negative, NaN or infinite.
+    #[error("estimation trial {id}: cost must be a finite number ≥ 0, got {cost}")]
+    BadCost {
+        /// The trial.
+        id: u64,
+        /// The value given.
+        cost: f64,
+    },
     /// A robustness that is NaN or infinite.
     #[error("estimation trial {id}: robustness must be a finite number, got {robustness}")]
     BadRobustness {
@@ -261,7 +292,10 @@ pub enum EstimationError {
 }
 
 /// Checks ε, the refinement and the joint proposal's options.
-pub(crate) fn check_config(config: &EstimationConfig) -> Result<(), EstimationError> {
+pub(crate) fn check_config(
+    config: &EstimationConfig,
+    scenarios: usize,
+) -> Result<(), EstimationError> {
     let eps = config.epsilon;
     if !(eps > 0.0 && eps <= 1.0) {
         return Err(EstimationError::BadEpsilon(eps));
@@ -286,6 +320,12 @@ pub(crate) fn check_config(config: &EstimationConfig) -> Result<(), EstimationEr
             Some(_) => {}
         }
     }
+    if let Some(c) = config.control {
+        if let Some(r) = config.refine.filter(|r| r.reuse > 0) {
+            return Err(EstimationError::ReuseWithControl(r.reuse));
+        }
+        check_control(c, scenarios)?;
+    }
     if let Some(j) = config.joint {
         if j.components == 0 || j.components > MAX_COMPONENTS {
             return Err(EstimationError::BadComponents(j.components));
@@ -295,4 +335,20 @@ pub(crate) fn check_config(config: &EstimationConfig) -> Result<(), EstimationEr
         }
     }
     Ok(())
+}
+
+/// At least 2 calibration pairs per scenario, at most [`MAX_EXTRA`] extra LF runs per pair.
+fn check_control(c: Control, scenarios: usize) -> Result<(), EstimationError> {
+    let min = 2 * scenarios.max(1) as u64;
+    if c.calibration < min {
+        return Err(EstimationError::BadCalibration {
+            calibration: c.calibration,
+            min,
+            scenarios,
+        });
+    }
+    match c.extra {
+        Some(k) if k > MAX_EXTRA => Err(EstimationError::BadExtra(k)),
+        _ => Ok(()),
+    }
 }

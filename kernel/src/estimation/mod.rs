@@ -76,6 +76,7 @@
 //! ```
 
 mod config;
+mod control;
 mod joint;
 mod joint_fit;
 mod nominal;
@@ -86,6 +87,7 @@ pub use config::{
     EstimationConfig, EstimationError, Fidelity, Joint, ProposalKind, Refine, DEFAULT_COMPONENTS,
     MAX_COMPONENTS, REFINE_SMOOTHING,
 };
+pub use control::{Control, ControlPart, ControlPlan, ControlReport, MAX_EXTRA};
 pub use nominal::Nominal;
 pub use proposal::Tilt;
 pub use statistic::{z95, Estimate, Interval, ScenarioEstimate};
@@ -94,6 +96,7 @@ use crate::kernel::{Kernel, Scenario};
 use crate::posterior::Posterior;
 use crate::value::Assignment;
 use config::check_config;
+use control::PairSums;
 use joint::Mixture;
 use joint_fit::{JointPilot, PilotPoint};
 use nominal::NominalOf;
@@ -102,7 +105,7 @@ use rand::SeedableRng;
 use rand_pcg::Pcg64 as Rng64;
 use serde::{Deserialize, Serialize};
 use statistic::Sums;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 /// One trial of an estimation: run the HF simulator on `scenario` with `phi`.
@@ -130,6 +133,12 @@ pub struct EstimationTrial {
     /// proposal.
     #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
     pub fidelity: Fidelity,
+    /// With control variates ([`EstimationConfig::control`]): which part of the estimation
+    /// the trial is (a calibration pair's run, an estimate pair's run, an extra LF run; the
+    /// two runs of a pair are consecutive trials with the same φ, HF first). None: a plain
+    /// trial (the pilot's, or an HF-only estimate's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control: Option<ControlPart>,
 }
 
 /// The importance-sampling estimation of P(failure) under the nominal: asks φ from the fixed
@@ -153,6 +162,74 @@ pub struct Estimation {
     pilot_sums: Vec<Sums>,
     /// The fidelity of the pilot rounds' runs.
     pilot_fidelity: Fidelity,
+    /// LF runs as control variates (None: HF runs only).
+    control: Option<ControlState>,
+}
+
+/// The control-variate estimation's state (after the pilot, if any).
+#[derive(Debug, Clone)]
+struct ControlState {
+    config: Control,
+    /// Calibration pairs asked.
+    calibration_asked: u64,
+    /// Calibration runs told by trial id: (scenario, weight, fidelity, failure, cost), summed
+    /// in id order when the calibration is complete (so the plan does not depend on the
+    /// order of the tells).
+    calibration_runs: BTreeMap<u64, (usize, f64, Fidelity, bool, Option<f64>)>,
+    /// Per scenario, chosen when every calibration run is told.
+    plans: Option<Vec<ControlPlan>>,
+    /// Per scenario: the estimate's pairs and extra LF runs.
+    pairs: Vec<PairSums>,
+    extra: Vec<Sums>,
+    /// Trials drawn (a pair's LF twin, the extra LF runs) and not yet asked.
+    queue: VecDeque<(EstimationTrial, Pending)>,
+    /// Estimate pairs with one run told, by the HF trial's id: (HF, LF) failure.
+    halves: BTreeMap<u64, (Option<bool>, Option<bool>)>,
+}
+
+impl ControlState {
+    fn new(config: Control, scenarios: usize) -> Self {
+        ControlState {
+            config,
+            calibration_asked: 0,
+            calibration_runs: BTreeMap::new(),
+            plans: None,
+            pairs: vec![PairSums::default(); scenarios],
+            extra: vec![Sums::default(); scenarios],
+            queue: VecDeque::new(),
+            halves: BTreeMap::new(),
+        }
+    }
+
+    /// The plans from the complete calibration: pairs and costs summed in trial-id order.
+    fn plan(&mut self, scenarios: usize) {
+        let mut sums = vec![PairSums::default(); scenarios];
+        let mut costs = [0.0, 0.0];
+        let mut counted = [0u64, 0];
+        let mut hf = None;
+        for &(s, w, fidelity, failure, cost) in self.calibration_runs.values() {
+            let i = usize::from(fidelity == Fidelity::Lf);
+            if let Some(c) = cost {
+                costs[i] += c;
+                counted[i] += 1;
+            }
+            match (fidelity, hf.take()) {
+                (Fidelity::Hf, _) => hf = Some(failure),
+                (Fidelity::Lf, Some(h)) => sums[s].add(w, h, failure),
+                (Fidelity::Lf, None) => {}
+            }
+        }
+        let ratio = if counted[0] > 0 && counted[1] > 0 && costs[0] > 0.0 {
+            (costs[1] / counted[1] as f64) / (costs[0] / counted[0] as f64)
+        } else {
+            1.0
+        };
+        self.plans = Some(
+            sums.iter()
+                .map(|c| ControlPlan::new(c, ratio, self.config.extra))
+                .collect(),
+        );
+    }
 }
 
 /// A trial asked and not yet told.
@@ -162,6 +239,9 @@ struct Pending {
     weight: f64,
     /// For a pilot trial: its round and φ's bin of each variable.
     pilot: Option<(u32, Vec<usize>)>,
+    /// For a control-variate trial: its part, the id of its pair's HF trial (its own id for
+    /// an extra run) and its fidelity.
+    control: Option<(ControlPart, u64, Fidelity)>,
 }
 
 /// The cross-entropy pilot while it lasts.
@@ -248,7 +328,7 @@ impl Estimation {
         scenarios: &[(Scenario, Posterior)],
         config: &EstimationConfig,
     ) -> Result<Estimation, EstimationError> {
-        check_config(config)?;
+        check_config(config, scenarios.len())?;
         if scenarios.is_empty() {
             return Err(EstimationError::NoScenarios);
         }
@@ -284,6 +364,9 @@ impl Estimation {
             pilot,
             pilot_sums: vec![Sums::default(); scenarios.len()],
             pilot_fidelity: config.pilot_fidelity,
+            control: config
+                .control
+                .map(|c| ControlState::new(c, scenarios.len())),
         })
     }
 
@@ -328,6 +411,9 @@ impl Estimation {
     /// None while a refinement round has asked all its trials and waits for their outcomes
     /// (tell them, then ask again).
     pub fn ask(&mut self) -> Option<EstimationTrial> {
+        if self.pilot.is_none() && self.control.is_some() {
+            return self.ask_control();
+        }
         let round = match &mut self.pilot {
             Some(p) if p.asked >= p.refine.runs => return None,
             Some(p) => {
@@ -336,20 +422,8 @@ impl Estimation {
             }
             None => None,
         };
-        let s = (0..self.names.len())
-            .min_by(|&a, &b| {
-                let behind = |i: usize| (self.asked[i] + 1) as f64 / self.probabilities[i];
-                behind(a).total_cmp(&behind(b))
-            })
-            .unwrap_or(0);
-        let (phi, d) = match &self.mixtures[s] {
-            Some(m) => joint::draw(m, &self.proposals[s], &mut self.rng),
-            None => {
-                let phi = self.proposals[s].draw(&mut self.rng);
-                let d = self.proposals[s].densities(&phi);
-                (phi, d)
-            }
-        };
+        let s = self.next_scenario();
+        let (phi, d) = self.draw(s);
         let weight = d.p / d.q;
         let trial = EstimationTrial {
             id: self.next_id,
@@ -364,6 +438,7 @@ impl Estimation {
                 Some(_) => self.pilot_fidelity,
                 None => Fidelity::Hf,
             },
+            control: None,
         };
         self.next_id += 1;
         self.asked[s] += 1;
@@ -377,9 +452,114 @@ impl Estimation {
                 scenario: s,
                 weight,
                 pilot,
+                control: None,
             },
         );
         Some(trial)
+    }
+
+    /// The scenario furthest behind its share p(s) (ties: the first).
+    fn next_scenario(&self) -> usize {
+        (0..self.names.len())
+            .min_by(|&a, &b| {
+                let behind = |i: usize| (self.asked[i] + 1) as f64 / self.probabilities[i];
+                behind(a).total_cmp(&behind(b))
+            })
+            .unwrap_or(0)
+    }
+
+    /// φ ~ q of scenario `s` with its densities.
+    fn draw(&mut self, s: usize) -> (Assignment, Densities) {
+        match &self.mixtures[s] {
+            Some(m) => joint::draw(m, &self.proposals[s], &mut self.rng),
+            None => {
+                let phi = self.proposals[s].draw(&mut self.rng);
+                let d = self.proposals[s].densities(&phi);
+                (phi, d)
+            }
+        }
+    }
+
+    /// The next control-variate trial: from the queue, else a new calibration pair, estimate
+    /// pair (with its extra LF runs) or HF-only trial; None while the calibration waits for
+    /// its outcomes.
+    fn ask_control(&mut self) -> Option<EstimationTrial> {
+        let c = self.control.as_ref()?;
+        if c.queue.is_empty() {
+            let part = if c.calibration_asked < c.config.calibration {
+                ControlPart::Calibration
+            } else if c.plans.is_some() {
+                ControlPart::Paired
+            } else {
+                return None;
+            };
+            self.draw_block(part);
+        }
+        let (trial, pending) = self.control.as_mut()?.queue.pop_front()?;
+        self.pending.insert(trial.id, pending);
+        Some(trial)
+    }
+
+    /// Draws the next block into the queue: a pair (HF, then LF at the same φ) and, for an
+    /// estimate pair, its extra LF runs; or one plain HF trial when the plan runs HF only.
+    fn draw_block(&mut self, part: ControlPart) {
+        let s = self.next_scenario();
+        self.asked[s] += 1;
+        let plan = self
+            .control
+            .as_ref()
+            .and_then(|c| c.plans.as_ref())
+            .map(|p| p[s]);
+        let (extra, paired) = match (part, plan) {
+            (ControlPart::Calibration, _) => (0, true),
+            (_, Some(p)) => (p.extra, p.use_lf),
+            (_, None) => (0, false),
+        };
+        let (phi, d) = self.draw(s);
+        let mut block = Vec::new();
+        let hf_id = self.next_id;
+        block.push((phi.clone(), d, Fidelity::Hf, paired.then_some(part)));
+        if paired {
+            block.push((phi, d, Fidelity::Lf, Some(part)));
+        }
+        for _ in 0..extra {
+            let (phi, d) = self.draw(s);
+            block.push((phi, d, Fidelity::Lf, Some(ControlPart::Extra)));
+        }
+        for (phi, d, fidelity, part) in block {
+            let id = self.next_id;
+            self.next_id += 1;
+            let weight = d.p / d.q;
+            let trial = EstimationTrial {
+                id,
+                scenario: self.names[s].clone(),
+                scenario_index: s,
+                phi,
+                q: d.q,
+                p: d.p,
+                weight,
+                round: None,
+                fidelity,
+                control: part,
+            };
+            let pair = if part == Some(ControlPart::Extra) {
+                id
+            } else {
+                hf_id
+            };
+            let pending = Pending {
+                scenario: s,
+                weight,
+                pilot: None,
+                control: part.map(|p| (p, pair, fidelity)),
+            };
+            if let Some(c) = self.control.as_mut() {
+                if part == Some(ControlPart::Calibration) && fidelity == Fidelity::Hf {
+                    c.calibration_asked += 1;
+                }
+                c.queue.push_back((trial, pending));
+            }
+        }
     }
 
     /// Takes the outcome of trial `id` at its [`EstimationTrial::fidelity`] (HF, except an
@@ -397,14 +577,34 @@ impl Estimation {
         failure: bool,
         robustness: Option<f64>,
     ) -> Result<(), EstimationError> {
+        self.tell_measured(id, failure, robustness, None)
+    }
+
+    /// [`Estimation::tell_run`] with the run's cost (finite, ≥ 0; in any unit, the same for
+    /// every run): the control variates' calibration compares the mean LF and HF costs to
+    /// choose how many LF runs pay (without costs it takes them as equal).
+    pub fn tell_measured(
+        &mut self,
+        id: u64,
+        failure: bool,
+        robustness: Option<f64>,
+        cost: Option<f64>,
+    ) -> Result<(), EstimationError> {
         if let Some(r) = robustness.filter(|r| !r.is_finite()) {
             return Err(EstimationError::BadRobustness { id, robustness: r });
+        }
+        if let Some(c) = cost.filter(|c| !(c.is_finite() && *c >= 0.0)) {
+            return Err(EstimationError::BadCost { id, cost: c });
         }
         let t = self
             .pending
             .remove(&id)
             .ok_or(EstimationError::NotPending(id))?;
         self.told += 1;
+        if let Some((part, pair, fidelity)) = t.control {
+            self.tell_control(&t, (part, pair, fidelity), id, failure, cost);
+            return Ok(());
+        }
         let s = t.scenario;
         let (Some((round, arms)), Some(pilot)) = (t.pilot, self.pilot.as_mut()) else {
             self.sums[s].add(t.weight, failure);
@@ -432,6 +632,55 @@ impl Estimation {
             self.end_round();
         }
         Ok(())
+    }
+
+    /// Takes a control-variate trial's outcome.
+    fn tell_control(
+        &mut self,
+        t: &Pending,
+        (part, pair, fidelity): (ControlPart, u64, Fidelity),
+        id: u64,
+        failure: bool,
+        cost: Option<f64>,
+    ) {
+        let n = self.names.len();
+        let Some(c) = self.control.as_mut() else {
+            return;
+        };
+        let s = t.scenario;
+        match part {
+            ControlPart::Extra => c.extra[s].add(t.weight, failure),
+            ControlPart::Calibration => {
+                c.calibration_runs
+                    .insert(id, (s, t.weight, fidelity, failure, cost));
+                if c.calibration_runs.len() as u64 == 2 * c.config.calibration {
+                    c.plan(n);
+                }
+            }
+            ControlPart::Paired => {
+                let half = c.halves.entry(pair).or_default();
+                match fidelity {
+                    Fidelity::Hf => half.0 = Some(failure),
+                    Fidelity::Lf => half.1 = Some(failure),
+                }
+                if let (Some(hf), Some(lf)) = *half {
+                    c.halves.remove(&pair);
+                    c.pairs[s].add(t.weight, hf, lf);
+                }
+            }
+        }
+    }
+
+    /// The control variates' plan per scenario, once the calibration is complete (None
+    /// before, and without control variates).
+    pub fn control_plans(&self) -> Option<&[ControlPlan]> {
+        self.control.as_ref().and_then(|c| c.plans.as_deref())
+    }
+
+    /// Whether the control variates' calibration is under way (asked, or waiting for
+    /// outcomes).
+    pub fn calibrating(&self) -> bool {
+        self.pilot.is_none() && self.control.as_ref().is_some_and(|c| c.plans.is_none())
     }
 
     /// Refits every scenario's proposal from the round's weighted failures and starts the
@@ -486,12 +735,28 @@ impl Estimation {
     /// The estimate from the trials told so far: those of the final proposal and of the
     /// pilot rounds it reuses ([`Refine::reuse`]).
     pub fn estimate(&self) -> Estimate {
+        let plans = self.control_plans();
         Estimate::from_scenarios(
             self.names
                 .iter()
                 .zip(&self.probabilities)
-                .zip(&self.sums)
-                .map(|((n, &p), s)| ScenarioEstimate::new(n, p, s))
+                .enumerate()
+                .map(|(i, (n, &p))| match (plans, self.control.as_ref()) {
+                    (Some(plans), Some(c)) if plans[i].use_lf => {
+                        ScenarioEstimate::with_control(n, p, &c.pairs[i], &c.extra[i], plans[i])
+                    }
+                    (Some(plans), _) => {
+                        let mut e = ScenarioEstimate::new(n, p, &self.sums[i]);
+                        e.control = Some(ControlReport {
+                            plan: plans[i],
+                            lf_runs: 0,
+                            lf_failures: 0,
+                            hf_only_mean: e.estimate.mean,
+                        });
+                        e
+                    }
+                    _ => ScenarioEstimate::new(n, p, &self.sums[i]),
+                })
                 .collect(),
         )
     }
@@ -531,6 +796,8 @@ impl Kernel {
     }
 }
 
+#[cfg(test)]
+mod control_tests;
 #[cfg(test)]
 mod joint_tests;
 #[cfg(test)]

@@ -115,6 +115,11 @@ pub struct ScenarioEstimate {
     pub failure_ess: f64,
     /// `(1/n) Σ w_i`: close to 1 when q covers p (its expectation is exactly 1).
     pub mean_weight: f64,
+    /// With control variates: the calibration's plan and the LF runs of the estimate (then
+    /// `runs`, `failures`, the ESS and the mean weight are those of the pairs' HF runs, and
+    /// `estimate` is the control-variate estimate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control: Option<super::ControlReport>,
 }
 
 impl ScenarioEstimate {
@@ -130,7 +135,28 @@ impl ScenarioEstimate {
             ess: ratio(s.w, s.w2),
             failure_ess: ratio(s.y, s.y2),
             mean_weight: if s.runs > 0 { s.w / s.runs as f64 } else { 0.0 },
+            control: None,
         }
+    }
+
+    /// The control-variate estimate of a scenario from its pairs and extra LF runs.
+    pub(crate) fn with_control(
+        scenario: &str,
+        probability: f64,
+        pairs: &super::control::PairSums,
+        extra: &Sums,
+        plan: super::ControlPlan,
+    ) -> ScenarioEstimate {
+        let mut e = ScenarioEstimate::new(scenario, probability, &pairs.hf);
+        let hf_only_mean = e.estimate.mean;
+        e.estimate = super::control::estimate(pairs, extra, plan.alpha);
+        e.control = Some(super::ControlReport {
+            plan,
+            lf_runs: pairs.lf.runs + extra.runs,
+            lf_failures: pairs.lf.failures + extra.failures,
+            hf_only_mean,
+        });
+        e
     }
 }
 

@@ -3,7 +3,7 @@ use crate::space::{Scale, Space, Variable};
 use crate::PriorCounts;
 use statrs::distribution::{ContinuousCDF, Normal};
 
-fn scenario(name: &str, vars: Vec<Variable>, weight: f64) -> (Scenario, Posterior) {
+pub(super) fn scenario(name: &str, vars: Vec<Variable>, weight: f64) -> (Scenario, Posterior) {
     let space = Space::new(vars).unwrap();
     let posterior = Posterior::new(&space, PriorCounts::UNIFORM).unwrap();
     (
@@ -423,7 +423,7 @@ fn the_nominal_weighted_tilt_weighs_bins_by_the_nominal() {
 
 /// x on [0, 1] (10 bins) with a normal(0.3, 0.15) nominal and y uniform (irrelevant); the
 /// posterior believes bins 7–9 of x fail. Failure iff x > 0.7: P = the normal's tail.
-fn rare(seed: u64, refine: Option<Refine>) -> (Estimation, f64) {
+pub(super) fn rare(seed: u64, refine: Option<Refine>) -> (Estimation, f64) {
     let n = Normal::new(0.3, 0.15).unwrap();
     let truth = (n.cdf(1.0) - n.cdf(0.7)) / (n.cdf(1.0) - n.cdf(0.0));
     let (s, mut p) = scenario(
@@ -452,7 +452,7 @@ fn rare(seed: u64, refine: Option<Refine>) -> (Estimation, f64) {
     (Estimation::new(&[(s, p)], &c).unwrap(), truth)
 }
 
-fn fails(t: &EstimationTrial) -> bool {
+pub(super) fn fails(t: &EstimationTrial) -> bool {
     t.phi.get_f64("x").unwrap() > 0.7
 }
 

@@ -33,7 +33,7 @@ mod running;
 use running::{replay, stop_reason, Reporter, Running};
 mod settings;
 
-pub use output::{EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
+pub use output::{ControlOutcome, EstimateLine, EstimateOutcome, EstimateSummary, StopReason};
 pub use settings::{
     resumed as settings_on_resume, EstimateError, EstimateSettings, MAX_RUNS, STOPPING_RULES,
 };
@@ -74,6 +74,8 @@ pub struct EstimateProgress<'a> {
     pub max_runs: u64,
     /// The refinement round under way, and how many there are (None: the estimate itself).
     pub round: Option<(u32, u32)>,
+    /// Whether the control variates' calibration pairs are under way (after the pilot).
+    pub calibrating: bool,
     /// The estimate from the runs after the pilot (and the pilot rounds it reuses).
     pub estimate: &'a savme_kernel::estimation::Estimate,
     /// Seconds since this process started the estimate.
@@ -93,8 +95,8 @@ impl EstimateProgress<'_> {
     ///     failures: 400,
     /// };
     /// let p = EstimateProgress {
-    ///     told: 17000, replayed: 0, max_runs: 200000, round: None, estimate: &estimate,
-    ///     elapsed_seconds: 12.5,
+    ///     told: 17000, replayed: 0, max_runs: 200000, round: None, calibrating: false,
+    ///     estimate: &estimate, elapsed_seconds: 12.5,
     /// };
     /// assert_eq!(
     ///     p.line(),
@@ -105,6 +107,7 @@ impl EstimateProgress<'_> {
         let e = self.estimate;
         let stand = match self.round {
             Some((r, rounds)) => format!("cross-entropy pilot round {} of {rounds}", r + 1),
+            None if self.calibrating => "control-variate calibration pairs".to_string(),
             None if e.failures == 0 => format!("no failure yet in {} runs", e.runs),
             None => format!(
                 "P(failure) = {} ± {:.1} % from {} runs ({} failures)",

@@ -6,7 +6,9 @@ use super::{EstimateError, EstimateSettings};
 use crate::log::RunLine;
 use crate::outputs::FORMAT_VERSION;
 use crate::CampaignError;
-use savme_kernel::estimation::{Estimate, Estimation, EstimationTrial, Fidelity};
+use savme_kernel::estimation::{
+    ControlPart, ControlPlan, Estimate, Estimation, EstimationTrial, Fidelity,
+};
 use savme_kernel::Assignment;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -35,9 +37,14 @@ pub struct EstimateLine {
     /// The HF run (every trial but an LF pilot's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub hf: Option<RunLine>,
-    /// The LF run at θ_LF* of a pilot trial with `pilot_fidelity` = `lf`.
+    /// The LF run at θ_LF* of a pilot trial with `pilot_fidelity` = `lf`, or of a control
+    /// variate's run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lf: Option<RunLine>,
+    /// With control variates (`control_calibration`): `calibration` or `paired` (a pair's
+    /// HF or LF run: two consecutive lines, same φ) or `extra` (an LF-only run).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control: Option<ControlPart>,
 }
 
 impl EstimateLine {
@@ -57,6 +64,7 @@ impl EstimateLine {
             round: t.round,
             hf,
             lf,
+            control: t.control,
         }
     }
 
@@ -104,6 +112,14 @@ impl EstimateLine {
                 format!("an {} run", stored.key().to_uppercase()),
                 format!("an {} run", asked.fidelity.key().to_uppercase()),
             );
+        }
+        if self.control != asked.control {
+            let show = |c: Option<ControlPart>| {
+                c.map_or("none".to_string(), |c| {
+                    serde_json::to_string(&c).unwrap_or_default()
+                })
+            };
+            return differs("control", show(self.control), show(asked.control));
         }
         for (field, stored, now) in [
             ("q", self.q, asked.q),
@@ -168,9 +184,12 @@ pub struct EstimateOutcome {
     /// Their summed cost (the campaign's cost measure; absent without LF runs).
     #[serde(default, skip_serializing_if = "is_zero_cost")]
     pub pilot_lf_cost: f64,
-    /// θ_LF*, the LF pilot's fidelity settings (absent without an LF pilot).
+    /// θ_LF*, the LF runs' fidelity settings (absent without LF runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub theta_lf: Option<Assignment>,
+    /// The control variates' runs and plans (`control_calibration`; absent without them).
+    #[serde(flatten)]
+    pub control: ControlOutcome,
     /// Every run made, HF and LF, in HF runs of equal cost: (HF cost + LF cost) / the mean
     /// cost of one HF run here. Without an LF pilot, the HF runs made.
     pub hf_equivalent_runs: f64,
@@ -186,6 +205,53 @@ pub struct EstimateOutcome {
     /// `table.md`'s text.
     #[serde(skip)]
     pub table_md: String,
+}
+
+/// The control variates' part of an [`EstimateOutcome`] (its fields appear in
+/// `summary.json` next to the others, each only when non-zero).
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ControlOutcome {
+    /// The calibration pairs' HF runs (their LF runs are in `control_lf_runs`); not part of
+    /// the estimate.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub calibration_hf_runs: u64,
+    /// Every LF run after the pilot (calibration, pairs, extra).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub control_lf_runs: u64,
+    /// Their summed cost.
+    #[serde(skip_serializing_if = "is_zero_cost")]
+    pub control_lf_cost: f64,
+    /// What the calibration chose, per scenario (also in each scenario's
+    /// `estimate.scenarios[i].control`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub control_plans: Option<BTreeMap<String, ControlPlan>>,
+}
+
+impl ControlOutcome {
+    /// The control variates' counts, costs and plans (all zero without them).
+    fn of(estimation: &Estimation, lines: &[EstimateLine]) -> Self {
+        let control_lf = || lines.iter().filter(|l| l.lf.is_some() && l.round.is_none());
+        ControlOutcome {
+            calibration_hf_runs: lines
+                .iter()
+                .filter(|l| l.hf.is_some() && l.control == Some(ControlPart::Calibration))
+                .count() as u64,
+            control_lf_runs: control_lf().count() as u64,
+            control_lf_cost: control_lf()
+                .filter_map(EstimateLine::run)
+                .map(|r| r.runtime)
+                .sum(),
+            control_plans: estimation.control_plans().map(|plans| {
+                estimation
+                    .scenarios()
+                    .iter()
+                    .zip(plans)
+                    .map(|(n, p)| (n.to_string(), *p))
+                    .collect()
+            }),
+        }
+    }
 }
 
 fn is_zero(n: &u64) -> bool {
@@ -247,7 +313,7 @@ impl EstimateOutcome {
         let refine = settings.refine();
         // Whether a line's run counts in the estimate: after the pilot, or a reused round.
         let in_estimate = |l: &EstimateLine| match (l.round, refine) {
-            (None, _) => true,
+            (None, _) => l.control != Some(ControlPart::Calibration),
             (Some(r), Some(refine)) => r + refine.reuse >= refine.rounds,
             (Some(_), None) => false,
         };
@@ -273,7 +339,7 @@ impl EstimateOutcome {
             training_hf_runs: trained.stage_runs,
             training_hf_runs_of_scenarios: trained.scenario_runs,
             estimate_hf_runs: estimate.runs,
-            estimate_hf_cost: cost(&mut lines.iter().filter(|l| in_estimate(l))),
+            estimate_hf_cost: cost(&mut lines.iter().filter(|l| l.hf.is_some() && in_estimate(l))),
             pilot_hf_runs: if lf_pilot { 0 } else { pilot_runs },
             pilot_failures: pilot.iter().map(|p| p.1).sum(),
             pilot_hf_runs_reused: lines
@@ -282,8 +348,9 @@ impl EstimateOutcome {
                 .count() as u64,
             pilot_hf_cost: cost(&mut lines.iter().filter(|l| l.round.is_some() && l.hf.is_some())),
             pilot_lf_runs: if lf_pilot { pilot_runs } else { 0 },
-            pilot_lf_cost: lf_cost,
+            pilot_lf_cost: cost(&mut lines.iter().filter(|l| l.lf.is_some() && l.round.is_some())),
             theta_lf: trained.theta_lf.clone(),
+            control: ControlOutcome::of(estimation, &lines),
             hf_equivalent_runs,
             estimate,
             replayed,
@@ -402,7 +469,46 @@ impl EstimateOutcome {
                 );
             }
         }
+        t += &self.control_notes();
         let _ = writeln!(t, "\n{ESTIMATE_LEGEND}");
+        t
+    }
+
+    /// The control variates' lines under the table: the calibration's plan per scenario.
+    fn control_notes(&self) -> String {
+        use std::fmt::Write;
+        let mut t = String::new();
+        let Some(plans) = &self.control.control_plans else {
+            return t;
+        };
+        let _ = writeln!(
+            t,
+            "Control variates: {} calibration pairs (HF and LF at θ_LF*{}, not part of the estimate; {} LF runs after the pilot in all, cost {:.4e}) chose per scenario:",
+            self.settings.control_calibration,
+            self.theta_lf.as_ref().map_or_else(String::new, |t| format!(" {t}")),
+            self.control.control_lf_runs,
+            self.control.control_lf_cost
+        );
+        for (scenario, p) in plans {
+            let chosen = if p.use_lf {
+                format!(
+                    "every estimate draw at HF and LF plus {} extra LF runs, α = {:.4} (predicted cost × variance {:.2} of HF only)",
+                    p.extra, p.alpha, p.predicted_factor
+                )
+            } else {
+                "HF runs only (the LF does not pay)".to_string()
+            };
+            let _ = writeln!(
+                t,
+                "- {scenario}: ρ(w·f_HF, w·f_LF) = {:.3} over {} pairs ({} HF, {} LF failures), LF/HF cost {:.3}: {chosen}.",
+                p.rho, p.calibration_pairs, p.calibration_hf_failures, p.calibration_lf_failures, p.cost_ratio
+            );
+        }
+        let _ = writeln!(
+            t,
+            "Every run made is worth {:.0} HF runs (LF runs charged at their cost).",
+            self.hf_equivalent_runs
+        );
         t
     }
 

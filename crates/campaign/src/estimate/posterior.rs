@@ -95,9 +95,10 @@ pub(crate) fn trained(
             used.push(*s);
         }
     }
-    let theta_lf = match settings.pilot_fidelity {
-        savme_kernel::estimation::Fidelity::Lf => Some(learned_theta(campaign, lines, budget)?),
-        savme_kernel::estimation::Fidelity::Hf => None,
+    let theta_lf = if settings.uses_lf() {
+        Some(learned_theta(campaign, lines, budget)?)
+    } else {
+        None
     };
     Ok(Trained {
         theta_lf,

@@ -39,7 +39,7 @@ pub(super) fn replay(
         let run = line
             .run()
             .ok_or_else(|| diverged("a line holds exactly one run, `hf` or `lf`".into()))?;
-        estimation.tell_run(asked.id, run.failure, run.robustness)?;
+        estimation.tell_measured(asked.id, run.failure, run.robustness, Some(run.runtime))?;
         lines.push(line);
     }
     // Checked after the lines (their check names the field that differs, if one does).
@@ -88,6 +88,7 @@ impl Reporter<'_> {
             replayed: self.replayed,
             max_runs: self.max_runs,
             round: e.round().map(|r| (r, self.rounds)),
+            calibrating: e.calibrating(),
             estimate: &estimate,
             elapsed_seconds: self.started.elapsed().as_secs_f64(),
         });
@@ -203,7 +204,8 @@ impl Running<'_, '_> {
         }
         let line = EstimateLine::new(t, RunLine::new(r, run.runtime));
         self.store.append(&line).map_err(CampaignError::from)?;
-        self.estimation.tell_run(t.id, r.failure, r.robustness)?;
+        self.estimation
+            .tell_measured(t.id, r.failure, r.robustness, Some(run.runtime))?;
         self.lines.push(line);
         self.report.call(self.estimation);
         Ok(())

@@ -2,8 +2,8 @@
 
 use crate::CampaignError;
 use savme_kernel::estimation::{
-    EstimationError, Fidelity, Joint, Nominal, ProposalKind, Refine, Tilt, DEFAULT_COMPONENTS,
-    MAX_COMPONENTS,
+    Control, EstimationError, Fidelity, Joint, Nominal, ProposalKind, Refine, Tilt,
+    DEFAULT_COMPONENTS, MAX_COMPONENTS,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -66,9 +66,24 @@ pub struct EstimateSettings {
     /// `refine_rounds`; `refine_reuse` must be 0.
     #[serde(default, skip_serializing_if = "Fidelity::is_hf")]
     pub pilot_fidelity: Fidelity,
+    /// LF runs at the campaign's learned θ_LF* as control variates for the HF estimate
+    /// (multi-fidelity Monte Carlo): this many calibration pairs (φ run at HF and at LF,
+    /// not part of the estimate) choose α and the LF runs per pair, then every estimate
+    /// draw runs at both fidelities, plus extra LF-only draws — or HF only, when the measured
+    /// correlation and costs say the LF does not pay. 0 (default): off.
+    #[serde(default, skip_serializing_if = "is_zero_u64")]
+    pub control_calibration: u64,
+    /// Extra LF-only runs per estimate pair with control variates, 0..=64 (None: chosen
+    /// from the calibration; 0: HF only after it). Needs `control_calibration`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub control_extra: Option<u32>,
 }
 
 fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+fn is_zero_u64(n: &u64) -> bool {
     *n == 0
 }
 
@@ -83,6 +98,8 @@ const SKIPPED_AT_DEFAULT: &[&str] = &[
     "proposal",
     "joint_components",
     "pilot_fidelity",
+    "control_calibration",
+    "control_extra",
 ];
 
 /// The stored value of a setting left out of `estimate.json` because it has its default.
@@ -90,7 +107,7 @@ fn absent(name: &str) -> serde_json::Value {
     match name {
         "proposal" => serde_json::Value::from("product"),
         "pilot_fidelity" => serde_json::Value::from("hf"),
-        "joint_components" => serde_json::Value::Null,
+        "joint_components" | "control_extra" => serde_json::Value::Null,
         _ => serde_json::Value::from(0),
     }
 }
@@ -116,6 +133,8 @@ impl Default for EstimateSettings {
             proposal: ProposalKind::Product,
             joint_components: None,
             pilot_fidelity: Fidelity::Hf,
+            control_calibration: 0,
+            control_extra: None,
         }
     }
 }
@@ -205,7 +224,21 @@ impl EstimateSettings {
                 components: self.joint_components.unwrap_or(DEFAULT_COMPONENTS),
             }),
             pilot_fidelity: self.pilot_fidelity,
+            control: self.control(),
         }
+    }
+
+    /// The control variates these settings ask for, if any.
+    pub fn control(&self) -> Option<Control> {
+        (self.control_calibration > 0).then_some(Control {
+            calibration: self.control_calibration,
+            extra: self.control_extra,
+        })
+    }
+
+    /// Whether the estimate runs LF at θ_LF* (an LF pilot, or control variates).
+    pub fn uses_lf(&self) -> bool {
+        self.pilot_fidelity == Fidelity::Lf || self.control_calibration > 0
     }
 
     /// Checks every value; the error names the key.
@@ -266,6 +299,43 @@ impl EstimateSettings {
 }
 
 impl EstimateSettings {
+    /// `control_calibration` ≥ 2 (when on), `control_extra` ≤ 64 and only with it, no reuse.
+    fn validate_control(&self) -> Result<(), EstimateError> {
+        let bad = |key: &str, message: String| {
+            Err(EstimateError::Setting {
+                key: key.into(),
+                message,
+            })
+        };
+        let max = savme_kernel::estimation::MAX_EXTRA;
+        match (self.control_calibration, self.control_extra) {
+            (0, Some(k)) => bad(
+                "control_extra",
+                format!("{k} extra LF runs per pair need `control_calibration` (the control variates' calibration pairs) too"),
+            ),
+            (1, _) => bad(
+                "control_calibration",
+                "must be 0 (off) or at least 2 pairs (at least 2 per estimated scenario), got 1".into(),
+            ),
+            (_, Some(k)) if k > max => bad(
+                "control_extra",
+                format!("must lie in 0..={max} extra LF runs per pair, got {k}"),
+            ),
+            (c, _) if c > 0 && self.refine_reuse > 0 => bad(
+                "refine_reuse",
+                format!(
+                    "{} pilot rounds to reuse, but with control variates (`control_calibration`) the estimate is that of its own pairs: leave it at 0",
+                    self.refine_reuse
+                ),
+            ),
+            (c, _) if c >= self.max_runs => bad(
+                "control_calibration",
+                format!("{c} calibration pairs (2 runs each) leave no runs of `max_runs` = {} for the estimate", self.max_runs),
+            ),
+            _ => Ok(()),
+        }
+    }
+
     fn validate_refine(&self) -> Result<(), EstimateError> {
         let bad = |key: &str, message: String| {
             Err(EstimateError::Setting {
@@ -311,6 +381,7 @@ impl EstimateSettings {
                 );
             }
         }
+        self.validate_control()?;
         if self.refine_reuse > self.refine_rounds {
             return bad(
                 "refine_reuse",
@@ -376,7 +447,7 @@ pub enum EstimateError {
     },
     /// A multi-fidelity estimate (`pilot_fidelity` = `lf`) of a campaign that has no learned
     /// θ_LF* at the budget (its evaluation stage, which runs θ_LF*, has no trial yet).
-    #[error("{campaign}: `pilot_fidelity` = \"lf\" runs the pilot at the learned θ_LF* of budget {budget}, which the campaign's stage `{stage}` has not run yet (no trial with θ_LF there); finish the campaign, or use `pilot_fidelity` = \"hf\"")]
+    #[error("{campaign}: `pilot_fidelity` = \"lf\" runs the pilot at the learned θ_LF* of budget {budget}, which the campaign's stage `{stage}` has not run yet (no trial with θ_LF there), and so do the control variates (`control_calibration`); finish the campaign, or use `pilot_fidelity` = \"hf\" without control variates")]
     NoLearnedFidelity {
         /// The campaign.
         campaign: String,
@@ -500,6 +571,8 @@ impl EstimateSettings {
             proposal: section.proposal.unwrap_or_default(),
             joint_components: section.joint_components,
             pilot_fidelity: section.pilot_fidelity.unwrap_or_default(),
+            control_calibration: section.control_calibration.unwrap_or(0),
+            control_extra: section.control_extra,
         };
         let error = |key: String, message: String| savme_campaign_file::ConfigError {
             file: file.display().to_string(),
