@@ -157,7 +157,13 @@ impl Default for EliteMixture {
             near_miss: 0.0,
             near_miss_weight: 0.5,
             near_miss_until: 20,
-            spread: 1.0,
+            // 5 (was 1): distinct failing cells per 10³ wu in the search 3.11 → 3.43
+            // (BouncingBall earth+mars), 1.67 → 1.97 (moon), 1.80 → 1.88 and 1.56 → 1.62 (the
+            // braking example without and with ρ, dry+wet), HF failures per wu level or up (6
+            // seeds each; docs/RESULTS.md, issue 42): the ρ model's cheapest failures otherwise
+            // pile up in a few cells. 10 gave the same cells but cost yield with 16 trials in
+            // flight (kernel/tests/cost.rs: 0.923× one in flight, 5: 0.955×).
+            spread: 5.0,
             tries: 8,
             archive: 4096,
             per_cost: true,
@@ -199,9 +205,10 @@ impl EliteMixture {
     }
 
     /// The defaults before candidates were ranked per cost (`per_cost` false): what a
-    /// campaign stored without its elite parameters ran with.
+    /// campaign stored without its elite parameters ran with (novelty `spread` 1, as then).
     pub fn legacy() -> Self {
         EliteMixture {
+            spread: 1.0,
             per_cost: false,
             crowding: 0.0,
             fantasies: false,
