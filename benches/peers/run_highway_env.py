@@ -96,8 +96,9 @@ def rho_simulator(seed: int = 0):
 
 def savme_seed(args, seed, out, variant="savme"):
     """savme's search and deployed runs on one seed, read from its trials.jsonl: (scenario, φ,
-    HF failure, work, HF work, LF work) per trial. variant "savme": the integration's simulator
-    as shipped; "savme-rho": the same runs returning ρ too."""
+    HF failure, work, HF work, LF work) per trial. variant "savme": savme's defaults with the
+    integration's simulator as shipped; "savme-rho": the same runs returning ρ too;
+    "savme-paper": the paper's SAVME (method="paper")."""
     import savme
     from savme.integrations import highway_env as hw
 
@@ -106,7 +107,8 @@ def savme_seed(args, seed, out, variant="savme"):
         args.scenarios, test, preset="quick", simulator="highway-env", cost="work", seed=seed,
         budgets=[args.budget], train_iterations=args.iterations, eval_iterations=1,
         test_iterations=1, baseline_train_iterations=1, baseline_test_iterations=1,
-        screen_iterations=max(args.screen_iterations, 1), audit_fraction=0.0)
+        screen_iterations=max(args.screen_iterations, 1), audit_fraction=0.0,
+        **({"method": "paper"} if variant == "savme-paper" else {}))
     resume = (out / "protocol.json").exists()
     sim = rho_simulator() if variant == "savme-rho" else hw.campaign_simulator()
     savme.Campaign(None if resume else protocol, hw.problem(args.scenarios + test), out=out,
@@ -178,7 +180,7 @@ def fmt(xs):
 
 DEFAULT_ROWS = ["savme", "cross-entropy", "bandit", "bayesopt", "random", "savme-rho", "halton",
                 "annealing", "cross-entropy/trials", "bandit/trials", "bayesopt/trials",
-                "random/trials", "halton/trials", "annealing/trials"]
+                "random/trials", "halton/trials", "annealing/trials", "savme-paper"]
 
 
 def run_rows(args, sp, out, seeds, rows):
@@ -294,7 +296,7 @@ def main():
     ap.add_argument("--budget", type=float, default=0.3)
     ap.add_argument("--rows", nargs="+", default=None,
                     help="rows in the order run, savme first: savme (savme's defaults), savme-rho "
-                         "(its simulator also returns ρ), a VerifAI sampler (equal work per "
+                         "(its simulator also returns ρ), savme-paper (method=\"paper\"), a VerifAI sampler (equal work per "
                          "scenario) or SAMPLER/trials (equal trials); default: "
                          + " ".join(DEFAULT_ROWS) + " (bayesopt only if GPyOpt is installed); "
                          "rows already in --out/rows.jsonl are skipped")
