@@ -248,8 +248,30 @@ def table(args, out):
         seeds = "" if len(rs) == len(rows["savme"]) else f" ({len(rs)} seeds)"
         lines.append(f"| {method}{seeds} | {' | '.join(cols)} | {statistics.mean(r[3] for r in rs):.0f} "
                      f"| {'—' if method.startswith('savme') else f'{statistics.mean(r[6] for r in rs):.2f}'} |")
-    lines += ["", *per_scenario(args, out, order)]
+    lines += ["", *ratios(rows), "", *per_scenario(args, out, order)]
     return "\n".join(lines)
+
+
+def ratios(rows):
+    """Each savme row's mean over the best peer's mean per metric, for each split of the peers
+    (only seeds every row compared has)."""
+    metrics = ["HF failures, search", "distinct failing cells, search", "confirmed failures, deployed"]
+    lines = ["| savme row / best peer | peers' split | " + " | ".join(metrics) + " |",
+             "|---|---|---:|---:|---:|"]
+    for me in (m for m in rows if m.startswith("savme")):
+        for split in ("work", "trials"):
+            peers = {m: rs for m, rs in rows.items() if not m.startswith("savme")
+                     and (m.endswith("/trials") == (split == "trials"))}
+            if not peers:
+                continue
+            cols = []
+            for i in range(3):
+                best = max(peers, key=lambda m: statistics.mean(r[i] for r in peers[m]))
+                ratio = statistics.mean(r[i] for r in rows[me]) / max(
+                    statistics.mean(r[i] for r in peers[best]), 1e-12)
+                cols.append(f"{ratio:.2f}× ({best.split('/')[0]})")
+            lines.append(f"| {me} | equal {split} | {' | '.join(cols)} |")
+    return lines
 
 
 def per_scenario(args, out, order):
@@ -261,6 +283,7 @@ def per_scenario(args, out, order):
     for f in sorted((out / "runs").glob("*.json")):
         r = json.loads(f.read_text())
         runs.setdefault(r["row"], []).append(r)
+    means = {}
     lines = ["| method | scenario | search work share | HF failures, search | failing cells, search "
              "| confirmed, deployed | deployed work share | search runs | LF share of search work |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
@@ -280,8 +303,23 @@ def per_scenario(args, out, order):
             if not vals:
                 continue
             m = [statistics.mean(v[i] for v in vals) for i in range(7)]
+            means[(method, name)] = m
             lines.append(f"| {method} | {name} | {m[0]:.2f} | {m[1]:.2f} | {m[2]:.2f} | {m[3]:.2f} "
                          f"| {m[4]:.2f} | {m[5]:.0f} | {m[6]:.2f} |")
+    lines += ["", "| savme row / best peer (equal work), per scenario | scenario | HF failures, search "
+              "| failing cells, search | confirmed, deployed |", "|---|---|---:|---:|---:|"]
+    peers = [m for m in order if not m.startswith("savme") and "/" not in m]
+    for me in (m for m in order if m.startswith("savme")):
+        for name in args.scenarios:
+            if (me, name) not in means or not peers:
+                continue
+            cols = []
+            for i in (1, 2, 3):
+                best = max(peers, key=lambda p: means.get((p, name), [0.0] * 7)[i])
+                top = means.get((best, name), [0.0] * 7)[i]
+                cols.append(f"{means[(me, name)][i] / top:.2f}× ({best})" if top > 0 else
+                            f"{means[(me, name)][i]:.2f} vs 0")
+            lines.append(f"| {me} | {name} | {' | '.join(cols)} |")
     return lines
 
 

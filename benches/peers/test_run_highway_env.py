@@ -86,3 +86,13 @@ class PeerSplit(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class Ratios(unittest.TestCase):
+    def test_savme_is_compared_with_the_best_peer_of_each_split_per_metric(self) -> None:
+        row = lambda a, b, c: [a, b, c, 100, 1, 1, 0.0]  # noqa: E731
+        rows = {"savme": [row(2, 2, 4), row(2, 2, 4)], "bandit": [row(4, 1, 1), row(4, 1, 1)],
+                "random": [row(1, 2, 2), row(1, 4, 2)], "random/trials": [row(1, 8, 8)] * 2}
+        lines = run_highway_env.ratios(rows)
+        self.assertEqual(lines[2], "| savme | equal work | 0.50× (bandit) | 0.67× (random) | 2.00× (random) |")
+        self.assertEqual(lines[3], "| savme | equal trials | 2.00× (random) | 0.25× (random) | 0.50× (random) |")
