@@ -323,6 +323,34 @@ def per_scenario(args, out, order):
     return lines
 
 
+def per_seed(args, out):
+    """Per row, seed, part (search, deployed) and scenario: runs, HF failures, failing cells,
+    work, HF and LF work, mean HF work of a failing and of a passing run, the mean φ of the
+    failures; with each row's wall and CPU seconds (a small summary of runs/)."""
+    sp = {s.name: s for s in spaces(args.scenarios)}
+    rows = []
+    for f in sorted((out / "runs").glob("*.json")):
+        r = json.loads(f.read_text())
+        parts = {}
+        for part in ("search", "deployed"):
+            for name in args.scenarios:
+                xs = [x for x in r[part] if x[0] == name]
+                fails = [x for x in xs if x[2]]
+                passes = [x for x in xs if not x[2] and x[4]]
+                parts[f"{part}/{name}"] = {
+                    "runs": len(xs), "hf_failures": len(fails),
+                    "failing_cells": len({cell(sp[name], x[1]) for x in fails}),
+                    "work": sum(x[3] for x in xs), "hf_work": sum(x[4] for x in xs),
+                    "lf_work": sum(x[5] for x in xs),
+                    "hf_work_per_failure": statistics.mean(x[4] for x in fails) if fails else None,
+                    "hf_work_per_pass": statistics.mean(x[4] for x in passes) if passes else None,
+                    "failure_phi_mean": {k: statistics.mean(x[1][k] for x in fails)
+                                         for k in fails[0][1]} if fails else None}
+        rows.append({"row": r["row"], "seed": r["seed"], "wall_s": r["wall_s"],
+                     "cpu_s": r["cpu_s"], "parts": parts})
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scenarios", nargs="+", default=["merge", "roundabout"])
@@ -353,6 +381,7 @@ def main():
     run_rows(args, sp, out, seeds, args.rows)
     text = table(args, out)
     (out / "table.md").write_text(text + "\n")
+    (out / "per-seed.json").write_text(json.dumps(per_seed(args, out), indent=1) + "\n")
     print("\n" + text)
 
 
