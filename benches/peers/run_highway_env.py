@@ -254,7 +254,7 @@ def table(args, out):
 
 def ratios(rows):
     """Each savme row's mean over the best peer's mean per metric, for each split of the peers
-    (only seeds every row compared has)."""
+    (each mean over that row's seeds: the table marks a row with fewer seeds than savme's)."""
     metrics = ["HF failures, search", "distinct failing cells, search", "confirmed failures, deployed"]
     lines = ["| savme row / best peer | peers' split | " + " | ".join(metrics) + " |",
              "|---|---|---:|---:|---:|"]
