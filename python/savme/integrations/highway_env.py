@@ -442,17 +442,14 @@ def simulate(scenario: str, phi: Mapping[str, Any], theta: Optional[Mapping[str,
 
 def campaign_simulator(cost: str = "work", seed: int = 0,
                        driver: Optional[LidarDriver] = None) -> Callable[[str, Dict[str, Any], Dict[str, Any]], Any]:
-    """A simulator for `savme.Campaign.run`: (scenario, φ, θ) → (failure, work units,
-    robustness) with cost="work" (a protocol with cost="work"), or (failure, None, robustness)
-    with cost="wall" (the campaign then measures each call's wall-clock time). The robustness is
-    `simulate`'s (the smallest bumper gap, < 0 exactly on a crash): savme stores it with the
-    trial and its search learns from it (the elite search's ρ model)."""
+    """A simulator for `savme.Campaign.run`: (scenario, φ, θ) → (failure, work units) with
+    cost="work" (a protocol with cost="work"), or the failure flag alone with cost="wall"
+    (the campaign then measures each call's wall-clock time)."""
     if cost not in ("work", "wall"):
         raise ValueError(f"cost must be 'work' or 'wall', got {cost!r}")
 
     def run(scenario: str, phi: Dict[str, Any], theta: Dict[str, Any]) -> Any:
         r = simulate(scenario, phi, theta, driver=driver, seed=seed)
-        work = max(int(r["work"]), 1) if cost == "work" else None
-        return r["failure"], work, float(r["robustness"])
+        return (r["failure"], max(int(r["work"]), 1)) if cost == "work" else r["failure"]
 
     return run
