@@ -82,8 +82,23 @@ def cell(space, phi):
                               for v in space.variables))
 
 
-def savme_seed(args, seed, out):
-    """savme's search and deployed runs on one seed, read from its trials.jsonl."""
+def rho_simulator(seed: int = 0):
+    """hw.campaign_simulator's runs with the robustness ρ as a third value (what savme's ρ model
+    reads; savme.integrations.highway_env's own simulator returns (failure, work) only)."""
+    from savme.integrations import highway_env as hw
+
+    def run(scenario, phi, theta):
+        r = hw.simulate(scenario, phi, theta, seed=seed)
+        return r["failure"], max(int(r["work"]), 1), float(r["robustness"])
+
+    return run
+
+
+def savme_seed(args, seed, out, variant="savme"):
+    """savme's search and deployed runs on one seed, read from its trials.jsonl: (scenario, φ,
+    HF failure, work, HF work, LF work) per trial. variant "savme": savme's defaults with the
+    integration's simulator as shipped; "savme-rho": the same runs returning ρ too;
+    "savme-paper": the paper's SAVME (method="paper")."""
     import savme
     from savme.integrations import highway_env as hw
 
@@ -92,35 +107,42 @@ def savme_seed(args, seed, out):
         args.scenarios, test, preset="quick", simulator="highway-env", cost="work", seed=seed,
         budgets=[args.budget], train_iterations=args.iterations, eval_iterations=1,
         test_iterations=1, baseline_train_iterations=1, baseline_test_iterations=1,
-        screen_iterations=max(args.screen_iterations, 1), audit_fraction=0.0)
+        screen_iterations=max(args.screen_iterations, 1), audit_fraction=0.0,
+        **({"method": "paper"} if variant == "savme-paper" else {}))
     resume = (out / "protocol.json").exists()
+    sim = rho_simulator() if variant == "savme-rho" else hw.campaign_simulator()
     savme.Campaign(None if resume else protocol, hw.problem(args.scenarios + test), out=out,
-                   resume=resume, jobs=1).run(hw.campaign_simulator())
+                   resume=resume, jobs=1).run(sim)
     search, deployed = [], []
     for line in (out / "trials.jsonl").read_text().splitlines():
         t = json.loads(line)
         if "protocol" in t:  # the store's first record: the campaign's protocol
             continue
-        work = t["hf"]["work"] if t.get("hf") else 0
-        work += t["lf"]["work"] if t.get("lf") else 0
+        hf_work = t["hf"]["work"] if t.get("hf") else 0
+        lf_work = t["lf"]["work"] if t.get("lf") else 0
+        failed = bool(t.get("hf") and t["hf"]["failure"])
+        row = (t["scenario"], t["phi"], failed, hf_work + lf_work, hf_work, lf_work)
         if t["stage"] == f"train@{args.budget}":
-            search.append((t["scenario"], t["phi"], t["hf"]["failure"], work))
+            search.append(row)
         elif t["stage"] == f"screen@{args.budget}":
-            deployed.append((t["scenario"], t["phi"], bool(t.get("hf") and t["hf"]["failure"]), work))
+            deployed.append(row)
     return search, deployed
 
 
-def peer_seed(method, seed, sp, search_budget, deployed_budget):
-    """One VerifAI sampler on one seed: HF runs until each budget is spent."""
+def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work"):
+    """One VerifAI sampler on one seed: HF runs until each budget is spent, the scenario to run
+    next chosen by `split` (verifai_peers._Scenarios: "work" = the one that has cost least so
+    far in this part, "trials" = in turn)."""
     import numpy as np
     from verifai_peers import _Scenarios, annealing_started, phi_of
     from savme.integrations import highway_env as hw
 
     random.seed(seed)
     np.random.seed(seed)
-    state, overhead, parts = _Scenarios(method, sp), 0.0, []
+    state, overhead, parts = _Scenarios(method, sp, split), 0.0, []
     for budget in (search_budget, deployed_budget):
         runs, spent = [], 0
+        state.work = [0.0] * len(sp)  # as verifai_peers._spend: equal work within each part
         while spent < budget:
             t0 = time.perf_counter()
             k, sample, info = state.next()
@@ -132,8 +154,9 @@ def peer_seed(method, seed, sp, search_budget, deployed_budget):
             if method == "annealing":
                 annealing_started(state.samplers[k])
             overhead += time.perf_counter() - t0
-            runs.append((sp[k].name, phi, r["failure"], r["work"]))
+            runs.append((sp[k].name, phi, r["failure"], r["work"], r["work"], 0))
             spent += r["work"]
+            state.work[k] += r["work"]
         parts.append(runs)
     return parts[0], parts[1], overhead
 
@@ -155,6 +178,179 @@ def fmt(xs):
     return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}" if len(xs) > 1 else f"{xs[0]:.2f}"
 
 
+DEFAULT_ROWS = ["savme", "cross-entropy", "bandit", "bayesopt", "random", "savme-rho", "halton",
+                "annealing", "cross-entropy/trials", "bandit/trials", "bayesopt/trials",
+                "random/trials", "halton/trials", "annealing/trials", "savme-paper"]
+
+
+def run_rows(args, sp, out, seeds, rows):
+    """Every row of every seed not yet in rows.jsonl; each row's runs go to runs/ROW-seed-S.json
+    (scenario, φ, HF failure, work, HF work, LF work per run), its wall and CPU time with it."""
+    done = out / "rows.jsonl"  # one line per (method, seed): several processes may add to it
+    runs_dir = out / "runs"
+    runs_dir.mkdir(exist_ok=True)
+    have = set()
+    if done.exists():
+        have = {(r["method"], r["seed"]) for r in map(json.loads, done.read_text().splitlines())}
+    for seed in seeds:
+        budget = None
+        for row in rows:
+            if (row, seed) in have and row != "savme":
+                continue
+            t0, c0 = time.perf_counter(), time.process_time()
+            if row.startswith("savme"):
+                search, deployed = savme_seed(args, seed, out / f"{row}-seed-{seed}", row)
+                overhead = 0.0
+            else:
+                if budget is None:
+                    sys.exit("the savme row must come first: it sets every peer's budget")
+                method, _, split = row.partition("/")
+                search, deployed, overhead = peer_seed(method, seed, sp, *budget, split or "work")
+            sw, dw = sum(r[3] for r in search), sum(r[3] for r in deployed)
+            if row == "savme":
+                budget = (sw, dw)
+                if (row, seed) in have:
+                    continue
+            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+            f, c, n = rates(search, sp)
+            confirmed = 1e6 * sum(r[2] for r in deployed) / max(dw, 1)
+            record(done, row, seed, (f, c, confirmed, n, sw, dw,
+                                     1e3 * overhead / max(len(search) + len(deployed), 1)))
+            (runs_dir / f"{row.replace('/', '-')}-seed-{seed}.json").write_text(json.dumps(
+                {"row": row, "seed": seed, "wall_s": wall, "cpu_s": cpu, "search": search,
+                 "deployed": deployed}))
+            print(f"seed {seed}: {row} {n} search runs, {len(deployed)} deployed, search {sw} wu, "
+                  f"deployed {dw} wu ({wall:.0f} s wall, {cpu:.0f} s CPU)", flush=True)
+
+
+def table(args, out):
+    """The overall table (rows.jsonl) and the per-scenario one (runs/), as markdown."""
+    done = out / "rows.jsonl"
+    rows = {}
+    for line in done.read_text().splitlines():
+        r = json.loads(line)
+        rows.setdefault(r["method"], {})[r["seed"]] = r["row"]
+    order = [m for m in DEFAULT_ROWS if m in rows] + [m for m in rows if m not in DEFAULT_ROWS]
+    rows = {m: [rows[m][s] for s in sorted(rows[m])] for m in order}
+    lines = [
+        f"highway-env scenarios {', '.join(args.scenarios)}; seeds: {len(rows['savme'])} "
+        f"(rows of {done}); savme "
+        f"{rows['savme'][0][3]} search trials (deployed: --screen-iterations) at budget {args.budget}; "
+        "per 10⁶ work units, mean ± sd over seeds; a peer's row: its split (/trials = equal "
+        "trials per scenario, else equal work)",
+        "",
+        "| method | HF failures, search | distinct failing cells, search | confirmed failures, deployed "
+        "| search runs (trials) | sampler overhead ms/run |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for method, rs in rows.items():
+        cols = [fmt([r[i] for r in rs]) for i in range(3)]
+        seeds = "" if len(rs) == len(rows["savme"]) else f" ({len(rs)} seeds)"
+        lines.append(f"| {method}{seeds} | {' | '.join(cols)} | {statistics.mean(r[3] for r in rs):.0f} "
+                     f"| {'—' if method.startswith('savme') else f'{statistics.mean(r[6] for r in rs):.2f}'} |")
+    lines += ["", *ratios(rows), "", *per_scenario(args, out, order)]
+    return "\n".join(lines)
+
+
+def ratios(rows):
+    """Each savme row's mean over the best peer's mean per metric, for each split of the peers
+    (each mean over that row's seeds: the table marks a row with fewer seeds than savme's)."""
+    metrics = ["HF failures, search", "distinct failing cells, search", "confirmed failures, deployed"]
+    lines = ["| savme row / best peer | peers' split | " + " | ".join(metrics) + " |",
+             "|---|---|---:|---:|---:|"]
+    for me in (m for m in rows if m.startswith("savme")):
+        for split in ("work", "trials"):
+            peers = {m: rs for m, rs in rows.items() if not m.startswith("savme")
+                     and (m.endswith("/trials") == (split == "trials"))}
+            if not peers:
+                continue
+            cols = []
+            for i in range(3):
+                best = max(peers, key=lambda m: statistics.mean(r[i] for r in peers[m]))
+                ratio = statistics.mean(r[i] for r in rows[me]) / max(
+                    statistics.mean(r[i] for r in peers[best]), 1e-12)
+                cols.append(f"{ratio:.2f}× ({best.split('/')[0]})")
+            lines.append(f"| {me} | equal {split} | {' | '.join(cols)} |")
+    return lines
+
+
+def per_scenario(args, out, order):
+    """Per scenario: share of the search's work, HF failures and failing cells per 10⁶ wu of
+    that scenario's search work, confirmed failures per 10⁶ wu of its deployed work; savme's
+    rows also the LF share of their search work. Mean over seeds (of the seeds' rates)."""
+    sp = {s.name: s for s in spaces(args.scenarios)}
+    runs = {}
+    for f in sorted((out / "runs").glob("*.json")):
+        r = json.loads(f.read_text())
+        runs.setdefault(r["row"], []).append(r)
+    means = {}
+    lines = ["| method | scenario | search work share | HF failures, search | failing cells, search "
+             "| confirmed, deployed | deployed work share | search runs | LF share of search work |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|"]
+    for method in order:
+        for name in args.scenarios:
+            vals = []
+            for r in runs.get(method, []):
+                s = [x for x in r["search"] if x[0] == name]
+                d = [x for x in r["deployed"] if x[0] == name]
+                sw, dw = sum(x[3] for x in s), sum(x[3] for x in d)
+                cells = {cell(sp[name], x[1]) for x in s if x[2]}
+                vals.append((sw / max(sum(x[3] for x in r["search"]), 1),
+                             1e6 * sum(x[2] for x in s) / max(sw, 1), 1e6 * len(cells) / max(sw, 1),
+                             1e6 * sum(x[2] for x in d) / max(dw, 1),
+                             dw / max(sum(x[3] for x in r["deployed"]), 1), len(s),
+                             sum(x[5] for x in s) / max(sw, 1)))
+            if not vals:
+                continue
+            m = [statistics.mean(v[i] for v in vals) for i in range(7)]
+            means[(method, name)] = m
+            lines.append(f"| {method} | {name} | {m[0]:.2f} | {m[1]:.2f} | {m[2]:.2f} | {m[3]:.2f} "
+                         f"| {m[4]:.2f} | {m[5]:.0f} | {m[6]:.2f} |")
+    lines += ["", "| savme row / best peer (equal work), per scenario | scenario | HF failures, search "
+              "| failing cells, search | confirmed, deployed |", "|---|---|---:|---:|---:|"]
+    peers = [m for m in order if not m.startswith("savme") and "/" not in m]
+    for me in (m for m in order if m.startswith("savme")):
+        for name in args.scenarios:
+            if (me, name) not in means or not peers:
+                continue
+            cols = []
+            for i in (1, 2, 3):
+                best = max(peers, key=lambda p: means.get((p, name), [0.0] * 7)[i])
+                top = means.get((best, name), [0.0] * 7)[i]
+                cols.append(f"{means[(me, name)][i] / top:.2f}× ({best})" if top > 0 else
+                            f"{means[(me, name)][i]:.2f} vs 0")
+            lines.append(f"| {me} | {name} | {' | '.join(cols)} |")
+    return lines
+
+
+def per_seed(args, out):
+    """Per row, seed, part (search, deployed) and scenario: runs, HF failures, failing cells,
+    work, HF and LF work, mean HF work of a failing and of a passing run, the mean φ of the
+    failures; with each row's wall and CPU seconds (a small summary of runs/)."""
+    sp = {s.name: s for s in spaces(args.scenarios)}
+    rows = []
+    for f in sorted((out / "runs").glob("*.json")):
+        r = json.loads(f.read_text())
+        parts = {}
+        for part in ("search", "deployed"):
+            for name in args.scenarios:
+                xs = [x for x in r[part] if x[0] == name]
+                fails = [x for x in xs if x[2]]
+                passes = [x for x in xs if not x[2] and x[4]]
+                parts[f"{part}/{name}"] = {
+                    "runs": len(xs), "hf_failures": len(fails),
+                    "failing_cells": len({cell(sp[name], x[1]) for x in fails}),
+                    "work": sum(x[3] for x in xs), "hf_work": sum(x[4] for x in xs),
+                    "lf_work": sum(x[5] for x in xs),
+                    "hf_work_per_failure": statistics.mean(x[4] for x in fails) if fails else None,
+                    "hf_work_per_pass": statistics.mean(x[4] for x in passes) if passes else None,
+                    "failure_phi_mean": {k: statistics.mean(x[1][k] for x in fails)
+                                         for k in fails[0][1]} if fails else None}
+        rows.append({"row": r["row"], "seed": r["seed"], "wall_s": r["wall_s"],
+                     "cpu_s": r["cpu_s"], "parts": parts})
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scenarios", nargs="+", default=["merge", "roundabout"])
@@ -164,60 +360,29 @@ def main():
     ap.add_argument("--iterations", type=int, default=30, help="savme's search trials")
     ap.add_argument("--screen-iterations", type=int, default=30, help="savme's deployed trials")
     ap.add_argument("--budget", type=float, default=0.3)
-    ap.add_argument("--peers", nargs="+", default=None,
-                    help="VerifAI samplers (default: all six; bayesopt only if GPyOpt is installed)")
+    ap.add_argument("--rows", nargs="+", default=None,
+                    help="rows in the order run, savme first: savme (savme's defaults), savme-rho "
+                         "(its simulator also returns ρ), savme-paper (method=\"paper\"), a VerifAI sampler (equal work per "
+                         "scenario) or SAMPLER/trials (equal trials); default: "
+                         + " ".join(DEFAULT_ROWS) + " (bayesopt only if GPyOpt is installed); "
+                         "rows already in --out/rows.jsonl are skipped")
     ap.add_argument("--out", default=str(REPO / "target" / "peers" / "highway-env"))
     args = ap.parse_args()
     ensure_venv()
     sys.path.insert(0, str(HERE))
-    if args.peers is None:
-        from verifai_peers import PEERS, bayesopt_available
+    if args.rows is None:
+        from verifai_peers import bayesopt_available
 
-        args.peers = [m for m in PEERS if m != "bayesopt" or bayesopt_available()]
+        args.rows = [r for r in DEFAULT_ROWS if not r.startswith("bayesopt") or bayesopt_available()]
     sp = spaces(args.scenarios)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = [] if args.report else args.seed_list or list(range(1, args.seeds + 1))
-    done = out / "rows.jsonl"  # one line per (method, seed): several processes may add to it
-    for seed in seeds:
-        t0 = time.perf_counter()
-        search, deployed = savme_seed(args, seed, out / f"savme-seed-{seed}")
-        sw, dw = sum(r[3] for r in search), sum(r[3] for r in deployed)
-        f, c, n = rates(search, sp)
-        confirmed = 1e6 * sum(r[2] for r in deployed) / max(dw, 1)
-        record(done, "savme", seed, (f, c, confirmed, n, sw, dw, 0.0))
-        print(f"seed {seed}: savme {n} trials, search {sw} wu, deployed {dw} wu "
-              f"({time.perf_counter() - t0:.0f} s)", flush=True)
-        for method in args.peers:
-            t0 = time.perf_counter()
-            s_runs, d_runs, overhead = peer_seed(method, seed, sp, sw, dw)
-            f, c, n = rates(s_runs, sp)
-            confirmed = 1e6 * sum(r[2] for r in d_runs) / max(sum(r[3] for r in d_runs), 1)
-            record(done, method, seed, (f, c, confirmed, n, sw, dw,
-                                        1e3 * overhead / max(len(s_runs) + len(d_runs), 1)))
-            print(f"seed {seed}: {method} {n} HF runs ({time.perf_counter() - t0:.0f} s)", flush=True)
-    rows = {}
-    for line in done.read_text().splitlines():
-        r = json.loads(line)
-        rows.setdefault(r["method"], {})[r["seed"]] = r["row"]
-    rows = {m: [by_seed[s] for s in sorted(by_seed)] for m, by_seed in rows.items()}
-    lines = [
-        f"highway-env scenarios {', '.join(args.scenarios)}; seeds: {len(rows['savme'])} "
-        f"(rows of {done}); savme "
-        f"{rows['savme'][0][3]} search trials (deployed: --screen-iterations) at budget {args.budget}; "
-        "per 10⁶ work units, mean ± sd over seeds",
-        "",
-        "| method | HF failures, search | distinct failing cells, search | confirmed failures, deployed "
-        "| search runs (trials) | sampler overhead ms/run |",
-        "|---|---:|---:|---:|---:|---:|",
-    ]
-    for method, rs in rows.items():
-        cols = [fmt([r[i] for r in rs]) for i in range(3)]
-        lines.append(f"| {method} | {' | '.join(cols)} | {statistics.mean(r[3] for r in rs):.0f} "
-                     f"| {'—' if method == 'savme' else f'{statistics.mean(r[6] for r in rs):.2f}'} |")
-    table = "\n".join(lines)
-    (out / "table.md").write_text(table + "\n")
-    print("\n" + table)
+    run_rows(args, sp, out, seeds, args.rows)
+    text = table(args, out)
+    (out / "table.md").write_text(text + "\n")
+    (out / "per-seed.json").write_text(json.dumps(per_seed(args, out), indent=1) + "\n")
+    print("\n" + text)
 
 
 if __name__ == "__main__":
