@@ -424,7 +424,11 @@ def test_an_fmu_campaign_on_ray_gives_the_local_trials_under_a_killed_worker_and
         if "node" in killed:  # the next tests want two nodes again
             cluster.add_worker(2)
     assert "worker" in killed and "node" in killed, killed
-    assert executor.stats.reruns >= 2 and executor.stats.lost_twice == 0, executor.stats
+    # The killed worker's run is run again. The node is killed while one of its workers shows a
+    # run, but these FMU runs take milliseconds: the run can return to the driver between that
+    # look and the kill (seen in CI: one re-run in all), and then the lost node costs nothing.
+    # What must hold either way: nothing lost twice, and the local run's trials.
+    assert executor.stats.reruns >= 1 and executor.stats.lost_twice == 0, executor.stats
     assert result.ran == total
     assert told_once(trials) and not [d for d in lines(trials) if "error" in d]
     assert strip_wall(trials) == strip_wall(reference.files["trials"])
