@@ -358,7 +358,10 @@ mod tests {
         savme_fmi_export::pack_with(&xml, "braking", &lib, resources, &dir.join("braking.fmu"))
             .unwrap();
         let toml = std::fs::read_to_string(example.join("campaign.toml")).unwrap();
-        let toml = toml.replace("boolean = \"collision\"", failure);
+        // The example names a robustness beside its flag; `failure` replaces both.
+        let toml = toml
+            .replace("robustness = \"distance\"\n", "")
+            .replace("boolean = \"collision\"", failure);
         std::fs::write(dir.join("campaign.toml"), toml).unwrap();
         dir
     }
@@ -491,6 +494,28 @@ mod tests {
             (Some(true), Some(-1.0)),
             "{hit}"
         );
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_boolean_failures_robustness_output_is_rho_without_rho_output() {
+        let dir = braking(
+            "robustness",
+            "boolean = \"collision\"\nrobustness = \"distance\"",
+        );
+        let mut b = open(&dir.join("campaign.toml"), None).unwrap();
+        let pass = ask(
+            &mut b,
+            json!({"scenario": "dry_road", "phi": {"speed0": 8.0, "gap": 60.0}}),
+        );
+        assert_eq!(pass["failure"].as_bool(), Some(false), "{pass}");
+        assert!(pass["rho"].as_f64().is_some_and(|r| r > 0.0), "{pass}");
+        let hit = ask(
+            &mut b,
+            json!({"scenario": "dry_road", "phi": {"speed0": 25.0, "gap": 10.0}}),
+        );
+        assert_eq!(hit["failure"].as_bool(), Some(true), "{hit}");
+        assert!(hit["rho"].as_f64().is_some_and(|r| r <= 0.0), "{hit}");
         std::fs::remove_dir_all(dir).unwrap();
     }
 
