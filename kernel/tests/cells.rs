@@ -3,27 +3,13 @@
 //! shape where the ρ model's ranking per cost piles failures into a few cells), the default
 //! search finds more distinct failing joint cells per unit cost than with the old spread of 1,
 //! at no loss of failures per unit cost (fixed seeds, with margins).
-use savme_kernel::{
-    Assignment, EliteMixture, Kernel, KernelConfig, Observation, Run, Scale, SearchModel, Space,
-    Trial, Variable,
-};
+mod common;
+
+use savme_kernel::{EliteMixture, Kernel, KernelConfig, Observation, Run, Trial};
 use std::collections::HashSet;
 
 fn config(m: EliteMixture, seed: u64) -> KernelConfig {
-    let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 5, 10])]).unwrap();
-    let phi = Space::new(vec![
-        Variable::continuous("x", 0.0, 1.0, 10, Scale::Linear),
-        Variable::continuous("y", 0.0, 1.0, 10, Scale::Linear),
-    ])
-    .unwrap();
-    Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
-        .scenario("regions", phi, 1.0)
-        .search(SearchModel::EliteMixture(m))
-        .seed(seed)
-        .build()
-        .unwrap()
-        .config()
-        .clone()
+    common::unit_square(m, "regions", ["x", "y"], seed)
 }
 
 /// Three failure regions: a disc of radius 0.12 at (0.15, 0.15) whose failures cost 1, a disc

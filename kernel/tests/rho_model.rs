@@ -3,27 +3,13 @@
 //! process of the robustness finds the band sooner and leaves it less often than the Parzen
 //! failure odds alone (fixed seeds, with margins); runs without a robustness are drawn exactly
 //! as before; journal replay and snapshots give the same asks.
+mod common;
+
 use savme_kernel::journal::{self, Event, Journaled};
-use savme_kernel::{
-    Assignment, EliteMixture, Kernel, KernelConfig, Observation, Run, Scale, SearchModel, Space,
-    Trial, Variable,
-};
+use savme_kernel::{EliteMixture, Kernel, KernelConfig, Observation, Run, Trial};
 
 fn config(m: EliteMixture, seed: u64) -> KernelConfig {
-    let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 5, 10])]).unwrap();
-    let phi = Space::new(vec![
-        Variable::continuous("h", 0.0, 1.0, 10, Scale::Linear),
-        Variable::continuous("v", 0.0, 1.0, 10, Scale::Linear),
-    ])
-    .unwrap();
-    Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
-        .scenario("band", phi, 1.0)
-        .search(SearchModel::EliteMixture(m))
-        .seed(seed)
-        .build()
-        .unwrap()
-        .config()
-        .clone()
+    common::unit_square(m, "band", ["h", "v"], seed)
 }
 
 /// The band: a failure for `v < 0.08 + 0.04·h` (6 % of φ), robustness `v − 0.08 − 0.04·h`

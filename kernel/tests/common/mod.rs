@@ -36,3 +36,28 @@ pub fn builder() -> KernelBuilder {
 pub fn kernel() -> Kernel {
     builder().build().unwrap()
 }
+
+/// One scenario `name` on the unit square (variables `a` and `b` in [0, 1], 10 bins each), a
+/// three-rate fidelity space (HF 10 Hz) and the elite search `m`: the toy problems of the
+/// elite search's tests (tests/rho_model.rs, tests/cells.rs).
+pub fn unit_square(
+    m: savme_kernel::EliteMixture,
+    name: &str,
+    [a, b]: [&str; 2],
+    seed: u64,
+) -> savme_kernel::KernelConfig {
+    let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 5, 10])]).unwrap();
+    let phi = Space::new(vec![
+        Variable::continuous(a, 0.0, 1.0, 10, Scale::Linear),
+        Variable::continuous(b, 0.0, 1.0, 10, Scale::Linear),
+    ])
+    .unwrap();
+    Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+        .scenario(name, phi, 1.0)
+        .search(savme_kernel::SearchModel::EliteMixture(m))
+        .seed(seed)
+        .build()
+        .unwrap()
+        .config()
+        .clone()
+}
