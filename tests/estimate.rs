@@ -293,13 +293,9 @@ fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
     let (code, _, err) = estimate(&quiet, &[&small[..], &["--quiet"]].concat());
     assert_eq!((code, err.as_str()), (Some(0), ""));
     // An edited round is refused on resume, naming the line and the field.
-    let path = killed.join("trials.jsonl");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut ls: Vec<String> = text.lines().map(String::from).collect();
-    let mut l: Value = serde_json::from_str(&ls[2]).unwrap();
-    l["round"] = Value::from(1);
-    ls[2] = l.to_string();
-    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    edit_line(&killed.join("trials.jsonl"), 2, |l| {
+        l["round"] = Value::from(1);
+    });
     let (code, _, err) = estimate(&killed, &["--resume"]);
     assert_eq!(code, Some(1));
     assert!(
@@ -429,15 +425,11 @@ fn a_low_fidelity_pilot_runs_at_the_learned_fidelity_and_resumes_identically_aft
         "{err}"
     );
     // A pilot line turned into an HF run is refused on resume, naming the line.
-    let path = killed.join("trials.jsonl");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut ls: Vec<String> = text.lines().map(String::from).collect();
-    let mut l: Value = serde_json::from_str(&ls[2]).unwrap();
-    let lf_run = l["lf"].clone();
-    l.as_object_mut().unwrap().remove("lf");
-    l["hf"] = lf_run;
-    ls[2] = l.to_string();
-    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    edit_line(&killed.join("trials.jsonl"), 2, |l| {
+        let lf_run = l["lf"].clone();
+        l.as_object_mut().unwrap().remove("lf");
+        l["hf"] = lf_run;
+    });
     let (code, _, err) = estimate(&killed, &["--resume"]);
     assert_eq!(code, Some(1));
     assert!(
@@ -576,13 +568,9 @@ fn control_variates_pair_hf_and_lf_runs_and_resume_identically_after_a_kill() {
         "{err}"
     );
     // An extra LF line turned into a paired one is refused on resume, naming the line.
-    let path = killed.join("trials.jsonl");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut ls: Vec<String> = text.lines().map(String::from).collect();
-    let mut l: Value = serde_json::from_str(&ls[402]).unwrap();
-    l["control"] = Value::from("paired");
-    ls[402] = l.to_string();
-    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    edit_line(&killed.join("trials.jsonl"), 402, |l| {
+        l["control"] = Value::from("paired");
+    });
     let (code, _, err) = estimate(&killed, &["--resume"]);
     assert_eq!(code, Some(1));
     assert!(
@@ -896,13 +884,9 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
         "{err}"
     );
     // An edited stored trial is refused on resume, naming the line and the field.
-    let path = out.join("trials.jsonl");
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut ls: Vec<String> = text.lines().map(String::from).collect();
-    let mut l: Value = serde_json::from_str(&ls[4]).unwrap();
-    l["weight"] = Value::from(l["weight"].as_f64().unwrap() * 2.0);
-    ls[4] = l.to_string();
-    std::fs::write(&path, ls.join("\n") + "\n").unwrap();
+    edit_line(&out.join("trials.jsonl"), 4, |l| {
+        l["weight"] = Value::from(l["weight"].as_f64().unwrap() * 2.0);
+    });
     let (code, _, err) = estimate(&out, &["--resume"]);
     assert_eq!(code, Some(1));
     assert!(err.contains("trials.jsonl, line 5: `weight` is"), "{err}");
@@ -1045,4 +1029,15 @@ fn a_resume_refuses_a_changed_setting_naming_both_values_and_applies_a_stopping_
         "{err}"
     );
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Rewrites line `index` (0-based) of the JSON-lines file `path` through `edit`, as a user
+/// editing a stored trial would.
+fn edit_line(path: &Path, index: usize, edit: impl FnOnce(&mut Value)) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut ls: Vec<String> = text.lines().map(String::from).collect();
+    let mut l: Value = serde_json::from_str(&ls[index]).unwrap();
+    edit(&mut l);
+    ls[index] = l.to_string();
+    std::fs::write(path, ls.join("\n") + "\n").unwrap();
 }
