@@ -383,8 +383,12 @@ impl savme_viewer::Rerun for FmuRerun {
 /// The campaign file's failure signal as the viewer shows it.
 fn signal(failure: &savme_fmu::Failure) -> savme_viewer::Signal {
     match failure {
-        savme_fmu::Failure::Boolean { variable, .. } => savme_viewer::Signal::Flag {
+        savme_fmu::Failure::Boolean {
+            variable,
+            robustness,
+        } => savme_viewer::Signal::Flag {
             variable: variable.clone(),
+            robustness: robustness.clone(),
         },
         savme_fmu::Failure::Threshold {
             variable,
@@ -401,6 +405,20 @@ fn signal(failure: &savme_fmu::Failure) -> savme_viewer::Signal {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_viewer_shows_a_flags_robustness_output() {
+        let flag = |robustness: Option<&str>| savme_fmu::Failure::Boolean {
+            variable: "collision".into(),
+            robustness: robustness.map(str::to_string),
+        };
+        let with = signal(&flag(Some("distance")));
+        assert_eq!(with.text(), "`collision` (robustness `distance`)");
+        assert_eq!(with.line(), Some(("distance", 0.0, "robustness 0")));
+        let alone = signal(&flag(None));
+        assert_eq!(alone.text(), "`collision`");
+        assert_eq!(alone.line(), None);
+    }
 
     #[test]
     fn every_label_savme_writes_finds_its_adapter() {

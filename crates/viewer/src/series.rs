@@ -37,6 +37,7 @@ pub struct Series {
 /// }
 /// let frames = savme_viewer::Frames::series(Ramp, vec!["x".into()], savme_viewer::Signal::Flag {
 ///     variable: "crashed".into(),
+///     robustness: None,
 /// });
 /// assert_eq!(frames.is_none(), !cfg!(feature = "rerun"));
 /// ```
@@ -59,6 +60,9 @@ pub enum Signal {
     Flag {
         /// The output.
         variable: String,
+        /// The output reported as the run's robustness ρ beside the flag (`[failure]
+        /// robustness`), if the campaign names one: its plot gets a line at ρ = 0.
+        robustness: Option<String>,
     },
     /// A real output crossing a threshold.
     Threshold {
@@ -72,16 +76,26 @@ pub enum Signal {
 }
 
 impl Signal {
-    /// The signal in words: "`collision`", "`distance` ≤ 0.5".
+    /// The signal in words: "`collision`", "`collision` (robustness `distance`)",
+    /// "`distance` ≤ 0.5".
     ///
     /// ```
     /// use savme_viewer::Signal;
     /// let s = Signal::Threshold { variable: "distance".into(), above: false, value: 0.5 };
     /// assert_eq!(s.text(), "`distance` ≤ 0.5");
+    /// let s = Signal::Flag { variable: "collision".into(), robustness: Some("gap".into()) };
+    /// assert_eq!(s.text(), "`collision` (robustness `gap`)");
     /// ```
     pub fn text(&self) -> String {
         match self {
-            Signal::Flag { variable } => format!("`{variable}`"),
+            Signal::Flag {
+                variable,
+                robustness: None,
+            } => format!("`{variable}`"),
+            Signal::Flag {
+                variable,
+                robustness: Some(rho),
+            } => format!("`{variable}` (robustness `{rho}`)"),
             Signal::Threshold {
                 variable,
                 above,
@@ -90,13 +104,28 @@ impl Signal {
         }
     }
 
-    /// The output and value of a threshold signal.
-    pub fn threshold(&self) -> Option<(&str, f64)> {
+    /// The reference line drawn on an output's plot, as (output, value, name): a threshold at
+    /// its value ("failure threshold"), a flag's robustness output at 0 ("robustness 0");
+    /// none for a flag alone.
+    ///
+    /// ```
+    /// use savme_viewer::Signal;
+    /// let s = Signal::Flag { variable: "collision".into(), robustness: Some("gap".into()) };
+    /// assert_eq!(s.line(), Some(("gap", 0.0, "robustness 0")));
+    /// assert_eq!(Signal::Flag { variable: "collision".into(), robustness: None }.line(), None);
+    /// ```
+    pub fn line(&self) -> Option<(&str, f64, &'static str)> {
         match self {
             Signal::Threshold {
                 variable, value, ..
-            } => Some((variable, *value)),
-            Signal::Flag { .. } => None,
+            } => Some((variable, *value, "failure threshold")),
+            Signal::Flag {
+                robustness: Some(rho),
+                ..
+            } => Some((rho, 0.0, "robustness 0")),
+            Signal::Flag {
+                robustness: None, ..
+            } => None,
         }
     }
 }

@@ -113,12 +113,12 @@ impl TrialFrames for SeriesFrames {
         rec: &RecordingStream,
         _scenario: &str,
     ) -> Result<bool, RecordError> {
-        if let Some((variable, _)) = self.signal.threshold() {
+        if let Some((variable, _, name)) = self.signal.line() {
             if self.record.iter().any(|r| r == variable) {
                 rec.log_static(
                     plot_path(variable).join(&EntityPath::from("threshold")),
                     &rerun::SeriesLines::new()
-                        .with_names(["failure threshold"])
+                        .with_names([name])
                         .with_colors([rerun::Color::from_rgb(200, 200, 200)]),
                 )
                 .map_err(err)?;
@@ -180,7 +180,7 @@ impl TrialFrames for SeriesFrames {
             )
             .map_err(err)?;
         }
-        if let Some((variable, value)) = self.signal.threshold() {
+        if let Some((variable, value, _)) = self.signal.line() {
             if run == RunSide::Hf && self.record.iter().any(|r| r == variable) {
                 rec.send_columns(
                     plot_path(variable).join(&EntityPath::from("threshold")),
