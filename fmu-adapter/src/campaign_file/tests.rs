@@ -82,11 +82,12 @@ name = "start"
 range = [0.0, 1.0]
 "#;
 
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("savme-campaign-file-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh temporary directory for one test's campaign file, removed when it is dropped.
+fn dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("savme-campaign-file-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 fn no_paper(_: u32) -> (Space, Assignment) {
@@ -112,7 +113,8 @@ fn error(name: &str, replace: &[(&str, &str)]) -> ConfigError {
         assert!(body.contains(from), "{from}");
         body = body.replacen(from, to, 1);
     }
-    let path = dir(name).join("campaign.toml");
+    let scratch = dir(name);
+    let path = scratch.path().join("campaign.toml");
     std::fs::write(&path, body).unwrap();
     let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
     assert_eq!(e.file, path.display().to_string());
@@ -547,7 +549,8 @@ fn conflicting_bindings_are_refused_naming_both() {
     let body = BASE.replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
     let (head, fidelity) = body.split_at(body.find("[fidelity]").unwrap());
     let (fidelity, scenarios) = fidelity.split_at(fidelity.find("[[scenario]]").unwrap());
-    let path = dir("fidelity-last").join("campaign.toml");
+    let scratch = dir("fidelity-last");
+    let path = scratch.path().join("campaign.toml");
     std::fs::write(&path, format!("{head}{scenarios}\n{fidelity}")).unwrap();
     let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
     assert_eq!(at(&e), (Some(32), Some("fidelity.variable[0].name")), "{e}");
@@ -567,7 +570,8 @@ fn a_paper_setting_cannot_be_bound_again() {
         )
         .replacen("[fidelity]", "[fidelity]\npaper = true", 1)
         .replacen("threshold = 0.5", "threshold = 0.5, rate = 1.0", 1);
-    let path = dir("paper-bound").join("campaign.toml");
+    let scratch = dir("paper-bound");
+    let path = scratch.path().join("campaign.toml");
     std::fs::write(&path, body).unwrap();
     let e = FmuCampaignFile::load(&path, &paper).unwrap_err();
     assert_eq!(at(&e), (Some(21), Some("scenario[0].fixed.rate")), "{e}");
@@ -601,7 +605,8 @@ fn scenarios_may_share_fmu_variables() {
 fn a_file_without_scenarios_is_refused_at_its_line() {
     let body = BASE.replacen("\n[fmu]", "\nscenario = []\n[fmu]", 1);
     let body = &body[..body.find("[[scenario]]").unwrap()];
-    let path = dir("no-scenarios").join("campaign.toml");
+    let scratch = dir("no-scenarios");
+    let path = scratch.path().join("campaign.toml");
     std::fs::write(&path, body).unwrap();
     let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
     assert_eq!(at(&e), (Some(2), Some("scenario")), "{e}");
@@ -701,7 +706,8 @@ fn the_paper_space_comes_from_the_caller() {
             1,
         )
         .replacen("[fidelity]", "[fidelity]\npaper = true", 1);
-    let path = dir("paper").join("campaign.toml");
+    let scratch = dir("paper");
+    let path = scratch.path().join("campaign.toml");
     std::fs::write(&path, body).unwrap();
     let asked = std::cell::Cell::new(None);
     let e = FmuCampaignFile::load(&path, &|bins| {
@@ -739,7 +745,8 @@ fn the_failure_signal_is_boolean_or_a_threshold_with_one_side() {
 
 #[test]
 fn a_missing_file_is_named() {
-    let path = dir("missing").join("campaign.toml");
+    let scratch = dir("missing");
+    let path = scratch.path().join("campaign.toml");
     let e = FmuCampaignFile::load(&path, &no_paper).unwrap_err();
     assert_eq!(at(&e), (None, None));
     assert!(
