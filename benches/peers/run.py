@@ -15,7 +15,7 @@ Everything runs in one invocation. See benches/peers/README.md.
 
 The first run creates target/peers-venv (VerifAI from PyPI; GPyOpt for Bayesian optimisation
 if it installs) and re-runs itself inside it; it also builds `savme` and the `peers_sim` (or,
-with --campaign, `peers_fmu`) example in release mode.
+with --campaign, `peers_fmu`) process (benches/peers/process, crate `savme-peers`) in release mode.
 """
 from __future__ import annotations
 
@@ -74,13 +74,14 @@ NO_BUILD = False  # `--no-build`: all.py built everything once before its famili
 def build(profile_dir: Path, example: str) -> tuple[Path, Path]:
     """`savme` and the simulator process's example, release mode, at low priority (with
     `--no-build`: the ones already built, which must exist)."""
-    savme_exe, sim_exe = profile_dir / "savme", profile_dir / "examples" / example
+    savme_exe, sim_exe = profile_dir / "savme", profile_dir / example
     if NO_BUILD:
         missing = [str(p) for p in (savme_exe, sim_exe) if not p.exists()]
         if missing:
             raise SystemExit(f"--no-build: {', '.join(missing)} not built")
         return savme_exe, sim_exe
-    cmd = ["nice", "-n", "10", "cargo", "build", "--release", "--bin", "savme", "--example", example]
+    cmd = ["nice", "-n", "10", "cargo", "build", "--release", "-p", "savme", "-p", "savme-peers",
+           "--bin", "savme", "--bin", example]
     subprocess.run(cmd, check=True, cwd=REPO)
     return savme_exe, sim_exe
 

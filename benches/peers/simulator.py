@@ -1,8 +1,8 @@
 """The HF simulator both sides of the benchmark share, as a child process speaking JSON lines.
 
 Two back ends answer the same requests (`scenarios`, `space`, `arms`, a run with failure, ρ, work
-units and savme's bins): the bundled driving simulator (`examples/peers_sim.rs`) and the FMU a
-campaign file names (`examples/peers_fmu.rs`, read by savme's own campaign-file loading). A
+units and savme's bins): the bundled driving simulator (`benches/peers/process/src/peers_sim.rs`) and the FMU a
+campaign file names (`benches/peers/process/src/peers_fmu.rs`, read by savme's own campaign-file loading). A
 [`Backend`] says which, and how savme runs its campaign on the same problem.
 """
 from __future__ import annotations
@@ -37,7 +37,7 @@ class ScenarioSpace:
 class Run:
     """One HF run's result; `rho` is the robustness given to VerifAI, < 0 exactly on a failure
     (the bundled simulator: min distance, −1 on a collision; an FMU campaign: see
-    examples/peers_fmu.rs)."""
+    benches/peers/process/src/peers_fmu.rs)."""
 
     scenario: str
     phi: dict[str, float]

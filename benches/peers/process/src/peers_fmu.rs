@@ -26,7 +26,7 @@
 //! process goes on; a bad campaign file or flag ends it at start with the message on standard
 //! error (exit status 2).
 //!
-//! `cargo run --release --example peers_fmu -- examples/fmu/braking/campaign.toml --rho-output distance`
+//! `cargo run --release -p savme-peers --bin peers_fmu -- examples/fmu/braking/campaign.toml --rho-output distance`
 
 use savme::campaign::config::Overrides;
 use savme::compose;
@@ -338,7 +338,7 @@ mod tests {
     /// A scratch copy of examples/fmu/braking: braking.fmu and campaign.toml (with `failure`
     /// as its `[failure]` section).
     fn braking(name: &str, failure: &str) -> PathBuf {
-        let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/fmu/braking");
+        let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../examples/fmu/braking");
         let dir =
             std::env::temp_dir().join(format!("savme-peers-fmu-{}-{name}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();

@@ -15,7 +15,7 @@
 //! Camera + lidar perception (the simulator's default, as in `savme reproduce`), or idealised
 //! perception with `--ideal`. An invalid request gets `{"error": "…"}` and the process goes on.
 //!
-//! `cargo run --release --example peers_sim`
+//! `cargo run --release -p savme-peers --bin peers_sim`
 
 use std::io::{BufRead, Write};
 
