@@ -25,10 +25,9 @@
 //! # Ok::<(), serde_json::Error>(())
 //! ```
 
-use crate::sampler::{gamma, BetaSampler};
+use crate::sampler::gamma;
 use rand::Rng;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeSet;
 
 /// How the kernel chooses the scenario of each ask. Part of the [`crate::KernelConfig`]; the
 /// default is the paper's (and is then left out of the JSON).
@@ -66,22 +65,6 @@ pub struct CostRate {
     pub floor: f64,
     /// Trials (told or in flight) every scenario gets before the bandit chooses; at least 1.
     pub warmup: u32,
-    /// Cell novelty ν in `[0, 1]`: a failure is worth 1 − ν, plus ν if it falls in a joint
-    /// cell of φ where the scenario had not failed yet, so each scenario's Thompson draw of
-    /// its failure rate per unit cost is scaled by 1 − ν + ν·p, with p a Beta draw of the
-    /// share of new cells among its last `memory` HF failures (a scenario whose failing cells
-    /// run out loses its share). 0 (absent from a stored configuration): failures alone, the
-    /// allocation before this field.
-    #[serde(default)]
-    pub novelty: f64,
-    /// How many of a scenario's latest HF failures the novelty share is taken over, 1–64
-    /// (absent: 16).
-    #[serde(default = "default_memory")]
-    pub memory: u32,
-}
-
-fn default_memory() -> u32 {
-    16
 }
 
 impl Default for CostRate {
@@ -92,18 +75,12 @@ impl Default for CostRate {
         CostRate {
             floor: 0.6,
             warmup: 4,
-            novelty: NOVELTY,
-            memory: default_memory(),
         }
     }
 }
 
-/// The default cell novelty ν of [`CostRate`] (new campaigns; a stored one without the field
-/// keeps 0).
-pub const NOVELTY: f64 = 0.5;
-
 impl CostRate {
-    /// Checks `floor`, `novelty` ∈ [0, 1], `warmup` ≥ 1 and `memory` ∈ 1..=64.
+    /// Checks `floor` ∈ [0, 1] and `warmup` ≥ 1.
     pub fn validate(&self) -> Result<(), AllocationError> {
         if !(0.0..=1.0).contains(&self.floor) {
             return Err(AllocationError::Floor(self.floor));
@@ -111,18 +88,7 @@ impl CostRate {
         if self.warmup == 0 {
             return Err(AllocationError::Warmup);
         }
-        if !(0.0..=1.0).contains(&self.novelty) {
-            return Err(AllocationError::Novelty(self.novelty));
-        }
-        if !(1..=64).contains(&self.memory) {
-            return Err(AllocationError::Memory(self.memory));
-        }
         Ok(())
-    }
-
-    /// True when the ledgers keep the failing cells (`novelty` > 0).
-    pub fn tracks_cells(&self) -> bool {
-        self.novelty > 0.0
     }
 }
 
@@ -135,16 +101,10 @@ pub enum AllocationError {
     /// `warmup` of 0.
     #[error("allocation `warmup` must be at least 1")]
     Warmup,
-    /// `novelty` outside [0, 1] (or NaN).
-    #[error("allocation `novelty` = {0} is outside [0, 1]")]
-    Novelty(f64),
-    /// `memory` outside 1..=64.
-    #[error("allocation `memory` = {0} is outside 1..=64")]
-    Memory(u32),
 }
 
 /// What one scenario's told trials have cost and found (kept with [`Allocation::CostRate`]).
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct Ledger {
     /// Trials told.
     pub trials: u64,
@@ -152,40 +112,14 @@ pub struct Ledger {
     pub cost: f64,
     /// Their HF failures (a screened trial's only when its HF run was made).
     pub failures: u64,
-    /// The joint cells of φ (its arms) where those failures fell; kept only with a cell
-    /// novelty ([`CostRate::novelty`] > 0), else empty and left out of the JSON.
-    #[serde(default, skip_serializing_if = "BTreeSet::is_empty")]
-    pub cells: BTreeSet<Vec<u16>>,
-    /// Per HF failure, latest in bit 0, whether it was the first in its cell (the last 64;
-    /// kept with `cells`).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub novel: u64,
-}
-
-fn is_zero(x: &u64) -> bool {
-    *x == 0
 }
 
 impl Ledger {
-    /// Adds a told trial; `cell` is φ's joint cell when the ledger keeps cells.
-    pub(crate) fn add(&mut self, cost: f64, failure: bool, cell: Option<&[u16]>) {
+    /// Adds a told trial.
+    pub(crate) fn add(&mut self, cost: f64, failure: bool) {
         self.trials += 1;
         self.cost += cost;
         self.failures += u64::from(failure);
-        if let (true, Some(cell)) = (failure, cell) {
-            let new = !self.cells.contains(cell);
-            if new {
-                self.cells.insert(cell.to_vec());
-            }
-            self.novel = (self.novel << 1) | u64::from(new);
-        }
-    }
-
-    /// Of the last `memory` (≤ 64) HF failures: (how many were new cells, how many there are).
-    pub fn recent(&self, memory: u32) -> (u32, u32) {
-        let n = self.failures.min(u64::from(memory.min(64))) as u32;
-        let mask = if n >= 64 { u64::MAX } else { (1u64 << n) - 1 };
-        ((self.novel & mask).count_ones(), n)
     }
 
     /// HF failures per unit cost so far (0 before any trial).
@@ -243,13 +177,7 @@ pub(crate) fn choose<R: Rng + ?Sized>(
         let (m, cost) = costs[s];
         let posterior_mean = (l.failures as f64 + shape0) / (l.cost + rate0);
         let believed = l.failures as f64 + f64::from(pending[s]) * m * posterior_mean;
-        let mut draw = gamma(believed + shape0, rng) / (cost + rate0);
-        // One scenario has nothing to share: no draw (its trials stay those without novelty).
-        if rule.tracks_cells() && ledgers.len() > 1 {
-            let (new, n) = l.recent(rule.memory);
-            let p = BetaSampler::new(f64::from(new) + 1.0, f64::from(n - new) + 1.0).sample(rng);
-            draw *= 1.0 - rule.novelty + rule.novelty * p;
-        }
+        let draw = gamma(believed + shape0, rng) / (cost + rate0);
         if draw > best.1 {
             best = (s, draw);
         }
@@ -267,7 +195,6 @@ mod tests {
             trials,
             cost,
             failures,
-            ..Ledger::default()
         }
     }
 
@@ -287,17 +214,15 @@ mod tests {
         let rule = CostRate {
             floor: 0.5,
             warmup: 1,
-            novelty: 0.0,
-            ..CostRate::default()
         };
-        let (mut l, weights) = ([ledger(0, 0.0, 0), ledger(0, 0.0, 0)], [0.5, 0.5]);
+        let (mut l, weights) = ([ledger(0, 0.0, 0); 2], [0.5, 0.5]);
         let (rate, unit) = ([0.1, 0.01], [1.0, 1.0]);
         for _ in 0..4000 {
             let s = choose(&rule, &weights, &l, &[0, 0], &mut rng);
             // Deterministic failures at the scenario's rate: one per 1/rate cost.
             let before = (l[s].cost * rate[s]).floor();
             let after = ((l[s].cost + unit[s]) * rate[s]).floor();
-            l[s].add(unit[s], after > before, None);
+            l[s].add(unit[s], after > before);
         }
         let share0 = l[0].cost / (l[0].cost + l[1].cost);
         assert!(
@@ -314,14 +239,13 @@ mod tests {
         let rule = CostRate {
             floor: 1.0,
             warmup: 1,
-            ..CostRate::default()
         };
         let weights = [0.75, 0.25];
-        let mut l = [ledger(0, 0.0, 0), ledger(0, 0.0, 0)];
+        let mut l = [ledger(0, 0.0, 0); 2];
         let unit = [1.0, 5.0];
         for _ in 0..2000 {
             let s = choose(&rule, &weights, &l, &[0, 0], &mut rng);
-            l[s].add(unit[s], s == 1, Some(&[0]));
+            l[s].add(unit[s], s == 1);
         }
         let share0 = l[0].cost / (l[0].cost + l[1].cost);
         assert!((share0 - 0.75).abs() < 0.01, "{share0}");

@@ -73,7 +73,7 @@ mod simulator;
 mod space;
 mod value;
 
-pub use allocation::{Allocation, AllocationError, CostRate, Ledger, NOVELTY};
+pub use allocation::{Allocation, AllocationError, CostRate, Ledger};
 pub use deployment::Deployment;
 pub use kernel::{
     ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase, Preset,

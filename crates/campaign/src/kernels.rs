@@ -98,7 +98,7 @@ impl<'a> StageKernels<'a> {
             .search(p.search.model(p.elite))
             .pairing(p.pairing())
             .deployment(p.deployment.kernel())
-            .allocation(p.allocation.kernel(p.coverage_floor, p.allocation_novelty))
+            .allocation(p.allocation.kernel(p.coverage_floor))
             .estimator(p.theta_lf_choice.kernel());
         for (name, space) in scenarios {
             b = b.scenario(name, space.clone(), p.weight(name));

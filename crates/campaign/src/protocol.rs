@@ -143,13 +143,12 @@ pub enum Allocate {
 }
 
 impl Allocate {
-    /// The kernel's allocation with the coverage floor `floor` and the cell novelty `novelty`.
-    pub fn kernel(self, floor: f64, novelty: f64) -> savme_kernel::Allocation {
+    /// The kernel's allocation with the coverage floor `floor`.
+    pub fn kernel(self, floor: f64) -> savme_kernel::Allocation {
         match self {
             Allocate::Weights => savme_kernel::Allocation::Weights,
             Allocate::CostRate => savme_kernel::Allocation::CostRate(savme_kernel::CostRate {
                 floor,
-                novelty,
                 ..savme_kernel::CostRate::default()
             }),
         }
@@ -301,7 +300,6 @@ impl Method {
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
                 p.allocation = Allocate::CostRate;
-                p.allocation_novelty = savme_kernel::NOVELTY;
                 p.transfer = Transfer::Auto;
                 // A quarter of the learning trials pay an LF run once θ_LF* has settled:
                 // HF failures per work unit in the search 60.1 → 77.6 per 10⁹ on the bundled
@@ -315,7 +313,6 @@ impl Method {
                 p.deployment = Deploy::Frozen;
                 p.screen_lf = ScreenLf::Always;
                 p.allocation = Allocate::Weights;
-                p.allocation_novelty = 0.0;
                 p.transfer = Transfer::Fixed;
                 p.pair_fraction = 1.0;
             }
@@ -425,12 +422,6 @@ pub struct Protocol {
     /// The cost-rate allocation's coverage floor, in [0, 1].
     #[serde(default = "default_floor", skip_serializing_if = "is_default_floor")]
     pub coverage_floor: f64,
-    /// The cost-rate allocation's cell novelty ν in [0, 1] (`savme_kernel::CostRate::novelty`):
-    /// how much a failure in a joint cell its scenario had not failed in counts over one in a
-    /// cell it had. Absent (a protocol stored before it): 0, failures alone; the tuned method
-    /// sets `savme_kernel::NOVELTY`.
-    #[serde(default, skip_serializing_if = "is_zero_f64")]
-    pub allocation_novelty: f64,
     /// The cost of each search stage (meta-training and meta-testing), in the cost measure's
     /// unit (work units or seconds): the stage runs until its told runs have cost this much,
     /// instead of for its iterations. None: iterations (not written).
@@ -465,10 +456,6 @@ fn default_floor() -> f64 {
 
 fn is_default_floor(x: &f64) -> bool {
     *x == default_floor()
-}
-
-fn is_zero_f64(x: &f64) -> bool {
-    *x == 0.0
 }
 
 fn one() -> f64 {
@@ -584,7 +571,6 @@ impl Protocol {
             log_bins: LogBins::Savme,
             allocation: Allocate::Weights,
             coverage_floor: default_floor(),
-            allocation_novelty: 0.0,
             search_budget: None,
             deploy_budget: None,
             theta_lf_choice: ThetaLfChoice::Map,
@@ -878,12 +864,6 @@ impl Protocol {
             return bad(
                 "coverage_floor",
                 format!("{} is outside [0, 1]", self.coverage_floor),
-            );
-        }
-        if !(0.0..=1.0).contains(&self.allocation_novelty) {
-            return bad(
-                "allocation_novelty",
-                format!("{} is outside [0, 1]", self.allocation_novelty),
             );
         }
         for (field, b) in [
@@ -1194,7 +1174,7 @@ mod tests {
             assert_eq!(p.search.model(p.elite), preset.search(), "{method:?}");
             assert_eq!(p.deployment.kernel(), preset.deployment(), "{method:?}");
             assert_eq!(
-                p.allocation.kernel(p.coverage_floor, p.allocation_novelty),
+                p.allocation.kernel(p.coverage_floor),
                 preset.allocation(),
                 "{method:?}"
             );

@@ -294,12 +294,6 @@ protocol_values! {
     /// share of its weight's share of the cost (1: the cost split by the weights).
     coverage_floor: f64, flag = "coverage-floor", aliases = [], stages = "train, evaluate, screen, test-*",
         to = protocol, cli(value_name = "F", allow_negative_numbers = true);
-    /// The cost-rate allocation's cell novelty ν in [0, 1]: a failure counts 1 − ν, plus ν if
-    /// it is its scenario's first in its joint cell of φ (judged over the scenario's latest 16
-    /// failures), so a scenario whose failing cells run out loses its share (tuned: 0.5; 0:
-    /// failures alone).
-    allocation_novelty: f64, flag = "allocation-novelty", aliases = [], stages = "train, evaluate, screen, test-*",
-        to = protocol, cli(value_name = "NU", allow_negative_numbers = true);
     /// The cost of each search stage (meta-training, meta-testing) in the cost measure's unit
     /// (work units with cost = work, seconds with wall): the stage runs until its runs have
     /// cost this much, instead of for its iterations.
@@ -526,7 +520,6 @@ mod tests {
             log_bins: LogBins::Paper,
             allocation: Allocate::CostRate,
             coverage_floor: 0.5,
-            allocation_novelty: 0.25,
             search_budget: Some(1e9),
             deploy_budget: Some(1e8),
             theta_lf_choice: ThetaLfChoice::Evidence,
@@ -729,7 +722,6 @@ mod tests {
             method: Some(Method::Paper),
             allocation: Some(Allocate::CostRate),
             coverage_floor: Some(0.5),
-            allocation_novelty: Some(0.25),
             search_budget: Some(1e9),
             deploy_budget: Some(2e8),
             theta_lf_choice: Some(ThetaLfChoice::Evidence),

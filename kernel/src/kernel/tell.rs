@@ -105,7 +105,7 @@ impl Kernel {
         let s = pending.trial.scenario_index;
         let (phi_arms, theta_arms) = pending.arms.split_at(self.state.scenarios[s].arms().len());
         let cost = observation.hf().runtime + observation.lf().map_or(0.0, |lf| lf.runtime);
-        self.account(s, cost, observation.hf().failure, phi_arms);
+        self.account(s, cost, observation.hf().failure);
         if let Some(ok) = assessed.credit.scenario {
             let phi = &pending.trial.phi;
             self.credit_scenario(s, phi, phi_arms, observation.hf(), ok, cost);
@@ -203,9 +203,9 @@ impl Kernel {
         let pending = self.state.pending.remove(index);
         let s = pending.trial.scenario_index;
         // Only an HF run (a direct trial) can find a failure; an LF pass found none.
-        let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
-        self.account(s, run.runtime, simulator == "HF" && run.failure, phi_arms);
+        self.account(s, run.runtime, simulator == "HF" && run.failure);
         if self.state.config.deployment.learn {
+            let phi_arms = &pending.arms[..self.state.scenarios[s].arms().len()];
             let phi = &pending.trial.phi;
             self.credit_scenario(s, phi, phi_arms, &learned, learned.failure, run.runtime);
         }
@@ -233,15 +233,10 @@ impl Kernel {
         }
     }
 
-    /// Adds a told trial of scenario `s`, φ in the joint cell `phi_arms`, to its ledger (kept
-    /// by the cost-rate allocation only; the cell only with a cell novelty).
-    fn account(&mut self, s: usize, cost: f64, failure: bool, phi_arms: &[u16]) {
-        let cells = match &self.state.config.allocation {
-            crate::Allocation::CostRate(r) => r.tracks_cells(),
-            crate::Allocation::Weights => false,
-        };
+    /// Adds a told trial of scenario `s` to its ledger (kept by the cost-rate allocation only).
+    fn account(&mut self, s: usize, cost: f64, failure: bool) {
         if let Some(l) = self.state.ledgers.get_mut(s) {
-            l.add(cost, failure, cells.then_some(phi_arms));
+            l.add(cost, failure);
         }
     }
 
