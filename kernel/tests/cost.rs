@@ -125,18 +125,72 @@ fn with_fantasies(fantasies: bool, seed: u64) -> KernelConfig {
     config(SearchModel::EliteMixture(m), cost_rate(), seed)
 }
 
-/// Seeds 1–20, 600 trials, a sliding window: with the default search (when written) 0.3931 /
-/// 0.4513 / 0.4330 / 0.3154 failures per unit cost with 1 / 4 / 16 / 64 in flight; with
-/// fantasies 0.3931 / 0.4701 / 0.4396 / 0.3054 (docs/DISTRIBUTED.md).
+/// Seeds 1–20, a sliding window, the default search (spread 5): failures per unit cost with 1
+/// / 4 / 16 / 64 in flight, and the share of the cost and the failures of the first `window`
+/// trials — asked before any trial is told, so drawn blind whatever the proposal. 2026-11-29:
+/// 600 trials 0.4012 / 0.4472 / 0.4269 / 0.3155 (64: 0.79×; its first 64 trials cost 48 % of
+/// its total and found 2 % of its failures; the rest found 0.599 per unit cost); 1,200 trials
+/// 0.4165 / 0.4653 / 0.4544 / 0.4477 (64: 1.07×); 2,400 trials 0.4274 / 0.4712 / 0.4644 /
+/// 0.5102 (64: 1.19×) (docs/DISTRIBUTED.md). `EXP_N=1200 cargo test --release …
+/// print_window_rates -- --ignored --nocapture` for another length.
 #[test]
 #[ignore = "prints the window figures"]
 fn print_window_rates() {
+    let n: usize = std::env::var("EXP_N").map_or(600, |v| v.parse().unwrap_or(600));
     for window in [1, 4, 16, 64] {
-        for fantasies in [false, true] {
-            let r = slide_rate(|s| with_fantasies(fantasies, s), 1..=20, 600, window);
-            println!("window {window:>2} fantasies {fantasies:<5} {r:.4}");
+        let r = slide_rate(|s| with_fantasies(false, s), 1..=20, n, window);
+        let (mut blind, mut all) = ((0, 0.0), (0, 0.0));
+        for seed in 1..=20 {
+            let (f, c) = slide(with_fantasies(false, seed), window.min(n), window);
+            blind = (blind.0 + f, blind.1 + c);
+            let (f, c) = slide(with_fantasies(false, seed), n, window);
+            all = (all.0 + f, all.1 + c);
         }
+        println!(
+            "{n} trials, window {window:>2}: {r:.4}; the first {window}: {:.0} % of the cost, {:.0} % of the failures",
+            100.0 * blind.1 / all.1,
+            100.0 * blind.0 as f64 / all.0 as f64
+        );
     }
+}
+
+/// Seeds 1–10, a sliding window, the default search: 64 trials in flight keep at least 0.95×
+/// the yield of one on a 1,200-trial search (1.07× over seeds 1–20 when written, 2026-11-29).
+/// On a 600-trial one they do not (0.79×): the first 64 trials, asked before any is told, cost
+/// half of what that search spends — a cost no proposal rule can avoid, as nothing is known
+/// when they are drawn; what follows them finds more per unit cost than one trial in flight.
+#[test]
+fn sixty_four_in_flight_keep_the_yield_of_one_on_a_long_enough_search() {
+    let make = |s| with_fantasies(false, s);
+    let one = slide_rate(make, 1..=10, 1200, 1);
+    let many = slide_rate(make, 1..=10, 1200, 64);
+    println!("1,200 trials: 64 in flight {many:.4}, one {one:.4}");
+    assert!(many >= 0.95 * one, "64 in flight {many:.4} vs one {one:.4}");
+    // The short search's loss is its blind first window's: without it, 64 in flight find more
+    // per unit cost than one in flight over the whole search.
+    let (mut blind, mut all) = ((0, 0.0), (0, 0.0));
+    for seed in 1..=10 {
+        let (f, c) = slide(make(seed), 64, 64);
+        blind = (blind.0 + f, blind.1 + c);
+        let (f, c) = slide(make(seed), 600, 64);
+        all = (all.0 + f, all.1 + c);
+    }
+    let short_one = slide_rate(make, 1..=10, 600, 1);
+    let after = (all.0 - blind.0) as f64 / (all.1 - blind.1);
+    println!(
+        "600 trials, 64 in flight: after the first 64 {after:.4}, one {short_one:.4}; the first 64 cost {:.0} of {:.0}",
+        blind.1, all.1
+    );
+    assert!(
+        after >= short_one,
+        "after the first 64: {after:.4} vs one {short_one:.4}"
+    );
+    assert!(
+        blind.1 >= 0.3 * all.1,
+        "the first 64 cost {:.0} of {:.0}",
+        blind.1,
+        all.1
+    );
 }
 
 /// Seeds 1–10, 600 trials, 16 in flight with a sliding window: the default search keeps at
