@@ -143,55 +143,6 @@ pub struct EliteMixture {
     /// (and left out of the JSON when false).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub rho_model: bool,
-    /// With `per_cost`, a candidate's score is divided by its expected cost to this power
-    /// (finite, in `[0, 1]`: 1 the full division, 0 none). Missing from a stored configuration:
-    /// 1 (and left out of the JSON when 1).
-    #[serde(default = "one", skip_serializing_if = "is_one")]
-    pub cost_power: f64,
-    /// A candidate's score is divided by `1 + cell_failures × failures already in its joint
-    /// cell` (finite, ≥ 0). Missing from a stored configuration: 0 (and left out when 0).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub cell_failures: f64,
-    /// A candidate's score is divided by `1 + visits × trials already in its joint cell`
-    /// (finite, ≥ 0). Missing from a stored configuration: 1 (and left out when 1).
-    #[serde(default = "one", skip_serializing_if = "is_one")]
-    pub visits: f64,
-    /// Temporary: the failures counted by `cell_failures` are capped at this.
-    #[serde(default = "inf", skip_serializing_if = "is_inf")]
-    pub cell_cap: f64,
-    /// Temporary: a candidate in an untried cell has its score times `1 + new_cell`.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub new_cell: f64,
-    /// Temporary: scale new_cell and cell_failures by the share of new cells among the last
-    /// `gate` failures (0 = no gate).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub gate: f64,
-    /// Temporary: the kernel's sd × (1 + wide_gate × discovery share of the last `gate` failures).
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub wide_gate: f64,
-    /// Temporary: the elites' cheapness weight to this power.
-    #[serde(default = "one", skip_serializing_if = "is_one")]
-    pub centre_cost_power: f64,
-}
-
-fn inf() -> f64 {
-    f64::INFINITY
-}
-
-fn is_inf(x: &f64) -> bool {
-    *x == f64::INFINITY
-}
-
-fn one() -> f64 {
-    1.0
-}
-
-fn is_one(x: &f64) -> bool {
-    *x == 1.0
-}
-
-fn is_zero(x: &f64) -> bool {
-    *x == 0.0
 }
 
 impl Default for EliteMixture {
@@ -225,14 +176,6 @@ impl Default for EliteMixture {
             // FMU BouncingBall (a thin failure band), 60.1 → 75.3 per 10⁹ on the bundled
             // simulator's scenarios 1–8 (3 seeds each; docs/RESULTS.md, issue 42).
             rho_model: true,
-            cost_power: 1.0,
-            cell_failures: 0.0,
-            visits: 1.0,
-            cell_cap: f64::INFINITY,
-            new_cell: 0.0,
-            gate: 0.0,
-            wide_gate: 0.0,
-            centre_cost_power: 1.0,
         }
     }
 }
@@ -270,9 +213,6 @@ impl EliteMixture {
             crowding: 0.0,
             fantasies: false,
             rho_model: false,
-            cost_power: 1.0,
-            cell_failures: 0.0,
-            visits: 1.0,
             ..EliteMixture::default()
         }
     }
@@ -316,12 +256,6 @@ impl EliteMixture {
         check("spread", s, s.is_finite() && s >= 0.0, "[0, ∞)")?;
         let c = self.crowding;
         check("crowding", c, c.is_finite() && c >= 0.0, "[0, ∞)")?;
-        let a = self.cost_power;
-        check("cost_power", a, unit(a), "[0, 1]")?;
-        let k = self.cell_failures;
-        check("cell_failures", k, k.is_finite() && k >= 0.0, "[0, ∞)")?;
-        let v = self.visits;
-        check("visits", v, v.is_finite() && v >= 0.0, "[0, ∞)")?;
         let t = f64::from(self.tries);
         check("tries", t, self.tries >= 1, "[1, ∞)")?;
         let a = self.archive as f64;
@@ -464,20 +398,12 @@ impl Archive {
             .map_or(elites[elites.len() - 1].0, |e| e.0);
         let centre = &view.points[centre].u;
         let wide = rng.random::<f64>() < m.jump;
-        let mut sd = m.bandwidth * if wide { 4.0 } else { 1.0 };
-        if m.wide_gate > 0.0 && m.gate > 0.0 && !exploit {
-            sd *= 1.0 + m.wide_gate * self.discovery(m.gate as usize);
-        }
+        let sd = m.bandwidth * if wide { 4.0 } else { 1.0 };
         let start = arms.len();
         let gp = if m.rho_model && m.tries > 1 {
             self.local_gp(m, centre, space.len())
         } else {
             None
-        };
-        let discovery = if m.gate > 0.0 {
-            self.discovery(m.gate as usize)
-        } else {
-            1.0
         };
         let mut best: Option<(f64, Vec<u16>, Assignment)> = None;
         for _ in 0..m.tries {
@@ -488,26 +414,16 @@ impl Archive {
             let mut cell = Vec::with_capacity(u.len());
             let phi = space.at_unit(&u, &mut cell);
             let score = if m.tries > 1 {
-                let (visits, failed) = if exploit {
-                    (0, 0.0)
+                let visits = if exploit {
+                    0
                 } else {
-                    tried.get(&*cell).copied().unwrap_or_default()
+                    tried.get(&*cell).map_or(0, |c| c.0)
                 };
                 let (odds, cost) = parzen(&view, &u, m);
                 let odds = gp.as_ref().map_or(odds, |g| g.failure_probability(&u));
-                let mut score = odds / (1.0 + m.visits * f64::from(visits));
-                if m.new_cell > 0.0 && !exploit && visits == 0 {
-                    score *= 1.0 + m.new_cell * discovery;
-                }
-                if m.cell_failures > 0.0 {
-                    score /= 1.0 + m.cell_failures * discovery * failed.min(m.cell_cap);
-                }
+                let mut score = odds / (1.0 + f64::from(visits));
                 if let Some(cost) = cost {
-                    score /= if m.cost_power == 1.0 {
-                        cost
-                    } else {
-                        cost.powf(m.cost_power)
-                    };
+                    score /= cost;
                 }
                 if m.crowding > 0.0 && !in_flight.is_empty() {
                     score /= 1.0 + m.crowding * crowd(&u, in_flight, m.bandwidth);
@@ -621,23 +537,6 @@ impl Archive {
             .collect()
     }
 
-    /// The share of the last `window` failures that were the first in their cell.
-    fn discovery(&self, window: usize) -> f64 {
-        let mut seen = std::collections::HashSet::new();
-        let firsts: Vec<bool> = self
-            .points
-            .iter()
-            .filter(|p| p.failure)
-            .map(|p| seen.insert(&p.cell[..]))
-            .collect();
-        let last = &firsts[firsts.len().saturating_sub(window)..];
-        if last.is_empty() {
-            1.0
-        } else {
-            last.iter().filter(|&&b| b).count() as f64 / last.len() as f64
-        }
-    }
-
     /// The mean cost of the archived trials that carry one (None: none does).
     fn mean_cost(&self) -> Option<f64> {
         let (n, sum) = self
@@ -740,13 +639,7 @@ impl<'p> View<'p> {
         let novelty = |p: &Point| 1.0 / (1.0 + m.spread * failures(p));
         // Ranking per cost: a failure that was cheap to run is a likelier centre of cheap ones.
         let cheap = |p: &Point| match (self.mean_cost, p.cost) {
-            (Some(mean), Some(c)) if c > 0.0 => {
-                if m.centre_cost_power == 1.0 {
-                    mean / c
-                } else {
-                    (mean / c).powf(m.centre_cost_power)
-                }
-            }
+            (Some(mean), Some(c)) if c > 0.0 => mean / c,
             _ => 1.0,
         };
         self.points
