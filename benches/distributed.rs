@@ -1,6 +1,6 @@
 //! Campaigns on `savme worker` processes through PostgreSQL with **durable commits**.
 //!
-//! `cargo bench --bench distributed -- [repetitions] [--no-optuna]`
+//! `cargo bench --features postgres --bench distributed -- [repetitions] [--no-optuna]`
 //!
 //! Starts a throwaway PostgreSQL 15 with durable commits (`fsync=on`, `synchronous_commit=on`:
 //! `tests/common/postgres.rs` `Server::start_durable`; the settings are printed), then for N =

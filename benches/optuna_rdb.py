@@ -1,5 +1,5 @@
 """Optuna with RDB storage on a PostgreSQL server: the reference row of
-`cargo bench --bench distributed` (docs/BENCHMARKS.md).
+`cargo bench --features postgres --bench distributed` (docs/BENCHMARKS.md).
 
     python benches/optuna_rdb.py URL SIMULATOR TRIALS THREADS
 

@@ -220,7 +220,8 @@ fn protocol_defaults(cli: Command) -> Command {
 /// and names the queue a `worker` works for: say so in each.
 fn storage_help(cli: Command) -> Command {
     const URL: &str = "postgresql://USER@HOST[:PORT]/DB; the password comes from the URL, \
-                       PGPASSWORD or ~/.pgpass and is never printed";
+                       PGPASSWORD or ~/.pgpass and is never printed. Needs a build with the \
+                       `postgres` feature (cargo install --path . --features postgres)";
     let read = format!(
         "Read the campaign from this PostgreSQL database instead of a directory (without the \
          coordinator's lock: a running campaign can be read; nothing in the database changes): {URL}"
@@ -373,6 +374,20 @@ mod tests {
         assert!(help("estimate").contains("Read the campaign from this PostgreSQL database"));
         assert!(help("worker").contains("whose campaign (--campaign) this worker runs trials"));
         assert!(help("reproduce").contains("Keep the campaign"));
+        for c in [
+            "failures",
+            "estimate",
+            "worker",
+            "reproduce",
+            "run",
+            "toy",
+            "serve",
+        ] {
+            assert!(
+                help(c).contains("--features postgres"),
+                "{c}: --storage names the feature it needs"
+            );
+        }
     }
 
     #[test]

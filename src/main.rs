@@ -67,7 +67,8 @@ enum Command {
     #[command(after_help = commands::toy::defaults_help())]
     Toy(commands::toy::Args),
     /// Run the HF and LF runs of a campaign kept in PostgreSQL whose coordinator was started
-    /// with --remote, on this host, until the campaign is finished.
+    /// with --remote, on this host, until the campaign is finished (a build with the
+    /// `postgres` feature).
     Worker(commands::worker::Args),
     /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
     Completions(commands::completions::CompletionArgs),

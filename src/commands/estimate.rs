@@ -446,7 +446,7 @@ fn place_of(a: &Args) -> Result<compose::Place, Failure> {
             "give the campaign directory (or --storage URL --campaign NAME)",
         )),
         (Some(dir), None) => Ok(compose::Place::Dir(dir.clone())),
-        (None, Some((db, name))) => Ok(compose::Place::Database(Box::new(db), name)),
+        (None, Some((db, name))) => Ok(super::database::place(db, name)),
     }
 }
 
@@ -478,7 +478,9 @@ pub fn run(a: Args) -> Result<(), Failure> {
         .map_err(|e| Failure::Runtime(e.to_string()))?;
     if let (Some(c), Some(path)) = (&file, &a.config) {
         same_campaign(path, &c.protocol, &protocol, &source.location())?;
-        // The φ-spaces the campaign ran with (kept beside a campaign in a directory).
+        // The φ-spaces the campaign ran with (kept beside a campaign in a directory; without
+        // the `postgres` feature a directory is the only place).
+        #[cfg_attr(not(feature = "postgres"), allow(irrefutable_let_patterns))]
         if let compose::Place::Dir(dir) = &place {
             let scenarios = &c.file.common().scenarios;
             super::phi::check(dir, path, &scenarios.spaces, &scenarios.openscenario)?;

@@ -49,12 +49,13 @@ fn campaign(a: &Args) -> Result<(Protocol, Vec<LogLine>, String), Failure> {
             ))
         }
         (Some(dir), None) => Place::Dir(dir.clone()),
-        (None, Some((db, name))) => Place::Database(Box::new(db), name),
+        (None, Some((db, name))) => super::database::place(db, name),
     };
     let source = place.source();
     let read = || -> Result<_, CampaignError> { Ok((source.protocol()?, source.lines()?)) };
     let (protocol, lines) = match &place {
-        Place::Database(db, _) => super::connecting(db, read),
+        #[cfg(feature = "postgres")]
+        Place::Database(db, _) => super::storage::connecting(db, read),
         Place::Dir(_) => read(),
     }
     .map_err(runtime)?;

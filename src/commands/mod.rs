@@ -3,6 +3,7 @@
 //! running a campaign with its observers, and printing.
 
 pub mod completions;
+mod database;
 pub mod estimate;
 pub mod failures;
 pub mod fidelity;
@@ -18,6 +19,7 @@ mod storage;
 pub mod toy;
 pub mod worker;
 
+use database::{Database, PostgresStore, Remote, RemoteOptions};
 use savme::campaign::config::Overrides;
 use savme::campaign::store::{ProtocolKeeper, TrialStore};
 use savme::campaign::{
@@ -26,14 +28,12 @@ use savme::campaign::{
 };
 use savme::campaign::{CampaignError, Stop};
 use savme::kernel::Simulator;
-use savme::postgres::{Database, PostgresStore};
-use savme::postgres::{Remote, RemoteOptions};
 use savme::viewer::{self, Frames, RecordRequest};
 use std::fmt::Write as _;
 use std::io::{self, IsTerminal, Write};
 use std::path::PathBuf;
 use std::time::Duration;
-pub use storage::{connecting, stored_protocol, CampaignStorageArgs, StorageArgs};
+pub use storage::{stored_protocol, CampaignStorageArgs, StorageArgs};
 
 /// Why a command failed, which decides the exit status.
 #[derive(Debug)]

@@ -1,13 +1,14 @@
 //! `savme run --config campaign.toml`: the paper's protocol on FMUs the user names.
 
+use super::database::{self, Database};
 use super::{
     config_failure, resume_dir, run_campaign, run_repeated, usage, CampaignStorageArgs, Failure,
     ProtocolArgs, RunnerArgs, Target,
 };
 use savme::adapter::AnySimulator;
+use savme::campaign::shell_quote;
 use savme::campaign::store::TrialStore;
 use savme::compose;
-use savme::postgres::{shell_quote, Database};
 use savme_fmu::campaign_file::FmuCampaignFile;
 use std::path::{Path, PathBuf};
 
@@ -82,7 +83,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     let estimate = c.estimate_settings().map_err(Failure::Runtime)?;
     // Where the [estimate] stage reads the campaign: its database, or its directory.
     let place = match database {
-        Some((db, name)) => compose::Place::Database(Box::new(db), name),
+        Some((db, name)) => database::place(db, name),
         None => compose::Place::Dir(target.out.clone()),
     };
     if let Some(n) = repeat {
@@ -127,11 +128,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
 fn resume_hint(dir: &Path, database: Option<&Database>) -> String {
     let args: Vec<String> = std::env::args().skip(2).collect();
     let dir = super::shown_path(dir);
-    let words = resume_words(
-        &args,
-        database.map(savme::postgres::worker_url).as_deref(),
-        &dir,
-    );
+    let words = resume_words(&args, database.map(database::worker_url).as_deref(), &dir);
     let quoted: Vec<String> = words.iter().map(|w| shell_quote(w)).collect();
     format!("continue with {}", quoted.join(" "))
 }

@@ -8,7 +8,8 @@ use super::*;
 pub struct StorageArgs {
     /// Keep the campaign (protocol, trials, work queue) in a PostgreSQL database instead of
     /// the output directory: postgresql://USER@HOST[:PORT]/DB. The password comes from the
-    /// URL, PGPASSWORD or ~/.pgpass, and is never printed.
+    /// URL, PGPASSWORD or ~/.pgpass, and is never printed. Needs a build with the `postgres`
+    /// feature (cargo install --path . --features postgres).
     #[arg(long, value_name = "URL", conflicts_with = "storage_file")]
     pub(super) storage: Option<String>,
     /// Read the --storage URL from the first line of FILE that is neither empty nor a `#`
@@ -67,7 +68,7 @@ impl StorageArgs {
         let name = self.campaign.clone().ok_or_else(|| {
             usage("--storage needs --campaign NAME (the campaign's name in the database)")
         })?;
-        savme::postgres::check_name(&name).map_err(usage)?;
+        database::check_name(&name).map_err(usage)?;
         Ok(Some((db, name)))
     }
 
@@ -87,10 +88,11 @@ impl StorageArgs {
     /// The flags naming this database and campaign for a process started again on this host,
     /// unquoted: `--storage URL` (its location: never the password) or `--storage-file FILE`,
     /// then `--campaign NAME`.
+    #[cfg(feature = "postgres")]
     pub fn restart_words(&self, db: &Database) -> Vec<String> {
         let mut words = match &self.storage_file {
             Some(file) => vec!["--storage-file".into(), file.display().to_string()],
-            None => vec!["--storage".into(), savme::postgres::worker_url(db)],
+            None => vec!["--storage".into(), database::worker_url(db)],
         };
         words.push("--campaign".into());
         words.push(self.campaign.clone().unwrap_or_else(|| "NAME".into()));
@@ -109,10 +111,10 @@ impl StorageArgs {
 }
 
 /// Runs `connect` (which retries an unreachable server for up to
-/// [`savme::postgres::reconnect_for`]), saying on standard error when it has
+/// [`database::reconnect_for`]), saying on standard error when it has
 /// not connected after a few seconds — a wrong host or port would otherwise mean a silent wait.
 pub fn connecting<T>(db: &Database, connect: impl FnOnce() -> T) -> T {
-    let patience = savme::postgres::reconnect_for();
+    let patience = database::reconnect_for();
     let message = format!(
         "savme: no connection to {} yet; retrying for up to {} s (SAVME_RECONNECT_SECONDS changes that; Ctrl-C stops)",
         db.location(),
@@ -144,6 +146,9 @@ pub(super) fn say_if_slow<T>(
 impl CampaignStorageArgs {
     /// Opens (and locks) the campaign in the database given, if any; `--remote` needs one.
     pub fn open(&self) -> Result<Option<PostgresStore>, Failure> {
+        if self.remote {
+            database::available().map_err(usage)?;
+        }
         if self.remote && !self.store.given() {
             return Err(usage("--remote runs trials through a database's work queue: give --storage URL --campaign NAME too"));
         }
@@ -185,11 +190,10 @@ fn resume_command(db: &Database) -> String {
     // `savme run` rebuilds its protocol from the file and its flags: it repeats them all.
     let given: Vec<String> = std::env::args().skip(1).collect();
     if given.first().is_some_and(|c| c == "run") {
-        let words =
-            super::run::resume_words(&given[1..], Some(&savme::postgres::worker_url(db)), "");
+        let words = super::run::resume_words(&given[1..], Some(&database::worker_url(db)), "");
         let quoted: Vec<String> = words
             .iter()
-            .map(|w| savme::postgres::shell_quote(w))
+            .map(|w| savme::campaign::shell_quote(w))
             .collect();
         return quoted.join(" ");
     }
@@ -221,7 +225,7 @@ fn resume_command(db: &Database) -> String {
             continue;
         };
         let value = match flag.as_str() {
-            "--storage" => savme::postgres::worker_url(db),
+            "--storage" => database::worker_url(db),
             _ => db.redact(&value),
         };
         words.extend([flag, value]);
@@ -229,7 +233,7 @@ fn resume_command(db: &Database) -> String {
     words.push("--resume".into());
     let quoted: Vec<String> = words
         .iter()
-        .map(|w| savme::postgres::shell_quote(w))
+        .map(|w| savme::campaign::shell_quote(w))
         .collect();
     quoted.join(" ")
 }

@@ -2,16 +2,29 @@
 //! campaign whose coordinator was started with `--remote`, on this host, until the campaign
 //! is finished.
 
+//!
+//! Without the `postgres` feature the command is there (its help, its completions) and
+//! refuses with the one message of [`super::database::MISSING`].
+
 use super::{usage, Failure};
-use savme::adapter::simulator_of_label;
-use savme::adapter::AnySimulator;
+#[cfg(feature = "postgres")]
+use savme::adapter::{simulator_of_label, AnySimulator};
+#[cfg(feature = "postgres")]
+use savme::campaign::shell_quote;
+#[cfg(feature = "postgres")]
 use savme::compose;
+#[cfg(feature = "postgres")]
 use savme::postgres::worker::{work, Unavailable, WorkerOptions};
-use savme::postgres::{shell_quote, stored_simulator, Session};
-use std::path::{Path, PathBuf};
+#[cfg(feature = "postgres")]
+use savme::postgres::{stored_simulator, Session};
+#[cfg(feature = "postgres")]
+use std::path::Path;
+use std::path::PathBuf;
+#[cfg(feature = "postgres")]
 use std::time::Duration;
 
 #[derive(clap::Args)]
+#[cfg_attr(not(feature = "postgres"), allow(dead_code))]
 pub struct Args {
     #[command(flatten)]
     storage: super::StorageArgs,
@@ -41,6 +54,15 @@ pub struct Args {
     quiet: bool,
 }
 
+/// Without the `postgres` feature: the one refusal ([`super::database::MISSING`], a usage
+/// error).
+#[cfg(not(feature = "postgres"))]
+pub fn run(_: Args) -> Result<(), Failure> {
+    super::database::available().map_err(usage)
+}
+
+/// Runs the campaign's runs until it is finished (or a signal stops this worker).
+#[cfg(feature = "postgres")]
 pub fn run(a: Args) -> Result<(), Failure> {
     let Some((db, name)) = a.storage.database()? else {
         return Err(usage(
@@ -95,6 +117,7 @@ pub fn run(a: Args) -> Result<(), Failure> {
     Ok(())
 }
 
+#[cfg(feature = "postgres")]
 /// `savme worker` with `storage` (the flags naming the database and campaign), `--jobs` and
 /// `--config` as this worker was given them, shell-quoted: the command that starts it again.
 fn restart_command(storage: Vec<String>, jobs: usize, config: Option<&Path>) -> String {
@@ -108,6 +131,7 @@ fn restart_command(storage: Vec<String>, jobs: usize, config: Option<&Path>) -> 
     quoted.join(" ")
 }
 
+#[cfg(feature = "postgres")]
 /// The worker's options from the flags (each duration a positive number of seconds); Ctrl-C
 /// and SIGTERM stop it between runs (`again`: how to start it again).
 fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
@@ -146,6 +170,7 @@ fn options(a: &Args, again: &str) -> Result<WorkerOptions, Failure> {
     })
 }
 
+#[cfg(feature = "postgres")]
 /// The simulator of campaign `name` (simulator `label`) from its campaign file on this host
 /// (for FMUs: the file's FMUs resolved here); `Ok(Err(reason))` if this host cannot build it (the file's FMUs are missing or do not
 /// load here), an error if the file is not there or describes another simulator.
@@ -174,6 +199,7 @@ fn file_simulator(
     Ok(c.file.simulator(&super::worker_command))
 }
 
+#[cfg(feature = "postgres")]
 /// The simulator label of campaign `name`'s protocol, waiting until its coordinator stored it
 /// (none if a signal stopped the wait).
 fn simulator_label(
@@ -183,8 +209,8 @@ fn simulator_label(
     quiet: bool,
 ) -> Result<Option<String>, String> {
     let patience = options.wait_for_campaign;
-    let mut s =
-        super::connecting(db, || Session::connect(db, "worker")).map_err(|e| e.to_string())?;
+    let mut s = super::storage::connecting(db, || Session::connect(db, "worker"))
+        .map_err(|e| e.to_string())?;
     let start = std::time::Instant::now();
     let mut said = quiet;
     loop {
@@ -214,7 +240,7 @@ fn simulator_label(
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, feature = "postgres"))]
 mod tests {
     use super::restart_command;
     use std::path::Path;

@@ -40,6 +40,7 @@ pub mod outputs;
 pub mod protocol;
 mod repeat;
 pub mod report;
+mod shell;
 pub mod source;
 pub mod stage;
 mod stop;
@@ -60,6 +61,7 @@ pub use protocol::{
 };
 pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;
+pub use shell::shell_quote;
 pub use stage::{Stage, StageId, StageKind};
 pub use stop::Stop;
 

@@ -4,23 +4,9 @@
 
 use crate::Database;
 
-/// `text` quoted for a POSIX shell: as it is when it holds only characters no shell treats
-/// specially, else in single quotes (a `'` inside written `'\''`).
-///
-/// ```
-/// use savme_postgres::shell_quote;
-/// assert_eq!(shell_quote("night-1"), "night-1");
-/// assert_eq!(shell_quote("a&b"), "'a&b'");
-/// assert_eq!(shell_quote("it's"), "'it'\\''s'");
-/// assert_eq!(shell_quote(""), "''");
-/// ```
-pub fn shell_quote(text: &str) -> String {
-    let plain = |c: char| c.is_ascii_alphanumeric() || "-_./:@,+=%".contains(c);
-    if !text.is_empty() && text.chars().all(plain) {
-        return text.to_string();
-    }
-    format!("'{}'", text.replace('\'', r"'\''"))
-}
+/// Quoting for a POSIX shell: savme-campaign's (the CLI quotes its directory campaigns' commands
+/// without this crate).
+pub use savme_campaign::shell_quote;
 
 /// The URL a worker on another host is told to use: the database's location (never its
 /// password), which keeps the `sslmode` and `sslrootcert` the URL gave.
