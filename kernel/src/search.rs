@@ -143,6 +143,15 @@ pub struct EliteMixture {
     /// (and left out of the JSON when false).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub rho_model: bool,
+    /// The cost the archive keeps of a learning trial (train, test) is its HF run's, not the
+    /// trial's: a paired trial's LF run is drawn independently of φ (its θ_LF from the fidelity
+    /// bandit, whether it runs at all from the pairing), so counted in, it hides where φ is
+    /// cheap under noise as large as the difference (highway-env: LF runs were 27 % of the
+    /// search's work, a paired trial ≈ 1.5× an unpaired one, a cheap failure 0.6× a dear one).
+    /// Deployed trials keep what the trial cost. Missing from a stored configuration: false
+    /// (the trial's cost, as before; left out of the JSON when false).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub hf_cost: bool,
 }
 
 impl Default for EliteMixture {
@@ -176,6 +185,7 @@ impl Default for EliteMixture {
             // FMU BouncingBall (a thin failure band), 60.1 → 75.3 per 10⁹ on the bundled
             // simulator's scenarios 1–8 (3 seeds each; docs/RESULTS.md, issue 42).
             rho_model: true,
+            hf_cost: true,
         }
     }
 }
@@ -213,6 +223,7 @@ impl EliteMixture {
             crowding: 0.0,
             fantasies: false,
             rho_model: false,
+            hf_cost: false,
             ..EliteMixture::default()
         }
     }

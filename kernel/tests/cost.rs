@@ -5,7 +5,7 @@
 use savme_kernel::journal::{self, Event, Journaled};
 use savme_kernel::{
     Allocation, Assignment, ConfigError, CostRate, EliteMixture, Kernel, KernelConfig, Observation,
-    Run, Scale, SearchModel, Space, Trial, Variable,
+    Pairing, Run, Scale, SearchModel, Space, Trial, Variable,
 };
 
 fn space() -> Space {
@@ -198,18 +198,22 @@ fn sixty_four_in_flight_keep_the_yield_of_one_on_a_long_enough_search() {
 /// 0.4153 against 0.4246 with the spread 1 of before issue 42's cells work), and so do
 /// fantasies at the spread they were measured with, 1 (0.4396 against 0.3931 over seeds 1–20
 /// when written). With spread 5 fantasies lose yield (0.4012 against 0.4383, 0.915×): they stay
-/// off by default.
+/// off by default. Measured, and held, with the archive keeping each trial's whole cost
+/// (`hf_cost` false); with `hf_cost` (the default since) one in flight gains and 16 lose a
+/// little: 0.4146 against 0.4469 (0.928×; docs/RESULTS.md, issue 42's highway-env work).
 #[test]
 fn sixteen_in_flight_keep_the_yield_of_one() {
-    let default = |fantasies: bool, s| with_fantasies(fantasies, s);
-    let spread_1 = |fantasies: bool, s| {
+    let trial_cost = |fantasies: bool, spread: f64, s| {
         let m = EliteMixture {
             fantasies,
-            spread: 1.0,
+            spread,
+            hf_cost: false,
             ..EliteMixture::default()
         };
         config(SearchModel::EliteMixture(m), cost_rate(), s)
     };
+    let default = |fantasies: bool, s| trial_cost(fantasies, 5.0, s);
+    let spread_1 = |fantasies: bool, s| trial_cost(fantasies, 1.0, s);
     for (fantasies, make) in [
         (false, &default as &dyn Fn(bool, u64) -> KernelConfig),
         (true, &spread_1),
@@ -312,6 +316,73 @@ fn the_default_window_keeps_the_yield_of_one_trial_in_flight() {
     let one = rate(|s| config(elite(true, 0.0), cost_rate(), s), 600, 1);
     let batch = rate(|s| config(elite(true, 0.0), cost_rate(), s), 600, 4);
     assert!(batch >= 0.9 * one, "batch of 4 {batch:.4} vs one {one:.4}");
+}
+
+/// The default search with `hf_cost` as given, a quarter of the learning trials paired once
+/// θ_LF* has settled (the tuned campaigns' pairing).
+fn with_hf_cost(hf_cost: bool, seed: u64) -> KernelConfig {
+    let mut c = config(
+        SearchModel::EliteMixture(EliteMixture {
+            hf_cost,
+            ..EliteMixture::default()
+        }),
+        cost_rate(),
+        seed,
+    );
+    c.pairing = Pairing {
+        fraction: 0.25,
+        settle: 30,
+    };
+    c
+}
+
+/// The archive's cost of a learning trial: its HF run's with `hf_cost` (the default), the
+/// trial's (HF + LF) without it, as stored configurations had it.
+#[test]
+fn the_archive_keeps_a_learning_trials_hf_cost() {
+    for (hf_cost, want) in [(true, "\"cost\":3.0"), (false, "\"cost\":4.0")] {
+        let mut k = Kernel::new(with_hf_cost(hf_cost, 1)).unwrap();
+        let t = k.ask();
+        assert!(t.theta_lf.is_some(), "paired until θ_LF* settles");
+        let hf = Run::new(false, 3.0);
+        k.tell(
+            t.id,
+            Observation::Paired {
+                hf,
+                lf: Run::new(false, 1.0),
+            },
+        )
+        .unwrap();
+        let json = k.to_json();
+        assert!(json.contains(want), "hf_cost {hf_cost}: {json}");
+    }
+    assert!(EliteMixture::default().hf_cost && !EliteMixture::legacy().hf_cost);
+    // A configuration stored before the switch existed reads it as off.
+    let stored = serde_json::json!({"model": "elite_mixture", "per_cost": true});
+    let m: SearchModel = serde_json::from_value(stored).unwrap();
+    assert!(matches!(m, SearchModel::EliteMixture(m) if !m.hf_cost));
+}
+
+#[test]
+#[ignore = "prints the figures the margin below is set from"]
+fn print_hf_cost_rates() {
+    for n in [150, 300, 600] {
+        let on = slide_rate(|s| with_hf_cost(true, s), 1..=20, n, 1);
+        let off = slide_rate(|s| with_hf_cost(false, s), 1..=20, n, 1);
+        println!("{n} trials: hf_cost {on:.4}, trial cost {off:.4} failures per unit cost");
+    }
+}
+
+/// Seeds 1–20, 150 trials, a quarter of the learning trials paired once θ_LF* settles: the
+/// archive's HF costs rank φ better than the trials' (whose LF part, up to half the HF run's,
+/// depends on the θ_LF drawn and on whether the trial was paired): 0.3290 against 0.3206
+/// failures per unit cost when written (300 trials: 0.4168 against 0.4090; 600: 0.4526
+/// against 0.4458).
+#[test]
+fn ranking_by_hf_cost_finds_more_failures_per_cost() {
+    let on = slide_rate(|s| with_hf_cost(true, s), 1..=20, 150, 1);
+    let off = slide_rate(|s| with_hf_cost(false, s), 1..=20, 150, 1);
+    assert!(on > off * 1.01, "hf_cost {on:.4} vs trial cost {off:.4}");
 }
 
 #[test]

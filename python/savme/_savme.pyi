@@ -282,7 +282,8 @@ class Kernel:
         defaults, switches included);
         pair_fraction, pair_settle: once the greedy arm of every fidelity variable holds
         pair_settle observations, only this share of the learning trials is paired (default 1:
-        every trial, so a harness always gets theta_lf; a campaign's tuned method uses 0.25); the others
+        every trial, so a harness always gets theta_lf; a campaign's tuned method uses 0.25 and
+        pair_settle 10); the others
         have no theta_lf (`trial.paired` is False) and are told with the HF run alone;
         deployment: what the "evaluate" phase (evaluation, LF screening) does with what the
         search learned — "frozen" (the paper's), "exploit" (the elite proposal draws for

@@ -57,7 +57,7 @@ pub use observer::{Observer, ProgressBars, ProgressLines};
 pub use outputs::{load_protocol, Outputs};
 pub use protocol::{
     Allocate, Cost, Deploy, LadderTraining, LogBins, Method, OnError, Protocol, ScreenLf, Search,
-    ThetaLfChoice, Transfer, TUNED_PAIR_FRACTION,
+    ThetaLfChoice, Transfer, TUNED_PAIR_FRACTION, TUNED_PAIR_SETTLE,
 };
 pub use repeat::{load_repeat, RepeatFile, Repeated, RepeatedOutcome, MAX_REPEAT};
 pub use report::Report;

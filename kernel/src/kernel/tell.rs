@@ -108,6 +108,15 @@ impl Kernel {
         self.account(s, cost, observation.hf().failure);
         if let Some(ok) = assessed.credit.scenario {
             let phi = &pending.trial.phi;
+            let hf_cost = matches!(&self.state.config.search,
+                SearchModel::EliteMixture(m) if m.hf_cost);
+            // A learning trial's LF run does not depend on φ: with `hf_cost` the archive
+            // keeps what φ cost at HF (EliteMixture::hf_cost).
+            let cost = if hf_cost && pending.trial.phase.learns() {
+                observation.hf().runtime
+            } else {
+                cost
+            };
             self.credit_scenario(s, phi, phi_arms, observation.hf(), ok, cost);
         }
         if let Some(ok) = assessed.credit.fidelity {
