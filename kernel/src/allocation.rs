@@ -75,8 +75,8 @@ pub struct CostRate {
 }
 
 /// The default [`CostRate::half_life`] of new kernels, in told trials: on BouncingBall earth +
-/// mars (seeds 1–20) deployed failures per cost 270 → 383 per 10³ wu with 16 trials in flight
-/// and 36 → 121 with 64, the search's 10.6 → 11.8 at 16; with one in flight the search 26.2 →
+/// mars (seeds 1–20) deployed failures per cost 244 → 383 per 10³ wu with 16 trials in flight
+/// and 44 → 121 with 64, the search's 11.0 → 11.8 at 16; with one in flight the search 26.2 →
 /// 27.0 and the deployed search 381 → 353 (seeds 1–40) (docs/RESULTS.md, issue 42 item 4).
 pub const RECENT_HALF_LIFE: f64 = 20.0;
 
