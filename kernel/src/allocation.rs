@@ -65,7 +65,20 @@ pub struct CostRate {
     pub floor: f64,
     /// Trials (told or in flight) every scenario gets before the bandit chooses; at least 1.
     pub warmup: u32,
+    /// The half-life, in told trials (of every scenario), of the evidence the Thompson draw
+    /// weighs: each tell multiplies every ledger's weighted failures and cost by 2^(−1/h)
+    /// before it adds its own. None: the whole history counts alike (absent from a stored
+    /// campaign, so it keeps its meaning).
+    /// The default, [`RECENT_HALF_LIFE`], is that of new kernels only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub half_life: Option<f64>,
 }
+
+/// The default [`CostRate::half_life`] of new kernels, in told trials: on BouncingBall earth +
+/// mars (seeds 1–20) deployed failures per cost 244 → 383 per 10³ wu with 16 trials in flight
+/// and 44 → 121 with 64, the search's 11.0 → 11.8 at 16; with one in flight the search 26.2 →
+/// 27.0 and the deployed search 381 → 353 (seeds 1–40) (docs/RESULTS.md, issue 42 item 4).
+pub const RECENT_HALF_LIFE: f64 = 20.0;
 
 impl Default for CostRate {
     fn default() -> Self {
@@ -75,12 +88,13 @@ impl Default for CostRate {
         CostRate {
             floor: 0.6,
             warmup: 4,
+            half_life: Some(RECENT_HALF_LIFE),
         }
     }
 }
 
 impl CostRate {
-    /// Checks `floor` ∈ [0, 1] and `warmup` ≥ 1.
+    /// Checks `floor` ∈ [0, 1], `warmup` ≥ 1 and a `half_life` finite and positive.
     pub fn validate(&self) -> Result<(), AllocationError> {
         if !(0.0..=1.0).contains(&self.floor) {
             return Err(AllocationError::Floor(self.floor));
@@ -88,7 +102,10 @@ impl CostRate {
         if self.warmup == 0 {
             return Err(AllocationError::Warmup);
         }
-        Ok(())
+        match self.half_life {
+            Some(h) if !(h.is_finite() && h > 0.0) => Err(AllocationError::HalfLife(h)),
+            _ => Ok(()),
+        }
     }
 }
 
@@ -101,6 +118,9 @@ pub enum AllocationError {
     /// `warmup` of 0.
     #[error("allocation `warmup` must be at least 1")]
     Warmup,
+    /// `half_life` not finite and positive.
+    #[error("allocation `half_life` = {0} is not a positive number of trials")]
+    HalfLife(f64),
 }
 
 /// What one scenario's told trials have cost and found (kept with [`Allocation::CostRate`]).
@@ -112,6 +132,17 @@ pub struct Ledger {
     pub cost: f64,
     /// Their HF failures (a screened trial's only when its HF run was made).
     pub failures: u64,
+    /// Their cost, each trial's weighed by 2^(−k/h), k the trials told since it (kept only
+    /// when [`CostRate::half_life`] is set; 0 otherwise).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub recent_cost: f64,
+    /// Their HF failures, weighed likewise.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub recent_failures: f64,
+}
+
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 impl Ledger {
@@ -120,6 +151,21 @@ impl Ledger {
         self.trials += 1;
         self.cost += cost;
         self.failures += u64::from(failure);
+    }
+
+    /// Weighs every ledger's recent evidence down by one told trial of half-life `h`.
+    pub(crate) fn forget(ledgers: &mut [Ledger], h: f64) {
+        let d = (-std::f64::consts::LN_2 / h).exp();
+        for l in ledgers {
+            l.recent_cost *= d;
+            l.recent_failures *= d;
+        }
+    }
+
+    /// Adds a told trial to the recent evidence.
+    pub(crate) fn add_recent(&mut self, cost: f64, failure: bool) {
+        self.recent_cost += cost;
+        self.recent_failures += f64::from(u8::from(failure));
     }
 
     /// HF failures per unit cost so far (0 before any trial).
@@ -174,9 +220,14 @@ pub(crate) fn choose<R: Rng + ?Sized>(
     let (shape0, rate0) = (1.0, 2.0 * mean);
     let mut best = (0, f64::NEG_INFINITY);
     for (s, l) in ledgers.iter().enumerate() {
-        let (m, cost) = costs[s];
-        let posterior_mean = (l.failures as f64 + shape0) / (l.cost + rate0);
-        let believed = l.failures as f64 + f64::from(pending[s]) * m * posterior_mean;
+        let m = costs[s].0;
+        let (failures, spent) = match rule.half_life {
+            Some(_) => (l.recent_failures, l.recent_cost),
+            None => (l.failures as f64, l.cost),
+        };
+        let posterior_mean = (failures + shape0) / (spent + rate0);
+        let believed = failures + f64::from(pending[s]) * m * posterior_mean;
+        let cost = spent + f64::from(pending[s]) * m;
         let draw = gamma(believed + shape0, rng) / (cost + rate0);
         if draw > best.1 {
             best = (s, draw);
@@ -195,6 +246,7 @@ mod tests {
             trials,
             cost,
             failures,
+            ..Ledger::default()
         }
     }
 
@@ -214,6 +266,7 @@ mod tests {
         let rule = CostRate {
             floor: 0.5,
             warmup: 1,
+            half_life: None,
         };
         let (mut l, weights) = ([ledger(0, 0.0, 0); 2], [0.5, 0.5]);
         let (rate, unit) = ([0.1, 0.01], [1.0, 1.0]);
@@ -239,6 +292,7 @@ mod tests {
         let rule = CostRate {
             floor: 1.0,
             warmup: 1,
+            half_life: None,
         };
         let weights = [0.75, 0.25];
         let mut l = [ledger(0, 0.0, 0); 2];

@@ -73,7 +73,7 @@ mod simulator;
 mod space;
 mod value;
 
-pub use allocation::{Allocation, AllocationError, CostRate, Ledger};
+pub use allocation::{Allocation, AllocationError, CostRate, Ledger, RECENT_HALF_LIFE};
 pub use deployment::Deployment;
 pub use kernel::{
     ConfigError, FidelityPrior, Kernel, KernelBuilder, KernelConfig, KernelStats, Phase, Preset,

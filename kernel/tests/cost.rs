@@ -442,3 +442,117 @@ fn bad_allocations_and_ledgers_are_refused() {
     assert!(paper.ledgers().is_empty());
     assert!(!paper.to_json().contains("ledgers") && !paper.to_json().contains("allocation"));
 }
+
+/// Failures and cost of `n` trials over "late" and "steady" with `window` in flight (the
+/// oldest told when the window is full). "late" starts blind: its first 16 told trials pass
+/// at cost 20 (a wide window's first trials, drawn before anything is told), then every
+/// second one fails and each costs 1 (0.5 failures per unit cost). "steady": every fifth
+/// told trial fails, each costs 2 (0.1 failures per unit cost). A paired trial's LF run
+/// agrees and costs a tenth of its HF run.
+fn late_start(half_life: Option<f64>, seed: u64, n: usize, window: usize) -> (u64, f64, u64) {
+    let fidelity = Space::new(vec![Variable::discrete("rate_hz", [2, 5, 10])]).unwrap();
+    let allocation = Allocation::CostRate(CostRate {
+        half_life,
+        ..CostRate::default()
+    });
+    let mut k = Kernel::builder(fidelity, Assignment::new().with("rate_hz", 10))
+        .scenario("late", space(), 1.0)
+        .scenario("steady", space(), 1.0)
+        .search(elite(true, 0.0))
+        .allocation(allocation)
+        .seed(seed)
+        .build()
+        .unwrap();
+    let (mut failures, mut cost, mut told) = (0, 0.0, [0u64; 2]);
+    let mut pending = std::collections::VecDeque::new();
+    for i in 0..n + window {
+        if pending.len() == window || i >= n {
+            let Some(t): Option<Trial> = pending.pop_front() else {
+                break;
+            };
+            let s = usize::from(&*t.scenario != "late");
+            told[s] += 1;
+            let (f, c) = match (s, told[s]) {
+                (0, j) if j <= 16 => (false, 20.0),
+                (0, j) => (j % 2 == 0, 1.0),
+                (_, j) => (j % 5 == 0, 2.0),
+            };
+            let hf = Run::new(f, c);
+            // A paired trial's LF run agrees with HF and costs a tenth of it.
+            let o = match t.theta_lf {
+                Some(_) => Observation::Paired {
+                    hf,
+                    lf: Run::new(f, c / 10.0),
+                },
+                None => Observation::HfOnly(hf),
+            };
+            failures += u64::from(f);
+            cost += o.hf().runtime + o.lf().map_or(0.0, |lf| lf.runtime);
+            k.tell(t.id, o).unwrap();
+        }
+        if i < n {
+            pending.push_back(k.ask());
+        }
+    }
+    (failures, cost, told[0])
+}
+
+/// Issue 42 item 4: a scenario whose first window was blind (expensive passes) is not kept
+/// away by them when the ledger forgets with a half-life ([`savme_kernel::RECENT_HALF_LIFE`],
+/// the default): seeds 1–5, 300 trials, 16 in flight, "late" gets ≥ 3× the trials and the
+/// search ≥ 1.1× the failures per cost of the whole history's allocation (265 against 65
+/// trials, 0.0718 against 0.0621 when written), and with one in flight ≥ 0.95× its rate.
+#[test]
+fn a_blind_start_does_not_keep_the_allocation_away_with_a_half_life() {
+    assert_eq!(
+        CostRate::default().half_life,
+        Some(savme_kernel::RECENT_HALF_LIFE)
+    );
+    let sum = |h: Option<f64>, window: usize| {
+        (1..=5).fold((0, 0.0, 0), |a, seed| {
+            let (f, c, late) = late_start(h, seed, 300, window);
+            (a.0 + f, a.1 + c, a.2 + late)
+        })
+    };
+    let recent = CostRate::default().half_life;
+    for window in [16, 1] {
+        let (f_all, c_all, late_all) = sum(None, window);
+        let (f_recent, c_recent, late_recent) = sum(recent, window);
+        let (whole, forgetting) = (f_all as f64 / c_all, f_recent as f64 / c_recent);
+        println!(
+            "window {window}: whole history {whole:.4} ({late_all} late trials), \
+             half-life {forgetting:.4} ({late_recent})"
+        );
+        let margin = if window == 16 { 1.1 } else { 0.95 };
+        assert!(
+            forgetting >= margin * whole,
+            "window {window}: half-life {forgetting:.4} vs whole history {whole:.4}"
+        );
+        if window == 16 {
+            assert!(late_recent >= 3 * late_all, "{late_recent} vs {late_all}");
+        }
+    }
+}
+
+/// A kernel stored before the half-life existed (no `half_life` in its allocation) keeps
+/// judging scenarios by their whole history.
+#[test]
+fn a_stored_allocation_without_a_half_life_keeps_the_whole_history() {
+    let legacy: Allocation = serde_json::from_str(r#"{"rule":"cost_rate","floor":0.6}"#).unwrap();
+    assert_eq!(
+        legacy,
+        Allocation::CostRate(CostRate {
+            half_life: None,
+            ..CostRate::default()
+        })
+    );
+    let json = serde_json::to_string(&cost_rate()).unwrap();
+    assert!(json.contains("\"half_life\":20"), "{json}");
+    let mut c = config(elite(true, 0.0), cost_rate(), 1);
+    c.allocation = Allocation::CostRate(CostRate {
+        half_life: Some(0.0),
+        ..CostRate::default()
+    });
+    let e = Kernel::new(c).unwrap_err().to_string();
+    assert!(e.contains("half_life"), "{e}");
+}

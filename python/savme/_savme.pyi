@@ -248,7 +248,7 @@ class Kernel:
         pair_fraction: float = 1.0,
         pair_settle: int = 30,
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
-        allocation: Optional[Literal["weights", "cost-rate"]] = None,
+        allocation: Optional[Literal["weights", "cost-rate", "cost-rate-recent"]] = None,
         method: Literal["tuned", "paper"] = "tuned",
         history: Union[bool, int, None] = None,
         scenario_priors: Optional[Sequence[_ScenarioPrior]] = None,
@@ -273,7 +273,7 @@ class Kernel:
         journal: a journal file, created or resumed (it must hold the same configuration);
         method: what search, deployment, allocation and estimator default to — "tuned" (the
         default: savme's search by cost — search "elite" with the ρ model, deployment
-        "adaptive", allocation "cost-rate", estimator "evidence") or "paper" (the paper's SAVME —
+        "adaptive", allocation "cost-rate-recent", estimator "evidence") or "paper" (the paper's SAVME —
         "bins", "frozen", "weights", "map"); a value given below wins over the method's;
         search: how train and test draw φ — "bins" (the paper's independent bins), "elite" (a
         joint proposal around failures, candidates ranked per expected cost and, where runs
@@ -290,8 +290,9 @@ class Kernel:
         failures, not for new cells), "learn" (its results keep teaching the φ search) or
         "adaptive" (both);
         allocation: how each ask chooses its scenario — "weights" (drawn from p(s), the
-        paper's) or "cost-rate" (a bandit by HF failures per unit cost, every scenario kept
-        above 0.6 × its share of p(s) in cost).
+        paper's), "cost-rate" (a bandit by HF failures per unit cost, every scenario kept
+        above 0.6 × its share of p(s) in cost) or "cost-rate-recent" (the same, each
+        scenario's evidence forgotten with a half-life of 20 told trials; the tuned preset's).
 
         history: what `trials()` keeps of the told records — None or True every one (~320 B
         per told trial on a space of one φ and one θ variable, ~770 B on the paper's 4 φ and
@@ -529,7 +530,7 @@ class Protocol:
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
         screen_lf: Optional[Literal["always", "where-it-pays"]] = None,
         method: Optional[Literal["tuned", "paper"]] = None,
-        allocation: Optional[Literal["weights", "cost-rate"]] = None,
+        allocation: Optional[Literal["weights", "cost-rate", "cost-rate-recent"]] = None,
         coverage_floor: Optional[float] = None,
         search_budget: Optional[float] = None,
         deploy_budget: Optional[float] = None,

@@ -380,10 +380,14 @@ impl PyKernel {
         let allocation = match allocation {
             None => preset.allocation(),
             Some("weights") => Allocation::Weights,
-            Some("cost-rate") => Allocation::CostRate(CostRate::default()),
+            Some("cost-rate") => Allocation::CostRate(CostRate {
+                half_life: None,
+                ..CostRate::default()
+            }),
+            Some("cost-rate-recent") => Allocation::CostRate(CostRate::default()),
             Some(other) => {
                 return Err(PyValueError::new_err(format!(
-                    "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's) or \"cost-rate\" (by HF failures per unit cost)"
+                    "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's), \"cost-rate\" (by HF failures per unit cost) or \"cost-rate-recent\" (the same, recent evidence weighed more)"
                 )))
             }
         };

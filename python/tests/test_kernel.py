@@ -640,7 +640,7 @@ def test_the_default_method_is_savmes_search_by_cost():
     tuned = json.loads(savme.Kernel(**base).config_json())
     assert tuned["search"]["model"] == "elite_mixture" and tuned["search"]["per_cost"] is True
     assert tuned["deployment"] == {"learn": True, "exploit": True}
-    assert tuned["allocation"] == {"rule": "cost_rate", "floor": 0.6, "warmup": 4}
+    assert tuned["allocation"] == {"rule": "cost_rate", "floor": 0.6, "warmup": 4, "half_life": 20.0}
     paper = json.loads(savme.Kernel(**base, method="paper").config_json())
     assert not {"search", "deployment", "allocation"} & set(paper)
     # A value given wins over the method's.

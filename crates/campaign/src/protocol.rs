@@ -137,9 +137,14 @@ pub enum Allocate {
     /// The paper's: drawn from p(s), the scenario weights — the same share of trials each.
     #[default]
     Weights,
-    /// A bandit over the scenarios by HF failures per unit cost, every scenario kept above
-    /// `coverage_floor` × its share of p(s) in cost.
+    /// A bandit over the scenarios by HF failures per unit cost over each scenario's whole
+    /// history, every scenario kept above `coverage_floor` × its share of p(s) in cost.
     CostRate,
+    /// The same bandit weighing recent evidence more: its failures and cost forgotten with a
+    /// half-life of [`savme_kernel::RECENT_HALF_LIFE`] told trials, so a scenario's blind
+    /// start (a wide window's first trials) does not keep the campaign away from it (the
+    /// tuned method's since issue 42 item 4).
+    CostRateRecent,
 }
 
 impl Allocate {
@@ -149,8 +154,16 @@ impl Allocate {
             Allocate::Weights => savme_kernel::Allocation::Weights,
             Allocate::CostRate => savme_kernel::Allocation::CostRate(savme_kernel::CostRate {
                 floor,
+                half_life: None,
                 ..savme_kernel::CostRate::default()
             }),
+            Allocate::CostRateRecent => {
+                savme_kernel::Allocation::CostRate(savme_kernel::CostRate {
+                    floor,
+                    half_life: Some(savme_kernel::RECENT_HALF_LIFE),
+                    ..savme_kernel::CostRate::default()
+                })
+            }
         }
     }
 
@@ -299,7 +312,7 @@ impl Method {
                 p.elite = Some(EliteMixture::default());
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
-                p.allocation = Allocate::CostRate;
+                p.allocation = Allocate::CostRateRecent;
                 p.transfer = Transfer::Auto;
                 // A quarter of the learning trials pay an LF run once θ_LF* has settled:
                 // HF failures per work unit in the search 60.1 → 77.6 per 10⁹ on the bundled

@@ -149,7 +149,11 @@ fn check_ledgers(snapshot: &Snapshot) -> Result<(), ConfigError> {
         )));
     }
     for (l, s) in snapshot.ledgers.iter().zip(&cfg.scenarios) {
-        if !(l.cost.is_finite() && l.cost >= 0.0) || l.failures > l.trials {
+        let recent = [l.recent_cost, l.recent_failures];
+        if !(l.cost.is_finite() && l.cost >= 0.0)
+            || l.failures > l.trials
+            || recent.iter().any(|x| !(x.is_finite() && *x >= 0.0))
+        {
             return Err(ConfigError::State(format!(
                 "scenario `{}`: its ledger ({} trials, {} failures, cost {}) is impossible",
                 s.name, l.trials, l.failures, l.cost

@@ -3,6 +3,7 @@
 //! tell of LF screening, a withdrawal, and the journal's two-step assess/commit.
 
 use super::{Kernel, Phase, TellError, Trial, TrialRecord};
+use crate::allocation::Ledger;
 use crate::outcome::{Credit, Observation, Outcome, Run};
 use crate::search::SearchModel;
 
@@ -246,6 +247,15 @@ impl Kernel {
     fn account(&mut self, s: usize, cost: f64, failure: bool) {
         if let Some(l) = self.state.ledgers.get_mut(s) {
             l.add(cost, failure);
+        }
+        if let crate::Allocation::CostRate(crate::CostRate {
+            half_life: Some(h), ..
+        }) = self.state.config.allocation
+        {
+            Ledger::forget(&mut self.state.ledgers, h);
+            if let Some(l) = self.state.ledgers.get_mut(s) {
+                l.add_recent(cost, failure);
+            }
         }
     }
 
