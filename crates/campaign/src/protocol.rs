@@ -141,7 +141,7 @@ pub enum Allocate {
     /// history, every scenario kept above `coverage_floor` × its share of p(s) in cost.
     CostRate,
     /// The same bandit weighing recent evidence more: its failures and cost forgotten with a
-    /// half-life of [`savme_kernel::RECENT_HALF_LIFE`] told trials, so a scenario's blind
+    /// half-life of 20 told trials (`savme_kernel::RECENT_HALF_LIFE`), so a scenario's blind
     /// start (a wide window's first trials) does not keep the campaign away from it (the
     /// tuned method's since issue 42 item 4).
     CostRateRecent,
