@@ -296,11 +296,11 @@ fn a_refined_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
     edit_line(&killed.join("trials.jsonl"), 2, |l| {
         l["round"] = Value::from(1);
     });
-    let (code, _, err) = estimate(&killed, &["--resume"]);
-    assert_eq!(code, Some(1));
-    assert!(
-        err.contains("trials.jsonl, line 3: `round` is 1 but the estimate asks 0"),
-        "{err}"
+    refused(
+        &killed,
+        &["--resume"],
+        1,
+        "trials.jsonl, line 3: `round` is 1 but the estimate asks 0",
     );
 }
 
@@ -347,11 +347,11 @@ fn a_joint_estimate_is_the_same_for_any_jobs_and_after_a_kill() {
         table.contains("Joint proposal: after each round a mixture of at most 4 components"),
         "{table}"
     );
-    let (code, _, err) = estimate(&killed, &["--resume", "--proposal", "product"]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("the estimate was started with `proposal` = \"joint\", and this resume gives \"product\""),
-        "{err}"
+    refused(
+        &killed,
+        &["--resume", "--proposal", "product"],
+        2,
+        "the estimate was started with `proposal` = \"joint\", and this resume gives \"product\"",
     );
 }
 
@@ -416,13 +416,11 @@ fn a_low_fidelity_pilot_runs_at_the_learned_fidelity_and_resumes_identically_aft
         table.contains("Multi-fidelity: the cross-entropy refinement ran 3 rounds of 400 LF runs"),
         "{table}"
     );
-    let (code, _, err) = estimate(&killed, &["--resume", "--pilot-fidelity", "hf"]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains(
-            "the estimate was started with `pilot_fidelity` = \"lf\", and this resume gives \"hf\""
-        ),
-        "{err}"
+    refused(
+        &killed,
+        &["--resume", "--pilot-fidelity", "hf"],
+        2,
+        "the estimate was started with `pilot_fidelity` = \"lf\", and this resume gives \"hf\"",
     );
     // A pilot line turned into an HF run is refused on resume, naming the line.
     edit_line(&killed.join("trials.jsonl"), 2, |l| {
@@ -430,11 +428,11 @@ fn a_low_fidelity_pilot_runs_at_the_learned_fidelity_and_resumes_identically_aft
         l.as_object_mut().unwrap().remove("lf");
         l["hf"] = lf_run;
     });
-    let (code, _, err) = estimate(&killed, &["--resume"]);
-    assert_eq!(code, Some(1));
-    assert!(
-        err.contains("trials.jsonl, line 3: `hf/lf` is an HF run but the estimate asks an LF run"),
-        "{err}"
+    refused(
+        &killed,
+        &["--resume"],
+        1,
+        "trials.jsonl, line 3: `hf/lf` is an HF run but the estimate asks an LF run",
     );
     // A campaign cut after its training, before its evaluation stage: no θ_LF* to run the
     // pilot at (the protocol record, baseline-train and the 200 trials of train@0.3 kept).
@@ -559,25 +557,21 @@ fn control_variates_pair_hf_and_lf_runs_and_resume_identically_after_a_kill() {
     assert!((s["control_lf_cost"].as_f64().unwrap() - lf).abs() < 1e-9 * lf);
     let equivalent = 450.0 + lf / (hf / 450.0);
     assert!((s["hf_equivalent_runs"].as_f64().unwrap() - equivalent).abs() < 1e-9 * equivalent);
-    let (code, _, err) = estimate(&killed, &["--resume", "--control-calibration", "300"]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains(
-            "the estimate was started with `control_calibration` = 200, and this resume gives 300"
-        ),
-        "{err}"
+    refused(
+        &killed,
+        &["--resume", "--control-calibration", "300"],
+        2,
+        "the estimate was started with `control_calibration` = 200, and this resume gives 300",
     );
     // An extra LF line turned into a paired one is refused on resume, naming the line.
     edit_line(&killed.join("trials.jsonl"), 402, |l| {
         l["control"] = Value::from("paired");
     });
-    let (code, _, err) = estimate(&killed, &["--resume"]);
-    assert_eq!(code, Some(1));
-    assert!(
-        err.contains(
-            "trials.jsonl, line 403: `control` is \"paired\" but the estimate asks \"extra\" here"
-        ),
-        "{err}"
+    refused(
+        &killed,
+        &["--resume"],
+        1,
+        "trials.jsonl, line 403: `control` is \"paired\" but the estimate asks \"extra\" here",
     );
 }
 
@@ -877,11 +871,11 @@ fn bad_input_is_refused_naming_the_key_variable_stage_or_line() {
     assert!(err.contains("no estimate to resume"), "{err}");
     let (code, _, err) = estimate(&out, &["--max-runs", "30", "--no-target"]);
     assert_eq!(code, Some(0), "{err}");
-    let (code, _, err) = estimate(&out, &["--max-runs", "30"]);
-    assert_eq!(code, Some(1));
-    assert!(
-        err.contains("already holds an estimate; continue it with --resume"),
-        "{err}"
+    refused(
+        &out,
+        &["--max-runs", "30"],
+        1,
+        "already holds an estimate; continue it with --resume",
     );
     // An edited stored trial is refused on resume, naming the line and the field.
     edit_line(&out.join("trials.jsonl"), 4, |l| {
@@ -1029,6 +1023,14 @@ fn a_resume_refuses_a_changed_setting_naming_both_values_and_applies_a_stopping_
         "{err}"
     );
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Runs `savme estimate` on `dir` with `args` and checks that it stops with exit status `code`
+/// and an error containing `message`.
+fn refused(dir: &Path, args: &[&str], code: i32, message: &str) {
+    let (got, _, err) = estimate(dir, args);
+    assert_eq!(got, Some(code), "{err}");
+    assert!(err.contains(message), "{err}");
 }
 
 /// Rewrites line `index` (0-based) of the JSON-lines file `path` through `edit`, as a user

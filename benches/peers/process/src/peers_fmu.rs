@@ -372,6 +372,20 @@ mod tests {
         serde_json::from_slice(&out).unwrap()
     }
 
+    /// Fast and close on a dry road: a collision, ρ = −1 (the answer returned).
+    fn collides(b: &mut Bench) -> Json {
+        let hit = ask(
+            b,
+            json!({"scenario": "dry_road", "phi": {"speed0": 25.0, "gap": 10.0}}),
+        );
+        assert_eq!(
+            (hit["failure"].as_bool(), hit["rho"].as_f64()),
+            (Some(true), Some(-1.0)),
+            "{hit}"
+        );
+        hit
+    }
+
     fn error_of(bench: &mut Bench, request: Json) -> String {
         let a = ask(bench, request);
         a["error"]
@@ -409,15 +423,7 @@ mod tests {
         );
         assert_eq!(a["arms"], json!([9, 0]));
         // Fast and close: a collision, ρ = −1; slow and far: a pass, ρ = the clearance left.
-        let hit = ask(
-            &mut b,
-            json!({"scenario": "dry_road", "phi": {"speed0": 25.0, "gap": 10.0}}),
-        );
-        assert_eq!(
-            (hit["failure"].as_bool(), hit["rho"].as_f64()),
-            (Some(true), Some(-1.0)),
-            "{hit}"
-        );
+        let hit = collides(&mut b);
         assert!(hit["rho_output_min"].as_f64().unwrap() <= 0.0, "{hit}");
         let pass = ask(
             &mut b,
@@ -485,15 +491,7 @@ mod tests {
         assert_eq!(pass["failure"].as_bool(), Some(false), "{pass}");
         assert_eq!(pass["rho"].as_f64(), pass["robustness"].as_f64(), "{pass}");
         assert!(pass["rho"].as_f64().unwrap() > 0.0, "{pass}");
-        let hit = ask(
-            &mut b,
-            json!({"scenario": "dry_road", "phi": {"speed0": 25.0, "gap": 10.0}}),
-        );
-        assert_eq!(
-            (hit["failure"].as_bool(), hit["rho"].as_f64()),
-            (Some(true), Some(-1.0)),
-            "{hit}"
-        );
+        collides(&mut b);
         std::fs::remove_dir_all(dir).unwrap();
     }
 
