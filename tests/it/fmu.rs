@@ -1,6 +1,6 @@
 //! The bundled simulator as an FMU (`savme fmu pack`) against the in-process simulator, FMPy
 //! against savme on the same FMU, and `savme run --config` with good and bad campaign files.
-mod common;
+use crate::common;
 
 use common::{fmpy_python, made_dir, savme, trial_lines};
 use savme::kernel::{Assignment, Space};
