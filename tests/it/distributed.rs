@@ -365,7 +365,7 @@ fn fmu_campaign(dir: &Path, fmu_lines: &str) -> (PathBuf, PathBuf) {
             .unwrap();
         assert!(o.status.success(), "{}", text(&o));
     }
-    let body = include_str!("fixtures/fmu-tiny-campaign.toml").replace(
+    let body = include_str!("../fixtures/fmu-tiny-campaign.toml").replace(
         "hf = \"FMU\"",
         &format!("hf = {:?}\n{fmu_lines}", fmu.display().to_string()),
     );

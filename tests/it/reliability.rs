@@ -432,7 +432,7 @@ fn a_run_stopped_in_its_campaign_prints_the_whole_command_that_resumes_it() {
     let (code, _, err) = run(&["fmu", "pack", "--out", fmu.to_str().unwrap()]);
     assert_eq!(code, Some(0), "{err}");
     let config = dir.join("campaign.toml");
-    let body = include_str!("fixtures/fmu-tiny-campaign.toml");
+    let body = include_str!("../fixtures/fmu-tiny-campaign.toml");
     std::fs::write(&config, body.replace("FMU", fmu.to_str().unwrap())).unwrap();
     let out = dir.join("out");
     let args: Vec<String> = [
