@@ -159,6 +159,8 @@ pub struct Distributed {
 impl Distributed {
     /// Starts the server (None where PostgreSQL cannot run: `Server::start` says so loudly)
     /// and runs the reference campaign; `name` names the server, database and directories.
+    /// Its directories are the calling test file's ([`temp_dir`]).
+    #[track_caller]
     pub fn set_up(name: &str, sleep_ms: u32) -> Option<Distributed> {
         let server = Server::start(name)?;
         let url = server.create_db(name);
