@@ -13,7 +13,7 @@ use std::process::Command;
 /// Every package of the graph of `packages` (`--workspace` or `-p NAME`) over `edges`
 /// (`cargo tree -e`), with its feature sets (a crate built for the host and for the target may
 /// have two).
-fn features(packages: &[&str], edges: &str) -> BTreeMap<String, BTreeSet<String>> {
+fn features(packages: &[&str], edges: &str) -> Graph {
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let out = Command::new(&cargo)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
@@ -27,7 +27,7 @@ fn features(packages: &[&str], edges: &str) -> BTreeMap<String, BTreeSet<String>
         "{cargo} tree {packages:?} -e {edges} failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let mut graph = Graph::new();
     for line in String::from_utf8_lossy(&out.stdout).lines() {
         let line = line.trim_end_matches(" (*)");
         let Some((package, features)) = line.rsplit_once(" [") else {
@@ -42,17 +42,16 @@ fn features(packages: &[&str], edges: &str) -> BTreeMap<String, BTreeSet<String>
     graph
 }
 
+type Graph = BTreeMap<String, BTreeSet<String>>;
+
 /// The crates of `part` whose features differ from `whole`'s (`part`'s packages must all be in
-/// `whole`), one line each.
-fn split(
-    whole: &BTreeMap<String, BTreeSet<String>>,
-    part: &BTreeMap<String, BTreeSet<String>>,
-) -> Vec<String> {
+/// `whole`), one line each, the graphs named.
+fn split((whole, whole_name): (&Graph, &str), (part, part_name): (&Graph, &str)) -> Vec<String> {
     part.iter()
         .filter(|(package, features)| whole.get(*package) != Some(features))
         .map(|(package, features)| {
             format!(
-                "{package}: {features:?}, the build {:?}",
+                "{package}: {part_name} {features:?}, {whole_name} {:?}",
                 whole.get(package)
             )
         })
@@ -71,7 +70,7 @@ fn the_tests_build_every_dependency_with_the_builds_features() {
         "too few packages in the build graph: {build:?}"
     );
     // Every crate of the build is in the tests' graph, with the same features.
-    let split: Vec<String> = split(&tests, &build);
+    let split = split((&tests, "the tests"), (&build, "the build"));
     assert!(
         split.is_empty(),
         "the tests' dev-dependencies build these crates with other features than \
@@ -92,7 +91,7 @@ fn cargo_install_and_the_wheel_build_every_dependency_with_the_builds_features()
             alone.len() > 100,
             "too few packages in {package}'s graph: {alone:?}"
         );
-        let split = split(&build, &alone);
+        let split = split((&build, "the workspace build"), (&alone, package));
         assert!(
             split.is_empty(),
             "{what} builds these crates with other features than `cargo build --workspace` \
