@@ -9,8 +9,13 @@
 //! cargo test --test it schemas::campaign_documents_match_their_schemas  # one test
 //! ```
 //!
-//! `tests/record.rs` (the `rerun` feature's recording tests) stays a binary of its own: it is
-//! built with `--features rerun`, and only it needs that feature.
+//! Three stay binaries of their own: `tests/record.rs` (the `rerun` feature's recording tests:
+//! built with `--features rerun`, only it needs that feature); `tests/fuzz.rs` (in this binary
+//! its store property failed once with "already open in this process": the trial store's
+//! in-process one-writer check saw another test's store, seen in a cold `scripts/test`, not
+//! understood yet); `tests/python_package.rs` (in this binary the pytest suite's two SIGINT tests
+//! failed in the same run — the interrupted Python campaigns ran on as if SIGINT were ignored —
+//! not understood yet either). Both passed in their own binaries before.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -23,7 +28,6 @@ mod estimate;
 mod failures;
 mod figures;
 mod fmu;
-mod fuzz;
 mod help_examples;
 mod highway_env;
 mod install;
@@ -32,7 +36,6 @@ mod ladder;
 mod openscenario;
 mod openscenario_load;
 mod postgres;
-mod python_package;
 mod readme_numbers;
 mod reference_fmu;
 mod reliability;

@@ -6,7 +6,7 @@
 //! (it would test other code): run `python/develop.sh` again. The test starts a throwaway
 //! PostgreSQL server (tests/common/postgres.rs) for the suite's storage tests.
 
-use crate::common;
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
