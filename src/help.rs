@@ -69,7 +69,7 @@ pub const VERSION: &str = concat!(
 );
 
 /// Examples per subcommand path (`fmu pack` is subcommand `pack` of `fmu`); each line that
-/// starts with `savme ` is parsed by a test, and tests/help_examples.rs runs them as printed, in
+/// starts with `savme ` is parsed by a test, and tests/it/help_examples.rs runs them as printed, in
 /// order, from an empty directory (so a command that reads a campaign or an FMU makes it first).
 pub const EXAMPLES: &[(&str, &str)] = &[
     ("serve", "savme example-config > kernel.json\n  savme serve --config kernel.json --journal campaign.journal"),

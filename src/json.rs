@@ -1,6 +1,6 @@
 //! The JSON documents the `savme` command line prints for scripts, each with a
 //! `format_version`, and their JSON Schemas (generated from these types with schemars,
-//! published in `docs/schemas/`, and checked against real outputs by `tests/schemas.rs`).
+//! published in `docs/schemas/`, and checked against real outputs by `tests/it/schemas.rs`).
 //!
 //! ```
 //! let schemas = savme::json::schemas();

@@ -1,5 +1,5 @@
 """The interop tests run in the interop environment (target/interop-venv: verifai, scenic,
-scenariogeneration and the savme wheel), started by tests/interop.rs."""
+scenariogeneration and the savme wheel), started by tests/it/interop.rs."""
 
 import pathlib
 

@@ -1,5 +1,5 @@
 """savme.integrations.highway_env without highway-env: its spaces and problem, and the clear
-error when a simulation needs highway-env (tests/highway_env.rs runs it on the real thing)."""
+error when a simulation needs highway-env (tests/it/highway_env.rs runs it on the real thing)."""
 
 import sys
 

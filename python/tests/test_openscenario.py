@@ -1,6 +1,6 @@
 """savme.openscenario: a hand-written OpenSCENARIO parameter variation as a kernel's φ-space
 and an estimation's nominal; a bad file refused naming its line and element. (Files written
-by scenariogeneration are tested in tests/openscenario.rs.)"""
+by scenariogeneration are tested in tests/it/openscenario.rs.)"""
 
 import math
 

@@ -1,5 +1,5 @@
 """savme.integrations.highway_env on the real highway-env (run with target/highway-venv, which
-scripts/highway-env-venv fills; tests/highway_env.rs runs this file). A few dozen runs in all."""
+scripts/highway-env-venv fills; tests/it/highway_env.rs runs this file). A few dozen runs in all."""
 
 import json
 import math

@@ -1,6 +1,6 @@
 //! The `braking` example FMU as vendors ship them (`examples/fmu/braking`: C against the FMI
 //! 2.0 and 3.0 C APIs), compiled here with the system C compiler (`$CC`, else `cc`) and packed
-//! with its resources (`tests/vendor_fmu.rs`, `tests/openscenario.rs`). The root package's
+//! with its resources (`tests/it/vendor_fmu.rs`, `tests/it/openscenario.rs`). The root package's
 //! tests cannot link savme-fmu-testkit, which builds the same library: its exported FMI
 //! symbols would clash with savme-sim-fmu's.
 

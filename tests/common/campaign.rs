@@ -1,4 +1,4 @@
-//! Campaign helpers of the PostgreSQL tests (`tests/postgres.rs`, `tests/distributed.rs`):
+//! Campaign helpers of the PostgreSQL tests (`tests/it/postgres.rs`, `tests/it/distributed.rs`):
 //! process output, trial lines from a directory or the database
 //! (without the measured wall-clock seconds, which differ run to run), `savme worker`
 //! processes, and the set-up of a distributed toy campaign ([`Distributed`]).
@@ -85,7 +85,7 @@ pub fn wait_until(what: &str, limit: Duration, mut ok: impl FnMut() -> bool) {
     }
 }
 
-/// A small toy protocol, work-unit cost (`tests/distributed.rs`).
+/// A small toy protocol, work-unit cost (`tests/it/distributed.rs`).
 pub const TOY: &[&str] = &[
     "--iterations",
     "6",
@@ -159,6 +159,8 @@ pub struct Distributed {
 impl Distributed {
     /// Starts the server (None where PostgreSQL cannot run: `Server::start` says so loudly)
     /// and runs the reference campaign; `name` names the server, database and directories.
+    /// Its directories are the calling test file's ([`temp_dir`]).
+    #[track_caller]
     pub fn set_up(name: &str, sleep_ms: u32) -> Option<Distributed> {
         let server = Server::start(name)?;
         let url = server.create_db(name);

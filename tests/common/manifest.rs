@@ -1,6 +1,6 @@
 //! The inputs hash `scripts/figures` and `scripts/numbers` record for a generator: sha256 over,
 //! for each input file in byte order of its path (a directory stands for every file under it),
-//! the path, a NUL, the contents and a NUL. tests/figures.rs and tests/readme_numbers.rs compare
+//! the path, a NUL, the contents and a NUL. tests/it/figures.rs and tests/it/readme_numbers.rs compare
 //! it with the recorded one.
 use serde_json::Value;
 use sha2::{Digest, Sha256};

@@ -37,16 +37,16 @@ pub const TINY_PROTOCOL: &[&str] = &[
     "--quiet",
 ];
 
-/// A fresh (absent) temporary directory for `name`, unique to this test file and process:
-/// `$TMPDIR/savme-<test file>-<pid>-<name>`.
+/// A fresh (absent) temporary directory for `name`, unique to the calling test file and this
+/// process: `$TMPDIR/savme-<test file>-<pid>-<name>`. The test file is the caller's (tests/it/
+/// holds many in one test binary, whose tests run side by side: two files' `temp_dir("bad")`
+/// must not be one directory).
+#[track_caller]
 pub fn temp_dir(name: &str) -> PathBuf {
-    // A test binary is named `<test file>-<hash>`.
-    let exe = std::env::current_exe().expect("the test binary's path");
-    let stem = exe.file_stem().map(|s| s.to_string_lossy().into_owned());
-    let file = stem
-        .as_deref()
-        .and_then(|s| s.rsplit_once('-'))
-        .map_or("test", |(f, _)| f);
+    let caller = Path::new(std::panic::Location::caller().file());
+    let file = caller
+        .file_stem()
+        .map_or_else(|| "test".into(), |s| s.to_string_lossy());
     let dir = std::env::temp_dir().join(format!("savme-{file}-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
@@ -105,6 +105,7 @@ pub fn without_wall(mut t: Vec<Value>) -> Vec<Value> {
 }
 
 /// [`temp_dir`], created (empty).
+#[track_caller]
 pub fn made_dir(name: &str) -> PathBuf {
     let dir = temp_dir(name);
     std::fs::create_dir_all(&dir).expect("a temporary directory");

@@ -1,4 +1,4 @@
-//! `savme serve` driven as a harness in another language drives it (`tests/serve.rs`): a child
+//! `savme serve` driven as a harness in another language drives it (`tests/it/serve.rs`): a child
 //! process speaking JSON lines, its configuration, and trials asked and told.
 
 use super::EXE;

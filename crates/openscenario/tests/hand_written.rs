@@ -1,6 +1,6 @@
 //! Parameter value distribution files written by hand: every supported element read into the
 //! φ-space and nominal it stands for, and every bad file refused naming its line and element.
-//! (Files written by a third-party generator: tests/openscenario.rs at the workspace root.)
+//! (Files written by a third-party generator: tests/it/openscenario.rs at the workspace root.)
 
 use savme_kernel::estimation::Nominal;
 use savme_kernel::{Domain as KDomain, Value};

@@ -2,7 +2,7 @@
 //! campaign's trial lines, its replay command reproduces a failure in `savme simulate`, the
 //! filters keep what they name, and bad input is refused naming the stage, scenario or
 //! directory.
-mod common;
+use crate::common;
 
 use common::{run, temp_dir, trial_lines, TINY_PROTOCOL};
 use serde_json::Value;

@@ -2,7 +2,7 @@
 //! against the FMI 2.0 C API), compiled here with the system C compiler and packed with its
 //! resources — its example campaign (the step size as the only fidelity), `--fmu-log`, and
 //! `savme fmu info` / `validate`.
-mod common;
+use crate::common;
 
 use common::braking::{braking3_library, example, model_description, pack, pack3};
 use common::{fmpy_python, made_dir, savme};

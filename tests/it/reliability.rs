@@ -1,6 +1,6 @@
 //! What savme promises a user whose directory holds links, and whose input holds extreme
 //! values, checked on the real binary (docs/RELIABILITY.md).
-mod common;
+use crate::common;
 
 use common::{made_dir, run, send, temp_dir, trial_lines, TINY_PROTOCOL};
 use serde_json::Value;
@@ -357,7 +357,7 @@ fn sigint_and_sigterm_stop_a_campaign_and_an_estimate_between_runs_and_say_how_t
     args.extend(tiny.map(|s| s.to_string()));
     args.extend(["--jobs".to_string(), "2".into()]);
     let trials = dir.join("trials.jsonl");
-    // SIGTERM (SIGINT: tests/reproduce.rs): stops between runs, exit 143, the resume command.
+    // SIGTERM (SIGINT: tests/it/reproduce.rs): stops between runs, exit 143, the resume command.
     let child = start_and_wait(&args, &trials, 10);
     send(&child, "TERM");
     let (code, err) = stopped(child);
@@ -432,7 +432,7 @@ fn a_run_stopped_in_its_campaign_prints_the_whole_command_that_resumes_it() {
     let (code, _, err) = run(&["fmu", "pack", "--out", fmu.to_str().unwrap()]);
     assert_eq!(code, Some(0), "{err}");
     let config = dir.join("campaign.toml");
-    let body = include_str!("fixtures/fmu-tiny-campaign.toml");
+    let body = include_str!("../fixtures/fmu-tiny-campaign.toml");
     std::fs::write(&config, body.replace("FMU", fmu.to_str().unwrap())).unwrap();
     let out = dir.join("out");
     let args: Vec<String> = [

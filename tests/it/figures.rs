@@ -4,7 +4,7 @@
 //! fails when a generator's inputs changed after its figures were drawn, when a PNG is not
 //! the one recorded, and when a PNG under docs/ has no entry. A figure the manifest marks
 //! `stale` (with the reason it could not be redrawn) is listed loudly instead.
-mod common;
+use crate::common;
 
 use common::manifest::{hex, inputs_hash, root};
 use serde_json::Value;

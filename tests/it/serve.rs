@@ -1,5 +1,5 @@
 //! `savme serve` as a harness in another language sees it: a child process speaking JSON lines.
-mod common;
+use crate::common;
 
 use common::serve::{drive, observation, write_config, Server};
 use common::{made_dir, send, EXE};

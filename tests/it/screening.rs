@@ -1,7 +1,7 @@
 //! LF screening with HF confirmation end to end (`savme reproduce --screen-iterations`): HF runs
 //! exactly for LF failures and the audit sample, the report agrees with the trial lines, the
 //! stage is independent of the jobs and resumes, and an edited screening line is refused.
-mod common;
+use crate::common;
 
 use common::{resume, savme, temp_dir, trial_lines, without_wall};
 use serde_json::Value;

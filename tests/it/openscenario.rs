@@ -3,7 +3,7 @@
 //! read into φ-spaces and nominals, then driving an FMU campaign (the `braking` example) and
 //! its estimate — `savme run --config` and `savme estimate --config` — and a bad file refused
 //! through the campaign file, naming both files, their lines, the key and the element.
-mod common;
+use crate::common;
 
 use common::{made_dir, savme};
 use savme_kernel::estimation::Nominal;

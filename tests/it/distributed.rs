@@ -3,7 +3,7 @@
 //! of workers, and each fault with real processes — a worker killed with `kill -9` mid-run, the
 //! coordinator killed and resumed, the database restarted mid-campaign, workers that never
 //! come.
-mod common;
+use crate::common;
 
 use common::campaign::{
     db_trials, finish, local_trials, query_i64, text, toy_coordinator, toy_local, wait_until,
@@ -365,7 +365,7 @@ fn fmu_campaign(dir: &Path, fmu_lines: &str) -> (PathBuf, PathBuf) {
             .unwrap();
         assert!(o.status.success(), "{}", text(&o));
     }
-    let body = include_str!("fixtures/fmu-tiny-campaign.toml").replace(
+    let body = include_str!("../fixtures/fmu-tiny-campaign.toml").replace(
         "hf = \"FMU\"",
         &format!("hf = {:?}\n{fmu_lines}", fmu.display().to_string()),
     );

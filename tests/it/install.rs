@@ -9,7 +9,7 @@
 //! also runs `cargo install --path .` and sets `SAVME_INSTALLED_SAVME` to the installed
 //! binary, which is then checked the same way (`SAVME_REQUIRE_INSTALL=1` makes its absence a
 //! failure).
-mod common;
+use crate::common;
 
 use common::made_dir;
 use std::io::Read;

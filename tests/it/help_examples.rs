@@ -1,6 +1,6 @@
 //! Every `--help`'s Examples run as printed, in order, from an empty directory: what a user
 //! who copies them one after the other gets.
-mod common;
+use crate::common;
 
 use common::{temp_dir, EXE};
 use std::path::Path;

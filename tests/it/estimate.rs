@@ -4,7 +4,7 @@
 //! depend on `--jobs` and survives kill -9 + `--resume`; bad input is refused, naming the key,
 //! variable, stage or line. The long check (≥ 20,000 Monte Carlo runs, a rare nominal) is the
 //! example `estimate_check`, recorded in docs/RESULTS.md.
-mod common;
+use crate::common;
 
 use common::{run, temp_dir, trial_lines, EXE};
 use rand::{RngExt, SeedableRng};

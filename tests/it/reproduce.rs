@@ -1,7 +1,7 @@
 //! `savme reproduce` end to end: outputs agree with trials.jsonl, runs are reproducible and
 //! independent of the number of jobs, a killed run resumes without losing or repeating a trial,
 //! and bad input is refused before any simulation.
-mod common;
+use crate::common;
 
 use common::{resume, run, temp_dir, trial_lines, without_wall, EXE, TINY_PROTOCOL};
 use serde_json::{json, Value};

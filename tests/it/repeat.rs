@@ -1,7 +1,7 @@
 //! `savme reproduce --repeat N` end to end: each seed's campaign is the single campaign of that
 //! seed, the results over the seeds agree with the seeds' own summaries, a killed repeated run
 //! resumes to the same trials, and bad input is refused before any simulation.
-mod common;
+use crate::common;
 
 use common::campaign::file_trials;
 use common::{resume, savme, temp_dir, EXE};

@@ -5,7 +5,7 @@
 //! when a recorded phrase is not in README.md or is not its template rendered with its values,
 //! and when a generator's inputs changed after its numbers were measured (run
 //! `scripts/numbers`). A number marked `stale` (with the reason) is listed loudly instead.
-mod common;
+use crate::common;
 
 use common::manifest::{inputs_hash, root};
 use serde_json::Value;

@@ -2,7 +2,7 @@
 //! `common/postgres.rs`): campaigns in the database give the same trials as in a directory,
 //! resume after `kill -9`, refuse a second coordinator (another process), keep the protocol
 //! in the database, and never show the password.
-mod common;
+use crate::common;
 
 use common::campaign::{db_trials, file_trials, text};
 use common::postgres::{Server, PASSWORD};

@@ -1,8 +1,8 @@
 //! The JSON Schemas in `docs/schemas/` are what `savme::json::schemas()` generates from the
-//! types (regenerate with `SAVME_BLESS_SCHEMAS=1 cargo test --test schemas`), and every JSON
+//! types (regenerate with `SAVME_BLESS_SCHEMAS=1 cargo test --test it schemas::`), and every JSON
 //! document the command line prints validates against its schema — checked on real outputs
 //! (boon, a JSON Schema 2020-12 validator).
-mod common;
+use crate::common;
 
 use common::{made_dir, savme, TINY_PROTOCOL};
 use serde_json::Value;
@@ -30,7 +30,7 @@ fn committed_schemas_are_the_generated_ones() {
     }
     assert!(
         stale.is_empty(),
-        "these schemas differ from the types (regenerate with SAVME_BLESS_SCHEMAS=1 cargo test --test schemas): {stale:?}"
+        "these schemas differ from the types (regenerate with SAVME_BLESS_SCHEMAS=1 cargo test --test it schemas::): {stale:?}"
     );
 }
 

@@ -105,13 +105,13 @@ fn the_installed_default_binary_refuses_every_postgresql_entry_naming_the_featur
 }
 
 /// CI requires the PostgreSQL tests (`SAVME_REQUIRE_POSTGRES=1`): they build only with the
-/// feature (Cargo.toml's `required-features`), so a suite built without it must fail, not skip.
+/// feature (`cfg(feature = "postgres")` in tests/it/main.rs), so a suite built without it must fail, not skip.
 #[test]
 fn required_postgresql_tests_are_built() {
     let required = std::env::var_os("SAVME_REQUIRE_POSTGRES").is_some_and(|v| v == "1");
     assert!(
         !required || cfg!(feature = "postgres"),
         "SAVME_REQUIRE_POSTGRES=1, but this suite was built without `--features postgres`: \
-         tests/postgres.rs and tests/distributed.rs did not build"
+         tests/it/postgres.rs and tests/it/distributed.rs were not built"
     );
 }

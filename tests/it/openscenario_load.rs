@@ -3,7 +3,7 @@
 //! edited after its campaign ran is refused by `estimate --config` and `run --resume` naming
 //! the file, the parameter and both ranges; an unknown attribute of `<Range>` is refused
 //! naming the file, the line and the attribute.
-mod common;
+use crate::common;
 
 use common::{made_dir, EXE};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,7 @@
 //! Budgets in cost (`--search-budget`, `--deploy-budget`): a stage runs until its runs have
 //! cost its budget, a campaign killed with SIGKILL mid-stage resumes to exactly the trials of
 //! an uninterrupted one, progress speaks in the budget, and bad budgets are named.
-mod common;
+use crate::common;
 
 use common::{kill_once_written, made_dir, run, temp_dir, trial_lines, without_wall, EXE};
 use serde_json::Value;

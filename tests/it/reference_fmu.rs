@@ -2,7 +2,7 @@
 //! BouncingBall (`examples/fmu/bouncing_ball/reference-fmus`, vendored unchanged), built by the
 //! example's `build.sh` with the system C compiler and run through the example campaign file —
 //! the peer benchmark's fifth family (benches/peers/README.md).
-mod common;
+use crate::common;
 
 use common::{made_dir, savme, trial_lines};
 use serde_json::Value;

@@ -1,6 +1,6 @@
 //! The bundled simulator as an FMU (`savme fmu pack`) against the in-process simulator, FMPy
 //! against savme on the same FMU, and `savme run --config` with good and bad campaign files.
-mod common;
+use crate::common;
 
 use common::{fmpy_python, made_dir, savme, trial_lines};
 use savme::kernel::{Assignment, Space};
@@ -189,7 +189,7 @@ fn campaign_file(dir: &Path, body: &str) -> PathBuf {
 }
 
 /// The tiny campaign file (`FMU` is replaced by the packed FMU's path).
-const TINY: &str = include_str!("fixtures/fmu-tiny-campaign.toml");
+const TINY: &str = include_str!("../fixtures/fmu-tiny-campaign.toml");
 
 #[test]
 fn run_config_runs_the_protocol_on_fmus_in_process_and_isolated() {

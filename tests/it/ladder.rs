@@ -3,7 +3,7 @@
 //! the cheapest level first, a failure is confirmed at the next level up and HF last; the
 //! report has a row per level; a campaign killed with SIGKILL resumes to the same trials; an
 //! edited ladder line and bad ladders are refused, naming what is wrong.
-mod common;
+use crate::common;
 
 use common::{
     kill_once_written, made_dir, resume, run, savme, temp_dir, trial_lines, without_wall, EXE,
