@@ -12,14 +12,17 @@
 //! `postgres` and `distributed` need the `postgres` feature (a real PostgreSQL server; `scripts/test`
 //! builds with it); `postgres_feature` checks a build without it.
 //!
-//! Two stay binaries of their own: `tests/record.rs` (the `rerun` feature's recording tests:
-//! built with `--features rerun`, only it needs that feature); `tests/python_package.rs` (in this
-//! binary the pytest suite's two SIGINT tests failed in one cold `scripts/test` — the interrupted
-//! Python campaigns ran on as if SIGINT were ignored — not understood yet; it passes in its own).
-//! (`fuzz` was apart too: its store property was refused "already open in this process" here.
-//! The cause was the store's lock: a child forked by another test's thread kept the lock's file
-//! open until its exec, and the lock outlived the dropped store there; the lock is now released
-//! on drop — `savme_store::StoreLock`, tested in crates/store/src/lock.rs.)
+//! One stays a binary of its own: `tests/record.rs` (the `rerun` feature's recording tests:
+//! built with `--features rerun`, only it needs that feature).
+//!
+//! Two were apart for a while and why they are not: `fuzz`'s store property was refused
+//! "already open in this process" here — a child forked by another test's thread kept the
+//! store lock's file open until its exec, and the lock outlived the dropped store there (the
+//! lock is now released on drop: `savme_store::StoreLock`, tested in crates/store/src/lock.rs);
+//! `python_package`'s two Ctrl-C tests saw their Python children run on after SIGINT — a
+//! Python started with SIGINT ignored keeps ignoring it (reproduced by starting pytest from a
+//! parent that ignores SIGINT, as a shell's background job does); the children now set
+//! Python's own SIGINT handler first, as a terminal's foreground process has it.
 
 #[path = "../common/mod.rs"]
 mod common;
@@ -44,6 +47,7 @@ mod openscenario_load;
 #[cfg(feature = "postgres")]
 mod postgres;
 mod postgres_feature;
+mod python_package;
 mod readme_numbers;
 mod reference_fmu;
 mod reliability;
