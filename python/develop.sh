@@ -2,7 +2,7 @@
 # Builds the savme Python package and installs it (editable) into a virtual environment with
 # pytest, mypy (for the stub check), numpy (numpy-bool results are tested) and Ray (the Ray
 # executor's tests start a local Ray cluster: one ~80 MB wheel, ~30 s the first time), so that
-# `cargo test --workspace` also runs the pytest suite (tests/python_package.rs).
+# `cargo test --workspace` also runs the pytest suite (tests/it/python_package.rs).
 # Run it once, and again after changing Rust code.
 #
 #   python/develop.sh            # debug build into $CARGO_TARGET_DIR/py-venv (or target/py-venv)

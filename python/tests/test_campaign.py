@@ -111,6 +111,7 @@ def test_a_raising_simulator_stops_the_campaign_naming_the_trial_and_it_resumes(
 
 
 INTERRUPTED_CHILD = """
+import signal; signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C as in a terminal, even if the harness that started us ignores SIGINT (a shell's background job)
 import sys, time
 sys.path.insert(0, sys.argv[2])
 import test_campaign as t

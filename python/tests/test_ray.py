@@ -276,6 +276,7 @@ def test_without_ray_the_executor_says_how_to_install_it(tmp_path, monkeypatch):
 # Ctrl-C on Ray: a real driver process, a real SIGINT, runs of two minutes in flight.
 
 INTERRUPTED_DRIVER = """
+import signal; signal.signal(signal.SIGINT, signal.default_int_handler)  # Ctrl-C as in a terminal, even if the harness that started us ignores SIGINT (a shell's background job)
 import sys
 sys.path.insert(0, sys.argv[3])
 import ray_sims, savme

@@ -1,7 +1,7 @@
 """Campaigns kept in PostgreSQL (storage=, campaign=): the same trials as in a directory,
 resume from the database, clear errors that never show the password.
 
-The server is a throwaway one that tests/python_package.rs starts (initdb in a temporary
+The server is a throwaway one that tests/it/python_package.rs starts (initdb in a temporary
 directory) and passes as $SAVME_TEST_POSTGRES_URL. Without it these tests skip loudly, and with
 SAVME_REQUIRE_POSTGRES=1 they fail instead.
 """
@@ -19,7 +19,7 @@ URL = os.environ.get("SAVME_TEST_POSTGRES_URL")
 @pytest.fixture
 def url():
     if not URL:
-        message = "no PostgreSQL server ($SAVME_TEST_POSTGRES_URL, set by tests/python_package.rs)"
+        message = "no PostgreSQL server ($SAVME_TEST_POSTGRES_URL, set by tests/it/python_package.rs)"
         if os.environ.get("SAVME_REQUIRE_POSTGRES") == "1":
             pytest.fail(message + ", and SAVME_REQUIRE_POSTGRES=1")
         pytest.skip("SKIPPED: " + message)

@@ -1,6 +1,11 @@
 //! The exclusive advisory lock a store holds for its lifetime: `flock` on a `.lock` file next to
 //! the store (released by the operating system when the holder exits, even after `kill -9`),
 //! holding the holder's process id so that a refused second process can name it.
+//!
+//! The lock is released explicitly when the store is dropped, not only by closing the file: a
+//! child process forked by another thread at that instant shares the open file (until its exec
+//! closes it), and a lock left to the close would outlive the store there — the store's next
+//! opener in this process was then refused as "already open in this process".
 
 use super::StoreError;
 use std::fs::{File, OpenOptions, TryLockError};
@@ -64,6 +69,14 @@ impl StoreLock {
     }
 }
 
+impl Drop for StoreLock {
+    fn drop(&mut self) {
+        // `flock` belongs to the open file, which a child forked at this moment shares until
+        // its exec: unlock it for all of them (the module docs). An error leaves it to close.
+        let _ = self._file.unlock();
+    }
+}
+
 /// The pid in a held lock file. The holder writes it just after taking the lock: a second
 /// process racing it (two `--resume` at once) waits up to 200 ms for it rather than say "pid
 /// unknown".
@@ -121,6 +134,46 @@ mod tests {
         writer.join().unwrap();
         assert!(e.to_string().contains("pid 4242"), "{e}");
         drop(holder);
+        let _ = std::fs::remove_file(&path);
+    }
+
+    /// A child process forked (by another thread) while a store is open keeps a copy of the
+    /// lock's file until its exec: the store dropped in that window must still be free to
+    /// open again at once (it was refused as "already open in this process").
+    #[cfg(unix)]
+    #[test]
+    fn a_dropped_lock_is_free_while_a_forked_child_still_holds_its_file() {
+        use std::os::unix::process::CommandExt;
+        let path =
+            std::env::temp_dir().join(format!("savme-lock-fork-{}.lock", std::process::id()));
+        let _ = std::fs::remove_file(&path);
+        let held = StoreLock::acquire(&path, "demo").unwrap();
+        let (mut ready, forked) = std::io::pipe().unwrap();
+        let spawner = std::thread::spawn(move || {
+            let mut child = std::process::Command::new("true");
+            // SAFETY: write(2) and nanosleep(2) only, async-signal-safe, between fork and exec.
+            unsafe {
+                child.pre_exec(move || {
+                    use std::os::fd::AsRawFd;
+                    libc::write(forked.as_raw_fd(), b"f".as_ptr().cast(), 1);
+                    let pause = libc::timespec {
+                        tv_sec: 1,
+                        tv_nsec: 0,
+                    };
+                    libc::nanosleep(&pause, std::ptr::null_mut());
+                    Ok(())
+                });
+            }
+            child.status().unwrap()
+        });
+        // The child exists (forked, holding every open file) and has not exec'd yet.
+        let mut byte = [0u8; 1];
+        ready.read_exact(&mut byte).unwrap();
+        drop(held);
+        let again = StoreLock::acquire(&path, "demo");
+        assert!(again.is_ok(), "{:?}", again.err().map(|e| e.to_string()));
+        drop(again);
+        assert!(spawner.join().unwrap().success());
         let _ = std::fs::remove_file(&path);
     }
 }

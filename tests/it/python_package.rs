@@ -6,7 +6,7 @@
 //! (it would test other code): run `python/develop.sh` again. The test starts a throwaway
 //! PostgreSQL server (tests/common/postgres.rs) for the suite's storage tests.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -21,7 +21,7 @@ fn python() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("SAVME_PYTHON") {
         return Some(PathBuf::from(p));
     }
-    // The test binary is <target>/debug/deps/python_package-…
+    // The test binary is <target>/debug/deps/it-…
     let exe = std::env::current_exe().ok()?;
     let target = exe.parent()?.parent()?.parent()?;
     let p = target.join("py-venv").join("bin").join("python");

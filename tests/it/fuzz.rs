@@ -3,7 +3,7 @@
 //! by default (a few seconds; CI runs them with the test suite); for a longer run:
 //!
 //! ```sh
-//! PROPTEST_CASES=200000 cargo test --release --test fuzz
+//! PROPTEST_CASES=200000 cargo test --release --test it fuzz::
 //! ```
 //!
 //! The properties: no input panics; every rejection is an error value naming where it is;
