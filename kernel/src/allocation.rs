@@ -13,7 +13,7 @@
 //! is never starved). A scenario without an HF failure yet is *scouted* ([`CostRate::scout`]):
 //! its floor is its whole share of p(s) and its learning trials run HF only, so that its φ
 //! search gets the trials it needs to find a failure region at all (the ρ model descends
-//! from its third run). Trials in flight count with the scenario's mean cost and, for the
+//! once it has three runs with a ρ). Trials in flight count with the scenario's mean cost and, for the
 //! rate, as if they fail at its posterior mean (so a batch is spread without biasing the
 //! allocation).
 //!

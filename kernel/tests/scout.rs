@@ -1,4 +1,4 @@
-//! Scouting ([`CostRate::scout`], with the elite search's ρ model from a scenario's third run,
+//! Scouting ([`CostRate::scout`], with the elite search's ρ model from a scenario's fourth trial,
 //! [`EliteMixture::rho_start`]): a scenario whose failures are hard to find is searched long
 //! enough to find them. Measured on a synthetic problem (fixed seeds, with margins) shaped as
 //! the bundled simulator's scenarios 1–8: most scenarios fail often, one fails only in a thin
@@ -16,7 +16,7 @@ fn space() -> Space {
     Space::new(vec![v("a"), v("b"), v("c")]).unwrap()
 }
 
-/// A tuned campaign's kernel, scouting (and the ρ model from the third run) or not: what
+/// A tuned campaign's kernel, scouting (and the ρ model from the fourth trial) or not: what
 /// `allocation = cost-rate-scout` and the elite defaults give, against `cost-rate-recent` and
 /// the ρ model from `d + 2` runs (the defaults before).
 fn config(scout: bool, seed: u64) -> KernelConfig {

@@ -319,7 +319,7 @@ impl Method {
                 p.elite = Some(EliteMixture::default());
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
-                // Scouting and the ρ model from a scenario's third run (the elite defaults'
+                // Scouting and the ρ model from a scenario's fourth trial (the elite defaults'
                 // `rho_start`): the worst of the bundled scenarios 1–8 against the best
                 // VerifAI sampler 0.25× → ≥ 0.8× (docs/RESULTS.md, issue 42, "Scouting").
                 p.allocation = Allocate::CostRateScout;
