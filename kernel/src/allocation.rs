@@ -10,7 +10,10 @@
 //! Gamma(failures + 1, cost + 2·c̄) with c̄ the mean cost of a told trial. Two rules come
 //! first: every scenario gets `warmup` trials, and no scenario's share of the cost falls below
 //! `floor` times its share of p(s) (the coverage floor: a failure mode that is dear to find
-//! is never starved). Trials in flight count with the scenario's mean cost and, for the
+//! is never starved). A scenario without an HF failure yet is *scouted* ([`CostRate::scout`]):
+//! its floor is its whole share of p(s) and its learning trials run HF only, so that its φ
+//! search gets the trials it needs to find a failure region at all (the ρ model descends
+//! once it has three runs with a ρ). Trials in flight count with the scenario's mean cost and, for the
 //! rate, as if they fail at its posterior mean (so a batch is spread without biasing the
 //! allocation).
 //!
@@ -72,6 +75,16 @@ pub struct CostRate {
     /// The default, [`RECENT_HALF_LIFE`], is that of new kernels only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub half_life: Option<f64>,
+    /// Scouting: until a scenario's first HF failure its floor is 1 (its whole share of p(s)
+    /// in cost, whatever `floor` is) and its learning trials run HF only (no LF run paired,
+    /// whatever the [`crate::Pairing`]): before it, the scenario's runs are nearly all passes,
+    /// its failure rate is 0 to the bandit, and the trials it needs before its φ search finds
+    /// the failure region would otherwise be rationed to its floor. Missing from a stored
+    /// configuration: false (and left out of the JSON when false). Off by default, like the
+    /// pairing of fewer than every trial it implies: on in campaigns of the tuned method
+    /// (`allocation = cost-rate-scout`), whose harness tells unpaired trials anyway.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub scout: bool,
 }
 
 /// The default [`CostRate::half_life`] of new kernels, in told trials: on BouncingBall earth +
@@ -89,6 +102,7 @@ impl Default for CostRate {
             floor: 0.6,
             warmup: 4,
             half_life: Some(RECENT_HALF_LIFE),
+            scout: false,
         }
     }
 }
@@ -178,8 +192,8 @@ impl Ledger {
     }
 }
 
-/// Picks the next scenario: warm-up first, then the scenario furthest below its floor, else a
-/// Thompson draw of every scenario's failures per unit cost. `weights` is p(s), `pending` the
+/// Picks the next scenario: warm-up first, then the scenario furthest below its floor (1 for
+/// a scenario scouted, [`CostRate::scout`]), else a Thompson draw of every scenario's failures per unit cost. `weights` is p(s), `pending` the
 /// trials in flight per scenario.
 pub(crate) fn choose<R: Rng + ?Sized>(
     rule: &CostRate,
@@ -210,8 +224,15 @@ pub(crate) fn choose<R: Rng + ?Sized>(
     };
     let costs: Vec<(f64, f64)> = (0..weights.len()).map(each).collect();
     let total: f64 = costs.iter().map(|c| c.1).sum();
+    let floor = |s: usize| {
+        if rule.scout && ledgers[s].failures == 0 {
+            1.0
+        } else {
+            rule.floor
+        }
+    };
     let below = (0..weights.len())
-        .map(|s| (s, 1.0 - costs[s].1 / (rule.floor * weights[s] * total)))
+        .map(|s| (s, 1.0 - costs[s].1 / (floor(s) * weights[s] * total)))
         .filter(|d| d.1 > 0.0 && d.1.is_finite())
         .max_by(|a, b| a.1.total_cmp(&b.1));
     if let Some((s, _)) = below {
@@ -267,6 +288,7 @@ mod tests {
             floor: 0.5,
             warmup: 1,
             half_life: None,
+            scout: false,
         };
         let (mut l, weights) = ([ledger(0, 0.0, 0); 2], [0.5, 0.5]);
         let (rate, unit) = ([0.1, 0.01], [1.0, 1.0]);
@@ -293,6 +315,7 @@ mod tests {
             floor: 1.0,
             warmup: 1,
             half_life: None,
+            scout: false,
         };
         let weights = [0.75, 0.25];
         let mut l = [ledger(0, 0.0, 0); 2];

@@ -558,7 +558,14 @@ impl Kernel {
             }
             Phase::Train | Phase::Test => {
                 let c = &st.config;
-                c.pairing.pairs(&st.fidelity, rng).then(|| {
+                // A scouted scenario (no HF failure yet) runs HF only.
+                let scouting = match &c.allocation {
+                    Allocation::CostRate(r) => {
+                        r.scout && st.ledgers.get(s).is_some_and(|l| l.failures == 0)
+                    }
+                    Allocation::Weights => false,
+                };
+                (!scouting && c.pairing.pairs(&st.fidelity, rng)).then(|| {
                     st.fidelity.thompson(rng, &mut arms);
                     c.fidelity.draw(&arms[n_phi..], rng)
                 })

@@ -131,8 +131,8 @@ pub struct EliteMixture {
     /// Learn from the robustness ρ where the runs report one (ρ < 0 on a failure, as a
     /// threshold's margin): a Gaussian process regression of ρ (squared-exponential kernel,
     /// length scale four bandwidths, at most 64 runs) — what Bayesian optimisation follows.
-    /// While a scenario's archive holds no failure but `d + 2` runs with a ρ (`d` = the φ
-    /// dimensions), a draw that does not explore fits it to the lowest-ρ runs and proposes, of
+    /// While a scenario's archive holds no failure but [`EliteMixture::rho_start`] runs with a
+    /// ρ (at most `d + 2`, `d` = the φ dimensions), a draw that does not explore fits it to the lowest-ρ runs and proposes, of
     /// `4 × tries` candidates (half Gaussian around the lowest-ρ run at four bandwidths, half
     /// uniform), the one most likely to have ρ < 0, instead of drawing from the bins until a
     /// run happens to fail (on a thin failure region every such run is a pass at a pass's full
@@ -143,6 +143,13 @@ pub struct EliteMixture {
     /// (and left out of the JSON when false).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub rho_model: bool,
+    /// Runs with a ρ a scenario's archive needs before the ρ model proposes (before its first
+    /// failure), at most `d + 2`; at least 2. None: `d + 2`, what a stored configuration without
+    /// it means (and then left out of the JSON). The default, 3, lets a scenario rationed to
+    /// a few trials follow its robustness from its fourth run (the Gaussian process's length
+    /// scale is fixed, so a few runs fit it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rho_start: Option<u32>,
     /// The cost the archive keeps of a learning trial (train, test) is its HF run's, not the
     /// trial's: a paired trial's LF run is drawn independently of φ (its θ_LF from the fidelity
     /// bandit, whether it runs at all from the pairing), so counted in, it hides where φ is
@@ -185,6 +192,10 @@ impl Default for EliteMixture {
             // FMU BouncingBall (a thin failure band), 60.1 → 75.3 per 10⁹ on the bundled
             // simulator's scenarios 1–8 (3 seeds each; docs/RESULTS.md, issue 42).
             rho_model: true,
+            // 3 (was d + 2): with the cost-rate allocation's scouting, the worst of the
+            // bundled simulator's scenarios 1–8 against the best VerifAI sampler 0.25× → ≥ 0.8×
+            // (docs/RESULTS.md, issue 42, "Scouting").
+            rho_start: Some(3),
             hf_cost: true,
         }
     }
@@ -223,6 +234,7 @@ impl EliteMixture {
             crowding: 0.0,
             fantasies: false,
             rho_model: false,
+            rho_start: None,
             hf_cost: false,
             ..EliteMixture::default()
         }
@@ -267,6 +279,9 @@ impl EliteMixture {
         check("spread", s, s.is_finite() && s >= 0.0, "[0, ∞)")?;
         let c = self.crowding;
         check("crowding", c, c.is_finite() && c >= 0.0, "[0, ∞)")?;
+        if let Some(n) = self.rho_start {
+            check("rho_start", f64::from(n), n >= 2, "[2, ∞)")?;
+        }
         let t = f64::from(self.tries);
         check("tries", t, self.tries >= 1, "[1, ∞)")?;
         let a = self.archive as f64;
@@ -329,6 +344,11 @@ impl Archive {
             robustness: hf.robustness,
             cost: Some(cost),
         });
+    }
+
+    /// True once a kept trial's HF run failed.
+    pub(crate) fn has_failure(&self) -> bool {
+        self.points.iter().any(|p| p.failure)
     }
 
     /// Drops the oldest points beyond `cap`.
@@ -458,7 +478,7 @@ impl Archive {
     }
 
     /// [`EliteMixture::rho_model`] before the first failure: None once the archive holds a
-    /// failure or while fewer than `d + 2` of its runs report a robustness (then the caller
+    /// failure or while fewer than `rho_start` (at most `d + 2`) of its runs report a robustness (then the caller
     /// draws as before).
     fn descend<R: Rng + ?Sized>(
         &self,
@@ -467,7 +487,7 @@ impl Archive {
         rng: &mut R,
         arms: &mut Vec<u16>,
     ) -> Option<Assignment> {
-        if self.points.iter().any(|p| p.failure) {
+        if self.has_failure() {
             return None;
         }
         let robust: Vec<(f64, usize)> = self
@@ -476,7 +496,8 @@ impl Archive {
             .enumerate()
             .filter_map(|(i, p)| p.robustness.map(|r| (r, i)))
             .collect();
-        if robust.len() < space.len() + 2 {
+        let start = m.rho_start.map_or(usize::MAX, |n| n as usize);
+        if robust.len() < start.min(space.len() + 2) {
             return None;
         }
         // The lowest ρ first; the GP sees at most gp::GP_POINTS of them.

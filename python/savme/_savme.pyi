@@ -248,7 +248,7 @@ class Kernel:
         pair_fraction: float = 1.0,
         pair_settle: int = 30,
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
-        allocation: Optional[Literal["weights", "cost-rate", "cost-rate-recent"]] = None,
+        allocation: Optional[Literal["weights", "cost-rate", "cost-rate-recent", "cost-rate-scout"]] = None,
         method: Literal["tuned", "paper"] = "tuned",
         history: Union[bool, int, None] = None,
         scenario_priors: Optional[Sequence[_ScenarioPrior]] = None,
@@ -291,8 +291,10 @@ class Kernel:
         "adaptive" (both);
         allocation: how each ask chooses its scenario — "weights" (drawn from p(s), the
         paper's), "cost-rate" (a bandit by HF failures per unit cost, every scenario kept
-        above 0.6 × its share of p(s) in cost) or "cost-rate-recent" (the same, each
-        scenario's evidence forgotten with a half-life of 20 told trials; the tuned preset's).
+        above 0.6 × its share of p(s) in cost), "cost-rate-recent" (the same, each
+        scenario's evidence forgotten with a half-life of 20 told trials; the tuned preset's)
+        or "cost-rate-scout" (the same, and until its first HF failure a scenario keeps its
+        whole share of p(s) in cost and its trials are unpaired; a tuned campaign's).
 
         history: what `trials()` keeps of the told records — None or True every one (~320 B
         per told trial on a space of one φ and one θ variable, ~770 B on the paper's 4 φ and
@@ -530,7 +532,7 @@ class Protocol:
         deployment: Optional[Literal["frozen", "exploit", "learn", "adaptive"]] = None,
         screen_lf: Optional[Literal["always", "where-it-pays"]] = None,
         method: Optional[Literal["tuned", "paper"]] = None,
-        allocation: Optional[Literal["weights", "cost-rate", "cost-rate-recent"]] = None,
+        allocation: Optional[Literal["weights", "cost-rate", "cost-rate-recent", "cost-rate-scout"]] = None,
         coverage_floor: Optional[float] = None,
         search_budget: Optional[float] = None,
         deploy_budget: Optional[float] = None,

@@ -385,9 +385,13 @@ impl PyKernel {
                 ..CostRate::default()
             }),
             Some("cost-rate-recent") => Allocation::CostRate(CostRate::default()),
+            Some("cost-rate-scout") => Allocation::CostRate(CostRate {
+                scout: true,
+                ..CostRate::default()
+            }),
             Some(other) => {
                 return Err(PyValueError::new_err(format!(
-                    "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's), \"cost-rate\" (by HF failures per unit cost) or \"cost-rate-recent\" (the same, recent evidence weighed more)"
+                    "allocation = {other:?}: give \"weights\" (scenarios from p(s), the paper's), \"cost-rate\" (by HF failures per unit cost), \"cost-rate-recent\" (the same, recent evidence weighed more) or \"cost-rate-scout\" (the same, and a scenario without a failure yet kept at its share and run HF only)"
                 )))
             }
         };

@@ -96,7 +96,7 @@ def test_each_value_is_a_protocol_keyword_with_the_papers_default():
         if name == "method":  # not stored: it sets the search values it names
             given = savme.Protocol(["a"], ["b"], method="paper").to_dict()
             assert (paper["search"], paper["allocation"], paper["deployment"]) == (
-                "elite", "cost-rate-recent", "adaptive")
+                "elite", "cost-rate-scout", "adaptive")
             assert not {"search", "allocation", "deployment", "elite"} & set(given)
             continue
         with_ = COMPANIONS.get(name, {})

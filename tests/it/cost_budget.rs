@@ -103,7 +103,7 @@ fn a_cost_budget_ends_each_stage_once_spent_and_a_killed_campaign_resumes_identi
             .unwrap();
     assert_eq!(protocol["search_budget"], 40000.0);
     assert_eq!(protocol["deploy_budget"], 20000.0);
-    assert_eq!(protocol["allocation"], "cost-rate-recent");
+    assert_eq!(protocol["allocation"], "cost-rate-scout");
     let _ = std::fs::remove_dir_all(&whole);
     let _ = std::fs::remove_dir_all(&killed);
 }

@@ -143,8 +143,13 @@ pub enum Allocate {
     /// The same bandit weighing recent evidence more: its failures and cost forgotten with a
     /// half-life of 20 told trials (`savme_kernel::RECENT_HALF_LIFE`), so a scenario's blind
     /// start (a wide window's first trials) does not keep the campaign away from it (the
-    /// tuned method's since issue 42 item 4).
+    /// tuned method's from issue 42 item 4 until scouting).
     CostRateRecent,
+    /// The same, and each scenario scouted until its first HF failure: held at its whole
+    /// share of p(s) in cost (floor 1) and its learning trials HF only, so that a scenario
+    /// whose failures are hard to find is searched long enough to find them (the tuned
+    /// method's; `savme_kernel::CostRate::scout`).
+    CostRateScout,
 }
 
 impl Allocate {
@@ -157,10 +162,11 @@ impl Allocate {
                 half_life: None,
                 ..savme_kernel::CostRate::default()
             }),
-            Allocate::CostRateRecent => {
+            Allocate::CostRateRecent | Allocate::CostRateScout => {
                 savme_kernel::Allocation::CostRate(savme_kernel::CostRate {
                     floor,
                     half_life: Some(savme_kernel::RECENT_HALF_LIFE),
+                    scout: self == Allocate::CostRateScout,
                     ..savme_kernel::CostRate::default()
                 })
             }
@@ -272,7 +278,8 @@ impl LadderTraining {
 pub enum Method {
     /// savme's: the elite search with candidates ranked per expected cost (and, where runs
     /// report a robustness, by a Gaussian process of it), a quarter of the learning trials
-    /// paired with an LF run once θ_LF* has settled, the cost-rate allocation over scenarios, a deployed search that exploits and keeps learning, LF
+    /// paired with an LF run once θ_LF* has settled, the cost-rate allocation over scenarios
+    /// (a scenario without a failure yet scouted: its share of the cost, HF only), a deployed search that exploits and keeps learning, LF
     /// screening only where it pays, θ_LF* from evidence and the transfer strength chosen by
     /// leave-one-scenario-out.
     #[default]
@@ -312,7 +319,10 @@ impl Method {
                 p.elite = Some(EliteMixture::default());
                 p.deployment = Deploy::Adaptive;
                 p.screen_lf = ScreenLf::WhereItPays;
-                p.allocation = Allocate::CostRateRecent;
+                // Scouting and the ρ model from a scenario's fourth trial (the elite defaults'
+                // `rho_start`): the worst of the bundled scenarios 1–8 against the best
+                // VerifAI sampler 0.25× → ≥ 0.8× (docs/RESULTS.md, issue 42, "Scouting").
+                p.allocation = Allocate::CostRateScout;
                 p.transfer = Transfer::Auto;
                 // A quarter of the learning trials pay an LF run once θ_LF* has settled:
                 // HF failures per work unit in the search 60.1 → 77.6 per 10⁹ on the bundled
@@ -1219,9 +1229,16 @@ mod tests {
             let preset = method.preset();
             assert_eq!(p.search.model(p.elite), preset.search(), "{method:?}");
             assert_eq!(p.deployment.kernel(), preset.deployment(), "{method:?}");
+            // Scouting leaves trials unpaired, so it is a campaign's, as is its pairing of a
+            // quarter of the trials: the preset's harnesses (Python's `Kernel`, the C ABI,
+            // `savme serve`) get θ_LF with every learning trial.
+            let mut allocation = preset.allocation();
+            if let savme_kernel::Allocation::CostRate(r) = &mut allocation {
+                r.scout = p.allocation == Allocate::CostRateScout;
+            }
             assert_eq!(
                 p.allocation.kernel(p.coverage_floor),
-                preset.allocation(),
+                allocation,
                 "{method:?}"
             );
             assert_eq!(p.theta_lf_choice.kernel(), preset.estimator(), "{method:?}");

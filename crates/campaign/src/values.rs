@@ -280,16 +280,17 @@ protocol_values! {
     screen_lf: ScreenLf, flag = "screen-lf", aliases = [], stages = "screen", to = protocol,
         cli(value_enum);
     /// What the campaign searches with, before the values given here: tuned (savme's search
-    /// by cost: search = elite, allocation = cost-rate-recent, deployment = adaptive, screen_lf =
+    /// by cost: search = elite, allocation = cost-rate-scout, deployment = adaptive, screen_lf =
     /// where-it-pays, pair_fraction = 0.25; the default of `savme run` and Python campaigns)
     /// or paper (the paper's SAVME; the default of `savme reproduce`).
     method: Method, flag = "method", aliases = [], stages = "train, evaluate, screen, test-*",
         to = command, cli(value_enum);
     /// How each trial's scenario is chosen: weights (drawn from p(s): the same share of the
     /// trials each, the paper's), cost-rate (a bandit by HF failures per unit cost, each
-    /// scenario kept above `coverage_floor` × its share of p(s) in cost) or cost-rate-recent
+    /// scenario kept above `coverage_floor` × its share of p(s) in cost), cost-rate-recent
     /// (the same bandit, each scenario's failures and cost forgotten with a half-life of 20
-    /// told trials; the tuned method's).
+    /// told trials) or cost-rate-scout (the same, and until its first HF failure a scenario
+    /// keeps its whole share of p(s) in cost and runs HF only; the tuned method's).
     allocation: Allocate, flag = "allocation", aliases = [], stages = "train, evaluate, screen, test-*",
         to = protocol, cli(value_enum);
     /// The cost-rate allocation's coverage floor in [0, 1]: every scenario gets at least this

@@ -98,7 +98,8 @@ impl Kernel {
                 return Err(bad("φ arms do not fit the scenario"));
             }
             let paired = t.theta_lf.is_some();
-            let may_skip = t.phase.learns() && !cfg.pairing.is_always();
+            let scouts = matches!(cfg.allocation, Allocation::CostRate(r) if r.scout);
+            let may_skip = t.phase.learns() && (!cfg.pairing.is_always() || scouts);
             if (paired && !(t.phase.is_paired() && arms_ok(&cfg.fidelity, theta_arms)))
                 || (!paired && (t.phase.is_paired() && !may_skip || !theta_arms.is_empty()))
             {
