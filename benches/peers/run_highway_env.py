@@ -189,10 +189,11 @@ def savme_seed(args, seed, out, variant="savme"):
     return search, deployed
 
 
-def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work"):
+def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work", progress=None):
     """One VerifAI sampler on one seed: HF runs until each budget is spent, the scenario to run
     next chosen by `split` (verifai_peers._Scenarios: "work" = the one that has cost least so
-    far in this part, "trials" = in turn)."""
+    far in this part, "trials" = in turn). `progress(parts)`, if given, is called after every
+    run with the runs so far (a list per part begun)."""
     import numpy as np
     from verifai_peers import _Scenarios, annealing_started, phi_of
     from savme.integrations import highway_env as hw
@@ -217,6 +218,8 @@ def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work"):
             runs.append((sp[k].name, phi, r["failure"], r["work"], r["work"], 0))
             spent += r["work"]
             state.work[k] += r["work"]
+            if progress is not None:
+                progress([*parts, runs])
         parts.append(runs)
     return parts[0], parts[1], overhead
 
@@ -252,12 +255,38 @@ DEFAULT_ROWS = ["savme", "cross-entropy", "bandit", "bayesopt", "random", "halto
 
 
 def schedule(seeds, rows):
-    """The (seed, row) pairs in the order run: every row but Bayesian optimisation's, seed by
-    seed, then Bayesian optimisation's (≈ 1 h of CPU a seed on highway-env: GPyOpt's fit per
-    sample), seed by seed — so a run stopped for time has every other row on every seed."""
+    """The (seed, row) pairs in the order run, seed by seed in each phase: savme's rows and the
+    peers split by equal work, then the peers split by equal trials, then Bayesian optimisation
+    (≈ 1 h of CPU a seed on highway-env: GPyOpt's fit per sample) by equal work, then by equal
+    trials — so a run stopped for time has the main view on every seed first."""
     slow = [r for r in rows if r.split("/")[0] == "bayesopt"]
-    fast = [r for r in rows if r not in slow]
-    return [(s, r) for s in seeds for r in fast] + [(s, r) for s in seeds for r in slow]
+    # the equal-work view (savme's rows with it) on every seed before the equal-trials one
+    phases = [[r for r in rows if r not in slow and not r.endswith("/trials")],
+              [r for r in rows if r not in slow and r.endswith("/trials")],
+              [r for r in slow if not r.endswith("/trials")], [r for r in slow if r.endswith("/trials")]]
+    return [(s, r) for phase in phases for s in seeds for r in phase]
+
+
+class Partial:
+    """A peer row's runs so far in runs/ROW-seed-S.partial.json (rewritten at most every 30 s
+    and when a part ends; removed when the row is done): what a row stopped for time (Bayesian
+    optimisation) had run. Not read by the tables."""
+
+    def __init__(self, path: Path, row: str, seed: int, started: str, budgets) -> None:
+        self.path, self.row, self.seed, self.started, self.budgets = path, row, seed, started, budgets
+        self.c0, self.last, self.parts = time.process_time(), 0.0, 0
+
+    def __call__(self, parts) -> None:
+        now = time.monotonic()
+        if now - self.last < 30 and len(parts) == self.parts:
+            return
+        self.last, self.parts = now, len(parts)
+        tmp = self.path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(
+            {"row": self.row, "seed": self.seed, "started": self.started, "updated": utc_now(),
+             "cpu_s": time.process_time() - self.c0, "budgets": list(self.budgets),
+             "search": parts[0], "deployed": parts[1] if len(parts) > 1 else []}))
+        tmp.replace(self.path)
 
 
 def run_rows(args, sp, out, seeds, rows):
@@ -287,7 +316,11 @@ def run_rows(args, sp, out, seeds, rows):
             overhead = 0.0
         else:
             method, _, split = row.partition("/")
-            search, deployed, overhead = peer_seed(method, seed, sp, *budgets[seed], split or "work")
+            partial = Partial(runs_dir / f"{row.replace('/', '-')}-seed-{seed}.partial.json",
+                              row, seed, started, budgets[seed])
+            search, deployed, overhead = peer_seed(method, seed, sp, *budgets[seed],
+                                                   split or "work", partial)
+            partial.path.unlink(missing_ok=True)
         sw, dw = sum(r[3] for r in search), sum(r[3] for r in deployed)
         if row == "savme":
             budgets[seed] = (sw, dw)

@@ -53,7 +53,7 @@ def _highway_env_stub(work: dict) -> types.ModuleType:
 
 
 class PeerSplit(unittest.TestCase):
-    def _peer(self, split: str):
+    def _peer(self, split: str, progress=None):
         numpy = types.ModuleType("numpy")
         numpy.random = types.SimpleNamespace(seed=lambda s: None)
         domain_sampler = types.ModuleType("verifai.samplers.domain_sampler")
@@ -69,7 +69,7 @@ class PeerSplit(unittest.TestCase):
             import verifai_peers
 
             with mock.patch.object(verifai_peers, "make_sampler", lambda m, s: _Sampler()):
-                return run_highway_env.peer_seed("random", 1, spaces, 200, 100, split)
+                return run_highway_env.peer_seed("random", 1, spaces, 200, 100, split, progress)
 
     def test_equal_work_runs_every_scenario_for_the_same_work_in_each_part(self) -> None:
         search, deployed, _ = self._peer("work")
@@ -79,6 +79,24 @@ class PeerSplit(unittest.TestCase):
             # each scenario within one dear run (10 wu) of the other
             self.assertLessEqual(abs(work["dear"] - work["cheap"]), 10, work)
         self.assertEqual(sum(r[0] == "cheap" for r in search), 100)
+
+    def test_progress_sees_the_runs_so_far_and_a_partial_file_holds_them(self) -> None:
+        seen = []
+        with tempfile.TemporaryDirectory() as d:
+            path = Path(d) / "p.partial.json"
+            partial = run_highway_env.Partial(path, "random", 1, "t0", (200, 100))
+
+            def progress(parts):
+                seen.append([len(p) for p in parts])
+                partial(parts)
+
+            search, deployed, _ = self._peer("work", progress)
+            saved = json.loads(path.read_text())
+        self.assertEqual(seen[0], [1])
+        self.assertEqual(seen[-1], [len(search), len(deployed)])
+        # written at the first run and when the deployed part began (30 s apart otherwise)
+        self.assertEqual((saved["row"], len(saved["search"]), len(saved["deployed"])),
+                         ("random", len(search), 1))
 
     def test_equal_trials_visits_the_scenarios_in_turn(self) -> None:
         search, _, _ = self._peer("trials")
@@ -170,9 +188,11 @@ class Outputs(unittest.TestCase):
 
 class Schedule(unittest.TestCase):
     def test_bayesian_optimisation_runs_last_on_every_seed(self) -> None:
-        got = run_highway_env.schedule([1, 2], ["savme", "bayesopt", "random", "bayesopt/trials"])
+        got = run_highway_env.schedule([1, 2], ["savme", "bayesopt", "random", "bayesopt/trials",
+                                                "random/trials"])
         self.assertEqual(got, [(1, "savme"), (1, "random"), (2, "savme"), (2, "random"),
-                               (1, "bayesopt"), (1, "bayesopt/trials"), (2, "bayesopt"),
+                               (1, "random/trials"), (2, "random/trials"),
+                               (1, "bayesopt"), (2, "bayesopt"), (1, "bayesopt/trials"),
                                (2, "bayesopt/trials")])
 
     def test_labels_are_run_py_s(self) -> None:
