@@ -181,13 +181,14 @@ def run_window(table: Path) -> tuple[dt.datetime, dt.datetime, float]:
     return start, end + (dt.timedelta(days=1) if end < start else dt.timedelta()), float(wall)
 
 
-def table_command(table: Path) -> list[str]:
-    """The command a family's table.md says it ran (its first run.py or run_highway_env.py
-    command line)."""
-    for line in table.read_text().splitlines():
-        if line.startswith(("python3 benches/peers/run.py", f"python3 benches/peers/{HIGHWAY}")):
-            return shlex.split(line)
-    raise SystemExit(f"{table}: no run.py or run_highway_env.py command in it")
+def table_commands(table: Path) -> list[list[str]]:
+    """The commands a family's table.md says it ran: run.py's one command line, or every
+    run_highway_env.py invocation that added rows (its table lists them)."""
+    found = [shlex.split(line) for line in table.read_text().splitlines()
+             if line.startswith(("python3 benches/peers/run.py", f"python3 benches/peers/{HIGHWAY}"))]
+    if not found:
+        raise SystemExit(f"{table}: no run.py or run_highway_env.py command in it")
+    return found if found[0][1].endswith(HIGHWAY) else found[:1]
 
 
 def run_family(f: Family, args: argparse.Namespace, out: Path) -> tuple[Family, float, list[str]]:
@@ -199,7 +200,7 @@ def run_family(f: Family, args: argparse.Namespace, out: Path) -> tuple[Family, 
                        stderr=subprocess.STDOUT)
     wall = time.monotonic() - t0
     log(f"{f.name}: done in {wall / 60:.1f} min")
-    return f, wall, cmd
+    return f, wall, [cmd]
 
 
 def summary(args, out: Path, done, started, finished, setup) -> str:
@@ -221,7 +222,8 @@ def summary(args, out: Path, done, started, finished, setup) -> str:
         "run_highway_env.py for highway-env) and wall time:",
         "",
         "```sh",
-        *(f"{shlex.join(c)}   # {w / 60:.0f} min" for _, w, c in done),
+        *(line for _, w, cs in done for line in
+          [*map(shlex.join, cs[:-1]), f"{shlex.join(cs[-1])}   # {w / 60:.0f} min"]),
         "```",
         "",
         "savme (defaults) against the best VerifAI sampler per family and metric, **peers split "
@@ -272,7 +274,7 @@ def main() -> int:
     t0 = time.monotonic()
     if args.report_only:
         setup = None
-        done = [(f, 60 * run_window(out / f.slug / "table.md")[2], table_command(out / f.slug / "table.md"))
+        done = [(f, 60 * run_window(out / f.slug / "table.md")[2], table_commands(out / f.slug / "table.md"))
                 for f in chosen]
     else:
         setup = prepare(chosen, not args.no_build)

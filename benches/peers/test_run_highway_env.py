@@ -262,8 +262,13 @@ class AllPy(unittest.TestCase):
 
         with tempfile.TemporaryDirectory() as d:
             table = Path(d) / "table.md"
-            table.write_text("Run …\n\n```sh\npython3 benches/peers/run_highway_env.py --quick --out x\n```\n")
-            self.assertEqual(all_py.table_command(table)[1:3], ["benches/peers/run_highway_env.py", "--quick"])
+            table.write_text("Run …\n\n```sh\npython3 benches/peers/run_highway_env.py --quick --out x\n"
+                             "python3 benches/peers/run_highway_env.py --seed-list 2 --out x\n```\n")
+            got = all_py.table_commands(table)
+            self.assertEqual([c[2] for c in got], ["--quick", "--seed-list"])
+            table.write_text("Run …\n```sh\npython3 benches/peers/run.py --quick\n```\n"
+                             "python3 benches/peers/run.py --scenarios test\n")
+            self.assertEqual(all_py.table_commands(table), [["python3", "benches/peers/run.py", "--quick"]])
 
 
 class FewerSeeds(unittest.TestCase):
