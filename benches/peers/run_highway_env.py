@@ -373,6 +373,11 @@ def table(args, out):
     return "\n".join(lines)
 
 
+def row_files(out: Path) -> list[Path]:
+    """The finished rows' runs/ROW-seed-S.json (not a row in progress's .partial.json)."""
+    return [f for f in sorted((out / "runs").glob("*.json")) if not f.name.endswith(".partial.json")]
+
+
 COMMANDS = "commands.txt"  # in --out: one line per invocation that ran rows
 
 
@@ -385,7 +390,7 @@ def run_times(out: Path) -> list[tuple[dt.datetime, dt.datetime]]:
     """Each row's start and end (UTC) as runs/ records them (rows run before they were
     recorded have none)."""
     times = []
-    for f in sorted((out / "runs").glob("*.json")):
+    for f in row_files(out):
         r = json.loads(f.read_text())
         if "started" in r and "finished" in r:
             times.append((dt.datetime.fromisoformat(r["started"]),
@@ -425,7 +430,7 @@ def outcomes(args, out: Path) -> list[dict]:
             r = json.loads(line)
             overhead[(r["method"], r["seed"])] = r["row"][6]
     result = []
-    for f in sorted((out / "runs").glob("*.json")):
+    for f in row_files(out):
         r = json.loads(f.read_text())
 
         def part(xs):
@@ -470,7 +475,7 @@ def per_scenario(args, out, order):
     rows also the LF share of their search work. Mean over seeds (of the seeds' rates)."""
     sp = {s.name: s for s in spaces(args.scenarios)}
     runs = {}
-    for f in sorted((out / "runs").glob("*.json")):
+    for f in row_files(out):
         r = json.loads(f.read_text())
         runs.setdefault(r["row"], []).append(r)
     means = {}
@@ -519,7 +524,7 @@ def per_seed(args, out):
     failures; with each row's wall and CPU seconds (a small summary of runs/)."""
     sp = {s.name: s for s in spaces(args.scenarios)}
     rows = []
-    for f in sorted((out / "runs").glob("*.json")):
+    for f in row_files(out):
         r = json.loads(f.read_text())
         parts = {}
         for part in ("search", "deployed"):

@@ -130,6 +130,9 @@ def _write_runs(out: Path) -> None:
         (out / "runs" / f"{row.replace('/', '-')}-seed-1.json").write_text(json.dumps(
             {"row": row, "seed": 1, "wall_s": 1.0, "cpu_s": 1.0, "started": f"2026-11-29T{a}+00:00",
              "finished": f"2026-11-29T{b}+00:00", "search": search, "deployed": deployed}))
+    # a row in progress: its partial file is not a row
+    (out / "runs" / "random-seed-1.partial.json").write_text(json.dumps(
+        {"row": "random", "seed": 1, "search": [run("dear", 0.5, True, 10)], "deployed": []}))
     with open(out / "rows.jsonl", "w") as f:
         for row in rows:
             f.write(json.dumps({"method": row, "seed": 1, "row": [0, 0, 0, 1, 1, 1, 0.5]}) + "\n")
