@@ -56,6 +56,19 @@ def is_peer(method: str, split: str) -> bool:
     return method.startswith("VerifAI") and method.endswith(BY_TRIALS) == (split == "trials")
 
 
+def has_view(rows: list[dict], savme: str, split: str) -> bool:
+    """Whether the outcomes hold the savme row and peers of the split (a family stopped for
+    time may have run one split only)."""
+    methods = {r["method"] for r in rows}
+    return savme in methods and any(is_peer(m, split) for m in methods)
+
+
+def missing_note(families: list[tuple[str, list[dict]]], savme: str, split: str) -> list[str]:
+    missing = [name for name, rows in families if not has_view(rows, savme, split)]
+    return ["", f"Not in this table (no `{savme}` row or no peers split by equal {split} in its "
+            f"outcomes): {', '.join(missing)}."] if missing else []
+
+
 def best_of(peers: list[str], means: dict[str, float]) -> str:
     return max(peers, key=lambda m: -1 if math.isnan(means[m]) else means[m])
 
@@ -116,6 +129,8 @@ def ratio_table(families: list[tuple[str, list[dict]]], savme: str, split: str) 
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     logs: dict[str, list[float]] = {m[2]: [] for m in METRICS}
     for name, rows in families:
+        if not has_view(rows, savme, split):
+            continue
         f = family(rows, savme, split)
         cells = [name]
         for _, _, m in METRICS:
@@ -130,7 +145,7 @@ def ratio_table(families: list[tuple[str, list[dict]]], savme: str, split: str) 
         f"{math.exp(statistics.fmean(v)):.2f}×" if v else "–" for v in logs.values()
     ] + ["–"]
     lines.append("| " + " | ".join(geo) + " |")
-    return "\n".join(lines)
+    return "\n".join(lines + missing_note(families, savme, split))
 
 
 def rate(x: float, s: float, per: float) -> str:
@@ -147,13 +162,15 @@ def rates_table(families: list[tuple[str, list[dict]]], savme: str, split: str,
     lines = ["| family (per … wu) | seeds | savme: search / cells / deployed | best peer, search "
              "| best peer, cells | best peer, deployed |", "|---|---|---|---|---|---|"]
     for name, rows in families:
+        if not has_view(rows, savme, split):
+            continue
         f, per = family(rows, savme, split), units.get(name, 1e9)
         mine = " / ".join(rate(f[m][0], f["sd"][m][0], per) for _, _, m in METRICS)
         theirs = [f"{short(f[m][1])} {rate(f[m][2], f['sd'][m][1], per)}"
                   + (f" ({f['peer seeds'][m]} of the seeds)" if f["peer seeds"][m] < f["seeds"] else "")
                   for _, _, m in METRICS]
         lines.append(f"| {name} ({names[per]}) | {f['seeds']} | {mine} | " + " | ".join(theirs) + " |")
-    return "\n".join(lines)
+    return "\n".join(lines + missing_note(families, savme, split))
 
 
 def main() -> int:

@@ -289,6 +289,20 @@ class FewerSeeds(unittest.TestCase):
         self.assertIn("0.25× (bayesopt, 1 seed)", table)
         self.assertIn("(1 of the seeds)", families.rates_table([("f", rows)], "savme", "work", {"f": 1e6}))
 
+    def test_a_family_without_the_split_s_peers_is_named_not_tabled(self) -> None:
+        import families
+
+        row = lambda m: {"method": m, "seed": 1, "overhead_ms": 0.0,  # noqa: E731
+                         "search": {"a": {"trials": 1, "failures": 1, "work": 10, "cells": 1}},
+                         "deployed": {"a": {"trials": 1, "failures": 1, "work": 10, "cells": 1}}}
+        both = ("both", [row("savme"), row("VerifAI random"), row("VerifAI random, by trials")])
+        work_only = ("work only", [row("savme"), row("VerifAI random")])
+        table = families.ratio_table([both, work_only], "savme", "trials")
+        self.assertIn("| both |", table)
+        self.assertNotIn("| work only |", table)
+        self.assertIn("peers split by equal trials in its outcomes): work only.", table)
+        self.assertIn("| work only |", families.ratio_table([both, work_only], "savme", "work"))
+
 
 if __name__ == "__main__":
     unittest.main()
