@@ -73,7 +73,7 @@ FAMILIES = (
            ("--iterations", "150", "--screen-iterations", "90"), 1e3),
     # highway-env (run_highway_env.py: its own venv with savme's wheel built from this
     # checkout): 150 search trials a seed is the length that ranks methods (issue 42);
-    # Bayesian optimisation costs ≈ 1 h of CPU a seed and split there (GPyOpt's fit per sample)
+    # Bayesian optimisation costs ≈ 40 min of CPU a seed and split there (38 min measured) (GPyOpt's fit per sample)
     # and runs last; --quick leaves it out unless named (its venv and the wheel's debug build
     # are most of a fresh clone's quick run: README.md).
     Family("highway-env, merge+roundabout", "highway", ("--scenarios", "merge", "roundabout"),

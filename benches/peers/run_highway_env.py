@@ -257,7 +257,7 @@ DEFAULT_ROWS = ["savme", "cross-entropy", "bandit", "bayesopt", "random", "halto
 def schedule(seeds, rows):
     """The (seed, row) pairs in the order run, seed by seed in each phase: savme's rows and the
     peers split by equal work, then the peers split by equal trials, then Bayesian optimisation
-    (≈ 1 h of CPU a seed on highway-env: GPyOpt's fit per sample) by equal work, then by equal
+    (≈ 40 min of CPU a seed on highway-env: GPyOpt's fit per sample) by equal work, then by equal
     trials — so a run stopped for time has the main view on every seed first."""
     slow = [r for r in rows if r.split("/")[0] == "bayesopt"]
     # the equal-work view (savme's rows with it) on every seed before the equal-trials one
