@@ -50,6 +50,8 @@ class Family:
     args: tuple[str, ...]
     full: tuple[str, ...]  # the full mode's lengths
     unit: float  # the unit of its rates in the tables (work units)
+    script: str = "run.py"  # its runner in benches/peers/
+    quick: bool = True  # in --quick's default set (every family is in the full mode's)
 
 
 FAMILIES = (
@@ -69,7 +71,29 @@ FAMILIES = (
     Family("Reference FMU BouncingBall, moon", "ball-test",
            ("--campaign", BALL, "--scenarios", "test"),
            ("--iterations", "150", "--screen-iterations", "90"), 1e3),
+    # highway-env (run_highway_env.py: its own venv with savme's wheel built from this
+    # checkout): 150 search trials a seed is the length that ranks methods (issue 42);
+    # Bayesian optimisation costs ≈ 40 min of CPU a seed and split there (38 min measured) (GPyOpt's fit per sample)
+    # and runs last; --quick leaves it out unless named (its venv and the wheel's debug build
+    # are most of a fresh clone's quick run: README.md).
+    Family("highway-env, merge+roundabout", "highway", ("--scenarios", "merge", "roundabout"),
+           ("--iterations", "150", "--screen-iterations", "90"), 1e6,
+           script="run_highway_env.py", quick=False),
 )
+HIGHWAY = "run_highway_env.py"
+
+
+def choose(families: str | None, quick: bool) -> list[Family]:
+    """The families `--families` names (in FAMILIES' order), or the default set: every family,
+    but --quick leaves out those not marked `quick` (highway-env)."""
+    if families is None:
+        return [f for f in FAMILIES if f.quick or not quick]
+    names = [n.strip() for n in families.split(",") if n.strip()]
+    unknown = [n for n in names if n not in {f.slug for f in FAMILIES}]
+    if unknown or not names:
+        sys.exit(f"--families {families}: {', '.join(unknown) or 'nothing'} is not one of "
+                 + ", ".join(f.slug for f in FAMILIES))
+    return [f for f in FAMILIES if f.slug in names]
 
 
 def parse_args() -> argparse.Namespace:
@@ -77,7 +101,8 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--quick", action="store_true", help="every family with run.py --quick (seed 1)")
     ap.add_argument("--seeds", type=int, default=None, help="seeds 1..N (default 3; quick 1)")
     ap.add_argument("--families", default=None,
-                    help="a comma-separated subset of: " + ", ".join(f.slug for f in FAMILIES))
+                    help="a comma-separated subset of: " + ", ".join(f.slug for f in FAMILIES)
+                    + " (default: all; --quick: all but highway)")
     ap.add_argument("--parallel", type=int, default=2, help="families run at once (default 2)")
     ap.add_argument("--jobs", type=int, default=1, help="each run.py's --jobs (default 1)")
     ap.add_argument("--out", type=Path, default=None, help="default target/peers/<quick|full>-all")
@@ -94,41 +119,52 @@ def log(msg: str) -> None:
     print(f"[{dt.datetime.now(dt.timezone.utc):%H:%M:%S}] {msg}", file=sys.stderr, flush=True)
 
 
-def prepare(build: bool = True) -> tuple[float, float]:
-    """The venv (run.py's), the release build and the FMUs, once before the families run in
-    parallel; the build runs while pip installs the venv (one is downloads, the other CPU).
-    Returns the seconds until the venv was ready, then until the build and FMUs were."""
+def prepare(chosen: list[Family], build: bool = True) -> tuple[float, float]:
+    """What the chosen families need, once before they run in parallel: for run.py's, its
+    venv, the release build and the FMUs their campaign files name; for highway-env's, its
+    venv and savme's wheel (`run_highway_env.py --setup-only`). The builds run while pip
+    installs the venvs (one is downloads, the other CPU). Returns the seconds until run.py's
+    venv was ready, then until the builds, FMUs and highway-env's set-up were."""
     sys.path.insert(0, str(HERE))
     import run
 
     t0 = time.monotonic()
-    cargo = None
-    if build:
-        cargo = subprocess.Popen(["nice", "-n", "10", "cargo", "build", "--release", "-p", "savme",
-                                  "-p", "savme-peers", "--bin", "savme", "--bin", "peers_sim",
-                                  "--bin", "peers_fmu"], cwd=REPO)
-    venv_python = run.VENV / "bin" / "python"
+    bundled = [f for f in chosen if f.script != HIGHWAY]
+    started = []
+    if build and bundled:
+        started.append(("the release build", subprocess.Popen(
+            ["nice", "-n", "10", "cargo", "build", "--release", "-p", "savme", "-p", "savme-peers",
+             "--bin", "savme", "--bin", "peers_sim", "--bin", "peers_fmu"], cwd=REPO)))
+    if len(bundled) < len(chosen):
+        started.append(("highway-env's venv and savme's wheel", subprocess.Popen(
+            [sys.executable, str(HERE / HIGHWAY), "--setup-only", *([] if build else ["--no-build"])],
+            cwd=REPO)))
     try:
-        if not (run.VENV / ".complete").exists():
+        if bundled and not (run.VENV / ".complete").exists():
             subprocess.run([sys.executable, str(HERE / "run.py"), "--setup-only"], check=True)
     except BaseException:
-        if cargo is not None:
-            cargo.kill()
+        for _, p in started:
+            p.kill()
         raise
     t1 = time.monotonic()
-    if cargo is not None and cargo.wait() != 0:
-        raise SystemExit(f"all.py: the release build failed (exit {cargo.returncode})")
-    for config in (BRAKING, BALL):
+    for what, p in started:
+        if p.wait() != 0:
+            raise SystemExit(f"all.py: {what} failed (exit {p.returncode})")
+    for config in dict.fromkeys(f.args[f.args.index("--campaign") + 1] for f in bundled
+                                if "--campaign" in f.args):
         run.ensure_fmus(REPO / config)
-    assert venv_python.exists()
     return t1 - t0, time.monotonic() - t1
 
 
 def family_command(f: Family, args: argparse.Namespace, out: Path) -> list[str]:
-    return ["python3", "benches/peers/run.py", *f.args,
+    """The family's runner command: run.py with both peer splits (`--peer-split work,trials`)
+    and `--jobs`; run_highway_env.py runs both splits by default (rows `SAMPLER/trials`) and
+    one campaign trial at a time."""
+    split = ([] if f.script == HIGHWAY else
+             ["--peer-split", "work,trials", "--jobs", str(args.jobs)])
+    return ["python3", f"benches/peers/{f.script}", *f.args,
             *(["--quick"] if args.quick else f.full),
-            *(["--seeds", str(args.seeds)] if args.seeds else []),
-            "--peer-split", "work,trials", "--jobs", str(args.jobs), "--no-build",
+            *(["--seeds", str(args.seeds)] if args.seeds else []), *split, "--no-build",
             "--out", str((out / f.slug).relative_to(REPO) if out.is_relative_to(REPO) else out / f.slug)]
 
 
@@ -145,12 +181,14 @@ def run_window(table: Path) -> tuple[dt.datetime, dt.datetime, float]:
     return start, end + (dt.timedelta(days=1) if end < start else dt.timedelta()), float(wall)
 
 
-def table_command(table: Path) -> list[str]:
-    """The run.py command a family's table.md says it ran (its first command line)."""
-    for line in table.read_text().splitlines():
-        if line.startswith("python3 benches/peers/run.py"):
-            return shlex.split(line)
-    raise SystemExit(f"{table}: no run.py command in it")
+def table_commands(table: Path) -> list[list[str]]:
+    """The commands a family's table.md says it ran: run.py's one command line, or every
+    run_highway_env.py invocation that added rows (its table lists them)."""
+    found = [shlex.split(line) for line in table.read_text().splitlines()
+             if line.startswith(("python3 benches/peers/run.py", f"python3 benches/peers/{HIGHWAY}"))]
+    if not found:
+        raise SystemExit(f"{table}: no run.py or run_highway_env.py command in it")
+    return found if found[0][1].endswith(HIGHWAY) else found[:1]
 
 
 def run_family(f: Family, args: argparse.Namespace, out: Path) -> tuple[Family, float, list[str]]:
@@ -162,7 +200,7 @@ def run_family(f: Family, args: argparse.Namespace, out: Path) -> tuple[Family, 
                        stderr=subprocess.STDOUT)
     wall = time.monotonic() - t0
     log(f"{f.name}: done in {wall / 60:.1f} min")
-    return f, wall, cmd
+    return f, wall, [cmd]
 
 
 def summary(args, out: Path, done, started, finished, setup) -> str:
@@ -175,15 +213,17 @@ def summary(args, out: Path, done, started, finished, setup) -> str:
     lines = [
         f"Generated by `{cmd}` ({mode} mode) on {started:%Y-%m-%d}: every family run "
         f"{started:%H:%M}–{finished:%H:%M} UTC on one machine ({os.cpu_count()} cores). "
-        + ("" if setup is None else f"Set-up before it: venv {setup[0] / 60:.1f} min (the release "
-           f"build running beside it), then build and FMUs {setup[1] / 60:.1f} min more. ")
-        + 
-        "savme's row is savme with its defaults (`--method tuned`); every peer gets the same "
+        + ("" if setup is None else f"Set-up before it: run.py's venv {setup[0] / 60:.1f} min (the "
+           f"builds running beside it), then the builds, FMUs and highway-env's venv and wheel "
+           f"(those chosen) {setup[1] / 60:.1f} min more. ")
+        + "savme's row is savme with its defaults (`--method tuned`); every peer gets the same "
         "budgets in work units per seed, split over the scenarios by equal work (first table) "
-        "and, as a second view, by equal trials. Per family, its run.py command and wall time:",
+        "and, as a second view, by equal trials. Per family, its command (run.py; "
+        "run_highway_env.py for highway-env) and wall time:",
         "",
         "```sh",
-        *(f"{shlex.join(c)}   # {w / 60:.0f} min" for _, w, c in done),
+        *(line for _, w, cs in done for line in
+          [*map(shlex.join, cs[:-1]), f"{shlex.join(cs[-1])}   # {w / 60:.0f} min"]),
         "```",
         "",
         "savme (defaults) against the best VerifAI sampler per family and metric, **peers split "
@@ -228,18 +268,16 @@ def write_docs(out: Path, text: str, done) -> None:
 
 def main() -> int:
     args = parse_args()
-    chosen = [f for f in FAMILIES if args.families is None or f.slug in args.families.split(",")]
-    if not chosen:
-        sys.exit(f"--families {args.families}: none of " + ", ".join(f.slug for f in FAMILIES))
+    chosen = choose(args.families, args.quick)
     out = (args.out or REPO / "target" / "peers" / ("quick-all" if args.quick else "full-all")).resolve()
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.monotonic()
     if args.report_only:
         setup = None
-        done = [(f, 60 * run_window(out / f.slug / "table.md")[2], table_command(out / f.slug / "table.md"))
+        done = [(f, 60 * run_window(out / f.slug / "table.md")[2], table_commands(out / f.slug / "table.md"))
                 for f in chosen]
     else:
-        setup = prepare(not args.no_build)
+        setup = prepare(chosen, not args.no_build)
         with ThreadPoolExecutor(max_workers=args.parallel) as pool:
             done = list(pool.map(lambda f: run_family(f, args, out), chosen))
     windows = [run_window(out / f.slug / "table.md") for f in chosen]

@@ -56,6 +56,19 @@ def is_peer(method: str, split: str) -> bool:
     return method.startswith("VerifAI") and method.endswith(BY_TRIALS) == (split == "trials")
 
 
+def has_view(rows: list[dict], savme: str, split: str) -> bool:
+    """Whether the outcomes hold the savme row and peers of the split (a family stopped for
+    time may have run one split only)."""
+    methods = {r["method"] for r in rows}
+    return savme in methods and any(is_peer(m, split) for m in methods)
+
+
+def missing_note(families: list[tuple[str, list[dict]]], savme: str, split: str) -> list[str]:
+    missing = [name for name, rows in families if not has_view(rows, savme, split)]
+    return ["", f"Not in this table (no `{savme}` row or no peers split by equal {split} in its "
+            f"outcomes): {', '.join(missing)}."] if missing else []
+
+
 def best_of(peers: list[str], means: dict[str, float]) -> str:
     return max(peers, key=lambda m: -1 if math.isnan(means[m]) else means[m])
 
@@ -68,11 +81,12 @@ def family(rows: list[dict], savme: str, split: str = "work") -> dict:
     if savme not in methods or not peers:
         raise SystemExit(f"no `{savme}` row or no peers split by {split} in these outcomes")
     by = {m: [r for r in rows if r["method"] == m] for m in methods}
-    out: dict = {"sd": {}}
+    out: dict = {"sd": {}, "peer seeds": {}}
     for part, key, name in METRICS:
         means = {m: mean(per_seed_rate(r, part, key) for r in by[m]) for m in methods}
         best = best_of(peers, means)
         out[name] = (means[savme], best, means[best])
+        out["peer seeds"][name] = len(by[best])
         out["sd"][name] = tuple(sd(per_seed_rate(r, part, key) for r in by[m]) for m in (savme, best))
     scenarios = sorted({s for r in by[savme] for s in r["search"]})
     worst = (math.inf, "", "")
@@ -92,9 +106,15 @@ def short(peer: str) -> str:
     return peer.removeprefix("VerifAI ").removesuffix(BY_TRIALS)
 
 
-def ratio_text(mine: float, peer: str, theirs: float) -> str:
+def seeds_note(n: int, seeds: int) -> str:
+    """`, 1 seed` when the peer's mean is over fewer seeds than savme's (a row that did not run
+    on every seed, e.g. Bayesian optimisation stopped for time)."""
+    return "" if n >= seeds else f", {n} seed{'s' if n > 1 else ''}"
+
+
+def ratio_text(mine: float, peer: str, theirs: float, note: str = "") -> str:
     r = mine / theirs if theirs > 0 else math.inf
-    return f"{r:.2f}× ({short(peer)})"
+    return f"{r:.2f}× ({short(peer)}{note})"
 
 
 def load(item: str) -> tuple[str, list[dict]]:
@@ -109,11 +129,13 @@ def ratio_table(families: list[tuple[str, list[dict]]], savme: str, split: str) 
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     logs: dict[str, list[float]] = {m[2]: [] for m in METRICS}
     for name, rows in families:
+        if not has_view(rows, savme, split):
+            continue
         f = family(rows, savme, split)
         cells = [name]
         for _, _, m in METRICS:
             mine, peer, theirs = f[m]
-            cells.append(ratio_text(mine, peer, theirs))
+            cells.append(ratio_text(mine, peer, theirs, seeds_note(f["peer seeds"][m], f["seeds"])))
             if theirs > 0 and mine > 0:
                 logs[m].append(math.log(mine / theirs))
         r, sc, peer = f["worst scenario"]
@@ -123,7 +145,7 @@ def ratio_table(families: list[tuple[str, list[dict]]], savme: str, split: str) 
         f"{math.exp(statistics.fmean(v)):.2f}×" if v else "–" for v in logs.values()
     ] + ["–"]
     lines.append("| " + " | ".join(geo) + " |")
-    return "\n".join(lines)
+    return "\n".join(lines + missing_note(families, savme, split))
 
 
 def rate(x: float, s: float, per: float) -> str:
@@ -140,11 +162,15 @@ def rates_table(families: list[tuple[str, list[dict]]], savme: str, split: str,
     lines = ["| family (per … wu) | seeds | savme: search / cells / deployed | best peer, search "
              "| best peer, cells | best peer, deployed |", "|---|---|---|---|---|---|"]
     for name, rows in families:
+        if not has_view(rows, savme, split):
+            continue
         f, per = family(rows, savme, split), units.get(name, 1e9)
         mine = " / ".join(rate(f[m][0], f["sd"][m][0], per) for _, _, m in METRICS)
-        theirs = [f"{short(f[m][1])} {rate(f[m][2], f['sd'][m][1], per)}" for _, _, m in METRICS]
+        theirs = [f"{short(f[m][1])} {rate(f[m][2], f['sd'][m][1], per)}"
+                  + (f" ({f['peer seeds'][m]} of the seeds)" if f["peer seeds"][m] < f["seeds"] else "")
+                  for _, _, m in METRICS]
         lines.append(f"| {name} ({names[per]}) | {f['seeds']} | {mine} | " + " | ".join(theirs) + " |")
-    return "\n".join(lines)
+    return "\n".join(lines + missing_note(families, savme, split))
 
 
 def main() -> int:

@@ -2,11 +2,18 @@
 """The peer benchmark on highway-env (issue 29): savme's paired HF/LF search against VerifAI's
 samplers on the same highway-env φ-spaces, the same work-unit budget and the same seeds.
 
-    python/develop.sh --wheel                                      # savme's wheel, once
-    python3 benches/peers/run_highway_env.py --seeds 2 --iterations 30 --screen-iterations 30
+    python3 benches/peers/run_highway_env.py --quick       # a smoke run: seed 1, 16 + 8 trials
+    python3 benches/peers/run_highway_env.py --seeds 3 --iterations 150 --screen-iterations 90
+    python3 benches/peers/all.py --families highway        # the same as a family of all.py
 
-The first run creates target/highway-peers-venv (highway-env, VerifAI 2.2.0 from
-requirements.txt, savme's wheel from target/wheels/test) and re-runs itself inside it.
+It sets up target/highway-peers-venv (requirements-highway.txt: highway-env, gymnasium,
+maturin; requirements.txt: VerifAI 2.2.0; requirements-bayesopt.txt: GPyOpt if it installs;
+reinstalled when a requirement file changes), builds savme's wheel from this checkout into
+target/wheels/highway-peers (maturin, the dev profile, as python/develop.sh --wheel; `--no-build`:
+the newest wheel there or in target/wheels/test), installs it when it changed, and re-runs
+itself inside the venv. Outputs in --out: rows.jsonl, runs/, table.md (its first line the run's
+window, then the commands), per-seed.json and outcomes.json (benches/peers/run.py's format,
+which families.py and all.py read).
 
 As benches/peers/run.py on the bundled simulator (see README.md there), on seed s:
 - savme runs first: its search is the meta-training stage train@B of a savme.Campaign (cost =
@@ -26,9 +33,13 @@ failures of the deployed search.
 from __future__ import annotations
 
 import argparse
+import datetime as dt
+import hashlib
 import json
 import os
 import random
+import shlex
+import shutil
 import statistics
 import subprocess
 import sys
@@ -41,30 +52,79 @@ VENV = REPO / "target" / "highway-peers-venv"
 BINS = 6
 
 
-def ensure_venv() -> None:
-    """Re-runs this script in the venv with highway-env, VerifAI and savme's wheel."""
-    try:
-        import highway_env  # noqa: F401
-        import savme  # noqa: F401
-        import verifai  # noqa: F401
-        return
-    except ImportError:
-        pass
-    py = VENV / "bin" / "python"
-    if Path(sys.prefix).resolve() == VENV.resolve():  # (its python is a link to python3)
-        sys.exit(f"{py}: highway-env, verifai or savme is missing; delete {VENV} and rerun")
-    wheels = sorted((REPO / "target" / "wheels" / "test").glob("savme-*.whl"))
+REQUIREMENTS = (HERE / "requirements-highway.txt", HERE / "requirements.txt")
+OPTIONAL = HERE / "requirements-bayesopt.txt"  # GPyOpt: Bayesian optimisation, if it installs
+WHEELS = REPO / "target" / "wheels" / "highway-peers"  # savme's wheel, built from this checkout
+TEST_WHEELS = REPO / "target" / "wheels" / "test"  # python/develop.sh --wheel's
+
+
+def requirements_key() -> str:
+    """The venv's key: sha256 over its requirement files (a change to any reinstalls them)."""
+    h = hashlib.sha256()
+    for path in (*REQUIREMENTS, OPTIONAL):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+def file_sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def build_wheel() -> Path:
+    """savme's wheel from this checkout, as `python/develop.sh --wheel` builds it (maturin,
+    the dev profile), into target/wheels/highway-peers; cargo rebuilds only what changed."""
+    if WHEELS.exists():
+        shutil.rmtree(WHEELS)
+    subprocess.run(["nice", "-n", "10", str(VENV / "bin" / "maturin"), "build", "-q", "--profile",
+                    "dev", "--manifest-path", str(REPO / "python" / "Cargo.toml"), "--interpreter",
+                    str(VENV / "bin" / "python"), "-o", str(WHEELS)], check=True, cwd=REPO)
+    return newest_wheel()
+
+
+def newest_wheel() -> Path:
+    """The newest savme wheel in target/wheels/highway-peers or target/wheels/test."""
+    wheels = [*WHEELS.glob("savme-*.whl"), *TEST_WHEELS.glob("savme-*.whl")]
     if not wheels:
-        sys.exit("no savme wheel in target/wheels/test: run python/develop.sh --wheel first")
+        sys.exit(f"no savme wheel in {WHEELS} or {TEST_WHEELS}: run without --no-build "
+                 "(it builds one) or python/develop.sh --wheel")
+    return max(wheels, key=lambda p: p.stat().st_mtime)
+
+
+def setup(build: bool) -> None:
+    """target/highway-peers-venv: created if missing; its requirements installed when their
+    key (requirements_key) is not the one recorded in .complete; savme's wheel built (unless
+    `build` is false: the newest one there is) and installed when its sha256 is not the one
+    installed (recorded in .savme-wheel, so a process running in the venv is not disturbed)."""
+    py = VENV / "bin" / "python"
     if not py.exists():
         subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        pip = [str(VENV / "bin" / "pip"), "install", "-q", "--disable-pip-version-check"]
-        subprocess.run(pip + ["highway-env==1.12.*", "-r", str(HERE / "requirements.txt")], check=True)
-        if subprocess.run(pip + ["-r", str(HERE / "requirements-bayesopt.txt")]).returncode != 0:
+    pip = [str(py), "-m", "pip", "install", "-q", "--disable-pip-version-check"]
+    key, done = requirements_key(), VENV / ".complete"
+    if not done.exists() or done.read_text().strip() != key:
+        print(f"setting up {VENV} (highway-env, VerifAI, maturin from PyPI) …", file=sys.stderr,
+              flush=True)
+        subprocess.run(pip + [a for r in REQUIREMENTS for a in ("-r", str(r))], check=True)
+        if subprocess.run(pip + ["-r", str(OPTIONAL)]).returncode != 0:
             print("GPyOpt did not install: Bayesian optimisation is left out", file=sys.stderr)
-    subprocess.run([str(VENV / "bin" / "pip"), "install", "-q", "--disable-pip-version-check",
-                    "--force-reinstall", "--no-deps", str(wheels[-1])], check=True)
-    os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
+        done.write_text(key + "\n")
+    wheel = build_wheel() if build else newest_wheel()
+    installed, digest = VENV / ".savme-wheel", file_sha256(wheel)
+    if not installed.exists() or installed.read_text().strip() != digest:
+        subprocess.run(pip + ["--force-reinstall", "--no-deps", str(wheel)], check=True)
+        installed.write_text(digest + "\n")
+
+
+def in_venv() -> bool:
+    return Path(sys.prefix).resolve() == VENV.resolve()  # (its python is a link to python3)
+
+
+def ensure_venv(build: bool) -> None:
+    """Sets the venv up (setup) and re-runs this script inside it."""
+    if in_venv():
+        return
+    setup(build)
+    py = VENV / "bin" / "python"
+    os.execv(str(py), [str(py), str(Path(__file__).resolve()), *sys.argv[1:]])
 
 
 def spaces(scenarios):
@@ -129,10 +189,11 @@ def savme_seed(args, seed, out, variant="savme"):
     return search, deployed
 
 
-def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work"):
+def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work", progress=None):
     """One VerifAI sampler on one seed: HF runs until each budget is spent, the scenario to run
     next chosen by `split` (verifai_peers._Scenarios: "work" = the one that has cost least so
-    far in this part, "trials" = in turn)."""
+    far in this part, "trials" = in turn). `progress(parts)`, if given, is called after every
+    run with the runs so far (a list per part begun)."""
     import numpy as np
     from verifai_peers import _Scenarios, annealing_started, phi_of
     from savme.integrations import highway_env as hw
@@ -157,6 +218,8 @@ def peer_seed(method, seed, sp, search_budget, deployed_budget, split="work"):
             runs.append((sp[k].name, phi, r["failure"], r["work"], r["work"], 0))
             spent += r["work"]
             state.work[k] += r["work"]
+            if progress is not None:
+                progress([*parts, runs])
         parts.append(runs)
     return parts[0], parts[1], overhead
 
@@ -169,6 +232,11 @@ def rates(runs, sp):
     return 1e6 * len(fails) / work, 1e6 * len(cells) / work, len(runs)
 
 
+def utc_now() -> str:
+    """The time now, UTC, ISO 8601 to the second (a row's start and end in runs/)."""
+    return dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+
+
 def record(path, method, seed, row):
     with open(path, "a") as f:
         f.write(json.dumps({"method": method, "seed": seed, "row": list(row)}) + "\n")
@@ -178,49 +246,94 @@ def fmt(xs):
     return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}" if len(xs) > 1 else f"{xs[0]:.2f}"
 
 
-DEFAULT_ROWS = ["savme", "cross-entropy", "bandit", "bayesopt", "random", "savme-rho", "halton",
-                "annealing", "cross-entropy/trials", "bandit/trials", "bayesopt/trials",
-                "random/trials", "halton/trials", "annealing/trials", "savme-paper"]
+# The benchmark's rows (all.py's highway family): savme with its defaults, the paper's SAVME,
+# every VerifAI sampler split by equal work and, as a second view, by equal trials. `savme-rho`
+# (savme on runs returning ρ too) is not among them: measured and not kept (docs/RESULTS.md).
+DEFAULT_ROWS = ["savme", "cross-entropy", "bandit", "bayesopt", "random", "halton", "annealing",
+                "cross-entropy/trials", "bandit/trials", "bayesopt/trials", "random/trials",
+                "halton/trials", "annealing/trials", "savme-paper"]
+
+
+def schedule(seeds, rows):
+    """The (seed, row) pairs in the order run, seed by seed in each phase: savme's rows and the
+    peers split by equal work, then the peers split by equal trials, then Bayesian optimisation
+    (≈ 40 min of CPU a seed on highway-env: GPyOpt's fit per sample) by equal work, then by equal
+    trials — so a run stopped for time has the main view on every seed first."""
+    slow = [r for r in rows if r.split("/")[0] == "bayesopt"]
+    # the equal-work view (savme's rows with it) on every seed before the equal-trials one
+    phases = [[r for r in rows if r not in slow and not r.endswith("/trials")],
+              [r for r in rows if r not in slow and r.endswith("/trials")],
+              [r for r in slow if not r.endswith("/trials")], [r for r in slow if r.endswith("/trials")]]
+    return [(s, r) for phase in phases for s in seeds for r in phase]
+
+
+class Partial:
+    """A peer row's runs so far in runs/ROW-seed-S.partial.json (rewritten at most every 30 s
+    and when a part ends; removed when the row is done): what a row stopped for time (Bayesian
+    optimisation) had run. Not read by the tables."""
+
+    def __init__(self, path: Path, row: str, seed: int, started: str, budgets) -> None:
+        self.path, self.row, self.seed, self.started, self.budgets = path, row, seed, started, budgets
+        self.c0, self.last, self.parts = time.process_time(), 0.0, 0
+
+    def __call__(self, parts) -> None:
+        now = time.monotonic()
+        if now - self.last < 30 and len(parts) == self.parts:
+            return
+        self.last, self.parts = now, len(parts)
+        tmp = self.path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(
+            {"row": self.row, "seed": self.seed, "started": self.started, "updated": utc_now(),
+             "cpu_s": time.process_time() - self.c0, "budgets": list(self.budgets),
+             "search": parts[0], "deployed": parts[1] if len(parts) > 1 else []}))
+        tmp.replace(self.path)
 
 
 def run_rows(args, sp, out, seeds, rows):
-    """Every row of every seed not yet in rows.jsonl; each row's runs go to runs/ROW-seed-S.json
-    (scenario, φ, HF failure, work, HF work, LF work per run), its wall and CPU time with it."""
+    """Every row of every seed not yet in rows.jsonl, in `schedule`'s order; each row's runs go
+    to runs/ROW-seed-S.json (scenario, φ, HF failure, work, HF work, LF work per run) with its
+    wall and CPU time and its start and end (UTC). A seed's savme row (run, or read back from
+    its finished campaign) sets that seed's peer budgets."""
     done = out / "rows.jsonl"  # one line per (method, seed): several processes may add to it
     runs_dir = out / "runs"
     runs_dir.mkdir(exist_ok=True)
     have = set()
     if done.exists():
         have = {(r["method"], r["seed"]) for r in map(json.loads, done.read_text().splitlines())}
-    for seed in seeds:
-        budget = None
-        for row in rows:
-            if (row, seed) in have and row != "savme":
-                continue
-            t0, c0 = time.perf_counter(), time.process_time()
-            if row.startswith("savme"):
-                search, deployed = savme_seed(args, seed, out / f"{row}-seed-{seed}", row)
-                overhead = 0.0
-            else:
-                if budget is None:
-                    sys.exit("the savme row must come first: it sets every peer's budget")
-                method, _, split = row.partition("/")
-                search, deployed, overhead = peer_seed(method, seed, sp, *budget, split or "work")
-            sw, dw = sum(r[3] for r in search), sum(r[3] for r in deployed)
-            if row == "savme":
-                budget = (sw, dw)
-                if (row, seed) in have:
-                    continue
-            wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-            f, c, n = rates(search, sp)
-            confirmed = 1e6 * sum(r[2] for r in deployed) / max(dw, 1)
-            record(done, row, seed, (f, c, confirmed, n, sw, dw,
-                                     1e3 * overhead / max(len(search) + len(deployed), 1)))
-            (runs_dir / f"{row.replace('/', '-')}-seed-{seed}.json").write_text(json.dumps(
-                {"row": row, "seed": seed, "wall_s": wall, "cpu_s": cpu, "search": search,
-                 "deployed": deployed}))
-            print(f"seed {seed}: {row} {n} search runs, {len(deployed)} deployed, search {sw} wu, "
-                  f"deployed {dw} wu ({wall:.0f} s wall, {cpu:.0f} s CPU)", flush=True)
+    budgets: dict[int, tuple[int, int]] = {}
+    for seed, row in schedule(seeds, rows):
+        if (row, seed) in have:
+            continue
+        if not row.startswith("savme") and seed not in budgets:
+            if "savme" not in rows:
+                sys.exit("the savme row must be among --rows: it sets every peer's budget")
+            search, deployed = savme_seed(args, seed, out / f"savme-seed-{seed}", "savme")
+            budgets[seed] = (sum(r[3] for r in search), sum(r[3] for r in deployed))
+        t0, c0 = time.perf_counter(), time.process_time()
+        started = utc_now()
+        if row.startswith("savme"):
+            search, deployed = savme_seed(args, seed, out / f"{row}-seed-{seed}", row)
+            overhead = 0.0
+        else:
+            method, _, split = row.partition("/")
+            partial = Partial(runs_dir / f"{row.replace('/', '-')}-seed-{seed}.partial.json",
+                              row, seed, started, budgets[seed])
+            search, deployed, overhead = peer_seed(method, seed, sp, *budgets[seed],
+                                                   split or "work", partial)
+            partial.path.unlink(missing_ok=True)
+        sw, dw = sum(r[3] for r in search), sum(r[3] for r in deployed)
+        if row == "savme":
+            budgets[seed] = (sw, dw)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        f, c, n = rates(search, sp)
+        confirmed = 1e6 * sum(r[2] for r in deployed) / max(dw, 1)
+        record(done, row, seed, (f, c, confirmed, n, sw, dw,
+                                 1e3 * overhead / max(len(search) + len(deployed), 1)))
+        (runs_dir / f"{row.replace('/', '-')}-seed-{seed}.json").write_text(json.dumps(
+            {"row": row, "seed": seed, "wall_s": wall, "cpu_s": cpu, "started": started,
+             "finished": utc_now(), "search": search, "deployed": deployed}))
+        print(f"seed {seed}: {row} {n} search runs, {len(deployed)} deployed, search {sw} wu, "
+              f"deployed {dw} wu ({wall:.0f} s wall, {cpu:.0f} s CPU)", flush=True)
 
 
 def table(args, out):
@@ -233,6 +346,14 @@ def table(args, out):
     order = [m for m in DEFAULT_ROWS if m in rows] + [m for m in rows if m not in DEFAULT_ROWS]
     rows = {m: [rows[m][s] for s in sorted(rows[m])] for m in order}
     lines = [
+        run_line(out),
+        "",
+        "Commands (each invocation that added rows to this output):",
+        "",
+        "```sh",
+        *commands(out),
+        "```",
+        "",
         f"highway-env scenarios {', '.join(args.scenarios)}; seeds: {len(rows['savme'])} "
         f"(rows of {done}); savme "
         f"{rows['savme'][0][3]} search trials (deployed: --screen-iterations) at budget {args.budget}; "
@@ -250,6 +371,80 @@ def table(args, out):
                      f"| {'—' if method.startswith('savme') else f'{statistics.mean(r[6] for r in rs):.2f}'} |")
     lines += ["", *ratios(rows), "", *per_scenario(args, out, order)]
     return "\n".join(lines)
+
+
+def row_files(out: Path) -> list[Path]:
+    """The finished rows' runs/ROW-seed-S.json (not a row in progress's .partial.json)."""
+    return [f for f in sorted((out / "runs").glob("*.json")) if not f.name.endswith(".partial.json")]
+
+
+COMMANDS = "commands.txt"  # in --out: one line per invocation that ran rows
+
+
+def commands(out: Path) -> list[str]:
+    path = out / COMMANDS
+    return path.read_text().splitlines() if path.exists() else []
+
+
+def run_times(out: Path) -> list[tuple[dt.datetime, dt.datetime]]:
+    """Each row's start and end (UTC) as runs/ records them (rows run before they were
+    recorded have none)."""
+    times = []
+    for f in row_files(out):
+        r = json.loads(f.read_text())
+        if "started" in r and "finished" in r:
+            times.append((dt.datetime.fromisoformat(r["started"]),
+                          dt.datetime.fromisoformat(r["finished"])))
+    return times
+
+
+def run_line(out: Path) -> str:
+    """The table's first line, as benches/peers/run.py writes it (all.py reads it): `Run
+    YYYY-MM-DD HH:MM–HH:MM UTC (N min wall)` from the first row's start to the last one's end."""
+    times = run_times(out)
+    if not times:
+        return "Run times not recorded (rows run before run_highway_env.py recorded them)."
+    start, end = min(t[0] for t in times), max(t[1] for t in times)
+    return (f"Run {start:%Y-%m-%d %H:%M}–{end:%H:%M} UTC ({(end - start).total_seconds() / 60:.0f} "
+            f"min wall), {len(times)} rows; per row, wall and CPU time in per-seed.json.")
+
+
+def method_label(row: str) -> str:
+    """A row's method in outcomes.json, as benches/peers/run.py names it: savme's rows as they
+    are, `VerifAI <peer>` (equal work) and `VerifAI <peer>, by trials`."""
+    if row.startswith("savme"):
+        return row
+    peer, _, split = row.partition("/")
+    return f"VerifAI {peer}" + (", by trials" if split == "trials" else "")
+
+
+def outcomes(args, out: Path) -> list[dict]:
+    """runs/ and rows.jsonl as benches/peers/run.py's outcomes.json (families.py reads it): per
+    method and seed, per part (search, deployed) and scenario, the runs (trials), HF failures,
+    work and distinct failing cells (scenario × BINS bins per φ variable); the sampler's
+    overhead per run in ms."""
+    sp = {s.name: s for s in spaces(args.scenarios)}
+    overhead = {}
+    if (out / "rows.jsonl").exists():
+        for line in (out / "rows.jsonl").read_text().splitlines():
+            r = json.loads(line)
+            overhead[(r["method"], r["seed"])] = r["row"][6]
+    result = []
+    for f in row_files(out):
+        r = json.loads(f.read_text())
+
+        def part(xs):
+            return {name: {"trials": sum(1 for x in xs if x[0] == name),
+                           "failures": sum(1 for x in xs if x[0] == name and x[2]),
+                           "work": sum(x[3] for x in xs if x[0] == name),
+                           "cells": len({cell(sp[name], x[1]) for x in xs if x[0] == name and x[2]})}
+                    for name in args.scenarios}
+
+        result.append({"method": method_label(r["row"]), "seed": r["seed"],
+                       "overhead_ms": overhead.get((r["row"], r["seed"]), 0.0),
+                       "search": part(r["search"]), "deployed": part(r["deployed"])})
+    result.sort(key=lambda o: (o["seed"], o["method"]))
+    return result
 
 
 def ratios(rows):
@@ -280,7 +475,7 @@ def per_scenario(args, out, order):
     rows also the LF share of their search work. Mean over seeds (of the seeds' rates)."""
     sp = {s.name: s for s in spaces(args.scenarios)}
     runs = {}
-    for f in sorted((out / "runs").glob("*.json")):
+    for f in row_files(out):
         r = json.loads(f.read_text())
         runs.setdefault(r["row"], []).append(r)
     means = {}
@@ -329,7 +524,7 @@ def per_seed(args, out):
     failures; with each row's wall and CPU seconds (a small summary of runs/)."""
     sp = {s.name: s for s in spaces(args.scenarios)}
     rows = []
-    for f in sorted((out / "runs").glob("*.json")):
+    for f in row_files(out):
         r = json.loads(f.read_text())
         parts = {}
         for part in ("search", "deployed"):
@@ -351,36 +546,68 @@ def per_seed(args, out):
     return rows
 
 
-def main():
+QUICK = {"seeds": 1, "iterations": 16, "screen_iterations": 8}  # --quick: a smoke run
+DEFAULTS = {"seeds": 2, "iterations": 30, "screen_iterations": 30}
+
+
+def parse_args(argv=None) -> argparse.Namespace:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scenarios", nargs="+", default=["merge", "roundabout"])
-    ap.add_argument("--seeds", type=int, default=2, help="seeds 1..N")
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run: seed 1, 16 search trials, 8 deployed (unless given)")
+    ap.add_argument("--seeds", type=int, default=None, help="seeds 1..N (default 2; --quick 1)")
     ap.add_argument("--report", action="store_true", help="only the table of the rows in --out")
     ap.add_argument("--seed-list", type=int, nargs="+", help="these seeds instead (e.g. one per process)")
-    ap.add_argument("--iterations", type=int, default=30, help="savme's search trials")
-    ap.add_argument("--screen-iterations", type=int, default=30, help="savme's deployed trials")
+    ap.add_argument("--iterations", type=int, default=None,
+                    help="savme's search trials (default 30; --quick 16)")
+    ap.add_argument("--screen-iterations", type=int, default=None,
+                    help="savme's deployed trials (default 30; --quick 8)")
     ap.add_argument("--budget", type=float, default=0.3)
     ap.add_argument("--rows", nargs="+", default=None,
-                    help="rows in the order run, savme first: savme (savme's defaults), savme-rho "
-                         "(its simulator also returns ρ), savme-paper (method=\"paper\"), a VerifAI sampler (equal work per "
-                         "scenario) or SAMPLER/trials (equal trials); default: "
-                         + " ".join(DEFAULT_ROWS) + " (bayesopt only if GPyOpt is installed); "
-                         "rows already in --out/rows.jsonl are skipped")
+                    help="rows to run, savme among them: savme (savme's defaults), savme-rho "
+                         "(its simulator also returns ρ), savme-paper (method=\"paper\"), a VerifAI "
+                         "sampler (equal work per scenario) or SAMPLER/trials (equal trials); "
+                         "default: " + " ".join(DEFAULT_ROWS) + "; bayesopt rows are left out "
+                         "if GPyOpt is not installed, and run last (schedule); rows already in "
+                         "--out/rows.jsonl are skipped")
     ap.add_argument("--out", default=str(REPO / "target" / "peers" / "highway-env"))
-    args = ap.parse_args()
-    ensure_venv()
-    sys.path.insert(0, str(HERE))
-    if args.rows is None:
-        from verifai_peers import bayesopt_available
+    ap.add_argument("--no-build", action="store_true",
+                    help="no wheel build: the newest savme wheel in target/wheels/highway-peers "
+                         "or target/wheels/test")
+    ap.add_argument("--setup-only", action="store_true",
+                    help="set the venv up (and build the wheel), run nothing")
+    args = ap.parse_args(argv)
+    for key, value in (QUICK if args.quick else DEFAULTS).items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    return args
 
-        args.rows = [r for r in DEFAULT_ROWS if not r.startswith("bayesopt") or bayesopt_available()]
+
+def main():
+    args = parse_args()
+    if args.setup_only:
+        setup(not args.no_build)
+        return
+    ensure_venv(not args.no_build)
+    sys.path.insert(0, str(HERE))
+    from verifai_peers import bayesopt_available
+
+    rows = args.rows or DEFAULT_ROWS
+    if not bayesopt_available() and any(r.split("/")[0] == "bayesopt" for r in rows):
+        print("GPyOpt is not installed: the bayesopt rows are left out", file=sys.stderr)
+        rows = [r for r in rows if r.split("/")[0] != "bayesopt"]
+    args.rows = rows
     sp = spaces(args.scenarios)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = [] if args.report else args.seed_list or list(range(1, args.seeds + 1))
+    if seeds:
+        with open(out / COMMANDS, "a") as f:
+            f.write(shlex.join(["python3", "benches/peers/run_highway_env.py", *sys.argv[1:]]) + "\n")
     run_rows(args, sp, out, seeds, args.rows)
     text = table(args, out)
     (out / "table.md").write_text(text + "\n")
+    (out / "outcomes.json").write_text(json.dumps(outcomes(args, out), indent=1) + "\n")
     (out / "per-seed.json").write_text(json.dumps(per_seed(args, out), indent=1) + "\n")
     print("\n" + text)
 
