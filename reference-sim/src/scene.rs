@@ -89,6 +89,35 @@ impl Scene<'_> {
     }
 }
 
+/// A sphere around a vehicle body: its half-diagonal (2.69 m) plus a margin (0.5 m) far above
+/// the rounding of a ray cast in `f32` over hundreds of metres.
+const BODY_REACH: f32 = 3.2;
+
+/// True when the ray from `origin` along the unit `dir` provably misses, within `limit`, the body
+/// at `pose`: it passes outside the sphere of radius [`BODY_REACH`] around the body's centre, or
+/// the sphere lies behind the origin or beyond `limit`. Then parry's cast finds no hit either,
+/// and need not run (most of a sweep's rays pass far from the intruder). Anything not finite,
+/// or a direction not of unit length, is not provably a miss.
+#[inline]
+fn misses_body(pose: &Isometry3<f32>, origin: Point3<f32>, dir: Vector3<f32>, limit: f32) -> bool {
+    const {
+        let (l, w, h) = (
+            vehicle::LENGTH / 2.0,
+            vehicle::WIDTH / 2.0,
+            vehicle::HEIGHT / 2.0,
+        );
+        let sphere = BODY_REACH as f64 - 0.5;
+        assert!(sphere * sphere >= l * l + w * w + h * h);
+    };
+    if (dir.norm_squared() - 1.0).abs() > 1e-3 {
+        return false;
+    }
+    let to_centre = pose.translation.vector - origin.coords;
+    let along = to_centre.dot(&dir);
+    let off_axis = to_centre.cross(&dir).norm_squared();
+    along < -BODY_REACH || along - BODY_REACH > limit || off_axis > BODY_REACH * BODY_REACH
+}
+
 /// Casts rays through a [`Scene`] with the vehicles' poses computed once (a lidar sweep casts
 /// over a thousand rays through the same scene).
 #[derive(Debug, Clone)]
@@ -127,6 +156,9 @@ impl Caster<'_> {
                 continue;
             }
             let limit = best.map_or(max, |b| b.distance);
+            if misses_body(pose, origin, dir, limit) {
+                continue;
+            }
             if let Some(h) = body.cast_ray_and_get_normal(pose, &ray, limit, true) {
                 best = Some(SceneHit {
                     distance: h.time_of_impact,
