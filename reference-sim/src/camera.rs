@@ -790,3 +790,56 @@ fn visible_faces(
     }
     (list, objects)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// The per-pixel shadow test [`ShadowMap::shadowed_row`] replaced (commit 9e50294).
+    fn shadowed(map: &ShadowMap, p: Point3<f32>, sun: &Vector3<f32>) -> bool {
+        let d = p - map.centre;
+        let x = (d.dot(&map.u) + map.half) * map.scale;
+        let y = (d.dot(&map.v) + map.half) * map.scale;
+        let size = map.size as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < size && y < size) {
+            return false;
+        }
+        let i = y as usize * map.size + x as usize;
+        map.depth.get(i).is_some_and(|&h| h > d.dot(sun) + 0.3)
+    }
+
+    /// Rows of points on and above the ground around the reference shot, off the map, and
+    /// not finite (a sky pixel's): the same answers as one point at a time.
+    #[test]
+    fn a_row_of_shadow_tests_answers_as_one_point_at_a_time() {
+        let (world, intruder, pose) = reference_shot();
+        let scene = Scene {
+            world,
+            vehicles: &intruder,
+        };
+        let (list, objects) = visible_faces(&scene, &pose, &Settings::hf(), 1000.0);
+        let map = ShadowMap::build(&objects, &list, pose.eye, Vec::new(), &mut 0);
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(39);
+        let sun = sun();
+        let (mut row, mut shaded) = ([[0.0f32; WIDTH]; 3], 0);
+        for _ in 0..400 {
+            let reach = [5.0f32, 30.0, 80.0][rng.random_range(0..3usize)];
+            for k in 0..WIDTH {
+                row[0][k] = pose.eye.x + rng.random_range(-reach..reach);
+                row[1][k] = pose.eye.y + rng.random_range(-reach..reach);
+                row[2][k] = [0.0, rng.random_range(0.0..8.0)][rng.random_range(0..2usize)];
+            }
+            row[0][rng.random_range(0..WIDTH)] = f32::INFINITY;
+            row[1][rng.random_range(0..WIDTH)] = f32::NAN;
+            let mut out = [false; WIDTH];
+            map.shadowed_row(&row, &sun, &mut out);
+            for k in 0..WIDTH {
+                let p = Point3::new(row[0][k], row[1][k], row[2][k]);
+                assert_eq!(out[k], shadowed(&map, p, &sun), "{p:?}");
+                shaded += usize::from(out[k]);
+            }
+        }
+        assert!(shaded > 1000, "{shaded} points in shadow");
+    }
+}
