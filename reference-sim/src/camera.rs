@@ -825,10 +825,11 @@ mod tests {
         let (mut row, mut shaded) = ([[0.0f32; WIDTH]; 3], 0);
         for _ in 0..400 {
             let reach = [5.0f32, 30.0, 80.0][rng.random_range(0..3usize)];
-            for k in 0..WIDTH {
-                row[0][k] = pose.eye.x + rng.random_range(-reach..reach);
-                row[1][k] = pose.eye.y + rng.random_range(-reach..reach);
-                row[2][k] = [0.0, rng.random_range(0.0..8.0)][rng.random_range(0..2usize)];
+            let [xs, ys, zs] = &mut row;
+            for ((x, y), z) in xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()) {
+                *x = pose.eye.x + rng.random_range(-reach..reach);
+                *y = pose.eye.y + rng.random_range(-reach..reach);
+                *z = [0.0, rng.random_range(0.0..8.0)][rng.random_range(0..2usize)];
             }
             row[0][rng.random_range(0..WIDTH)] = f32::INFINITY;
             row[1][rng.random_range(0..WIDTH)] = f32::NAN;

@@ -227,11 +227,17 @@ mod tests {
             hits += usize::from(hit.is_some());
             if misses_body(&pose, origin, dir, limit) {
                 skipped += 1;
-                assert!(hit.is_none(), "{origin:?} {dir:?} {limit} {state:?}: {hit:?}");
+                assert!(
+                    hit.is_none(),
+                    "{origin:?} {dir:?} {limit} {state:?}: {hit:?}"
+                );
             }
         }
         // Both kinds of ray were drawn often.
-        assert!(skipped > 50_000 && hits > 20_000, "{skipped} skipped, {hits} hits");
+        assert!(
+            skipped > 50_000 && hits > 20_000,
+            "{skipped} skipped, {hits} hits"
+        );
     }
 
     #[test]
