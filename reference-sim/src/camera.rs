@@ -536,18 +536,54 @@ impl ShadowMap {
         }
     }
 
-    /// True when something stands between `p` and the sun.
+    /// Whether something stands between each point of a row (`points`: the x, y and z of
+    /// each) and the sun, into `out`: first every point's texel and height along the sun
+    /// (vectorised), then the lookups. Points off the map are lit.
     #[inline]
-    fn shadowed(&self, p: Point3<f32>, sun: &Vector3<f32>) -> bool {
-        let d = p - self.centre;
-        let x = (d.dot(&self.u) + self.half) * self.scale;
-        let y = (d.dot(&self.v) + self.half) * self.scale;
+    fn shadowed_row(
+        &self,
+        points: &[[f32; WIDTH]; 3],
+        sun: &Vector3<f32>,
+        out: &mut [bool; WIDTH],
+    ) {
         let size = self.size as f32;
-        if !(x >= 0.0 && y >= 0.0 && x < size && y < size) {
-            return false;
+        let mut texel = [0u32; WIDTH];
+        let mut height = [0.0f32; WIDTH];
+        let mut on_map = [false; WIDTH];
+        for k in 0..WIDTH {
+            let d = Point3::new(points[0][k], points[1][k], points[2][k]) - self.centre;
+            let x = (d.dot(&self.u) + self.half) * self.scale;
+            let y = (d.dot(&self.v) + self.half) * self.scale;
+            let inside = (x >= 0.0) & (y >= 0.0) & (x < size) & (y < size);
+            // In the map the truncations are exact texel indices; off it, texel 0 is read and
+            // ignored.
+            let (column, row) = if inside { (x as u32, y as u32) } else { (0, 0) };
+            texel[k] = row * self.size as u32 + column;
+            height[k] = d.dot(sun) + 0.3;
+            on_map[k] = inside;
         }
-        let i = y as usize * self.size + x as usize;
-        self.depth.get(i).is_some_and(|&h| h > d.dot(sun) + 0.3)
+        for k in 0..WIDTH {
+            out[k] = on_map[k] & (self.depth[texel[k] as usize] > height[k]);
+        }
+    }
+}
+
+/// The world points of a row of pixels: `eye + (dx, dy, dz) · depth` per pixel, with each
+/// column's `(dx, dy)` from `columns`, the row's `dz` and the pixel's depth (x, y, z into
+/// `points`).
+#[inline]
+fn row_points(
+    eye: Point3<f32>,
+    columns: &[(f32, f32); WIDTH],
+    dz: f32,
+    depths: &[f32; WIDTH],
+    points: &mut [[f32; WIDTH]; 3],
+) {
+    for k in 0..WIDTH {
+        let p = eye + Vector3::new(columns[k].0, columns[k].1, dz) * depths[k];
+        points[0][k] = p.x;
+        points[1][k] = p.y;
+        points[2][k] = p.z;
     }
 }
 
@@ -626,26 +662,36 @@ impl Camera {
             let d = yaw.to_world(pixel_dir(u as f32 + 0.5, 0.5));
             (d.x, d.y)
         });
+        // Per row: every pixel's world point (the same arithmetic as one pixel at a time, over
+        // arrays the compiler vectorises), then which of them lie in shadow, then the colours.
+        let mut points = [[0.0f32; WIDTH]; 3];
+        let mut shadowed = [false; WIDTH];
         for v in 0..HEIGHT {
             // Sky colour of this row.
             let t = (HEIGHT - v) as f32 / HEIGHT as f32;
             let sky = [0.55 + 0.2 * t, 0.7 + 0.15 * t, 0.92];
             let dz = pixel_dir(0.5, v as f32 + 0.5).z;
             let row = v * WIDTH..(v + 1) * WIDTH;
-            for (((pixel, &cover), &depth), &(dx, dy)) in image.pixels[row.clone()]
+            let depths: &[f32; WIDTH] = b.depth[row.clone()].try_into().expect("a row");
+            row_points(pose.eye, &columns, dz, depths, &mut points);
+            if let Some(map) = &shadows {
+                map.shadowed_row(&points, &sun, &mut shadowed);
+            }
+            for (u, (pixel, &cover)) in image.pixels[row.clone()]
                 .iter_mut()
-                .zip(&b.cover[row.clone()])
-                .zip(&b.depth[row])
-                .zip(&columns)
+                .zip(&b.cover[row])
+                .enumerate()
             {
                 work += 1;
                 if cover == SKY {
                     *pixel = sky;
                     continue;
                 }
-                let point = pose.eye + Vector3::new(dx, dy, dz) * depth;
                 let (albedo, face_light) = match cover {
-                    GROUND => (ground_colour(layout, point.x, point.y), ground_light),
+                    GROUND => (
+                        ground_colour(layout, points[0][u], points[1][u]),
+                        ground_light,
+                    ),
                     face => (list[face as usize].albedo, b.lights[face as usize]),
                 };
                 let mut light = if lit {
@@ -654,9 +700,9 @@ impl Camera {
                 } else {
                     1.0
                 };
-                if let Some(map) = &shadows {
+                if shadows.is_some() {
                     work += 1;
-                    if map.shadowed(point, &sun) {
+                    if shadowed[u] {
                         light *= 0.45;
                     }
                 }
@@ -691,7 +737,7 @@ impl Camera {
             bloom(image, settings.bloom_level, &mut self.glow, work);
         }
         if !settings.camera_disable_shot_noise {
-            shot_noise(&mut image.pixels, rng, work);
+            shot_noise(&mut image.pixels, rng, &mut self.spare, work);
         }
         for p in &mut image.pixels {
             for c in p.iter_mut() {
@@ -743,4 +789,58 @@ fn visible_faces(
         objects.push(first..list.len());
     }
     (list, objects)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// The per-pixel shadow test [`ShadowMap::shadowed_row`] replaced (commit 9e50294).
+    fn shadowed(map: &ShadowMap, p: Point3<f32>, sun: &Vector3<f32>) -> bool {
+        let d = p - map.centre;
+        let x = (d.dot(&map.u) + map.half) * map.scale;
+        let y = (d.dot(&map.v) + map.half) * map.scale;
+        let size = map.size as f32;
+        if !(x >= 0.0 && y >= 0.0 && x < size && y < size) {
+            return false;
+        }
+        let i = y as usize * map.size + x as usize;
+        map.depth.get(i).is_some_and(|&h| h > d.dot(sun) + 0.3)
+    }
+
+    /// Rows of points on and above the ground around the reference shot, off the map, and
+    /// not finite (a sky pixel's): the same answers as one point at a time.
+    #[test]
+    fn a_row_of_shadow_tests_answers_as_one_point_at_a_time() {
+        let (world, intruder, pose) = reference_shot();
+        let scene = Scene {
+            world,
+            vehicles: &intruder,
+        };
+        let (list, objects) = visible_faces(&scene, &pose, &Settings::hf(), 1000.0);
+        let map = ShadowMap::build(&objects, &list, pose.eye, Vec::new(), &mut 0);
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(39);
+        let sun = sun();
+        let (mut row, mut shaded) = ([[0.0f32; WIDTH]; 3], 0);
+        for _ in 0..400 {
+            let reach = [5.0f32, 30.0, 80.0][rng.random_range(0..3usize)];
+            let [xs, ys, zs] = &mut row;
+            for ((x, y), z) in xs.iter_mut().zip(ys.iter_mut()).zip(zs.iter_mut()) {
+                *x = pose.eye.x + rng.random_range(-reach..reach);
+                *y = pose.eye.y + rng.random_range(-reach..reach);
+                *z = [0.0, rng.random_range(0.0..8.0)][rng.random_range(0..2usize)];
+            }
+            row[0][rng.random_range(0..WIDTH)] = f32::INFINITY;
+            row[1][rng.random_range(0..WIDTH)] = f32::NAN;
+            let mut out = [false; WIDTH];
+            map.shadowed_row(&row, &sun, &mut out);
+            for k in 0..WIDTH {
+                let p = Point3::new(row[0][k], row[1][k], row[2][k]);
+                assert_eq!(out[k], shadowed(&map, p, &sun), "{p:?}");
+                shaded += usize::from(out[k]);
+            }
+        }
+        assert!(shaded > 1000, "{shaded} points in shadow");
+    }
 }

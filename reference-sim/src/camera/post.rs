@@ -12,11 +12,18 @@ use rand_distr::{Distribution, Normal};
 /// The draws first (in pixel order, one per pixel: the generator's sequence as before), each
 /// written for the pixel's three channels; then the channels as one flat array, which the
 /// compiler vectorises (the same operations on each value: the same image bit for bit).
-pub(super) fn shot_noise<R: Rng + ?Sized>(pixels: &mut [[f32; 3]], rng: &mut R, work: &mut u64) {
+/// `noise` is a buffer to reuse (its contents are overwritten).
+pub(super) fn shot_noise<R: Rng + ?Sized>(
+    pixels: &mut [[f32; 3]],
+    rng: &mut R,
+    noise: &mut Vec<[f32; 3]>,
+    work: &mut u64,
+) {
     let table = noise_table();
-    let noise: Vec<[f32; 3]> = (0..pixels.len())
-        .map(|_| [table[(rng.next_u32() >> (32 - NOISE_TABLE_BITS)) as usize]; 3])
-        .collect();
+    noise.clear();
+    noise.extend(
+        (0..pixels.len()).map(|_| [table[(rng.next_u32() >> (32 - NOISE_TABLE_BITS)) as usize]; 3]),
+    );
     for (c, z) in pixels
         .as_flattened_mut()
         .iter_mut()
