@@ -27,10 +27,24 @@ OBJECT_STORE_BYTES = 80 * 1024 * 1024  # Ray's minimum is ~75 MiB
 START_SECONDS = 180
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def free_ports(n: int, taken: frozenset = frozenset()) -> List[int]:
+    """`n` distinct free ports, none in `taken`. The sockets stay bound until all `n` are chosen:
+    a port asked for one at a time can come back twice (Ray then refuses to start, naming two of
+    its components on one port)."""
+    sockets: List[socket.socket] = []
+    try:
+        ports: List[int] = []
+        while len(ports) < n:
+            s = socket.socket()
+            sockets.append(s)
+            s.bind(("127.0.0.1", 0))
+            port = s.getsockname()[1]
+            if port not in taken:
+                ports.append(port)
+        return ports
+    finally:
+        for s in sockets:
+            s.close()
 
 
 class LocalRayCluster:
@@ -44,6 +58,7 @@ class LocalRayCluster:
         self.nodes: List[subprocess.Popen] = []
         self.names: List[str] = []
         self.address = ""
+        self.ports: set = set()
         self.env = dict(os.environ, RAY_USAGE_STATS_ENABLED="0")
         self.env.pop("RAY_ADDRESS", None)
         if pythonpath:
@@ -53,10 +68,13 @@ class LocalRayCluster:
 
     def _node(self, name: str, args: List[str]) -> subprocess.Popen:
         log = open(self.dir / f"{name}.log", "wb")
-        ports = ["--dashboard-agent-listen-port", str(free_port()),
-                 "--dashboard-agent-grpc-port", str(free_port()),
-                 "--runtime-env-agent-port", str(free_port()),
-                 "--metrics-export-port", str(free_port())]
+        # Distinct from each other and from the ports this cluster's other nodes were given.
+        chosen = free_ports(4, frozenset(self.ports))
+        self.ports.update(chosen)
+        ports = [flag for pair in zip(("--dashboard-agent-listen-port",
+                                       "--dashboard-agent-grpc-port",
+                                       "--runtime-env-agent-port", "--metrics-export-port"),
+                                      map(str, chosen)) for flag in pair]
         cmd = [RAY, "start", "--block", f"--temp-dir={self.dir}",
                f"--object-store-memory={OBJECT_STORE_BYTES}", "--disable-usage-stats",
                "--include-log-monitor=false",
@@ -115,7 +133,9 @@ class LocalRayCluster:
         return self
 
     def _start(self) -> None:
-        head = self._node("head", ["--head", "--port", str(free_port()),
+        (gcs,) = free_ports(1)
+        self.ports.add(gcs)
+        head = self._node("head", ["--head", "--port", str(gcs),
                                    f"--num-cpus={self.head_cpus}", "--include-dashboard=false"])
         marker = self.dir / "ray_current_cluster"
         deadline = time.monotonic() + START_SECONDS
