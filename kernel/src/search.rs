@@ -180,7 +180,16 @@ impl Default for EliteMixture {
             // pile up in a few cells. 10 gave the same cells but cost yield with 16 trials in
             // flight (kernel/tests/cost.rs: 0.923× one in flight, 5: 0.955×).
             spread: 5.0,
-            tries: 8,
+            // 32 (was 8): more candidates around each centre to rank per expected cost and
+            // cell visits. Paired seeds (docs/RESULTS.md, issue 42, "More candidates"): HF
+            // failures / failing cells / confirmed deployed failures per wu 79.2 / 57.2 / 295
+            // → 87.6 / 66.1 / 445 on the bundled simulator's scenarios 1–8 and 125.5 / 93.1 /
+            // 309 → 150.2 / 117.5 / 423 on 9–10 (20 seeds); BouncingBall earth+mars 26.2 /
+            // 3.11 / 350 → 28.5 / 3.32 / 453, moon 40.3 / 2.14 / 400 → 43.7 / 2.35 / 486; the
+            // braking example dry+wet 6.54 / 1.80 / 11.7 → 6.27 / 1.97 / 12.9, icy 3.55 /
+            // 0.578 / 7.56 → 3.45 / 0.612 / 8.59 (60 seeds). 64 lost failures on BouncingBall
+            // (26.0, moon 37.9). The price: four times the Parzen sums per proposal.
+            tries: 32,
             archive: 4096,
             per_cost: true,
             // Off: on kernel/tests/cost.rs's problem, crowding 1 lost yield with 4, 16 and 64
@@ -226,10 +235,12 @@ impl EliteMixture {
     }
 
     /// The defaults before candidates were ranked per cost (`per_cost` false): what a
-    /// campaign stored without its elite parameters ran with (novelty `spread` 1, as then).
+    /// campaign stored without its elite parameters ran with (novelty `spread` 1 and 8
+    /// `tries`, as then).
     pub fn legacy() -> Self {
         EliteMixture {
             spread: 1.0,
+            tries: 8,
             per_cost: false,
             crowding: 0.0,
             fantasies: false,

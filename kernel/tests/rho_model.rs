@@ -181,12 +181,14 @@ fn fnv(mut h: u64, bytes: &[u8]) -> u64 {
 /// A digest of every ask of `n` trials on the band (ρ reported, shifted by `shift`: with a
 /// positive shift no run fails and every draw that does not explore descends the process).
 /// The novelty `spread` is pinned at 1, the default when the digests were recorded (it became
-/// 5 afterwards), and the process starts at `d + 2` runs (`rho_start` None, as then; 3 since
-/// scouting): the digest holds the process's computation, not the search's other defaults.
+/// 5 afterwards), the process starts at `d + 2` runs (`rho_start` None, as then; 3 since
+/// scouting) and 8 candidates are ranked per draw (`tries`, 32 since): the digest holds the
+/// process's computation, not the search's other defaults.
 fn ask_digest(seed: u64, n: usize, shift: f64) -> u64 {
     let search = EliteMixture {
         spread: 1.0,
         rho_start: None,
+        tries: 8,
         ..EliteMixture::default()
     };
     let mut k = Kernel::new(config(search, seed)).unwrap();

@@ -612,7 +612,10 @@ mod tests {
         ])
         .unwrap();
         tuned.apply(&mut p, &known, "").unwrap();
-        assert_eq!(p.elite.map(|m| (m.explore, m.tries)), Some((0.3, 8)));
+        assert_eq!(
+            p.elite.map(|m| (m.explore, m.tries)),
+            Some((0.3, EliteMixture::default().tries))
+        );
         let e =
             Overrides::from_entries([("elite", serde_json::json!({"explor": 0.3}))]).unwrap_err();
         assert_eq!(e.key, "elite");
