@@ -82,7 +82,7 @@ pub use kernel::{
 pub use outcome::{Credit, Observation, Outcome, Run};
 pub use pairing::{Pairing, PairingError};
 pub use posterior::{Arm, Estimator, Posterior, PosteriorError, PriorCounts};
-pub use search::{EliteMixture, SearchError, SearchModel};
+pub use search::{EliteMixture, SearchError, SearchModel, PARZEN_POINTS};
 pub use simulator::{CostMeasure, Role, SimError, SimResult, Simulator};
 pub use space::{Domain, Scale, Space, SpaceError, Variable, MAX_ARMS};
 pub use value::{Assignment, Num, Value};

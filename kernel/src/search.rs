@@ -104,6 +104,9 @@ pub struct EliteMixture {
     /// Parzen estimate of its failure probability (failures, and near-misses at their weight,
     /// against all archived trials, Gaussian kernels of the same bandwidth) divided by
     /// `1 + trials already in its joint cell` — likely failures in cells not yet tried.
+    /// Each candidate's estimate is a sum over the scenario's archive, so beyond
+    /// [`PARZEN_POINTS`] `/ tries` archived trials a draw ranks proportionally fewer (never
+    /// fewer than `min(tries, 8)`): [`EliteMixture::tries_for`].
     pub tries: u32,
     /// Most trials kept per scenario (the oldest go first); at least 1.
     pub archive: usize,
@@ -188,7 +191,8 @@ impl Default for EliteMixture {
             // 3.11 / 350 → 28.5 / 3.32 / 453, moon 40.3 / 2.14 / 400 → 43.7 / 2.35 / 486; the
             // braking example dry+wet 6.54 / 1.80 / 11.7 → 6.27 / 1.97 / 12.9, icy 3.55 /
             // 0.578 / 7.56 → 3.45 / 0.612 / 8.59 (60 seeds). 64 lost failures on BouncingBall
-            // (26.0, moon 37.9). The price: four times the Parzen sums per proposal.
+            // (26.0, moon 37.9). The price, four times the Parzen sums per draw, is bounded: past
+            // 1,024 archived trials a draw ranks fewer ([`PARZEN_POINTS`]), 8 at a full archive.
             tries: 32,
             archive: 4096,
             per_cost: true,
@@ -234,6 +238,24 @@ impl EliteMixture {
         serde_json::from_value(serde_json::Value::Object(all))
     }
 
+    /// The candidates one draw ranks with `archived` trials in the scenario's archive: `tries`
+    /// while `tries × archived` ≤ [`PARZEN_POINTS`], then proportionally fewer, but never
+    /// fewer than `min(tries, 8)`.
+    ///
+    /// ```
+    /// use savme_kernel::EliteMixture;
+    /// let m = EliteMixture { tries: 32, ..EliteMixture::default() };
+    /// assert_eq!(m.tries_for(200), 32);
+    /// assert_eq!(m.tries_for(2048), 16);
+    /// assert_eq!(m.tries_for(4096), 8);
+    /// assert_eq!(EliteMixture { tries: 4, ..m }.tries_for(4096), 4);
+    /// ```
+    pub fn tries_for(&self, archived: usize) -> u32 {
+        let fit = PARZEN_POINTS / archived.max(1);
+        let fit = u32::try_from(fit).unwrap_or(u32::MAX);
+        self.tries.min(fit.max(self.tries.min(8)))
+    }
+
     /// The defaults before candidates were ranked per cost (`per_cost` false): what a
     /// campaign stored without its elite parameters ran with (novelty `spread` 1 and 8
     /// `tries`, as then).
@@ -251,6 +273,12 @@ impl EliteMixture {
         }
     }
 }
+
+/// Candidates × archived trials one elite draw sums its Parzen estimates over, at most (unless
+/// that leaves fewer than 8 candidates): 32 candidates up to 1,024 archived trials, 8 at the
+/// full archive of 4,096 — what a draw cost with the 8 candidates of before
+/// ([`EliteMixture::tries_for`]).
+pub const PARZEN_POINTS: usize = 32 * 1024;
 
 /// A search model parameter out of its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -442,20 +470,21 @@ impl Archive {
         let wide = rng.random::<f64>() < m.jump;
         let sd = m.bandwidth * if wide { 4.0 } else { 1.0 };
         let start = arms.len();
-        let gp = if m.rho_model && m.tries > 1 {
+        let tries = m.tries_for(self.points.len());
+        let gp = if m.rho_model && tries > 1 {
             self.local_gp(m, centre, space.len())
         } else {
             None
         };
         let mut best: Option<(f64, Vec<u16>, Assignment)> = None;
-        for _ in 0..m.tries {
+        for _ in 0..tries {
             let u: Vec<f64> = centre
                 .iter()
                 .map(|&c| reflect(c + sd * rng.sample::<f64, _>(StandardNormal)))
                 .collect();
             let mut cell = Vec::with_capacity(u.len());
             let phi = space.at_unit(&u, &mut cell);
-            let score = if m.tries > 1 {
+            let score = if tries > 1 {
                 let visits = if exploit {
                     0
                 } else {
