@@ -154,6 +154,23 @@ def rho_simulator(seed: int = 0):
     return run
 
 
+def elite_parameters(text):
+    """`--elite explore=0.1,tries=8` as the Protocol's `elite` dict (numbers as numbers)."""
+    out = {}
+    for pair in filter(None, (p.strip() for p in text.split(","))):
+        key, eq, value = pair.partition("=")
+        if not eq or not key:
+            raise SystemExit(f"--elite `{pair}`: give key=value, e.g. tries=8")
+        try:
+            out[key] = int(value)
+        except ValueError:
+            try:
+                out[key] = float(value)
+            except ValueError:
+                out[key] = {"true": True, "false": False}.get(value.lower(), value)
+    return out
+
+
 def savme_seed(args, seed, out, variant="savme"):
     """savme's search and deployed runs on one seed, read from its trials.jsonl: (scenario, φ,
     HF failure, work, HF work, LF work) per trial. variant "savme": savme's defaults with the
@@ -168,7 +185,8 @@ def savme_seed(args, seed, out, variant="savme"):
         budgets=[args.budget], train_iterations=args.iterations, eval_iterations=1,
         test_iterations=1, baseline_train_iterations=1, baseline_test_iterations=1,
         screen_iterations=max(args.screen_iterations, 1), audit_fraction=0.0,
-        **({"method": "paper"} if variant == "savme-paper" else {}))
+        **({"method": "paper"} if variant == "savme-paper" else {}),
+        **({"elite": elite_parameters(args.elite)} if args.elite and variant != "savme-paper" else {}))
     resume = (out / "protocol.json").exists()
     sim = rho_simulator() if variant == "savme-rho" else hw.campaign_simulator()
     savme.Campaign(None if resume else protocol, hw.problem(args.scenarios + test), out=out,
@@ -563,6 +581,9 @@ def parse_args(argv=None) -> argparse.Namespace:
     ap.add_argument("--screen-iterations", type=int, default=None,
                     help="savme's deployed trials (default 30; --quick 8)")
     ap.add_argument("--budget", type=float, default=0.3)
+    ap.add_argument("--elite", default="",
+                    help="the savme rows' elite search parameters, e.g. tries=8 (the others keep "
+                         "their defaults; savme-paper has none); for paired-seed comparisons")
     ap.add_argument("--rows", nargs="+", default=None,
                     help="rows to run, savme among them: savme (savme's defaults), savme-rho "
                          "(its simulator also returns ρ), savme-paper (method=\"paper\"), a VerifAI "

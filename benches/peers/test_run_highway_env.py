@@ -306,3 +306,14 @@ class FewerSeeds(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class EliteParameters(unittest.TestCase):
+    def test_elite_pairs_become_the_protocols_dict_and_bad_ones_are_named(self) -> None:
+        got = run_highway_env.elite_parameters("tries=8, explore=0.1,per_cost=false")
+        self.assertEqual(got, {"tries": 8, "explore": 0.1, "per_cost": False})
+        self.assertIsInstance(got["tries"], int)
+        self.assertEqual(run_highway_env.elite_parameters(""), {})
+        with self.assertRaises(SystemExit) as e:
+            run_highway_env.elite_parameters("tries")
+        self.assertIn("--elite `tries`", str(e.exception))
