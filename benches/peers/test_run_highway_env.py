@@ -304,10 +304,6 @@ class FewerSeeds(unittest.TestCase):
         self.assertIn("| work only |", families.ratio_table([both, work_only], "savme", "work"))
 
 
-if __name__ == "__main__":
-    unittest.main()
-
-
 class EliteParameters(unittest.TestCase):
     def test_elite_pairs_become_the_protocols_dict_and_bad_ones_are_named(self) -> None:
         got = run_highway_env.elite_parameters("tries=8, explore=0.1,per_cost=false")
@@ -317,3 +313,7 @@ class EliteParameters(unittest.TestCase):
         with self.assertRaises(SystemExit) as e:
             run_highway_env.elite_parameters("tries")
         self.assertIn("--elite `tries`", str(e.exception))
+
+
+if __name__ == "__main__":
+    unittest.main()
