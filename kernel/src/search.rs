@@ -105,7 +105,7 @@ pub struct EliteMixture {
     /// against all archived trials, Gaussian kernels of the same bandwidth) divided by
     /// `1 + trials already in its joint cell` — likely failures in cells not yet tried.
     /// Each candidate's estimate is a sum over the scenario's archive, so beyond
-    /// [`PARZEN_POINTS`] `/ tries` archived trials a draw ranks proportionally fewer (never
+    /// `parzen_points / tries` archived trials a draw ranks proportionally fewer (never
     /// fewer than `min(tries, 8)`): [`EliteMixture::tries_for`].
     pub tries: u32,
     /// Most trials kept per scenario (the oldest go first); at least 1.
@@ -153,6 +153,13 @@ pub struct EliteMixture {
     /// scale is fixed, so a few runs fit it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rho_start: Option<u32>,
+    /// Candidates × archived trials one draw sums its Parzen estimates over, at most (unless
+    /// that leaves fewer than `min(tries, 8)` candidates): [`EliteMixture::tries_for`]. The
+    /// default, [`PARZEN_POINTS`], keeps 32 candidates up to 1,024 archived trials and 8 at a
+    /// full archive of 4,096. None: no bound, what a stored configuration without it means
+    /// (its draws replay as they were made; then left out of the JSON); at least 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub parzen_points: Option<u32>,
     /// The cost the archive keeps of a learning trial (train, test) is its HF run's, not the
     /// trial's: a paired trial's LF run is drawn independently of φ (its θ_LF from the fidelity
     /// bandit, whether it runs at all from the pairing), so counted in, it hides where φ is
@@ -209,6 +216,7 @@ impl Default for EliteMixture {
             // bundled simulator's scenarios 1–8 against the best VerifAI sampler 0.25× → ≥ 0.8×
             // (docs/RESULTS.md, issue 42, "Scouting").
             rho_start: Some(3),
+            parzen_points: Some(PARZEN_POINTS),
             hf_cost: true,
         }
     }
@@ -239,8 +247,8 @@ impl EliteMixture {
     }
 
     /// The candidates one draw ranks with `archived` trials in the scenario's archive: `tries`
-    /// while `tries × archived` ≤ [`PARZEN_POINTS`], then proportionally fewer, but never
-    /// fewer than `min(tries, 8)`.
+    /// while `tries × archived` ≤ `parzen_points`, then proportionally fewer, but never
+    /// fewer than `min(tries, 8)`; always `tries` without a bound (`parzen_points` None).
     ///
     /// ```
     /// use savme_kernel::EliteMixture;
@@ -249,9 +257,13 @@ impl EliteMixture {
     /// assert_eq!(m.tries_for(2048), 16);
     /// assert_eq!(m.tries_for(4096), 8);
     /// assert_eq!(EliteMixture { tries: 4, ..m }.tries_for(4096), 4);
+    /// assert_eq!(EliteMixture { parzen_points: None, ..m }.tries_for(4096), 32);
     /// ```
     pub fn tries_for(&self, archived: usize) -> u32 {
-        let fit = PARZEN_POINTS / archived.max(1);
+        let Some(points) = self.parzen_points else {
+            return self.tries;
+        };
+        let fit = points as usize / archived.max(1);
         let fit = u32::try_from(fit).unwrap_or(u32::MAX);
         self.tries.min(fit.max(self.tries.min(8)))
     }
@@ -268,17 +280,17 @@ impl EliteMixture {
             fantasies: false,
             rho_model: false,
             rho_start: None,
+            parzen_points: None,
             hf_cost: false,
             ..EliteMixture::default()
         }
     }
 }
 
-/// Candidates × archived trials one elite draw sums its Parzen estimates over, at most (unless
-/// that leaves fewer than 8 candidates): 32 candidates up to 1,024 archived trials, 8 at the
-/// full archive of 4,096 — what a draw cost with the 8 candidates of before
+/// The default [`EliteMixture::parzen_points`]: 32 candidates up to 1,024 archived trials, 8 at
+/// the full archive of 4,096 — what a draw cost with the 8 candidates of before
 /// ([`EliteMixture::tries_for`]).
-pub const PARZEN_POINTS: usize = 32 * 1024;
+pub const PARZEN_POINTS: u32 = 32 * 1024;
 
 /// A search model parameter out of its range.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -320,6 +332,9 @@ impl EliteMixture {
         check("crowding", c, c.is_finite() && c >= 0.0, "[0, ∞)")?;
         if let Some(n) = self.rho_start {
             check("rho_start", f64::from(n), n >= 2, "[2, ∞)")?;
+        }
+        if let Some(n) = self.parzen_points {
+            check("parzen_points", f64::from(n), n >= 1, "[1, ∞)")?;
         }
         let t = f64::from(self.tries);
         check("tries", t, self.tries >= 1, "[1, ∞)")?;

@@ -174,6 +174,16 @@ fn stored_configurations_keep_their_spread() {
     // Likewise the candidates per draw: stored ones are kept, the legacy search has 8.
     assert_eq!(back.tries, 8);
     assert_eq!(EliteMixture::legacy().tries, 8);
+    // The bound on a draw's Parzen work: stored with new configurations; one stored before it
+    // existed (this JSON, without it) has none, so its draws replay as they were made.
+    let before = serde_json::json!({"tries": 16, "rho_start": 3});
+    let before: EliteMixture = serde_json::from_value(before).unwrap();
+    assert_eq!(before.parzen_points, None);
+    assert_eq!(before.tries_for(4096), 16);
+    let now = serde_json::to_value(EliteMixture::default()).unwrap();
+    assert_eq!(now["parzen_points"], 32 * 1024);
+    let back: EliteMixture = serde_json::from_value(now).unwrap();
+    assert_eq!(back.tries_for(4096), 8);
 }
 
 #[test]

@@ -194,7 +194,7 @@ fn search_model(arg: Option<&Bound<'_, PyAny>>) -> PyResult<SearchModel> {
     let given: serde_json::Map<String, serde_json::Value> = params
         .into_iter()
         .map(|(k, v)| {
-            // Integer parameters (tries, archive, near_miss_until) take whole numbers.
+            // Integer parameters (tries, archive, near_miss_until, rho_start, parzen_points) take whole numbers.
             let n = if v.fract() == 0.0 && (0.0..9e15).contains(&v) {
                 serde_json::Value::from(v as u64)
             } else {

@@ -37,7 +37,7 @@ SAMPLES = {
     "elite": {"explore": 0.2, "bandwidth": 0.06, "jump": 0.1, "near_miss": 0.0,
               "near_miss_weight": 0.5, "near_miss_until": 20, "spread": 1.0, "tries": 8,
               "archive": 4096, "per_cost": True, "crowding": 0.0, "rho_model": True,
-              "rho_start": 3, "hf_cost": True},
+              "rho_start": 3, "parzen_points": 32768, "hf_cost": True},
     "pair_fraction": 0.25,
     "pair_settle": 12,
     "deployment": "adaptive",
