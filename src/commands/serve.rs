@@ -6,10 +6,14 @@ use savme::campaign::store::{JsonlStore, TrialStore};
 use savme::campaign::Stop;
 use savme::kernel::KernelConfig;
 use savme::serve::{OpenError, Session};
-use std::io::{self, BufRead, Read};
+use std::io::{self, Read};
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
-use std::time::Duration;
+#[cfg(not(unix))]
+use std::{
+    io::BufRead,
+    sync::mpsc::{self, Receiver, RecvTimeoutError},
+    time::Duration,
+};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -69,61 +73,158 @@ pub fn run(a: Args) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Standard input's lines, read by a thread of their own so that a stop (SIGINT, SIGTERM) is
-/// seen while no request comes: the input ends at the first line boundary after the stop.
+/// Standard input's lines, handed out whole, so that a stop (SIGINT, SIGTERM) is seen while no
+/// request comes: the input ends at the first line boundary after the stop (a line cut off by
+/// the stop is dropped, never answered half).
+///
+/// On Unix the serving thread waits for standard input itself (poll(2), 100 ms at a time), so a
+/// request wakes one thread: with a reader thread handing lines over a channel, each request
+/// woke two, and on an idle machine the second wake-up (another core leaving its sleep state)
+/// cost ~120 µs per request, twice the rest of a round trip (docs/BENCHMARKS.md, "The Python
+/// guard").
 struct LinesUntilStop {
-    lines: Receiver<io::Result<Vec<u8>>>,
-    line: Vec<u8>,
+    source: Source,
+    /// Bytes read and not yet handed out; `buf[..ready]` ends at a line boundary.
+    buf: Vec<u8>,
     at: usize,
+    ready: usize,
+    ended: bool,
     stop: Stop,
 }
 
 impl LinesUntilStop {
     fn stdin(stop: &Stop) -> LinesUntilStop {
+        LinesUntilStop {
+            source: Source::stdin(),
+            buf: Vec::new(),
+            at: 0,
+            ready: 0,
+            ended: false,
+            stop: stop.clone(),
+        }
+    }
+
+    /// Reads what standard input has into `buf` (waiting at most [`Source::WAIT`]) and moves
+    /// `ready` to its last line boundary; at the end of the input a last unterminated line is
+    /// handed out too.
+    fn fill(&mut self) -> io::Result<()> {
+        self.buf.drain(..self.ready);
+        (self.at, self.ready) = (0, 0);
+        if !self.ended {
+            self.ended = self.source.read(&mut self.buf)? == Some(0);
+        }
+        self.ready = if self.ended {
+            self.buf.len()
+        } else {
+            self.buf
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |i| i + 1)
+        };
+        Ok(())
+    }
+}
+
+impl Read for LinesUntilStop {
+    fn read(&mut self, out: &mut [u8]) -> io::Result<usize> {
+        while self.at == self.ready {
+            if self.stop.is_requested() || (self.ended && self.buf.len() == self.ready) {
+                return Ok(0);
+            }
+            self.fill()?;
+        }
+        let n = out.len().min(self.ready - self.at);
+        out[..n].copy_from_slice(&self.buf[self.at..self.at + n]);
+        self.at += n;
+        Ok(n)
+    }
+}
+
+/// Where [`LinesUntilStop`] reads: file descriptor 0 polled by the serving thread (Unix), or a
+/// thread of its own blocked on standard input (elsewhere).
+#[cfg(unix)]
+struct Source;
+
+#[cfg(unix)]
+impl Source {
+    const WAIT: libc::c_int = 100;
+
+    fn stdin() -> Source {
+        Source
+    }
+
+    /// Appends what file descriptor 0 has (`Some(0)` at its end), or `None` when nothing came
+    /// within [`Source::WAIT`] ms or a signal interrupted the wait.
+    fn read(&mut self, buf: &mut Vec<u8>) -> io::Result<Option<usize>> {
+        let mut fd = libc::pollfd {
+            fd: 0,
+            events: libc::POLLIN,
+            revents: 0,
+        };
+        // SAFETY: one valid pollfd.
+        match unsafe { libc::poll(&mut fd, 1, Self::WAIT) } {
+            0 => return Ok(None),
+            n if n < 0 => {
+                let e = io::Error::last_os_error();
+                return match e.kind() {
+                    io::ErrorKind::Interrupted => Ok(None),
+                    _ => Err(e),
+                };
+            }
+            _ => {}
+        }
+        let old = buf.len();
+        buf.resize(old + 64 * 1024, 0);
+        // SAFETY: read(2) into the 64 KiB just reserved at the end of `buf`.
+        let got = unsafe { libc::read(0, buf[old..].as_mut_ptr().cast(), 64 * 1024) };
+        if got < 0 {
+            buf.truncate(old);
+            let e = io::Error::last_os_error();
+            return match e.kind() {
+                io::ErrorKind::Interrupted | io::ErrorKind::WouldBlock => Ok(None),
+                _ => Err(e),
+            };
+        }
+        buf.truncate(old + got as usize);
+        Ok(Some(got as usize))
+    }
+}
+
+#[cfg(not(unix))]
+struct Source(Receiver<io::Result<Vec<u8>>>);
+
+#[cfg(not(unix))]
+impl Source {
+    const WAIT: Duration = Duration::from_millis(100);
+
+    fn stdin() -> Source {
         let (send, lines) = mpsc::sync_channel(16);
         std::thread::spawn(move || {
             let mut input = io::stdin().lock();
             loop {
                 let mut line = Vec::new();
-                match input.read_until(b'\n', &mut line) {
-                    Ok(0) => return,
-                    Ok(_) => {
-                        if send.send(Ok(line)).is_err() {
-                            return;
-                        }
-                    }
-                    Err(e) => {
-                        let _ = send.send(Err(e));
-                        return;
-                    }
+                let result = input.read_until(b'\n', &mut line).map(|_| line);
+                let last = !matches!(&result, Ok(l) if !l.is_empty());
+                if send.send(result).is_err() || last {
+                    return;
                 }
             }
         });
-        LinesUntilStop {
-            lines,
-            line: Vec::new(),
-            at: 0,
-            stop: stop.clone(),
-        }
+        Source(lines)
     }
-}
 
-impl Read for LinesUntilStop {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        while self.at == self.line.len() {
-            if self.stop.is_requested() {
-                return Ok(0);
+    /// Appends the next line (`Some(0)` at the input's end), or `None` when none came within
+    /// [`Source::WAIT`].
+    fn read(&mut self, buf: &mut Vec<u8>) -> io::Result<Option<usize>> {
+        match self.0.recv_timeout(Self::WAIT) {
+            Ok(line) => {
+                let line = line?;
+                buf.extend_from_slice(&line);
+                Ok(Some(line.len()))
             }
-            match self.lines.recv_timeout(Duration::from_millis(100)) {
-                Ok(line) => (self.line, self.at) = (line?, 0),
-                Err(RecvTimeoutError::Timeout) => continue,
-                Err(RecvTimeoutError::Disconnected) => return Ok(0),
-            }
+            Err(RecvTimeoutError::Timeout) => Ok(None),
+            Err(RecvTimeoutError::Disconnected) => Ok(Some(0)),
         }
-        let n = buf.len().min(self.line.len() - self.at);
-        buf[..n].copy_from_slice(&self.line[self.at..self.at + n]);
-        self.at += n;
-        Ok(n)
     }
 }
 

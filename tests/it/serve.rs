@@ -306,8 +306,66 @@ fn a_full_disk_leaves_no_partial_line_and_the_server_goes_on_when_space_returns(
     assert!(again.child.wait().unwrap().success());
 }
 
-/// Sends `signal` (`INT`, `TERM`) to `child` with kill(1), as a shell or a scheduler does.
+/// Requests reach the server as a harness writes them: several lines in one write are answered
+/// one by one, in order; a line cut off by a stop is neither answered nor journaled; a last line
+/// without its newline (the input closed after it) is answered.
 #[cfg(unix)]
+#[test]
+fn requests_are_answered_whole_however_they_are_written() {
+    use std::io::BufRead;
+    let dir = made_dir("serve-lines");
+    let config = write_config(&dir);
+    let journal = dir.join("j.jsonl");
+    let j = journal.to_str().unwrap();
+    let mut s = Server::start(&["--config", config.to_str().unwrap(), "--journal", j]);
+    drive(&mut s, 2);
+    // Three requests in one write (one blank line among them: skipped).
+    s.stdin
+        .write_all(b"{\"op\":\"ask\"}\n\n{\"op\":\"stats\"}\n{\"op\":\"nonsense\"}\n")
+        .unwrap();
+    s.stdin.flush().unwrap();
+    let mut answers = Vec::new();
+    for _ in 0..3 {
+        let mut line = String::new();
+        s.stdout.read_line(&mut line).unwrap();
+        answers.push(serde_json::from_str::<Value>(&line).unwrap());
+    }
+    assert_eq!(answers[0]["ok"], true, "{}", answers[0]);
+    assert_eq!(answers[1]["stats"]["told"], 2, "{}", answers[1]);
+    let said = answers[2]["error"].as_str().unwrap_or_default();
+    assert!(said.starts_with("request line 8: "), "{said}");
+    // A request cut off mid-line, then a stop: the server ends without answering it.
+    s.stdin.write_all(b"{\"op\":\"ask").unwrap();
+    s.stdin.flush().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    send(&s.child, "TERM");
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut s.stdout, &mut rest).unwrap();
+    assert_eq!(s.child.wait().unwrap().code(), Some(143));
+    assert_eq!(rest, "", "the cut-off request was answered");
+    let asked = |text: &str| text.matches("\"event\":\"ask\"").count();
+    assert_eq!(asked(&std::fs::read_to_string(&journal).unwrap()), 3);
+    // The input closed after a last line without its newline: answered.
+    let mut c = Command::new(EXE)
+        .args(["serve", "--journal", j])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    c.stdin
+        .take()
+        .unwrap()
+        .write_all(b"{\"op\":\"ask\"}")
+        .unwrap();
+    let out = c.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let answer: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(answer["ok"], true, "{answer}");
+    assert_eq!(asked(&std::fs::read_to_string(&journal).unwrap()), 4);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[cfg(unix)]
 #[test]
 fn sigint_and_sigterm_stop_a_server_between_requests_and_say_how_to_continue() {
