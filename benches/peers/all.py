@@ -184,11 +184,21 @@ def run_window(table: Path) -> tuple[dt.datetime, dt.datetime, float]:
 def table_commands(table: Path) -> list[list[str]]:
     """The commands a family's table.md says it ran: run.py's one command line, or every
     run_highway_env.py invocation that added rows (its table lists them)."""
-    found = [shlex.split(line) for line in table.read_text().splitlines()
-             if line.startswith(("python3 benches/peers/run.py", f"python3 benches/peers/{HIGHWAY}"))]
+    def command(line: str) -> list[str] | None:
+        """The line's words if it runs run.py or run_highway_env.py (after any NAME=VALUE
+        settings of its environment, e.g. OMP_NUM_THREADS=1), else None."""
+        words = line.split()
+        env = next((i for i, w in enumerate(words) if not re.fullmatch(r"[A-Z_][A-Z0-9_]*=\S*", w)),
+                   len(words))
+        script = words[env:env + 2]
+        if script in (["python3", "benches/peers/run.py"], ["python3", f"benches/peers/{HIGHWAY}"]):
+            return shlex.split(line)
+        return None
+
+    found = [c for c in map(command, table.read_text().splitlines()) if c is not None]
     if not found:
         raise SystemExit(f"{table}: no run.py or run_highway_env.py command in it")
-    return found if found[0][1].endswith(HIGHWAY) else found[:1]
+    return found if any(w.endswith(HIGHWAY) for w in found[0]) else found[:1]
 
 
 def run_family(f: Family, args: argparse.Namespace, out: Path) -> tuple[Family, float, list[str]]:
@@ -289,7 +299,10 @@ def main() -> int:
     if not args.quick and not args.no_docs:
         write_docs(out, text, done)
         log("docs/RESULTS.md (peers-all block) and docs/results-peers-all/ rewritten")
-    log(f"all families in {(time.monotonic() - t0) / 60:.1f} min (set-up included)")
+    if args.report_only:
+        log(f"report of {len(done)} families' outputs in {out} (nothing run)")
+    else:
+        log(f"all families in {(time.monotonic() - t0) / 60:.1f} min (set-up included)")
     return 0
 
 

@@ -272,6 +272,14 @@ class AllPy(unittest.TestCase):
             table.write_text("Run …\n```sh\npython3 benches/peers/run.py --quick\n```\n"
                              "python3 benches/peers/run.py --scenarios test\n")
             self.assertEqual(all_py.table_commands(table), [["python3", "benches/peers/run.py", "--quick"]])
+            # An invocation run with settings of its environment keeps them; other lines that
+            # merely mention the script are no commands.
+            table.write_text("```sh\npython3 benches/peers/run_highway_env.py --seed-list 3 --out x\n"
+                             "OMP_NUM_THREADS=1 python3 benches/peers/run_highway_env.py --seed-list 1\n"
+                             "see python3 benches/peers/run_highway_env.py\n```\n")
+            got = all_py.table_commands(table)
+            self.assertEqual(got[1][:2], ["OMP_NUM_THREADS=1", "python3"])
+            self.assertEqual(len(got), 2)
 
 
 class FewerSeeds(unittest.TestCase):
