@@ -73,8 +73,9 @@ FAMILIES = (
            ("--iterations", "150", "--screen-iterations", "90"), 1e3),
     # highway-env (run_highway_env.py: its own venv with savme's wheel built from this
     # checkout): 150 search trials a seed is the length that ranks methods (issue 42);
-    # Bayesian optimisation costs ≈ 40 min of CPU a seed and split there (38 min measured) (GPyOpt's fit per sample)
-    # and runs last; --quick leaves it out unless named (its venv and the wheel's debug build
+    # Bayesian optimisation (GPyOpt's fit per sample) runs last: ≈ 40 min of CPU a seed when
+    # its BLAS threads fought each other (38 min measured), ≈ 5 min with one thread a process
+    # (run_highway_env.py sets it since 2026-11-30: 434–514 ms of sampler time a run); --quick leaves it out unless named (its venv and the wheel's debug build
     # are most of a fresh clone's quick run: README.md).
     Family("highway-env, merge+roundabout", "highway", ("--scenarios", "merge", "roundabout"),
            ("--iterations", "150", "--screen-iterations", "90"), 1e6,

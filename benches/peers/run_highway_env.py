@@ -46,6 +46,12 @@ import sys
 import time
 from pathlib import Path
 
+# One BLAS thread per process, as run.py: with GPyOpt's default threads, three Bayesian
+# optimisation seeds on 2 cores took 4,631 ms of sampler time a run against 434–514 ms with one
+# thread each (docs/RESULTS.md, "Every family on today's defaults").
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 VENV = REPO / "target" / "highway-peers-venv"

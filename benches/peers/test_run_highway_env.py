@@ -325,3 +325,23 @@ class EliteParameters(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class BlasThreads(unittest.TestCase):
+    def test_both_runners_ask_for_one_blas_thread_unless_told(self) -> None:
+        import os
+        import subprocess
+
+        here = Path(__file__).resolve().parent
+        env = {k: v for k, v in os.environ.items()
+               if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")}
+        for module in ("run_highway_env", "run"):
+            code = (f"import sys; sys.path.insert(0, {str(here)!r}); import {module}, os; "
+                    "print(os.environ['OMP_NUM_THREADS'], os.environ['OPENBLAS_NUM_THREADS'], "
+                    "os.environ['MKL_NUM_THREADS'])")
+            got = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                 text=True, check=True).stdout.split()
+            self.assertEqual(got, ["1", "1", "1"], module)
+            told = subprocess.run([sys.executable, "-c", code], env={**env, "OMP_NUM_THREADS": "2"},
+                                  capture_output=True, text=True, check=True).stdout.split()
+            self.assertEqual(told[0], "2", module)
