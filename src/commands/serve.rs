@@ -84,10 +84,11 @@ pub fn run(a: Args) -> Result<(), Failure> {
 /// guard").
 struct LinesUntilStop {
     source: Source,
-    /// Bytes read and not yet handed out; `buf[..ready]` ends at a line boundary.
+    /// Bytes read and not yet handed out: `buf[at..end]` is the rest of the line being handed
+    /// out, whole lines and a partial one may follow.
     buf: Vec<u8>,
     at: usize,
-    ready: usize,
+    end: usize,
     ended: bool,
     stop: Stop,
 }
@@ -98,42 +99,44 @@ impl LinesUntilStop {
             source: Source::stdin(),
             buf: Vec::new(),
             at: 0,
-            ready: 0,
+            end: 0,
             ended: false,
             stop: stop.clone(),
         }
     }
 
-    /// Reads what standard input has into `buf` (waiting at most [`Source::WAIT`]) and moves
-    /// `ready` to its last line boundary; at the end of the input a last unterminated line is
-    /// handed out too.
-    fn fill(&mut self) -> io::Result<()> {
-        self.buf.drain(..self.ready);
-        (self.at, self.ready) = (0, 0);
-        if !self.ended {
-            self.ended = self.source.read(&mut self.buf)? == Some(0);
+    /// At a line boundary: moves `end` past the next whole line (the last one unterminated at
+    /// the end of the input); false when none is read yet.
+    fn next_line(&mut self) -> bool {
+        let rest = &self.buf[self.at..];
+        match rest.iter().position(|&b| b == b'\n') {
+            Some(i) => self.end = self.at + i + 1,
+            None if self.ended => self.end = self.buf.len(),
+            None => return false,
         }
-        self.ready = if self.ended {
-            self.buf.len()
-        } else {
-            self.buf
-                .iter()
-                .rposition(|&b| b == b'\n')
-                .map_or(0, |i| i + 1)
-        };
-        Ok(())
+        true
     }
 }
 
 impl Read for LinesUntilStop {
+    /// One line at a time, so that a stop is seen at every line boundary.
     fn read(&mut self, out: &mut [u8]) -> io::Result<usize> {
-        while self.at == self.ready {
-            if self.stop.is_requested() || (self.ended && self.buf.len() == self.ready) {
+        while self.at == self.end {
+            if self.stop.is_requested() {
                 return Ok(0);
             }
-            self.fill()?;
+            if self.next_line() {
+                if self.at == self.end {
+                    return Ok(0); // the input ended at a line boundary
+                }
+                continue;
+            }
+            // Only a partial line left: keep it, read more (waiting at most Source::WAIT).
+            self.buf.drain(..self.at);
+            (self.at, self.end) = (0, 0);
+            self.ended = self.source.read(&mut self.buf)? == Some(0);
         }
-        let n = out.len().min(self.ready - self.at);
+        let n = out.len().min(self.end - self.at);
         out[..n].copy_from_slice(&self.buf[self.at..self.at + n]);
         self.at += n;
         Ok(n)
