@@ -79,9 +79,8 @@ pub fn run(a: Args) -> Result<(), Failure> {
 ///
 /// On Unix the serving thread waits for standard input itself (poll(2), 100 ms at a time), so a
 /// request wakes one thread: with a reader thread handing lines over a channel, each request
-/// woke two, and on an idle machine the second wake-up (another core leaving its sleep state)
-/// cost ~120 µs per request, twice the rest of a round trip (docs/BENCHMARKS.md, "The Python
-/// guard").
+/// woke two (a served trial took 67–68 µs against 57–58 µs now, pinned to one core;
+/// docs/BENCHMARKS.md, "The riddle looked into").
 struct LinesUntilStop {
     source: Source,
     /// Bytes read and not yet handed out: `buf[at..end]` is the rest of the line being handed

@@ -346,21 +346,13 @@ fn requests_are_answered_whole_however_they_are_written() {
     let asked = |text: &str| text.matches("\"event\":\"ask\"").count();
     assert_eq!(asked(&std::fs::read_to_string(&journal).unwrap()), 3);
     // The input closed after a last line without its newline: answered.
-    let mut c = Command::new(EXE)
-        .args(["serve", "--journal", j])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    c.stdin
-        .take()
-        .unwrap()
-        .write_all(b"{\"op\":\"ask\"}")
-        .unwrap();
-    let out = c.wait_with_output().unwrap();
-    assert!(out.status.success());
-    let answer: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let mut last = Server::start(&["--journal", j]);
+    last.stdin.write_all(b"{\"op\":\"ask\"}").unwrap();
+    drop(last.stdin);
+    let mut answer = String::new();
+    std::io::Read::read_to_string(&mut last.stdout, &mut answer).unwrap();
+    assert!(last.child.wait().unwrap().success());
+    let answer: Value = serde_json::from_str(&answer).unwrap();
     assert_eq!(answer["ok"], true, "{answer}");
     assert_eq!(asked(&std::fs::read_to_string(&journal).unwrap()), 4);
     let _ = std::fs::remove_dir_all(&dir);
